@@ -1,0 +1,55 @@
+"""The `tiltload` command: build the FMUs, run the main job."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+DEFAULT_FMU_DIR = Path("fmus")
+
+
+class UserError(Exception):
+    """A problem the user can fix; reported as one line, exit code 2."""
+
+
+def cmd_build(args: argparse.Namespace) -> int:
+    from ..plant_fmu import build as plant_build
+
+    result = plant_build.build(args.out, force=args.force)
+    state = "built" if result.rebuilt else "up to date"
+    print(f"{result.path}: {state} ({result.seconds:.1f} s)")
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from . import hover
+
+    return hover.main(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="tiltload", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    b = sub.add_parser("build", help="build the FMUs into fmus/ (only what is missing or stale)")
+    b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
+    b.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    b.set_defaults(func=cmd_build)
+    r = sub.add_parser("run", help="main job: build if needed, then run the plant FMU's default experiment")
+    r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    r.add_argument("--stop-time", type=float, default=None, help="stop time in s (default: the FMU's, 2 s)")
+    r.add_argument("--out", type=Path, default=Path("runs"), help="where the result CSV and plot go")
+    r.set_defaults(func=cmd_run)
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except UserError as err:
+        print(f"tiltload: error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("tiltload: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,132 @@
+"""Kinematics of the four bodies from the load's perspective (thesis Sec. 2.2), in CasADi SX.
+
+Positions and orientations only; velocities come from differentiating these, so the
+thesis's hand-derived W_eta, Q and Jacobians are never transcribed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+from . import parameters as P
+
+
+def rot_x(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(1, 0, 0), ca.horzcat(0, c, -s), ca.horzcat(0, s, c))
+
+
+def rot_y(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
+
+
+def rot_z(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
+
+
+def vex(S):
+    """Inverse of the skew-symmetric map S(.)."""
+    return ca.vertcat(S[2, 1], S[0, 2], S[1, 0])
+
+
+@dataclass
+class Body:
+    """A rigid body: mass, inertia in its own frame, centre position and rotation in I."""
+
+    name: str
+    mass: ca.SX
+    inertia: ca.SX
+    centre: ca.SX
+    rotation: ca.SX
+
+
+@dataclass
+class Kinematics:
+    """Symbolic configuration of the system for generalized coordinates q and parameters p."""
+
+    q: ca.SX
+    p: ca.SX
+    R_L: ca.SX  # load orientation in I
+    R_B_L: ca.SX  # UAV frame relative to the rod (load frame)
+    R_C_B: list[ca.SX]  # thruster frames relative to B (right, left)
+    R_B: ca.SX  # UAV geometric-centre frame in I
+    o_B: ca.SX  # UAV geometric centre in I
+    bodies: list[Body]
+
+
+def param(p: ca.SX, name: str):
+    return p[P.index(name)]
+
+
+def inertia(p: ca.SX, prefix: str) -> ca.SX:
+    g = lambda k: param(p, f"{prefix}_{k}")  # noqa: E731
+    return ca.vertcat(
+        ca.horzcat(g("xx"), g("xy"), g("xz")),
+        ca.horzcat(g("xy"), g("yy"), g("yz")),
+        ca.horzcat(g("xz"), g("yz"), g("zz")),
+    )
+
+
+def vector(p: ca.SX, prefix: str) -> ca.SX:
+    return ca.vertcat(*(param(p, f"{prefix}_{a}") for a in "xyz"))
+
+
+def build(q: ca.SX, p: ca.SX) -> Kinematics:
+    """Forward kinematics (2.22)-(2.23) with R_L = Rz Ry Rx and R_B^L = Rx(-g1) Ry(-g2)."""
+    xi = q[0:3]
+    phi, theta, psi, g1, g2, a_R, a_L = (q[i] for i in range(3, 10))
+    beta = param(p, "beta")
+    R_L = rot_z(psi) @ rot_y(theta) @ rot_x(phi)
+    R_B_L = rot_x(-g1) @ rot_y(-g2)
+    R_B = R_L @ R_B_L
+    o_B = xi + R_L @ ca.vertcat(0, 0, param(p, "l"))
+    R_C2_B = rot_x(-beta) @ rot_y(a_R)
+    R_C3_B = rot_x(beta) @ rot_y(a_L)
+    R_C2 = R_B @ R_C2_B
+    R_C3 = R_B @ R_C3_B
+    bodies = [
+        Body("load", param(p, "m_L"), inertia(p, "I_L"), xi, R_L),
+        Body("main", param(p, "m_1"), inertia(p, "I_1"), o_B + R_B @ vector(p, "d_C1"), R_B),
+        Body("right", param(p, "m_2"), inertia(p, "I_2"), o_B + R_B @ vector(p, "d_C2"), R_C2),
+        Body("left", param(p, "m_3"), inertia(p, "I_3"), o_B + R_B @ vector(p, "d_C3"), R_C3),
+    ]
+    return Kinematics(q, p, R_L, R_B_L, [R_C2_B, R_C3_B], R_B, o_B, bodies)
+
+
+def time_derivative(expr: ca.SX, q: ca.SX, qd: ca.SX) -> ca.SX:
+    """d/dt of an expression of q along q_dot (forward-mode directional derivative)."""
+    flat = ca.reshape(expr, -1, 1)
+    return ca.reshape(ca.jtimes(flat, q, qd), expr.size1(), expr.size2())
+
+
+def body_angular_velocity(R: ca.SX, q: ca.SX, qd: ca.SX) -> ca.SX:
+    """Angular velocity in the body frame, vex(R^T dR/dt) (thesis 2.4)."""
+    return vex(R.T @ time_derivative(R, q, qd))
+
+
+def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]:
+    """Centre velocities in I and angular velocities in each body's frame, by composition.
+
+    omega of a child frame = R_rel^T omega_parent + vex(R_rel^T dR_rel/dt) (thesis 2.5),
+    with only the small relative rotations differentiated.
+    """
+    q = k.q
+    w_L = body_angular_velocity(k.R_L, q, qd)
+    w_B = k.R_B_L.T @ w_L + body_angular_velocity(k.R_B_L, q, qd)
+    w_C = [R.T @ w_B + body_angular_velocity(R, q, qd) for R in k.R_C_B]
+    rod = ca.vertcat(0, 0, param(k.p, "l"))
+    v_B = qd[0:3] + k.R_L @ ca.cross(w_L, rod)
+    velocities = [qd[0:3]]
+    for b in k.bodies[1:]:
+        offset = k.R_B.T @ (b.centre - k.o_B)  # d_Ci in B, constant
+        velocities.append(v_B + k.R_B @ ca.cross(w_B, offset))
+    return velocities, [w_L, w_B, w_C[0], w_C[1]]
+
+
+def euler_zyx(R: ca.SX) -> ca.SX:
+    """Roll, pitch, yaw of a rotation R = Rz(psi) Ry(theta) Rx(phi) (thesis 4.17-4.19, with atan2)."""
+    return ca.vertcat(ca.atan2(R[2, 1], R[2, 2]), ca.asin(-R[2, 0]), ca.atan2(R[1, 0], R[0, 0]))

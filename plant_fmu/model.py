@@ -1,0 +1,158 @@
+"""Euler-Lagrange model of the tilt-rotor UAV with suspended load (thesis ch. 2), in CasADi.
+
+From the kinematics alone CasADi builds K, U, M = d2K/dqd2, the Coriolis/centripetal
+term by the Lagrange equations, g = dU/dq, and the generalized forces by virtual power:
+the one source of truth for the FMU, the controller design and the estimators.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import casadi as ca
+
+from . import kinematics as kin
+from . import parameters as P
+
+NQ = 10
+NX = 2 * NQ
+NU = 4
+ND = 3
+
+
+class PlantModel:
+    """Symbolic plant: state x = [q, q_dot], inputs u = [f_R, f_L, tau_R, tau_L], load force d.
+
+    The equations of motion use the projection (Kane / TMT) form of the Euler-Lagrange
+    equations, M = sum(J' m J + W' I W) and C qd = sum(J' m Jdot qd + W' (I Wdot qd + w x I w)),
+    which CasADi evaluates far more cheaply than second derivatives of K; lagrangian_terms()
+    builds the same M, C qd, g from K and U directly, as an independent check.
+    """
+
+    def __init__(self) -> None:
+        self.q = ca.SX.sym("q", NQ)
+        self.qd = ca.SX.sym("qd", NQ)
+        self.u = ca.SX.sym("u", NU)
+        self.d = ca.SX.sym("d", ND)
+        self.p = ca.SX.sym("p", P.N_PARAMETERS)
+        self.x = ca.vertcat(self.q, self.qd)
+        self.kin = kin.build(self.q, self.p)
+        q, qd, p = self.q, self.qd, self.p
+
+        self.velocities, self.omegas = kin.body_velocities(self.kin, qd)
+        g = kin.param(p, "g")
+        self.kinetic = sum(
+            0.5 * b.mass * ca.dot(v, v) + 0.5 * ca.dot(w, b.inertia @ w)
+            for b, v, w in zip(self.kin.bodies, self.velocities, self.omegas)
+        )
+        self.potential = sum(b.mass * g * b.centre[2] for b in self.kin.bodies)
+
+        self.M = 0
+        self.coriolis = 0
+        for b, v, w in zip(self.kin.bodies, self.velocities, self.omegas):
+            J, W = ca.jacobian(v, qd), ca.jacobian(w, qd)
+            self.M += b.mass * (J.T @ J) + W.T @ b.inertia @ W
+            Iw = b.inertia @ w
+            self.coriolis += b.mass * (J.T @ ca.jtimes(v, q, qd))
+            self.coriolis += W.T @ (b.inertia @ ca.jtimes(w, q, qd) + ca.cross(w, Iw))
+        self.gravity = ca.gradient(self.potential, q)
+
+        self.L_in = ca.jacobian(self._input_forces(), self.u)
+        self.L_db = ca.jacobian(ca.jacobian(self.velocities[0], qd).T @ self.d, self.d)
+        mu = kin.param(p, "mu_gamma")
+        self.L_fr = ca.diag(ca.vertcat(0, 0, 0, 0, 0, 0, mu, mu, 0, 0))
+
+        forces = self.L_in @ self.u - self.L_fr @ qd + self.L_db @ self.d - self.coriolis - self.gravity
+        D, LT, perm = ca.ldl(self.M)  # M is symmetric positive definite
+        self.qdd = ca.ldl_solve(forces, D, LT, perm)
+        self.xdot = ca.vertcat(qd, self.qdd)
+
+    def _input_forces(self) -> ca.SX:
+        """Generalized forces of thrusts, propeller drag and servo torques (Sec. 2.4.1).
+
+        Each force or torque is mapped by the transpose of its body's Jacobian
+        (2.15)-(2.16); the servo torque acts on the thruster and reacts on the main body.
+        """
+        p, qd = self.kin.p, self.qd
+        _, main, right, left = self.kin.bodies
+        v = dict(zip(("load", "main", "right", "left"), self.velocities))
+        w = dict(zip(("load", "main", "right", "left"), self.omegas))
+        drag = kin.param(p, "k_tau") / kin.param(p, "b")
+        a_y = ca.DM([0, 1, 0])
+        a_z = ca.DM([0, 0, 1])
+        W_main = ca.jacobian(w["main"], qd)
+        total = 0
+        for body, f, lam, tau in (
+            (right, self.u[0], "lambda_R", self.u[2]),
+            (left, self.u[1], "lambda_L", self.u[3]),
+        ):
+            J, W = ca.jacobian(v[body.name], qd), ca.jacobian(w[body.name], qd)
+            total += J.T @ (body.rotation @ a_z * f)  # thrust along the thruster's z axis
+            total += W.T @ (a_z * (kin.param(p, lam) * drag * f))  # propeller drag torque
+            axis_in_B = main.rotation.T @ body.rotation @ a_y  # servo axis expressed in B
+            total += W.T @ (a_y * tau) - W_main.T @ (axis_in_B * tau)
+        return total
+
+    def lagrangian_terms(self) -> ca.Function:
+        """M, C qd, g straight from K and U by the Lagrange equations (reference for tests)."""
+        q, qd = self.q, self.qd
+        momentum = ca.gradient(self.kinetic, qd)
+        M = ca.jacobian(momentum, qd)
+        cqd = ca.jtimes(momentum, q, qd) - ca.gradient(self.kinetic, q)
+        return ca.Function("tl_plant_lagrange", [self.x, self.p], [M, cqd, self.gravity])
+
+    # --- numeric functions -------------------------------------------------------------
+    @cached_property
+    def f_xdot(self) -> ca.Function:
+        return ca.Function("tl_plant_rhs", [self.x, self.u, self.d, self.p], [self.xdot], ["x", "u", "d", "p"], ["xdot"])
+
+    @cached_property
+    def f_terms(self) -> ca.Function:
+        """M, C qd, g, L_in, L_fr, L_db at (x, p): what feedforward (3.18) and checks need."""
+        return ca.Function(
+            "tl_plant_terms",
+            [self.x, self.p],
+            [self.M, self.coriolis, self.gravity, self.L_in, self.L_fr, self.L_db],
+            ["x", "p"],
+            ["M", "Cqd", "g", "L_in", "L_fr", "L_db"],
+        )
+
+    @cached_property
+    def f_jacobians(self) -> ca.Function:
+        """Continuous-time Jacobians A_c, B_c, F_c of phi(x, u, d) at any point."""
+        return ca.Function(
+            "tl_plant_jac",
+            [self.x, self.u, self.d, self.p],
+            [ca.jacobian(self.xdot, self.x), ca.jacobian(self.xdot, self.u), ca.jacobian(self.xdot, self.d)],
+            ["x", "u", "d", "p"],
+            ["A", "B", "F"],
+        )
+
+    @cached_property
+    def diagnostics(self) -> ca.SX:
+        """UAV pose, energies, linear and angular momentum (about the inertial origin)."""
+        momentum = sum(b.mass * v for b, v in zip(self.kin.bodies, self.velocities))
+        angular = sum(
+            ca.cross(b.centre, b.mass * v) + b.rotation @ (b.inertia @ w)
+            for b, v, w in zip(self.kin.bodies, self.velocities, self.omegas)
+        )
+        energy = self.kinetic + self.potential
+        return ca.vertcat(
+            self.kin.o_B, kin.euler_zyx(self.kin.R_B), self.kinetic, self.potential, energy, momentum, angular
+        )
+
+    @cached_property
+    def f_diagnostics(self) -> ca.Function:
+        return ca.Function("tl_plant_out", [self.x, self.p], [self.diagnostics], ["x", "p"], ["y"])
+
+
+
+_MODEL: PlantModel | None = None
+
+
+def model() -> PlantModel:
+    """The symbolic model, built once per process (about a second)."""
+    global _MODEL
+    if _MODEL is None:
+        _MODEL = PlantModel()
+    return _MODEL

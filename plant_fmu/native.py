@@ -1,0 +1,81 @@
+"""Run-time access to the compiled plant through ctypes: no CasADi, no compiler needed.
+
+This is the code the plant FMU executes; it holds no model of its own. Buffers are bound
+once, so a communication step costs one foreign call.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import numpy as np
+
+from .interface import DIAGNOSTIC_NAMES, STATE_NAMES
+
+NX = len(STATE_NAMES)
+NY = len(DIAGNOSTIC_NAMES)
+
+_dbl_p = ctypes.POINTER(ctypes.c_double)
+
+
+def _ptr(a: np.ndarray):
+    if a.dtype != np.float64 or not a.flags.c_contiguous:
+        raise ValueError("plant buffers must be C-contiguous float64 arrays")
+    return a.ctypes.data_as(_dbl_p)
+
+
+class NativePlant:
+    """The compiled plant library: advance a state over n RK4 substeps, evaluate outputs."""
+
+    def __init__(self, library: Path | str) -> None:
+        self._lib = ctypes.CDLL(str(library))
+        for name, argtypes in (
+            ("tl_plant_advance", [_dbl_p, _dbl_p, _dbl_p, _dbl_p, ctypes.c_double, ctypes.c_int, _dbl_p]),
+            ("tl_plant_outputs", [_dbl_p, _dbl_p, _dbl_p]),
+            ("tl_plant_xdot", [_dbl_p, _dbl_p, _dbl_p, _dbl_p, _dbl_p]),
+        ):
+            fn = getattr(self._lib, name)
+            fn.argtypes = argtypes
+            fn.restype = ctypes.c_int
+        self._advance = self._lib.tl_plant_advance
+        self._outputs = self._lib.tl_plant_outputs
+        self._xdot = self._lib.tl_plant_xdot
+        self._bound = None
+
+    def bind(self, x: np.ndarray, u: np.ndarray, d: np.ndarray, p: np.ndarray, x_next: np.ndarray,
+             y: np.ndarray) -> None:
+        """Fix the buffers step() and evaluate() work on (views into one array are fine)."""
+        self._keep = (x, u, d, p, x_next, y)  # the pointers below live as long as these arrays
+        self._bound = tuple(_ptr(a) for a in self._keep)
+
+    def step(self, h: float, n: int) -> int:
+        """x_next = state after n substeps of h; 0 if fine, k > 0 if substep k went non-finite."""
+        x, u, d, p, x_next, _ = self._bound
+        return self._advance(x, u, d, p, h, n, x_next)
+
+    def evaluate(self, state: str = "x") -> None:
+        """Outputs (UAV pose, energies, momenta) of the bound state (x or x_next) into y."""
+        x, _, _, p, x_next, y = self._bound
+        if self._outputs(x if state == "x" else x_next, p, y):
+            raise RuntimeError("plant output evaluation failed")
+
+    # Convenience calls on fresh arrays (tests, tools); the FMU uses bind/step/evaluate.
+    def advance(self, x0, u, d, p, h: float, n: int) -> tuple[int, np.ndarray]:
+        arrays = [np.ascontiguousarray(a, dtype=float) for a in (x0, u, d, p)]
+        out = np.empty(NX)
+        status = self._advance(*map(_ptr, arrays), h, n, _ptr(out))
+        return status, out
+
+    def outputs(self, x, p) -> np.ndarray:
+        y = np.empty(NY)
+        if self._outputs(_ptr(np.ascontiguousarray(x, dtype=float)), _ptr(np.ascontiguousarray(p, dtype=float)), _ptr(y)):
+            raise RuntimeError("plant output evaluation failed")
+        return y
+
+    def xdot(self, x, u, d, p) -> np.ndarray:
+        arrays = [np.ascontiguousarray(a, dtype=float) for a in (x, u, d, p)]
+        r = np.empty(NX)
+        if self._xdot(*map(_ptr, arrays), _ptr(r)):
+            raise RuntimeError("plant derivative evaluation failed")
+        return r
