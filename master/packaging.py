@@ -89,7 +89,7 @@ def build_python_fmu(
         for f in [*package_files, *generated]:
             shutil.copy2(f, lib / f.name)
         (lib / BUILD_INFO).write_text(json.dumps(build_info, indent=1))
-        partial = target.with_suffix(".fmu.partial")
+        partial = target.with_name(target.stem + ".partial.fmu")  # pythonfmu wants a .fmu name
         try:
             FmuBuilder.build_FMU(script, dest=partial, project_files=[lib], needsExecutionTool=False)
             if platforms is not None:
