@@ -1,0 +1,35 @@
+"""Keep pythonfmu's Python state alive for the whole process.
+
+pythonfmu 0.7's wrapper tears its interpreter state down when the first library copy that
+instantiated an FMU is unloaded; any later instantiation in the same process then crashes
+(PythonFMU #213, #228). FMPy's simulate_fmu() unloads the library after every run, so a
+second run in one Python process would crash. pin() instantiates the FMU once from a private
+copy and never unloads it; call it before anything else loads a pythonfmu FMU.
+"""
+
+from __future__ import annotations
+
+import atexit
+import shutil
+from pathlib import Path
+
+_PINNED: list = []
+
+
+def pin(fmu: Path | str) -> None:
+    """Instantiate one pythonfmu FMU once and keep its library loaded until the process exits."""
+    if _PINNED:
+        return
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    unzipdir = extract(str(fmu))
+    slave = FMU2Slave(
+        guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="tiltload_pin",
+    )
+    slave.instantiate()
+    slave.fmi2FreeInstance(slave.component)  # the instance goes, the library stays
+    _PINNED.append(slave)
+    atexit.register(shutil.rmtree, unzipdir, True)

@@ -1,0 +1,19 @@
+"""Shared fixtures: the plant FMU is built once per session (only if missing or stale)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def plant_fmu() -> Path:
+    from tiltload.master.pythonfmu_guard import pin
+    from tiltload.plant_fmu.build import build
+
+    path = build(ROOT / "fmus").path
+    pin(path)  # FMPy unloads FMUs after each run; pythonfmu must not be fully unloaded
+    return path

@@ -1,0 +1,82 @@
+"""An independent numpy implementation of the system's kinematics, for checking the FMU.
+
+Written from the thesis's own formulas (rotation matrices of Sec. 2.2, W_eta of (2.17),
+Q of (2.18), relative rates (2.20)-(2.21)), not from the project's CasADi code: energies,
+momenta and thrust directions computed here from the FMU's state outputs are a second
+opinion on the model, not a copy of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+TABLE_5_1 = {
+    "m": [0.05, 1.70249, 0.13973, 0.13973],
+    "l": 0.5,
+    "d": [[-0.00433, 0.00060, -0.04559], [0.00002, -0.27761, 0.05493], [0.00077, 0.27761, 0.05493]],
+    "I_L": 2.645e-6 * np.eye(3),
+    "I_1": 1e-6 * np.array([[3697.66749, 0.36342, -9.51029], [0.36342, 840.10403, 0.61804], [-9.51029, 0.61804, 3865.05354]]),
+    "I_2": 1e-6 * np.array([[441.68245, 0, 0], [0, 441.67985, -1.07006], [0, -1.07006, 0.64418]]),
+    "I_3": 1e-6 * np.array([[441.68245, 0, 0], [0, 441.67985, 1.07006], [0, 1.07006, 0.64418]]),
+    "beta": np.deg2rad(5.0),
+}
+
+
+def Rx(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def Ry(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def Rz(a):
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def bodies(state, par=TABLE_5_1):
+    """(mass, inertia, centre, velocity, R, omega_body) of load, main body, right and left thruster."""
+    q, qd = np.asarray(state[:10]), np.asarray(state[10:])
+    xi, (phi, th, psi), (g1, g2), aR, aL = q[:3], q[3:6], q[6:8], q[8], q[9]
+    R_L = Rz(psi) @ Ry(th) @ Rx(phi)
+    R_BL = Rx(-g1) @ Ry(-g2)
+    R_B = R_L @ R_BL
+    R_C2B, R_C3B = Rx(-par["beta"]) @ Ry(aR), Rx(par["beta"]) @ Ry(aL)
+    W_eta = np.array([[1, 0, -np.sin(th)], [0, np.cos(phi), np.sin(phi) * np.cos(th)], [0, -np.sin(phi), np.cos(phi) * np.cos(th)]])
+    Q = np.array([[-np.cos(g2), 0], [0, -1], [np.sin(g2), 0]])
+    w_L = W_eta @ qd[3:6]
+    w_B = R_BL.T @ w_L + Q @ qd[6:8]
+    w_2 = R_C2B.T @ w_B + np.array([0, 1, 0]) * qd[8]
+    w_3 = R_C3B.T @ w_B + np.array([0, 1, 0]) * qd[9]
+    rod = np.array([0, 0, par["l"]])
+    o_B = xi + R_L @ rod
+    v_B = qd[:3] + R_L @ np.cross(w_L, rod)
+    out = [(par["m"][0], par["I_L"], xi, qd[:3], R_L, w_L)]
+    for i, (I, R, w) in enumerate(((par["I_1"], R_B, w_B), (par["I_2"], R_B @ R_C2B, w_2), (par["I_3"], R_B @ R_C3B, w_3))):
+        d = np.asarray(par["d"][i])
+        out.append((par["m"][i + 1], I, o_B + R_B @ d, v_B + R_B @ np.cross(w_B, d), R, w))
+    return out
+
+
+def energy(state, g=9.81):
+    """Kinetic + potential energy."""
+    return sum(0.5 * m * v @ v + 0.5 * w @ I @ w + m * g * c[2] for m, I, c, v, R, w in bodies(state))
+
+
+def linear_momentum(state):
+    return sum(m * v for m, I, c, v, R, w in bodies(state))
+
+
+def angular_momentum(state):
+    """About the inertial origin, in I."""
+    return sum(np.cross(c, m * v) + R @ I @ w for m, I, c, v, R, w in bodies(state))
+
+
+def external_force(state, f_R, f_L, d, g=9.81):
+    """Thrusts along each thruster's z axis + all weights + the load disturbance, in I."""
+    b = bodies(state)
+    weight = -g * sum(m for m, *_ in b) * np.array([0, 0, 1.0])
+    return f_R * b[2][4][:, 2] + f_L * b[3][4][:, 2] + weight + np.asarray(d)
