@@ -96,6 +96,10 @@ def build_python_fmu(
                 _keep_platforms(partial, platforms)
             partial.replace(target)
         finally:
+            # the builder imported the slave from the staging folder; an FMU instantiated
+            # later in this process must import its own copy, not this stale one
             if str(stage) in sys.path:
                 sys.path.remove(str(stage))
+            for name in [m for m in sys.modules if m == unique or m.startswith(f"{unique}_lib")]:
+                del sys.modules[name]
     return target

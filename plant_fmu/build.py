@@ -20,7 +20,7 @@ from .trim import hover_trim
 HERE = Path(__file__).parent
 FMU_NAME = "TiltloadPlant.fmu"
 RUNTIME_FILES = ("__init__.py", "interface.py", "parameters.py", "native.py")
-DEFAULT_INTEGRATOR_STEP = 0.003  # 4 RK4 substeps per 12 ms; accuracy table in docs/plant.md
+DEFAULT_INTEGRATOR_STEP = 0.004  # 3 RK4 substeps per 12 ms; accuracy table in docs/plant.md
 
 
 @dataclass

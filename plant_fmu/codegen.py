@@ -27,25 +27,28 @@ _DRIVER = r"""
 #define SZ_IW {sz_iw}
 #define SZ_W {sz_w}
 
-/* Returns 0 on success, -1 if the generated code failed, k > 0 if substep k left a
-   non-finite state (x then holds the last finite state). */
-int tl_plant_advance(const double* x0, const double* u, const double* d, const double* p,
-                     double h, int n, double* x) {{
+/* Advances x by n substeps of h and writes the outputs y of the new state. On success
+   returns 0; if the generated code fails returns -1, and if substep k leaves a non-finite
+   state returns k > 0: then x and y are left untouched. x may not alias the other inputs. */
+int tl_plant_outputs(const double* x, const double* p, double* y);
+int tl_plant_advance(const double* u, const double* d, const double* p, double h, int n,
+                     double* x, double* y) {{
   const double* arg[SZ_ARG + 1];
   double* res[SZ_RES + 1];
   casadi_int iw[SZ_IW + 1];
   double w[SZ_W + 1];
-  double next[{nx}];
+  double cur[{nx}], next[{nx}];
   int i, k;
-  for (i = 0; i < {nx}; ++i) x[i] = x0[i];
+  for (i = 0; i < {nx}; ++i) cur[i] = x[i];
   for (k = 0; k < n; ++k) {{
-    arg[0] = x; arg[1] = u; arg[2] = d; arg[3] = p; arg[4] = &h;
+    arg[0] = cur; arg[1] = u; arg[2] = d; arg[3] = p; arg[4] = &h;
     res[0] = next;
     if (tl_plant_rk4(arg, res, iw, w, 0)) return -1;
     for (i = 0; i < {nx}; ++i) if (!isfinite(next[i])) return k + 1;
-    for (i = 0; i < {nx}; ++i) x[i] = next[i];
+    for (i = 0; i < {nx}; ++i) cur[i] = next[i];
   }}
-  return 0;
+  for (i = 0; i < {nx}; ++i) x[i] = cur[i];
+  return tl_plant_outputs(x, p, y) ? -1 : 0;
 }}
 
 int tl_plant_outputs(const double* x, const double* p, double* y) {{
@@ -106,7 +109,7 @@ def compile_library(directory: Path) -> Path:
     if compiler is None:
         raise RuntimeError("building the plant FMU needs a C compiler (cc or gcc) on PATH")
     lib = directory / f"{LIB_STEM}.so"
-    cmd = [compiler, "-O2", "-fPIC", "-shared", "-o", str(lib), *map(str, sources), "-lm"]
+    cmd = [compiler, "-O3", "-fPIC", "-shared", "-o", str(lib), *map(str, sources), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"compiling the plant library failed: {proc.stderr.strip().splitlines()[-1:]}")

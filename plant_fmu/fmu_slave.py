@@ -71,7 +71,6 @@ class TiltloadPlant(Fmi2Slave):
         s0 = [add(f"{n}_0", trim_x[i], par, fixed, unit, f"initial {desc}") for i, (n, unit, desc) in enumerate(_iface.STATES)]
 
         self._v = np.array(self._values, dtype=float)
-        self._x_next = np.empty(len(sx))
         v = self._v
         self._x, self._y, self._applied = v[sx[0]:sx[-1] + 1], v[sy[0]:sy[-1] + 1], v[sa[0]:sa[-1] + 1]
         self._u, self._d = v[su[0]:su[-1] + 1], v[sd[0]:sd[-1] + 1]
@@ -81,7 +80,7 @@ class TiltloadPlant(Fmi2Slave):
         self._params_vr = set(sp + sl + [sh] + s0)
         self._names = {var.value_reference: var.name for var in self.vars.values()}
         self._plant = _native.NativePlant(_LIB_DIR / _INFO["library"])
-        self._plant.bind(self._x, self._applied, self._d, self._p, self._x_next, self._y)
+        self._plant.bind(self._x, self._applied, self._d, self._p, self._y)
         self._initialized = False
         self._failed = None
         self._lo, self._hi, self._tau = self._limits.tolist()
@@ -130,9 +129,10 @@ class TiltloadPlant(Fmi2Slave):
         self._plant.evaluate()
         self._initialized = True
 
-    def _saturate(self):
+    def _saturate(self, f_r=None, f_l=None, t_r=None, t_l=None):
         """Actuator limits of Table 5.2: the plant applies what the actuators can deliver."""
-        f_r, f_l, t_r, t_l = self._u.tolist()
+        if f_r is None:
+            f_r, f_l, t_r, t_l = self._u.tolist()
         lo, hi, tau = self._lo, self._hi, self._tau
         self._applied[:] = (min(max(f_r, lo), hi), min(max(f_l, lo), hi), min(max(t_r, -tau), tau), min(max(t_l, -tau), tau))
 
@@ -153,12 +153,13 @@ class TiltloadPlant(Fmi2Slave):
                     f"communication step {step_size:.9g} s is not a whole multiple of integrator_step {h:.9g} s"
                 )
             sub = step_size / n
-        if not (np.isfinite(self._u).all() and np.isfinite(self._d).all()):
+        u = self._u.tolist()
+        if not math.isfinite(sum(u) + sum(self._d.tolist())):  # nan or inf anywhere
             names = _iface.INPUT_NAMES + _iface.DISTURBANCE_NAMES
-            values = np.concatenate([self._u, self._d])
-            bad = ", ".join(f"{names[i]}={values[i]}" for i in np.flatnonzero(~np.isfinite(values)))
+            values = u + self._d.tolist()
+            bad = ", ".join(f"{n}={v}" for n, v in zip(names, values) if not math.isfinite(v))
             return self._refuse(f"non-finite input at t={current_time:.6g} s: {bad}; step refused")
-        self._saturate()
+        self._saturate(*u)
         status = self._plant.step(sub, n)
         if status != 0:
             self._failed = current_time
@@ -168,6 +169,4 @@ class TiltloadPlant(Fmi2Slave):
                 f"state diverged (non-finite) in substep {status} of the step from t={current_time:.6g} s; "
                 "the state is kept at its last value and the plant stops"
             )
-        self._x[:] = self._x_next
-        self._plant.evaluate()
         return True

@@ -31,7 +31,7 @@ class NativePlant:
     def __init__(self, library: Path | str) -> None:
         self._lib = ctypes.CDLL(str(library))
         for name, argtypes in (
-            ("tl_plant_advance", [_dbl_p, _dbl_p, _dbl_p, _dbl_p, ctypes.c_double, ctypes.c_int, _dbl_p]),
+            ("tl_plant_advance", [_dbl_p, _dbl_p, _dbl_p, ctypes.c_double, ctypes.c_int, _dbl_p, _dbl_p]),
             ("tl_plant_outputs", [_dbl_p, _dbl_p, _dbl_p]),
             ("tl_plant_xdot", [_dbl_p, _dbl_p, _dbl_p, _dbl_p, _dbl_p]),
         ):
@@ -43,29 +43,33 @@ class NativePlant:
         self._xdot = self._lib.tl_plant_xdot
         self._bound = None
 
-    def bind(self, x: np.ndarray, u: np.ndarray, d: np.ndarray, p: np.ndarray, x_next: np.ndarray,
-             y: np.ndarray) -> None:
+    def bind(self, x: np.ndarray, u: np.ndarray, d: np.ndarray, p: np.ndarray, y: np.ndarray) -> None:
         """Fix the buffers step() and evaluate() work on (views into one array are fine)."""
-        self._keep = (x, u, d, p, x_next, y)  # the pointers below live as long as these arrays
+        self._keep = (x, u, d, p, y)  # the pointers below live as long as these arrays
         self._bound = tuple(_ptr(a) for a in self._keep)
 
     def step(self, h: float, n: int) -> int:
-        """x_next = state after n substeps of h; 0 if fine, k > 0 if substep k went non-finite."""
-        x, u, d, p, x_next, _ = self._bound
-        return self._advance(x, u, d, p, h, n, x_next)
+        """Advance the bound state by n substeps of h and refresh y, in one foreign call.
 
-    def evaluate(self, state: str = "x") -> None:
-        """Outputs (UAV pose, energies, momenta) of the bound state (x or x_next) into y."""
-        x, _, _, p, x_next, y = self._bound
-        if self._outputs(x if state == "x" else x_next, p, y):
+        0 if fine; k > 0 if substep k went non-finite, -1 if the model failed: then x and y
+        keep their previous values.
+        """
+        x, u, d, p, y = self._bound
+        return self._advance(u, d, p, h, n, x, y)
+
+    def evaluate(self) -> None:
+        """Outputs (UAV pose, energies, momenta) of the bound state into y."""
+        x, _, _, p, y = self._bound
+        if self._outputs(x, p, y):
             raise RuntimeError("plant output evaluation failed")
 
     # Convenience calls on fresh arrays (tests, tools); the FMU uses bind/step/evaluate.
     def advance(self, x0, u, d, p, h: float, n: int) -> tuple[int, np.ndarray]:
-        arrays = [np.ascontiguousarray(a, dtype=float) for a in (x0, u, d, p)]
-        out = np.empty(NX)
-        status = self._advance(*map(_ptr, arrays), h, n, _ptr(out))
-        return status, out
+        u, d, p = (np.ascontiguousarray(a, dtype=float) for a in (u, d, p))
+        x = np.array(x0, dtype=float)
+        y = np.empty(NY)
+        status = self._advance(_ptr(u), _ptr(d), _ptr(p), h, n, _ptr(x), _ptr(y))
+        return status, x
 
     def outputs(self, x, p) -> np.ndarray:
         y = np.empty(NY)
