@@ -20,7 +20,6 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from scipy.integrate import solve_ivp
-
 from tiltload.master.pythonfmu_guard import pin
 from tiltload.plant_fmu import build as plant_build
 from tiltload.plant_fmu import parameters as P

@@ -65,7 +65,7 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
     z = np.zeros(10)
     z[6:8] = weight / 2
     res = np.inf
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         r, J = (np.array(v) for v in f(z, pos, p))
         r = r.ravel()
         res = float(np.max(np.abs(r)))

@@ -7,6 +7,7 @@ from contextlib import contextmanager
 
 import numpy as np
 from fmpy import extract, read_model_description
+from fmpy.fmi1 import calloc, free
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -14,7 +15,6 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
-from fmpy.fmi1 import calloc, free
 
 
 class Session:

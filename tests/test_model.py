@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from tiltload.plant_fmu import parameters as P
 from tiltload.plant_fmu.linearize import linearize, zoh
 from tiltload.plant_fmu.model import model
