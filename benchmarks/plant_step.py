@@ -2,8 +2,8 @@
 
 Measured: a set of the 7 inputs + doStep(12 ms) + get of the 20 states, single process, wall
 clock (perf_counter), best of 5 runs of 250 steps (3 s of hover at the trim inputs: the open-loop
-plant is unstable, so each run starts again from the trim after fmi2Reset); then the same split into its parts: the bare compiled RK4 (ctypes) and the
-FMI call overhead with a zero-length step. Also prints the RK4 accuracy per integrator step
+plant is unstable, so each run starts again from the trim after fmi2Reset); then its parts:
+the bare compiled RK4 (ctypes) and the FMI call overhead with a zero-length step. Also prints the RK4 accuracy per integrator step
 against a DOP853 reference (rtol 1e-13) and the time of a fresh build.
 
 Run: python benchmarks/plant_step.py
