@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -28,6 +29,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     return hover.main(args)
 
 
+def _positive_time(text: str) -> float:
+    value = float(text)
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="tiltload", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -37,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     b.set_defaults(func=cmd_build)
     r = sub.add_parser("run", help="main job: build if needed, then run the plant FMU's default experiment")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
-    r.add_argument("--stop-time", type=float, default=None, help="stop time in s (default: the FMU's, 2 s)")
+    r.add_argument("--stop-time", type=_positive_time, default=None, help="stop time in s (default: the FMU's, 2 s)")
     r.add_argument("--out", type=Path, default=Path("runs"), help="where the result CSV and plot go")
     r.set_defaults(func=cmd_run)
     args = parser.parse_args(argv)
@@ -49,6 +57,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("tiltload: interrupted", file=sys.stderr)
         return 130
+    except Exception as err:  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
+        if os.environ.get("TILTLOAD_DEBUG"):
+            raise
+        print(f"tiltload: error: {type(err).__name__}: {err}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":
