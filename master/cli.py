@@ -7,6 +7,8 @@ import os
 import sys
 from pathlib import Path
 
+import numpy as np
+
 DEFAULT_FMU_DIR = Path("fmus")
 
 
@@ -20,6 +22,24 @@ def cmd_build(args: argparse.Namespace) -> int:
     result = plant_build.build(args.out, force=args.force)
     state = "built" if result.rebuilt else "up to date"
     print(f"{result.path}: {state} ({result.seconds:.1f} s)")
+    return 0
+
+
+def cmd_design(args: argparse.Namespace) -> int:
+    from ..controller_fmu import artifact
+    from ..controller_fmu.design import design
+    from ..controller_fmu.error_dynamics import DesignError
+
+    try:
+        d = design(args.controller, args.Tc)
+    except DesignError as err:
+        raise UserError(str(err)) from None
+    path = artifact.save(d, args.out / f"{d.kind}.json")
+    r = d.report
+    print(f"{d.kind}: ||K||_2 = {r['gain_norm']:.4g}, closed-loop spectral radius = {r['spectral_radius']:.6f} "
+          f"(slowest continuous-time decay {np.log(r['spectral_radius']) / d.Tc:.3f} /s), "
+          f"Riccati residual {r['riccati_residual']:.1e}, {r['seconds']:.2f} s")
+    print(f"saved {path}")
     return 0
 
 
@@ -43,6 +63,11 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
     b.add_argument("--force", action="store_true", help="rebuild even if up to date")
     b.set_defaults(func=cmd_build)
+    d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
+    d.add_argument("--controller", default="dlqr", help="dlqr (default)")
+    d.add_argument("--Tc", type=_positive_time, default=0.012, help="controller period in s (default 0.012)")
+    d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
+    d.set_defaults(func=cmd_design)
     r = sub.add_parser("run", help="main job: build if needed, then run the plant FMU's default experiment")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     r.add_argument("--stop-time", type=_positive_time, default=None, help="stop time in s (default: the FMU's, 2 s)")

@@ -1,0 +1,72 @@
+"""Linearized error dynamics at the trim, augmented with integral action (thesis 3.7-3.9).
+
+chi = [dx (20), int(x - x_tr), int(y - y_tr), int(z - z_tr), int(psi - psi_tr)] in R^24,
+discretized by zero-order hold at the controller period T_c.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..plant_fmu import parameters as P
+from ..plant_fmu.linearize import linearize, zoh
+from ..plant_fmu.trim import Trim, hover_trim
+
+REGULATED = (0, 1, 2, 5)  # x, y, z, psi: the four degrees of freedom steered along the path
+NCHI = 24
+
+
+class DesignError(ValueError):
+    """A design input or result that cannot give a valid controller; the message says which."""
+
+
+@dataclass(frozen=True)
+class ErrorDynamics:
+    """chi_{k+1} = A chi_k + B du_k + F d_k at sampling time T_c, around trim."""
+
+    A: np.ndarray
+    B: np.ndarray
+    F: np.ndarray
+    Tc: float
+    trim: Trim
+    params: np.ndarray
+
+
+def augmented_continuous(A_c: np.ndarray, B_c: np.ndarray, F_c: np.ndarray):
+    """(3.8): append the integrals of the x, y, z and psi errors."""
+    n = A_c.shape[0]
+    A = np.zeros((n + 4, n + 4))
+    A[:n, :n] = A_c
+    for row, idx in enumerate(REGULATED):
+        A[n + row, idx] = 1.0
+    B = np.vstack([B_c, np.zeros((4, B_c.shape[1]))])
+    F = np.vstack([F_c, np.zeros((4, F_c.shape[1]))])
+    return A, B, F
+
+
+def controllability_rank(A: np.ndarray, B: np.ndarray) -> int:
+    """Rank of [B AB ... A^(n-1) B], columns scaled to unit norm for numerical robustness."""
+    n = A.shape[0]
+    blocks, M = [], B
+    for _ in range(n):
+        blocks.append(M / max(np.linalg.norm(M), 1e-300))
+        M = A @ M
+    return int(np.linalg.matrix_rank(np.hstack(blocks), tol=1e-10))
+
+
+def error_dynamics(Tc: float = 0.012, p: np.ndarray | None = None, psi: float = 0.0) -> ErrorDynamics:
+    """ZOH-discretized augmented error dynamics; raise DesignError if not controllable."""
+    if not (np.isfinite(Tc) and Tc > 0):
+        raise DesignError(f"controller period T_c must be positive and finite, got {Tc!r}")
+    p = P.default_vector() if p is None else np.asarray(p, dtype=float)
+    trim = hover_trim(p, psi=psi)
+    lin = linearize(trim.x, trim.u, p)
+    A_c, B_c, F_c = augmented_continuous(lin.A, lin.B, lin.F)
+    A, BF = zoh(A_c, np.hstack([B_c, F_c]), Tc)
+    B, F = BF[:, :4], BF[:, 4:]
+    rank = controllability_rank(A, B)
+    if rank < A.shape[0]:
+        raise DesignError(f"the augmented error dynamics are not controllable (rank {rank} < {A.shape[0]})")
+    return ErrorDynamics(A, B, F, Tc, trim, p)

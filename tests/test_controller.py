@@ -1,0 +1,98 @@
+"""Controller design (thesis ch. 3): DLQR against its mathematical guarantees and on the nonlinear plant."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tiltload.controller_fmu import artifact
+from tiltload.controller_fmu.closed_loop import simulate
+from tiltload.controller_fmu.control_law import feedforward
+from tiltload.controller_fmu.design import design
+from tiltload.controller_fmu.dlqr import design_dlqr
+from tiltload.controller_fmu.error_dynamics import DesignError, ErrorDynamics, error_dynamics
+from tiltload.controller_fmu.weights import omega_chi, omega_u
+
+
+@pytest.fixture(scope="module")
+def dlqr():
+    return design("dlqr")
+
+
+def test_dare_holds_and_closed_loop_is_stable(dlqr):
+    A, B, K, Q, R = dlqr.A, dlqr.B, dlqr.K, dlqr.omega_chi, dlqr.omega_u
+    sol = design_dlqr(error_dynamics(), Q, R)
+    P = sol.P
+    # P = A'PA + Q - A'PB (B'PB + R)^-1 B'PA, and K = (B'PB + R)^-1 B'PA
+    residual = A.T @ P @ A + Q - A.T @ P @ B @ np.linalg.solve(B.T @ P @ B + R, B.T @ P @ A) - P
+    assert np.abs(residual).max() < 1e-9 * np.abs(P).max()
+    np.testing.assert_allclose(K, np.linalg.solve(B.T @ P @ B + R, B.T @ P @ A), rtol=1e-9, atol=1e-12)
+    assert np.max(np.abs(np.linalg.eigvals(A - B @ K))) < 1.0
+    assert np.linalg.eigvalsh(P)[0] > 0
+
+
+def test_dlqr_is_optimal_against_perturbed_gains(dlqr):
+    """The LQ cost x0' P x0 of K is lower than that of nearby stabilizing gains."""
+    from scipy.linalg import solve_discrete_lyapunov
+
+    A, B, Q, R = dlqr.A, dlqr.B, dlqr.omega_chi, dlqr.omega_u
+    def cost(K):
+        Acl = A - B @ K
+        return np.trace(solve_discrete_lyapunov(Acl.T, Q + K.T @ R @ K))
+    base = cost(dlqr.K)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        assert cost(dlqr.K * (1 + 0.02 * rng.normal(size=dlqr.K.shape))) > base
+
+
+def test_same_inputs_give_the_same_design(dlqr, tmp_path):
+    again = design("dlqr")
+    assert np.array_equal(dlqr.K, again.K)
+    loaded = artifact.load(artifact.save(dlqr, tmp_path / "d.json"))
+    assert np.array_equal(loaded.K, dlqr.K) and loaded.parameter_hash == dlqr.parameter_hash
+
+
+def test_feedforward_at_hover_is_the_trim_input(dlqr):
+    u = feedforward(dlqr.trim_x[:10], np.zeros(10), np.zeros(10), dlqr.params)
+    np.testing.assert_allclose(u, dlqr.trim_u, atol=1e-10)
+
+
+@pytest.mark.parametrize(
+    "Q, R, needle",
+    [
+        (np.eye(23), np.eye(4), "Omega_chi must be 24x24"),
+        (np.triu(np.ones((24, 24))), np.eye(4), "Omega_chi must be symmetric"),
+        (-np.eye(24), np.eye(4), "Omega_chi must be positive semidefinite"),
+        (np.eye(24), np.diag([1, 1, 1, 0.0]), "Omega_u must be positive definite"),
+        (np.eye(24), np.full((4, 4), np.nan), "Omega_u has non-finite"),
+    ],
+)
+def test_bad_weights_are_named(Q, R, needle):
+    with pytest.raises(DesignError, match=needle):
+        design_dlqr(error_dynamics(), Q, R)
+
+
+def test_uncontrollable_system_is_refused():
+    sys = error_dynamics()
+    bad = ErrorDynamics(sys.A, np.zeros_like(sys.B), sys.F, sys.Tc, sys.trim, sys.params)
+    with pytest.raises(DesignError, match="no stabilizing solution|not stable"):
+        design_dlqr(bad, omega_chi(), omega_u(sys.trim.u))
+
+
+def test_bad_sampling_time_and_unknown_kind():
+    with pytest.raises(DesignError, match="T_c"):
+        error_dynamics(Tc=0.0)
+    with pytest.raises(DesignError, match="unknown controller"):
+        design("pid")
+
+
+def test_nonlinear_plant_returns_from_30cm_and_rejects_a_step(dlqr):
+    x0 = dlqr.trim_x.copy()
+    x0[0:3] += 0.3
+    step = lambda t: np.array([0.1, 0.0, 0.0]) if t >= 15.0 else np.zeros(3)  # noqa: E731
+    log = simulate(dlqr, x0, stop=30.0, disturbance=step)
+    err = log["x"][:, [0, 1, 2, 5]] - dlqr.trim_x[[0, 1, 2, 5]]
+    t = log["t"]
+    assert np.abs(err[(t > 12) & (t < 15)]).max() < 2e-3  # back at the set-point
+    assert np.abs(err[(t > 15) & (t < 17)]).max() > 0.05  # the step does push the load ...
+    assert np.abs(err[t > 28]).max() < 2e-3  # ... and integral action removes the offset
+    assert np.all(np.abs(log["u"][:, 2:]) <= 2.0) and np.all(log["u"][:, :2] >= 0)
