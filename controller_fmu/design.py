@@ -9,9 +9,11 @@ import numpy as np
 from .artifact import Design
 from .dlqr import design_dlqr
 from .error_dynamics import error_dynamics
+from .lmi import EPS_REGION, VARPI_REGION, synthesize
 from .weights import omega_chi, omega_u
 
-KINDS = ("dlqr",)
+KINDS = ("dlqr", "hinf", "mixed")
+MIXED_GAMMA_SQ = 24.0**2  # prescribed H-infinity bound of the mixed design (thesis Sec. 5.2)
 
 
 def design(kind: str = "dlqr", Tc: float = 0.012) -> Design:
@@ -22,11 +24,24 @@ def design(kind: str = "dlqr", Tc: float = 0.012) -> Design:
     start = time.perf_counter()
     sys = error_dynamics(Tc)
     Q, R = omega_chi(), omega_u(sys.trim.u)
-    result = design_dlqr(sys, Q, R)
-    report = {
-        "spectral_radius": result.spectral_radius,
-        "riccati_residual": result.riccati_residual,
-        "gain_norm": float(np.linalg.norm(result.K, 2)),
-        "seconds": time.perf_counter() - start,
-    }
-    return Design(kind, result.K, Tc, sys.trim.x, sys.trim.u, sys.params, sys.A, sys.B, sys.F, Q, R, report)
+    if kind == "dlqr":
+        result = design_dlqr(sys, Q, R)
+        K = result.K
+        report = {"spectral_radius": result.spectral_radius, "riccati_residual": result.riccati_residual}
+    else:
+        res = synthesize(sys, Q, R, gamma_sq=None if kind == "hinf" else MIXED_GAMMA_SQ)
+        K = res.K
+        report = {
+            "spectral_radius": float(np.abs(res.poles).max()),
+            "min_real_pole": float(res.poles.real.min()),
+            "regions": {"eps": EPS_REGION, "varpi": VARPI_REGION},
+            "gamma_bound": res.gamma_bound,
+            "hinf_norm": res.hinf_norm,
+            "h2_bound": res.h2_bound,
+            "h2_norm": res.h2_norm,
+            "solver_status": res.status,
+            "solver_seconds": res.seconds,
+        }
+    report["gain_norm"] = float(np.linalg.norm(K, 2))
+    report["seconds"] = time.perf_counter() - start
+    return Design(kind, K, Tc, sys.trim.x, sys.trim.u, sys.params, sys.A, sys.B, sys.F, Q, R, report)

@@ -37,8 +37,13 @@ def cmd_design(args: argparse.Namespace) -> int:
     path = artifact.save(d, args.out / f"{d.kind}.json")
     r = d.report
     print(f"{d.kind}: ||K||_2 = {r['gain_norm']:.4g}, closed-loop spectral radius = {r['spectral_radius']:.6f} "
-          f"(slowest continuous-time decay {np.log(r['spectral_radius']) / d.Tc:.3f} /s), "
-          f"Riccati residual {r['riccati_residual']:.1e}, {r['seconds']:.2f} s")
+          f"(slowest continuous-time decay {np.log(r['spectral_radius']) / d.Tc:.3f} /s), {r['seconds']:.1f} s")
+    if "riccati_residual" in r:
+        print(f"  Riccati residual {r['riccati_residual']:.1e}")
+    else:
+        h2 = f", H2 bound {r['h2_bound']:.4g} (measured {r['h2_norm']:.4g})" if r["h2_bound"] else ""
+        print(f"  H-infinity bound {r['gamma_bound']:.4g} (measured {r['hinf_norm']:.4g}){h2}; "
+              f"poles in Re > {r['regions']['eps']} and |z| < {r['regions']['varpi']}; solver {r['solver_status']}")
     print(f"saved {path}")
     return 0
 
@@ -64,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--force", action="store_true", help="rebuild even if up to date")
     b.set_defaults(func=cmd_build)
     d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
-    d.add_argument("--controller", default="dlqr", help="dlqr (default)")
+    d.add_argument("--controller", default="dlqr", help="dlqr (default), hinf or mixed")
     d.add_argument("--Tc", type=_positive_time, default=0.012, help="controller period in s (default 0.012)")
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
     d.set_defaults(func=cmd_design)

@@ -96,3 +96,36 @@ def test_nonlinear_plant_returns_from_30cm_and_rejects_a_step(dlqr):
     assert np.abs(err[(t > 15) & (t < 17)]).max() > 0.05  # the step does push the load ...
     assert np.abs(err[t > 28]).max() < 2e-3  # ... and integral action removes the offset
     assert np.all(np.abs(log["u"][:, 2:]) <= 2.0) and np.all(log["u"][:, :2] >= 0)
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    return design("mixed")
+
+
+def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
+    """Checked on K itself, not on the solver's status: regions, H-infinity bound, stability."""
+    poles = np.linalg.eigvals(mixed.A - mixed.B @ mixed.K)
+    assert poles.real.min() > 0.55 and np.abs(poles).max() < 0.99402
+    r = mixed.report
+    assert r["hinf_norm"] < 24.0  # the prescribed bound gamma~ = 24^2 of Sec. 5.2
+    assert r["h2_norm"] <= r["h2_bound"] * (1 + 1e-9)
+
+
+def test_mixed_design_on_the_nonlinear_plant(mixed):
+    x0 = mixed.trim_x.copy()
+    x0[0:3] += 0.3
+    step = lambda t: np.array([0.0, 0.1, 0.0]) if t >= 15.0 else np.zeros(3)  # noqa: E731
+    log = simulate(mixed, x0, stop=30.0, disturbance=step)
+    err = log["x"][:, [0, 1, 2, 5]] - mixed.trim_x[[0, 1, 2, 5]]
+    t = log["t"]
+    assert np.abs(err[(t > 12) & (t < 15)]).max() < 2e-3
+    assert np.abs(err[t > 28]).max() < 2e-3
+
+
+def test_empty_region_is_refused():
+    from tiltload.controller_fmu.lmi import synthesize
+
+    sys = error_dynamics()
+    with pytest.raises(DesignError, match="region is empty"):
+        synthesize(sys, omega_chi(), omega_u(sys.trim.u), eps=0.9, varpi=0.8)

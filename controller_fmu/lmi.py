@@ -1,0 +1,140 @@
+"""Pure H-infinity and mixed H2/H-infinity state feedback with LMI pole regions (thesis Sec. 3.4).
+
+Solved with cvxpy + Clarabel in Bryson-scaled coordinates (x~ = Omega_chi^1/2 x,
+u~ = Omega_u^1/2 u): there H_z = [I; 0] and D_zu = [0; I], and the problem is well
+conditioned (on the raw 24-state LMIs Clarabel fails, DESIGN §3). Regions: Re(z) > eps (3.43)
+and |z| < varpi (3.45), with the common X = T1 = T2 of Sec. 3.4.4. The returned gain is
+checked on its own (poles in both regions, H-infinity norm by a frequency sweep, H2 norm by
+a Lyapunov equation), never trusted from the solver status alone.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import cvxpy as cp
+import numpy as np
+from scipy.linalg import solve_discrete_lyapunov, sqrtm
+
+from .error_dynamics import DesignError, ErrorDynamics
+from .weights import check_weight
+
+EPS_REGION = 0.55  # Re(z) > eps
+VARPI_REGION = 0.99402  # |z| < varpi
+MARGIN = 1e-4  # strictness of every LMI (scaled units): solver-tolerance slack must not void the bounds
+
+
+@dataclass(frozen=True)
+class LMIResult:
+    K: np.ndarray
+    gamma_bound: float  # sqrt of the optimal gamma~ (H-infinity bound)
+    h2_bound: float | None  # sqrt(trace N), mixed design only
+    hinf_norm: float  # measured on the closed loop
+    h2_norm: float  # measured on the closed loop
+    poles: np.ndarray
+    status: str
+    seconds: float
+
+
+def _solve(problem: cp.Problem) -> str:
+    opts = dict(max_iter=500, tol_gap_abs=1e-7, tol_gap_rel=1e-7, tol_feas=1e-7, static_regularization_constant=1e-7)
+    try:
+        problem.solve(solver=cp.CLARABEL, **opts)
+    except cp.error.SolverError as err:
+        raise DesignError(f"the LMI solver failed: {err}") from None
+    return str(problem.status)
+
+
+def _closed_loop_norms(A, B, F, K, Hz, Dzu, Dzd) -> tuple[float, float]:
+    """H-infinity norm (frequency sweep, refined) and H2 norm of d -> z for u = -K chi."""
+    Acl, Hcl = A - B @ K, Hz - Dzu @ K
+    n = A.shape[0]
+
+    def sigma(w):
+        G = Hcl @ np.linalg.solve(np.exp(1j * w) * np.eye(n) - Acl, F) + Dzd
+        return np.linalg.svd(G, compute_uv=False)[0]
+
+    grid = np.concatenate([np.geomspace(1e-6, np.pi, 3000)])
+    values = np.array([sigma(w) for w in grid])
+    i = int(np.argmax(values))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+    for _ in range(60):  # golden-section refinement around the peak
+        a, b = lo + 0.382 * (hi - lo), lo + 0.618 * (hi - lo)
+        if sigma(a) > sigma(b):
+            hi = b
+        else:
+            lo = a
+    hinf = max(values.max(), sigma(0.5 * (lo + hi)), sigma(0.0))
+    Wc = solve_discrete_lyapunov(Acl, F @ F.T)
+    h2 = float(np.sqrt(np.trace(Hcl @ Wc @ Hcl.T)))
+    return float(hinf), h2
+
+
+def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: float | None = None,
+               eps: float = EPS_REGION, varpi: float = VARPI_REGION, Dzd: np.ndarray | None = None) -> LMIResult:
+    """gamma_sq None: pure H-infinity with regions (min gamma~). Else mixed H2/H-infinity with gamma~ prescribed."""
+    n, m = sys.B.shape
+    Q = check_weight(Q, n, "Omega_chi", definite=True)
+    R = check_weight(R, m, "Omega_u", definite=True)
+    if not (0.0 <= eps < varpi <= 1.0):
+        raise DesignError(f"LMI regions need 0 <= eps < varpi <= 1, got eps={eps}, varpi={varpi}: the region is empty")
+    nd = sys.F.shape[1]
+    nz = n + m
+    Dzd = np.zeros((nz, nd)) if Dzd is None else np.asarray(Dzd, dtype=float)
+    if Dzd.shape != (nz, nd):
+        raise DesignError(f"D_zd must be {nz}x{nd}, got {Dzd.shape}")
+    S, Rh = np.real(sqrtm(Q)), np.real(sqrtm(R))
+    Si, Rhi = np.linalg.inv(S), np.linalg.inv(Rh)
+    A, B, F = S @ sys.A @ Si, S @ sys.B @ Rhi, S @ sys.F  # scaled plant
+    Hz = np.vstack([np.eye(n), np.zeros((m, n))])
+    Dzu = np.vstack([np.zeros((n, m)), np.eye(m)])
+
+    X = cp.Variable((n, n), symmetric=True)
+    P = cp.Variable((n, n), symmetric=True)
+    Y = cp.Variable((m, n))
+    AXBY = A @ X + B @ Y
+    W = 2 * X - P
+    margin = MARGIN
+    cons = [X >> margin * np.eye(n)]
+    # regions (3.43) and (3.45), common T = X
+    cons.append(AXBY + AXBY.T - 2 * eps * X >> margin * np.eye(n))
+    cons.append(cp.bmat([[varpi * X, AXBY], [AXBY.T, varpi * X]]) >> margin * np.eye(2 * n))
+    g = cp.Variable() if gamma_sq is None else gamma_sq
+    HXDY = Hz @ X + Dzu @ Y
+    hinf = cp.bmat([
+        [P, AXBY, F, np.zeros((n, nz))],
+        [AXBY.T, W, np.zeros((n, nd)), HXDY.T],
+        [F.T, np.zeros((nd, n)), np.eye(nd), Dzd.T],
+        [np.zeros((nz, n)), HXDY, Dzd, g * np.eye(nz)],
+    ])
+    cons.append(0.5 * (hinf + hinf.T) >> margin * np.eye(2 * n + nd + nz))
+    if gamma_sq is None:
+        objective = cp.Minimize(g)
+        N = None
+    else:
+        N = cp.Variable((nz, nz), symmetric=True)
+        h2a = cp.bmat([[N, HXDY], [HXDY.T, W]])
+        h2b = cp.bmat([
+            [P, AXBY, F],
+            [AXBY.T, W, np.zeros((n, nd))],
+            [F.T, np.zeros((nd, n)), np.eye(nd)],
+        ])
+        cons += [0.5 * (h2a + h2a.T) >> margin * np.eye(nz + n), 0.5 * (h2b + h2b.T) >> margin * np.eye(2 * n + nd)]
+        objective = cp.Minimize(cp.trace(N))
+    start = time.perf_counter()
+    status = _solve(cp.Problem(objective, cons))
+    seconds = time.perf_counter() - start
+    if X.value is None or Y.value is None:
+        raise DesignError(f"the LMIs are infeasible or unsolved (solver status: {status})")
+    K = Rhi @ (-Y.value @ np.linalg.inv(X.value)) @ S  # back to physical units
+    poles = np.linalg.eigvals(sys.A - sys.B @ K)
+    if not (np.all(poles.real > eps - 1e-6) and np.all(np.abs(poles) < varpi + 1e-6)):
+        raise DesignError(
+            f"the solver returned a gain whose poles leave the regions (status {status}; "
+            f"min Re {poles.real.min():.5f} vs eps {eps}, max |z| {np.abs(poles).max():.6f} vs varpi {varpi})"
+        )
+    hinf_norm, h2_norm = _closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
+    gamma_val = float(g.value) if gamma_sq is None else float(gamma_sq)
+    h2_bound = float(np.sqrt(np.trace(N.value))) if N is not None else None
+    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, status, seconds)
