@@ -85,17 +85,22 @@ def test_bad_sampling_time_and_unknown_kind():
         design("pid")
 
 
-def test_nonlinear_plant_returns_from_30cm_and_rejects_a_step(dlqr):
-    x0 = dlqr.trim_x.copy()
+def returns_from_30cm_and_rejects_a_step(d, axis):
+    """Hover set-point from a 30 cm offset, then a 0.1 N step on the load along axis at t = 15 s."""
+    x0 = d.trim_x.copy()
     x0[0:3] += 0.3
-    step = lambda t: np.array([0.1, 0.0, 0.0]) if t >= 15.0 else np.zeros(3)  # noqa: E731
-    log = simulate(dlqr, x0, stop=30.0, disturbance=step)
-    err = log["x"][:, [0, 1, 2, 5]] - dlqr.trim_x[[0, 1, 2, 5]]
+    force = np.eye(3)[axis] * 0.1
+    log = simulate(d, x0, stop=30.0, disturbance=lambda t: force if t >= 15.0 else np.zeros(3))
+    err = log["x"][:, [0, 1, 2, 5]] - d.trim_x[[0, 1, 2, 5]]
     t = log["t"]
     assert np.abs(err[(t > 12) & (t < 15)]).max() < 2e-3  # back at the set-point
     assert np.abs(err[(t > 15) & (t < 17)]).max() > 0.05  # the step does push the load ...
     assert np.abs(err[t > 28]).max() < 2e-3  # ... and integral action removes the offset
     assert np.all(np.abs(log["u"][:, 2:]) <= 2.0) and np.all(log["u"][:, :2] >= 0)
+
+
+def test_dlqr_on_the_nonlinear_plant(dlqr):
+    returns_from_30cm_and_rejects_a_step(dlqr, axis=0)
 
 
 @pytest.fixture(scope="module")
@@ -113,14 +118,7 @@ def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
 
 
 def test_mixed_design_on_the_nonlinear_plant(mixed):
-    x0 = mixed.trim_x.copy()
-    x0[0:3] += 0.3
-    step = lambda t: np.array([0.0, 0.1, 0.0]) if t >= 15.0 else np.zeros(3)  # noqa: E731
-    log = simulate(mixed, x0, stop=30.0, disturbance=step)
-    err = log["x"][:, [0, 1, 2, 5]] - mixed.trim_x[[0, 1, 2, 5]]
-    t = log["t"]
-    assert np.abs(err[(t > 12) & (t < 15)]).max() < 2e-3
-    assert np.abs(err[t > 28]).max() < 2e-3
+    returns_from_30cm_and_rejects_a_step(mixed, axis=1)
 
 
 def test_empty_region_is_refused():
