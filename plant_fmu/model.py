@@ -103,10 +103,6 @@ class PlantModel:
 
     # --- numeric functions -------------------------------------------------------------
     @cached_property
-    def f_xdot(self) -> ca.Function:
-        return ca.Function("tl_plant_rhs", [self.x, self.u, self.d, self.p], [self.xdot], ["x", "u", "d", "p"], ["xdot"])
-
-    @cached_property
     def f_terms(self) -> ca.Function:
         """M, C qd, g, L_in, L_fr, L_db at (x, p): what feedforward (3.18) and checks need."""
         return ca.Function(
@@ -141,9 +137,6 @@ class PlantModel:
             self.kin.o_B, kin.euler_zyx(self.kin.R_B), self.kinetic, self.potential, energy, momentum, angular
         )
 
-    @cached_property
-    def f_diagnostics(self) -> ca.Function:
-        return ca.Function("tl_plant_out", [self.x, self.p], [self.diagnostics], ["x", "p"], ["y"])
 
 
 

@@ -71,12 +71,6 @@ class NativePlant:
         status = self._advance(_ptr(u), _ptr(d), _ptr(p), h, n, _ptr(x), _ptr(y))
         return status, x
 
-    def outputs(self, x, p) -> np.ndarray:
-        y = np.empty(NY)
-        if self._outputs(_ptr(np.ascontiguousarray(x, dtype=float)), _ptr(np.ascontiguousarray(p, dtype=float)), _ptr(y)):
-            raise RuntimeError("plant output evaluation failed")
-        return y
-
     def xdot(self, x, u, d, p) -> np.ndarray:
         arrays = [np.ascontiguousarray(a, dtype=float) for a in (x, u, d, p)]
         r = np.empty(NX)
