@@ -16,8 +16,15 @@ KINDS = ("dlqr", "hinf", "mixed")
 MIXED_GAMMA_SQ = 24.0**2  # prescribed H-infinity bound of the mixed design (thesis Sec. 5.2)
 
 
-def design(kind: str = "dlqr", Tc: float = 0.012) -> Design:
+def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False) -> Design:
+    """Synthesize the thesis's controller of this kind; use_cache reuses a stored identical design."""
     from .error_dynamics import DesignError
+
+    if use_cache and kind in KINDS:
+        from ..plant_fmu.parameters import default_vector
+        from .cache import cached
+
+        return cached(kind, Tc, default_vector(), lambda: design(kind, Tc))
 
     if kind not in KINDS:
         raise DesignError(f"unknown controller '{kind}' (available: {', '.join(KINDS)})")
@@ -41,6 +48,7 @@ def design(kind: str = "dlqr", Tc: float = 0.012) -> Design:
             "h2_norm": res.h2_norm,
             "solver_status": res.status,
             "solver_seconds": res.seconds,
+            "lmi_min_eig": res.lmi_min_eig,
         }
     report["gain_norm"] = float(np.linalg.norm(K, 2))
     report["seconds"] = time.perf_counter() - start

@@ -35,6 +35,7 @@ class LMIResult:
     poles: np.ndarray
     status: str
     seconds: float
+    lmi_min_eig: dict  # smallest eigenvalue of every LMI evaluated at the returned point (must be > 0)
 
 
 def _solve(problem: cp.Problem) -> str:
@@ -96,10 +97,8 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
     AXBY = A @ X + B @ Y
     W = 2 * X - P
     margin = MARGIN
-    cons = [X >> margin * np.eye(n)]
-    # regions (3.43) and (3.45), common T = X
-    cons.append(AXBY + AXBY.T - 2 * eps * X >> margin * np.eye(n))
-    cons.append(cp.bmat([[varpi * X, AXBY], [AXBY.T, varpi * X]]) >> margin * np.eye(2 * n))
+    lmis = {"X > 0": X, "Re(z) > eps (3.43)": AXBY + AXBY.T - 2 * eps * X,
+            "|z| < varpi (3.45)": cp.bmat([[varpi * X, AXBY], [AXBY.T, varpi * X]])}
     g = cp.Variable() if gamma_sq is None else gamma_sq
     HXDY = Hz @ X + Dzu @ Y
     hinf = cp.bmat([
@@ -108,7 +107,7 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
         [F.T, np.zeros((nd, n)), np.eye(nd), Dzd.T],
         [np.zeros((nz, n)), HXDY, Dzd, g * np.eye(nz)],
     ])
-    cons.append(0.5 * (hinf + hinf.T) >> margin * np.eye(2 * n + nd + nz))
+    lmis["H-infinity (3.39)"] = 0.5 * (hinf + hinf.T)
     if gamma_sq is None:
         objective = cp.Minimize(g)
         N = None
@@ -120,13 +119,24 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
             [AXBY.T, W, np.zeros((n, nd))],
             [F.T, np.zeros((nd, n)), np.eye(nd)],
         ])
-        cons += [0.5 * (h2a + h2a.T) >> margin * np.eye(nz + n), 0.5 * (h2b + h2b.T) >> margin * np.eye(2 * n + nd)]
+        lmis["H2 output (3.28)"] = 0.5 * (h2a + h2a.T)
         objective = cp.Minimize(cp.trace(N))
+    cons = [expr >> margin * np.eye(expr.shape[0]) for expr in lmis.values()]
+    if gamma_sq is not None:
+        # (3.27) is a principal submatrix of (3.39) with the common X, P: implied, so only checked afterwards
+        lmis["H2 state (3.27)"] = 0.5 * (h2b + h2b.T)
     start = time.perf_counter()
     status = _solve(cp.Problem(objective, cons))
     seconds = time.perf_counter() - start
     if X.value is None or Y.value is None:
-        raise DesignError(f"the LMIs are infeasible or unsolved (solver status: {status})")
+        what = ("the pole regions and the H-infinity LMI" if gamma_sq is None
+                else f"the pole regions with the prescribed H-infinity bound gamma~ = {gamma_sq:g}")
+        raise DesignError(f"the LMIs are infeasible: no gain satisfies {what} (solver status: {status})")
+    lmi_min_eig = {name: float(np.linalg.eigvalsh(expr.value)[0]) for name, expr in lmis.items()}
+    broken = {name: v for name, v in lmi_min_eig.items() if not v > 0}
+    if broken:
+        raise DesignError(f"the solver's point (status {status}) violates the LMIs: "
+                          + ", ".join(f"{name} min eigenvalue {v:.2e}" for name, v in broken.items()))
     K = Rhi @ (-Y.value @ np.linalg.inv(X.value)) @ S  # back to physical units
     poles = np.linalg.eigvals(sys.A - sys.B @ K)
     if not (np.all(poles.real > eps - 1e-6) and np.all(np.abs(poles) < varpi + 1e-6)):
@@ -137,4 +147,4 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
     hinf_norm, h2_norm = _closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
     gamma_val = float(g.value) if gamma_sq is None else float(gamma_sq)
     h2_bound = float(np.sqrt(np.trace(N.value))) if N is not None else None
-    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, status, seconds)
+    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, status, seconds, lmi_min_eig)

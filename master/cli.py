@@ -31,7 +31,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     from ..controller_fmu.error_dynamics import DesignError
 
     try:
-        d = design(args.controller, args.Tc)
+        d = design(args.controller, args.Tc, use_cache=not args.fresh)
     except DesignError as err:
         raise UserError(str(err)) from None
     path = artifact.save(d, args.out / f"{d.kind}.json")
@@ -72,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--controller", default="dlqr", help="dlqr (default), hinf or mixed")
     d.add_argument("--Tc", type=_positive_time, default=0.012, help="controller period in s (default 0.012)")
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
+    d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
     d.set_defaults(func=cmd_design)
     r = sub.add_parser("run", help="main job: build if needed, then run the plant FMU's default experiment")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")

@@ -80,3 +80,18 @@ def external_force(state, f_R, f_L, d, g=9.81):
     b = bodies(state)
     weight = -g * sum(m for m, *_ in b) * np.array([0, 0, 1.0])
     return f_R * b[2][4][:, 2] + f_L * b[3][4][:, 2] + weight + np.asarray(d)
+
+
+def zse_measurement(state, par=TABLE_5_1):
+    """(4.22) from the thesis's formulas: xi_B (4.16), eta_B (4.17)-(4.19), omega_IB^B (4.20), d_BL^B (4.21), servos."""
+    q, qd = np.asarray(state[:10]), np.asarray(state[10:])
+    xi, (phi, th, psi), (g1, g2) = q[:3], q[3:6], q[6:8]
+    R_L = Rz(psi) @ Ry(th) @ Rx(phi)
+    R_BL = Rx(-g1) @ Ry(-g2)
+    R = R_L @ R_BL
+    d_B_L = np.array([0, 0, par["l"]])
+    W_eta = np.array([[1, 0, -np.sin(th)], [0, np.cos(phi), np.sin(phi) * np.cos(th)], [0, -np.sin(phi), np.cos(phi) * np.cos(th)]])
+    Q = np.array([[-np.cos(g2), 0], [0, -1], [np.sin(g2), 0]])
+    eta_B = [np.arctan2(R[2, 1], R[2, 2]), np.arcsin(-R[2, 0]), np.arctan2(R[1, 0], R[0, 0])]
+    omega = R_BL.T @ W_eta @ qd[3:6] + Q @ qd[6:8]
+    return np.concatenate([xi + R_L @ d_B_L, eta_B, omega, -R_BL.T @ d_B_L, q[8:10], qd[8:10]])

@@ -105,7 +105,7 @@ def test_dlqr_on_the_nonlinear_plant(dlqr):
 
 @pytest.fixture(scope="module")
 def mixed():
-    return design("mixed")
+    return design("mixed", use_cache=True)  # about 90 s on a cold cache
 
 
 def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
@@ -114,6 +114,7 @@ def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
     assert poles.real.min() > 0.55 and np.abs(poles).max() < 0.99402
     r = mixed.report
     assert r["hinf_norm"] < 24.0  # the prescribed bound gamma~ = 24^2 of Sec. 5.2
+    assert all(v > 0 for v in r["lmi_min_eig"].values())  # every LMI holds at the returned point
     assert r["h2_norm"] <= r["h2_bound"] * (1 + 1e-9)
 
 
@@ -127,3 +128,34 @@ def test_empty_region_is_refused():
     sys = error_dynamics()
     with pytest.raises(DesignError, match="region is empty"):
         synthesize(sys, omega_chi(), omega_u(sys.trim.u), eps=0.9, varpi=0.8)
+
+
+def small_system(Tc=0.05):
+    """A cart (double integrator) with integral action, discretized: a quick LMI problem."""
+    from tiltload.plant_fmu.linearize import zoh
+
+    Ac = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    A, BF = zoh(Ac, np.array([[0.0, 0.0], [1.0, 1.0], [0.0, 0.0]]), Tc)
+    return ErrorDynamics(A, BF[:, :1], BF[:, 1:], Tc, None, None)
+
+
+def test_mixed_synthesis_is_deterministic_and_feasible_at_its_point():
+    from tiltload.controller_fmu.lmi import synthesize
+
+    sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
+    a = synthesize(sys, Q, R, gamma_sq=30.0**2, eps=0.3, varpi=0.999)
+    b = synthesize(sys, Q, R, gamma_sq=30.0**2, eps=0.3, varpi=0.999)
+    assert np.array_equal(a.K, b.K) and a.h2_bound == b.h2_bound
+    assert all(v > 0 for v in a.lmi_min_eig.values())
+    poles = np.linalg.eigvals(sys.A - sys.B @ a.K)
+    assert poles.real.min() > 0.3 and np.abs(poles).max() < 0.999 and a.hinf_norm < 30.0
+
+
+def test_infeasible_hinf_bound_is_named():
+    """gamma~ below what any gain achieves (the pure H-infinity optimum) must fail as infeasible."""
+    from tiltload.controller_fmu.lmi import synthesize
+
+    sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
+    best = synthesize(sys, Q, R, eps=0.3, varpi=0.999)
+    with pytest.raises(DesignError, match="infeasible.*prescribed H-infinity bound"):
+        synthesize(sys, Q, R, gamma_sq=(0.5 * best.gamma_bound) ** 2, eps=0.3, varpi=0.999)
