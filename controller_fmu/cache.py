@@ -17,7 +17,10 @@ import numpy as np
 from . import artifact
 from .artifact import Design
 
-_CODE_DIRS = (Path(__file__).parent, Path(__file__).parent.parent / "plant_fmu")
+_HERE, _PLANT = Path(__file__).parent, Path(__file__).parent.parent / "plant_fmu"
+# the code a gain depends on: the design modules and the model they linearize (not the FMU run-time code)
+_CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.py", "design.py", "artifact.py", "control_law.py")] + \
+        [_PLANT / f for f in ("model.py", "kinematics.py", "parameters.py", "trim.py", "linearize.py")]
 
 
 def default_dir() -> Path:
@@ -28,9 +31,8 @@ def default_dir() -> Path:
 def key(kind: str, Tc: float, params: np.ndarray) -> str:
     h = hashlib.sha256(f"{kind}|{Tc!r}".encode())
     h.update(np.asarray(params, dtype=float).tobytes())
-    for folder in _CODE_DIRS:
-        for f in sorted(folder.glob("*.py")):
-            h.update(f.name.encode() + f.read_bytes())
+    for f in _CODE:
+        h.update(f.name.encode() + f.read_bytes())
     for dist in ("cvxpy", "clarabel", "numpy", "scipy", "casadi"):
         try:
             h.update(f"{dist}={metadata.version(dist)}".encode())

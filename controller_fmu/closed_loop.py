@@ -12,6 +12,7 @@ import numpy as np
 
 from ..plant_fmu import codegen
 from .artifact import Design
+from . import feedforward
 from .control_law import StateFeedback
 
 _RK4 = None
@@ -29,7 +30,7 @@ def simulate(design: Design, x0: np.ndarray, stop: float,
              substeps: int = 3) -> dict[str, np.ndarray]:
     """Hover set-point at the trim position; returns time, states and applied inputs per tick."""
     rk4 = _rk4()
-    ctrl = StateFeedback(design.K, design.Tc, design.trim_x, design.params)
+    ctrl = StateFeedback(design.K, design.Tc, design.trim_x, feedforward.bound(design.params))
     x = np.array(x0, dtype=float)
     n = int(round(stop / design.Tc))
     h = design.Tc / substeps

@@ -1,20 +1,19 @@
-"""The total control law u = sat(u_tr - K chi) with the feedforward (3.18)."""
+"""The total control law u = sat(u_tr - K chi) with the feedforward (3.18). Numpy only: the FMU runs it.
+
+The feedforward is passed in: CasADi at design time (controller_fmu.feedforward), the compiled
+library inside the FMU; both come from the same model expressions.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..plant_fmu.model import model
-from .error_dynamics import REGULATED
+REGULATED = (0, 1, 2, 5)  # x, y, z, psi: the four degrees of freedom steered along the path
 
-
-def feedforward(q_tr: np.ndarray, qd_tr: np.ndarray, qdd_tr: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(3.18): u_tr = L_in^+ (M qdd + (C + L_fr) qd + g) at the reference."""
-    M, Cqd, g, L_in, L_fr, _ = (np.array(v) for v in model().f_terms(np.r_[q_tr, qd_tr], p))
-    rhs = M @ qdd_tr + Cqd.ravel() + L_fr @ qd_tr + g.ravel()
-    return np.linalg.lstsq(L_in, rhs, rcond=None)[0]
+Feedforward = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (x_tr (20), qdd_tr (10)) -> u_tr (4)
 
 
 @dataclass
@@ -24,23 +23,23 @@ class StateFeedback:
     K: np.ndarray
     Tc: float
     trim_x: np.ndarray
-    params: np.ndarray
+    feedforward: Feedforward
     limits: tuple[float, float, float] = (0.0, 30.0, 2.0)
     integral: np.ndarray = field(default_factory=lambda: np.zeros(4))
 
-    def reference_state(self, xi, xi_dot, psi=0.0) -> np.ndarray:
+    def reference_state(self, xi, xi_dot, psi=0.0, psi_dot=0.0) -> np.ndarray:
         """x_tr: load on the path, the other coordinates at their trim values (Sec. 3.2)."""
         x = self.trim_x.copy()
         x[0:3], x[5] = xi, psi
         x[10:20] = 0.0
-        x[10:13] = xi_dot
+        x[10:13], x[15] = xi_dot, psi_dot
         return x
 
-    def __call__(self, x, xi, xi_dot, xi_ddot, psi=0.0) -> np.ndarray:
-        x_tr = self.reference_state(np.asarray(xi, float), np.asarray(xi_dot, float), psi)
+    def __call__(self, x, xi, xi_dot, xi_ddot, psi=0.0, psi_dot=0.0) -> np.ndarray:
+        x_tr = self.reference_state(np.asarray(xi, float), np.asarray(xi_dot, float), psi, psi_dot)
         qdd = np.zeros(10)
         qdd[0:3] = xi_ddot
-        u_tr = feedforward(x_tr[:10], x_tr[10:], qdd, self.params)
+        u_tr = self.feedforward(x_tr, qdd)
         chi = np.r_[x - x_tr, self.integral]
         u = u_tr - self.K @ chi
         self.integral = self.integral + self.Tc * (x - x_tr)[list(REGULATED)]

@@ -13,8 +13,8 @@ import numpy as np
 from ..plant_fmu import parameters as P
 from ..plant_fmu.linearize import linearize, zoh
 from ..plant_fmu.trim import Trim, hover_trim
+from .control_law import REGULATED
 
-REGULATED = (0, 1, 2, 5)  # x, y, z, psi: the four degrees of freedom steered along the path
 NCHI = 24
 
 

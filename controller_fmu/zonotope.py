@@ -7,7 +7,6 @@ rewriting generators touch contiguous memory.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog
 
 REDUCTIONS = ("combastel", "girard", "pca")
 
@@ -38,6 +37,8 @@ def support(c: np.ndarray, Gt: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 def contains_point(c: np.ndarray, Gt: np.ndarray, x: np.ndarray, tol: float = 1e-9) -> bool:
     """Exact membership by LP feasibility: is there xi in [-1, 1]^r with G xi = x - c?"""
+    from scipy.optimize import linprog  # tests and tools only: the FMU's estimator never calls this
+
     r = Gt.shape[0]
     res = linprog(np.zeros(r), A_eq=Gt.T, b_eq=x - c, bounds=(-1.0 - tol, 1.0 + tol), method="highs")
     return bool(res.status == 0)

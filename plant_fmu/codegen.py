@@ -86,12 +86,29 @@ def functions() -> list[ca.Function]:
     return [rhs, rk4, out]
 
 
+def feedforward_function() -> ca.Function:
+    """(3.18) u_tr = L_in^+ (M qdd + (C + L_fr) qd + g) at the reference state, for the controller FMU."""
+    m = model()
+    x, qdd = ca.SX.sym("x", NX), ca.SX.sym("qdd", NX // 2)
+    M, Cqd, g, L_in, L_fr, _ = m.f_terms(x, m.p)
+    rhs = M @ qdd + Cqd + L_fr @ x[NX // 2:] + g
+    u = ca.solve(L_in.T @ L_in, L_in.T @ rhs)  # least squares: L_in has full column rank
+    return ca.Function("tl_feedforward", [x, qdd, m.p], [ca.cse(u)], ["x", "qdd", "p"], ["u"])
+
+
+def extra_functions() -> list[ca.Function]:
+    """Functions the other FMUs call from the same library: the measurement model and the feedforward."""
+    from ..sensor_fmu.measurement import pi_codegen_function
+
+    return [pi_codegen_function(), feedforward_function()]
+
+
 def generate(directory: Path) -> list[Path]:
     """Write tl_plant.c, tl_plant.h and the driver into directory; return the C sources."""
     directory.mkdir(parents=True, exist_ok=True)
     rhs, rk4, out = functions()
     cg = ca.CodeGenerator(f"{LIB_STEM}.c", {"with_header": True})
-    for f in (rhs, rk4, out):
+    for f in (rhs, rk4, out, *extra_functions()):
         cg.add(f)
     cg.generate(str(directory) + "/")
     sizes = dict(sz_arg=rk4.sz_arg(), sz_res=rk4.sz_res(), sz_iw=rk4.sz_iw(), sz_w=rk4.sz_w(), nx=NX)
@@ -113,4 +130,28 @@ def compile_library(directory: Path) -> Path:
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"compiling the plant library failed: {proc.stderr.strip().splitlines()[-1:]}")
+    return lib
+
+
+def library_digest() -> str:
+    """Identity of the compiled library: the model and measurement sources and the CasADi version."""
+    import hashlib
+
+    here = Path(__file__).parent
+    h = hashlib.sha256(ca.__version__.encode())
+    for f in sorted(here.glob("*.py")) + [here.parent / "sensor_fmu" / "measurement.py"]:
+        h.update(f.name.encode() + f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def cached_library(root: Path) -> Path:
+    """The compiled library in root/lib-<digest>/, compiled once and shared by the FMU builds."""
+    folder = Path(root) / f"lib-{library_digest()}"
+    lib = folder / f"{LIB_STEM}.so"
+    if not lib.exists():
+        tmp = folder.with_name(folder.name + ".partial")
+        shutil.rmtree(tmp, ignore_errors=True)
+        compile_library(tmp)
+        shutil.rmtree(folder, ignore_errors=True)
+        tmp.replace(folder)
     return lib

@@ -77,3 +77,38 @@ class NativePlant:
         if self._xdot(*map(_ptr, arrays), _ptr(r)):
             raise RuntimeError("plant derivative evaluation failed")
         return r
+
+
+class CasadiFunction:
+    """Call one CasADi-generated C function of the library (the standard casadi_* API) on numpy arrays.
+
+    Work arrays are allocated once; outputs are written into caller-provided arrays.
+    """
+
+    def __init__(self, library: Path | str | ctypes.CDLL, name: str) -> None:
+        lib = library if isinstance(library, ctypes.CDLL) else ctypes.CDLL(str(library))
+        cint = ctypes.c_longlong
+        work = getattr(lib, f"{name}_work")
+        work.argtypes = [ctypes.POINTER(cint)] * 4
+        work.restype = ctypes.c_int
+        sizes = [cint() for _ in range(4)]
+        if work(*(ctypes.byref(v) for v in sizes)):
+            raise RuntimeError(f"{name}: work size query failed")
+        n_arg, n_res, n_iw, n_w = (v.value for v in sizes)
+        self._fn = getattr(lib, name)
+        self._fn.argtypes = [ctypes.POINTER(_dbl_p), ctypes.POINTER(_dbl_p), ctypes.POINTER(cint), _dbl_p, ctypes.c_int]
+        self._fn.restype = ctypes.c_int
+        self._arg = (_dbl_p * max(n_arg, 1))()
+        self._res = (_dbl_p * max(n_res, 1))()
+        self._iw = (cint * max(n_iw, 1))()
+        self._w = np.zeros(max(n_w, 1))
+        self._w_ptr = _ptr(self._w)
+        self.name = name
+
+    def __call__(self, inputs: list[np.ndarray], outputs: list[np.ndarray]) -> None:
+        for i, a in enumerate(inputs):
+            self._arg[i] = _ptr(a)
+        for i, a in enumerate(outputs):
+            self._res[i] = _ptr(a)
+        if self._fn(self._arg, self._res, self._iw, self._w_ptr, 0):
+            raise RuntimeError(f"{self.name}: evaluation failed")

@@ -34,11 +34,18 @@ def _pi_expr(x: ca.SX, p: ca.SX) -> ca.SX:
 
 @lru_cache(maxsize=1)
 def pi_function() -> ca.Function:
-    """pi(x, p) -> y in R^16 of (4.22)."""
+    """pi(x, p) -> (y in R^16 of (4.22), its Jacobian H_d)."""
     x = ca.SX.sym("x", 20)
     p = ca.SX.sym("p", len(MODEL_PARAMETERS))
     y = _pi_expr(x, p)
-    return ca.Function("tl_pi", [x, p], [y, ca.jacobian(y, x)], ["x", "p"], ["y", "H"])
+    return ca.Function("tl_pi_jac", [x, p], [y, ca.jacobian(y, x)], ["x", "p"], ["y", "H"])
+
+
+def pi_codegen_function() -> ca.Function:
+    """pi alone, for the compiled library the sensor FMU calls."""
+    x = ca.SX.sym("x", 20)
+    p = ca.SX.sym("p", len(MODEL_PARAMETERS))
+    return ca.Function("tl_pi", [x, p], [ca.cse(_pi_expr(x, p))], ["x", "p"], ["y"])
 
 
 def pi(x: np.ndarray, p: np.ndarray) -> np.ndarray:

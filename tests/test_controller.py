@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from tiltload.controller_fmu import artifact
 from tiltload.controller_fmu.closed_loop import simulate
-from tiltload.controller_fmu.control_law import feedforward
+from tiltload.controller_fmu.feedforward import feedforward
 from tiltload.controller_fmu.design import design
 from tiltload.controller_fmu.dlqr import design_dlqr
 from tiltload.controller_fmu.error_dynamics import DesignError, ErrorDynamics, error_dynamics
