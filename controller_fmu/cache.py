@@ -25,7 +25,7 @@ _CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.
 
 def default_dir() -> Path:
     root = os.environ.get("TILTLOAD_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tiltload"
-    return Path(root) / "designs"
+    return Path(root) / "designs"  # same root as master.build_all.cache_root (no import: the design layer stays below master)
 
 
 def key(kind: str, Tc: float, params: np.ndarray) -> str:

@@ -11,8 +11,8 @@ from collections.abc import Callable
 import numpy as np
 
 from ..plant_fmu import codegen
-from .artifact import Design
 from . import feedforward
+from .artifact import Design
 from .control_law import StateFeedback
 
 _RK4 = None

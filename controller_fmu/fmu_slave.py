@@ -7,7 +7,6 @@ inputs at t_k, runs the estimator and the control law, and holds u_k over the st
 
 import importlib
 import json
-import math
 from pathlib import Path
 
 import numpy as np
@@ -89,7 +88,7 @@ class TiltloadController(Fmi2Slave):
         try:
             tc = t.v[self._tc]
             if abs(tc - _INFO["Tc"]) > 1e-12:
-                raise _runtime.SetupError(f"Tc = {tc!r} s, but the embedded designs are for {_INFO['Tc']} s (rebuild to change it)")
+                raise _runtime.SetupError(f"Tc = {float(tc)} s, but the embedded designs are for {_INFO['Tc']} s (rebuild to change it)")
             self._rt = _runtime.ControllerRuntime(
                 self._bundle, t.other["controller"], t.other["estimator"], self._feedforward,
                 tuple(t.v[self._limits]), t.v[self._start].copy(), t.other["zse_reduction"])

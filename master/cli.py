@@ -17,11 +17,11 @@ class UserError(Exception):
 
 
 def cmd_build(args: argparse.Namespace) -> int:
-    from ..plant_fmu import build as plant_build
+    from .build_all import build_all
 
-    result = plant_build.build(args.out, force=args.force)
-    state = "built" if result.rebuilt else "up to date"
-    print(f"{result.path}: {state} ({result.seconds:.1f} s)")
+    for result in build_all(args.out, force=args.force):
+        state = "built" if result.rebuilt else "up to date"
+        print(f"{result.path}: {state} ({result.seconds:.1f} s)")
     return 0
 
 

@@ -5,6 +5,9 @@ instantiated an FMU is unloaded; any later instantiation in the same process the
 (PythonFMU #213, #228). FMPy's simulate_fmu() unloads the library after every run, so a
 second run in one Python process would crash. pin() instantiates the FMU once from a private
 copy and never unloads it; call it before anything else loads a pythonfmu FMU.
+
+Every distinct pythonfmu FMU (model identifier) needs its own pin: a second FMU loaded and
+unloaded after the first one was pinned still crashes on its next load.
 """
 
 from __future__ import annotations
@@ -13,17 +16,17 @@ import atexit
 import shutil
 from pathlib import Path
 
-_PINNED: list = []
+_PINNED: dict[str, object] = {}
 
 
 def pin(fmu: Path | str) -> None:
     """Instantiate one pythonfmu FMU once and keep its library loaded until the process exits."""
-    if _PINNED:
-        return
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu))
+    if md.coSimulation.modelIdentifier in _PINNED:
+        return
     unzipdir = extract(str(fmu))
     slave = FMU2Slave(
         guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
@@ -31,5 +34,5 @@ def pin(fmu: Path | str) -> None:
     )
     slave.instantiate()
     slave.fmi2FreeInstance(slave.component)  # the instance goes, the library stays
-    _PINNED.append(slave)
+    _PINNED[md.coSimulation.modelIdentifier] = slave
     atexit.register(shutil.rmtree, unzipdir, True)

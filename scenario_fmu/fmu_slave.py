@@ -68,7 +68,7 @@ class TiltloadScenario(Fmi2Slave):
             return f"trajectory must be 0, 1 or 2, got {traj}"
         mag, tau = t.v[self._mag], t.v[self._tau]
         if not (math.isfinite(mag) and math.isfinite(tau) and tau >= 0):
-            return f"gust_magnitude must be finite and gust_tau >= 0, got {mag!r}, {tau!r}"
+            return f"gust_magnitude must be finite and gust_tau >= 0, got {float(mag)}, {float(tau)}"
         fr = t.v[self._frac]
         if not all(math.isfinite(f) and f >= 0 for f in fr):
             return f"gust onsets must be non-negative fractions, got {fr.tolist()}"

@@ -49,17 +49,17 @@ class SensorError(ValueError):
 def check(step: float, periods, bounds, pdfs) -> list[int]:
     """Ticks per sample of every group; raises SensorError naming the first bad parameter."""
     if not (np.isfinite(step) and step > 0):
-        raise SensorError(f"step must be a positive finite time, got {step!r}")
+        raise SensorError(f"step must be a positive finite time, got {float(step)!r}")
     ticks = []
     for g, period, bound, pdf in zip(GROUPS, periods, bounds, pdfs):
         if not (np.isfinite(period) and period > 0):
-            raise SensorError(f"{g.name}_period must be positive and finite, got {period!r}")
+            raise SensorError(f"{g.name}_period must be positive and finite, got {float(period)!r}")
         n = round(period / step)
         if n < 1 or abs(n * step - period) > 1e-9 * max(period, step):
-            raise SensorError(f"{g.name}_period = {period!r} s is not a whole multiple of the step {step!r} s")
+            raise SensorError(f"{g.name}_period = {float(period)!r} s is not a whole multiple of the step {float(step)!r} s")
         b = np.atleast_1d(bound)
         if not (np.all(np.isfinite(b)) and np.all(b >= 0)):
-            raise SensorError(f"{g.name} bound must be non-negative and finite, got {bound!r}")
+            raise SensorError(f"{g.name} bound must be non-negative and finite, got {np.asarray(bound).tolist()}")
         if pdf not in PDFS:
             raise SensorError(f"{g.name}_pdf must be one of {', '.join(PDFS)}, got {pdf!r}")
         ticks.append(n)

@@ -17,3 +17,15 @@ def plant_fmu() -> Path:
     path = build(ROOT / "fmus").path
     pin(path)  # FMPy unloads FMUs after each run; pythonfmu must not be fully unloaded
     return path
+
+
+@pytest.fixture(scope="session")
+def pipeline_fmus() -> dict[str, Path]:
+    """All four FMUs (the controller's first build synthesizes the mixed design: about 90 s, then cached)."""
+    from tiltload.master.build_all import build_all
+    from tiltload.master.pythonfmu_guard import pin
+
+    paths = {r.path.stem: r.path for r in build_all(ROOT / "fmus", progress=lambda *_: None)}
+    for path in paths.values():
+        pin(path)
+    return paths

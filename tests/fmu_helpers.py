@@ -47,6 +47,16 @@ class Session:
     def get(self, *names):
         return np.array(self.fmu.getReal([self.vr[n] for n in names]))
 
+    def set_typed(self, **values):
+        """Integer, Boolean or String variables, by the type the model description declares."""
+        types = {v.name: v.type for v in self.md.modelVariables}
+        for name, value in values.items():
+            setter = {"Integer": self.fmu.setInteger, "Boolean": self.fmu.setBoolean, "String": self.fmu.setString}[types[name]]
+            setter([self.vr[name]], [value])
+
+    def get_bool(self, *names):
+        return list(self.fmu.getBoolean([self.vr[n] for n in names]))
+
     def start(self):
         try:
             self.fmu.exitInitializationMode()

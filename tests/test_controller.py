@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from tiltload.controller_fmu import artifact
 from tiltload.controller_fmu.closed_loop import simulate
-from tiltload.controller_fmu.feedforward import feedforward
 from tiltload.controller_fmu.design import design
 from tiltload.controller_fmu.dlqr import design_dlqr
 from tiltload.controller_fmu.error_dynamics import DesignError, ErrorDynamics, error_dynamics
+from tiltload.controller_fmu.feedforward import feedforward
 from tiltload.controller_fmu.weights import omega_chi, omega_u
 
 
