@@ -49,9 +49,70 @@ def cmd_design(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from . import hover
+    from . import system as sysdesc
+    from .build_all import build_all
+    from .execution import read_fmu
+    from .observers import Metrics
+    from .plot import plot_run
+    from .run import run_system
+    from .tiltload_system import default_stop, default_system
 
-    return hover.main(args)
+    controller_fmu = None
+    if args.controller not in ("dlqr", "mixed"):
+        controller_fmu = Path(args.controller)
+        if not controller_fmu.is_file():
+            raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
+    try:
+        if args.system is not None:
+            system = sysdesc.load(args.system)
+        else:
+            results = build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr))
+            rebuilt = [r.path.name for r in results if r.rebuilt]
+            if rebuilt:
+                print(f"built {', '.join(rebuilt)} into {args.fmus}/")
+            system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else "mixed",
+                                    args.seed, controller_fmu, args.delay, not args.no_gusts)
+            if controller_fmu is not None:
+                from .ports import check_controller
+
+                check_controller(read_fmu(controller_fmu, "controller"))
+    except sysdesc.DescriptionError as err:
+        raise UserError(str(err)) from None
+    stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
+    label = args.name or f"{args.scenario}_traj{args.trajectory}_{controller_fmu.stem if controller_fmu else args.controller}_seed{args.seed}"
+    log = args.out / f"{label}.mcap"
+    names = {i.name for i in system.instances}
+    metrics = Metrics("plant", "scenario", "controller") if {"plant", "scenario", "controller"} <= names else None
+    meta = {"scenario": args.scenario, "trajectory": args.trajectory, "controller": args.controller, "seed": args.seed,
+            "stop_time": stop, "delay": args.delay}
+    print(f"running {label}: {stop:g} s of simulated time")
+    try:
+        result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta)
+    except sysdesc.DescriptionError as err:
+        raise UserError(str(err)) from None
+    print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
+    if result.metrics:
+        print(f"{'metric':>14} {'value':>12}")
+        for k, v in result.metrics.items():
+            print(f"{k:>14} {v:>12.6g}")
+    print(f"log: {log}")
+    if result.error:
+        print(f"tiltload: error: {result.error}; the log is readable up to t = {result.sim_time:.3f} s", file=sys.stderr)
+        return 1
+    if not args.no_plots:
+        files = plot_run(log)
+        print(f"plots: {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .plot import plot_run
+
+    if not args.log.is_file():
+        raise UserError(f"{args.log} does not exist")
+    for f in plot_run(args.log, args.out):
+        print(f)
+    return 0
 
 
 def _positive_time(text: str) -> float:
@@ -74,11 +135,25 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
     d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
     d.set_defaults(func=cmd_design)
-    r = sub.add_parser("run", help="main job: build if needed, then run the plant FMU's default experiment")
+    r = sub.add_parser("run", help="main job: run the closed loop through the FMUs, log to MCAP, print ISE/IADU, plot")
+    r.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
+    r.add_argument("--trajectory", type=int, choices=(0, 1, 2), default=1, help="1 circle (default), 2 Table 5.3, 0 hover")
+    r.add_argument("--controller", default="mixed", help="dlqr, mixed (default) or PATH.fmu of your own controller")
+    r.add_argument("--seed", type=int, default=1, help="noise seed (default 1)")
+    r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
+    r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
+    r.add_argument("--no-gusts", action="store_true", help="no wind gusts")
+    r.add_argument("--system", type=Path, default=None, help="a system description (JSON) instead of the tiltload loop")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
-    r.add_argument("--stop-time", type=_positive_time, default=None, help="stop time in s (default: the FMU's, 2 s)")
-    r.add_argument("--out", type=Path, default=Path("runs"), help="where the result CSV and plot go")
+    r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")
+    r.add_argument("--name", default=None, help="file name stem of the log")
+    r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
+    pl = sub.add_parser("plot", help="draw the thesis's kinds of figures from a run's MCAP log")
+    pl.add_argument("log", type=Path)
+    pl.add_argument("--out", type=Path, default=None, help="folder for the PNGs (default: next to the log)")
+    pl.set_defaults(func=cmd_plot)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

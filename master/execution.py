@@ -1,0 +1,236 @@
+"""The execution: owns the clock and the FMU instances, steps them on the fixed-step multirate schedule.
+
+Algorithm (DESIGN §4): one tick T; an instance of period P = nT is stepped doStep(t_k, P) at
+the ticks k with k % n == 0, in the system's order (for tiltload: scenario, sensors,
+controller, plant). Before an instance steps, its connected inputs are set from the latest
+outputs of their sources (or from d ticks back, for a connection with delay d). Observers
+only read: they see each instance's outputs after its step. Every FMI failure becomes an
+ExecutionError naming the instance, the call and the FMU's last log line.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException, calloc, free
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+
+from . import connections
+from .pythonfmu_guard import pin
+from .system import DescriptionError, System, validate
+
+FATAL = 4
+STATUS = {1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+
+
+class ExecutionError(RuntimeError):
+    """A failure while running; the message names the instance, the call and the FMU's own words."""
+
+
+def read_fmu(path: Path, instance: str):
+    """Model description of a co-simulation FMU, or a DescriptionError saying what the file is not."""
+    path = Path(path)
+    if not path.is_file():
+        raise DescriptionError(f"{instance}: FMU file {path} does not exist")
+    if not zipfile.is_zipfile(path):
+        raise DescriptionError(f"{instance}: {path} is not an FMU (not a zip archive)")
+    try:
+        md = read_model_description(str(path), validate=False)
+    except Exception as err:  # fmpy raises various types for a broken modelDescription.xml
+        raise DescriptionError(f"{instance}: {path} is not a valid FMU ({err})") from None
+    if md.fmiVersion != "2.0":
+        raise DescriptionError(f"{instance}: {path} is FMI {md.fmiVersion}; only FMI 2.0 co-simulation is supported")
+    if md.coSimulation is None:
+        raise DescriptionError(f"{instance}: {path} is a model-exchange-only FMU; a co-simulation FMU is needed")
+    return md
+
+
+class FmuInstance:
+    """One instantiated FMU: typed output tables, captured log, fatal-aware teardown."""
+
+    def __init__(self, name: str, path: Path, md) -> None:
+        self.name, self.path, self.md = name, Path(path), md
+        self.log: list[str] = []
+        self.fatal = False
+        self.outputs = {t: [v for v in md.modelVariables if v.causality == "output" and v.type == t] for t in connections.TYPES}
+        self.out_vrs = {t: [v.valueReference for v in vs] for t, vs in self.outputs.items()}
+        self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
+        self.values = {t: np.zeros(len(vs)) for t, vs in self.outputs.items()}
+        self.vars = {v.name: v for v in md.modelVariables}
+        pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
+        self.dir = extract(str(path))
+
+        def logger(env, inst, status, category, message):
+            self.log.append(message.decode("utf-8", "replace"))
+        self._callbacks = fmi2CallbackFunctions()
+        self._callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=name)
+        self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
+
+    def call(self, what: str, fn):
+        try:
+            return fn()
+        except FMICallException as err:
+            self.fatal = err.status == FATAL
+            said = next((line for line in reversed(self.log) if line.strip() and "Fatal py exception" not in line), "")
+            raise ExecutionError(f"{self.name}: {what} failed ({STATUS.get(err.status, err.status)})"
+                                 + (f": {said}" if said else "")) from None
+        except OSError as err:
+            raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
+
+    def set_parameters(self, params: dict) -> None:
+        for key, value in params.items():
+            v = self.vars.get(key)
+            if v is None:
+                raise DescriptionError(f"{self.name} has no variable '{key}' to set")
+            if v.causality not in ("parameter", "input") or v.variability == "constant":
+                raise DescriptionError(f"{self.name}.{key} is a {v.causality} ({v.variability}); only parameters and inputs can be set")
+            setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger, "Boolean": self.slave.setBoolean,
+                      "String": self.slave.setString}[v.type]
+            if v.type == "Real":
+                value = float(value)
+                if not np.isfinite(value):
+                    raise DescriptionError(f"{self.name}.{key} = {value}: parameters must be finite")
+            elif v.type == "Integer":
+                value = int(value)
+            elif v.type == "Boolean":
+                value = bool(value)
+            else:
+                value = str(value)
+            self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
+
+    def read_outputs(self) -> None:
+        for t, getter in (("Real", self.slave.getReal), ("Integer", self.slave.getInteger), ("Boolean", self.slave.getBoolean)):
+            if self.out_vrs[t]:
+                self.values[t][:] = self.call(f"get{t}", lambda g=getter, vrs=self.out_vrs[t]: g(vrs))
+
+    def close(self) -> None:
+        if self.fatal:
+            return  # after fmi2Fatal the standard allows no call, not even fmi2FreeInstance
+        try:
+            self.slave.terminate()
+        except Exception:
+            pass
+        try:
+            self.slave.freeInstance()
+        except Exception:
+            pass
+
+
+@dataclass
+class _Group:
+    """Links from one source into one target of one type and delay: one get per tick, one set per step."""
+
+    source: str
+    target: str
+    type: str
+    delay: int
+    src_index: np.ndarray
+    dst_vrs: list[int]
+
+
+class Execution:
+    def __init__(self, system: System, observers=()) -> None:
+        self.system = validate(system)
+        self.observers = list(observers)
+        self.instances: dict[str, FmuInstance] = {}
+        self.time = 0.0
+        self.ticks_done = 0
+        mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
+        self.links = connections.resolve(system, mds)
+        self.every = {i.name: (1 if i.period is None else round(i.period / system.tick)) for i in system.instances}
+        groups: dict[tuple, list] = {}
+        for link in self.links:
+            groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
+        self._mds = mds
+        self._raw_groups = groups
+        self.groups: dict[str, list[_Group]] = {}
+        self.max_delay = max((link.delay for link in self.links), default=0)
+        self.history: dict[str, deque] = {}
+
+    def instantiate(self) -> None:
+        try:
+            for spec in self.system.instances:
+                self.instances[spec.name] = FmuInstance(spec.name, spec.fmu, self._mds[spec.name])
+            for (src, dst, typ, delay), links in self._raw_groups.items():
+                idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
+                self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, [link.target_vr for link in links]))
+            for spec in self.system.instances:
+                inst = self.instances[spec.name]
+                inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
+                inst.call("enterInitializationMode", inst.slave.enterInitializationMode)
+                inst.set_parameters(spec.parameters)
+                inst.call("exitInitializationMode", inst.slave.exitInitializationMode)
+                inst.read_outputs()
+        except BaseException:
+            raise  # the caller's close() frees what was instantiated
+        for name, inst in self.instances.items():
+            self.history[name] = deque([{t: v.copy() for t, v in inst.values.items()}], maxlen=self.max_delay + 1)
+        for obs in self.observers:
+            obs.start(self)
+
+    def _set_inputs(self, name: str) -> None:
+        inst = self.instances[name]
+        for g in self.groups.get(name, ()):
+            if g.delay == 0:
+                vals = self.instances[g.source].values[g.type][g.src_index]
+            else:
+                hist = self.history[g.source]
+                vals = hist[max(len(hist) - g.delay, 0)][g.type][g.src_index]
+            setter = {"Real": inst.slave.setReal, "Integer": inst.slave.setInteger, "Boolean": inst.slave.setBoolean}[g.type]
+            values = vals.tolist() if g.type == "Real" else [int(x) if g.type == "Integer" else bool(x) for x in vals]
+            inst.call(f"set{g.type} from {g.source}", lambda s=setter, vrs=g.dst_vrs, x=values: s(vrs, x))
+
+    def step_tick(self) -> None:
+        k, tick = self.ticks_done, self.system.tick
+        t = k * tick
+        for spec in self.system.instances:
+            n = self.every[spec.name]
+            if k % n:
+                continue
+            inst = self.instances[spec.name]
+            self._set_inputs(spec.name)
+            h = n * tick
+            inst.call(f"doStep at t={t:.6g} s", lambda s=inst.slave, h=h: s.doStep(currentCommunicationPoint=t, communicationStepSize=h))
+            inst.read_outputs()
+            when = t + h if spec.timing == "continuous" else t
+            for obs in self.observers:
+                obs.on_step(inst, when)
+        if self.max_delay:
+            for name, inst in self.instances.items():
+                self.history[name].append({typ: v.copy() for typ, v in inst.values.items()})
+        self.ticks_done = k + 1
+        self.time = self.ticks_done * tick
+        for obs in self.observers:
+            obs.on_tick(self.ticks_done, self.time)
+
+    def run(self, stop: float) -> None:
+        n = int(round(stop / self.system.tick))
+        while self.ticks_done < n:
+            self.step_tick()
+
+    def close(self, error: str | None = None) -> None:
+        """Finish the observers (the log first), then free the instances; safe to call twice."""
+        observers, self.observers = self.observers, []
+        for obs in observers:
+            try:
+                obs.finish(self, error)
+            except Exception:
+                pass
+        instances, self.instances = self.instances, {}
+        for inst in instances.values():
+            inst.close()

@@ -1,0 +1,93 @@
+"""Observers: read-only views of an execution (metrics, progress). The MCAP logger is in mcap_log.py."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+
+class Observer:
+    def start(self, execution) -> None: ...
+
+    def on_step(self, instance, t: float) -> None: ...
+
+    def on_tick(self, k: int, t: float) -> None: ...
+
+    def finish(self, execution, error: str | None) -> None: ...
+
+
+def _real(instance, name: str) -> int:
+    for i, v in enumerate(instance.outputs["Real"]):
+        if v.name == name:
+            return i
+    raise KeyError(f"{instance.name} has no Real output '{name}'")
+
+
+class Metrics(Observer):
+    """ISE of the regulated variables and IADU of the actuators (Sec. 5.1.4), sampled on the tick.
+
+    ISE(v) = sum_k (v(t_k) - v_ref(t_k))^2 T and IADU(u) = sum_k |u_k - u_{k-1}|, the discrete forms
+    of the thesis's integrals. The plant's value at t_k is its output before the tick's step.
+    """
+
+    def __init__(self, plant: str, reference: str, actuators: str,
+                 tracked=(("x", "x_ref"), ("y", "y_ref"), ("z", "z_ref"), ("psi", "psi_ref")),
+                 inputs=("f_R", "f_L", "tau_R", "tau_L")) -> None:
+        self.plant, self.reference, self.actuators = plant, reference, actuators
+        self.tracked, self.inputs = tracked, inputs
+        self.ise = {f"ISE({a})": 0.0 for a, _ in tracked}
+        self.iadu = {f"IADU({u})": 0.0 for u in inputs}
+        self._prev_u = None
+        self.ticks = 0
+
+    def start(self, execution) -> None:
+        self.tick = execution.system.tick
+        ins = execution.instances
+        self._p = ins[self.plant]
+        self._r = ins[self.reference]
+        self._a = ins[self.actuators]
+        self._pi = np.array([_real(self._p, a) for a, _ in self.tracked])
+        self._ri = np.array([_real(self._r, r) for _, r in self.tracked])
+        self._ui = np.array([_real(self._a, u) for u in self.inputs])
+        self._x = self._p.values["Real"][self._pi].copy()  # the plant's value at the start of the tick
+
+    def on_step(self, instance, t) -> None:
+        if instance is self._a:  # u_k and ref(t_k) are known, the plant has not stepped yet
+            e = self._x - self._r.values["Real"][self._ri]
+            for key, v in zip(self.ise, e * e * self.tick):
+                self.ise[key] += float(v)
+            u = self._a.values["Real"][self._ui]
+            if self._prev_u is not None:
+                for key, v in zip(self.iadu, np.abs(u - self._prev_u)):
+                    self.iadu[key] += float(v)
+            self._prev_u = u.copy()
+        elif instance is self._p:
+            self._x = self._p.values["Real"][self._pi].copy()
+
+    def table(self) -> dict[str, float]:
+        return {**self.ise, **self.iadu}
+
+
+class Progress(Observer):
+    """A one-line progress bar on stderr, refreshed at most twice a second."""
+
+    def __init__(self, stop: float, stream=sys.stderr) -> None:
+        self.stop, self.stream = stop, stream
+        self._last = 0.0
+        self._t0 = time.perf_counter()
+
+    def on_tick(self, k, t) -> None:
+        now = time.perf_counter()
+        if now - self._last < 0.5 and t < self.stop:
+            return
+        self._last = now
+        frac = min(t / self.stop, 1.0)
+        bar = "#" * int(30 * frac)
+        self.stream.write(f"\r  [{bar:<30}] {100 * frac:5.1f} %  t = {t:6.2f} s  ({t / max(now - self._t0, 1e-9):.0f}x real time)")
+        self.stream.flush()
+
+    def finish(self, execution, error) -> None:
+        self.stream.write("\n")
+        self.stream.flush()

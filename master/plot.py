@@ -1,0 +1,107 @@
+"""The thesis's kinds of figures from a run's MCAP log, as PNG files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import mcap_log  # noqa: E402
+
+
+def _series(msgs: list[dict], *names: str) -> np.ndarray:
+    return np.array([[np.nan if m.get(n) is None else m[n] for n in names] for m in msgs], dtype=float)
+
+
+def plot_run(log: Path, out: Path | None = None) -> list[Path]:
+    """Write <stem>_*.png next to the log (or into out); returns the files written."""
+    log = Path(log)
+    out = log.parent if out is None else Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = mcap_log.read(log, topics=["/plant", "/scenario", "/controller"])
+    if "/plant" not in data:
+        raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
+    plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
+    tp = _series(plant, "t")[:, 0]
+    files = []
+
+    def save(fig, name):
+        path = out / f"{log.stem}_{name}.png"
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+
+    load, uav = _series(plant, "x", "y", "z"), _series(plant, "x_B", "y_B", "z_B")
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(*uav.T, label="UAV")
+    ax.plot(*load.T, label="load")
+    if scen:
+        ref = _series(scen, "x_ref", "y_ref", "z_ref")
+        ax.plot(*ref.T, "k--", lw=0.8, label="reference")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.legend()
+    save(fig, "trajectory3d")
+
+    if scen:
+        ts = _series(scen, "t")[:, 0]
+        ref = _series(scen, "x_ref", "y_ref", "z_ref", "psi_ref")
+        fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
+        for i, (ax, label) in enumerate(zip(axes, ("x (m)", "y (m)", "z (m)", "ψ (rad)"))):
+            actual = np.interp(ts, tp, _series(plant, ("x", "y", "z", "psi")[i])[:, 0])
+            ax.plot(ts, ref[:, i] - actual)
+            ax.set_ylabel(f"error {label}")
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        save(fig, "tracking_error")
+
+    names = ("phi", "theta", "gamma_1", "gamma_2", "alpha_R", "alpha_L")
+    fig, axes = plt.subplots(3, 2, figsize=(9, 7), sharex=True)
+    for ax, n in zip(axes.ravel(), names):
+        ax.plot(tp, _series(plant, n)[:, 0])
+        ax.set_ylabel(f"{n} (rad)")
+        ax.grid(alpha=0.3)
+    save(fig, "remaining_dof")
+
+    if ctrl and "f_R" in ctrl[0]:
+        tc = _series(ctrl, "t")[:, 0]
+        fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
+        for ax, n, (lo, hi) in zip(axes, ("f_R", "f_L", "tau_R", "tau_L"), ((0, 30), (0, 30), (-2, 2), (-2, 2))):
+            ax.step(tc, _series(ctrl, n)[:, 0], where="post")
+            ax.axhline(lo, color="r", ls=":")
+            ax.axhline(hi, color="r", ls=":")
+            ax.set_ylabel(n)
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        save(fig, "actuators")
+
+    if ctrl and "est_x" in ctrl[0]:
+        tc = _series(ctrl, "t")[:, 0]
+        fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+        for ax, n in zip(axes, "xyz"):
+            truth = np.interp(tc, tp, _series(plant, n)[:, 0])
+            est, lo, hi = (_series(ctrl, f"est_{n}{s}")[:, 0] for s in ("", "_lo", "_hi"))
+            ax.plot(tc, est - truth, label="estimation error")
+            ax.plot(tc, lo - truth, "k--", lw=0.7, label="confidence limits")
+            ax.plot(tc, hi - truth, "k--", lw=0.7)
+            ax.set_ylabel(f"{n} (m)")
+            ax.grid(alpha=0.3)
+        axes[0].legend()
+        axes[-1].set_xlabel("t (s)")
+        save(fig, "estimation_error")
+        frob = _series(ctrl, "zse_G_frobenius")[:, 0]
+        if np.nanmax(np.abs(frob)) > 0:
+            fig, ax = plt.subplots(figsize=(8, 3))
+            ax.plot(tc, frob)
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel("‖G‖_F")
+            ax.grid(alpha=0.3)
+            save(fig, "zse_frobenius")
+    return files

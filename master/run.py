@@ -1,0 +1,48 @@
+"""Run a system: execution + MCAP logger + metrics + progress, with clean failure handling.
+
+Any failure (an FMU error, a diverging plant, Ctrl-C) stops the run with one line; the MCAP
+log is finalized first, so it is readable up to the last completed step.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .execution import Execution
+from .mcap_log import McapLogger
+from .observers import Metrics, Progress
+from .system import System
+
+
+@dataclass
+class RunResult:
+    metrics: dict[str, float]
+    log: Path
+    ticks: int
+    sim_time: float
+    wall: float
+    error: str | None
+
+
+def run_system(system: System, stop: float, log: Path, metrics: Metrics | None = None, progress: bool = True,
+               metadata: dict | None = None, scene_from: str | None = "plant") -> RunResult:
+    observers = [McapLogger(log, scene_from=scene_from, metadata=metadata)]
+    if metrics is not None:
+        observers.append(metrics)
+    if progress:
+        observers.append(Progress(stop))
+    ex = Execution(system, observers)
+    started = time.perf_counter()
+    error = None
+    try:
+        ex.instantiate()
+        ex.run(stop)
+    except KeyboardInterrupt:
+        error = f"interrupted at t = {ex.time:.3f} s"
+    except Exception as err:
+        error = f"{err} (at t = {ex.time:.3f} s)" if "t=" not in str(err) else str(err)
+    finally:
+        ex.close(error)
+    return RunResult(metrics.table() if metrics else {}, Path(log), ex.ticks_done, ex.time, time.perf_counter() - started, error)

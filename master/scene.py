@@ -1,0 +1,72 @@
+"""A foxglove.SceneUpdate of the UAV body, its thrusters, the rod and the load, from the plant's outputs.
+
+Poses come from the plant's own outputs (load position, UAV position and Euler angles), so
+the 3D replay shows exactly what was simulated. Geometry: the thruster centres d_C2, d_C3 of
+Table 5.1; sizes are only for display.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..plant_fmu.parameters import MODEL_PARAMETERS
+
+_P = {s.name: s.default for s in MODEL_PARAMETERS}
+THRUSTERS = [(_P[f"d_C{i}_x"], _P[f"d_C{i}_y"], _P[f"d_C{i}_z"]) for i in (2, 3)]
+
+_VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
+_POSE = {"type": "object", "properties": {"position": _VEC3, "orientation": {"type": "object"}}}
+_TIME = {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}}
+SCHEMA = {
+    "title": "foxglove.SceneUpdate",
+    "type": "object",
+    "properties": {
+        "deletions": {"type": "array", "items": {"type": "object"}},
+        "entities": {"type": "array", "items": {"type": "object", "properties": {
+            "timestamp": _TIME, "frame_id": {"type": "string"}, "id": {"type": "string"}, "lifetime": _TIME,
+            "frame_locked": {"type": "boolean"}, "cubes": {"type": "array"}, "spheres": {"type": "array"},
+            "lines": {"type": "array"}, "metadata": {"type": "array"}}}},
+    },
+}
+
+
+def quaternion_zyx(phi: float, theta: float, psi: float) -> dict:
+    cr, sr = math.cos(phi / 2), math.sin(phi / 2)
+    cp, sp = math.cos(theta / 2), math.sin(theta / 2)
+    cy, sy = math.cos(psi / 2), math.sin(psi / 2)
+    return {"x": sr * cp * cy - cr * sp * sy, "y": cr * sp * cy + sr * cp * sy,
+            "z": cr * cp * sy - sr * sp * cy, "w": cr * cp * cy + sr * sp * sy}
+
+
+def _rotate(q: dict, v: tuple) -> tuple:
+    x, y, z, w = q["x"], q["y"], q["z"], q["w"]
+    vx, vy, vz = v
+    tx, ty, tz = 2 * (y * vz - z * vy), 2 * (z * vx - x * vz), 2 * (x * vy - y * vx)
+    return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
+
+
+def scene_update(plant: dict, ns: int) -> dict | None:
+    keys = ("x", "y", "z", "x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B")
+    if any(plant.get(k) is None for k in keys):
+        return None  # a non-finite state: nothing sensible to draw
+    q = quaternion_zyx(plant["phi_B"], plant["theta_B"], plant["psi_B"])
+    body = {"x": plant["x_B"], "y": plant["y_B"], "z": plant["z_B"]}
+    load = {"x": plant["x"], "y": plant["y"], "z": plant["z"]}
+    stamp = {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+    cubes = [{"pose": {"position": body, "orientation": q}, "size": {"x": 0.12, "y": 0.45, "z": 0.06},
+              "color": {"r": 0.2, "g": 0.4, "b": 0.9, "a": 1.0}}]
+    for d in THRUSTERS:
+        off = _rotate(q, d)
+        cubes.append({"pose": {"position": {"x": body["x"] + off[0], "y": body["y"] + off[1], "z": body["z"] + off[2]},
+                               "orientation": q}, "size": {"x": 0.05, "y": 0.05, "z": 0.08},
+                      "color": {"r": 0.9, "g": 0.5, "b": 0.1, "a": 1.0}})
+    return {"deletions": [], "entities": [{
+        "timestamp": stamp, "frame_id": "world", "id": "tiltload", "lifetime": {"sec": 0, "nsec": 0},
+        "frame_locked": False, "metadata": [],
+        "cubes": cubes,
+        "spheres": [{"pose": {"position": load, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+                     "size": {"x": 0.06, "y": 0.06, "z": 0.06}, "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 1.0}}],
+        "lines": [{"type": 0, "pose": {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+                   "thickness": 0.01, "scale_invariant": False, "points": [load, body],
+                   "color": {"r": 0.8, "g": 0.8, "b": 0.8, "a": 1.0}, "colors": [], "indices": []}],
+    }]}

@@ -1,0 +1,35 @@
+"""The tiltload loop as a system description: scenario -> sensors -> controller -> plant, on the 12 ms tick."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..scenario_fmu.trajectories import DURATION, START
+from .system import Connection, Instance, System
+
+TICK = 0.012
+SCENARIOS = {"fsi": "none", "lkf": "lkf", "zse": "zse"}  # thesis scenario -> controller FMU's estimator
+
+
+def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int = 1, controller: str = "mixed",
+                   seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True) -> System:
+    """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md)."""
+    fmu_dir = Path(fmu_dir)
+    start = START.get(trajectory, (0.0, 0.0, 0.0))
+    plant_start = {"x_0": start[0], "y_0": start[1], "z_0": start[2]}
+    if controller_fmu is None:
+        ctrl = Instance("controller", fmu_dir / "TiltloadController.fmu",
+                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **plant_start})
+    else:
+        ctrl = Instance("controller", Path(controller_fmu))
+    conns = [Connection(f"controller.{u}", f"plant.{u}", delay=1) for u in ("f_R", "f_L", "tau_R", "tau_L")] if delay else []
+    return System(TICK, [
+        Instance("scenario", fmu_dir / "TiltloadScenario.fmu", parameters={"trajectory": trajectory, "gusts": gusts}),
+        Instance("sensors", fmu_dir / "TiltloadSensors.fmu", parameters={"seed": seed}),
+        ctrl,
+        Instance("plant", fmu_dir / "TiltloadPlant.fmu", parameters=plant_start, timing="continuous"),
+    ], conns)
+
+
+def default_stop(trajectory: int) -> float:
+    return DURATION.get(trajectory, 10.0)
