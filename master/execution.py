@@ -10,6 +10,7 @@ ExecutionError naming the instance, the call and the FMU's last log line.
 
 from __future__ import annotations
 
+import time
 import zipfile
 from collections import deque
 from dataclasses import dataclass
@@ -63,6 +64,7 @@ class FmuInstance:
         self.name, self.path, self.md = name, Path(path), md
         self.log: list[str] = []
         self.fatal = False
+        self.fmi_seconds = 0.0  # wall time inside FMI calls (the rest of a run is the master's share)
         self.outputs = {t: [v for v in md.modelVariables if v.causality == "output" and v.type == t] for t in connections.TYPES}
         self.out_vrs = {t: [v.valueReference for v in vs] for t, vs in self.outputs.items()}
         self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
@@ -82,6 +84,7 @@ class FmuInstance:
         self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
 
     def call(self, what: str, fn):
+        started = time.perf_counter()
         try:
             return fn()
         except FMICallException as err:
@@ -91,6 +94,8 @@ class FmuInstance:
                                  + (f": {said}" if said else "")) from None
         except OSError as err:
             raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
+        finally:
+            self.fmi_seconds += time.perf_counter() - started
 
     def set_parameters(self, params: dict) -> None:
         for key, value in params.items():
