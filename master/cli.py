@@ -79,7 +79,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
     stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
-    label = args.name or f"{args.scenario}_traj{args.trajectory}_{controller_fmu.stem if controller_fmu else args.controller}_seed{args.seed}"
+    who = controller_fmu.stem if controller_fmu else args.controller
+    label = args.name or f"{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}"
     log = args.out / f"{label}.mcap"
     names = {i.name for i in system.instances}
     metrics = Metrics("plant", "scenario", "controller") if {"plant", "scenario", "controller"} <= names else None

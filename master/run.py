@@ -27,8 +27,8 @@ class RunResult:
 
 
 def run_system(system: System, stop: float, log: Path, metrics: Metrics | None = None, progress: bool = True,
-               metadata: dict | None = None, scene_from: str | None = "plant") -> RunResult:
-    observers = [McapLogger(log, scene_from=scene_from, metadata=metadata)]
+               metadata: dict | None = None, scene_from: str | None = "plant", observers_extra=()) -> RunResult:
+    observers = [McapLogger(log, scene_from=scene_from, metadata=metadata), *observers_extra]
     if metrics is not None:
         observers.append(metrics)
     if progress:
