@@ -10,13 +10,19 @@ def run(*args, cwd):
     return subprocess.run([sys.executable, "-m", "tiltload.master.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
-def test_run_builds_simulates_and_reports(plant_fmu, tmp_path):
-    proc = run("run", "--fmus", str(plant_fmu.parent), "--out", str(tmp_path), cwd=tmp_path)
+def test_run_reports_metrics_log_and_plots(pipeline_fmus, tmp_path):
+    fmus = next(iter(pipeline_fmus.values())).parent
+    proc = run("run", "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
-    drift = float(proc.stdout.split("load drift ")[1].split()[0])
-    assert drift < 1e-6
-    assert (tmp_path / "plant_hover.png").stat().st_size > 10_000
-    assert (tmp_path / "plant_hover.csv").read_text().count("\n") > 100
+    ise = {line.split()[0]: float(line.split()[1]) for line in proc.stdout.splitlines() if line.strip().startswith(("ISE", "IADU"))}
+    assert set(ise) == {"ISE(x)", "ISE(y)", "ISE(z)", "ISE(psi)", "IADU(f_R)", "IADU(f_L)", "IADU(tau_R)", "IADU(tau_L)"}
+    assert all(v > 0 for v in ise.values())
+    log = tmp_path / "zse_traj1_mixed_seed1.mcap"
+    assert f"log: {log}" in proc.stdout
+    pngs = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert len(pngs) == 6 and all((tmp_path / p).stat().st_size > 10_000 for p in pngs)
+    again = run("plot", str(log), "--out", str(tmp_path / "again"), cwd=tmp_path)
+    assert again.returncode == 0 and len(list((tmp_path / "again").glob("*.png"))) == 6
 
 
 def test_bad_stop_time_is_one_line_and_nonzero(tmp_path):
@@ -25,9 +31,10 @@ def test_bad_stop_time_is_one_line_and_nonzero(tmp_path):
     assert "Traceback" not in proc.stderr
 
 
-def test_unwritable_output_is_one_line_and_nonzero(plant_fmu, tmp_path):
+def test_unwritable_output_is_one_line_and_nonzero(pipeline_fmus, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    proc = run("run", "--fmus", str(plant_fmu.parent), "--out", str(blocker / "sub"), cwd=tmp_path)
+    fmus = next(iter(pipeline_fmus.values())).parent
+    proc = run("run", "--fmus", str(fmus), "--out", str(blocker / "sub"), "--quiet", cwd=tmp_path)
     assert proc.returncode == 1 and proc.stderr.startswith("tiltload: error:")
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
