@@ -75,8 +75,8 @@ class Progress(Observer):
 
     def __init__(self, stop: float, stream=sys.stderr) -> None:
         self.stop, self.stream = stop, stream
-        self._last = 0.0
         self._t0 = time.perf_counter()
+        self._last = self._t0  # first refresh after 0.5 s, when the rate means something
 
     def on_tick(self, k, t) -> None:
         now = time.perf_counter()
