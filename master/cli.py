@@ -106,6 +106,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from .build_all import build_all
+    from .reproduce import main as reproduce_main
+
+    build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr))
+    return reproduce_main(args.fmus, args.out, args.docs, args.baselines, args.write_baselines, args.check, args.workers)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from . import compare as cmp
+    from .system import DescriptionError
+
+    try:
+        run, _ = cmp.load_metrics(args.run)
+        base, tol = cmp.load_metrics(args.baseline)
+    except DescriptionError as err:
+        raise UserError(str(err)) from None
+    ok, rows = cmp.compare(run, base, args.rtol, args.atol, tol)
+    print(cmp.format_rows(rows))
+    print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
+    return 0 if ok else 1
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
     from .plot import plot_run
 
@@ -151,6 +174,21 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
+    rp = sub.add_parser("reproduce", help="the twelve cases of ch. 5 in parallel: tables vs the thesis, figures, baselines")
+    rp.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR)
+    rp.add_argument("--out", type=Path, default=Path("runs/reproduce"), help="logs, figures, results.md (default runs/reproduce)")
+    rp.add_argument("--docs", type=Path, default=None, help="also write this results document (e.g. docs/results.md)")
+    rp.add_argument("--baselines", type=Path, default=Path("baselines"), help="baseline folder (default baselines)")
+    rp.add_argument("--write-baselines", action="store_true", help="store the metrics as the new baselines")
+    rp.add_argument("--check", action="store_true", help="compare every case with its baseline; exit 1 on a difference")
+    rp.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
+    rp.set_defaults(func=cmd_reproduce)
+    cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
+    cp.add_argument("run", type=Path)
+    cp.add_argument("baseline", type=Path)
+    cp.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
+    cp.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    cp.set_defaults(func=cmd_compare)
     pl = sub.add_parser("plot", help="draw the thesis's kinds of figures from a run's MCAP log")
     pl.add_argument("log", type=Path)
     pl.add_argument("--out", type=Path, default=None, help="folder for the PNGs (default: next to the log)")

@@ -32,6 +32,7 @@ class McapLogger(Observer):
         self.scene_every = scene_every  # 3D scene on every 4th step of its instance: 21 Hz at the 12 ms tick
         self._scene_count = 0
         self._templates: dict[str, str] = {}
+        self.final_metadata: dict[str, dict] = {}  # records written at finish (the run's metrics, for `tiltload compare`)
         self.scene_from = scene_from
         self.metadata = metadata or {}
         self._f = None
@@ -97,6 +98,8 @@ class McapLogger(Observer):
             return
         if error:
             self._w.add_metadata("error", {"message": error})
+        for name, record in self.final_metadata.items():
+            self._w.add_metadata(name, {k: repr(v) if isinstance(v, float) else str(v) for k, v in record.items()})
         self._w.finish()
         self._f.close()
         self._f = None

@@ -28,7 +28,8 @@ class RunResult:
 
 def run_system(system: System, stop: float, log: Path, metrics: Metrics | None = None, progress: bool = True,
                metadata: dict | None = None, scene_from: str | None = "plant", observers_extra=()) -> RunResult:
-    observers = [McapLogger(log, scene_from=scene_from, metadata=metadata), *observers_extra]
+    logger = McapLogger(log, scene_from=scene_from, metadata=metadata)
+    observers = [logger, *observers_extra]
     if metrics is not None:
         observers.append(metrics)
     if progress:
@@ -44,5 +45,7 @@ def run_system(system: System, stop: float, log: Path, metrics: Metrics | None =
     except Exception as err:
         error = f"{err} (at t = {ex.time:.3f} s)" if "t=" not in str(err) else str(err)
     finally:
+        if metrics is not None:
+            logger.final_metadata["metrics"] = {**metrics.table(), "ticks": ex.ticks_done, "complete": error is None}
         ex.close(error)
     return RunResult(metrics.table() if metrics else {}, Path(log), ex.ticks_done, ex.time, time.perf_counter() - started, error)

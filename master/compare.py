@@ -1,0 +1,61 @@
+"""`tiltload compare`: a run's metrics against a baseline (another log, or a committed metrics file).
+
+A metric passes if |run - base| <= atol + rtol * |base| (numpy.isclose semantics). Tolerances:
+command-line defaults, overridden by the baseline file's "tolerances" (global or per metric).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from .mcap_log import read_metadata
+from .system import DescriptionError
+
+
+def load_metrics(path: Path) -> tuple[dict[str, float], dict]:
+    """(metrics, tolerances) from a .mcap log (its "metrics" record) or a baseline .json."""
+    path = Path(path)
+    if not path.is_file():
+        raise DescriptionError(f"{path} does not exist")
+    if path.suffix == ".json":
+        try:
+            data = json.loads(path.read_text())
+            return {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+            raise DescriptionError(f"{path} is not a metrics file ({type(err).__name__}: {err})") from None
+    try:
+        meta = read_metadata(path)
+    except Exception as err:  # mcap raises several types for a non-MCAP file
+        raise DescriptionError(f"{path} is not a readable MCAP log ({err})") from None
+    if "metrics" not in meta:
+        raise DescriptionError(f"{path} has no metrics record (not a tiltload run of the thesis loop?)")
+    record = meta["metrics"]
+    if record.get("complete") != "True":
+        raise DescriptionError(f"{path} is an incomplete run (stopped after {record.get('ticks')} ticks)")
+    return {k: float(v) for k, v in record.items() if k not in ("ticks", "complete")}, {}
+
+
+def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[tuple]]:
+    rows, ok = [], True
+    for name in base:
+        tol = tolerances.get(name, tolerances)
+        r, a = float(tol.get("rtol", rtol)), float(tol.get("atol", atol))
+        if name not in run:
+            rows.append((name, math.nan, base[name], math.nan, math.nan, r, "MISSING"))
+            ok = False
+            continue
+        diff = abs(run[name] - base[name])
+        rel = diff / abs(base[name]) if base[name] else (0.0 if diff == 0 else math.inf)
+        passed = diff <= a + r * abs(base[name])
+        ok &= passed
+        rows.append((name, run[name], base[name], diff, rel, r, "ok" if passed else "DIFFERS"))
+    return ok, rows
+
+
+def format_rows(rows) -> str:
+    lines = [f"{'metric':>12} {'run':>14} {'baseline':>14} {'abs diff':>10} {'rel diff':>10} {'rtol':>8}  status"]
+    for name, r, b, d, rel, rt, status in rows:
+        lines.append(f"{name:>12} {r:>14.8g} {b:>14.8g} {d:>10.3g} {rel:>10.3g} {rt:>8.1g}  {status}")
+    return "\n".join(lines)
