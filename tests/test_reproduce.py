@@ -1,0 +1,61 @@
+"""Regression runs: `tiltload compare` and the committed baselines (a CI-sized subset; the full set: `tiltload reproduce --check`)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from tiltload.master.cli import main
+from tiltload.master.reproduce import _run_case, tables
+from tiltload.master.thesis_values import METRICS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def fmus(pipeline_fmus):
+    return next(iter(pipeline_fmus.values())).parent
+
+
+@pytest.mark.parametrize("case", [("fsi", 1, "mixed"), ("lkf", 2, "dlqr")])
+def test_committed_baselines_hold(fmus, tmp_path, case, capsys):
+    """Two of the twelve cases, full length, against baselines/ with their own tolerance."""
+    r = _run_case(str(fmus), str(tmp_path), *case, None)
+    assert r["error"] is None
+    code = main(["compare", r["log"], str(ROOT / "baselines" / f"{r['case']}.json")])
+    out = capsys.readouterr().out
+    assert code == 0, out
+
+
+def test_compare_passes_an_identical_run_and_catches_a_perturbed_one(fmus, tmp_path, capsys):
+    args = ["run", "--scenario", "fsi", "--stop-time", "3", "--fmus", str(fmus), "--quiet", "--no-plots"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0
+    assert main([*args, "--out", str(tmp_path / "c"), "--controller", "dlqr"]) == 0  # a changed design
+    capsys.readouterr()
+    a, b, c = (next((tmp_path / d).glob("*.mcap")) for d in "abc")
+    assert main(["compare", str(b), str(a)]) == 0
+    assert "same within tolerance" in capsys.readouterr().out
+    assert main(["compare", str(c), str(a)]) == 1
+    out = capsys.readouterr().out
+    assert "DIFFERS" in out and "ISE(x)" in out
+    base = tmp_path / "loose.json"  # a metrics file with its own, per-metric tolerance
+    metrics = json.loads((ROOT / "baselines" / "fsi_traj1_mixed.json").read_text())["metrics"]
+    base.write_text(json.dumps({"metrics": {"ISE(x)": metrics["ISE(x)"]}, "tolerances": {"ISE(x)": {"rtol": 10.0}}}))
+    assert main(["compare", str(a), str(base)]) == 0
+
+
+def test_compare_refuses_bad_input(tmp_path, capsys):
+    junk = tmp_path / "junk.mcap"
+    junk.write_text("no")
+    assert main(["compare", str(junk), str(tmp_path / "missing.json")]) == 2
+    assert "is not a readable MCAP log" in capsys.readouterr().err
+
+
+def test_tables_put_the_thesis_side_by_side():
+    fake = [{"scenario": s, "trajectory": 1, "controller": c, "error": None,
+             "metrics": dict.fromkeys(METRICS, 1.0)}
+            for s in ("fsi", "lkf", "zse") for c in ("dlqr", "mixed")]
+    md = tables(fake)
+    assert "thesis Table 5.4" in md and "| ISE(x) | 1 | 0.1571 | 6.37 |" in md and "thesis Table 5.11" in md
