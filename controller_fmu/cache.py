@@ -23,9 +23,14 @@ _CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.
         [_PLANT / f for f in ("model.py", "kinematics.py", "parameters.py", "trim.py", "linearize.py")]
 
 
-def default_dir() -> Path:
+def cache_root() -> Path:
+    """$TILTLOAD_CACHE, else $XDG_CACHE_HOME/tiltload or ~/.cache/tiltload: designs and compiled libraries."""
     root = os.environ.get("TILTLOAD_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tiltload"
-    return Path(root) / "designs"  # same root as master.build_all.cache_root (no import: the design layer stays below master)
+    return Path(root)
+
+
+def default_dir() -> Path:
+    return cache_root() / "designs"
 
 
 def key(kind: str, Tc: float, params: np.ndarray) -> str:

@@ -72,8 +72,10 @@ def reduce_rows(Gt: np.ndarray, r_max: int, method: str = "combastel", out: np.n
     r, n = Gt.shape
     if r_max < n:
         raise ZonotopeError(f"r_max = {r_max} is below the dimension {n}")
-    work = np.array(Gt, dtype=float) if out is None or out.shape[0] < r else out
-    if work is not Gt:
+    if out is None or out.shape[0] < r:
+        work = np.array(Gt, dtype=float)  # one copy; the input is never modified
+    else:
+        work = out
         work[:r] = Gt
     if r > r_max:
         reduce_in_place(work, r, r_max, method)

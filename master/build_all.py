@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
+from ..controller_fmu.cache import cache_root
 from ..plant_fmu.build import BuildResult
-
-
-def cache_root() -> Path:
-    root = os.environ.get("TILTLOAD_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tiltload"
-    return Path(root)
 
 
 def build_all(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:

@@ -146,6 +146,7 @@ class _Group:
     delay: int
     src_index: np.ndarray
     dst_vrs: list[int]
+    setter: object = None  # the target's set<Type>, bound once
 
 
 class Execution:
@@ -173,7 +174,9 @@ class Execution:
                 self.instances[spec.name] = FmuInstance(spec.name, spec.fmu, self._mds[spec.name])
             for (src, dst, typ, delay), links in self._raw_groups.items():
                 idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
-                self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, [link.target_vr for link in links]))
+                slave = self.instances[dst].slave
+                setter = {"Real": slave.setReal, "Integer": slave.setInteger, "Boolean": slave.setBoolean}[typ]
+                self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, [link.target_vr for link in links], setter))
             for spec in self.system.instances:
                 inst = self.instances[spec.name]
                 inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
@@ -196,9 +199,8 @@ class Execution:
             else:
                 hist = self.history[g.source]
                 vals = hist[max(len(hist) - g.delay, 0)][g.type][g.src_index]
-            setter = {"Real": inst.slave.setReal, "Integer": inst.slave.setInteger, "Boolean": inst.slave.setBoolean}[g.type]
             values = vals.tolist() if g.type == "Real" else [int(x) if g.type == "Integer" else bool(x) for x in vals]
-            inst.call(f"set{g.type} from {g.source}", lambda s=setter, vrs=g.dst_vrs, x=values: s(vrs, x))
+            inst.call(f"set{g.type} from {g.source}", lambda s=g.setter, vrs=g.dst_vrs, x=values: s(vrs, x))
 
     def step_tick(self) -> None:
         k, tick = self.ticks_done, self.system.tick

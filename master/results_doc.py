@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from . import mcap_log
+from .thesis_values import thesis
 
 KEY_FIGURES = ("zse_traj1_mixed_estimation_error", "zse_traj1_mixed_tracking_error", "lkf_traj1_mixed_estimation_error",
                "zse_traj2_mixed_trajectory3d", "zse_traj1_mixed_zse_frobenius")
@@ -82,8 +83,7 @@ def write_results_doc(results: list[dict], tables_md: str, path: Path, out: Path
             shown.append(src.name)
     stats = _estimator_figures(out)
     ratios = [r["metrics"][k] / t for r in results if r["error"] is None
-              for k, t in __import__("tiltload.master.thesis_values", fromlist=["thesis"]).thesis(
-                  r["scenario"], r["trajectory"], r["controller"]).items() if k.startswith("ISE") and k != "ISE(psi)"]
+              for k, t in thesis(r["scenario"], r["trajectory"], r["controller"]).items() if k.startswith("ISE") and k != "ISE(psi)"]
     walls = sum(r["wall"] for r in results)
     text = [
         "# Results: the thesis's chapter 5, reproduced",
