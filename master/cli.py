@@ -98,7 +98,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"{k:>14} {v:>12.6g}")
     print(f"log: {log}")
     if result.error:
-        print(f"tiltload: error: {result.error}; the log is readable up to t = {result.sim_time:.3f} s", file=sys.stderr)
+        where = f"the log is readable up to t = {result.sim_time:.3f} s" if log.is_file() else "no log was written"
+        print(f"tiltload: error: {result.error}; {where}", file=sys.stderr)
         return 1
     if not args.no_plots:
         files = plot_run(log)

@@ -36,5 +36,5 @@ def test_unwritable_output_is_one_line_and_nonzero(pipeline_fmus, tmp_path):
     blocker.write_text("not a folder")
     fmus = next(iter(pipeline_fmus.values())).parent
     proc = run("run", "--fmus", str(fmus), "--out", str(blocker / "sub"), "--quiet", cwd=tmp_path)
-    assert proc.returncode == 1 and proc.stderr.startswith("tiltload: error:")
-    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert proc.returncode == 1 and proc.stderr.startswith("tiltload: error:"), (proc.returncode, proc.stderr)
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
