@@ -1,0 +1,485 @@
+/* The FMI 2.0 co-simulation API, written once for every tiltload native FMU.
+
+   Compiled per FMU with that FMU's generated tl_model.h / tl_model_tables.c and its model
+   hooks (tl_fmu.h). The layer checks every call against the FMI 2.0 state machine and the
+   variables' causality, refuses non-finite Reals, and turns the hooks' results into statuses:
+   fmi2Error puts the instance in an error state (get, reset, terminate and free remain),
+   fmi2Discard refuses one step and keeps the state, fmi2Fatal marks the instance unusable. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "tl_fmu.h"
+
+/* The serialized form: magic, format version, GUID of the build, then the TlState bytes. */
+#define TL_STATE_MAGIC "TLSTATE1"
+#define TL_GUID_LEN 40
+#define TL_SERIAL_SIZE (8 + TL_GUID_LEN + sizeof(TlState))
+
+static const char* phase_name(int phase) {
+  switch (phase) {
+    case TL_INSTANTIATED: return "instantiated";
+    case TL_INITIALIZATION: return "initialization mode";
+    case TL_STEPPING: return "step mode";
+    case TL_TERMINATED: return "terminated";
+    case TL_BROKEN: return "fatal error";
+    default: return "error";
+  }
+}
+
+void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...) {
+  char text[1024], escaped[2048];
+  va_list args;
+  size_t i, j = 0;
+  if (c == NULL || c->host.logger == NULL) return;
+  if (status < fmi2Discard && !c->logging_on) return;
+  va_start(args, format);
+  vsnprintf(text, sizeof text, format, args);
+  va_end(args);
+  for (i = 0; text[i] != '\0' && j + 2 < sizeof escaped; ++i) { /* hosts may treat it as a printf format */
+    if (text[i] == '%') escaped[j++] = '%';
+    escaped[j++] = text[i];
+  }
+  escaped[j] = '\0';
+  c->host.logger(c->host.componentEnvironment, c->name, status,
+                 status >= fmi2Error ? "logStatusError" : status == fmi2Discard ? "logStatusDiscard" : "logEvents",
+                 escaped);
+}
+
+/* The result of a call: an error or fatal status moves the instance into its error phases. */
+static fmi2Status settle(TlInstance* c, fmi2Status status) {
+  if (status == fmi2Fatal) c->s.phase = TL_BROKEN;
+  else if (status == fmi2Error) c->s.phase = TL_ERRORED;
+  return status;
+}
+
+static fmi2Status refuse(TlInstance* c, const char* call) {
+  tl_log(c, fmi2Error, "%s is not allowed in %s", call, phase_name(c->s.phase));
+  return c->s.phase == TL_BROKEN ? fmi2Error : settle(c, fmi2Error);
+}
+
+#define ALLOWED(call, mask)                                         \
+  do {                                                              \
+    if (c == NULL) return fmi2Error;                                \
+    if (!(((unsigned)1 << c->s.phase) & (mask))) return refuse(c, call); \
+  } while (0)
+#define IN(p) ((unsigned)1 << (p))
+#define ANY_BUT_FATAL (IN(TL_INSTANTIATED) | IN(TL_INITIALIZATION) | IN(TL_STEPPING) | IN(TL_TERMINATED) | IN(TL_ERRORED))
+
+static void load_start_values(TlInstance* c) {
+  int i;
+  for (i = 0; i < TL_N_REAL; ++i) c->s.real[i] = tl_real_start[i];
+  for (i = 0; i < TL_N_INTEGER; ++i) c->s.integer[i] = tl_integer_start[i];
+  for (i = 0; i < TL_N_BOOLEAN; ++i) c->s.boolean[i] = tl_boolean_start[i] ? fmi2True : fmi2False;
+  for (i = 0; i < TL_N_STRING; ++i) {
+    strncpy(c->s.string[i], tl_string_start[i], TL_STRING_LEN - 1);
+    c->s.string[i][TL_STRING_LEN - 1] = '\0';
+  }
+  c->s.time = c->s.start_time = 0.0;
+  c->s.phase = TL_INSTANTIATED;
+  tl_model_reset(c);
+}
+
+/* ---- information and life cycle ------------------------------------------------------- */
+const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char* fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component instance, fmi2Boolean on, size_t n, const fmi2String categories[]) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)n; (void)categories;
+  ALLOWED("fmi2SetDebugLogging", ANY_BUT_FATAL);
+  c->logging_on = on;
+  return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resources,
+                              const fmi2CallbackFunctions* host, fmi2Boolean visible, fmi2Boolean logging_on) {
+  TlInstance probe, *c;
+  size_t n;
+  (void)resources; (void)visible;
+  if (host == NULL || host->allocateMemory == NULL || host->freeMemory == NULL) return NULL;
+  memset(&probe, 0, sizeof probe); /* a stack stand-in, only to log why instantiation fails */
+  probe.host = *host;
+  probe.name = (char*)(name ? name : "?");
+  if (name == NULL || name[0] == '\0') {
+    tl_log(&probe, fmi2Error, "fmi2Instantiate: the instance name is empty");
+    return NULL;
+  }
+  if (type != fmi2CoSimulation) {
+    tl_log(&probe, fmi2Error, "fmi2Instantiate: %s is a co-simulation FMU only", TL_MODEL_IDENTIFIER);
+    return NULL;
+  }
+  if (guid == NULL || strcmp(guid, TL_GUID) != 0) {
+    tl_log(&probe, fmi2Error, "fmi2Instantiate: GUID %s does not match this binary's %s (modelDescription.xml from another build?)",
+           guid ? guid : "(null)", TL_GUID);
+    return NULL;
+  }
+  c = (TlInstance*)host->allocateMemory(1, sizeof(TlInstance));
+  if (c == NULL) return NULL;
+  memset(c, 0, sizeof *c);
+  n = strlen(name) + 1;
+  c->name = (char*)host->allocateMemory(n, 1);
+  if (c->name == NULL) {
+    host->freeMemory(c);
+    return NULL;
+  }
+  memcpy(c->name, name, n);
+  c->host = *host;
+  c->logging_on = logging_on;
+  load_start_values(c);
+  return c;
+}
+
+void fmi2FreeInstance(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  fmi2CallbackFreeMemory release;
+  if (c == NULL) return;
+  release = c->host.freeMemory;
+  release(c->name);
+  release(c);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component instance, fmi2Boolean tolerance_defined, fmi2Real tolerance,
+                               fmi2Real start_time, fmi2Boolean stop_time_defined, fmi2Real stop_time) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)tolerance_defined; (void)tolerance; (void)stop_time_defined; (void)stop_time;
+  ALLOWED("fmi2SetupExperiment", IN(TL_INSTANTIATED));
+  if (!isfinite(start_time)) {
+    tl_log(c, fmi2Error, "fmi2SetupExperiment: start time %g is not finite", start_time);
+    return settle(c, fmi2Error);
+  }
+  c->s.time = c->s.start_time = start_time;
+  return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2EnterInitializationMode", IN(TL_INSTANTIATED));
+  c->s.phase = TL_INITIALIZATION;
+  return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  fmi2Status status;
+  ALLOWED("fmi2ExitInitializationMode", IN(TL_INITIALIZATION));
+  status = tl_model_initialize(c);
+  if (status <= fmi2Warning) c->s.phase = TL_STEPPING;
+  return settle(c, status == fmi2Discard ? fmi2Error : status);
+}
+
+fmi2Status fmi2Terminate(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2Terminate", IN(TL_INITIALIZATION) | IN(TL_STEPPING) | IN(TL_ERRORED));
+  if (c->s.phase != TL_ERRORED) c->s.phase = TL_TERMINATED;
+  return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2Reset", ANY_BUT_FATAL);
+  load_start_values(c);
+  return fmi2OK;
+}
+
+/* ---- variables -------------------------------------------------------------------------- */
+static int bad_reference(TlInstance* c, const char* call, fmi2ValueReference vr, int count) {
+  if (count > 0 && vr < (fmi2ValueReference)count) return 0;
+  tl_log(c, fmi2Error, "%s: value reference %u does not exist (%d variables of this type)", call, vr, count);
+  return 1;
+}
+
+/* May the variable be set now? Logs why not. */
+static int may_set(TlInstance* c, const char* call, unsigned char settable, const char* name) {
+  if (settable == 2 || (settable == 1 && (c->s.phase == TL_INSTANTIATED || c->s.phase == TL_INITIALIZATION))) return 1;
+  tl_log(c, fmi2Error, "%s: cannot set %s: it is %s", call, name,
+         settable == 1 ? "a parameter, fixed after initialization" : "an output");
+  return 0;
+}
+
+static fmi2Status outputs_for_get(TlInstance* c) {
+  return c->s.phase == TL_INITIALIZATION ? tl_model_outputs(c) : fmi2OK;
+}
+
+#define GETTER_PHASES ANY_BUT_FATAL
+
+fmi2Status fmi2GetReal(fmi2Component instance, const fmi2ValueReference vr[], size_t n, fmi2Real value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2GetReal", GETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  if (outputs_for_get(c) > fmi2Warning) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2GetReal", vr[i], TL_N_REAL)) return settle(c, fmi2Error);
+    value[i] = c->s.real[vr[i]];
+  }
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component instance, const fmi2ValueReference vr[], size_t n, fmi2Integer value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2GetInteger", GETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2GetInteger", vr[i], TL_N_INTEGER)) return settle(c, fmi2Error);
+    value[i] = c->s.integer[vr[i]];
+  }
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component instance, const fmi2ValueReference vr[], size_t n, fmi2Boolean value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2GetBoolean", GETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  if (outputs_for_get(c) > fmi2Warning) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2GetBoolean", vr[i], TL_N_BOOLEAN)) return settle(c, fmi2Error);
+    value[i] = c->s.boolean[vr[i]];
+  }
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetString(fmi2Component instance, const fmi2ValueReference vr[], size_t n, fmi2String value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2GetString", GETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2GetString", vr[i], TL_N_STRING)) return settle(c, fmi2Error);
+    value[i] = c->s.string[vr[i]];
+  }
+  return fmi2OK;
+}
+
+#define SETTER_PHASES (IN(TL_INSTANTIATED) | IN(TL_INITIALIZATION) | IN(TL_STEPPING))
+
+fmi2Status fmi2SetReal(fmi2Component instance, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2SetReal", SETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) { /* check all first: a refused call changes nothing */
+    if (bad_reference(c, "fmi2SetReal", vr[i], TL_N_REAL)) return settle(c, fmi2Error);
+    if (!may_set(c, "fmi2SetReal", tl_real_settable[vr[i]], tl_real_name[vr[i]])) return settle(c, fmi2Error);
+    if (!isfinite(value[i])) {
+      tl_log(c, fmi2Error, "non-finite input %s = %g at t=%.6g s; value refused", tl_real_name[vr[i]], value[i], c->s.time);
+      return settle(c, fmi2Error);
+    }
+  }
+  for (i = 0; i < n; ++i) c->s.real[vr[i]] = value[i];
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component instance, const fmi2ValueReference vr[], size_t n, const fmi2Integer value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2SetInteger", SETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2SetInteger", vr[i], TL_N_INTEGER)) return settle(c, fmi2Error);
+    if (!may_set(c, "fmi2SetInteger", tl_integer_settable[vr[i]], tl_integer_name[vr[i]])) return settle(c, fmi2Error);
+  }
+  for (i = 0; i < n; ++i) c->s.integer[vr[i]] = value[i];
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component instance, const fmi2ValueReference vr[], size_t n, const fmi2Boolean value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2SetBoolean", SETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2SetBoolean", vr[i], TL_N_BOOLEAN)) return settle(c, fmi2Error);
+    if (!may_set(c, "fmi2SetBoolean", tl_boolean_settable[vr[i]], tl_boolean_name[vr[i]])) return settle(c, fmi2Error);
+  }
+  for (i = 0; i < n; ++i) c->s.boolean[vr[i]] = value[i] ? fmi2True : fmi2False;
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetString(fmi2Component instance, const fmi2ValueReference vr[], size_t n, const fmi2String value[]) {
+  TlInstance* c = (TlInstance*)instance;
+  size_t i;
+  ALLOWED("fmi2SetString", SETTER_PHASES);
+  if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
+  for (i = 0; i < n; ++i) {
+    if (bad_reference(c, "fmi2SetString", vr[i], TL_N_STRING)) return settle(c, fmi2Error);
+    if (!may_set(c, "fmi2SetString", tl_string_settable[vr[i]], tl_string_name[vr[i]])) return settle(c, fmi2Error);
+    if (value[i] == NULL || strlen(value[i]) >= TL_STRING_LEN) {
+      tl_log(c, fmi2Error, "fmi2SetString: %s must be a string of at most %d characters", tl_string_name[vr[i]],
+             TL_STRING_LEN - 1);
+      return settle(c, fmi2Error);
+    }
+  }
+  for (i = 0; i < n; ++i) {
+    memset(c->s.string[vr[i]], 0, TL_STRING_LEN);
+    memcpy(c->s.string[vr[i]], value[i], strlen(value[i]));
+  }
+  return fmi2OK;
+}
+
+/* ---- stepping ----------------------------------------------------------------------------- */
+fmi2Status fmi2DoStep(fmi2Component instance, fmi2Real t, fmi2Real h, fmi2Boolean no_set_prior) {
+  TlInstance* c = (TlInstance*)instance;
+  fmi2Status status;
+  (void)no_set_prior;
+  ALLOWED("fmi2DoStep", IN(TL_STEPPING));
+  if (!(isfinite(h) && h > 0.0)) {
+    tl_log(c, fmi2Error, "fmi2DoStep: communication step %g s must be positive and finite", h);
+    return settle(c, fmi2Error);
+  }
+  if (!isfinite(t) || fabs(t - c->s.time) > 1e-6 * h) {
+    tl_log(c, fmi2Error, "fmi2DoStep: called at t=%.9g s but the FMU is at t=%.9g s (steps must follow each other)", t, c->s.time);
+    return settle(c, fmi2Error);
+  }
+  status = tl_model_step(c, t, h);
+  if (status <= fmi2Warning) c->s.time = t + h;
+  return settle(c, status);
+}
+
+fmi2Status fmi2CancelStep(fmi2Component instance) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2CancelStep", IN(TL_STEPPING));
+  tl_log(c, fmi2Error, "fmi2CancelStep: steps are synchronous, there is nothing to cancel");
+  return settle(c, fmi2Error);
+}
+
+fmi2Status fmi2GetStatus(fmi2Component instance, const fmi2StatusKind kind, fmi2Status* value) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)kind; (void)value;
+  ALLOWED("fmi2GetStatus", ANY_BUT_FATAL);
+  return fmi2Discard; /* no asynchronous step is ever pending */
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component instance, const fmi2StatusKind kind, fmi2Real* value) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2GetRealStatus", ANY_BUT_FATAL);
+  if (kind != fmi2LastSuccessfulTime || value == NULL) return fmi2Discard;
+  *value = c->s.time;
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component instance, const fmi2StatusKind kind, fmi2Integer* value) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)kind; (void)value;
+  ALLOWED("fmi2GetIntegerStatus", ANY_BUT_FATAL);
+  return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component instance, const fmi2StatusKind kind, fmi2Boolean* value) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2GetBooleanStatus", ANY_BUT_FATAL);
+  if (kind != fmi2Terminated || value == NULL) return fmi2Discard;
+  *value = c->s.stop_requested ? fmi2True : fmi2False; /* asked after a discarded step */
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component instance, const fmi2StatusKind kind, fmi2String* value) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)kind; (void)value;
+  ALLOWED("fmi2GetStringStatus", ANY_BUT_FATAL);
+  return fmi2Discard;
+}
+
+static fmi2Status unsupported(TlInstance* c, const char* call) {
+  if (c == NULL) return fmi2Error;
+  tl_log(c, fmi2Error, "%s is not supported by %s", call, TL_MODEL_IDENTIFIER);
+  return fmi2Error;
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component instance, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+  (void)vr; (void)n; (void)order; (void)value;
+  return unsupported((TlInstance*)instance, "fmi2SetRealInputDerivatives");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component instance, const fmi2ValueReference vr[], size_t n,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+  (void)vr; (void)n; (void)order; (void)value;
+  return unsupported((TlInstance*)instance, "fmi2GetRealOutputDerivatives");
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component instance, const fmi2ValueReference unknown[], size_t n_unknown,
+                                        const fmi2ValueReference known[], size_t n_known, const fmi2Real dv_known[],
+                                        fmi2Real dv_unknown[]) {
+  (void)unknown; (void)n_unknown; (void)known; (void)n_known; (void)dv_known; (void)dv_unknown;
+  return unsupported((TlInstance*)instance, "fmi2GetDirectionalDerivative");
+}
+
+/* ---- state snapshots ---------------------------------------------------------------------- */
+fmi2Status fmi2GetFMUstate(fmi2Component instance, fmi2FMUstate* state) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2GetFMUstate", ANY_BUT_FATAL);
+  if (state == NULL) return fmi2Error;
+  if (*state == NULL) {
+    *state = c->host.allocateMemory(1, sizeof(TlState));
+    if (*state == NULL) {
+      tl_log(c, fmi2Error, "fmi2GetFMUstate: out of memory");
+      return fmi2Error;
+    }
+  }
+  memcpy(*state, &c->s, sizeof(TlState));
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component instance, fmi2FMUstate state) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2SetFMUstate", ANY_BUT_FATAL);
+  if (state == NULL) {
+    tl_log(c, fmi2Error, "fmi2SetFMUstate: no state given");
+    return fmi2Error;
+  }
+  memcpy(&c->s, state, sizeof(TlState));
+  return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component instance, fmi2FMUstate* state) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2FreeFMUstate", ANY_BUT_FATAL);
+  if (state == NULL) return fmi2OK;
+  if (*state != NULL) c->host.freeMemory(*state);
+  *state = NULL;
+  return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component instance, fmi2FMUstate state, size_t* size) {
+  TlInstance* c = (TlInstance*)instance;
+  (void)state;
+  ALLOWED("fmi2SerializedFMUstateSize", ANY_BUT_FATAL);
+  if (size == NULL) return fmi2Error;
+  *size = TL_SERIAL_SIZE;
+  return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component instance, fmi2FMUstate state, fmi2Byte bytes[], size_t size) {
+  TlInstance* c = (TlInstance*)instance;
+  ALLOWED("fmi2SerializeFMUstate", ANY_BUT_FATAL);
+  if (state == NULL || bytes == NULL || size < TL_SERIAL_SIZE) {
+    tl_log(c, fmi2Error, "fmi2SerializeFMUstate: needs a state and %lu bytes", (unsigned long)TL_SERIAL_SIZE);
+    return fmi2Error;
+  }
+  memset(bytes, 0, TL_SERIAL_SIZE);
+  memcpy(bytes, TL_STATE_MAGIC, 8);
+  memcpy(bytes + 8, TL_GUID, strlen(TL_GUID) < TL_GUID_LEN ? strlen(TL_GUID) : TL_GUID_LEN);
+  memcpy(bytes + 8 + TL_GUID_LEN, state, sizeof(TlState));
+  return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component instance, const fmi2Byte bytes[], size_t size, fmi2FMUstate* state) {
+  TlInstance* c = (TlInstance*)instance;
+  char guid[TL_GUID_LEN];
+  ALLOWED("fmi2DeSerializeFMUstate", ANY_BUT_FATAL);
+  memset(guid, 0, sizeof guid);
+  memcpy(guid, TL_GUID, strlen(TL_GUID) < TL_GUID_LEN ? strlen(TL_GUID) : TL_GUID_LEN);
+  if (bytes == NULL || state == NULL || size != TL_SERIAL_SIZE || memcmp(bytes, TL_STATE_MAGIC, 8) != 0 ||
+      memcmp(bytes + 8, guid, TL_GUID_LEN) != 0) {
+    tl_log(c, fmi2Error, "fmi2DeSerializeFMUstate: the bytes are not a state of this %s build", TL_MODEL_IDENTIFIER);
+    return fmi2Error;
+  }
+  if (*state == NULL) *state = c->host.allocateMemory(1, sizeof(TlState));
+  if (*state == NULL) return fmi2Error;
+  memcpy(*state, bytes + 8 + TL_GUID_LEN, sizeof(TlState));
+  return fmi2OK;
+}
