@@ -6,6 +6,7 @@ instantiated an FMU is unloaded; any later instantiation in the same process the
 second run in one Python process would crash. pin() instantiates the FMU once from a private
 copy and never unloads it; call it before anything else loads a pythonfmu FMU.
 
+Native FMUs (ours are, but for the controller) need no pin: pin() leaves them alone.
 Every distinct pythonfmu FMU (model identifier) needs its own pin: a second FMU loaded and
 unloaded after the first one was pinned still crashes on its next load.
 """
@@ -21,9 +22,14 @@ _PINNED: dict[str, object] = {}
 
 def pin(fmu: Path | str) -> None:
     """Instantiate one pythonfmu FMU once and keep its library loaded until the process exits."""
+    import zipfile
+
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
+    with zipfile.ZipFile(fmu) as z:
+        if "resources/slavemodule.txt" not in z.namelist():
+            return  # not a pythonfmu FMU: nothing to keep alive
     md = read_model_description(str(fmu))
     if md.coSimulation.modelIdentifier in _PINNED:
         return

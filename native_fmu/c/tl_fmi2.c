@@ -265,7 +265,8 @@ fmi2Status fmi2SetReal(fmi2Component instance, const fmi2ValueReference vr[], si
     if (bad_reference(c, "fmi2SetReal", vr[i], TL_N_REAL)) return settle(c, fmi2Error);
     if (!may_set(c, "fmi2SetReal", tl_real_settable[vr[i]], tl_real_name[vr[i]])) return settle(c, fmi2Error);
     if (!isfinite(value[i])) {
-      tl_log(c, fmi2Error, "non-finite input %s = %g at t=%.6g s; value refused", tl_real_name[vr[i]], value[i], c->s.time);
+      tl_log(c, fmi2Error, "non-finite %s %s = %g at t=%.6g s; value refused",
+             tl_real_settable[vr[i]] == 2 ? "input" : "parameter", tl_real_name[vr[i]], value[i], c->s.time);
       return settle(c, fmi2Error);
     }
   }
