@@ -16,7 +16,7 @@ import subprocess
 import tempfile
 import zipfile
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 from . import describe
@@ -64,7 +64,7 @@ def compiler() -> str:
     return cc
 
 
-@lru_cache(maxsize=None)
+@cache
 def compiler_identity(cc: str) -> str:
     try:
         return subprocess.run([cc, "--version"], capture_output=True, text=True, check=True).stdout.splitlines()[0]
