@@ -106,11 +106,17 @@ def is_current(fmu: Path, source_digest: str) -> bool:
     return bool(info) and info.get("source_hash") == source_digest
 
 
+def _first_error(said: str) -> str:
+    """The compiler's first error line: the one a user needs (the rest is context)."""
+    lines = [ln.strip() for ln in said.splitlines() if ln.strip()]
+    return next((ln for ln in lines if "error" in ln), lines[-1] if lines else "no message")
+
+
 def _compile(cc: str, source: Path, obj: Path, include: list[Path], extra: tuple[str, ...]) -> str:
     cmd = [cc, *CFLAGS, *extra, *(f"-I{d}" for d in include), "-c", str(source), "-o", str(obj)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
-        raise BuildError(f"compiling {source.name} failed: {proc.stderr.strip()[-2000:]}")
+        raise BuildError(f"compiling {source.name} with {cc} failed: {_first_error(proc.stderr)}")
     return proc.stderr.strip()
 
 
@@ -131,7 +137,7 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str |
     link = [cc, "-shared", *extra_flags, "-o", str(output), *map(str, objs), "-lm"]
     proc = subprocess.run(link, capture_output=True, text=True)
     if proc.returncode != 0:
-        raise BuildError(f"linking {output.name} failed: {proc.stderr.strip()[-2000:]}")
+        raise BuildError(f"linking {output.name} with {cc} failed: {_first_error(proc.stderr)}")
     for obj in objs:
         obj.unlink()
     return warnings
