@@ -28,23 +28,42 @@ static const char* phase_name(int phase) {
   }
 }
 
-void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...) {
+/* Format, escape '%' (hosts may treat the message as a printf format) and hand to the host's logger. */
+static void log_to(const fmi2CallbackFunctions* host, const char* name, fmi2Boolean logging_on, fmi2Status status,
+                   const char* format, va_list args) {
   char text[1024], escaped[2048];
-  va_list args;
   size_t i, j = 0;
-  if (c == NULL || c->host.logger == NULL) return;
-  if (status < fmi2Discard && !c->logging_on) return;
-  va_start(args, format);
+  if (host == NULL || host->logger == NULL) return;
+  if (status < fmi2Discard && !logging_on) return;
   vsnprintf(text, sizeof text, format, args);
-  va_end(args);
-  for (i = 0; text[i] != '\0' && j + 2 < sizeof escaped; ++i) { /* hosts may treat it as a printf format */
+  for (i = 0; text[i] != '\0' && j + 2 < sizeof escaped; ++i) {
     if (text[i] == '%') escaped[j++] = '%';
     escaped[j++] = text[i];
   }
   escaped[j] = '\0';
-  c->host.logger(c->host.componentEnvironment, c->name, status,
-                 status >= fmi2Error ? "logStatusError" : status == fmi2Discard ? "logStatusDiscard" : "logEvents",
-                 escaped);
+  host->logger(host->componentEnvironment, name, status,
+               status >= fmi2Error ? "logStatusError" : status == fmi2Discard ? "logStatusDiscard" : "logEvents", escaped);
+}
+
+void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...) {
+  va_list args;
+  if (c == NULL) return;
+  va_start(args, format);
+  log_to(&c->host, c->name, c->logging_on, status, format, args);
+  va_end(args);
+}
+
+/* Before an instance exists (fmi2Instantiate refusing): log through the callbacks given. */
+static void log_host(const fmi2CallbackFunctions* host, const char* name, const char* format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+static void log_host(const fmi2CallbackFunctions* host, const char* name, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  log_to(host, name, fmi2True, fmi2Error, format, args);
+  va_end(args);
 }
 
 /* The result of a call: an error or fatal status moves the instance into its error phases. */
@@ -95,24 +114,21 @@ fmi2Status fmi2SetDebugLogging(fmi2Component instance, fmi2Boolean on, size_t n,
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resources,
                               const fmi2CallbackFunctions* host, fmi2Boolean visible, fmi2Boolean logging_on) {
-  TlInstance probe, *c;
+  TlInstance* c;
   size_t n;
   (void)resources; (void)visible;
   if (host == NULL || host->allocateMemory == NULL || host->freeMemory == NULL) return NULL;
-  memset(&probe, 0, sizeof probe); /* a stack stand-in, only to log why instantiation fails */
-  probe.host = *host;
-  probe.name = (char*)(name ? name : "?");
   if (name == NULL || name[0] == '\0') {
-    tl_log(&probe, fmi2Error, "fmi2Instantiate: the instance name is empty");
+    log_host(host, "?", "fmi2Instantiate: the instance name is empty");
     return NULL;
   }
   if (type != fmi2CoSimulation) {
-    tl_log(&probe, fmi2Error, "fmi2Instantiate: %s is a co-simulation FMU only", TL_MODEL_IDENTIFIER);
+    log_host(host, name, "fmi2Instantiate: %s is a co-simulation FMU only", TL_MODEL_IDENTIFIER);
     return NULL;
   }
   if (guid == NULL || strcmp(guid, TL_GUID) != 0) {
-    tl_log(&probe, fmi2Error, "fmi2Instantiate: GUID %s does not match this binary's %s (modelDescription.xml from another build?)",
-           guid ? guid : "(null)", TL_GUID);
+    log_host(host, name, "fmi2Instantiate: GUID %s does not match this binary's %s (modelDescription.xml from another build?)",
+             guid ? guid : "(null)", TL_GUID);
     return NULL;
   }
   c = (TlInstance*)host->allocateMemory(1, sizeof(TlInstance));
