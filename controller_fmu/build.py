@@ -1,8 +1,12 @@
-"""Build the controller+estimator FMU: embed both designs and the estimator matrices, bundle the run-time code."""
+"""Build the native controller+estimator FMU: the designs and estimator matrices computed here, run in C.
+
+At build time Python synthesizes (or takes from the cache) both gains and sets up the LKF and
+ZSE of Sec. 5.3-5.4; they are embedded as constant arrays. At run time the FMU's C runs the law
+u = u_tr - K chi with the CasADi-generated feedforward (3.18), the LKF and the ZSE.
+"""
 
 from __future__ import annotations
 
-import platform
 import tempfile
 import time
 from pathlib import Path
@@ -11,18 +15,22 @@ import casadi as ca
 import numpy as np
 
 from ..master import packaging
+from ..native_fmu import build as native
+from ..native_fmu import casadi_c
 from ..plant_fmu import codegen
 from ..plant_fmu.build import BuildResult
 from ..sensor_fmu import measurement
 from . import cache as design_cache
+from . import fmu_variables
 from .design import design
 from .estimator_setup import augmented_model, lkf_setup, zse_setup
 
 HERE = Path(__file__).parent
-PLANT, SENSORS = HERE.parent / "plant_fmu", HERE.parent / "sensor_fmu"
 FMU_NAME = "TiltloadController.fmu"
-RUNTIME = [PLANT / "__init__.py", PLANT / "interface.py", PLANT / "native.py", PLANT / "slave_support.py", SENSORS / "suite.py",
-           HERE / "runtime.py", HERE / "control_law.py", HERE / "lkf.py", HERE / "zse.py", HERE / "zonotope.py"]
+C = HERE / "c"
+MODEL_C = [C / "controller_model.c", C / "controller_model.h", C / "tl_zse.c", C / "tl_zse.h", C / "tl_lkf.c", C / "tl_lkf.h",
+           C / "tl_linalg.c", C / "tl_linalg.h"]
+HOT = ["tl_zse.c", "tl_linalg.c", "tl_lkf.c"]
 TC = 0.012
 
 
@@ -43,25 +51,28 @@ def bundle(Tc: float = TC, progress=print) -> dict[str, np.ndarray]:
             "H_zse": zse.H, "y_eq": zse.y_eq, "G_w": zse.G_w, "G_v": zse.G_v, "G_x0": zse.G_x0, "r_max": np.array(zse.r_max)}
 
 
-def build(dest: Path, cache: Path, force: bool = False, progress=print) -> BuildResult:
-    import pythonfmu
+def digest() -> str:
+    files = [*HERE.glob("*.py"), *MODEL_C, *(HERE.parent / "plant_fmu").glob("*.py"), HERE.parent / "sensor_fmu" / "suite.py",
+             HERE.parent / "sensor_fmu" / "fmu_variables.py", HERE.parent / "sensor_fmu" / "measurement.py"]
+    return native.digest(files, ca.__version__, packaging.tiltload_version(), design_cache.key("all", TC, np.zeros(1)))
 
+
+def build(dest: Path, cache: Path | None = None, force: bool = False, progress=print) -> BuildResult:
     started = time.perf_counter()
     target = Path(dest) / FMU_NAME
-    sources = [*RUNTIME, HERE / "fmu_slave.py", HERE / "build.py", Path(packaging.__file__)]
-    digest = packaging.source_hash(sources, codegen.library_digest(), pythonfmu.__version__, platform.machine(),
-                                   ca.__version__, design_cache.key("all", TC, np.zeros(1)))
-    if not force and packaging.is_current(target, digest):
+    source_digest = digest()
+    if not force and native.is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
-    lib = codegen.cached_library(cache)
     b = bundle(TC, progress)
-    info = {"version": packaging.tiltload_version(), "source_hash": digest, "library": lib.name, "Tc": TC,
-            "trim_x": b["trim_x"].tolist(), "trim_u": b["trim_u"].tolist(),
-            "pi_eq": measurement.pi(b["trim_x"], b["params"]).tolist()}
-    with tempfile.TemporaryDirectory(prefix="tiltload_ctrl_") as tmp:
-        npz = Path(tmp) / "bundle.npz"
-        np.savez(npz, **b)
-        packaging.build_python_fmu(slave=HERE / "fmu_slave.py", unique=f"tiltload_controller_{digest[:10]}",
-                                   package_files=RUNTIME, generated=[lib, npz], build_info=info, target=target,
-                                   platforms=("linux64",))
-    return BuildResult(target, True, time.perf_counter() - started)
+    pi_eq = measurement.pi(b["trim_x"], b["params"])
+    definition = fmu_variables.definition(b["trim_x"], pi_eq, TC, packaging.tiltload_version())
+    with tempfile.TemporaryDirectory(prefix="tiltload_controller_") as tmp:
+        gen = Path(tmp)
+        generated = casadi_c.generate([codegen.feedforward_function()], gen, "tl_feedforward_gen")
+        (gen / "controller_dims.h").write_text(fmu_variables.dims_header(b))
+        (gen / "controller_data.h").write_text(fmu_variables.data_header(b, definition))
+        sources = native.NativeSources(MODEL_C, [*generated, gen / "controller_dims.h", gen / "controller_data.h"], HOT)
+        info = {"version": packaging.tiltload_version(), "Tc": TC, "trim_x": b["trim_x"].tolist(), "trim_u": b["trim_u"].tolist(),
+                "pi_eq": pi_eq.tolist()}
+        built = native.build_fmu(definition, sources, target, source_digest, info)
+    return BuildResult(target, True, time.perf_counter() - started, built.warnings)

@@ -91,7 +91,9 @@ def reduce_in_place(buf: np.ndarray, r: int, r_max: int, method: str) -> tuple[n
     G = buf[:r]
     nbox = r - r_max + n  # generators replaced by the n box generators
     score = _scores(G, method)
-    drop = np.sort(np.argpartition(score, nbox - 1)[:nbox])
+    # the nbox lowest scores; equal scores go lowest index first (a stable sort), so every implementation,
+    # this one and the C runtime's, drops the same generators
+    drop = np.sort(np.argsort(score, kind="stable")[:nbox])
     removed = G[drop].copy()
     added = _box(removed, G, method)
     slots = drop[drop < r_max]  # free slots inside the final range

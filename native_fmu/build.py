@@ -31,6 +31,8 @@ BUILD_INFO = "resources/build_info.json"
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-DCASADI_SYMBOL_EXPORT=")
 # CasADi's generated code trips -Wextra's unused-parameter and similar: its warnings are not ours.
 GENERATED_CFLAGS = ("-Wno-unused-parameter", "-Wno-unused-variable", "-Wno-unused-function")
+# Hot numerical kernels (the ZSE's products): full vectorization and fused multiply-adds, still portable.
+HOT_CFLAGS = ("-O3", "-ffp-contract=fast")
 
 
 class BuildError(RuntimeError):
@@ -43,6 +45,7 @@ class NativeSources:
 
     model: list[Path]  # hand-written hooks and headers, ours: compiled with every warning on
     generated: list[Path] = field(default_factory=list)  # CasADi output
+    hot: list[str] = field(default_factory=list)  # names of C files compiled with HOT_CFLAGS
 
 
 @dataclass
@@ -88,7 +91,7 @@ def digest(files: list[Path], *extra: str) -> str:
     h = hashlib.sha256()
     for f in sorted({*files, *LAYER_FILES, Path(__file__), HERE / "describe.py", HERE / "variables.py"}, key=str):
         h.update(f.name.encode() + b"\0" + f.read_bytes())
-    for e in (compiler_identity(compiler()), platform.machine(), " ".join(CFLAGS), *extra):
+    for e in (compiler_identity(compiler()), platform.machine(), " ".join(CFLAGS + HOT_CFLAGS), *extra):
         h.update(e.encode() + b"\0")
     return h.hexdigest()
 
@@ -129,7 +132,8 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str |
     generated = {p.name for p in sources.generated}
     for source in sorted(folder.glob("*.c")):
         obj = folder / (source.stem + ".o")
-        extra = (*extra_flags, *(GENERATED_CFLAGS if source.name in generated else ()))
+        extra = (*extra_flags, *(GENERATED_CFLAGS if source.name in generated else ()),
+                 *(HOT_CFLAGS if source.name in sources.hot else ()))
         said = _compile(cc, source, obj, include, extra)
         if said and source.name not in generated:
             warnings.append(said)

@@ -1,15 +1,11 @@
 """Generate the plant's C code with CasADi (build time only): the one source of the compiled model.
 
 The native plant FMU compiles tl_plant_gen.c (one RK4 substep and the diagnostic outputs) into
-its binary. The controller FMU, still a Python FMU until it is ported, loads a small shared
-library with the feedforward (3.18) through ctypes (cached_library).
+its binary; the controller FMU compiles the feedforward (3.18) into its own.
 """
 
 from __future__ import annotations
 
-import hashlib
-import shutil
-import subprocess
 from pathlib import Path
 
 import casadi as ca
@@ -18,7 +14,6 @@ from ..native_fmu import casadi_c
 from .model import ND, NU, NX, model
 
 PLANT_STEM = "tl_plant_gen"
-LIB_STEM = "tl_plant"
 
 
 def functions() -> list[ca.Function]:
@@ -52,39 +47,3 @@ def feedforward_function() -> ca.Function:
     rhs = M @ qdd + Cqd + L_fr @ x[NX // 2:] + g
     u = ca.solve(L_in.T @ L_in, L_in.T @ rhs)  # least squares: L_in has full column rank
     return ca.Function("tl_feedforward", [x, qdd, m.p], [ca.cse(u)], ["x", "qdd", "p"], ["u"])
-
-
-def compile_library(directory: Path) -> Path:
-    """The controller's shared library (the feedforward), compiled into directory."""
-    sources = casadi_c.generate([feedforward_function()], directory, LIB_STEM)
-    compiler = shutil.which("cc") or shutil.which("gcc")
-    if compiler is None:
-        raise RuntimeError("building the FMUs needs a C compiler (cc or gcc) on PATH")
-    lib = directory / f"{LIB_STEM}.so"
-    cmd = [compiler, "-O2", "-fPIC", "-shared", "-o", str(lib), str(sources[0]), "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise RuntimeError(f"compiling the plant library failed: {proc.stderr.strip().splitlines()[-1:]}")
-    return lib
-
-
-def library_digest() -> str:
-    """Identity of the compiled library: the model sources and the CasADi version."""
-    here = Path(__file__).parent
-    h = hashlib.sha256(ca.__version__.encode())
-    for f in sorted(here.glob("*.py")) + [Path(casadi_c.__file__)]:
-        h.update(f.name.encode() + f.read_bytes())
-    return h.hexdigest()[:16]
-
-
-def cached_library(root: Path) -> Path:
-    """The compiled library in root/lib-<digest>/, compiled once and shared by the FMU builds."""
-    folder = Path(root) / f"lib-{library_digest()}"
-    lib = folder / f"{LIB_STEM}.so"
-    if not lib.exists():
-        tmp = folder.with_name(folder.name + ".partial")
-        shutil.rmtree(tmp, ignore_errors=True)
-        compile_library(tmp)
-        shutil.rmtree(folder, ignore_errors=True)
-        tmp.replace(folder)
-    return lib

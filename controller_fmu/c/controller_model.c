@@ -1,0 +1,230 @@
+/* The controller FMU's hooks: each doStep(t_k, T_c) reads the reference and the sensor inputs at
+   t_k, runs the estimator (none, LKF or ZSE), then u = sat(u_tr - K chi) with the feedforward
+   (3.18) and the integral states, and holds u over the tick. As controller_fmu/runtime.py, the
+   Python reference the tests compare it with; the designs are embedded (controller_data.h). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "controller_data.h"
+#include "tl_feedforward_gen.h"
+#include "tl_feedforward_gen_sizes.h"
+#include "tl_fmu.h"
+
+#define NX 20
+#define NNU TL_NNU
+
+_Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
+_Static_assert(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
+_Static_assert(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
+_Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
+_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1 && TL_REAL_lkf_alpha_L - TL_REAL_lkf_x == 9, "state inputs");
+_Static_assert(TL_REAL_meas_alpha_L_dot - TL_REAL_meas_x_B == TL_NY_ZSE - 1, "the 16 measurements are contiguous, in pi order");
+
+static const char* const controllers[] = {"dlqr", "mixed"};
+static const char* const estimators[] = {"none", "lkf", "zse"};
+static const char* const reductions[] = {"combastel", "girard", "pca"};
+static const int regulated[4] = {0, 1, 2, 5}; /* x, y, z, psi: steered along the path */
+
+static TlZseModel zse_model(const TlInstance* c) {
+  TlZseModel m = {tl_A_nu, tl_B_nu, tl_H_zse, tl_zse_c_w, tl_zse_Gw, tl_zse_sigma, tl_zse_s, tl_zse_hull_w, tl_zse_Sw,
+                  4, TL_RW, TL_R_MAX, c->s.model.reduction};
+  return m;
+}
+
+static const TlLkfModel lkf_model = {tl_A_nu, tl_B_nu, tl_H_lkf, tl_Pw, tl_Pv, 4};
+
+static int choose(const char* value, const char* const* names, int n) {
+  int i;
+  for (i = 0; i < n; ++i)
+    if (strcmp(value, names[i]) == 0) return i;
+  return -1;
+}
+
+/* Estimate, disturbance and bounds as outputs. */
+static void publish_estimate(TlInstance* c, const double* half) {
+  TlModelState* m = &c->s.model;
+  double* r = c->s.real;
+  int i;
+  for (i = 0; i < NNU; ++i) {
+    const double centre = i < NX ? m->estimate[i] : m->disturbance[i - NX];
+    r[TL_REAL_est_x + i] = centre;
+    r[TL_REAL_est_x_lo + i] = centre - (half ? half[i] : 0.0);
+    r[TL_REAL_est_x_hi + i] = centre + (half ? half[i] : 0.0);
+  }
+}
+
+void tl_model_reset(TlInstance* c) {
+  memset(&c->s.model, 0, sizeof c->s.model);
+  tl_model_outputs(c);
+}
+
+/* Before the first tick: the trim inputs and the trim as the estimate. */
+fmi2Status tl_model_outputs(TlInstance* c) {
+  TlModelState* m = &c->s.model;
+  memcpy(c->s.real + TL_REAL_f_R, tl_trim_u, sizeof(double) * 4);
+  memcpy(m->estimate, tl_trim_x, sizeof m->estimate);
+  memset(m->disturbance, 0, sizeof m->disturbance);
+  publish_estimate(c, NULL);
+  return fmi2OK;
+}
+
+fmi2Status tl_model_initialize(TlInstance* c) {
+  TlModelState* m = &c->s.model;
+  const double* r = c->s.real;
+  m->controller = choose(c->s.string[TL_STRING_controller], controllers, 2);
+  m->estimator = choose(c->s.string[TL_STRING_estimator], estimators, 3);
+  m->reduction = choose(c->s.string[TL_STRING_zse_reduction], reductions, 3);
+  if (m->controller < 0) {
+    tl_log(c, fmi2Error, "invalid controller parameters: unknown controller '%s' (available: dlqr, mixed)",
+           c->s.string[TL_STRING_controller]);
+    return fmi2Error;
+  }
+  if (m->estimator < 0) {
+    tl_log(c, fmi2Error, "invalid controller parameters: unknown estimator '%s' (available: none, lkf, zse)",
+           c->s.string[TL_STRING_estimator]);
+    return fmi2Error;
+  }
+  if (m->reduction < 0) {
+    tl_log(c, fmi2Error, "invalid controller parameters: unknown zse_reduction '%s' (available: combastel, girard, pca)",
+           c->s.string[TL_STRING_zse_reduction]);
+    return fmi2Error;
+  }
+  if (fabs(r[TL_REAL_Tc] - TL_TC) > 1e-12) {
+    tl_log(c, fmi2Error, "invalid controller parameters: Tc = %g s, but the embedded designs are for %g s (rebuild to change it)",
+           r[TL_REAL_Tc], TL_TC);
+    return fmi2Error;
+  }
+  if (!(r[TL_REAL_f_min] < r[TL_REAL_f_max] && r[TL_REAL_tau_max] > 0.0)) {
+    tl_log(c, fmi2Error, "invalid controller parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
+           r[TL_REAL_f_min], r[TL_REAL_f_max], r[TL_REAL_tau_max]);
+    return fmi2Error;
+  }
+  m->k = 0;
+  memset(m->integral, 0, sizeof m->integral);
+  memcpy(m->u_prev, tl_trim_u, sizeof m->u_prev);
+  return tl_model_outputs(c);
+}
+
+/* Runs the chosen estimator for this tick; fills half-widths of the bounds. 0 ok, -1 numerical failure. */
+static int estimate(TlInstance* c, double* half, int* skipped) {
+  TlModelState* m = &c->s.model;
+  const double* r = c->s.real;
+  double du[4], nu[NNU];
+  int i;
+  *skipped = 0;
+  for (i = 0; i < 4; ++i) du[i] = m->u_prev[i] - tl_trim_u[i];
+  if (m->estimator == 0) {
+    memcpy(m->estimate, r + TL_REAL_exact_x, sizeof m->estimate);
+    memset(half, 0, sizeof(double) * NNU);
+    return 0;
+  }
+  if (m->estimator == 1) {
+    if (m->k == 0) { /* Sec. 5.3: the initial state is known, at rest at the start position */
+      memset(nu, 0, sizeof nu);
+      for (i = 0; i < 3; ++i) nu[i] = r[TL_REAL_x_0 + i] - tl_trim_x[i];
+      tl_lkf_initialize(&m->lkf, nu, tl_P0);
+    } else {
+      double dy[TL_NY_LKF];
+      int skip[TL_NY_LKF];
+      for (i = 0; i < TL_NY_LKF; ++i) dy[i] = r[TL_REAL_lkf_x + i] - tl_trim_x[i];
+      if (tl_lkf_step(&m->lkf, &lkf_model, du, dy, NULL, skip, skipped)) return -1;
+    }
+    memcpy(nu, m->lkf.nu, sizeof nu);
+    for (i = 0; i < NNU; ++i) {
+      const double p = m->lkf.P[i * NNU + i];
+      half[i] = 3.0 * sqrt(p > 0.0 ? p : 0.0);
+    }
+  } else {
+    TlZseModel model = zse_model(c);
+    TlZseReport report;
+    int available[TL_NY_ZSE], g, j;
+    memset(available, 0, sizeof available);
+    for (g = 0; g < TL_N_ZSE_GROUPS; ++g)
+      for (j = 0; j < tl_zse_groups[g].n; ++j) available[tl_zse_groups[g].index[j]] = c->s.boolean[tl_zse_groups[g].flag] != 0;
+    if (m->k == 0) { /* Sec. 5.4: a box around the reference start, then the initial update with y_0 */
+      double c0[NNU];
+      memset(c0, 0, sizeof c0);
+      for (i = 0; i < 3; ++i) c0[i] = m->reference_start[i] - tl_trim_x[i];
+      if (tl_zse_initialize(&m->zse, &model, c0, tl_zse_G0, TL_R0, r + TL_REAL_meas_x_B, available, &report)) return -1;
+    } else if (tl_zse_step(&m->zse, &model, du, r + TL_REAL_meas_x_B, available, &report)) {
+      return -1;
+    }
+    *skipped = report.n_nonfinite + report.n_inconsistent;
+    memcpy(nu, m->zse.c, sizeof nu);
+    memcpy(half, m->zse.hull, sizeof(double) * NNU);
+    c->s.real[TL_REAL_zse_G_frobenius] = tl_zse_frobenius(&m->zse);
+    c->s.real[TL_REAL_zse_generators] = m->zse.r;
+  }
+  for (i = 0; i < NX; ++i) m->estimate[i] = tl_trim_x[i] + nu[i];
+  for (i = 0; i < 3; ++i) m->disturbance[i] = nu[NX + i];
+  return 0;
+}
+
+/* u = sat(u_tr - K chi), chi = [x - x_tr; integrals]; the integrals advance after use. */
+static int control(TlInstance* c, double* u) {
+  TlModelState* m = &c->s.model;
+  const double* ref = c->s.real + TL_REAL_x_ref;
+  const double* K = m->controller == 0 ? tl_K_dlqr : tl_K_mixed;
+  double x_tr[NX], qdd[NX / 2], chi[NX + 4], u_tr[4];
+  const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
+  double* res[TL_FEEDFORWARD_SZ_RES + 1];
+  casadi_int iw[TL_FEEDFORWARD_SZ_IW];
+  double w[TL_FEEDFORWARD_SZ_W];
+  int i, j;
+  memcpy(x_tr, tl_trim_x, sizeof x_tr); /* the load on the path, the other coordinates at their trim (Sec. 3.2) */
+  for (i = 0; i < 3; ++i) x_tr[i] = ref[i];
+  x_tr[5] = ref[9];
+  for (i = NX / 2; i < NX; ++i) x_tr[i] = 0.0;
+  for (i = 0; i < 3; ++i) x_tr[NX / 2 + i] = ref[3 + i];
+  x_tr[15] = ref[10];
+  memset(qdd, 0, sizeof qdd);
+  for (i = 0; i < 3; ++i) qdd[i] = ref[6 + i];
+  arg[0] = x_tr;
+  arg[1] = qdd;
+  arg[2] = tl_params;
+  res[0] = u_tr;
+  if (tl_feedforward(arg, res, iw, w, 0)) return -1;
+  for (i = 0; i < NX; ++i) chi[i] = m->estimate[i] - x_tr[i];
+  for (i = 0; i < 4; ++i) chi[NX + i] = m->integral[i];
+  for (i = 0; i < 4; ++i) {
+    double v = u_tr[i];
+    for (j = 0; j < NX + 4; ++j) v -= K[i * (NX + 4) + j] * chi[j];
+    u[i] = v;
+  }
+  for (i = 0; i < 4; ++i) m->integral[i] += TL_TC * chi[regulated[i]];
+  {
+    const double lo = c->s.real[TL_REAL_f_min], hi = c->s.real[TL_REAL_f_max], tau = c->s.real[TL_REAL_tau_max];
+    for (i = 0; i < 2; ++i) u[i] = u[i] < lo ? lo : u[i] > hi ? hi : u[i];
+    for (i = 2; i < 4; ++i) u[i] = u[i] < -tau ? -tau : u[i] > tau ? tau : u[i];
+  }
+  return 0;
+}
+
+fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+  TlModelState* m = &c->s.model;
+  double half[NNU], u[4];
+  int skipped, i;
+  if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
+    tl_log(c, fmi2Error, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
+    return fmi2Error;
+  }
+  if (m->k == 0) memcpy(m->reference_start, c->s.real + TL_REAL_x_ref, sizeof m->reference_start);
+  if (estimate(c, half, &skipped) || control(c, u)) {
+    tl_log(c, fmi2Error, "the %s estimator or the control law failed numerically at t=%.6g s", estimators[m->estimator], t);
+    return fmi2Error;
+  }
+  for (i = 0; i < 4; ++i)
+    if (!isfinite(u[i])) {
+      tl_log(c, fmi2Error, "the controller produced a non-finite input at t=%.6g s (estimator %s); step refused", t,
+             estimators[m->estimator]);
+      return fmi2Error;
+    }
+  memcpy(m->u_prev, u, sizeof u);
+  memcpy(c->s.real + TL_REAL_f_R, u, sizeof u);
+  publish_estimate(c, half);
+  c->s.integer[TL_INTEGER_skipped_measurements] = skipped;
+  if (skipped) tl_log(c, fmi2Warning, "t=%.6g s: skipped %d measurement entries (non-finite or inconsistent)", t, skipped);
+  m->k += 1;
+  return fmi2OK;
+}

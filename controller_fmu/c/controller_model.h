@@ -1,0 +1,21 @@
+/* The controller FMU's own state beyond its variables: the law's memory and the estimators. */
+#ifndef CONTROLLER_MODEL_H
+#define CONTROLLER_MODEL_H
+
+#include "tl_lkf.h"
+#include "tl_zse.h"
+
+typedef struct {
+  int controller; /* 0 dlqr, 1 mixed */
+  int estimator;  /* 0 none, 1 lkf, 2 zse */
+  int reduction;  /* TL_REDUCE_* */
+  long k;         /* ticks done */
+  double integral[4];        /* of the x, y, z, psi errors */
+  double u_prev[4];          /* the input applied over the last tick */
+  double reference_start[3]; /* the reference at the first tick (the ZSE's initial box is centred there) */
+  double estimate[20], disturbance[3];
+  TlLkf lkf;
+  TlZse zse;
+} TlModelState;
+
+#endif

@@ -1,0 +1,132 @@
+/* Small dense linear algebra (see tl_linalg.h). */
+#include "tl_linalg.h"
+
+#include <math.h>
+#include <string.h>
+
+TL_DISPATCH void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C) {
+  int i, j, l;
+  for (i = 0; i < n; ++i) {
+    double* c = C + (long)i * m;
+    for (j = 0; j < m; ++j) c[j] = 0.0;
+    for (l = 0; l < k; ++l) {
+      const double a = A[(long)i * k + l];
+      const double* b = B + (long)l * m;
+      for (j = 0; j < m; ++j) c[j] += a * b[j];
+    }
+  }
+}
+
+TL_DISPATCH void tl_matmul_bt(int n, int k, int m, const double* A, const double* B, double* C) {
+  int i, j, l;
+  for (i = 0; i < n; ++i) {
+    for (j = 0; j < m; ++j) {
+      double s = 0.0;
+      for (l = 0; l < k; ++l) s += A[(long)i * k + l] * B[(long)j * k + l];
+      C[(long)i * m + j] = s;
+    }
+  }
+}
+
+int tl_solve(int n, int m, double* A, double* B) {
+  int i, j, col, pivot;
+  for (col = 0; col < n; ++col) {
+    double best = fabs(A[col * n + col]);
+    pivot = col;
+    for (i = col + 1; i < n; ++i)
+      if (fabs(A[i * n + col]) > best) {
+        best = fabs(A[i * n + col]);
+        pivot = i;
+      }
+    if (!(best > 0.0)) return -1;
+    if (pivot != col) {
+      for (j = 0; j < n; ++j) {
+        double t = A[col * n + j];
+        A[col * n + j] = A[pivot * n + j];
+        A[pivot * n + j] = t;
+      }
+      for (j = 0; j < m; ++j) {
+        double t = B[col * m + j];
+        B[col * m + j] = B[pivot * m + j];
+        B[pivot * m + j] = t;
+      }
+    }
+    for (i = col + 1; i < n; ++i) {
+      double f = A[i * n + col] / A[col * n + col];
+      if (f == 0.0) continue;
+      for (j = col; j < n; ++j) A[i * n + j] -= f * A[col * n + j];
+      for (j = 0; j < m; ++j) B[i * m + j] -= f * B[col * m + j];
+    }
+  }
+  for (i = n - 1; i >= 0; --i) {
+    for (j = 0; j < m; ++j) {
+      double s = B[i * m + j];
+      int l;
+      for (l = i + 1; l < n; ++l) s -= A[i * n + l] * B[l * m + j];
+      B[i * m + j] = s / A[i * n + i];
+    }
+  }
+  return 0;
+}
+
+void tl_eigh(int n, double* A, double* w, double* V) {
+  int i, j, p, q, sweep;
+  for (i = 0; i < n; ++i)
+    for (j = 0; j < n; ++j) V[i * n + j] = i == j ? 1.0 : 0.0;
+  for (sweep = 0; sweep < 100; ++sweep) {
+    double off = 0.0, scale = 0.0;
+    for (p = 0; p < n; ++p)
+      for (q = 0; q < n; ++q) {
+        if (p != q) off += A[p * n + q] * A[p * n + q];
+        else scale += A[p * n + q] * A[p * n + q];
+      }
+    if (off <= 1e-30 * scale) break;
+    for (p = 0; p < n - 1; ++p) {
+      for (q = p + 1; q < n; ++q) {
+        double apq = A[p * n + q], theta, t, cs, sn;
+        if (apq == 0.0) continue;
+        theta = (A[q * n + q] - A[p * n + p]) / (2.0 * apq);
+        t = (theta >= 0.0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+        cs = 1.0 / sqrt(t * t + 1.0);
+        sn = t * cs;
+        for (i = 0; i < n; ++i) { /* A <- A J (columns p, q) */
+          double aip = A[i * n + p], aiq = A[i * n + q];
+          A[i * n + p] = cs * aip - sn * aiq;
+          A[i * n + q] = sn * aip + cs * aiq;
+        }
+        for (i = 0; i < n; ++i) { /* A <- J^T A (rows p, q) */
+          double api = A[p * n + i], aqi = A[q * n + i];
+          A[p * n + i] = cs * api - sn * aqi;
+          A[q * n + i] = sn * api + cs * aqi;
+        }
+        for (i = 0; i < n; ++i) {
+          double vip = V[i * n + p], viq = V[i * n + q];
+          V[i * n + p] = cs * vip - sn * viq;
+          V[i * n + q] = sn * vip + cs * viq;
+        }
+      }
+    }
+  }
+  for (i = 0; i < n; ++i) w[i] = A[i * n + i];
+  for (i = 1; i < n; ++i) { /* insertion sort, ascending, columns of V along */
+    for (j = i; j > 0 && w[j - 1] > w[j]; --j) {
+      double t = w[j];
+      w[j] = w[j - 1];
+      w[j - 1] = t;
+      for (p = 0; p < n; ++p) {
+        t = V[p * n + j];
+        V[p * n + j] = V[p * n + j - 1];
+        V[p * n + j - 1] = t;
+      }
+    }
+  }
+}
+
+void tl_symmetrize(int n, double* S) {
+  int i, j;
+  for (i = 0; i < n; ++i)
+    for (j = i + 1; j < n; ++j) {
+      double m = 0.5 * (S[i * n + j] + S[j * n + i]);
+      S[i * n + j] = S[j * n + i] = m;
+    }
+}

@@ -1,0 +1,381 @@
+/* Multirate zonotopic state estimator: see tl_zse.h. Each step mirrors controller_fmu/zse.py
+   operation for operation, so the two agree to rounding; tests check it. */
+#include "tl_zse.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "tl_linalg.h"
+
+#define N TL_ZSE_N
+#define LD TL_ZSE_LD
+#define NY TL_NY_ZSE
+#define RESYNC_EVERY 64
+
+/* The one heavy product: dst rows = src rows times Mt (LD x LD, rows of M^T padded with zeros), i.e.
+   dst_i = M g_i: 1725 x 23 x 24 multiply-adds a step. Two rows at a time with their 2 x 6 four-wide
+   accumulators in registers (GCC/Clang vector extensions, so the same source compiles to SSE2 or
+   AVX2); TL_DISPATCH (tl_linalg.h) adds an x86-64-v3 copy picked at run time. */
+#if defined(__GNUC__)
+typedef double v4d __attribute__((vector_size(32), aligned(8)));
+#define TL_VECTORS (LD / 4)
+_Static_assert(TL_VECTORS == 6, "the kernel below is written for 21..24 states (6 four-wide vectors a row)");
+
+/* One row pair: a0..a5 and b0..b5 stay in registers across the 23 multiply-adds. */
+#define TL_MADD(acc, g, v) acc += (g) * (v)
+TL_DISPATCH static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+  int i, k;
+  const v4d zero = {0.0, 0.0, 0.0, 0.0};
+  for (i = 0; i < rows; i += 2) {
+    const int pair = i + 1 < rows;
+    v4d a0 = zero, a1 = zero, a2 = zero, a3 = zero, a4 = zero, a5 = zero;
+    v4d b0 = zero, b1 = zero, b2 = zero, b3 = zero, b4 = zero, b5 = zero;
+    for (k = 0; k < N; ++k) {
+      const double ga = src[i][k], gb = pair ? src[i + 1][k] : 0.0;
+      const v4d* m = (const v4d*)(Mt + k * LD);
+      const v4d m0 = m[0], m1 = m[1], m2 = m[2], m3 = m[3], m4 = m[4], m5 = m[5];
+      TL_MADD(a0, ga, m0); TL_MADD(a1, ga, m1); TL_MADD(a2, ga, m2); TL_MADD(a3, ga, m3); TL_MADD(a4, ga, m4); TL_MADD(a5, ga, m5);
+      TL_MADD(b0, gb, m0); TL_MADD(b1, gb, m1); TL_MADD(b2, gb, m2); TL_MADD(b3, gb, m3); TL_MADD(b4, gb, m4); TL_MADD(b5, gb, m5);
+    }
+    {
+      v4d* da = (v4d*)dst[i];
+      da[0] = a0; da[1] = a1; da[2] = a2; da[3] = a3; da[4] = a4; da[5] = a5;
+    }
+    if (pair) {
+      v4d* db = (v4d*)dst[i + 1];
+      db[0] = b0; db[1] = b1; db[2] = b2; db[3] = b3; db[4] = b4; db[5] = b5;
+    }
+  }
+}
+#else
+static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+  int i, j, k;
+  for (i = 0; i < rows; ++i) {
+    double acc[LD];
+    for (j = 0; j < LD; ++j) acc[j] = 0.0;
+    for (k = 0; k < N; ++k)
+      for (j = 0; j < LD; ++j) acc[j] += src[i][k] * Mt[k * LD + j];
+    for (j = 0; j < LD; ++j) dst[i][j] = acc[j];
+  }
+}
+#endif
+
+#if defined(__GNUC__)
+typedef long long v4i __attribute__((vector_size(32), aligned(8)));
+
+/* |x| by clearing the sign bits (a macro: a function returning a vector would change the ABI warning-wise). */
+#define TL_MAGNITUDE ((v4i){0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL})
+#define vabs(x) ((v4d)((v4i)(x) & TL_MAGNITUDE))
+
+/* hull = column sums of |G| (rs(G), Thm 4.1). */
+TL_DISPATCH static void row_abs_sums(int rows, double (*G)[LD], double* hull) {
+  v4d acc[TL_VECTORS];
+  int i, j;
+  for (j = 0; j < TL_VECTORS; ++j) acc[j] = (v4d){0.0, 0.0, 0.0, 0.0};
+  for (i = 0; i < rows; ++i) {
+    const v4d* g = (const v4d*)G[i];
+    for (j = 0; j < TL_VECTORS; ++j) acc[j] += vabs(g[j]);
+  }
+  for (j = 0; j < N; ++j) hull[j] = acc[j / 4][j % 4];
+}
+
+/* Squared 2-norm of every row (the Combastel and PCA scores). */
+TL_DISPATCH static void row_norms2(int rows, double (*G)[LD], double* out) {
+  int i, j;
+  for (i = 0; i < rows; ++i) {
+    const v4d* g = (const v4d*)G[i];
+    v4d acc = g[0] * g[0];
+    for (j = 1; j < TL_VECTORS; ++j) acc += g[j] * g[j];
+    out[i] = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+  }
+}
+
+/* S (N x N) += sign * R^T R over the rows of R. */
+TL_DISPATCH static void add_gram(int rows, double (*R)[LD], double sign, double* S) {
+  v4d D[N][TL_VECTORS];
+  int i, j, k;
+  for (j = 0; j < N; ++j)
+    for (k = 0; k < TL_VECTORS; ++k) D[j][k] = (v4d){0.0, 0.0, 0.0, 0.0};
+  for (i = 0; i < rows; ++i) {
+    const v4d* r = (const v4d*)R[i];
+    for (j = 0; j < N; ++j) {
+      const double rj = R[i][j];
+      if (rj == 0.0) continue;
+      for (k = 0; k < TL_VECTORS; ++k) D[j][k] += rj * r[k];
+    }
+  }
+  for (j = 0; j < N; ++j)
+    for (k = 0; k < N; ++k) S[j * N + k] += sign * D[j][k / 4][k % 4];
+}
+#else
+static void row_abs_sums(int rows, double (*G)[LD], double* hull) {
+  int i, j;
+  for (j = 0; j < N; ++j) hull[j] = 0.0;
+  for (i = 0; i < rows; ++i)
+    for (j = 0; j < N; ++j) hull[j] += fabs(G[i][j]);
+}
+
+static void row_norms2(int rows, double (*G)[LD], double* out) {
+  int i, j;
+  for (i = 0; i < rows; ++i) {
+    out[i] = 0.0;
+    for (j = 0; j < N; ++j) out[i] += G[i][j] * G[i][j];
+  }
+}
+
+static void add_gram(int rows, double (*R)[LD], double sign, double* S) {
+  int i, j, k;
+  for (i = 0; i < rows; ++i)
+    for (j = 0; j < N; ++j)
+      for (k = 0; k < N; ++k) S[j * N + k] += sign * R[i][j] * R[i][k];
+}
+#endif
+
+/* S = G^T G over the rows. */
+static void gram(int rows, double (*G)[LD], double* S) {
+  memset(S, 0, sizeof(double) * N * N);
+  add_gram(rows, G, 1.0, S);
+}
+
+/* Girard's score ||g||_1 - ||g||_inf: small for generators close to an axis-aligned segment. */
+static double girard_score(const double* g) {
+  double s = 0.0, big = 0.0;
+  int j;
+  for (j = 0; j < N; ++j) {
+    s += fabs(g[j]);
+    if (fabs(g[j]) > big) big = fabs(g[j]);
+  }
+  return s - big;
+}
+
+/* Indices of the k smallest scores, ascending by index (ties: the lower index goes first). A max-heap
+   of k (score, index) pairs: one pass over the rows. */
+static void smallest(int r, const double* scores, int k, int* chosen) {
+  int heap[TL_ZSE_CAP], size = 0, i;
+#define LESS(a, b) (scores[a] < scores[b] || (scores[a] == scores[b] && (a) < (b)))
+  for (i = 0; i < r; ++i) {
+    int pos;
+    if (size < k) {
+      pos = size++;
+      while (pos > 0 && LESS(heap[(pos - 1) / 2], i)) {
+        heap[pos] = heap[(pos - 1) / 2];
+        pos = (pos - 1) / 2;
+      }
+      heap[pos] = i;
+    } else if (LESS(i, heap[0])) {
+      int child;
+      pos = 0;
+      for (;;) { /* sift the new element down from the root */
+        child = 2 * pos + 1;
+        if (child >= size) break;
+        if (child + 1 < size && LESS(heap[child], heap[child + 1])) ++child;
+        if (!LESS(i, heap[child])) break;
+        heap[pos] = heap[child];
+        pos = child;
+      }
+      heap[pos] = i;
+    }
+  }
+#undef LESS
+  for (i = 0; i < k; ++i) chosen[i] = heap[i];
+  for (i = 1; i < k; ++i) { /* insertion sort by index */
+    int v = chosen[i], j = i;
+    while (j > 0 && chosen[j - 1] > v) {
+      chosen[j] = chosen[j - 1];
+      --j;
+    }
+    chosen[j] = v;
+  }
+}
+
+/* Reduce buf[:r] to buf[:r_max] keeping the kept rows in place (as zonotope.reduce_in_place does);
+   S is updated with the removed and added generators. */
+static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S) {
+  static const int n = N;
+  double scores[TL_ZSE_CAP], removed[2 * N + NY][LD], added[N][LD];
+  int drop[2 * N + NY], nbox = r - r_max + n, i, j, k, n_slots = 0, n_movers = 0;
+  int slots[2 * N + NY], movers[N + NY], tail_dropped[N + NY + N];
+  if (method == TL_REDUCE_GIRARD)
+    for (i = 0; i < r; ++i) scores[i] = girard_score(buf[i]);
+  else
+    row_norms2(r, buf, scores); /* combastel, pca: the shortest (2-norm) generators go */
+  smallest(r, scores, nbox, drop);
+  for (i = 0; i < nbox; ++i) memcpy(removed[i], buf[drop[i]], sizeof(double) * LD);
+  memset(added, 0, sizeof added);
+  if (method == TL_REDUCE_PCA) { /* a box in the principal axes of the whole set */
+    double gtg[N * N], w[N], V[N * N];
+    gram(r, buf, gtg);
+    tl_eigh(n, gtg, w, V);
+    for (j = 0; j < n; ++j) {
+      double width = 0.0;
+      for (i = 0; i < nbox; ++i) {
+        double proj = 0.0;
+        for (k = 0; k < n; ++k) proj += removed[i][k] * V[k * n + j];
+        width += fabs(proj);
+      }
+      for (k = 0; k < n; ++k) added[j][k] = V[k * n + j] * width;
+    }
+  } else { /* an axis-aligned box */
+    for (j = 0; j < n; ++j) {
+      double width = 0.0;
+      for (i = 0; i < nbox; ++i) width += fabs(removed[i][j]);
+      added[j][j] = width;
+    }
+  }
+  for (i = 0; i < r - r_max; ++i) tail_dropped[i] = 0;
+  for (i = 0; i < nbox; ++i) {
+    if (drop[i] < r_max) slots[n_slots++] = drop[i];
+    else tail_dropped[drop[i] - r_max] = 1;
+  }
+  for (i = 0; i < r - r_max; ++i)
+    if (!tail_dropped[i]) movers[n_movers++] = r_max + i;
+  for (i = 0; i < n_movers; ++i) memcpy(buf[slots[i]], buf[movers[i]], sizeof(double) * LD);
+  for (i = n_movers; i < n_slots; ++i) memcpy(buf[slots[i]], added[i - n_movers], sizeof(double) * LD);
+  add_gram(nbox, removed, -1.0, S); /* S += added^T added - removed^T removed */
+  add_gram(n, added, 1.0, S);
+}
+
+/* All strips of this step at once, then one pass over the generators: G+ = [T G_w, (T M) G, K Sigma]. */
+static int update(TlZse* z, const TlZseModel* m, const double* M, const double* y, const int* available,
+                  const double* predicted_hull, int with_noise, TlZseReport* rep) {
+  int idx[NY], n_idx = 0, i, j, k, r;
+  double innovation[NY], Hs[NY * N], K[N * NY], T[N * N], TM[N * N], TMt[LD * LD];
+  double (*src)[LD] = z->G[z->cur], (*dst)[LD] = z->G[1 - z->cur];
+  memset(rep, 0, sizeof *rep);
+  for (i = 0; y != NULL && i < NY; ++i) {
+    const double* h = m->H + i * N;
+    double hc = 0.0, reach = 0.0;
+    if (available && !available[i]) continue;
+    if (!isfinite(y[i])) {
+      rep->nonfinite[rep->n_nonfinite++] = i;
+      continue;
+    }
+    for (k = 0; k < N; ++k) {
+      hc += h[k] * z->c[k];
+      reach += fabs(h[k]) * predicted_hull[k];
+    }
+    innovation[n_idx] = y[i] + m->s[i] - hc;
+    if (fabs(innovation[n_idx]) > reach + m->sigma[i]) { /* the strip misses the predicted box: the model is violated */
+      rep->inconsistent[rep->n_inconsistent++] = i;
+      continue;
+    }
+    memcpy(Hs + n_idx * N, h, sizeof(double) * N);
+    idx[n_idx++] = i;
+  }
+  rep->used = n_idx;
+  if (n_idx) { /* K = S H^T (H S H^T + diag(sigma^2))^-1, T = I - K H, S+ = T S */
+    double SH[N * NY], Mat[NY * NY], Kt[NY * N], St[N * N];
+    tl_matmul_bt(N, N, n_idx, z->S, Hs, SH);
+    tl_matmul(n_idx, N, n_idx, Hs, SH, Mat);
+    for (i = 0; i < n_idx; ++i) Mat[i * n_idx + i] += m->sigma[idx[i]] * m->sigma[idx[i]];
+    for (i = 0; i < n_idx; ++i)
+      for (k = 0; k < N; ++k) Kt[i * N + k] = SH[k * n_idx + i];
+    if (tl_solve(n_idx, N, Mat, Kt)) return -1;
+    for (k = 0; k < N; ++k)
+      for (i = 0; i < n_idx; ++i) K[k * n_idx + i] = Kt[i * N + k];
+    for (k = 0; k < N; ++k) {
+      double dc = 0.0;
+      for (i = 0; i < n_idx; ++i) dc += K[k * n_idx + i] * innovation[i];
+      z->c[k] += dc;
+    }
+    tl_matmul(N, n_idx, N, K, Hs, T);
+    for (i = 0; i < N * N; ++i) T[i] = -T[i];
+    for (i = 0; i < N; ++i) T[i * N + i] += 1.0;
+    tl_matmul(N, N, N, T, M, TM);
+    tl_matmul(N, N, N, T, z->S, St);
+    memcpy(z->S, St, sizeof St);
+    tl_symmetrize(N, z->S);
+  } else {
+    for (i = 0; i < N * N; ++i) T[i] = (i / N == i % N) ? 1.0 : 0.0;
+    memcpy(TM, M, sizeof TM);
+  }
+  r = 0;
+  memset(TMt, 0, sizeof TMt);
+  if (with_noise && m->rw) { /* T G_w */
+    double row[LD];
+    for (k = 0; k < N; ++k)
+      for (j = 0; j < N; ++j) TMt[k * LD + j] = T[j * N + k];
+    for (i = 0; i < m->rw; ++i) {
+      memset(row, 0, sizeof row);
+      memcpy(row, m->Gw + i * N, sizeof(double) * N);
+      transform_rows(1, &row, TMt, &dst[r++]);
+    }
+  }
+  for (k = 0; k < N; ++k)
+    for (j = 0; j < N; ++j) TMt[k * LD + j] = TM[j * N + k];
+  transform_rows(z->r, src, TMt, dst + r); /* (T M) G */
+  r += z->r;
+  for (i = 0; i < n_idx; ++i, ++r) { /* the new generators sigma_i K[:, i] */
+    for (k = 0; k < N; ++k) dst[r][k] = K[k * n_idx + i] * m->sigma[idx[i]];
+    for (k = N; k < LD; ++k) dst[r][k] = 0.0;
+  }
+  z->cur = 1 - z->cur;
+  if (r > m->r_max) {
+    reduce(dst, r, m->r_max, m->reduction, z->S);
+    r = m->r_max;
+  }
+  z->r = r;
+  z->steps += 1;
+  if (z->steps % RESYNC_EVERY == 0) gram(r, dst, z->S);
+  row_abs_sums(r, dst, z->hull);
+  return 0;
+}
+
+int tl_zse_initialize(TlZse* z, const TlZseModel* m, const double* c0, const double* G0, int r0, const double* y0,
+                      const int* available, TlZseReport* report) {
+  double I[N * N];
+  int i, k;
+  if (r0 < 0 || r0 > TL_ZSE_CAP || m->r_max > TL_R_MAX || m->r_max < N) return -1;
+  memset(z, 0, sizeof *z);
+  z->r = 0;
+  for (i = 0; i < r0; ++i) { /* zero generators carry nothing */
+    int nonzero = 0;
+    for (k = 0; k < N; ++k) nonzero |= G0[i * N + k] != 0.0;
+    if (!nonzero) continue;
+    memcpy(z->G[0][z->r], G0 + i * N, sizeof(double) * N);
+    z->r += 1;
+  }
+  memcpy(z->c, c0, sizeof z->c);
+  gram(z->r, z->G[0], z->S);
+  row_abs_sums(z->r, z->G[0], z->hull);
+  memset(report, 0, sizeof *report);
+  if (y0 == NULL) return 0;
+  for (i = 0; i < N * N; ++i) I[i] = (i / N == i % N) ? 1.0 : 0.0;
+  {
+    double hull[N];
+    memcpy(hull, z->hull, sizeof hull);
+    return update(z, m, I, y0, available, hull, 0, report);
+  }
+}
+
+int tl_zse_step(TlZse* z, const TlZseModel* m, const double* du, const double* y, const int* available, TlZseReport* report) {
+  double c[N], AS[N * N], hull[N];
+  int i, k;
+  for (i = 0; i < N; ++i) { /* c = A c + B du + c_w */
+    double v = 0.0, b = 0.0;
+    for (k = 0; k < N; ++k) v += m->A[i * N + k] * z->c[k];
+    for (k = 0; k < m->nu; ++k) b += m->B[i * m->nu + k] * du[k];
+    c[i] = v + b + m->c_w[i];
+  }
+  memcpy(z->c, c, sizeof c);
+  tl_matmul(N, N, N, m->A, z->S, AS); /* S = A S A^T + S_w */
+  tl_matmul_bt(N, N, N, AS, m->A, z->S);
+  for (i = 0; i < N * N; ++i) z->S[i] += m->Sw[i];
+  for (i = 0; i < N; ++i) { /* a box containing the predicted set's interval hull */
+    double v = 0.0;
+    for (k = 0; k < N; ++k) v += fabs(m->A[i * N + k]) * z->hull[k];
+    hull[i] = v + m->hull_w[i];
+  }
+  return update(z, m, m->A, y, available, hull, 1, report);
+}
+
+double tl_zse_frobenius(const TlZse* z) {
+  double t = 0.0;
+  int i;
+  for (i = 0; i < N; ++i) t += z->S[i * N + i];
+  return sqrt(t > 0.0 ? t : 0.0);
+}
+
+const double* tl_zse_generator(const TlZse* z, int i) { return z->G[z->cur][i]; }
+
+unsigned long tl_zse_size(void) { return (unsigned long)sizeof(TlZse); }
