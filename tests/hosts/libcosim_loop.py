@@ -1,8 +1,10 @@
 """Plant, sensors and scenario FMUs in libcosim (libcosimpy), run by a Python that has no numpy.
 
-Usage: python libcosim_loop.py FMU_DIR STOP_TIME. Connects the scenario's gust outputs to the
-plant and the plant's 20 states to the sensors by name, steps at 12 ms, prints one line 'RESULT {json}'
-with the final values (every output of the three FMUs) and the simulated time.
+Usage: python libcosim_loop.py FMU_DIR STOP_TIME [--controller]. Connects the scenario's gust outputs
+to the plant and the plant's 20 states to the sensors by name; with --controller, also the ZSE
+controller (references, measurements, flags in; thrusts and torques out to the plant) on
+trajectory 1. Steps at 12 ms and prints one line 'RESULT {json}' with the final values (every
+output of the FMUs) and the simulated time.
 """
 
 import json
@@ -18,10 +20,20 @@ STATES += [f"{s}_dot" for s in STATES]
 TICK_NS = 12_000_000
 
 
-def main(folder, stop):
+REFERENCES = ["x_ref", "y_ref", "z_ref", "vx_ref", "vy_ref", "vz_ref", "ax_ref", "ay_ref", "az_ref", "psi_ref", "psi_dot_ref"]
+MEASUREMENTS = ["x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B", "p_B", "q_B", "r_B", "d_BL_x", "d_BL_y", "d_BL_z",
+                "alpha_R", "alpha_L", "alpha_R_dot", "alpha_L_dot"]
+FLAGS = ["gps_new", "baro_new", "imu_att_new", "imu_rate_new", "cam_xy_new", "cam_z_new", "servo_angle_new", "servo_rate_new"]
+INPUTS = ["f_R", "f_L", "tau_R", "tau_L"]
+
+
+def main(folder, stop, with_controller):
     execution = CosimExecution.from_step_size(TICK_NS)
     index = {}
-    for name, fmu in (("scenario", "TiltloadScenario"), ("sensors", "TiltloadSensors"), ("plant", "TiltloadPlant")):
+    fmus = [("scenario", "TiltloadScenario"), ("sensors", "TiltloadSensors"), ("plant", "TiltloadPlant")]
+    if with_controller:
+        fmus.insert(2, ("controller", "TiltloadController"))
+    for name, fmu in fmus:
         index[name] = execution.add_local_slave(CosimLocalSlave(fmu_path=f"{folder}/{fmu}.fmu", instance_name=name))
         if index[name] < 0:
             raise SystemExit(f"libcosim could not load {fmu}.fmu")
@@ -35,6 +47,18 @@ def main(folder, stop):
 
     connect("scenario", "plant", ["d_x", "d_y", "d_z"])
     connect("plant", "sensors", STATES)
+    if with_controller:
+        connect("scenario", "controller", REFERENCES)
+        connect("sensors", "controller", [f"meas_{n}" for n in MEASUREMENTS])
+        for n in FLAGS:
+            if execution.connect_boolean_variables(index["sensors"], variables["sensors"][n].reference,
+                                                   index["controller"], variables["controller"][n].reference) != 0:
+                raise SystemExit(f"libcosim could not connect sensors.{n} -> controller.{n}")
+        connect("controller", "plant", INPUTS)
+        start = {"x_0": 1.7, "y_0": 0.3, "z_0": 0.7}  # trajectory 1's start, 30 cm off the path
+        for name in ("plant", "controller"):
+            for n, value in start.items():
+                execution.real_initial_value(index[name], variables[name][n].reference, value)
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     if not execution.simulate_until(int(round(stop * 1e9))):
@@ -54,4 +78,4 @@ def main(folder, stop):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], float(sys.argv[2]))
+    main(sys.argv[1], float(sys.argv[2]), "--controller" in sys.argv[3:])
