@@ -25,6 +25,17 @@ def cmd_build(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_wrap(args: argparse.Namespace) -> int:
+    from .wrap import WrapError, wrap
+
+    try:
+        target = wrap(args.controller, args.out, args.cls)
+    except WrapError as err:
+        raise UserError(str(err)) from None
+    print(f"{target}: controller FMU (use it with: tiltload run --controller {target})")
+    return 0
+
+
 def cmd_design(args: argparse.Namespace) -> int:
     from ..controller_fmu import artifact
     from ..controller_fmu.design import design
@@ -160,6 +171,11 @@ def main(argv: list[str] | None = None) -> int:
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
     d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
     d.set_defaults(func=cmd_design)
+    w = sub.add_parser("wrap", help="package your Python controller class as a controller FMU (docs/ports.md)")
+    w.add_argument("controller", type=Path, help="the .py file with the controller class")
+    w.add_argument("--class", dest="cls", default=None, help="the class to wrap, if the file has several")
+    w.add_argument("--out", type=Path, default=None, help="the FMU to write (default: next to the file, <name>.fmu)")
+    w.set_defaults(func=cmd_wrap)
     r = sub.add_parser("run", help="main job: run the closed loop through the FMUs, log to MCAP, print ISE/IADU, plot")
     r.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
     r.add_argument("--trajectory", type=int, choices=(0, 1, 2), default=1, help="1 circle (default), 2 Table 5.3, 0 hover")

@@ -1,10 +1,27 @@
-"""The controller port contract (docs/ports.md), checked on a model description before any step."""
+"""The controller port contract (docs/ports.md): its names, types and units, checked on a model description.
+
+The contract's inputs are the reference controller's inputs (its variable table,
+controller_fmu/fmu_variables.py, one source), plus the LKF sensor's flag and the plant's states.
+"""
 
 from __future__ import annotations
 
 from .system import DescriptionError
 
 REQUIRED_OUTPUTS = ("f_R", "f_L", "tau_R", "tau_L")
+OUTPUT_UNITS = {"f_R": "N", "f_L": "N", "tau_R": "N.m", "tau_L": "N.m"}
+
+
+def contract_inputs(trim_x, pi_eq) -> dict[str, tuple[str, str, object, str]]:
+    """Every input a controller may declare: name -> (type, unit, start value, description)."""
+    from ..controller_fmu import fmu_variables as cv
+
+    d = cv.definition(trim_x, pi_eq, 0.012, "0")
+    inputs = {v.name: (v.type, v.unit, v.start, v.description) for v in d.variables if v.causality == "input"}
+    inputs["lkf_new"] = ("Boolean", "", True, "the lkf sample is new this tick")
+    for i, (name, unit) in enumerate(zip(cv.STATE_NAMES, cv.STATE_UNITS)):
+        inputs[name] = ("Real", unit, float(trim_x[i]), f"plant state {name} (the truth)")
+    return inputs
 
 
 def check_controller(md) -> None:

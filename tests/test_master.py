@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are
 from third_party_controller import build as build_third_party
+from third_party_controller import user_controller
 from tiltload.master import mcap_log
 from tiltload.master.cli import main
 from tiltload.master.connections import resolve
@@ -85,7 +86,12 @@ def lqr_for_third_party():
 def third_party(tmp_path_factory):
     K, trim = lqr_for_third_party()
     folder = tmp_path_factory.mktemp("third_party")
-    return {mode: Path(build_third_party(folder, K, trim.x, trim.u, STATE_NAMES, mode)) for mode in ("ok", "nan", "missing", "int")}
+    fmus = {mode: Path(build_third_party(folder, K, trim.x, trim.u, STATE_NAMES, mode)) for mode in ("missing", "int")}
+    for mode in ("ok", "nan"):  # the way a user makes one: tiltload wrap
+        source = user_controller(folder, K, trim.x, trim.u, STATE_NAMES, mode)
+        assert main(["wrap", str(source), "--out", str(folder / f"wrapped_{mode}.fmu")]) == 0
+        fmus[mode] = folder / f"wrapped_{mode}.fmu"
+    return fmus
 
 
 def test_third_party_controller_runs_through_the_cli(fmus, third_party, tmp_path, capsys):
@@ -125,8 +131,8 @@ def test_nan_mid_run_stops_with_one_line_and_a_readable_log(fmus, third_party, t
     code = main(["run", "--controller", str(third_party["nan"]), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "3",
                  "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"])
     err = capsys.readouterr().err
-    # the native plant refuses the value when it is set, naming the input and the time
-    assert code == 1 and "plant: setReal from controller" in err and "non-finite input f_R = nan at t=1.008 s" in err
+    # the wrapped controller refuses to output it, naming the class and the time
+    assert code == 1 and "controller: doStep at t=1.008 s" in err and "ThirdPartyLQR.step returned a non-finite command" in err
     assert "Traceback" not in err
     plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert 1.0 <= plant[-1]["t"] <= 1.008 + 1e-9  # everything up to the failed step (NaN from t = 1.008 s) is there

@@ -1,9 +1,43 @@
-"""A controller FMU written outside tiltload (pythonfmu, plain state feedback), for the controller-swap tests.
+"""Controllers written outside tiltload (plain state feedback), for the controller-swap tests.
 
-Its gain comes from scipy's DARE on a linearization passed in by the test; the FMU itself
-knows nothing of tiltload. MODE selects deliberate faults: "ok", "nan" (NaN after 1 s),
-"missing" (no tau_L output), "int" (tau_L declared Integer).
+Their gain comes from scipy's DARE on a linearization passed in by the test; the controllers
+know nothing of tiltload. `user_controller` writes a Python class for `tiltload wrap` (modes
+"ok" and "nan": NaN after 1 s). `build` makes a pythonfmu FMU by hand, for the faults `tiltload
+wrap` refuses to produce: "missing" (no tau_L output), "int" (tau_L declared Integer).
 """
+
+USER = '''
+import numpy as np
+
+K = np.array({K})
+X_EQ = np.array({x_eq})
+U_EQ = np.array({u_eq})
+STATES = {states}
+
+
+class ThirdPartyLQR:
+    """State feedback u = u_eq - K (x - x_eq - ref), from the exact-state channel."""
+
+    inputs = [f"exact_{{n}}" for n in STATES] + ["x_ref", "y_ref", "z_ref"]
+
+    def step(self, t, inputs):
+        x = np.array([inputs[f"exact_{{n}}"] for n in STATES]) - X_EQ
+        x[0:3] -= [inputs["x_ref"], inputs["y_ref"], inputs["z_ref"]]
+        u = U_EQ - K @ x
+        if {nan} and t >= 1.0:
+            u[0] = float("nan")
+        return u.tolist()
+'''
+
+
+def user_controller(folder, K, x_eq, u_eq, states, mode="ok"):
+    """A controller class file for `tiltload wrap`; returns its path."""
+    from pathlib import Path
+
+    path = Path(folder) / f"third_party_{mode}.py"
+    path.write_text(USER.format(K=K.tolist(), x_eq=list(map(float, x_eq)), u_eq=list(map(float, u_eq)), states=list(states),
+                                nan=mode == "nan"))
+    return path
 
 SLAVE = r'''
 import json
