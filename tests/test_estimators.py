@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import c_estimators
 import numpy as np
 import pytest
 from reference_physics import zse_measurement
 from scipy.linalg import solve_discrete_are
 from scipy.stats import chi2
+from tiltload.controller_fmu import native_estimators as c_estimators
 from tiltload.controller_fmu.estimator_setup import augmented_model, lkf_setup, zse_setup
 from tiltload.controller_fmu.lkf import KalmanFilter
 from tiltload.controller_fmu.zonotope import REDUCTIONS, ZonotopeError, contains_point, reduce_rows, support
@@ -96,7 +96,7 @@ def lqr_gain(model):
 
 @pytest.fixture(scope="module")
 def c_library(pipeline_fmus, tmp_path_factory):
-    """The controller FMU's C estimators, compiled from its sources/ (tests/c_estimators.py)."""
+    """The controller FMU's C estimators, compiled from its sources/ (controller_fmu/native_estimators.py)."""
     return c_estimators.compile_library(pipeline_fmus["TiltloadController"], tmp_path_factory.mktemp("c_estimators"))
 
 

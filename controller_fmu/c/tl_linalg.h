@@ -11,6 +11,8 @@
 #define TL_DISPATCH
 #endif
 
+#define TL_LINALG_MAX 32 /* the largest k and m tl_matmul_bt transposes on the stack */
+
 /* C (n x m) = A (n x k) B (k x m). C may not alias A or B. */
 void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C);
 /* C (n x m) = A (n x k) B^T (B is m x k). */

@@ -1,5 +1,7 @@
 """The controller FMU's C estimators (tl_zse.c, tl_lkf.c), compiled from the FMU's own sources/ into a
-test library and driven through ctypes, with the same constructor arguments as the Python ones."""
+shared library and driven through ctypes with the Python estimators' interface: for the tests that
+compare them with the Python reference, for the benchmarks, and for offline analysis with exactly
+the estimator the FMU runs."""
 
 from __future__ import annotations
 
@@ -9,8 +11,9 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-from tiltload.controller_fmu.zonotope import interval_hull
-from tiltload.controller_fmu.zse import StepReport
+
+from .zonotope import interval_hull
+from .zse import StepReport
 
 D = ctypes.POINTER(ctypes.c_double)
 I = ctypes.POINTER(ctypes.c_int)
@@ -20,7 +23,7 @@ FILES = ("tl_zse.c", "tl_lkf.c", "tl_linalg.c")
 
 def compile_library(fmu: Path, folder: Path) -> Path:
     """The estimators exactly as shipped: the FMU's sources, the FMU's hot-kernel flags."""
-    from tiltload.native_fmu.build import HOT_CFLAGS
+    from ..native_fmu.build import HOT_CFLAGS
 
     with zipfile.ZipFile(fmu) as z:
         z.extractall(folder, [n for n in z.namelist() if n.startswith("sources/")])
