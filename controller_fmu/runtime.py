@@ -1,8 +1,10 @@
-"""What the controller+estimator FMU runs each tick: estimator, then u = sat(u_tr - K chi). Numpy only.
+"""The controller+estimator tick in Python: estimator, then u = sat(u_tr - K chi). The reference for the C.
 
-Everything is computed at build time and passed in as a bundle of arrays (gains, linearization,
-estimator matrices); nothing is solved here. Timing (DESIGN §4): tick k uses the reference and
-measurements at t_k and the input applied over the previous tick, u_{k-1}.
+The controller FMU runs the same tick in C (controller_fmu/c/controller_model.c); this module is
+the design-time version the tests hold it to, tick by tick (tests/test_native_controller.py),
+and a way to run the controller offline. Everything is computed at build time and passed in as a
+bundle of arrays (gains, linearization, estimator matrices). Timing (DESIGN §4): tick k uses the
+reference and measurements at t_k and the input applied over the previous tick, u_{k-1}.
 """
 
 from __future__ import annotations
