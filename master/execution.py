@@ -10,6 +10,7 @@ ExecutionError naming the instance, the call and the FMU's last log line.
 
 from __future__ import annotations
 
+import ctypes
 import time
 import zipfile
 from collections import deque
@@ -33,6 +34,7 @@ from .system import DescriptionError, System, validate
 
 FATAL = 4
 STATUS = {1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+_C_TYPE = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}  # fmi2Boolean is an int
 
 
 class ExecutionError(RuntimeError):
@@ -58,7 +60,12 @@ def read_fmu(path: Path, instance: str):
 
 
 class FmuInstance:
-    """One instantiated FMU: typed output tables, captured log, fatal-aware teardown."""
+    """One instantiated FMU: typed output tables, captured log, fatal-aware teardown.
+
+    The hot path calls the FMU's own fmi2 functions through ctypes on arrays allocated once:
+    `values[type]` is a numpy view of the array fmi2Get<type> writes into, so reading the outputs
+    is one foreign call per type and nothing is copied or converted.
+    """
 
     def __init__(self, name: str, path: Path, md) -> None:
         self.name, self.path, self.md = name, Path(path), md
@@ -68,7 +75,6 @@ class FmuInstance:
         self.outputs = {t: [v for v in md.modelVariables if v.causality == "output" and v.type == t] for t in connections.TYPES}
         self.out_vrs = {t: [v.valueReference for v in vs] for t, vs in self.outputs.items()}
         self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
-        self.values = {t: np.zeros(len(vs)) for t, vs in self.outputs.items()}
         self.vars = {v.name: v for v in md.modelVariables}
         pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
         self.dir = extract(str(path))
@@ -82,16 +88,40 @@ class FmuInstance:
         self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
                                instanceName=name)
         self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
+        self._bind()
+
+    def _bind(self) -> None:
+        """The raw fmi2 functions and the output arrays, set up once."""
+        dll = self.slave.dll
+        self._do_step = dll.fmi2DoStep
+        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
+        self._do_step.restype = ctypes.c_int
+        self.getters, self.setters = {}, {}
+        for t in connections.TYPES:
+            for kind, table in (("Get", self.getters), ("Set", self.setters)):
+                fn = getattr(dll, f"fmi2{kind}{t}")
+                fn.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(_C_TYPE[t])]
+                fn.restype = ctypes.c_int
+                table[t] = fn
+        self._reads, self.values = [], {}
+        for t in connections.TYPES:
+            n = len(self.out_vrs[t])
+            buf = (_C_TYPE[t] * max(n, 1))()
+            self.values[t] = np.ctypeslib.as_array(buf)[:n]
+            if n:
+                self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
+
+    def failed(self, what: str, status: int) -> ExecutionError:
+        self.fatal = status == FATAL
+        said = next((line for line in reversed(self.log) if line.strip() and "Fatal py exception" not in line), "")
+        return ExecutionError(f"{self.name}: {what} failed ({STATUS.get(status, status)})" + (f": {said}" if said else ""))
 
     def call(self, what: str, fn):
         started = time.perf_counter()
         try:
             return fn()
         except FMICallException as err:
-            self.fatal = err.status == FATAL
-            said = next((line for line in reversed(self.log) if line.strip() and "Fatal py exception" not in line), "")
-            raise ExecutionError(f"{self.name}: {what} failed ({STATUS.get(err.status, err.status)})"
-                                 + (f": {said}" if said else "")) from None
+            raise self.failed(what, err.status) from None
         except OSError as err:
             raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
         finally:
@@ -119,9 +149,21 @@ class FmuInstance:
             self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
 
     def read_outputs(self) -> None:
-        for t, getter in (("Real", self.slave.getReal), ("Integer", self.slave.getInteger), ("Boolean", self.slave.getBoolean)):
-            if self.out_vrs[t]:
-                self.values[t][:] = self.call(f"get{t}", lambda g=getter, vrs=self.out_vrs[t]: g(vrs))
+        started = time.perf_counter()
+        component = self.slave.component
+        for t, get, vrs, n, buf in self._reads:
+            status = get(component, vrs, n, buf)
+            if status > 1:
+                self.fmi_seconds += time.perf_counter() - started
+                raise self.failed(f"get{t}", status)
+        self.fmi_seconds += time.perf_counter() - started
+
+    def do_step(self, t: float, h: float) -> None:
+        started = time.perf_counter()
+        status = self._do_step(self.slave.component, t, h, 1)
+        self.fmi_seconds += time.perf_counter() - started
+        if status > 1:
+            raise self.failed(f"doStep at t={t:.6g} s", status)
 
     def close(self) -> None:
         if self.fatal:
@@ -138,15 +180,17 @@ class FmuInstance:
 
 @dataclass
 class _Group:
-    """Links from one source into one target of one type and delay: one get per tick, one set per step."""
+    """Links from one source into one target of one type and delay: a gather into an array the set reads."""
 
     source: str
     target: str
     type: str
     delay: int
     src_index: np.ndarray
-    dst_vrs: list[int]
-    setter: object = None  # the target's set<Type>, bound once
+    dst_vrs: object  # ctypes array of the target's value references
+    values: object  # ctypes array the set reads; `view` is it as numpy
+    view: np.ndarray
+    setter: object  # the target's raw fmi2Set<type>
 
 
 class Execution:
@@ -174,9 +218,10 @@ class Execution:
                 self.instances[spec.name] = FmuInstance(spec.name, spec.fmu, self._mds[spec.name])
             for (src, dst, typ, delay), links in self._raw_groups.items():
                 idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
-                slave = self.instances[dst].slave
-                setter = {"Real": slave.setReal, "Integer": slave.setInteger, "Boolean": slave.setBoolean}[typ]
-                self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, [link.target_vr for link in links], setter))
+                buf = (_C_TYPE[typ] * len(links))()
+                vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
+                self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
+                                                              self.instances[dst].setters[typ]))
             for spec in self.system.instances:
                 inst = self.instances[spec.name]
                 inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
@@ -191,16 +236,21 @@ class Execution:
         for obs in self.observers:
             obs.start(self)
 
-    def _set_inputs(self, name: str) -> None:
+    def _set_inputs(self, name: str, t: float) -> None:
         inst = self.instances[name]
+        component = inst.slave.component
         for g in self.groups.get(name, ()):
             if g.delay == 0:
-                vals = self.instances[g.source].values[g.type][g.src_index]
+                src = self.instances[g.source].values[g.type]
             else:
                 hist = self.history[g.source]
-                vals = hist[max(len(hist) - g.delay, 0)][g.type][g.src_index]
-            values = vals.tolist() if g.type == "Real" else [int(x) if g.type == "Integer" else bool(x) for x in vals]
-            inst.call(f"set{g.type} from {g.source}", lambda s=g.setter, vrs=g.dst_vrs, x=values: s(vrs, x))
+                src = hist[max(len(hist) - g.delay, 0)][g.type]
+            np.take(src, g.src_index, out=g.view)
+            started = time.perf_counter()
+            status = g.setter(component, g.dst_vrs, len(g.view), g.values)
+            inst.fmi_seconds += time.perf_counter() - started
+            if status > 1:
+                raise inst.failed(f"set{g.type} from {g.source} at t={t:.6g} s", status)
 
     def step_tick(self) -> None:
         k, tick = self.ticks_done, self.system.tick
@@ -210,11 +260,10 @@ class Execution:
             if k % n:
                 continue
             inst = self.instances[spec.name]
-            self._set_inputs(spec.name)
-            h = n * tick
-            inst.call(f"doStep at t={t:.6g} s", lambda s=inst.slave, h=h: s.doStep(currentCommunicationPoint=t, communicationStepSize=h))
+            self._set_inputs(spec.name, t)
+            inst.do_step(t, n * tick)
             inst.read_outputs()
-            when = t + h if spec.timing == "continuous" else t
+            when = t + n * tick if spec.timing == "continuous" else t
             for obs in self.observers:
                 obs.on_step(inst, when)
         if self.max_delay:
