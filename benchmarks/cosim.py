@@ -1,11 +1,21 @@
-"""Wall time, real-time factor and the master's share of each scenario (DESIGN §4; targets FSI >= 100x, ZSE >= 30x, master <= 10 %).
+"""Loop throughput per scenario: tiltload's master with a full log, with no log, and libcosim on the same FMUs.
 
-The master's share is the wall time outside FMI calls (scheduling, transfers, observers),
-with the MCAP logger and metrics on, as in `tiltload run`. Run: python benchmarks/cosim.py [stop]
+Per scenario (trajectory 1, mixed design), printed: real-time factor with the full MCAP log (as
+`tiltload run`) and with no log (metrics only, as campaigns); the master's own microseconds per
+tick (wall time outside the FMI calls, full log); each FMU's microseconds per tick (its FMI calls,
+marshalling included); and the same four FMUs in libcosim (libcosimpy, same process, fixed step
+12 ms, no observer but the last-value one) with the ratio of tick costs. libcosim is a Jacobi
+master: its loop carries a tick of delay on each connection, which the thesis's designs do not
+tolerate (it diverges after ~2 s), so both masters are timed over the first STOP_LIBCOSIM
+seconds for the ratio. Targets: FSI >= 100x full log and >= 250x no log, ZSE >= 40x full log,
+master <= 50 us per tick with the full log, no-log master at least as fast as libcosim.
+
+Run: pip install -e ".[bench]" && python benchmarks/cosim.py [stop]
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -17,30 +27,84 @@ from tiltload.master.mcap_log import McapLogger
 from tiltload.master.observers import Metrics
 from tiltload.master.tiltload_system import default_system
 
+STOP_LIBCOSIM = 1.5
+TICK = 0.012
+
+
+def ours(system, stop: float, log: Path | None) -> tuple[float, dict[str, float]]:
+    observers = [Metrics("plant", "scenario", "controller")]
+    if log is not None:
+        observers.insert(0, McapLogger(log, scene_from="plant"))
+    ex = Execution(system, observers)
+    ex.instantiate()
+    for inst in ex.instances.values():
+        inst.fmi_seconds = 0.0
+    t0 = time.perf_counter()
+    ex.run(stop)
+    wall = time.perf_counter() - t0
+    fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
+    ex.close()
+    return wall, fmi
+
+
+def libcosim(fmus: Path, estimator: str, stop: float) -> float | None:
+    """Wall time of the same loop in libcosim (None if libcosimpy is not installed)."""
+    try:
+        from libcosimpy.CosimExecution import CosimExecution
+        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+        from libcosimpy.CosimObserver import CosimObserver
+        from libcosimpy.CosimSlave import CosimLocalSlave
+    except ImportError:
+        return None
+    from tiltload.master import connections
+    from tiltload.master.execution import read_fmu
+
+    log_output_level(CosimLogLevel.ERROR)
+    system = default_system(fmus, estimator, 1, "mixed")
+    mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
+    ex = CosimExecution.from_step_size(int(TICK * 1e9))
+    index = {i.name: ex.add_local_slave(CosimLocalSlave(fmu_path=str(i.fmu), instance_name=i.name)) for i in system.instances}
+    for inst in system.instances:
+        for key, value in inst.parameters.items():
+            v = next(x for x in mds[inst.name].modelVariables if x.name == key)
+            setter = {"Real": ex.real_initial_value, "Integer": ex.integer_initial_value, "Boolean": ex.boolean_initial_value,
+                      "String": ex.string_initial_value}[v.type]
+            setter(index[inst.name], v.valueReference, value if v.type != "Real" else float(value))
+    for link in connections.resolve(system, mds):
+        connect = ex.connect_real_variables if link.type == "Real" else ex.connect_boolean_variables
+        connect(index[link.source], link.source_vr, index[link.target], link.target_vr)
+    ex.add_observer(CosimObserver.create_last_value())
+    t0 = time.perf_counter()
+    ok = ex.simulate_until(int(round(stop * 1e9)))
+    wall = time.perf_counter() - t0
+    return wall if ok else None
+
 
 def main() -> None:
     stop = float(sys.argv[1]) if len(sys.argv) > 1 else 20.0
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     fmus = Path("fmus")
     build_all(fmus)
-    print(f"{stop:g} s of trajectory 1 per run, mixed H2/Hinf controller, MCAP logging on\n")
-    print(f"{'scenario':>8} {'wall s':>7} {'x real time':>12} {'ms/tick':>8} {'master %':>9}   per FMU (ms/tick)")
+    ticks = round(stop / TICK)
+    print(f"{stop:g} s of trajectory 1 per run, mixed H2/Hinf design; libcosim over the first {STOP_LIBCOSIM} s\n")
+    print(f"{'scenario':>8} {'x RT log':>9} {'x RT no log':>12} {'master us/tick':>15} {'per FMU us/tick (full log)':>40}"
+          f" {'libcosim us/tick':>17} {'ours no log':>12} {'ratio':>6} {'log MB/s sim':>13}")
     with tempfile.TemporaryDirectory() as tmp:
         for scenario in ("fsi", "lkf", "zse"):
             system = default_system(fmus, scenario, 1, "mixed")
-            ex = Execution(system, [McapLogger(Path(tmp) / f"{scenario}.mcap", scene_from="plant"),
-                                    Metrics("plant", "scenario", "controller")])
-            ex.instantiate()
-            for inst in ex.instances.values():
-                inst.fmi_seconds = 0.0
-            t0 = time.perf_counter()
-            ex.run(stop)
-            wall = time.perf_counter() - t0
-            fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
-            ex.close()
-            ticks = round(stop / system.tick)
-            per = "  ".join(f"{n} {s / ticks * 1e3:.2f}" for n, s in fmi.items())
-            print(f"{scenario:>8} {wall:>7.2f} {stop / wall:>12.1f} {wall / ticks * 1e3:>8.2f} "
-                  f"{100 * (wall - sum(fmi.values())) / wall:>9.1f}   {per}")
+            log = Path(tmp) / f"{scenario}.mcap"
+            wall, fmi = ours(system, stop, log)
+            wall_nolog, _ = ours(system, stop, None)
+            master_us = (wall - sum(fmi.values())) / ticks * 1e6
+            per = " ".join(f"{n[:4]} {s / ticks * 1e6:.1f}" for n, s in fmi.items())
+            short_ticks = round(STOP_LIBCOSIM / TICK)
+            ours_short, _ = ours(system, STOP_LIBCOSIM, None)
+            lc = libcosim(fmus, scenario, STOP_LIBCOSIM)
+            lc_text = f"{lc / short_ticks * 1e6:>17.1f}" if lc else f"{'n/a':>17}"
+            ratio = f"{lc / ours_short:>6.2f}" if lc else f"{'n/a':>6}"
+            print(f"{scenario:>8} {stop / wall:>9.1f} {stop / wall_nolog:>12.1f} {master_us:>15.1f} {per:>40}"
+                  f" {lc_text} {ours_short / short_ticks * 1e6:>12.1f} {ratio} {log.stat().st_size / 1e6 / stop:>13.3f}")
+    print("\nratio = libcosim's time per tick / ours with no log (> 1: ours is faster); the JSON log before: 0.165 MB/s (ZSE)")
 
 
 if __name__ == "__main__":

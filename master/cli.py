@@ -36,6 +36,13 @@ def cmd_wrap(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_layout(args: argparse.Namespace) -> int:
+    from .foxglove_layout import write
+
+    print(f"{write(args.out)}: Foxglove layout (in Foxglove: open a run's .mcap, then Layouts -> Import from file)")
+    return 0
+
+
 def cmd_design(args: argparse.Namespace) -> int:
     from ..controller_fmu import artifact
     from ..controller_fmu.design import design
@@ -92,14 +99,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
     who = controller_fmu.stem if controller_fmu else args.controller
     label = args.name or f"{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}"
-    log = args.out / f"{label}.mcap"
+    log = None if args.no_log else args.out / f"{label}.mcap"
     names = {i.name for i in system.instances}
     metrics = Metrics("plant", "scenario", "controller") if {"plant", "scenario", "controller"} <= names else None
     meta = {"scenario": args.scenario, "trajectory": args.trajectory, "controller": args.controller, "seed": args.seed,
             "stop_time": stop, "delay": args.delay}
     print(f"running {label}: {stop:g} s of simulated time")
     try:
-        result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta)
+        result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every)
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
     print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
@@ -107,12 +114,13 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{'metric':>14} {'value':>12}")
         for k, v in result.metrics.items():
             print(f"{k:>14} {v:>12.6g}")
-    print(f"log: {log}")
+    print(f"log: {log}" if log else "log: none (--no-log)")
     if result.error:
-        where = f"the log is readable up to t = {result.sim_time:.3f} s" if log.is_file() else "no log was written"
+        where = (f"the log is readable up to t = {result.sim_time:.3f} s" if log.is_file() else "no log was written") if log \
+            else "no log (--no-log)"
         print(f"tiltload: error: {result.error}; {where}", file=sys.stderr)
         return 1
-    if not args.no_plots:
+    if not args.no_plots and log is not None:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
     return 0
@@ -158,6 +166,16 @@ def _positive_time(text: str) -> float:
     return value
 
 
+def _whole_number(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="tiltload", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -189,6 +207,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")
     r.add_argument("--name", default=None, help="file name stem of the log")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
+    r.add_argument("--log-every", type=_whole_number, default=1, metavar="N",
+                   help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
     rp = sub.add_parser("reproduce", help="the twelve cases of ch. 5 in parallel: tables vs the thesis, figures, baselines")
@@ -206,6 +227,9 @@ def main(argv: list[str] | None = None) -> int:
     cp.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
     cp.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
     cp.set_defaults(func=cmd_compare)
+    lo = sub.add_parser("layout", help="write the Foxglove layout for tiltload logs (3D replay, tracking, bounds, actuators)")
+    lo.add_argument("out", type=Path, nargs="?", default=Path("runs/foxglove_layout.json"))
+    lo.set_defaults(func=cmd_layout)
     pl = sub.add_parser("plot", help="draw the thesis's kinds of figures from a run's MCAP log")
     pl.add_argument("log", type=Path)
     pl.add_argument("--out", type=Path, default=None, help="folder for the PNGs (default: next to the log)")

@@ -72,6 +72,7 @@ class McapLogger(Observer):
                 name="foxglove.SceneUpdate", encoding="jsonschema", data=json.dumps(scene.SCHEMA).encode()),
                 message_encoding="json", context=self._context)
             self._scene_names = [v.name for v in execution.instances[self.scene_from].outputs["Real"]]
+            self._scene = scene.SceneEncoder()
         for inst in execution.instances.values():
             self.on_step(inst, 0.0)
 
@@ -92,9 +93,9 @@ class McapLogger(Observer):
             msg.update({v.name: bool(x) for v, x in zip(instance.outputs["Boolean"], values["Boolean"].tolist())})
             self._channels[name].log(json.dumps(msg), log_time=ns)
         if self.scene_from == name and k % self.scene_every == 0:
-            update = scene.scene_update({n: _clean(x) for n, x in zip(self._scene_names, values["Real"].tolist())}, ns)
-            if update is not None:
-                self._scene_channel.log(json.dumps(update), log_time=ns)
+            text = self._scene.encode({n: _clean(x) for n, x in zip(self._scene_names, values["Real"].tolist())}, ns)
+            if text is not None:
+                self._scene_channel.log(text, log_time=ns)
 
     def finish(self, execution, error) -> None:
         if self._writer is None:

@@ -37,10 +37,18 @@ class Metrics(Observer):
                  inputs=("f_R", "f_L", "tau_R", "tau_L")) -> None:
         self.plant, self.reference, self.actuators = plant, reference, actuators
         self.tracked, self.inputs = tracked, inputs
-        self.ise = {f"ISE({a})": 0.0 for a, _ in tracked}
-        self.iadu = {f"IADU({u})": 0.0 for u in inputs}
+        self._ise = np.zeros(len(tracked))
+        self._iadu = np.zeros(len(inputs))
         self._prev_u = None
         self.ticks = 0
+
+    @property
+    def ise(self) -> dict[str, float]:
+        return {f"ISE({a})": float(v) for (a, _), v in zip(self.tracked, self._ise)}
+
+    @property
+    def iadu(self) -> dict[str, float]:
+        return {f"IADU({u})": float(v) for u, v in zip(self.inputs, self._iadu)}
 
     def start(self, execution) -> None:
         self.tick = execution.system.tick
@@ -51,20 +59,18 @@ class Metrics(Observer):
         self._pi = np.array([_real(self._p, a) for a, _ in self.tracked])
         self._ri = np.array([_real(self._r, r) for _, r in self.tracked])
         self._ui = np.array([_real(self._a, u) for u in self.inputs])
-        self._x = self._p.values["Real"][self._pi].copy()  # the plant's value at the start of the tick
+        self._x = self._p.values["Real"][self._pi]  # the plant's value at the start of the tick (a copy: fancy index)
 
     def on_step(self, instance, t) -> None:
         if instance is self._a:  # u_k and ref(t_k) are known, the plant has not stepped yet
             e = self._x - self._r.values["Real"][self._ri]
-            for key, v in zip(self.ise, e * e * self.tick):
-                self.ise[key] += float(v)
+            self._ise += e * e * self.tick
             u = self._a.values["Real"][self._ui]
             if self._prev_u is not None:
-                for key, v in zip(self.iadu, np.abs(u - self._prev_u)):
-                    self.iadu[key] += float(v)
-            self._prev_u = u.copy()
+                self._iadu += np.abs(u - self._prev_u)
+            self._prev_u = u
         elif instance is self._p:
-            self._x = self._p.values["Real"][self._pi].copy()
+            self._x = self._p.values["Real"][self._pi]
 
     def table(self) -> dict[str, float]:
         return {**self.ise, **self.iadu}

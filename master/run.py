@@ -19,17 +19,18 @@ from .system import System
 @dataclass
 class RunResult:
     metrics: dict[str, float]
-    log: Path
+    log: Path | None
     ticks: int
     sim_time: float
     wall: float
     error: str | None
 
 
-def run_system(system: System, stop: float, log: Path, metrics: Metrics | None = None, progress: bool = True,
-               metadata: dict | None = None, scene_from: str | None = "plant", observers_extra=()) -> RunResult:
-    logger = McapLogger(log, scene_from=scene_from, metadata=metadata)
-    observers = [logger, *observers_extra]
+def run_system(system: System, stop: float, log: Path | None, metrics: Metrics | None = None, progress: bool = True,
+               metadata: dict | None = None, scene_from: str | None = "plant", observers_extra=(), log_every: int = 1) -> RunResult:
+    """Run to stop; log to MCAP unless log is None (metrics only), every log_every-th step of each FMU."""
+    logger = McapLogger(log, scene_from=scene_from, metadata=metadata, log_every=log_every) if log is not None else None
+    observers = [*([logger] if logger else []), *observers_extra]
     if metrics is not None:
         observers.append(metrics)
     if progress:
@@ -45,7 +46,8 @@ def run_system(system: System, stop: float, log: Path, metrics: Metrics | None =
     except Exception as err:
         error = f"{err} (at t = {ex.time:.3f} s)" if "t=" not in str(err) else str(err)
     finally:
-        if metrics is not None:
+        if metrics is not None and logger is not None:
             logger.final_metadata["metrics"] = {**metrics.table(), "ticks": ex.ticks_done, "complete": error is None}
         ex.close(error)
-    return RunResult(metrics.table() if metrics else {}, Path(log), ex.ticks_done, ex.time, time.perf_counter() - started, error)
+    return RunResult(metrics.table() if metrics else {}, Path(log) if log is not None else None, ex.ticks_done, ex.time,
+                     time.perf_counter() - started, error)

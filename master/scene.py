@@ -7,7 +7,9 @@ Table 5.1; sizes are only for display.
 
 from __future__ import annotations
 
+import json
 import math
+import re
 
 from ..plant_fmu.parameters import MODEL_PARAMETERS
 
@@ -45,28 +47,68 @@ def _rotate(q: dict, v: tuple) -> tuple:
     return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
 
 
-def scene_update(plant: dict, ns: int) -> dict | None:
-    keys = ("x", "y", "z", "x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B")
-    if any(plant.get(k) is None for k in keys):
-        return None  # a non-finite state: nothing sensible to draw
-    q = quaternion_zyx(plant["phi_B"], plant["theta_B"], plant["psi_B"])
-    body = {"x": plant["x_B"], "y": plant["y_B"], "z": plant["z_B"]}
-    load = {"x": plant["x"], "y": plant["y"], "z": plant["z"]}
-    stamp = {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
-    cubes = [{"pose": {"position": body, "orientation": q}, "size": {"x": 0.12, "y": 0.45, "z": 0.06},
+_KEYS = ("x", "y", "z", "x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B")
+
+
+def _vec(v) -> dict:
+    return {"x": v[0], "y": v[1], "z": v[2]}
+
+
+def _entity(stamp: tuple, body: tuple, q: dict, thrusters: list[tuple], load: tuple) -> dict:
+    """The scene's structure; the numbers (or placeholders) come in."""
+    cubes = [{"pose": {"position": _vec(body), "orientation": q}, "size": {"x": 0.12, "y": 0.45, "z": 0.06},
               "color": {"r": 0.2, "g": 0.4, "b": 0.9, "a": 1.0}}]
-    for d in THRUSTERS:
-        off = _rotate(q, d)
-        cubes.append({"pose": {"position": {"x": body["x"] + off[0], "y": body["y"] + off[1], "z": body["z"] + off[2]},
-                               "orientation": q}, "size": {"x": 0.05, "y": 0.05, "z": 0.08},
+    for centre in thrusters:
+        cubes.append({"pose": {"position": _vec(centre), "orientation": q}, "size": {"x": 0.05, "y": 0.05, "z": 0.08},
                       "color": {"r": 0.9, "g": 0.5, "b": 0.1, "a": 1.0}})
     return {"deletions": [], "entities": [{
-        "timestamp": stamp, "frame_id": "world", "id": "tiltload", "lifetime": {"sec": 0, "nsec": 0},
+        "timestamp": {"sec": stamp[0], "nsec": stamp[1]}, "frame_id": "world", "id": "tiltload", "lifetime": {"sec": 0, "nsec": 0},
         "frame_locked": False, "metadata": [],
         "cubes": cubes,
-        "spheres": [{"pose": {"position": load, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+        "spheres": [{"pose": {"position": _vec(load), "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
                      "size": {"x": 0.06, "y": 0.06, "z": 0.06}, "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 1.0}}],
         "lines": [{"type": 0, "pose": {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
-                   "thickness": 0.01, "scale_invariant": False, "points": [load, body],
+                   "thickness": 0.01, "scale_invariant": False, "points": [_vec(load), _vec(body)],
                    "color": {"r": 0.8, "g": 0.8, "b": 0.8, "a": 1.0}, "colors": [], "indices": []}],
     }]}
+
+
+def _numbers(plant: dict, ns: int):
+    q = quaternion_zyx(plant["phi_B"], plant["theta_B"], plant["psi_B"])
+    body = (plant["x_B"], plant["y_B"], plant["z_B"])
+    thrusters = []
+    for d in THRUSTERS:
+        off = _rotate(q, d)
+        thrusters.append((body[0] + off[0], body[1] + off[1], body[2] + off[2]))
+    return (ns // 1_000_000_000, ns % 1_000_000_000), body, q, thrusters, (plant["x"], plant["y"], plant["z"])
+
+
+def scene_update(plant: dict, ns: int) -> dict | None:
+    """A foxglove.SceneUpdate as a dict, or None for a non-finite state (nothing sensible to draw)."""
+    if any(plant.get(k) is None for k in _KEYS):
+        return None
+    stamp, body, q, thrusters, load = _numbers(plant, ns)
+    return _entity(stamp, body, q, thrusters, load)
+
+
+class SceneEncoder:
+    """The same message as JSON text from a template built once: one %-format a message, ~6x faster than json.dumps."""
+
+    def __init__(self) -> None:
+        slots = iter(range(10_000))
+        mark = lambda: f"\x00{next(slots)}\x00"  # noqa: E731
+        stamp = (mark(), mark())
+        body = (mark(), mark(), mark())
+        q = {"x": mark(), "y": mark(), "z": mark(), "w": mark()}
+        thrusters = [(mark(), mark(), mark()) for _ in THRUSTERS]
+        load = (mark(), mark(), mark())
+        text = json.dumps(_entity(stamp, body, q, thrusters, load)).replace("%", "%%")
+        self._order = [int(m) for m in re.findall(r'"\\u0000(\d+)\\u0000"', text)]
+        self._template = re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: "%d" if int(m.group(1)) < 2 else "%.17g", text)
+
+    def encode(self, plant: dict, ns: int) -> str | None:
+        if any(plant.get(k) is None for k in _KEYS):
+            return None
+        stamp, body, q, thrusters, load = _numbers(plant, ns)
+        flat = [*stamp, *body, q["x"], q["y"], q["z"], q["w"], *(c for t in thrusters for c in t), *load]
+        return self._template % tuple(flat[i] for i in self._order)

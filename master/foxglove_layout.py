@@ -1,0 +1,48 @@
+"""A Foxglove layout for a tiltload log: the 3D replay, tracking, estimator bounds and actuators.
+
+Built with foxglove-sdk's layout classes; `tiltload layout OUT.json` writes it, and
+docs/foxglove_layout.json is that file (a test keeps the two equal and checks every plotted path
+exists in a run's log). In Foxglove: open the .mcap, then Layouts -> Import from file.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+PATHS = {
+    "tracking x, y, z (m)": [("/plant.x", "x"), ("/scenario.x_ref", "x_ref"), ("/plant.y", "y"), ("/scenario.y_ref", "y_ref"),
+                             ("/plant.z", "z"), ("/scenario.z_ref", "z_ref")],
+    "estimate of x with its bounds (m)": [("/plant.x", "x (true)"), ("/controller.est_x", "estimate"),
+                                          ("/controller.est_x_lo", "lower bound"), ("/controller.est_x_hi", "upper bound")],
+    "estimate of z with its bounds (m)": [("/plant.z", "z (true)"), ("/controller.est_z", "estimate"),
+                                          ("/controller.est_z_lo", "lower bound"), ("/controller.est_z_hi", "upper bound")],
+    "thrusts (N)": [("/controller.f_R", "f_R"), ("/controller.f_L", "f_L"), ("/plant.f_R_applied", "f_R applied"),
+                    ("/plant.f_L_applied", "f_L applied")],
+    "servo torques (N m)": [("/controller.tau_R", "tau_R"), ("/controller.tau_L", "tau_L")],
+    "load attitude and yaw (rad)": [("/plant.phi", "phi"), ("/plant.theta", "theta"), ("/plant.psi", "psi")],
+}
+
+
+def layout_json() -> str:
+    from foxglove import layouts as L
+
+    def plot(title, series):
+        return L.PlotPanel(title=title, config=L.PlotConfig(paths=[L.PlotSeries(value=v, label=lab, enabled=True)
+                                                                   for v, lab in series], show_legend=True))
+
+    plots = [L.SplitItem(content=plot(title, series)) for title, series in PATHS.items()]
+    scene = L.ThreeDeePanel(title="UAV, rod and load", config=L.ThreeDeeConfig(
+        topics={"/scene": L.BaseRendererSceneUpdateTopicSettings(visible=True)}))
+    content = L.SplitContainer(direction="row", items=[
+        L.SplitItem(proportion=1, content=scene),
+        L.SplitItem(proportion=1, content=L.SplitContainer(direction="column", items=plots[:3])),
+        L.SplitItem(proportion=1, content=L.SplitContainer(direction="column", items=plots[3:]))])
+    return json.dumps(json.loads(L.Layout(content=content).to_json()), indent=1, sort_keys=True) + "\n"
+
+
+def write(path: Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(layout_json())
+    return path
