@@ -250,5 +250,15 @@ def main(argv: list[str] | None = None) -> int:
         return 1
 
 
+def entry() -> None:
+    """The `tiltload` command: main(), then an exit that a loaded pythonfmu controller cannot crash."""
+    from .pythonfmu_guard import exit_now, pinned
+
+    code = main()
+    if pinned():
+        exit_now(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -29,3 +29,17 @@ def pipeline_fmus() -> dict[str, Path]:
     for path in paths.values():
         pin(path)
     return paths
+
+
+def pytest_sessionfinish(session, exitstatus):
+    session.config._tiltload_exit = int(exitstatus)
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    """After the report: a process that loaded pythonfmu FMUs (wrapped controllers) leaves without the interpreter
+    shutdown those can crash (master/pythonfmu_guard.py); everything else exits normally."""
+    from tiltload.master.pythonfmu_guard import exit_now, pinned
+
+    if pinned():
+        exit_now(getattr(config, "_tiltload_exit", 0))
