@@ -73,7 +73,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .observers import Metrics
     from .plot import plot_run
     from .run import run_system
-    from .tiltload_system import default_stop, default_system
+    from .tiltload_system import default_stop, default_system, set_parameters
 
     controller_fmu = None
     if args.controller not in ("dlqr", "mixed"):
@@ -90,6 +90,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 print(f"built {', '.join(rebuilt)} into {args.fmus}/")
             system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else "mixed",
                                     args.seed, controller_fmu, args.delay, not args.no_gusts)
+            set_parameters(system, dict(args.set))
             if controller_fmu is not None:
                 from .ports import check_controller
 
@@ -166,6 +167,15 @@ def _positive_time(text: str) -> float:
     return value
 
 
+def _assignment(text: str) -> tuple[str, object]:
+    from .tiltload_system import parse_value
+
+    key, sep, value = text.partition("=")
+    if not sep or "." not in key or not value:
+        raise argparse.ArgumentTypeError(f"must be INSTANCE.NAME=VALUE (e.g. plant.m_L=0.2), got {text!r}")
+    return key.strip(), parse_value(value.strip())
+
+
 def _whole_number(text: str) -> int:
     try:
         value = int(text)
@@ -202,6 +212,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
     r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     r.add_argument("--no-gusts", action="store_true", help="no wind gusts")
+    r.add_argument("--set", type=_assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
+                   help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
     r.add_argument("--system", type=Path, default=None, help="a system description (JSON) instead of the tiltload loop")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")

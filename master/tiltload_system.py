@@ -33,3 +33,25 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int = 1, co
 
 def default_stop(trajectory: int) -> float:
     return DURATION.get(trajectory, 10.0)
+
+
+def set_parameters(system: System, values: dict[str, object]) -> System:
+    """Set FMU parameters given as {"instance.name": value} (the instance must exist; the FMU checks the name)."""
+    from .system import DescriptionError
+
+    for key, value in values.items():
+        instance, _, name = key.partition(".")
+        if not name:
+            raise DescriptionError(f"parameter '{key}' must be written instance.name (e.g. plant.m_L)")
+        system.instance(instance).parameters[name] = value
+    return system
+
+
+def parse_value(text: str):
+    """A parameter value from the command line: an integer, a number, true/false, or a string."""
+    for convert in (int, float):
+        try:
+            return convert(text)
+        except ValueError:
+            pass
+    return {"true": True, "false": False}.get(text.lower(), text)
