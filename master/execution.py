@@ -222,19 +222,37 @@ class Execution:
                 vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
                 self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
                                                               self.instances[dst].setters[typ]))
-            for spec in self.system.instances:
-                inst = self.instances[spec.name]
-                inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
-                inst.call("enterInitializationMode", inst.slave.enterInitializationMode)
-                inst.set_parameters(spec.parameters)
-                inst.call("exitInitializationMode", inst.slave.exitInitializationMode)
-                inst.read_outputs()
         except BaseException:
             raise  # the caller's close() frees what was instantiated
+        self._initialize()
+
+    def _initialize(self) -> None:
+        """Set-up, parameters and initialization of every instance, then the observers start at t = 0."""
+        for spec in self.system.instances:
+            inst = self.instances[spec.name]
+            inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
+            inst.call("enterInitializationMode", inst.slave.enterInitializationMode)
+            inst.set_parameters(spec.parameters)
+            inst.call("exitInitializationMode", inst.slave.exitInitializationMode)
+            inst.read_outputs()
+        self.time, self.ticks_done = 0.0, 0
         for name, inst in self.instances.items():
             self.history[name] = deque([{t: v.copy() for t, v in inst.values.items()}], maxlen=self.max_delay + 1)
         for obs in self.observers:
             obs.start(self)
+
+    def restart(self, parameters: dict[str, dict] | None = None, observers=None) -> None:
+        """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
+        ({instance: {name: value}}, replacing the given instances' parameters) and these observers.
+        Cheaper than instantiating again (campaigns run many runs on one set of FMUs per worker)."""
+        for name, values in (parameters or {}).items():
+            self.system.instance(name).parameters = dict(values)
+        if observers is not None:
+            self.observers = list(observers)
+        for spec in self.system.instances:
+            inst = self.instances[spec.name]
+            inst.call("reset", inst.slave.reset)
+        self._initialize()
 
     def _set_inputs(self, name: str, t: float) -> None:
         inst = self.instances[name]
