@@ -68,11 +68,12 @@ def run(spec: Path, out: Path | None = None, scheduler: str | None = None, worke
     from dask.distributed import as_completed
 
     from .build_all import build_all
-    from .campaign_run import run_case
+    from .campaign_run import error_row, run_case
 
     campaign = load(spec)
     out = Path(out) if out else Path("runs") / "campaigns" / campaign.name
     (out / "parts").mkdir(parents=True, exist_ok=True)
+    (out / f"spec{Path(spec).suffix}").write_bytes(Path(spec).read_bytes())  # the report's rerun commands read it
     logs = out / "logs" if campaign.keep_logs else None
     if logs:
         logs.mkdir(exist_ok=True)
@@ -88,11 +89,18 @@ def run(spec: Path, out: Path | None = None, scheduler: str | None = None, worke
                 "gusts": campaign.gusts, "keep_metrics": list(campaign.keep_metrics)}
         client, cluster = _client(scheduler, workers)
         try:
-            futures = [client.submit(run_case, base, asdict(c), str(Path(fmus).resolve()), str(logs.resolve()) if logs else None,
-                                     key=f"run-{c.run_id}", pure=False) for c in todo]
+            cases = {}  # future -> case: the futures must stay referenced, or Dask forgets their tasks
+            for c in todo:
+                future = client.submit(run_case, base, asdict(c), str(Path(fmus).resolve()), str(logs.resolve()) if logs else None,
+                                       key=f"run-{c.run_id}", pure=False)
+                cases[future] = c
             started = time.perf_counter()
-            for k, future in enumerate(as_completed(futures), start=1):
-                result = future.result()
+            for k, future in enumerate(as_completed(list(cases)), start=1):
+                try:
+                    result = future.result()
+                except Exception as err:  # the worker died (a crashing FMU): the run is a row with that line
+                    result = {"row": error_row(asdict(cases[future]), f"worker lost: {type(err).__name__}: {err}"),
+                              "wall": 0.0, "setup": 0.0, "sim_time": 0.0}
                 _write_part(out / "parts", result)
                 counts["ran"] += 1
                 counts["failed"] += not result["row"]["completed"]

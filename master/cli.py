@@ -36,6 +36,29 @@ def cmd_wrap(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_campaign(args: argparse.Namespace) -> int:
+    from .campaign_report import ReportError, report
+    from .campaign_spec import SpecError
+
+    try:
+        if args.what == "report":
+            if args.results is None:
+                raise UserError("campaign report: name the results file (e.g. runs/campaigns/NAME/results.parquet)")
+            path = report(args.results, args.spec, args.x, args.y)
+            print(f"report: {path}")
+            return 0
+        from .campaign import run
+
+        if args.results is not None:
+            raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign report RESULTS)")
+        results, counts = run(Path(args.what), args.out, args.scheduler, args.workers, args.fmus)
+    except (SpecError, ReportError) as err:
+        raise UserError(str(err)) from None
+    print(f"{counts['total']} runs: {counts['skipped']} were done, {counts['ran']} ran, {counts['failed']} failed")
+    print(f"results: {results}")
+    return 0
+
+
 def cmd_layout(args: argparse.Namespace) -> int:
     from .foxglove_layout import write
 
@@ -239,6 +262,17 @@ def main(argv: list[str] | None = None) -> int:
     cp.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
     cp.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
     cp.set_defaults(func=cmd_compare)
+    ca = sub.add_parser("campaign", help="run a campaign spec on Dask (TOML/YAML), or 'report RESULTS' to summarize one")
+    ca.add_argument("what", help="the campaign spec, or 'report'")
+    ca.add_argument("results", nargs="?", type=Path, default=None, help="with report: the results.parquet")
+    ca.add_argument("--out", type=Path, default=None, help="results folder (default runs/campaigns/<name>)")
+    ca.add_argument("--scheduler", default=None, help="an existing Dask scheduler, tcp://HOST:PORT (default: a local cluster)")
+    ca.add_argument("--workers", type=_whole_number, default=None, help="local cluster size (default: one per core)")
+    ca.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    ca.add_argument("--spec", type=Path, default=None, help="with report: the spec, for the rerun commands")
+    ca.add_argument("--x", default=None, help="with report: the varied parameter on the maps' x axis")
+    ca.add_argument("--y", default=None, help="with report: the varied parameter on the maps' y axis")
+    ca.set_defaults(func=cmd_campaign)
     lo = sub.add_parser("layout", help="write the Foxglove layout for tiltload logs (3D replay, tracking, bounds, actuators)")
     lo.add_argument("out", type=Path, nargs="?", default=Path("runs/foxglove_layout.json"))
     lo.set_defaults(func=cmd_layout)
