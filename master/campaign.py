@@ -86,7 +86,7 @@ def run(spec: Path, out: Path | None = None, scheduler: str | None = None, worke
         build_all(fmus, progress=say)
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
         base = {"scenario": campaign.scenario, "trajectory": campaign.trajectory, "stop_time": campaign.stop_time,
-                "gusts": campaign.gusts, "keep_metrics": list(campaign.keep_metrics)}
+                "gusts": campaign.gusts, "keep_metrics": list(campaign.keep_metrics), "faults": campaign.faults}
         client, cluster = _client(scheduler, workers)
         try:
             cases = {}  # future -> case: the futures must stay referenced, or Dask forgets their tasks

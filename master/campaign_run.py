@@ -82,12 +82,22 @@ class CampaignMetrics(Metrics):
 
 
 def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
+    import copy
+
+    from .manipulators import parse
+
     is_fmu = controller not in ("dlqr", "mixed")
     system = default_system(fmu_dir, base["scenario"], base["trajectory"], "mixed" if is_fmu else controller, seed,
                             Path(controller) if is_fmu else None, gusts=base["gusts"])
+    faults = copy.deepcopy(base.get("faults", []))
     for key, value in parameters.items():
+        if key.startswith("faults."):
+            _, index, field = key.split(".")
+            faults[int(index)][field] = value
+            continue
         instance, _, name = key.partition(".")
         system.instance(instance).parameters[name] = value
+    system.faults = parse(faults) if faults else []
     return system
 
 
@@ -123,7 +133,7 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
             execution = Execution(system, observers)
             execution.instantiate()
         else:
-            execution.restart({i.name: i.parameters for i in system.instances}, observers)
+            execution.restart({i.name: i.parameters for i in system.instances}, observers, system.faults)
         setup = time.perf_counter() - started
         execution.run(stop)
     except Exception as err:  # the run's one line; the row keeps it

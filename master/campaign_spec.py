@@ -20,6 +20,9 @@
     metrics = ["ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"]
     logs = false                # true: keep every run's MCAP log
 
+`base.faults` is a fault schedule (docs/faults.md); a varied parameter's target `faults.N.start`,
+`faults.N.end` or `faults.N.value` varies fault N.
+
 A JSON Schema declares the format; a file that breaks it is refused with the path of the field.
 """
 
@@ -45,7 +48,8 @@ SCHEMA = {
             "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
             "gusts": {"type": "boolean"},
             "parameters": {"type": "object", "propertyNames": {"pattern": r"^[A-Za-z_]\w*\.[A-Za-z_]\w*$"},
-                           "additionalProperties": {"type": ["number", "string", "boolean"]}}}},
+                           "additionalProperties": {"type": ["number", "string", "boolean"]}},
+            "faults": {"type": "array"}}},
         "vary": {"type": "object", "additionalProperties": False, "properties": {
             "seeds": {"type": "array", "minItems": 1, "uniqueItems": True,
                       "items": {"type": "integer", "minimum": 0, "maximum": 2147483647}},
@@ -56,7 +60,8 @@ SCHEMA = {
                 "type": "object", "additionalProperties": False, "required": ["name", "targets"],
                 "properties": {
                     "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
-                    "targets": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern": r"^[A-Za-z_]\w*\.[A-Za-z_]\w*$"}},
+                    "targets": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern":
+                                r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value))$"}},
                     "values": {"type": "array", "minItems": 1, "items": {"type": "number"}},
                     "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}}}}}}},
         "keep": {"type": "object", "additionalProperties": False, "properties": {
@@ -90,6 +95,7 @@ class Campaign:
     gusts: bool
     keep_metrics: tuple[str, ...]
     keep_logs: bool
+    faults: list  # their JSON form; "faults.N.field" targets vary them
     varied: list[str]
     cases: list[Case]
     source: Path
@@ -180,6 +186,17 @@ def load(path: Path) -> Campaign:
             raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
     controllers = [c if c in ("dlqr", "mixed") else str((path.parent / c).resolve()) for c in controllers]
     seeds = vary.get("seeds", [1])
+    faults = base.get("faults", [])
+    from .manipulators import FaultError, parse
+
+    try:
+        parse(faults, f"{path}: base.faults")
+    except FaultError as err:
+        raise SpecError(str(err)) from None
+    for p in vary.get("parameters", []):
+        for target in p["targets"]:
+            if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
+                raise SpecError(f"{path}: vary.parameters.{p['name']}: {target} names a fault base.faults does not have")
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     cases = []
     for point in _points(vary, path):
@@ -194,5 +211,5 @@ def load(path: Path) -> Campaign:
     if len(set(ids)) != len(ids):
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
     return Campaign(data["name"], base.get("scenario", "zse"), base.get("trajectory", 1), base.get("stop_time"),
-                    base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False),
+                    base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
                     list(targets), cases, path)

@@ -114,6 +114,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else "mixed",
                                     args.seed, controller_fmu, args.delay, not args.no_gusts)
             set_parameters(system, dict(args.set))
+        if args.faults is not None:
+            from .manipulators import FaultError
+            from .manipulators import load as load_faults
+
+            try:
+                system.faults = [*system.faults, *load_faults(args.faults)]
+            except FaultError as err:
+                raise UserError(str(err)) from None
             if controller_fmu is not None:
                 from .ports import check_controller
 
@@ -235,6 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
     r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     r.add_argument("--no-gusts", action="store_true", help="no wind gusts")
+    r.add_argument("--faults", type=Path, default=None, metavar="FILE",
+                   help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
     r.add_argument("--set", type=_assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
     r.add_argument("--system", type=Path, default=None, help="a system description (JSON) instead of the tiltload loop")

@@ -211,6 +211,11 @@ class Execution:
         self.groups: dict[str, list[_Group]] = {}
         self.max_delay = max((link.delay for link in self.links), default=0)
         self.history: dict[str, deque] = {}
+        self.manipulator = None
+        if system.faults:
+            from .manipulators import Manipulator
+
+            self.manipulator = Manipulator(system.faults)
 
     def instantiate(self) -> None:
         try:
@@ -222,6 +227,8 @@ class Execution:
                 vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
                 self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
                                                               self.instances[dst].setters[typ]))
+            if self.manipulator is not None:
+                self.manipulator.bind(self)
         except BaseException:
             raise  # the caller's close() frees what was instantiated
         self._initialize()
@@ -241,7 +248,7 @@ class Execution:
         for obs in self.observers:
             obs.start(self)
 
-    def restart(self, parameters: dict[str, dict] | None = None, observers=None) -> None:
+    def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None) -> None:
         """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
         ({instance: {name: value}}, replacing the given instances' parameters) and these observers.
         Cheaper than instantiating again (campaigns run many runs on one set of FMUs per worker)."""
@@ -249,6 +256,16 @@ class Execution:
             self.system.instance(name).parameters = dict(values)
         if observers is not None:
             self.observers = list(observers)
+        if faults is not None:  # a new fault schedule (a list, possibly empty)
+            from .manipulators import Manipulator
+
+            self.system.faults = list(faults)
+            self.manipulator = Manipulator(self.system.faults) if faults else None
+            if self.manipulator is not None:
+                self.manipulator.bind(self)
+        elif self.manipulator is not None:
+            self.manipulator = type(self.manipulator)(self.system.faults)  # fresh state: holds, histories
+            self.manipulator.bind(self)
         for spec in self.system.instances:
             inst = self.instances[spec.name]
             inst.call("reset", inst.slave.reset)
@@ -257,13 +274,17 @@ class Execution:
     def _set_inputs(self, name: str, t: float) -> None:
         inst = self.instances[name]
         component = inst.slave.component
-        for g in self.groups.get(name, ()):
+        groups = self.groups.get(name, ())
+        for g in groups:
             if g.delay == 0:
                 src = self.instances[g.source].values[g.type]
             else:
                 hist = self.history[g.source]
                 src = hist[max(len(hist) - g.delay, 0)][g.type]
             np.take(src, g.src_index, out=g.view)
+        if self.manipulator is not None:
+            self.manipulator.apply(name, "input", t, self.observers)
+        for g in groups:
             started = time.perf_counter()
             status = g.setter(component, g.dst_vrs, len(g.view), g.values)
             inst.fmi_seconds += time.perf_counter() - started
@@ -281,6 +302,8 @@ class Execution:
             self._set_inputs(spec.name, t)
             inst.do_step(t, n * tick)
             inst.read_outputs()
+            if self.manipulator is not None:
+                self.manipulator.apply(spec.name, "output", t, self.observers)
             when = t + n * tick if spec.timing == "continuous" else t
             for obs in self.observers:
                 obs.on_step(inst, when)

@@ -73,8 +73,19 @@ class McapLogger(Observer):
                 message_encoding="json", context=self._context)
             self._scene_names = [v.name for v in execution.instances[self.scene_from].outputs["Real"]]
             self._scene = scene.SceneEncoder()
+        self._faults_channel = None
+        if execution.system.faults:
+            self._faults_channel = foxglove.Channel("/faults", schema={"type": "object", "title": "fault events", "properties": {
+                "t": {"type": "number"}, "event": {"type": "string"}, "name": {"type": "string"}, "action": {"type": "string"},
+                "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, context=self._context)
         for inst in execution.instances.values():
             self.on_step(inst, 0.0)
+
+    def on_fault(self, t, fault, what) -> None:
+        from .manipulators import describe
+
+        if self._faults_channel is not None:
+            self._faults_channel.log(json.dumps({"t": t, "event": what, **describe(fault)}), log_time=int(round(t * 1e9)))
 
     def on_step(self, instance, t) -> None:
         name = instance.name

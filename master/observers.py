@@ -15,6 +15,8 @@ class Observer:
 
     def on_tick(self, k: int, t: float) -> None: ...
 
+    def on_fault(self, t: float, fault, what: str) -> None: ...  # what: "start" or "end" (master/manipulators.py)
+
     def finish(self, execution, error: str | None) -> None: ...
 
 

@@ -17,19 +17,38 @@ def _series(msgs: list[dict], *names: str) -> np.ndarray:
     return np.array([[np.nan if m.get(n) is None else m[n] for n in names] for m in msgs], dtype=float)
 
 
+def fault_intervals(events: list[dict], t_end: float) -> list[tuple[float, float, str]]:
+    """(start, end, name) of each fault from the /faults events; a fault still on at the end lasts to t_end."""
+    started, out = {}, []
+    for e in events:
+        if e["event"] == "start":
+            started[e["name"]] = e["t"]
+        elif e["name"] in started:
+            out.append((started.pop(e["name"]), e["t"], e["name"]))
+    out += [(t0, t_end, name) for name, t0 in started.items()]
+    return sorted(out)
+
+
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     """Write <stem>_*.png next to the log (or into out); returns the files written."""
     log = Path(log)
     out = log.parent if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = mcap_log.read(log, topics=["/plant", "/scenario", "/controller"])
+    data = mcap_log.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
     if "/plant" not in data:
         raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
     plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
     tp = _series(plant, "t")[:, 0]
     files = []
+    intervals = fault_intervals(data.get("/faults", []), float(tp[-1]) if len(tp) else 0.0)
 
     def save(fig, name):
+        for ax in fig.axes:  # faults as shaded intervals on every time axis
+            if ax.name != "3d":
+                for k, (t0, t1, label) in enumerate(intervals):
+                    ax.axvspan(t0, t1, color=f"C{3 + k % 6}", alpha=0.15, lw=0, label=label if ax is fig.axes[0] else None)
+        if intervals and fig.axes and fig.axes[0].name != "3d":
+            fig.axes[0].legend(fontsize=7, loc="upper right")
         path = out / f"{log.stem}_{name}.png"
         fig.tight_layout()
         fig.savefig(path, dpi=110)

@@ -38,6 +38,7 @@ class System:
     instances: list[Instance]  # in the in-tick stepping order
     connections: list[Connection] = field(default_factory=list)  # explicit; the rest by unique name
     auto_connect: bool = True
+    faults: list = field(default_factory=list)  # manipulators.Fault: injected between outputs and inputs
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -92,6 +93,13 @@ def load(path: Path) -> System:
                               i.get("timing", "sample")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
+        if "faults" in data:
+            from .manipulators import FaultError, parse
+
+            try:
+                system.faults = parse(data["faults"], f"{path}: faults")
+            except FaultError as err:
+                raise DescriptionError(str(err)) from None
     except (KeyError, TypeError, ValueError) as err:
         raise DescriptionError(f"{path}: malformed system description ({type(err).__name__}: {err})") from None
     return validate(system)

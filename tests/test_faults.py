@@ -1,0 +1,169 @@
+"""Manipulators (faults and timing faults): the exact effect of each on the logged signal, the GPS dropout
+seen by the ZSE, actuator faults on the plant's inputs, libcosim scenario files, bad schedules."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tiltload.master import mcap_log
+from tiltload.master.cli import main
+from tiltload.master.manipulators import FaultError, load, parse
+from tiltload.master.run import run_system
+from tiltload.master.system import Instance, System
+from tiltload.master.tiltload_system import default_system
+
+ROOT = Path(__file__).resolve().parents[1]
+T = 0.012
+W = math.pi / 20  # trajectory 1: x_ref = 2 cos(W t)
+
+
+@pytest.fixture(scope="module")
+def fmus(pipeline_fmus):
+    return pipeline_fmus["TiltloadPlant"].parent
+
+
+def scenario_run(fmus, tmp_path, fault: dict, stop=1.2) -> tuple[np.ndarray, np.ndarray, list]:
+    """The scenario FMU alone, one fault on x_ref: the logged x_ref at every tick, and the fault events."""
+    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
+    system.faults = parse([{"target": "scenario.x_ref", "start": 0.36, "end": 0.72, **fault}])
+    res = run_system(system, stop, tmp_path / "s.mcap", progress=False, scene_from=None)
+    assert res.error is None
+    data = mcap_log.read(res.log)
+    msgs = data["/scenario"][1:]  # after the t = 0 message: one per step
+    return np.array([m["t"] for m in msgs]), np.array([m["x_ref"] for m in msgs]), data["/faults"]
+
+
+def truth(t):
+    return 2 * np.cos(W * t)
+
+
+ACTIVE = lambda t: (t >= 0.36 - 1e-9) & (t < 0.72 - 1e-9)  # noqa: E731
+
+
+@pytest.mark.parametrize("fault, expected", [
+    ({"action": "override", "value": 7.5}, lambda t, x: np.where(ACTIVE(t), 7.5, x)),
+    ({"action": "bias", "value": -0.25}, lambda t, x: np.where(ACTIVE(t), x - 0.25, x)),
+    ({"action": "scale", "value": 0.5}, lambda t, x: np.where(ACTIVE(t), 0.5 * x, x)),
+    ({"action": "ramp", "value": 2.0}, lambda t, x: np.where(ACTIVE(t), x + 2.0 * (t - 0.36), x)),
+    ({"action": "clamp", "value": [0.0, 1.999]}, lambda t, x: np.where(ACTIVE(t), np.minimum(x, 1.999), x)),
+    ({"action": "hold"}, lambda t, x: np.where(ACTIVE(t), truth(0.36), x)),
+    ({"action": "delay", "value": 3}, lambda t, x: np.where(ACTIVE(t), truth(t - 3 * T), x)),
+    ({"action": "stale", "value": 5}, lambda t, x: np.where(ACTIVE(t), truth(t - 5 * T), x)),
+])
+def test_each_manipulator_changes_the_signal_exactly_and_only_while_active(fmus, tmp_path, fault, expected):
+    t, x, events = scenario_run(fmus, tmp_path, fault)
+    np.testing.assert_allclose(x, expected(t, truth(t)), rtol=0, atol=1e-12)
+    assert [(e["event"], round(e["t"], 6)) for e in events] == [("start", 0.36), ("end", 0.72)]
+
+
+def test_noise_and_jitter_are_seeded_and_bounded(fmus, tmp_path):
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "noise", "value": 0.1, "seed": 3})
+    _, again, _ = scenario_run(fmus, tmp_path, {"action": "noise", "value": 0.1, "seed": 3})
+    _, other, _ = scenario_run(fmus, tmp_path, {"action": "noise", "value": 0.1, "seed": 4})
+    on = ACTIVE(t)
+    assert np.array_equal(x, again) and not np.array_equal(x[on], other[on])
+    assert np.array_equal(x[~on], truth(t[~on])) and 0.03 < np.std(x[on] - truth(t[on])) < 0.2
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "jitter", "value": 4, "seed": 1})
+    lags = [min(range(5), key=lambda n: abs(x[i] - truth(t[i] - n * T))) for i in np.flatnonzero(ACTIVE(t))]
+    assert set(lags) <= set(range(5)) and len(set(lags)) >= 3  # 0..4 ticks, drawn per tick
+    for i, n in zip(np.flatnonzero(ACTIVE(t)), lags):
+        assert x[i] == pytest.approx(truth(t[i] - n * T), abs=1e-12)
+
+
+def test_dropout_holds_the_last_sample_and_keeps_the_flag_down(fmus, tmp_path):
+    system = System(T, [Instance("sensors", fmus / "TiltloadSensors.fmu")])
+    system.faults = parse([{"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new",
+                            "start": 0.5, "end": 1.0}])
+    res = run_system(system, 1.5, tmp_path / "d.mcap", progress=False, scene_from=None)
+    msgs = mcap_log.read(res.log)["/sensors"][1:]
+    t = np.array([m["t"] for m in msgs])
+    flag = np.array([m["gps_new"] for m in msgs])
+    x = np.array([m["meas_x_B"] for m in msgs])
+    k = np.round(t / T).astype(int)
+    on = (t >= 0.5 - 1e-9) & (t < 1.0 - 1e-9)
+    assert not flag[on].any() and np.array_equal(flag[~on], k[~on] % 10 == 0)  # GPS every 10 ticks, none while lost
+    last = x[np.flatnonzero(t < 0.5)[-1]]
+    assert np.all(x[on] == last)  # the last sample before the loss, held
+    assert x[np.flatnonzero(~on & (t > 1.0))[0]] != last  # and the next real sample afterwards
+
+
+def test_gps_lost_for_5_s_widens_the_zse_bounds_and_keeps_the_truth_inside(fmus, tmp_path):
+    system = default_system(fmus, "zse", 1, "mixed")
+    system.faults = load(ROOT / "docs" / "faults" / "gps_dropout.json")
+    res = run_system(system, 30.0, tmp_path / "g.mcap", progress=False)
+    assert res.error is None
+    data = mcap_log.read(res.log, topics=["/plant", "/controller"])
+    ctrl = data["/controller"]
+    t = np.array([m["t"] for m in ctrl])
+    width = np.array([m["est_x_hi"] - m["est_x_lo"] for m in ctrl])
+    before, during, after = width[(t > 10) & (t < 15)], width[(t > 19) & (t < 20)], width[(t > 25) & (t < 30)]
+    assert during.mean() > 10 * before.mean()  # no GPS: the x bound grows
+    assert after.mean() < 2 * before.mean()  # and shrinks back once it returns
+    plant = {round(m["t"], 6): m for m in data["/plant"]}
+    states = ("x", "y", "z", "phi", "theta", "psi", "x_dot", "y_dot", "z_dot", "phi_dot", "theta_dot", "psi_dot")
+    inside = [all(m[f"est_{n}_lo"] <= plant[round(m["t"], 6)][n] <= m[f"est_{n}_hi"] for n in states)
+              for m in ctrl if m["t"] >= 1.0 and round(m["t"], 6) in plant]
+    assert len(inside) > 2000 and all(inside)  # containment 100 % through the dropout (after the start's transient)
+
+
+def test_thrust_loss_scales_what_the_plant_applies(fmus, tmp_path):
+    system = default_system(fmus, "fsi", 1, "mixed")
+    system.faults = parse([{"action": "scale", "target": "plant.f_R", "value": 0.7, "start": 1.2}])
+    res = run_system(system, 2.4, tmp_path / "f.mcap", progress=False)
+    data = mcap_log.read(res.log, topics=["/plant", "/controller"])
+    commanded = {round(m["t"], 6): m["f_R"] for m in data["/controller"]}
+    for m in data["/plant"][1:]:
+        t_k = round(m["t"] - T, 6)  # the plant's message at t_k + T holds what it applied over the tick from t_k
+        factor = 0.7 if t_k >= 1.2 - 1e-9 else 1.0
+        assert m["f_R_applied"] == pytest.approx(factor * commanded[t_k], rel=1e-12), t_k
+
+
+def test_a_libcosim_scenario_file_runs_unchanged(fmus, tmp_path, capsys):
+    faults = load(ROOT / "docs" / "faults" / "libcosim_scenario.json")
+    assert [(f.action, f.targets, f.start, f.end, f.value) for f in faults] == [
+        ("bias", ["sensors.meas_z_B"], 8.0, 12.0, 0.3), ("override", ["scenario.d_x"], 14.0, 16.0, 0.15)]
+    code = main(["run", "--faults", str(ROOT / "docs" / "faults" / "libcosim_scenario.json"), "--stop-time", "17",
+                 "--fmus", str(fmus), "--out", str(tmp_path), "--quiet"])
+    assert code == 0, capsys.readouterr().err
+    log = next(tmp_path.glob("*.mcap"))
+    d_x = {round(m["t"], 6): m["d_x"] for m in mcap_log.read(log, topics=["/scenario"])["/scenario"]}
+    gust = lambda t: 0.1 * (1 - math.exp(-(t - 10.0) / 0.5))  # noqa: E731  (the x gust: 0.1 N from t = 10 s, 0.5 s lag)
+    assert d_x[15.0] == 0.15 and d_x[13.992] == pytest.approx(gust(13.992), abs=1e-12)
+    assert d_x[16.008] == pytest.approx(gust(16.008), abs=1e-12)  # the override ended: the gust's own value again
+    assert len(list(tmp_path.glob("*.png"))) == 6  # the figures, with the faults shaded
+
+
+@pytest.mark.parametrize("faults, needle", [
+    ([{"action": "melt", "target": "plant.f_R", "start": 1}], "0.action: 'melt' is not one of"),
+    ([{"action": "bias", "target": "plant.f_R", "start": 1}], "bias needs a value"),
+    ([{"action": "bias", "target": "f_R", "value": 1, "start": 1}], "does not match"),
+    ([{"action": "bias", "target": "plant.f_R", "value": 1, "start": 3, "end": 2}], "end 2 must come after start 3"),
+    ([{"action": "delay", "target": "plant.f_R", "value": 1.5, "start": 1}], "delay takes a whole number of ticks"),
+    ([{"action": "dropout", "target": "sensors.meas_x_B", "start": 1}], "dropout needs the group's flag"),
+    ([{"action": "clamp", "target": "plant.f_R", "value": [3, 1], "start": 1}], "clamp takes value = [low, high]"),
+    ([{"action": "bias", "target": "rotor.f_R", "value": 1, "start": 1}], "no instance 'rotor'"),
+    ([{"action": "bias", "target": "plant.f_X", "value": 1, "start": 1}], "plant has no variable 'f_X'"),
+    ([{"action": "bias", "target": "plant.m_L", "value": 1, "start": 1}], "plant.m_L is a parameter"),
+])
+def test_a_bad_fault_schedule_is_refused_in_one_line(fmus, tmp_path, capsys, faults, needle):
+    path = tmp_path / "faults.json"
+    path.write_text(json.dumps(faults))
+    code = main(["run", "--faults", str(path), "--stop-time", "0.5", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet",
+                 "--no-plots"])
+    err = capsys.readouterr().err
+    assert code != 0 and needle in err and err.count("\n") == 1 and "Traceback" not in err, err
+
+
+def test_fault_files_that_are_not_schedules_are_named(tmp_path):
+    for text, needle in (("[1, 2", "cannot read it"), ('{"x": 1}', "a fault file is a list of faults"),
+                         ('{"events": [{"time": 1}]}', "events.0: no model")):
+        path = tmp_path / "f.json"
+        path.write_text(text)
+        with pytest.raises(FaultError, match=needle.replace(".", r"\.")):
+            load(path)
+    with pytest.raises(FaultError, match="does not exist"):
+        load(tmp_path / "none.json")
