@@ -114,6 +114,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else "mixed",
                                     args.seed, controller_fmu, args.delay, not args.no_gusts)
             set_parameters(system, dict(args.set))
+            if controller_fmu is not None:
+                from .ports import check_controller
+
+                check_controller(read_fmu(controller_fmu, "controller"))
         if args.faults is not None:
             from .manipulators import FaultError
             from .manipulators import load as load_faults
@@ -122,10 +126,6 @@ def cmd_run(args: argparse.Namespace) -> int:
                 system.faults = [*system.faults, *load_faults(args.faults)]
             except FaultError as err:
                 raise UserError(str(err)) from None
-            if controller_fmu is not None:
-                from .ports import check_controller
-
-                check_controller(read_fmu(controller_fmu, "controller"))
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
     stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
