@@ -151,7 +151,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         where = (f"the log is readable up to t = {result.sim_time:.3f} s" if log.is_file() else "no log was written") if log \
             else "no log (--no-log)"
         print(f"tiltload: error: {result.error}; {where}", file=sys.stderr)
-        return 1
+        return 128 + result.signal if result.signal else 1
     if not args.no_plots and log is not None:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
@@ -170,11 +170,14 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from . import compare as cmp
     from .system import DescriptionError
 
+    notes: list[str] = []
     try:
-        run, _ = cmp.load_metrics(args.run)
-        base, tol = cmp.load_metrics(args.baseline)
+        run, _ = cmp.load_metrics(args.run, notes)
+        base, tol = cmp.load_metrics(args.baseline, notes)
     except DescriptionError as err:
         raise UserError(str(err)) from None
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
     ok, rows = cmp.compare(run, base, args.rtol, args.atol, tol)
     print(cmp.format_rows(rows))
     print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
@@ -182,10 +185,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    from .mcap_log import is_truncated
     from .plot import plot_run
 
     if not args.log.is_file():
         raise UserError(f"{args.log} does not exist")
+    if is_truncated(args.log):
+        print(f"note: {args.log} is truncated (no footer: a killed run); plotting what it holds", file=sys.stderr)
     for f in plot_run(args.log, args.out):
         print(f)
     return 0
@@ -309,7 +315,9 @@ def main(argv: list[str] | None = None) -> int:
 def entry() -> None:
     """The `tiltload` command: main(), then an exit that a loaded pythonfmu controller cannot crash."""
     from .pythonfmu_guard import exit_now, pinned
+    from .run import terminate_like_interrupt
 
+    terminate_like_interrupt()
     code = main()
     if pinned():
         exit_now(code)

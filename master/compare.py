@@ -10,12 +10,15 @@ import json
 import math
 from pathlib import Path
 
-from .mcap_log import read_metadata
+from .mcap_log import read_log, read_metadata
 from .system import DescriptionError
 
 
-def load_metrics(path: Path) -> tuple[dict[str, float], dict]:
-    """(metrics, tolerances) from a .mcap log (its "metrics" record) or a baseline .json."""
+def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
+    """(metrics, tolerances) from a .mcap log (its "metrics" record) or a baseline .json.
+
+    A log without a metrics record (a killed run, truncated) gets its metrics recomputed from its
+    messages; `notes` (a list) receives a line saying so."""
     path = Path(path)
     if not path.is_file():
         raise DescriptionError(f"{path} does not exist")
@@ -25,12 +28,21 @@ def load_metrics(path: Path) -> tuple[dict[str, float], dict]:
             return {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
         except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
             raise DescriptionError(f"{path} is not a metrics file ({type(err).__name__}: {err})") from None
-    try:
-        meta = read_metadata(path)
-    except Exception as err:  # mcap raises several types for a non-MCAP file
-        raise DescriptionError(f"{path} is not a readable MCAP log ({err})") from None
+    with open(path, "rb") as f:
+        if f.read(8) != b"\x89MCAP0\r\n":
+            raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
+    meta = read_metadata(path)
     if "metrics" not in meta:
-        raise DescriptionError(f"{path} has no metrics record (not a tiltload run of the thesis loop?)")
+        from .log_metrics import metrics_from_messages
+
+        data, truncated = read_log(path, topics=["/plant", "/scenario", "/controller"])
+        if not data.get("/controller") or not data.get("/plant"):
+            raise DescriptionError(f"{path} has no metrics record and no loop messages (not a tiltload run of the thesis loop?)")
+        metrics, last = metrics_from_messages(data)
+        if notes is not None:
+            notes.append(f"{path} {'is truncated (no footer: a killed run)' if truncated else 'has no metrics record'}: "
+                         f"metrics recomputed from its messages up to t = {last:.3f} s")
+        return metrics, {}
     record = meta["metrics"]
     if record.get("complete") != "True":
         raise DescriptionError(f"{path} is an incomplete run (stopped after {record.get('ticks')} ticks)")

@@ -21,7 +21,7 @@ from . import scene
 from .log_encoding import LAYOUT, FixedMessage, fits
 from .observers import Observer
 
-CHUNK = 64 * 1024
+CHUNK = 32 * 1024  # a killed run loses at most one chunk: about 12 ticks (0.15 s) of the loop
 
 
 def _clean(x: float):
@@ -48,7 +48,10 @@ class McapLogger(Observer):
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._context = foxglove.Context()  # this log's own channels, apart from any other run in the process
         options = MCAPWriteOptions(compression=MCAPCompression.Zstd, chunk_size=CHUNK, compression_threads=0)
-        self._writer = foxglove.open_mcap(str(self.path), allow_overwrite=True, context=self._context, writer_options=options)
+        # written under a temporary name: an earlier log of the same name is replaced only when this one is closed
+        # (complete, or partial after an error or an interrupt); a killed run leaves <name>.partial beside it
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        self._writer = foxglove.open_mcap(str(self.partial), allow_overwrite=True, context=self._context, writer_options=options)
         self._writer.write_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
         self._channels, self._encoders, self._steps = {}, {}, {}
         for name, inst in execution.instances.items():
@@ -117,6 +120,7 @@ class McapLogger(Observer):
             self._writer.write_metadata(name, {k: repr(v) if isinstance(v, float) else str(v) for k, v in record.items()})
         self._writer.close()
         self._writer = None
+        self.partial.replace(self.path)
 
 
 def _decoder(schema, channel):
@@ -138,18 +142,81 @@ def _decoder(schema, channel):
 
 
 def read(path: Path, topics: list[str] | None = None) -> dict[str, list[dict]]:
-    """Messages per topic, decoded (protobuf or JSON; non-finite JSON values come back as None), in log-time order."""
+    """Messages per topic, decoded (protobuf or JSON; non-finite JSON values come back as None), in log-time order.
+
+    A log without its summary (a run killed mid-way) is read record by record up to its last complete
+    chunk; `is_truncated(path)` tells whether that was needed."""
+    return read_log(path, topics)[0]
+
+
+def read_log(path: Path, topics: list[str] | None = None) -> tuple[dict[str, list[dict]], bool]:
+    """(messages per topic, truncated): truncated is True for a log without footer, recovered by a streaming read."""
     out: dict[str, list[dict]] = {}
     decoders: dict[int, object] = {}
+    try:
+        with open(path, "rb") as f:
+            for schema, channel, message in make_reader(f).iter_messages(topics=topics):
+                decode = decoders.get(channel.id)
+                if decode is None:
+                    decode = decoders[channel.id] = _decoder(schema, channel)
+                out.setdefault(channel.topic, []).append(decode(message.data))
+        return out, False
+    except Exception:  # no footer or summary: read what was written, record by record
+        return _stream(path, topics), True
+
+
+def _stream(path: Path, topics: list[str] | None) -> dict[str, list[dict]]:
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    schemas, channels, decoders, out = {}, {}, {}, {}
     with open(path, "rb") as f:
-        for schema, channel, message in make_reader(f).iter_messages(topics=topics):
-            decode = decoders.get(channel.id)
-            if decode is None:
-                decode = decoders[channel.id] = _decoder(schema, channel)
-            out.setdefault(channel.topic, []).append(decode(message.data))
+        try:
+            for record in StreamReader(f).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    channel = channels.get(record.channel_id)
+                    if channel is None or (topics is not None and channel.topic not in topics):
+                        continue
+                    decode = decoders.get(channel.id)
+                    if decode is None:
+                        decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel)
+                    out.setdefault(channel.topic, []).append(decode(record.data))
+        except Exception:  # the torn end of the file: everything before it is kept
+            pass
+    for msgs in out.values():
+        msgs.sort(key=lambda m: m.get("t", 0.0))
     return out
 
 
+def is_truncated(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            make_reader(f).get_summary()
+            f.seek(-8, 2)
+            return f.read(8) != b"\x89MCAP0\r\n"
+    except Exception:
+        return True
+
+
 def read_metadata(path: Path) -> dict[str, dict]:
-    with open(path, "rb") as f:
-        return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+    """Metadata records by name ({} for a truncated log whose summary is lost)."""
+    try:
+        with open(path, "rb") as f:
+            return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+    except Exception:
+        from mcap.records import Metadata
+        from mcap.stream_reader import StreamReader
+
+        found = {}
+        with open(path, "rb") as f:
+            try:
+                for record in StreamReader(f).records:
+                    if isinstance(record, Metadata):
+                        found[record.name] = dict(record.metadata)
+            except Exception:
+                pass
+        return found

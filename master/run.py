@@ -24,6 +24,7 @@ class RunResult:
     sim_time: float
     wall: float
     error: str | None
+    signal: int | None = None  # the signal that interrupted the run (SIGINT 2, SIGTERM 15)
 
 
 def run_system(system: System, stop: float, log: Path | None, metrics: Metrics | None = None, progress: bool = True,
@@ -37,12 +38,13 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
         observers.append(Progress(stop))
     ex = Execution(system, observers)
     started = time.perf_counter()
-    error = None
+    error, signum = None, None
     try:
         ex.instantiate()
         ex.run(stop)
-    except KeyboardInterrupt:
-        error = f"interrupted at t = {ex.time:.3f} s"
+    except KeyboardInterrupt as err:
+        signum = getattr(err, "signum", 2)
+        error = f"interrupted by {'SIGTERM' if signum == 15 else 'SIGINT'} at t = {ex.time:.3f} s"
     except Exception as err:
         error = f"{err} (at t = {ex.time:.3f} s)" if "t=" not in str(err) else str(err)
     finally:
@@ -50,4 +52,22 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
             logger.final_metadata["metrics"] = {**metrics.table(), "ticks": ex.ticks_done, "complete": error is None}
         ex.close(error)
     return RunResult(metrics.table() if metrics else {}, Path(log) if log is not None else None, ex.ticks_done, ex.time,
-                     time.perf_counter() - started, error)
+                     time.perf_counter() - started, error, signum)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the run is: handled as Ctrl-C is (the log is finalized), reported as SIGTERM."""
+
+    signum = 15
+
+
+def terminate_like_interrupt() -> None:
+    """Make SIGTERM stop a run the way Ctrl-C does (the main thread only)."""
+    import signal
+
+    def handler(signum, frame):
+        raise Terminated()
+    try:
+        signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave the default
+        pass

@@ -149,7 +149,7 @@ def test_ctrl_c_finalizes_the_log(fmus, tmp_path):
     """An interrupt in the middle (raised by an observer at tick 50) leaves a finalized, readable log."""
     log = tmp_path / "cut.mcap"
     res = run_system(default_system(fmus, "fsi", 1), 5.0, log, observers_extra=[Interrupt()], progress=False)
-    assert res.error == "interrupted at t = 0.600 s"
+    assert res.error == "interrupted by SIGINT at t = 0.600 s" and res.signal == 2
     msgs = mcap_log.read(log, topics=["/plant"])["/plant"]
     assert len(msgs) == 51 and abs(msgs[-1]["t"] - 0.6) < 1e-9
     assert mcap_log.read_metadata(log)["error"]["message"] == res.error

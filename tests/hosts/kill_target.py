@@ -1,0 +1,31 @@
+"""A tiltload run that reports its simulated time, for the kill tests: python kill_target.py FMU_DIR LOG TIME_FILE.
+
+The run is the ZSE loop on trajectory 1; after every tick the simulated time is written (8 bytes)
+into TIME_FILE, so a test that kills this process knows how far the simulation had got.
+"""
+
+import os
+import struct
+import sys
+from pathlib import Path
+
+from tiltload.master.observers import Metrics, Observer
+from tiltload.master.run import run_system, terminate_like_interrupt
+from tiltload.master.tiltload_system import default_system
+
+
+class Reporter(Observer):
+    def __init__(self, path: str) -> None:
+        self.fd = os.open(path, os.O_RDWR | os.O_CREAT)
+
+    def on_tick(self, k, t) -> None:
+        os.pwrite(self.fd, struct.pack("d", t), 0)
+
+
+if __name__ == "__main__":
+    terminate_like_interrupt()
+    fmus, log, clock = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+    result = run_system(default_system(fmus, "zse", 1, "mixed"), 40.0, log, Metrics("plant", "scenario", "controller"),
+                        progress=False, observers_extra=[Reporter(clock)])
+    print(result.error or "done", flush=True)
+    sys.exit(128 + result.signal if result.signal else (1 if result.error else 0))
