@@ -117,7 +117,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             if controller_fmu is not None:
                 from .ports import check_controller
 
-                check_controller(read_fmu(controller_fmu, "controller"))
+                check_controller(read_fmu(controller_fmu, "controller"), args.allow_unknown_inputs)
         if args.faults is not None:
             from .manipulators import FaultError
             from .manipulators import load as load_faults
@@ -213,6 +213,22 @@ def _assignment(text: str) -> tuple[str, object]:
     return key.strip(), parse_value(value.strip())
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2147483647, got {text}") from None
+    if not 0 <= value <= 2**31 - 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2147483647, got {text}")
+    return value
+
+
+def _file_stem(text: str) -> str:
+    if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
+        raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")
+    return text
+
+
 def _whole_number(text: str) -> int:
     try:
         value = int(text)
@@ -245,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
     r.add_argument("--trajectory", type=int, choices=(0, 1, 2), default=1, help="1 circle (default), 2 Table 5.3, 0 hover")
     r.add_argument("--controller", default="mixed", help="dlqr, mixed (default) or PATH.fmu of your own controller")
-    r.add_argument("--seed", type=int, default=1, help="noise seed (default 1)")
+    r.add_argument("--seed", type=_seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
     r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
     r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     r.add_argument("--no-gusts", action="store_true", help="no wind gusts")
@@ -256,7 +272,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--system", type=Path, default=None, help="a system description (JSON) instead of the tiltload loop")
     r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")
-    r.add_argument("--name", default=None, help="file name stem of the log")
+    r.add_argument("--name", type=_file_stem, default=None, help="file name stem of the log")
+    r.add_argument("--allow-unknown-inputs", action="store_true",
+                   help="run a controller FMU whose inputs include names the port contract does not have")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
     r.add_argument("--log-every", type=_whole_number, default=1, metavar="N",

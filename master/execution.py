@@ -166,16 +166,19 @@ class FmuInstance:
             raise self.failed(f"doStep at t={t:.6g} s", status)
 
     def close(self) -> None:
-        if self.fatal:
-            return  # after fmi2Fatal the standard allows no call, not even fmi2FreeInstance
-        try:
-            self.slave.terminate()
-        except Exception:
-            pass
-        try:
-            self.slave.freeInstance()
-        except Exception:
-            pass
+        """Terminate and free the instance, then remove its extracted copy (a run leaves no folder behind)."""
+        if not self.fatal:  # after fmi2Fatal the standard allows no call, not even fmi2FreeInstance
+            try:
+                self.slave.terminate()
+            except Exception:
+                pass
+            try:
+                self.slave.freeInstance()
+            except Exception:
+                pass
+        import shutil
+
+        shutil.rmtree(self.dir, ignore_errors=True)
 
 
 @dataclass

@@ -24,9 +24,28 @@ def contract_inputs(trim_x, pi_eq) -> dict[str, tuple[str, str, object, str]]:
     return inputs
 
 
-def check_controller(md) -> None:
-    """Refuse a controller FMU that lacks a required output or declares it with the wrong type or causality."""
+def contract_names() -> set[str]:
+    """The names of every input the contract has (their types, units and start values: contract_inputs)."""
+    import numpy as np
+
+    return set(contract_inputs(np.zeros(20), np.zeros(16)))
+
+
+def check_controller(md, allow_unknown_inputs: bool = False) -> None:
+    """Refuse a controller FMU that lacks a required output, declares one with the wrong type or causality, or
+    has an input the contract does not know (it would sit at its start value: a misspelt port) unless allowed."""
+    import difflib
+
     found = {v.name: v for v in md.modelVariables}
+    if not allow_unknown_inputs:
+        known = contract_names()
+        for v in md.modelVariables:
+            if v.causality == "input" and v.name not in known:
+                same_words = [c for c in known if sorted(c.split("_")) == sorted(v.name.split("_"))]
+                close = same_words or difflib.get_close_matches(v.name, known, n=1)
+                hint = f" (did you mean '{close[0]}'?)" if close else ""
+                raise DescriptionError(f"controller FMU {md.modelName}: input '{v.name}' is not a port of the contract{hint}; "
+                                       "it would stay at its start value (--allow-unknown-inputs to run anyway)")
     for name in REQUIRED_OUTPUTS:
         v = found.get(name)
         if v is None:

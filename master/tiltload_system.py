@@ -21,7 +21,7 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int = 1, co
         ctrl = Instance("controller", fmu_dir / "TiltloadController.fmu",
                         parameters={"controller": controller, "estimator": SCENARIOS[scenario], **plant_start})
     else:
-        ctrl = Instance("controller", Path(controller_fmu))
+        ctrl = Instance("controller", Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"controller.{u}", f"plant.{u}", delay=1) for u in ("f_R", "f_L", "tau_R", "tau_L")] if delay else []
     return System(TICK, [
         Instance("scenario", fmu_dir / "TiltloadScenario.fmu", parameters={"trajectory": trajectory, "gusts": gusts}),
@@ -29,6 +29,23 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int = 1, co
         ctrl,
         Instance("plant", fmu_dir / "TiltloadPlant.fmu", parameters=plant_start, timing="continuous"),
     ], conns)
+
+
+def controller_period(fmu: Path) -> float | None:
+    """A controller FMU runs at its DefaultExperiment stepSize, which must be a whole number of ticks (docs/ports.md)."""
+    from .execution import read_fmu
+    from .system import DescriptionError
+
+    md = read_fmu(fmu, "controller")
+    step = md.defaultExperiment.stepSize if md.defaultExperiment is not None else None
+    if step in (None, ""):
+        return None
+    step = float(step)
+    n = round(step / TICK)
+    if n < 1 or abs(n * TICK - step) > 1e-9:
+        raise DescriptionError(f"controller FMU {fmu.name} declares stepSize {step:g} s, not a whole multiple of the "
+                               f"{TICK * 1e3:g} ms tick")
+    return n * TICK
 
 
 def default_stop(trajectory: int) -> float:

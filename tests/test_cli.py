@@ -5,6 +5,9 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+from tiltload.master.cli import main
+
 
 def run(*args, cwd):
     return subprocess.run([sys.executable, "-m", "tiltload.master.cli", *args], capture_output=True, text=True, cwd=cwd)
@@ -38,3 +41,26 @@ def test_unwritable_output_is_one_line_and_nonzero(pipeline_fmus, tmp_path):
     proc = run("run", "--fmus", str(fmus), "--out", str(blocker / "sub"), "--quiet", cwd=tmp_path)
     assert proc.returncode == 1 and proc.stderr.startswith("tiltload: error:"), (proc.returncode, proc.stderr)
     assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_out_of_range_seed_and_a_path_as_name_are_refused(capsys):
+    for args, needle in ((["--seed", "4294967297"], "must be a whole number from 0 to 2147483647"),
+                         (["--seed", "-1"], "must be a whole number from 0 to 2147483647"),
+                         (["--name", "../../x"], "must be a plain file name"),
+                         (["--log-every", "0"], "must be a whole number >= 1")):
+        with pytest.raises(SystemExit) as exit_:
+            main(["run", *args])
+        assert exit_.value.code == 2 and needle in capsys.readouterr().err
+
+
+def test_a_run_leaves_no_temporary_folder(pipeline_fmus, tmp_path):
+    import os
+
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    fmus = next(iter(pipeline_fmus.values())).parent
+    proc = subprocess.run([sys.executable, "-c", "from tiltload.master.cli import entry; entry()", "run", "--stop-time", "0.6",
+                           "--fmus", str(fmus), "--out", str(tmp_path / "out"), "--quiet", "--no-plots"],
+                          capture_output=True, text=True, env={**os.environ, "TMPDIR": str(temp)})
+    assert proc.returncode == 0, proc.stderr
+    assert list(temp.iterdir()) == []  # the four FMUs' extracted copies are gone

@@ -199,3 +199,41 @@ def test_delay_option_shifts_the_actuation_by_one_tick(fmus, tmp_path, delay, la
     applied = {round(m["t"] / 0.012): m["f_R_applied"] for m in data["/plant"][1:]}
     pairs = [(applied[k], u[k - lag]) for k in applied if k - lag in u]
     assert len(pairs) > 40 and all(a == b for a, b in pairs)
+
+
+def _edited(fmu: Path, out: Path, *replacements: tuple[str, str]) -> Path:
+    """A copy of an FMU with its modelDescription.xml edited (names and the default experiment only)."""
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                for old, new in replacements:
+                    assert old in text
+                    text = text.replace(old, new)
+                data = text.encode()
+            dst.writestr(item, data)
+    return out
+
+
+def test_a_controller_input_the_contract_does_not_know_is_refused_unless_allowed(fmus, third_party, tmp_path, capsys):
+    misspelt = _edited(third_party["ok"], tmp_path / "misspelt.fmu", ('name="x_ref"', 'name="ref_x"'))
+    args = ["run", "--controller", str(misspelt), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "0.6", "--fmus", str(fmus),
+            "--out", str(tmp_path), "--quiet", "--no-plots", "--no-gusts"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "input 'ref_x' is not a port of the contract (did you mean 'x_ref'?)" in err and err.count("\n") == 1
+    assert main([*args, "--allow-unknown-inputs"]) == 0
+
+
+@pytest.mark.parametrize("step, ok", [("0.024", True), ("0.02", False)])
+def test_a_controller_runs_at_its_declared_step_size(fmus, third_party, tmp_path, capsys, step, ok):
+    slow = _edited(third_party["ok"], tmp_path / f"slow{step}.fmu", ('stepSize="0.012"', f'stepSize="{step}"'))
+    code = main(["run", "--controller", str(slow), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "0.6", "--fmus",
+                 str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--no-gusts"])
+    if not ok:
+        assert code == 2 and "declares stepSize 0.02 s, not a whole multiple of the 12 ms tick" in capsys.readouterr().err
+        return
+    assert code == 0
+    times = [m["t"] for m in mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/controller"])["/controller"]]
+    assert times[:4] == pytest.approx([0.0, 0.0, 0.024, 0.048])  # t = 0 (initial outputs), then every other tick
