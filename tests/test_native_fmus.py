@@ -64,7 +64,7 @@ def _guid(folder: Path) -> str:
 
 # ---- what the binaries need ---------------------------------------------------------------------
 @pytest.mark.parametrize("name", NATIVE)
-def test_binaries_need_only_libc_and_libm(unpacked, name):
+def test_binaries_need_only_libc_and_libm(native, unpacked, name):
     binary = unpacked[name] / "binaries" / "linux64" / f"{name}.so"
     undefined = subprocess.run(["nm", "-D", "--undefined-only", str(binary)], capture_output=True, text=True, check=True).stdout
     assert not [s for s in undefined.split() if re.match(r"_?Py", s)], undefined
@@ -74,15 +74,8 @@ def test_binaries_need_only_libc_and_libm(unpacked, name):
     defined = subprocess.run(["nm", "-D", "--defined-only", str(binary)], capture_output=True, text=True, check=True).stdout
     exported = {line.split()[-1] for line in defined.splitlines() if " T " in line}
     assert exported and all(s.startswith("fmi2") for s in exported), exported  # -fvisibility=hidden: only the API
-    assert not [f for f in zipfile.ZipFile(NATIVE_PATHS[name]).namelist() if f.endswith(".py")]
-
-
-NATIVE_PATHS: dict[str, Path] = {}
-
-
-@pytest.fixture(autouse=True, scope="module")
-def _paths(native):
-    NATIVE_PATHS.update(native)
+    with zipfile.ZipFile(native[name]) as z:
+        assert not [f for f in z.namelist() if f.endswith(".py")]
 
 
 @pytest.mark.parametrize("name", NATIVE)
