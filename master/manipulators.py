@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -166,13 +166,28 @@ def load(path: Path) -> list[Fault]:
     return parse(data, str(path))
 
 
-@dataclass
-class _Slot:
-    """Where one faulty variable lives in the master: an output array or a transfer group's array."""
+class _Direct:
+    """An input no connection drives: the manipulator holds its value and sets it through the FMU's own setter."""
 
-    values: np.ndarray
-    index: int
-    history: list = field(default_factory=list)  # the variable's unmanipulated values, one per step, newest last
+    def __init__(self, inst, variable) -> None:
+        import ctypes
+
+        self.inst, self.type = inst, variable.type
+        c_type = ctypes.c_double if variable.type == "Real" else ctypes.c_int
+        self.buf = (c_type * 1)()
+        self.view = np.ctypeslib.as_array(self.buf)
+        self.vrs = (ctypes.c_uint * 1)(variable.valueReference)
+        start = variable.start
+        self.start = float(start) if variable.type == "Real" else (1 if str(start).lower() in ("true", "1") else 0)
+        self.changed = False
+
+    def write(self, active: bool) -> None:
+        if not active:
+            self.view[0] = self.start
+        status = self.inst.setters[self.type](self.inst.slave.component, self.vrs, 1, self.buf)
+        if status > 1:
+            raise self.inst.failed(f"set{self.type} by a fault", status)
+        self.changed = active
 
 
 class Manipulator:
@@ -203,9 +218,13 @@ class Manipulator:
                 elif v.causality == "input":
                     group = next((g for g in execution.groups.get(instance, ()) if g.type == v.type
                                   and v.valueReference in list(g.dst_vrs)), None)
-                    if group is None:
-                        raise FaultError(f"fault {f.label()}: input {target} is not connected: nothing to manipulate")
-                    self._where[target] = ("input", group, v.type, list(group.dst_vrs).index(v.valueReference))
+                    if group is not None:
+                        self._where[target] = ("input", group, v.type, list(group.dst_vrs).index(v.valueReference))
+                    else:  # an input nothing drives (e.g. plant.servo_R_stuck): the fault sets it itself
+                        if v.type not in ("Real", "Boolean"):
+                            raise FaultError(f"fault {f.label()}: {target} is an unconnected {v.type} input; faults set Real "
+                                             "and Boolean ones")
+                        self._where[target] = ("direct", _Direct(inst, v), v.type, 0)
                     self.inputs.setdefault(instance, []).append((k, target))
                 else:
                     raise FaultError(f"fault {f.label()}: {target} is a {v.causality}; faults act on outputs and inputs")
@@ -217,6 +236,8 @@ class Manipulator:
 
     def _array(self, target: str) -> tuple[np.ndarray, int]:
         kind, owner, typ, index = self._where[target]
+        if kind == "direct":
+            owner.view[0] = owner.start  # the value the FMU has when no fault acts
         return (owner.values[typ] if kind == "output" else owner.view), index
 
     def apply(self, instance: str, side: str, t: float, observers) -> None:
@@ -238,6 +259,9 @@ class Manipulator:
                     obs.on_fault(t, f, "start" if on else "end")
             if on:
                 self._apply_one(k, f, target, t)
+            kind, owner, _, _ = self._where[target]
+            if kind == "direct" and (on or owner.changed):  # set it while the fault acts, and once more to restore it
+                owner.write(on)
 
     def _apply_one(self, k: int, f: Fault, target: str, t: float) -> None:
         arr, i = self._array(target)

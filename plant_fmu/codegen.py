@@ -16,19 +16,49 @@ from .model import ND, NU, NX, model
 PLANT_STEM = "tl_plant_gen"
 
 
+def locked_accelerations(m, x, u, d, p, stuck):
+    """q_dd with the tilt joints whose `stuck` entry is 1 held (a servo stuck at its angle).
+
+    The servo torques' generalized forces act on their own tilt joints only (L_in's last two columns),
+    so a stuck joint is the servo torque that makes its acceleration zero: with G = M^-1 L_tau,
+    q_dd = q_dd_free + G dtau, and dtau solves the stuck rows of that (unstuck ones keep dtau = 0).
+    """
+    f = ca.Function("free", [m.x, m.u, m.d, m.p], [m.qdd, ca.solve(m.M, m.L_in[:, 2:4])])
+    qdd_free, G = f(x, u, d, p)
+    S = ca.diag(stuck)
+    A = S @ G[8:10, :] + ca.diag(1 - stuck)
+    dtau = ca.solve(A, -S @ qdd_free[8:10])
+    return qdd_free + G @ dtau, G
+
+
 def functions() -> list[ca.Function]:
-    """The right-hand side, one RK4 substep and the diagnostic outputs, with CSE applied."""
+    """The right-hand side, one RK4 substep (tilt joints optionally stuck) and the diagnostic outputs, with CSE applied."""
     m = model()
     rhs = ca.Function("tl_plant_rhs", [m.x, m.u, m.d, m.p], [ca.cse(m.xdot)], ["x", "u", "d", "p"], ["xdot"])
     out = ca.Function("tl_plant_out", [m.x, m.p], [ca.cse(m.diagnostics)], ["x", "p"], ["y"])
+    xs, us, ds, ps, ss = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("d", ND), ca.SX.sym("p", m.p.numel()), ca.SX.sym("s", 2)
+    qdd, _ = locked_accelerations(m, xs, us, ds, ps, ss)
+    rhs_stuck = ca.Function("tl_plant_rhs_stuck", [xs, us, ds, ps, ss], [ca.cse(ca.vertcat(xs[NX // 2:], qdd))])
     x, u, d = ca.MX.sym("x", NX), ca.MX.sym("u", NU), ca.MX.sym("d", ND)
-    p, h = ca.MX.sym("p", m.p.numel()), ca.MX.sym("h")
-    k1 = rhs(x, u, d, p)
-    k2 = rhs(x + h / 2 * k1, u, d, p)
-    k3 = rhs(x + h / 2 * k2, u, d, p)
-    k4 = rhs(x + h * k3, u, d, p)
-    rk4 = ca.Function("tl_plant_rk4", [x, u, d, p, h], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    p, h, s = ca.MX.sym("p", m.p.numel()), ca.MX.sym("h"), ca.MX.sym("s", 2)
+    k1 = rhs_stuck(x, u, d, p, s)
+    k2 = rhs_stuck(x + h / 2 * k1, u, d, p, s)
+    k3 = rhs_stuck(x + h / 2 * k2, u, d, p, s)
+    k4 = rhs_stuck(x + h * k3, u, d, p, s)
+    rk4 = ca.Function("tl_plant_rk4", [x, u, d, p, h, s], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
     return [rhs, rk4, out]
+
+
+def stick_function() -> ca.Function:
+    """The impulse that stops the newly stuck tilt joints: q_dot += G lambda with the stuck joints' rates to zero."""
+    m = model()
+    x, p, s = ca.SX.sym("x", NX), ca.SX.sym("p", m.p.numel()), ca.SX.sym("s", 2)
+    f = ca.Function("g", [m.x, m.p], [ca.solve(m.M, m.L_in[:, 2:4])])
+    G = f(x, p)
+    qd = x[NX // 2:]
+    S = ca.diag(s)
+    lam = ca.solve(S @ G[8:10, :] + ca.diag(1 - s), -S @ qd[8:10])
+    return ca.Function("tl_plant_stick", [x, p, s], [ca.cse(ca.vertcat(x[:NX // 2], qd + G @ lam))], ["x", "p", "s"], ["x_stuck"])
 
 
 def plant_sources(directory: Path) -> list[Path]:
@@ -36,7 +66,7 @@ def plant_sources(directory: Path) -> list[Path]:
     _, rk4, out = functions()
     m = model()
     dims = {"TL_PLANT_NX": NX, "TL_PLANT_NP": m.p.numel(), "TL_PLANT_NY": out.size1_out(0)}
-    return casadi_c.generate([rk4, out], directory, PLANT_STEM, dims)
+    return casadi_c.generate([rk4, out, stick_function()], directory, PLANT_STEM, dims)
 
 
 def feedforward_function() -> ca.Function:

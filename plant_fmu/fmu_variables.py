@@ -32,5 +32,8 @@ def definition(trim_x, trim_u, integrator_step: float, version: str) -> FmuDefin
     variables.append(par("integrator_step", integrator_step, "s",
                          "RK4 substep; the communication step must be a whole multiple of it (or smaller)"))
     variables += [par(f"{n}_0", trim_x[i], u, f"initial {d}") for i, (n, u, d) in enumerate(I.STATES)]
+    variables += [Variable(f"servo_{side}_stuck", "Boolean", "input", False,
+                           f"the {name} servo is stuck at its angle: the tilt joint is held (an actuator fault)")
+                  for side, name in (("R", "right"), ("L", "left"))]
     return FmuDefinition("TiltloadPlant", DESCRIPTION, variables, "plant_model.h", (0.0, 2.0, 0.012),
                          variable_step=True, version=version)

@@ -167,3 +167,19 @@ def test_fault_files_that_are_not_schedules_are_named(tmp_path):
             load(path)
     with pytest.raises(FaultError, match="does not exist"):
         load(tmp_path / "none.json")
+
+
+def test_a_servo_stuck_at_its_angle_by_a_fault_on_an_unconnected_input(fmus, tmp_path):
+    """plant.servo_R_stuck has no connection: the fault sets it while it acts and restores it after."""
+    system = default_system(fmus, "fsi", 1, "mixed")
+    system.faults = parse([{"name": "right servo stuck", "action": "override", "target": "plant.servo_R_stuck", "value": True,
+                            "start": 1.2, "end": 2.4}])
+    res = run_system(system, 3.6, tmp_path / "s.mcap", progress=False)
+    assert res.error is None
+    plant = mcap_log.read(res.log, topics=["/plant"])["/plant"]
+    t = np.array([m["t"] for m in plant])
+    alpha = np.array([m["alpha_R"] for m in plant])
+    rate = np.array([m["alpha_R_dot"] for m in plant])
+    held = (t > 1.2 + T + 1e-9) & (t <= 2.4 + 1e-9)  # the plant's messages at t_k + T: the steps from 1.2 s to 2.4 s
+    assert np.ptp(alpha[held]) < 1e-12 and np.abs(rate[held]).max() < 1e-12
+    assert np.ptp(alpha[t > 2.5]) > 1e-7  # released afterwards

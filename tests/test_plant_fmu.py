@@ -180,3 +180,36 @@ def test_diverging_state_stops_the_plant_with_last_state_kept(plant_fmu):
         assert np.isfinite(s.get(*STATES)).all()
         with pytest.raises(FMICallException):  # latched: no further steps
             s.fmu.doStep(0.012, 0.012)
+
+
+def test_a_stuck_servo_holds_its_joint_and_does_no_work(plant_fmu):
+    """servo_R_stuck: the right tilt joint stops (its rate is zeroed when it sticks) and stays; the constraint
+    torque does no work, so without friction or inputs the energy is still conserved."""
+    start = {**TUMBLE, "alpha_R_dot": 0.0}
+    with session(plant_fmu) as s:
+        s.set(mu_gamma=0.0, **{f"{k}_0": v for k, v in start.items()})
+        s.set(f_R=0.0, f_L=0.0, tau_R=0.0, tau_L=0.0)
+        s.start()
+        s.fmu.setBoolean([s.vr["servo_R_stuck"]], [True])
+        rows = s.run(1.0, 0.012, record=STATES + ["E_total"])
+    assert np.ptp(rows[:, STATES.index("alpha_R")]) < 1e-12 and np.abs(rows[:, STATES.index("alpha_R_dot")]).max() < 1e-12
+    assert np.ptp(rows[:, STATES.index("alpha_L")]) > 0.05  # the other joint moves freely
+    e = rows[:, -1]
+    assert np.max(np.abs(e - e[0])) / np.max(np.abs(e)) < 1e-7
+
+
+def test_a_servo_that_sticks_mid_flight_stops_at_once_and_frees_again(plant_fmu):
+    with session(plant_fmu) as s:
+        s.set(**{f"{k}_0": v * 0.3 for k, v in TUMBLE.items()})
+        s.start()
+        s.run(0.24, 0.012)
+        assert abs(s.get("alpha_R_dot")[0]) > 1e-3
+        s.fmu.setBoolean([s.vr["servo_R_stuck"]], [True])
+        for k in range(20, 40):
+            s.fmu.doStep(k * 0.012, 0.012)
+            assert abs(s.get("alpha_R_dot")[0]) < 1e-12
+        held = s.get("alpha_R")[0]
+        s.fmu.setBoolean([s.vr["servo_R_stuck"]], [False])
+        for k in range(40, 50):
+            s.fmu.doStep(k * 0.012, 0.012)
+        assert abs(s.get("alpha_R")[0] - held) > 1e-6  # released: it moves again

@@ -134,7 +134,7 @@ fmi2Status tl_model_initialize(TlInstance* c) {
 
 fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   TlModelState* m = &c->s.model;
-  double step = c->s.real[TL_REAL_integrator_step], sub, cur[NX], next[NX];
+  double step = c->s.real[TL_REAL_integrator_step], sub, cur[NX], next[NX], stuck[2];
   const double* arg[TL_PLANT_RK4_SZ_ARG + 1];
   double* res[TL_PLANT_RK4_SZ_RES + 1];
   casadi_int iw[TL_PLANT_RK4_SZ_IW];
@@ -158,10 +158,35 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   }
   saturate(c);
   memcpy(cur, STATE(c), sizeof cur);
+  {
+    /* a servo stuck at its angle: the joint's rate is stopped when it sticks (an impulse along the
+       servo's own generalized force), then the RK4 holds its acceleration at zero */
+    double newly[2], stuck_cur[NX];
+    const double* sarg[TL_PLANT_STICK_SZ_ARG + 1];
+    double* sres[TL_PLANT_STICK_SZ_RES + 1];
+    casadi_int siw[TL_PLANT_STICK_SZ_IW];
+    double sw[TL_PLANT_STICK_SZ_W];
+    stuck[0] = c->s.boolean[TL_BOOLEAN_servo_R_stuck] ? 1.0 : 0.0;
+    stuck[1] = c->s.boolean[TL_BOOLEAN_servo_L_stuck] ? 1.0 : 0.0;
+    newly[0] = stuck[0] && !m->stuck[0];
+    newly[1] = stuck[1] && !m->stuck[1];
+    if (newly[0] || newly[1]) {
+      sarg[0] = cur;
+      sarg[1] = PARAMS(c);
+      sarg[2] = newly;
+      sres[0] = stuck_cur;
+      if (tl_plant_stick(sarg, sres, siw, sw, 0)) {
+        tl_log(c, fmi2Error, "plant model evaluation failed when a servo stuck at t=%.6g s", t);
+        return fmi2Error;
+      }
+      memcpy(cur, stuck_cur, sizeof cur);
+    }
+  }
   arg[1] = APPLIED(c);
   arg[2] = DISTURBANCE(c);
   arg[3] = PARAMS(c);
   arg[4] = &sub;
+  arg[5] = stuck;
   res[0] = next;
   for (k = 1; k <= n; ++k) {
     arg[0] = cur;
@@ -183,5 +208,7 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
     memcpy(cur, next, sizeof cur);
   }
   memcpy(STATE(c), cur, sizeof cur);
+  m->stuck[0] = stuck[0] != 0.0;
+  m->stuck[1] = stuck[1] != 0.0;
   return evaluate_outputs(c) == fmi2OK ? fmi2OK : fmi2Error;
 }

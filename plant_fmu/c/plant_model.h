@@ -5,6 +5,7 @@
 typedef struct {
   int stopped;       /* a step diverged: every later step is refused */
   double stopped_at; /* start of that step (s) */
+  int stuck[2];      /* the tilt joints held at the last step: a joint that becomes stuck is stopped first */
 } TlModelState;
 
 #endif
