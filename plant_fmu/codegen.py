@@ -31,22 +31,37 @@ def locked_accelerations(m, x, u, d, p, stuck):
     return qdd_free + G @ dtau, G
 
 
+def _rk4(name: str, rhs: ca.Function, n_extra: int) -> ca.Function:
+    """One RK4 substep of rhs(x, u, d, p[, extra]) over h."""
+    m = model()
+    x, u, d = ca.MX.sym("x", NX), ca.MX.sym("u", NU), ca.MX.sym("d", ND)
+    p, h = ca.MX.sym("p", m.p.numel()), ca.MX.sym("h")
+    extra = [ca.MX.sym("s", n_extra)] if n_extra else []
+    k1 = rhs(x, u, d, p, *extra)
+    k2 = rhs(x + h / 2 * k1, u, d, p, *extra)
+    k3 = rhs(x + h / 2 * k2, u, d, p, *extra)
+    k4 = rhs(x + h * k3, u, d, p, *extra)
+    return ca.Function(name, [x, u, d, p, h, *extra], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+
+
 def functions() -> list[ca.Function]:
-    """The right-hand side, one RK4 substep (tilt joints optionally stuck) and the diagnostic outputs, with CSE applied."""
+    """The right-hand side, one RK4 substep and the diagnostic outputs, with CSE applied."""
     m = model()
     rhs = ca.Function("tl_plant_rhs", [m.x, m.u, m.d, m.p], [ca.cse(m.xdot)], ["x", "u", "d", "p"], ["xdot"])
     out = ca.Function("tl_plant_out", [m.x, m.p], [ca.cse(m.diagnostics)], ["x", "p"], ["y"])
+    return [rhs, _rk4("tl_plant_rk4", rhs, 0), out]
+
+
+def stuck_rk4_function() -> ca.Function:
+    """The RK4 substep with tilt joints held: (x, u, d, p, h, stuck), stuck = [right, left], 1 for a held joint.
+
+    A separate function: the solve it needs costs more than the free model, which runs whenever no servo is stuck.
+    """
+    m = model()
     xs, us, ds, ps, ss = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("d", ND), ca.SX.sym("p", m.p.numel()), ca.SX.sym("s", 2)
     qdd, _ = locked_accelerations(m, xs, us, ds, ps, ss)
     rhs_stuck = ca.Function("tl_plant_rhs_stuck", [xs, us, ds, ps, ss], [ca.cse(ca.vertcat(xs[NX // 2:], qdd))])
-    x, u, d = ca.MX.sym("x", NX), ca.MX.sym("u", NU), ca.MX.sym("d", ND)
-    p, h, s = ca.MX.sym("p", m.p.numel()), ca.MX.sym("h"), ca.MX.sym("s", 2)
-    k1 = rhs_stuck(x, u, d, p, s)
-    k2 = rhs_stuck(x + h / 2 * k1, u, d, p, s)
-    k3 = rhs_stuck(x + h / 2 * k2, u, d, p, s)
-    k4 = rhs_stuck(x + h * k3, u, d, p, s)
-    rk4 = ca.Function("tl_plant_rk4", [x, u, d, p, h, s], [x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    return [rhs, rk4, out]
+    return _rk4("tl_plant_rk4_stuck", rhs_stuck, 2)
 
 
 def stick_function() -> ca.Function:
@@ -66,7 +81,7 @@ def plant_sources(directory: Path) -> list[Path]:
     _, rk4, out = functions()
     m = model()
     dims = {"TL_PLANT_NX": NX, "TL_PLANT_NP": m.p.numel(), "TL_PLANT_NY": out.size1_out(0)}
-    return casadi_c.generate([rk4, out, stick_function()], directory, PLANT_STEM, dims)
+    return casadi_c.generate([rk4, out, stuck_rk4_function(), stick_function()], directory, PLANT_STEM, dims)
 
 
 def feedforward_function() -> ca.Function:

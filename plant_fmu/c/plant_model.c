@@ -135,10 +135,11 @@ fmi2Status tl_model_initialize(TlInstance* c) {
 fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   TlModelState* m = &c->s.model;
   double step = c->s.real[TL_REAL_integrator_step], sub, cur[NX], next[NX], stuck[2];
-  const double* arg[TL_PLANT_RK4_SZ_ARG + 1];
-  double* res[TL_PLANT_RK4_SZ_RES + 1];
-  casadi_int iw[TL_PLANT_RK4_SZ_IW];
-  double w[TL_PLANT_RK4_SZ_W];
+  const double* arg[TL_PLANT_RK4_STUCK_SZ_ARG + 1];
+  double* res[TL_PLANT_RK4_STUCK_SZ_RES + 1];
+  casadi_int iw[TL_PLANT_RK4_STUCK_SZ_IW > TL_PLANT_RK4_SZ_IW ? TL_PLANT_RK4_STUCK_SZ_IW : TL_PLANT_RK4_SZ_IW];
+  double w[TL_PLANT_RK4_STUCK_SZ_W > TL_PLANT_RK4_SZ_W ? TL_PLANT_RK4_STUCK_SZ_W : TL_PLANT_RK4_SZ_W];
+  int any_stuck;
   long n, k;
   int i;
   if (m->stopped) {
@@ -188,9 +189,10 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   arg[4] = &sub;
   arg[5] = stuck;
   res[0] = next;
+  any_stuck = stuck[0] != 0.0 || stuck[1] != 0.0; /* the free model is cheaper: used whenever it can be */
   for (k = 1; k <= n; ++k) {
     arg[0] = cur;
-    if (tl_plant_rk4(arg, res, iw, w, 0)) {
+    if (any_stuck ? tl_plant_rk4_stuck(arg, res, iw, w, 0) : tl_plant_rk4(arg, res, iw, w, 0)) {
       tl_log(c, fmi2Error, "plant model evaluation failed at t=%.6g s", t);
       return fmi2Error;
     }
