@@ -79,15 +79,52 @@ def validate(system: System) -> System:
     return system
 
 
+_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+_REF = r"^[A-Za-z_][A-Za-z0-9_]*\.[^\s.][^\s]*$"
+SCHEMA = {
+    "type": "object", "additionalProperties": False, "required": ["tick", "instances"],
+    "properties": {
+        "tick": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
+        "auto_connect": {"type": "boolean"},
+        "instances": {"type": "array", "minItems": 1, "items": {
+            "type": "object", "additionalProperties": False, "required": ["name", "fmu"],
+            "properties": {
+                "name": {"type": "string", "pattern": _NAME},
+                "fmu": {"type": "string", "minLength": 1},
+                "period": {"type": ["number", "null"], "exclusiveMinimum": 0},
+                "parameters": {"type": "object", "propertyNames": {"pattern": "^[^\\s]+$"},
+                               "additionalProperties": {"type": ["number", "string", "boolean"]}},
+                "timing": {"enum": ["sample", "continuous"]}}}},
+        "connections": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["source", "target"],
+            "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
+                           "delay": {"type": "integer", "minimum": 0, "maximum": 1000}}}},
+        "faults": {"type": "array"},
+    },
+}
+
+
+def _check_schema(data, path: Path) -> None:
+    """The description's shape: unknown keys, wrong types and out-of-range values named by their path."""
+    import jsonschema
+
+    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise DescriptionError(f"{path}: {where}: {err.message}")
+
+
 def load(path: Path) -> System:
-    """Read a system description (JSON); FMU paths are relative to the file."""
+    """Read a system description (JSON), checked against SCHEMA; FMU paths are relative to the file."""
     path = Path(path)
     try:
         data = json.loads(path.read_text())
     except FileNotFoundError:
         raise DescriptionError(f"system description {path} does not exist") from None
-    except (OSError, json.JSONDecodeError) as err:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
         raise DescriptionError(f"cannot read system description {path}: {err}") from None
+    _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
                               i.get("timing", "sample")) for i in data["instances"]]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import zipfile
 from pathlib import Path
 from types import SimpleNamespace
@@ -183,7 +184,7 @@ def test_bad_system_description_files(tmp_path, capsys):
     bad = tmp_path / "bad.json"
     bad.write_text('{"tick": 0.012, "instances": [{"fmu": "x.fmu"}]}')
     assert main(["run", "--system", str(bad)]) == 2
-    assert "malformed system description" in capsys.readouterr().err
+    assert "instances.0: 'name' is a required property" in capsys.readouterr().err  # the schema names the field
     worse = tmp_path / "worse.json"
     worse.write_text('{"tick": 0.012, "instances": [{"name": "a", "fmu": "a.fmu", "period": 0.02}]}')
     assert main(["run", "--system", str(worse)]) == 2
@@ -237,3 +238,24 @@ def test_a_controller_runs_at_its_declared_step_size(fmus, third_party, tmp_path
     assert code == 0
     times = [m["t"] for m in mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/controller"])["/controller"]]
     assert times[:4] == pytest.approx([0.0, 0.0, 0.024, 0.048])  # t = 0 (initial outputs), then every other tick
+
+
+@pytest.mark.parametrize("change, needle", [
+    ({"conections": []}, "(top level): Additional properties are not allowed ('conections' was unexpected)"),
+    ({"auto_connect": "false"}, "auto_connect: 'false' is not of type 'boolean'"),
+    ({"auto_connect": 0}, "auto_connect: 0 is not of type 'boolean'"),
+    ({"tick": "0.012"}, "tick: '0.012' is not of type 'number'"),
+    ({"tick": 0}, "tick: 0 is less than or equal to the minimum of 0"),
+    ({"connections": [{"source": "plant.x", "target": "sensors.x", "delay": 1.5}]}, "connections.0.delay: 1.5 is not of type 'integer'"),
+    ({"connections": [{"source": "plant.x", "target": "sensors.x", "delay": True}]}, "connections.0.delay: True is not of type 'integer'"),
+    ({"instances": [{"name": "", "fmu": "x.fmu"}]}, "instances.0.name: '' does not match"),
+    ({"instances": [{"name": "a\\nb", "fmu": "x.fmu"}]}, "instances.0.name"),
+    ({"instances": [{"name": "plant", "fmu": "x.fmu", "paramters": {"seed": "abc"}}]}, "'paramters' was unexpected"),
+])
+def test_a_malformed_system_description_names_the_field(tmp_path, capsys, change, needle):
+    data = {"tick": 0.012, "instances": [{"name": "plant", "fmu": "TiltloadPlant.fmu"}], **change}
+    path = tmp_path / "system.json"
+    path.write_text(json.dumps(data).replace("\\\\n", "\\n"))
+    assert main(["run", "--system", str(path), "--out", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1 and "Traceback" not in err, err
