@@ -213,6 +213,18 @@ def _assignment(text: str) -> tuple[str, object]:
     return key.strip(), parse_value(value.strip())
 
 
+def _tolerance(text: str) -> float:
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -293,8 +305,8 @@ def main(argv: list[str] | None = None) -> int:
     cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
     cp.add_argument("run", type=Path)
     cp.add_argument("baseline", type=Path)
-    cp.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
-    cp.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    cp.add_argument("--rtol", type=_tolerance, default=1e-6, help="relative tolerance (default 1e-6)")
+    cp.add_argument("--atol", type=_tolerance, default=1e-12, help="absolute tolerance (default 1e-12)")
     cp.set_defaults(func=cmd_compare)
     ca = sub.add_parser("campaign", help="run a campaign spec on Dask (TOML/YAML), or 'report RESULTS' to summarize one")
     ca.add_argument("what", help="the campaign spec, or 'report'")

@@ -25,9 +25,15 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     if path.suffix == ".json":
         try:
             data = json.loads(path.read_text())
-            return {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as err:
+            metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
+        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError, UnicodeDecodeError) as err:
             raise DescriptionError(f"{path} is not a metrics file ({type(err).__name__}: {err})") from None
+        if not metrics:
+            raise DescriptionError(f"{path} holds no metrics: nothing to compare")
+        if not all(math.isfinite(v) for v in metrics.values()):
+            raise DescriptionError(f"{path} holds a non-finite metric")
+        _check_tolerances(tolerances, path)
+        return metrics, tolerances
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
@@ -47,6 +53,18 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     if record.get("complete") != "True":
         raise DescriptionError(f"{path} is an incomplete run (stopped after {record.get('ticks')} ticks)")
     return {k: float(v) for k, v in record.items() if k not in ("ticks", "complete")}, {}
+
+
+def _check_tolerances(tolerances, path: Path) -> None:
+    """A baseline's tolerances: {rtol, atol} globally or per metric, each finite and >= 0."""
+    if not isinstance(tolerances, dict):
+        raise DescriptionError(f"{path}: tolerances must be a mapping")
+    for key, value in tolerances.items():
+        if isinstance(value, dict):
+            _check_tolerances(value, path)
+        elif key in ("rtol", "atol"):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
+                raise DescriptionError(f"{path}: tolerance {key} = {value!r} must be a finite number >= 0")
 
 
 def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[tuple]]:

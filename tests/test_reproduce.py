@@ -59,3 +59,23 @@ def test_tables_put_the_thesis_side_by_side():
             for s in ("fsi", "lkf", "zse") for c in ("dlqr", "mixed")]
     md = tables(fake)
     assert "thesis Table 5.4" in md and "| ISE(x) | 1 | 0.1571 | 6.37 |" in md and "thesis Table 5.11" in md
+
+
+@pytest.mark.parametrize("baseline, needle", [
+    ({"metrics": {}}, "holds no metrics"),
+    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"rtol": float("inf")}}, "tolerance rtol = inf must be a finite number"),
+    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"ISE(x)": {"atol": -1}}}, "tolerance atol = -1 must be a finite number"),
+    ({"metrics": {"ISE(x)": "abc"}}, "is not a metrics file"),
+])
+def test_compare_refuses_a_baseline_it_cannot_use(tmp_path, capsys, baseline, needle):
+    path = tmp_path / "base.json"
+    path.write_text(json.dumps(baseline))
+    assert main(["compare", str(path), str(path)]) == 2
+    assert needle in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag, value", [("--rtol", "nan"), ("--rtol", "-1"), ("--atol", "inf")])
+def test_compare_refuses_bad_tolerances_as_usage_errors(tmp_path, capsys, flag, value):
+    with pytest.raises(SystemExit) as exit_:
+        main(["compare", "a.mcap", "b.json", flag, value])
+    assert exit_.value.code == 2 and "must be a finite number >= 0" in capsys.readouterr().err
