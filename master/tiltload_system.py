@@ -49,7 +49,8 @@ def controller_period(fmu: Path) -> float | None:
 
 
 def default_stop(trajectory: int) -> float:
-    return DURATION.get(trajectory, 10.0)
+    """The trajectory's duration; hovering (0) runs 20 s, so that the first gust (at 10 s) excites the loop."""
+    return DURATION.get(trajectory, 20.0)
 
 
 def set_parameters(system: System, values: dict[str, object]) -> System:
