@@ -225,30 +225,29 @@ def _tolerance(text: str) -> float:
     return value
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2147483647, got {text}") from None
-    if not 0 <= value <= 2**31 - 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number from 0 to 2147483647, got {text}")
-    return value
+def _integer(low: int, high: int | None = None):
+    """An argparse type: a whole number in [low, high] (no upper bound if high is None)."""
+    what = f"a whole number from {low} to {high}" if high is not None else f"a whole number >= {low}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text}")
+        return value
+    return parse
+
+
+_seed = _integer(0, 2**31 - 1)
+_whole_number = _integer(1)
 
 
 def _file_stem(text: str) -> str:
     if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
         raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")
     return text
-
-
-def _whole_number(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
-    return value
 
 
 def main(argv: list[str] | None = None) -> int:
