@@ -62,7 +62,11 @@ def cmd_campaign(args: argparse.Namespace) -> int:
 def cmd_layout(args: argparse.Namespace) -> int:
     from .foxglove_layout import write
 
-    print(f"{write(args.out)}: Foxglove layout (in Foxglove: open a run's .mcap, then Layouts -> Import from file)")
+    try:
+        path = write(args.out)
+    except OSError as err:
+        raise UserError(f"cannot write {args.out}: {err.strerror or err}") from None
+    print(f"{path}: Foxglove layout (in Foxglove: open a run's .mcap, then Layouts -> Import from file)")
     return 0
 
 
@@ -190,9 +194,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
     if not args.log.is_file():
         raise UserError(f"{args.log} does not exist")
+    with open(args.log, "rb") as f:
+        if f.read(8) != b"\x89MCAP0\r\n":
+            raise UserError(f"{args.log} is not an MCAP log (no MCAP magic at its start)")
     if is_truncated(args.log):
         print(f"note: {args.log} is truncated (no footer: a killed run); plotting what it holds", file=sys.stderr)
-    for f in plot_run(args.log, args.out):
+    try:
+        files = plot_run(args.log, args.out)
+    except ValueError as err:  # a log of another system: no /plant channel
+        raise UserError(str(err)) from None
+    for f in files:
         print(f)
     return 0
 
