@@ -38,10 +38,7 @@ def bundle(Tc: float = TC, progress=print) -> dict[str, np.ndarray]:
     """Gains of both designs (cached syntheses) and the estimator matrices of Sec. 5.3-5.4."""
     designs = {}
     for kind in ("dlqr", "mixed"):
-        cached = design_cache.default_dir().exists() and any(design_cache.default_dir().glob(f"{kind}-*.json"))
-        if kind == "mixed" and not cached:
-            progress("synthesizing the mixed H2/Hinf design (about 90 s once; cached afterwards) ...")
-        designs[kind] = design(kind, Tc, use_cache=True)
+        designs[kind] = design(kind, Tc, use_cache=True, progress=progress)
     m = augmented_model(Tc)
     lkf, zse = lkf_setup(), zse_setup(m)
     d = designs["dlqr"]

@@ -1,4 +1,4 @@
-"""On-disk cache of designs: the mixed H2/H-infinity synthesis takes about 90 s, so it runs once.
+"""On-disk cache of designs: the mixed H2/H-infinity synthesis takes about 10 s (SDPA), so it runs once.
 
 The key covers everything the gain depends on: the kind, T_c, the plant parameters, the
 sources of the design and model code, and the versions of the solver stack. A changed input
@@ -38,7 +38,7 @@ def key(kind: str, Tc: float, params: np.ndarray) -> str:
     h.update(np.asarray(params, dtype=float).tobytes())
     for f in _CODE:
         h.update(f.name.encode() + f.read_bytes())
-    for dist in ("cvxpy", "clarabel", "numpy", "scipy", "casadi"):
+    for dist in ("cvxpy", "sdpa-python", "clarabel", "numpy", "scipy", "casadi"):
         try:
             h.update(f"{dist}={metadata.version(dist)}".encode())
         except metadata.PackageNotFoundError:

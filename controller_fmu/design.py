@@ -16,15 +16,17 @@ KINDS = ("dlqr", "hinf", "mixed")
 MIXED_GAMMA_SQ = 24.0**2  # prescribed H-infinity bound of the mixed design (thesis Sec. 5.2)
 
 
-def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False) -> Design:
-    """Synthesize the thesis's controller of this kind; use_cache reuses a stored identical design."""
+def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False, progress=None) -> Design:
+    """Synthesize the thesis's controller of this kind; use_cache reuses a stored identical design.
+
+    progress(str), if given, hears about a synthesis that runs (not about a cache hit)."""
     from .error_dynamics import DesignError
 
     if use_cache and kind in KINDS:
         from ..plant_fmu.parameters import default_vector
         from .cache import cached
 
-        return cached(kind, Tc, default_vector(), lambda: design(kind, Tc))
+        return cached(kind, Tc, default_vector(), lambda: design(kind, Tc, progress=progress))
 
     if kind not in KINDS:
         raise DesignError(f"unknown controller '{kind}' (available: {', '.join(KINDS)})")
@@ -36,7 +38,9 @@ def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False) ->
         K = result.K
         report = {"spectral_radius": result.spectral_radius, "riccati_residual": result.riccati_residual}
     else:
-        res = synthesize(sys, Q, R, gamma_sq=None if kind == "hinf" else MIXED_GAMMA_SQ)
+        if progress is not None:
+            progress(f"synthesizing the {kind} design (LMIs, about 10 s with SDPA; cached afterwards) ...")
+        res = synthesize(sys, Q, R, gamma_sq=None if kind == "hinf" else MIXED_GAMMA_SQ, progress=progress)
         K = res.K
         report = {
             "spectral_radius": float(np.abs(res.poles).max()),
@@ -46,10 +50,15 @@ def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False) ->
             "hinf_norm": res.hinf_norm,
             "h2_bound": res.h2_bound,
             "h2_norm": res.h2_norm,
+            "solver": res.solver,
             "solver_status": res.status,
+            "solver_iterations": res.iterations,
             "solver_seconds": res.seconds,
             "lmi_min_eig": res.lmi_min_eig,
         }
     report["gain_norm"] = float(np.linalg.norm(K, 2))
     report["seconds"] = time.perf_counter() - start
+    if progress is not None and kind != "dlqr":
+        progress(f"{kind} design synthesized in {report['seconds']:.1f} s ({res.solver}, {res.iterations} iterations, "
+                 f"status {res.status})")
     return Design(kind, K, Tc, sys.trim.x, sys.trim.u, sys.params, sys.A, sys.B, sys.F, Q, R, report)

@@ -1,6 +1,6 @@
 """Pure H-infinity and mixed H2/H-infinity state feedback with LMI pole regions (thesis Sec. 3.4).
 
-Solved with cvxpy + Clarabel in Bryson-scaled coordinates (x~ = Omega_chi^1/2 x,
+Solved with cvxpy + SDPA (Clarabel as fallback, see sdp_solver.py) in Bryson-scaled coordinates (x~ = Omega_chi^1/2 x,
 u~ = Omega_u^1/2 u): there H_z = [I; 0] and D_zu = [0; I], and the problem is well
 conditioned (on the raw 24-state LMIs Clarabel fails, DESIGN §3). Regions: Re(z) > eps (3.43)
 and |z| < varpi (3.45), with the common X = T1 = T2 of Sec. 3.4.4. The returned gain is
@@ -10,13 +10,13 @@ a Lyapunov equation), never trusted from the solver status alone.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import cvxpy as cp
 import numpy as np
 from scipy.linalg import solve_discrete_lyapunov, sqrtm
 
+from . import sdp_solver
 from .error_dynamics import DesignError, ErrorDynamics
 from .weights import check_weight
 
@@ -35,16 +35,20 @@ class LMIResult:
     poles: np.ndarray
     status: str
     seconds: float
+    solver: str
+    iterations: int
     lmi_min_eig: dict  # smallest eigenvalue of every LMI evaluated at the returned point (must be > 0)
 
 
-def _solve(problem: cp.Problem) -> str:
-    opts = dict(max_iter=500, tol_gap_abs=1e-7, tol_gap_rel=1e-7, tol_feas=1e-7, static_regularization_constant=1e-7)
-    try:
-        problem.solve(solver=cp.CLARABEL, **opts)
-    except cp.error.SolverError as err:
-        raise DesignError(f"the LMI solver failed: {err}") from None
-    return str(problem.status)
+def _iteration_reporter(progress, every: float = 2.0):
+    """SDPA's iterations as one progress line every few seconds (not one per iteration)."""
+    last = [-every]
+
+    def report(iteration: int, mu: float, seconds: float):
+        if seconds - last[0] >= every:
+            last[0] = seconds
+            progress(f"  SDPA iteration {iteration} (usually 25-35), duality measure {mu:.1e}, {seconds:.0f} s")
+    return report if progress is not None else None
 
 
 def _closed_loop_norms(A, B, F, K, Hz, Dzu, Dzd) -> tuple[float, float]:
@@ -73,8 +77,11 @@ def _closed_loop_norms(A, B, F, K, Hz, Dzu, Dzd) -> tuple[float, float]:
 
 
 def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: float | None = None,
-               eps: float = EPS_REGION, varpi: float = VARPI_REGION, Dzd: np.ndarray | None = None) -> LMIResult:
-    """gamma_sq None: pure H-infinity with regions (min gamma~). Else mixed H2/H-infinity with gamma~ prescribed."""
+               eps: float = EPS_REGION, varpi: float = VARPI_REGION, Dzd: np.ndarray | None = None,
+               progress=None) -> LMIResult:
+    """gamma_sq None: pure H-infinity with regions (min gamma~). Else mixed H2/H-infinity with gamma~ prescribed.
+
+    progress(str), if given, receives a line every few seconds while SDPA iterates."""
     n, m = sys.B.shape
     Q = check_weight(Q, n, "Omega_chi", definite=True)
     R = check_weight(R, m, "Omega_u", definite=True)
@@ -125,26 +132,57 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
     if gamma_sq is not None:
         # (3.27) is a principal submatrix of (3.39) with the common X, P: implied, so only checked afterwards
         lmis["H2 state (3.27)"] = 0.5 * (h2b + h2b.T)
-    start = time.perf_counter()
-    status = _solve(cp.Problem(objective, cons))
-    seconds = time.perf_counter() - start
-    if X.value is None or Y.value is None:
-        what = ("the pole regions and the H-infinity LMI" if gamma_sq is None
-                else f"the pole regions with the prescribed H-infinity bound gamma~ = {gamma_sq:g}")
-        raise DesignError(f"the LMIs are infeasible: no gain satisfies {what} (solver status: {status})")
+    problem = cp.Problem(objective, cons)
+    solvers = ["SDPA", "Clarabel"] if sdp_solver.sdpa_available() else ["Clarabel"]
+    failures = []
+    for solver in solvers:
+        last = solver == solvers[-1]
+        try:
+            solved = (sdp_solver.solve_sdpa(problem, _iteration_reporter(progress)) if solver == "SDPA"
+                      else sdp_solver.solve_clarabel(problem))
+        except sdp_solver.SolverFailed as err:
+            failures.append(str(err))
+            if last:
+                raise DesignError("the LMI solver failed: " + "; ".join(failures)) from None
+            if progress is not None:
+                progress(f"  {err}; solving again with {solvers[-1]}")
+            continue
+        if solved.status in sdp_solver.INFEASIBLE or X.value is None or Y.value is None:
+            what = ("the pole regions and the H-infinity LMI" if gamma_sq is None
+                    else f"the pole regions with the prescribed H-infinity bound gamma~ = {gamma_sq:g}")
+            failure = f"the LMIs are infeasible: no gain satisfies {what} (solver status: {solved.status})"
+            if solved.status in sdp_solver.INFEASIBLE or last:
+                raise DesignError(failure)
+            failures.append(f"{solver}: {failure}")
+            continue
+        try:
+            K, poles, lmi_min_eig = _checked_gain(sys, lmis, X.value, Y.value, S, Rhi, eps, varpi, solved.status)
+            break
+        except DesignError as err:
+            if last:
+                raise
+            failures.append(f"{solver}: {err}")
+            if progress is not None:
+                progress(f"  {solver}'s point was refused ({err}); solving again with {solvers[-1]}")
+    hinf_norm, h2_norm = _closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
+    gamma_val = float(g.value) if gamma_sq is None else float(gamma_sq)
+    h2_bound = float(np.sqrt(np.trace(N.value))) if N is not None else None
+    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, solved.status, solved.seconds,
+                     solved.solver, solved.iterations, lmi_min_eig)
+
+
+def _checked_gain(sys, lmis, Xv, Yv, S, Rhi, eps, varpi, status):
+    """The physical gain at the solver's point, refused unless every LMI holds there and the poles are in the regions."""
     lmi_min_eig = {name: float(np.linalg.eigvalsh(expr.value)[0]) for name, expr in lmis.items()}
     broken = {name: v for name, v in lmi_min_eig.items() if not v > 0}
     if broken:
         raise DesignError(f"the solver's point (status {status}) violates the LMIs: "
                           + ", ".join(f"{name} min eigenvalue {v:.2e}" for name, v in broken.items()))
-    K = Rhi @ (-Y.value @ np.linalg.inv(X.value)) @ S  # back to physical units
+    K = Rhi @ (-Yv @ np.linalg.inv(Xv)) @ S  # back to physical units
     poles = np.linalg.eigvals(sys.A - sys.B @ K)
     if not (np.all(poles.real > eps - 1e-6) and np.all(np.abs(poles) < varpi + 1e-6)):
         raise DesignError(
             f"the solver returned a gain whose poles leave the regions (status {status}; "
             f"min Re {poles.real.min():.5f} vs eps {eps}, max |z| {np.abs(poles).max():.6f} vs varpi {varpi})"
         )
-    hinf_norm, h2_norm = _closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
-    gamma_val = float(g.value) if gamma_sq is None else float(gamma_sq)
-    h2_bound = float(np.sqrt(np.trace(N.value))) if N is not None else None
-    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, status, seconds, lmi_min_eig)
+    return K, poles, lmi_min_eig

@@ -76,7 +76,7 @@ def cmd_design(args: argparse.Namespace) -> int:
     from ..controller_fmu.error_dynamics import DesignError
 
     try:
-        d = design(args.controller, args.Tc, use_cache=not args.fresh)
+        d = design(args.controller, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr))
     except DesignError as err:
         raise UserError(str(err)) from None
     path = artifact.save(d, args.out / f"{d.kind}.json")
@@ -142,15 +142,17 @@ def cmd_run(args: argparse.Namespace) -> int:
             "stop_time": stop, "delay": args.delay}
     print(f"running {label}: {stop:g} s of simulated time")
     try:
-        result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every)
+        result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
+                            trust_fmus=args.trust_fmus, step_timeout=args.step_timeout)
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
     print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
-    if result.metrics:
+    if result.metrics and result.ticks:
         print(f"{'metric':>14} {'value':>12}")
         for k, v in result.metrics.items():
             print(f"{k:>14} {v:>12.6g}")
-    print(f"log: {log}" if log else "log: none (--no-log)")
+    if log is None or log.is_file():
+        print(f"log: {log}" if log else "log: none (--no-log)")
     if result.error:
         where = (f"the log is readable up to t = {result.sim_time:.3f} s" if log.is_file() else "no log was written") if log \
             else "no log (--no-log)"
@@ -297,6 +299,11 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--name", type=_file_stem, default=None, help="file name stem of the log")
     r.add_argument("--allow-unknown-inputs", action="store_true",
                    help="run a controller FMU whose inputs include names the port contract does not have")
+    r.add_argument("--trust-fmus", action="store_true",
+                   help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
+                        "process, so a crash, exit() or hang in one ends the run with one line)")
+    r.add_argument("--step-timeout", type=_positive_time, default=None, metavar="S",
+                   help="watchdog for an FMU in its own process: the longest a call may take (default 10 s)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
     r.add_argument("--log-every", type=_whole_number, default=1, metavar="N",

@@ -11,6 +11,7 @@ import hashlib
 import json
 import os
 import platform
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -33,6 +34,12 @@ CFLAGS = ("-std=c11", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra",
 GENERATED_CFLAGS = ("-Wno-unused-parameter", "-Wno-unused-variable", "-Wno-unused-function")
 # Hot numerical kernels (the ZSE's products): full vectorization and fused multiply-adds, still portable.
 HOT_CFLAGS = ("-O3", "-ffp-contract=fast")
+
+
+def user_cflags() -> tuple[str, ...]:
+    """$TILTLOAD_CFLAGS, appended to every compile and part of the build's identity. Example:
+    -DTL_PORTABLE_FP drops the AVX2/FMA clones, so the controller rounds as on any x86-64."""
+    return tuple(shlex.split(os.environ.get("TILTLOAD_CFLAGS", "")))
 
 
 class BuildError(RuntimeError):
@@ -91,7 +98,7 @@ def digest(files: list[Path], *extra: str) -> str:
     h = hashlib.sha256()
     for f in sorted({*files, *LAYER_FILES, Path(__file__), HERE / "describe.py", HERE / "variables.py"}, key=str):
         h.update(f.name.encode() + b"\0" + f.read_bytes())
-    for e in (compiler_identity(compiler()), platform.machine(), " ".join(CFLAGS + HOT_CFLAGS), *extra):
+    for e in (compiler_identity(compiler()), platform.machine(), " ".join(CFLAGS + HOT_CFLAGS + user_cflags()), *extra):
         h.update(e.encode() + b"\0")
     return h.hexdigest()
 
@@ -116,7 +123,7 @@ def _first_error(said: str) -> str:
 
 
 def _compile(cc: str, source: Path, obj: Path, include: list[Path], extra: tuple[str, ...]) -> str:
-    cmd = [cc, *CFLAGS, *extra, *(f"-I{d}" for d in include), "-c", str(source), "-o", str(obj)]
+    cmd = [cc, *CFLAGS, *extra, *user_cflags(), *(f"-I{d}" for d in include), "-c", str(source), "-o", str(obj)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise BuildError(f"compiling {source.name} with {cc} failed: {_first_error(proc.stderr)}")

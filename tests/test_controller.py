@@ -105,7 +105,7 @@ def test_dlqr_on_the_nonlinear_plant(dlqr):
 
 @pytest.fixture(scope="module")
 def mixed():
-    return design("mixed", use_cache=True)  # about 90 s on a cold cache
+    return design("mixed", use_cache=True)  # about 10 s on a cold cache (SDPA)
 
 
 def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
@@ -159,3 +159,34 @@ def test_infeasible_hinf_bound_is_named():
     best = synthesize(sys, Q, R, eps=0.3, varpi=0.999)
     with pytest.raises(DesignError, match="infeasible.*prescribed H-infinity bound"):
         synthesize(sys, Q, R, gamma_sq=(0.5 * best.gamma_bound) ** 2, eps=0.3, varpi=0.999)
+
+
+def test_sdpa_and_clarabel_agree_and_clarabel_takes_over_when_sdpa_fails(monkeypatch):
+    """Two independent interior-point solvers on one problem: the same optimum to solver tolerance,
+    and a failing SDPA (here: its child process exits) falls back to Clarabel, never to an unchecked point."""
+    from tiltload.controller_fmu import sdp_solver
+    from tiltload.controller_fmu.lmi import synthesize
+
+    sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
+    lines = []
+    a = synthesize(sys, Q, R, gamma_sq=30.0**2, eps=0.3, varpi=0.999, progress=lines.append)
+    assert a.solver == "SDPA" and a.iterations > 5
+    monkeypatch.setattr(sdp_solver.sys, "executable", "/bin/false")  # the child cannot start
+    b = synthesize(sys, Q, R, gamma_sq=30.0**2, eps=0.3, varpi=0.999, progress=lines.append)
+    assert b.solver == "Clarabel"
+    assert any("SDPA failed" in line and "Clarabel" in line for line in lines)
+    assert b.h2_bound == pytest.approx(a.h2_bound, rel=1e-3)
+    assert all(v > 0 for v in b.lmi_min_eig.values())
+
+
+def test_sdpa_reports_every_iteration_in_order():
+    import cvxpy as cp
+    from tiltload.controller_fmu import sdp_solver
+
+    X = cp.Variable((3, 3), symmetric=True)
+    problem = cp.Problem(cp.Minimize(cp.trace(X)), [X >> np.diag([1.0, 2.0, 3.0])])
+    seen = []
+    solved = sdp_solver.solve_sdpa(problem, lambda k, mu, s: seen.append((k, mu)))
+    assert solved.status == "optimal" and problem.value == pytest.approx(6.0, rel=1e-5)
+    assert [k for k, _ in seen] == list(range(1, solved.iterations + 1))
+    assert seen[-1][1] < 1e-3 * seen[0][1]  # the duality measure falls as the solver converges

@@ -4,8 +4,9 @@
 #define TL_LINALG_H
 
 /* On x86-64 Linux with GCC, hot routines get a second, x86-64-v3 (AVX2, FMA) copy chosen at run time:
-   the shipped binary stays portable. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
+   the shipped binary stays portable. Its fused multiply-adds round differently from the default copy;
+   -DTL_PORTABLE_FP (via $TILTLOAD_CFLAGS) builds the default copy only, as an older CPU would run it. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__) && !defined(TL_PORTABLE_FP)
 #define TL_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define TL_DISPATCH
