@@ -111,6 +111,11 @@ class FmuInstance:
             if n:
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
 
+    @property
+    def component(self):
+        """The fmi2Component the raw setters take."""
+        return self.slave.component
+
     def failed(self, what: str, status: int) -> ExecutionError:
         self.fatal = status == FATAL
         said = next((line for line in reversed(self.log) if line.strip() and "Fatal py exception" not in line), "")
@@ -126,6 +131,17 @@ class FmuInstance:
             raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
         finally:
             self.fmi_seconds += time.perf_counter() - started
+
+    def initialize(self, parameters: dict) -> None:
+        """setupExperiment, parameters, initialization mode, then the outputs at t = 0."""
+        self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
+        self.call("enterInitializationMode", self.slave.enterInitializationMode)
+        self.set_parameters(parameters)
+        self.call("exitInitializationMode", self.slave.exitInitializationMode)
+        self.read_outputs()
+
+    def reset(self) -> None:
+        self.call("reset", self.slave.reset)
 
     def set_parameters(self, params: dict) -> None:
         for key, value in params.items():
@@ -197,8 +213,11 @@ class _Group:
 
 
 class Execution:
-    def __init__(self, system: System, observers=()) -> None:
+    def __init__(self, system: System, observers=(), trust_fmus: bool = False, step_timeout: float | None = None) -> None:
+        """trust_fmus: run every FMU in this process; else FMUs tiltload did not build run each in
+        its own process, every call watched for step_timeout seconds (fmu_process.py)."""
         self.system = validate(system)
+        self.trust_fmus, self.step_timeout = trust_fmus, step_timeout
         self.observers = list(observers)
         self.instances: dict[str, FmuInstance] = {}
         self.time = 0.0
@@ -222,8 +241,14 @@ class Execution:
 
     def instantiate(self) -> None:
         try:
+            from .fmu_process import STEP_TIMEOUT, IsolatedFmu, is_ours
+
             for spec in self.system.instances:
-                self.instances[spec.name] = FmuInstance(spec.name, spec.fmu, self._mds[spec.name])
+                md = self._mds[spec.name]
+                if self.trust_fmus or is_ours(spec.fmu, md):
+                    self.instances[spec.name] = FmuInstance(spec.name, spec.fmu, md)
+                else:
+                    self.instances[spec.name] = IsolatedFmu(spec.name, spec.fmu, md, self.step_timeout or STEP_TIMEOUT)
             for (src, dst, typ, delay), links in self._raw_groups.items():
                 idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
                 buf = (_C_TYPE[typ] * len(links))()
@@ -239,12 +264,7 @@ class Execution:
     def _initialize(self) -> None:
         """Set-up, parameters and initialization of every instance, then the observers start at t = 0."""
         for spec in self.system.instances:
-            inst = self.instances[spec.name]
-            inst.call("setupExperiment", lambda s=inst.slave: s.setupExperiment(startTime=0.0))
-            inst.call("enterInitializationMode", inst.slave.enterInitializationMode)
-            inst.set_parameters(spec.parameters)
-            inst.call("exitInitializationMode", inst.slave.exitInitializationMode)
-            inst.read_outputs()
+            self.instances[spec.name].initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
         for name, inst in self.instances.items():
             self.history[name] = deque([{t: v.copy() for t, v in inst.values.items()}], maxlen=self.max_delay + 1)
@@ -270,13 +290,12 @@ class Execution:
             self.manipulator = type(self.manipulator)(self.system.faults)  # fresh state: holds, histories
             self.manipulator.bind(self)
         for spec in self.system.instances:
-            inst = self.instances[spec.name]
-            inst.call("reset", inst.slave.reset)
+            self.instances[spec.name].reset()
         self._initialize()
 
     def _set_inputs(self, name: str, t: float) -> None:
         inst = self.instances[name]
-        component = inst.slave.component
+        component = inst.component
         groups = self.groups.get(name, ())
         for g in groups:
             if g.delay == 0:

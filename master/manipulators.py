@@ -184,7 +184,7 @@ class _Direct:
     def write(self, active: bool) -> None:
         if not active:
             self.view[0] = self.start
-        status = self.inst.setters[self.type](self.inst.slave.component, self.vrs, 1, self.buf)
+        status = self.inst.setters[self.type](self.inst.component, self.vrs, 1, self.buf)
         if status > 1:
             raise self.inst.failed(f"set{self.type} by a fault", status)
         self.changed = active

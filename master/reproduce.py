@@ -69,11 +69,17 @@ def run_all(fmus: Path, out: Path, workers: int | None = None, stop: float | Non
 
 
 def write_baselines(results: list[dict], folder: Path) -> None:
+    """New metrics; the tolerances (and the spread they come from, benchmarks/baseline_spread.py) are kept."""
     folder.mkdir(parents=True, exist_ok=True)
     for r in results:
+        path = folder / f"{r['case']}.json"
+        try:
+            kept = {k: v for k, v in json.loads(path.read_text()).items() if k in ("tolerances", "spread")}
+        except (OSError, ValueError):
+            kept = {}
         data = {"case": r["case"], "seed": SEED, "stop_time": r["stop"], "metrics": r["metrics"],
-                "tolerances": {"rtol": BASELINE_RTOL, "atol": 1e-12}}
-        (folder / f"{r['case']}.json").write_text(json.dumps(data, indent=1) + "\n")
+                "tolerances": {"rtol": BASELINE_RTOL, "atol": 1e-12}, **kept}
+        path.write_text(json.dumps(data, indent=1) + "\n")
 
 
 def check_baselines(results: list[dict], folder: Path, echo=print) -> bool:

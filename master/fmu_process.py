@@ -1,0 +1,186 @@
+"""The master's side of an FMU hosted in its own process (fmu_worker.py), with a watchdog.
+
+`IsolatedFmu` offers what the execution uses of an in-process `FmuInstance` (output tables, raw
+setters, do_step, read_outputs, initialize, reset, close). Inputs set before a step are queued
+and travel with it, so one step is one round trip: set + doStep + get. Every reply must come
+within `timeout` seconds; a worker that dies (signal, exit()) or stays silent becomes one
+ExecutionError naming the instance, the call and what happened, and the worker is killed.
+
+Which FMUs run this way: every FMU that tiltload did not compile itself (`is_ours`), unless the
+user trusts it (`--trust-fmus`).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import connections
+from .execution import _C_TYPE, ExecutionError
+from .fmu_worker import _HEADER, receive_exact, send
+from .system import DescriptionError
+
+STEP_TIMEOUT = 10.0  # s a call may take before the watchdog kills the FMU's process (--step-timeout)
+START_TIMEOUT = 60.0  # s for the process to start and instantiate (a pythonfmu FMU starts an interpreter)
+
+
+def is_ours(fmu: Path, md) -> bool:
+    """A native FMU tiltload compiled (its build record names the GUID the model description declares)."""
+    from ..native_fmu.build import read_build_info
+
+    info = read_build_info(Path(fmu))
+    return bool(info) and "wrapped" not in info and info.get("guid") == md.guid
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+class IsolatedFmu:
+    """One FMU instance in a worker process; the same interface as execution.FmuInstance."""
+
+    isolated = True
+
+    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT) -> None:
+        self.name, self.path, self.md, self.timeout = name, Path(path), md, float(timeout)
+        self.log: list[str] = []
+        self.fatal = False
+        self.fmi_seconds = 0.0
+        self.outputs = {t: [v for v in md.modelVariables if v.causality == "output" and v.type == t] for t in connections.TYPES}
+        self.out_vrs = {t: [v.valueReference for v in vs] for t, vs in self.outputs.items()}
+        self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.values = {t: np.zeros(len(vs), dtype=np.dtype(_C_TYPE[t])) for t, vs in self.outputs.items()}
+        self.setters = {t: self._queue(t) for t in connections.TYPES}
+        self.component = None  # the setters queue: there is no component on this side
+        self._pending: list = []
+        self._dead = False
+        self._stderr = tempfile.TemporaryFile()
+        req_r, self._req = os.pipe()
+        self._rep, rep_w = os.pipe()
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", "tiltload.master.fmu_worker", str(self.path), name, str(req_r), str(rep_w)],
+                pass_fds=(req_r, rep_w), stdin=subprocess.DEVNULL, stdout=self._stderr, stderr=self._stderr)
+        finally:
+            os.close(req_r)
+            os.close(rep_w)
+        self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))
+
+    def _queue(self, typ: str):
+        def setter(component, vrs, n, buf):
+            self._pending.append((typ, np.ctypeslib.as_array(vrs)[:n].copy(), np.ctypeslib.as_array(buf)[:n].copy()))
+            return 0
+        return setter
+
+    def _last_stderr(self) -> str:
+        self._stderr.seek(0)
+        lines = [ln.strip() for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
+        return lines[-1] if lines else ""
+
+    def _gone(self, what: str) -> ExecutionError:
+        """The worker closed its pipe: say how it ended."""
+        self._dead = self.fatal = True
+        try:
+            code = self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            code = self.proc.wait()
+        how = (f"the FMU crashed ({_signal_name(-code)})" if code < 0 else
+               f"the FMU ended its process with exit({code})")
+        said = self._last_stderr()
+        return ExecutionError(f"{self.name}: {how} in {what}" + (f"; it said: {said}" if said else ""))
+
+    def _exchange(self, request, what: str, timeout: float | None = None):
+        """Send request (None: only wait for the worker's greeting) and return the reply's outputs."""
+        if self._dead:
+            raise ExecutionError(f"{self.name}: {what}: the FMU's process has already ended")
+        timeout = self.timeout if timeout is None else timeout
+        started = time.perf_counter()
+        try:
+            if request is not None:
+                send(self._req, request)
+            deadline = started + timeout
+            header = b""
+            while len(header) < _HEADER.size:
+                left = deadline - time.perf_counter()
+                if left <= 0 or not select.select([self._rep], [], [], left)[0]:
+                    self._dead = self.fatal = True
+                    self.proc.kill()
+                    self.proc.wait()
+                    raise ExecutionError(f"{self.name}: {what} did not return within {timeout:g} s (watchdog; "
+                                         f"--step-timeout sets the limit): its process was killed")
+                chunk = os.read(self._rep, _HEADER.size - len(header))
+                if not chunk:
+                    raise self._gone(what)
+                header += chunk
+            body = receive_exact(self._rep, _HEADER.unpack(header)[0])
+        except BrokenPipeError:
+            raise self._gone(what) from None
+        finally:
+            self.fmi_seconds += time.perf_counter() - started
+        if body is None:
+            raise self._gone(what)
+        import pickle
+
+        reply = pickle.loads(body)
+        if reply[0] == "ok":
+            _, outputs, log = reply
+            self.log.extend(log)
+            if outputs is not None:
+                for t, v in outputs.items():
+                    self.values[t][:] = v
+            return outputs
+        _, kind, message, fatal, log = reply
+        self.log.extend(log)
+        self.fatal = fatal
+        raise (DescriptionError if kind == "description" else ExecutionError)(message)
+
+    def initialize(self, parameters: dict) -> None:
+        self._pending.clear()
+        self._exchange(("init", dict(parameters)), "initialization")
+
+    def reset(self) -> None:
+        self._pending.clear()
+        self._exchange(("reset",), "reset")
+
+    def do_step(self, t: float, h: float) -> None:
+        sets, self._pending = self._pending, []
+        self._exchange(("step", sets, t, h), f"doStep at t={t:.6g} s")
+
+    def read_outputs(self) -> None:
+        """Nothing to ask: the outputs came with the last step or the initialization."""
+
+    def close(self) -> None:
+        """Ask the worker to terminate and free the FMU; kill it if it does not within the watchdog."""
+        try:
+            if not self._dead:
+                try:
+                    self._exchange(("close",), "terminate", timeout=min(self.timeout, 5.0))
+                except (ExecutionError, DescriptionError):
+                    pass
+            if self.proc.poll() is None:
+                try:
+                    self.proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait()
+        finally:
+            for fd in (self._req, self._rep):
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+            self._stderr.close()
+            self._dead = True

@@ -1,0 +1,121 @@
+"""Foreign FMUs run in their own process: a crash, exit() or hang ends the run with one line, the log kept."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import zipfile
+from pathlib import Path
+
+import pytest
+from tiltload.master import mcap_log
+from tiltload.master.cli import main
+from tiltload.master.execution import Execution
+from tiltload.master.observers import Metrics
+from tiltload.master.tiltload_system import default_system
+
+TRIM = "9.987293721113877, 10.02221862357339, 0.0, 0.0"  # hover thrusts: the loop stays up for the first second
+MISBEHAVIOURS = {
+    "segfault": ("os.kill(os.getpid(), signal.SIGSEGV)", "crashed (SIGSEGV) in doStep at t=0.504 s"),
+    "abort": ("os.abort()", "crashed (SIGABRT) in doStep at t=0.504 s"),
+    "exit": ("os._exit(3)", "ended its process with exit(3) in doStep at t=0.504 s"),
+    "hang": ("time.sleep(3600)", "doStep at t=0.504 s did not return within 1 s (watchdog"),
+    "nan": ("return float('nan'), 0.0, 0.0, 0.0", "doStep at t=0.504 s failed (discard)"),
+}
+
+
+@pytest.fixture(scope="module")
+def fmus(pipeline_fmus):
+    return pipeline_fmus["TiltloadPlant"].parent
+
+
+@pytest.fixture(scope="module")
+def misbehaving(tmp_path_factory):
+    """One `tiltload wrap` controller per misbehaviour, which strikes at t = 0.5 s."""
+    folder = tmp_path_factory.mktemp("misbehaving")
+    out = {}
+    for mode, (act, _) in MISBEHAVIOURS.items():
+        src = folder / f"bad_{mode}.py"
+        src.write_text(f"import os, signal, time\n\nclass Bad{mode.capitalize()}:\n    inputs = ['x_ref']\n\n"
+                       f"    def step(self, t, i):\n        if t >= 0.5:\n            {act}\n        return {TRIM}\n")
+        out[mode] = folder / f"bad_{mode}.fmu"
+        assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
+    return out
+
+
+def workers() -> list[str]:
+    ps = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
+    return [line for line in ps.splitlines() if "tiltload.master.fmu_worker" in line and str(os.getpid()) not in line]
+
+
+@pytest.mark.parametrize("mode", list(MISBEHAVIOURS))
+def test_a_misbehaving_controller_ends_the_run_with_one_line_and_its_log(mode, misbehaving, fmus, tmp_path, capsys):
+    code = main(["run", "--controller", str(misbehaving[mode]), "--scenario", "fsi", "--stop-time", "2", "--step-timeout", "1",
+                 "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1
+    assert len(err) == 1 and err[0].startswith("tiltload: error: controller: ") and MISBEHAVIOURS[mode][1] in err[0], err
+    assert "Traceback" not in err[0] and "the log is readable up to t = 0.504 s" in err[0]
+    plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
+    assert plant[-1]["t"] == pytest.approx(0.504)  # everything up to the failing step is on disk
+    assert not workers()
+
+
+def foreign_copy(fmu: Path, dest: Path, drop=("resources/build_info.json",)) -> Path:
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
+        for item in src.infolist():
+            if not any(item.filename.startswith(d) for d in drop):
+                out.writestr(item, src.read(item.filename))
+    return dest
+
+
+def test_an_isolated_fmu_gives_the_in_process_results_bit_for_bit(fmus, tmp_path):
+    """Our controller, stripped of its build record, is foreign: hosted in a worker, it must compute the same loop."""
+    foreign = foreign_copy(fmus / "TiltloadController.fmu", tmp_path / "Foreign.fmu")
+    results = {}
+    for trust in (True, False):
+        system = default_system(fmus, "lkf", 1, "mixed")
+        system.instances[2].fmu = foreign
+        ex = Execution(system, [Metrics("plant", "scenario", "controller")], trust_fmus=trust)
+        ex.instantiate()
+        assert getattr(ex.instances["controller"], "isolated", False) is not trust
+        ex.run(1.2)
+        results[trust] = ex.observers[0].table(), ex.instances["plant"].values["Real"].copy()
+        ex.restart()  # fmi2Reset and initialization through the worker too
+        ex.run(0.6)
+        ex.close()
+    assert results[True][0] == results[False][0]
+    assert (results[True][1] == results[False][1]).all()
+    assert not workers()
+
+
+def test_a_foreign_fmu_without_its_resources_is_one_line(misbehaving, fmus, tmp_path, capsys):
+    """A pythonfmu controller without resources/ crashed the master (exit -11) when it ran in process."""
+    broken = foreign_copy(misbehaving["nan"], tmp_path / "NoResources.fmu", drop=("resources/",))
+    code = main(["run", "--controller", str(broken), "--stop-time", "1", "--fmus", str(fmus), "--out", str(tmp_path),
+                 "--quiet", "--no-plots"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and err[0].startswith("tiltload: error: controller: "), err
+    assert not workers()
+
+
+def test_a_killed_master_leaves_no_worker_behind(misbehaving, fmus, tmp_path):
+    """SIGKILL gives the master no chance to clean up: the worker must die with it (even while hung)."""
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.cli", "run", "--controller", str(misbehaving["hang"]),
+                             "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while not workers() and time.time() < deadline:
+        time.sleep(0.1)
+    assert workers(), "the worker never started"
+    time.sleep(1.0)  # now hung in doStep
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.time() + 10
+    while workers() and time.time() < deadline:
+        time.sleep(0.1)
+    assert not workers()
