@@ -16,6 +16,13 @@ class UserError(Exception):
     """A problem the user can fix; reported as one line, exit code 2."""
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """A usage error is one line naming the problem (and where help is), not the usage block."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+
+
 def cmd_build(args: argparse.Namespace) -> int:
     from .build_all import build_all
 
@@ -143,7 +150,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"running {label}: {stop:g} s of simulated time")
     try:
         result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
-                            trust_fmus=args.trust_fmus, step_timeout=args.step_timeout)
+                            trust_fmus=args.trust_fmus, step_timeout=args.step_timeout, announce=_announce)
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
     print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
@@ -162,6 +169,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
     return 0
+
+
+def _announce(execution) -> None:
+    """Before the first step: the inputs nothing feeds (a misspelt port shows up here)."""
+    if execution.unconnected:
+        print(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
@@ -183,7 +196,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     except DescriptionError as err:
         raise UserError(str(err)) from None
     for note in notes:
-        print(f"note: {note}", file=sys.stderr)
+        print(f"note: {note}")
     ok, rows = cmp.compare(run, base, args.rtol, args.atol, tol)
     print(cmp.format_rows(rows))
     print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
@@ -200,7 +213,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise UserError(f"{args.log} is not an MCAP log (no MCAP magic at its start)")
     if is_truncated(args.log):
-        print(f"note: {args.log} is truncated (no footer: a killed run); plotting what it holds", file=sys.stderr)
+        print(f"note: {args.log} is truncated (no footer: a killed run); plotting what it holds")
     try:
         files = plot_run(args.log, args.out)
     except ValueError as err:  # a log of another system: no /plant channel
@@ -264,7 +277,7 @@ def _file_stem(text: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="tiltload", description=__doc__)
+    parser = OneLineParser(prog="tiltload", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     b = sub.add_parser("build", help="build the FMUs into fmus/ (only what is missing or stale)")
     b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
@@ -352,10 +365,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("tiltload: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of our output went away (e.g. `| head`): stop, as a pipe writer does
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print("tiltload: stopped: standard output was closed (broken pipe)", file=sys.stderr)
+        return 141
     except Exception as err:  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
         if os.environ.get("TILTLOAD_DEBUG"):
             raise
-        print(f"tiltload: error: {type(err).__name__}: {err}", file=sys.stderr)
+        print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)
         return 1
 
 

@@ -26,8 +26,14 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
         try:
             data = json.loads(path.read_text())
             metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError, AttributeError, UnicodeDecodeError) as err:
-            raise DescriptionError(f"{path} is not a metrics file ({type(err).__name__}: {err})") from None
+        except json.JSONDecodeError as err:
+            raise DescriptionError(f"{path} is not a metrics file: not JSON ({err.msg} at line {err.lineno})") from None
+        except UnicodeDecodeError:
+            raise DescriptionError(f"{path} is not a metrics file: not UTF-8 text") from None
+        except KeyError:
+            raise DescriptionError(f"{path} is not a metrics file: it has no 'metrics' entry") from None
+        except (TypeError, ValueError, AttributeError):
+            raise DescriptionError(f"{path} is not a metrics file: 'metrics' must map names to numbers") from None
         if not metrics:
             raise DescriptionError(f"{path} holds no metrics: nothing to compare")
         if not all(math.isfinite(v) for v in metrics.values()):

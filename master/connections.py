@@ -74,3 +74,16 @@ def resolve(system: System, mds: dict) -> list[Link]:
         if link.type not in TYPES:
             raise DescriptionError(f"{link.label}: {link.type} connections are not supported")
     return links
+
+
+def unconnected(system: System, mds: dict, links: list[Link]) -> list[str]:
+    """Inputs no connection feeds, as "instance.name = value": they hold their start value, or the value
+    the system's parameters give them, for the whole run."""
+    fed = {(link.target, link.type, link.target_vr) for link in links}
+    out = []
+    for inst in system.instances:
+        for v in mds[inst.name].modelVariables:
+            if v.causality == "input" and (inst.name, v.type, v.valueReference) not in fed:
+                value = inst.parameters.get(v.name, v.start)
+                out.append(f"{inst.name}.{v.name} = {str(value).lower() if v.type == 'Boolean' else value}")
+    return out

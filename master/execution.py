@@ -11,6 +11,7 @@ ExecutionError naming the instance, the call and the FMU's last log line.
 from __future__ import annotations
 
 import ctypes
+import math
 import time
 import zipfile
 from collections import deque
@@ -57,6 +58,37 @@ def read_fmu(path: Path, instance: str):
     if md.coSimulation is None:
         raise DescriptionError(f"{instance}: {path} is a model-exchange-only FMU; a co-simulation FMU is needed")
     return md
+
+
+def checked_value(instance: str, v, key: str, value):
+    """A parameter (or unconnected input) value converted to the variable's FMI type, or a DescriptionError
+    naming it: unknown or unsettable variable, wrong kind, non-finite, outside the declared min/max or int32."""
+    if v is None:
+        raise DescriptionError(f"{instance} has no variable '{key}' to set")
+    if v.causality not in ("parameter", "input") or v.variability == "constant":
+        raise DescriptionError(f"{instance}.{key} is a {v.causality} ({v.variability}); only parameters and inputs can be set")
+    where = f"{instance}.{key} = {value!r}"
+    if v.type in ("Real", "Integer"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise DescriptionError(f"{where}: must be a number")
+        if not math.isfinite(value):
+            raise DescriptionError(f"{where}: must be finite")
+        if v.type == "Integer":
+            if value != int(value) or not -2**31 <= value < 2**31:
+                raise DescriptionError(f"{where}: must be a whole number that fits 32 bits")
+            value = int(value)
+        else:
+            value = float(value)
+        lo, hi = (None if b is None else float(b) for b in (v.min, v.max))
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise DescriptionError(f"{where}: outside its declared range [{lo if lo is not None else '-inf'}, "
+                                   f"{hi if hi is not None else 'inf'}]")
+        return value
+    if v.type == "Boolean":
+        if isinstance(value, bool) or value in (0, 1):
+            return bool(value)
+        raise DescriptionError(f"{where}: must be true or false")
+    return str(value)
 
 
 class FmuInstance:
@@ -146,22 +178,9 @@ class FmuInstance:
     def set_parameters(self, params: dict) -> None:
         for key, value in params.items():
             v = self.vars.get(key)
-            if v is None:
-                raise DescriptionError(f"{self.name} has no variable '{key}' to set")
-            if v.causality not in ("parameter", "input") or v.variability == "constant":
-                raise DescriptionError(f"{self.name}.{key} is a {v.causality} ({v.variability}); only parameters and inputs can be set")
+            value = checked_value(self.name, v, key, value)
             setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger, "Boolean": self.slave.setBoolean,
                       "String": self.slave.setString}[v.type]
-            if v.type == "Real":
-                value = float(value)
-                if not np.isfinite(value):
-                    raise DescriptionError(f"{self.name}.{key} = {value}: parameters must be finite")
-            elif v.type == "Integer":
-                value = int(value)
-            elif v.type == "Boolean":
-                value = bool(value)
-            else:
-                value = str(value)
             self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
 
     def read_outputs(self) -> None:
@@ -197,6 +216,24 @@ class FmuInstance:
         shutil.rmtree(self.dir, ignore_errors=True)
 
 
+def _check_parameters(system: System, mds: dict, links) -> None:
+    """Every given value fits its variable, and none is for an input a connection overwrites every step."""
+    fed = {(link.target, link.type, link.target_vr): link for link in links}
+    for spec in system.instances:
+        variables = {v.name: v for v in mds[spec.name].modelVariables}
+        for key, value in spec.parameters.items():
+            v = variables.get(key)
+            checked_value(spec.name, v, key, value)
+            link = fed.get((spec.name, v.type, v.valueReference)) if v.causality == "input" else None
+            if link is not None:
+                source = f"{link.source}.{_name_of(mds[link.source], link.type, link.source_vr)}"
+                raise DescriptionError(f"{spec.name}.{key} is an input fed by {source} every step: setting it has no effect")
+
+
+def _name_of(md, typ: str, vr: int) -> str:
+    return next((v.name for v in md.modelVariables if v.valueReference == vr and v.type == typ and v.causality == "output"), str(vr))
+
+
 @dataclass
 class _Group:
     """Links from one source into one target of one type and delay: a gather into an array the set reads."""
@@ -224,6 +261,8 @@ class Execution:
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
         self.links = connections.resolve(system, mds)
+        _check_parameters(system, mds, self.links)
+        self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
         self.every = {i.name: (1 if i.period is None else round(i.period / system.tick)) for i in system.instances}
         groups: dict[tuple, list] = {}
         for link in self.links:

@@ -29,9 +29,10 @@ class RunResult:
 
 def run_system(system: System, stop: float, log: Path | None, metrics: Metrics | None = None, progress: bool = True,
                metadata: dict | None = None, scene_from: str | None = "plant", observers_extra=(), log_every: int = 1,
-               trust_fmus: bool = False, step_timeout: float | None = None) -> RunResult:
+               trust_fmus: bool = False, step_timeout: float | None = None, announce=None) -> RunResult:
     """Run to stop; log to MCAP unless log is None (metrics only), every log_every-th step of each FMU.
-    FMUs tiltload did not build run in their own processes unless trust_fmus (see fmu_process.py)."""
+    FMUs tiltload did not build run in their own processes unless trust_fmus (see fmu_process.py).
+    announce(execution), if given, is called once the system is checked, before any FMU is loaded."""
     logger = McapLogger(log, scene_from=scene_from, metadata=metadata, log_every=log_every) if log is not None else None
     observers = [*([logger] if logger else []), *observers_extra]
     if metrics is not None:
@@ -39,6 +40,8 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
     if progress:
         observers.append(Progress(stop))
     ex = Execution(system, observers, trust_fmus=trust_fmus, step_timeout=step_timeout)
+    if announce is not None:
+        announce(ex)
     started = time.perf_counter()
     error, signum = None, None
     try:

@@ -137,8 +137,10 @@ def load(path: Path) -> System:
                 system.faults = parse(data["faults"], f"{path}: faults")
             except FaultError as err:
                 raise DescriptionError(str(err)) from None
+    except DescriptionError:
+        raise
     except (KeyError, TypeError, ValueError) as err:
-        raise DescriptionError(f"{path}: malformed system description ({type(err).__name__}: {err})") from None
+        raise DescriptionError(f"{path}: malformed system description ({err})") from None
     return validate(system)
 
 

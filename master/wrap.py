@@ -50,7 +50,8 @@ def _load(path: Path):
     try:
         spec.loader.exec_module(module)
     except Exception as err:  # the user's code: one line, what and where
-        raise WrapError(f"importing {path.name} failed: {type(err).__name__}: {err}") from None
+        where = f" at line {err.lineno}" if isinstance(err, SyntaxError) else ""
+        raise WrapError(f"importing {path.name} failed{where}: {err} ({type(err).__name__})") from None
     finally:
         sys.modules.pop(name, None)
     return module

@@ -52,7 +52,7 @@ class TiltloadWrapped(Fmi2Slave):
         try:
             self._controller = cls(**self._par) if self._par else cls()
         except Exception as err:  # the user's code: say what it raised, in one line
-            self.log(f"{_SPEC['class']}() failed: {type(err).__name__}: {err}", Fmi2Status.error)
+            self.log(f"{_SPEC['class']}() raised {type(err).__name__} ({err})", Fmi2Status.error)
             raise
 
     def do_step(self, current_time, step_size):
@@ -60,7 +60,7 @@ class TiltloadWrapped(Fmi2Slave):
             u = self._controller.step(current_time, dict(self._in))
             u = [float(v) for v in u]
         except Exception as err:
-            self.log(f"{_SPEC['class']}.step failed at t={current_time:.6g} s: {type(err).__name__}: {err}", Fmi2Status.error)
+            self.log(f"{_SPEC['class']}.step raised {type(err).__name__} at t={current_time:.6g} s ({err})", Fmi2Status.error)
             return False
         if len(u) != 4:
             self.log(f"{_SPEC['class']}.step returned {len(u)} values at t={current_time:.6g} s; it must return "

@@ -1,0 +1,296 @@
+"""Generated bad input, the way a demanding user meets the tool: every case must end with a non-zero
+exit and exactly one line on stderr that names the problem; never a traceback, never a bare
+exception class name, never exit 0.
+
+Over 300 cases: CLI arguments of every command, system descriptions (valid ones mutated field by
+field, and broken files), FMU files (not a zip, broken XML, wrong FMI kind, misbehaving controllers
+in their own process: segfault, abort, exit(), hang, NaN), FMU parameters, fault schedules,
+campaign specs and `compare` inputs.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+import zipfile
+from pathlib import Path
+
+import pytest
+from tiltload.master.cli import main
+
+BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
+EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
+TRIM = "9.987293721113877, 10.02221862357339, 0.0, 0.0"
+
+
+def _cli_cases() -> list[tuple[str, list[str]]]:
+    cases = []
+    run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots"]
+    for value in ["x", "", "-1", "2147483648", "4294967297", "1.5", "nan", "1e3", "0x1", "1 2"]:
+        cases.append((f"seed={value!r}", [*run, "--seed", value]))
+    for value in BAD_NUMBERS:
+        cases.append((f"stop-time={value!r}", ["run", "--quiet", "--no-plots", "--stop-time", value]))
+        cases.append((f"step-timeout={value!r}", [*run, "--step-timeout", value]))
+    for value in ["3", "-1", "1.5", "x", str(2**40), ""]:
+        cases.append((f"trajectory={value!r}", [*run, "--trajectory", value]))
+    for value in ["FSI", "ekf", "", "zse,lkf"]:
+        cases.append((f"scenario={value!r}", [*run, "--scenario", value]))
+    for value in ["0", "-1", "x", "1.5", ""]:
+        cases.append((f"log-every={value!r}", [*run, "--log-every", value]))
+    for value in ["../x", "a/b", "", ".", "..", "x\ny", "/abs"]:
+        cases.append((f"name={value!r}", [*run, "--name", value]))
+    for value in ["pid", "missing.fmu", "", "dlqr.fmu", "/"]:
+        cases.append((f"controller={value!r}", [*run, "--controller", value]))
+    for flag in ["--bogus", "--seed", "--stop-time", "--set", "-x"]:
+        cases.append((f"flag {flag}", [*run, flag]))
+    for command in [[], ["bogus"], ["run", "extra"], ["compare"], ["compare", "a"], ["plot"], ["wrap"], ["campaign"]]:
+        cases.append((f"command {command}", command))
+    for value in ["0", "-0.012", "x", "nan", "inf"]:
+        cases.append((f"design Tc={value!r}", ["design", "--Tc", value]))
+    cases.append(("design pid", ["design", "--controller", "pid"]))
+    for value in ["nan", "-1", "inf", "x", "-inf"]:
+        cases.append((f"compare rtol={value!r}", ["compare", "a.mcap", "b.json", "--rtol", value]))
+        cases.append((f"compare atol={value!r}", ["compare", "a.mcap", "b.json", "--atol", value]))
+    for value in ["0", "-1", "x"]:
+        cases.append((f"campaign workers={value!r}", ["campaign", "spec.toml", "--workers", value]))
+    return cases
+
+
+def _set_cases() -> list[tuple[str, list[str]]]:
+    run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots", "--no-log"]
+    sets = ["plant", "=1", "plant.=1", ".m_L=1", "plant.m_L", "nobody.m_L=1", "plant.nothing=1", "plant.x=1",
+            "plant.m_L=nan", "plant.m_L=inf", "plant.m_L=abc", "plant.m_L=-1", "plant.m_L=0", "plant.g=-inf",
+            "sensors.seed=-1", "sensors.seed=2147483648", "sensors.seed=x", "sensors.seed=1.5",
+            "scenario.trajectory=7", "scenario.trajectory=-1", "scenario.trajectory=x", "scenario.gusts=maybe",
+            "controller.controller=pid", "controller.estimator=ekf", "controller.controller=1",
+            "plant.servo_R_stuck=maybe", "plant.f_R=1", "sensors.gps_x=1", "plant.x_0=nan", "plant.z_0=1e400"]
+    return [(f"set {s!r}", [*run, "--set", s]) for s in sets]
+
+
+def _parameter_cases(fmus: Path) -> list[tuple[str, list[str]]]:
+    """Every parameter of the four FMUs, given values of the wrong kind or out of range."""
+    from fmpy import read_model_description
+
+    run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots", "--no-log"]
+    bad = {"Real": ["nan", "-inf", "abc"], "Integer": ["1.5", "abc", "99999999999"], "Boolean": ["maybe", "2"],
+           "String": ["", "bogus"]}
+    cases = []
+    for instance, fmu in (("scenario", "TiltloadScenario"), ("sensors", "TiltloadSensors"), ("controller", "TiltloadController"),
+                          ("plant", "TiltloadPlant")):
+        md = read_model_description(str(fmus / f"{fmu}.fmu"))
+        for v in md.modelVariables:
+            if v.causality == "parameter":
+                cases += [(f"set {instance}.{v.name}={value!r}", [*run, "--set", f"{instance}.{v.name}={value}"])
+                          for value in bad[v.type]]
+    return cases
+
+
+def _valid_system(fmus: Path) -> dict:
+    return {"tick": 0.012, "auto_connect": True, "instances": [
+        {"name": "scenario", "fmu": str(fmus / "TiltloadScenario.fmu"), "parameters": {"trajectory": 1}},
+        {"name": "sensors", "fmu": str(fmus / "TiltloadSensors.fmu"), "parameters": {"seed": 1}},
+        {"name": "controller", "fmu": str(fmus / "TiltloadController.fmu"),
+         "parameters": {"controller": "mixed", "estimator": "zse"}},
+        {"name": "plant", "fmu": str(fmus / "TiltloadPlant.fmu"), "timing": "continuous"}],
+        "connections": [{"source": "controller.f_R", "target": "plant.f_R", "delay": 0}]}
+
+
+def _system_mutations() -> list[tuple[str, object]]:
+    """(label, function of a valid description -> a broken one)."""
+    def setter(path, value):
+        def apply(d):
+            target = d
+            for key in path[:-1]:
+                target = target[key]
+            target[path[-1]] = value
+            return d
+        return apply
+
+    def deleter(path):
+        def apply(d):
+            target = d
+            for key in path[:-1]:
+                target = target[key]
+            del target[path[-1]]
+            return d
+        return apply
+
+    out = []
+    for value in [0, -0.012, "0.012", True, None, [], {}, float("inf"), 1e308, 7200]:
+        out.append((f"tick={value!r}", setter(["tick"], value)))
+    for value in ["false", "no", 0, 1, None, [], "true"]:
+        out.append((f"auto_connect={value!r}", setter(["auto_connect"], value)))
+    for key in ["conections", "paramters", "Tick", "instance", "fault"]:
+        out.append((f"unknown key {key}", setter([key], [])))
+    for key in ["tick", "instances"]:
+        out.append((f"no {key}", deleter([key])))
+    for value in [[], {}, "plant", None, [1], [[]]]:
+        out.append((f"instances={value!r}", setter(["instances"], value)))
+    for value in ["", "1plant", "my plant", "a.b", "x\ny", "\u0000", None, 3, "ü"]:
+        out.append((f"instance name {value!r}", setter(["instances", 3, "name"], value)))
+    out.append(("duplicate instance name", setter(["instances", 1, "name"], "scenario")))
+    for value in ["", None, 3, "missing.fmu", "/", "."]:
+        out.append((f"instance fmu {value!r}", setter(["instances", 3, "fmu"], value)))
+    for value in [0, -0.012, 0.018, "0.024", True, float("nan")]:
+        out.append((f"period {value!r}", setter(["instances", 2, "period"], value)))
+    for value in ["discrete", "", None, 1]:
+        out.append((f"timing {value!r}", setter(["instances", 3, "timing"], value)))
+    for key, value in [("m_L", None), ("m_L", [1]), ("m_L", {}), ("no such", 1), ("", 1), ("nothing", 1), ("m_L", "heavy")]:
+        out.append((f"plant parameter {key!r}={value!r}", setter(["instances", 3, "parameters"], {key: value})))
+    out.append(("parameters a list", setter(["instances", 3, "parameters"], [1])))
+    out.append(("unknown instance key", setter(["instances", 3, "priority"], 1)))
+    for key, value in [("source", "nobody.f_R"), ("source", "controller"), ("target", "plant.nothing"), ("source", ""),
+                       ("target", "plant f_R"), ("delay", 1.5), ("delay", True), ("delay", -1), ("delay", "1"), ("delay", 10**6),
+                       ("source", "controller.nothing"), ("extra", 1)]:
+        out.append((f"connection {key}={value!r}", setter(["connections", 0, key], value)))
+    out.append(("connection without target", deleter(["connections", 0, "target"])))
+    for value in ["x", {}, [1], [{"at": "plant.f_R"}], [{"target": "plant.f_R", "kind": "explode"}]]:
+        out.append((f"faults={value!r}"[:40], setter(["faults"], value)))
+    return out
+
+
+def _files(folder: Path, fmus: Path, misbehaving: dict[str, Path]) -> list[tuple[str, list[str]]]:
+    """Broken files of every kind, each fed to the command that reads it."""
+    cases = []
+    run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots", "--fmus", str(fmus), "--out", str(folder / "runs")]
+    valid = _valid_system(fmus)
+    for i, (label, mutate) in enumerate(_system_mutations()):
+        path = folder / f"system_{i}.json"
+        path.write_text(json.dumps(mutate(copy.deepcopy(valid))))
+        cases.append((f"system {label}", [*run, "--system", str(path)]))
+    raw = {"empty": b"", "truncated": b'{"tick": 0.012, "instances": [', "binary": bytes(range(256)), "yaml": b"tick: 0.012\n",
+           "list": b"[]", "number": b"12", "nul": b'{"tick": 0.012\x00}', "latin1": '{"tick": "é"}'.encode("latin-1")}
+    for label, data in raw.items():
+        path = folder / f"raw_{label}.json"
+        path.write_bytes(data)
+        cases.append((f"system file {label}", [*run, "--system", str(path)]))
+    cases.append(("system file missing", [*run, "--system", str(folder / "nope.json")]))
+    cases.append(("system file is a folder", [*run, "--system", str(folder)]))
+
+    controller = fmus / "TiltloadController.fmu"
+    fmu_files = {"text": None, "empty": None, "zip without description": {}, "broken xml": {"modelDescription.xml": b"<fmi"},
+                 "not xml": {"modelDescription.xml": b"\x00\x01"}}
+    for label, members in fmu_files.items():
+        path = folder / f"{label.replace(' ', '_')}.fmu"
+        if members is None:
+            path.write_bytes(b"" if label == "empty" else b"not an FMU")
+        else:
+            with zipfile.ZipFile(path, "w") as z:
+                for name, data in members.items():
+                    z.writestr(name, data)
+        cases.append((f"controller FMU: {label}", [*run, "--controller", str(path)]))
+
+    def edited(label, edit):
+        path = folder / f"edited_{len(cases)}.fmu"
+        with zipfile.ZipFile(controller) as src, zipfile.ZipFile(path, "w") as out:
+            for item in src.infolist():
+                data = src.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data = edit(data.decode()).encode()
+                if item.filename != "resources/build_info.json":
+                    out.writestr(item, data)
+        cases.append((f"controller FMU: {label}", [*run, "--controller", str(path)]))
+
+    edited("model exchange only", lambda x: x.replace("<CoSimulation", "<ModelExchange").replace("</CoSimulation", "</ModelExchange"))
+    edited("FMI 3.0", lambda x: x.replace('fmiVersion="2.0"', 'fmiVersion="3.0"'))
+    edited("FMI 1.0", lambda x: x.replace('fmiVersion="2.0"', 'fmiVersion="1.0"'))
+    edited("unknown input name", lambda x: x.replace('name="x_ref"', 'name="ref_x"'))
+    edited("no f_R output", lambda x: x.replace('name="f_R"', 'name="thrust_right"'))
+    edited("wrong model identifier", lambda x: x.replace('modelIdentifier="', 'modelIdentifier="Other'))
+    edited("wrong GUID", lambda x: re.sub(r'guid="\{[^}]*\}"', 'guid="{00000000-0000-0000-0000-000000000000}"', x))
+    edited("step size not a tick multiple", lambda x: re.sub(r'stepSize="[^"]*"', 'stepSize="0.018"', x))
+    for mode, fmu in misbehaving.items():
+        cases.append((f"controller FMU that misbehaves: {mode}", [*run, "--stop-time", "1", "--step-timeout", "1",
+                                                                    "--controller", str(fmu)]))
+
+    faults = {"missing": None, "not json": b"{", "unknown target": b'[{"target": "plant.nothing", "kind": "bias", "value": 1}]',
+              "unknown kind": b'[{"target": "plant.x", "kind": "explode"}]', "negative start": b'[{"target": "plant.x", "kind": '
+              b'"bias", "value": 1, "start": -1}]', "nan value": b'[{"target": "plant.x", "kind": "bias", "value": NaN}]',
+              "no instance": b'[{"target": "nobody.x", "kind": "bias", "value": 1}]', "object": b'{"target": "plant.x"}'}
+    for label, data in faults.items():
+        path = folder / f"faults_{label.replace(' ', '_')}.json"
+        if data is not None:
+            path.write_bytes(data)
+        cases.append((f"faults {label}", [*run, "--faults", str(path)]))
+
+    specs = {"missing": None, "empty": b"", "not toml": b"[[[", "unknown key": b'name = "x"\nbogus = 1\n',
+             "bad runs": b'name = "x"\nruns = -1\n', "unknown parameter": b'name = "x"\n[vary]\n"plant.nothing" = [1, 2]\n'}
+    for label, data in specs.items():
+        path = folder / f"spec_{label.replace(' ', '_')}.toml"
+        if data is not None:
+            path.write_bytes(data)
+        cases.append((f"campaign spec {label}", ["campaign", str(path), "--fmus", str(fmus), "--out", str(folder / "camp")]))
+    cases.append(("campaign report of a missing file", ["campaign", "report", str(folder / "nope.parquet")]))
+    cases.append(("campaign report of a text file", ["campaign", "report", str(folder / "raw_yaml.json")]))
+
+    baselines = {"empty": b"", "no metrics": b'{"tolerances": {}}', "empty metrics": b'{"metrics": {}}',
+                 "string metric": b'{"metrics": {"ISE(x)": "a"}}', "nan metric": b'{"metrics": {"ISE(x)": NaN}}',
+                 "list": b"[1]", "negative tolerance": b'{"metrics": {"ISE(x)": 1}, "tolerances": {"rtol": -1}}',
+                 "infinite tolerance": b'{"metrics": {"ISE(x)": 1}, "tolerances": {"atol": Infinity}}',
+                 "string tolerance": b'{"metrics": {"ISE(x)": 1}, "tolerances": {"rtol": "1"}}'}
+    some_log = folder / "corrupt.mcap"
+    some_log.write_bytes(b"\x89MCAP0\r\n" + bytes(200))
+    for label, data in baselines.items():
+        path = folder / f"baseline_{label.replace(' ', '_')}.json"
+        path.write_bytes(data)
+        cases.append((f"compare baseline {label}", ["compare", str(some_log), str(path)]))
+    for label, path in {"missing log": folder / "nope.mcap", "text log": folder / "raw_yaml.json",
+                        "corrupt log": some_log, "empty log": folder / "empty.fmu"}.items():
+        cases.append((f"compare {label}", ["compare", str(path), str(folder / "baseline_nan_metric.json")]))
+        cases.append((f"plot {label}", ["plot", str(path), "--out", str(folder / "plots")]))
+    for label, source in {"missing": folder / "nope.py", "not python": folder / "raw_binary.json",
+                          "no class": folder / "noclass.py", "syntax error": folder / "syntax.py"}.items():
+        if label == "no class":
+            source.write_text("x = 1\n")
+        if label == "syntax error":
+            source.write_text("class C(:\n")
+        cases.append((f"wrap {label}", ["wrap", str(source), "--out", str(folder / "w.fmu")]))
+    return cases
+
+
+@pytest.fixture(scope="module")
+def fmus(pipeline_fmus):
+    return pipeline_fmus["TiltloadPlant"].parent
+
+
+@pytest.fixture(scope="module")
+def misbehaving(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("fuzz_misbehaving")
+    acts = {"segfault": "os.kill(os.getpid(), signal.SIGSEGV)", "abort": "os.abort()", "exit": "os._exit(3)",
+            "hang": "time.sleep(3600)", "nan": "return float('nan'), 0.0, 0.0, 0.0", "raise": "raise RuntimeError('boom')",
+            "wrong arity": "return 1.0, 2.0"}
+    out = {}
+    for mode, act in acts.items():
+        name = mode.replace(" ", "_")
+        src = folder / f"{name}.py"
+        src.write_text(f"import os, signal, time\n\nclass Bad:\n    inputs = ['x_ref']\n\n    def step(self, t, i):\n"
+                       f"        if t >= 0.1:\n            {act}\n        return {TRIM}\n")
+        out[mode] = folder / f"{name}.fmu"
+        assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
+    return out
+
+
+def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbehaving, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # relative outputs (runs/, designs/) land here
+    cases = _cli_cases() + _set_cases() + _parameter_cases(fmus) + _files(tmp_path, fmus, misbehaving)
+    assert len(cases) >= 300, len(cases)
+    problems = []
+    for label, argv in cases:
+        if argv[:1] == ["run"] and "--fmus" not in argv:
+            argv = [*argv, "--fmus", str(fmus), "--out", str(tmp_path / "runs")]
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse
+            code = exit_.code
+        out, err = capsys.readouterr()
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        if code in (0, None):
+            problems.append(f"{label}: exit 0")
+        elif len(lines) != 1:
+            problems.append(f"{label}: {len(lines)} lines on stderr: {lines[:3]}")
+        elif "Traceback" in err or EXCEPTION_NAME.search(lines[0]):
+            problems.append(f"{label}: {lines[0]}")
+        elif "error" not in lines[0]:
+            problems.append(f"{label}: not an error line: {lines[0]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
