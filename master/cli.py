@@ -370,6 +370,11 @@ def main(argv: list[str] | None = None) -> int:
         print("tiltload: stopped: standard output was closed (broken pipe)", file=sys.stderr)
         return 141
     except Exception as err:  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
+        from ..native_fmu.build import BuildError
+
+        if isinstance(err, BuildError):  # the compiler failed or is missing: the environment, not a bug
+            print(f"tiltload: error: building the FMUs failed: {err}", file=sys.stderr)
+            return 1
         if os.environ.get("TILTLOAD_DEBUG"):
             raise
         print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)

@@ -274,9 +274,13 @@ class Execution:
         self.history: dict[str, deque] = {}
         self.manipulator = None
         if system.faults:
-            from .manipulators import Manipulator
+            from .manipulators import FaultError, Manipulator
 
             self.manipulator = Manipulator(system.faults)
+            try:
+                self.manipulator.check(mds, self.links)
+            except FaultError as err:
+                raise DescriptionError(str(err)) from None
 
     def instantiate(self) -> None:
         try:
@@ -316,6 +320,7 @@ class Execution:
         Cheaper than instantiating again (campaigns run many runs on one set of FMUs per worker)."""
         for name, values in (parameters or {}).items():
             self.system.instance(name).parameters = dict(values)
+        _check_parameters(self.system, self._mds, self.links)
         if observers is not None:
             self.observers = list(observers)
         if faults is not None:  # a new fault schedule (a list, possibly empty)
@@ -324,6 +329,7 @@ class Execution:
             self.system.faults = list(faults)
             self.manipulator = Manipulator(self.system.faults) if faults else None
             if self.manipulator is not None:
+                self.manipulator.check(self._mds, self.links)
                 self.manipulator.bind(self)
         elif self.manipulator is not None:
             self.manipulator = type(self.manipulator)(self.system.faults)  # fresh state: holds, histories

@@ -198,39 +198,47 @@ class Manipulator:
         self._state = [False] * len(faults)
         self._held: dict[tuple[int, str], float] = {}
 
+    def check(self, mds: dict, links) -> None:
+        """Every target exists and can take its fault; FaultError naming the fault otherwise. From the model
+        descriptions and the resolved connections alone, so a bad schedule is refused before any FMU loads."""
+        fed = {(link.target, link.type, link.target_vr) for link in links}
+        for f in self.faults:
+            for target in f.targets + ([f.flag] if f.flag else []):
+                instance, _, var = target.partition(".")
+                if instance not in mds:
+                    raise FaultError(f"fault {f.label()}: no instance '{instance}' (have: {', '.join(mds)})")
+                v = next((x for x in mds[instance].modelVariables if x.name == var), None)
+                if v is None:
+                    raise FaultError(f"fault {f.label()}: {instance} has no variable '{var}'")
+                if v.causality not in ("output", "input"):
+                    raise FaultError(f"fault {f.label()}: {target} is a {v.causality}; faults act on outputs and inputs")
+                if v.causality == "input" and (instance, v.type, v.valueReference) not in fed and v.type not in ("Real", "Boolean"):
+                    raise FaultError(f"fault {f.label()}: {target} is an unconnected {v.type} input; faults set Real "
+                                     "and Boolean ones")
+                if f.action not in ("dropout", "delay", "stale", "jitter", "override") and v.type != "Real" and target != f.flag:
+                    raise FaultError(f"fault {f.label()}: {f.action} needs a Real variable, {target} is {v.type}")
+
     def bind(self, execution) -> None:
-        """Find every target as an output or an input of the execution's instances; refuse unknown ones."""
+        """Find every target (checked already) as an output or an input of the execution's instances."""
         self.outputs: dict[str, list[tuple[int, str]]] = {}  # instance -> (fault index, target) on its outputs
         self.inputs: dict[str, list[tuple[int, str]]] = {}
         self._where: dict[str, tuple] = {}
         for k, f in enumerate(self.faults):
             for target in f.targets + ([f.flag] if f.flag else []):
                 instance, _, var = target.partition(".")
-                inst = execution.instances.get(instance)
-                if inst is None:
-                    raise FaultError(f"fault {f.label()}: no instance '{instance}' (have: {', '.join(execution.instances)})")
-                v = inst.vars.get(var)
-                if v is None:
-                    raise FaultError(f"fault {f.label()}: {instance} has no variable '{var}'")
+                inst = execution.instances[instance]
+                v = inst.vars[var]
                 if v.causality == "output":
                     self._where[target] = ("output", inst, v.type, inst.out_index[v.type][v.valueReference])
                     self.outputs.setdefault(instance, []).append((k, target))
-                elif v.causality == "input":
+                else:
                     group = next((g for g in execution.groups.get(instance, ()) if g.type == v.type
                                   and v.valueReference in list(g.dst_vrs)), None)
                     if group is not None:
                         self._where[target] = ("input", group, v.type, list(group.dst_vrs).index(v.valueReference))
                     else:  # an input nothing drives (e.g. plant.servo_R_stuck): the fault sets it itself
-                        if v.type not in ("Real", "Boolean"):
-                            raise FaultError(f"fault {f.label()}: {target} is an unconnected {v.type} input; faults set Real "
-                                             "and Boolean ones")
                         self._where[target] = ("direct", _Direct(inst, v), v.type, 0)
                     self.inputs.setdefault(instance, []).append((k, target))
-                else:
-                    raise FaultError(f"fault {f.label()}: {target} is a {v.causality}; faults act on outputs and inputs")
-                if f.action not in ("dropout",) and v.type != "Real" and target != f.flag and f.action not in ("delay", "stale",
-                                                                                                              "jitter", "override"):
-                    raise FaultError(f"fault {f.label()}: {f.action} needs a Real variable, {target} is {v.type}")
         self._history: dict[str, list] = {t: [] for t in self._where}
         self._tick = execution.system.tick
 

@@ -19,10 +19,26 @@ _COORD_INFO = {
     "alpha_L": ("rad", "left thruster tilt angle"),
 }
 
-STATES: tuple[tuple[str, str, str], ...] = tuple(
-    (n, *_COORD_INFO[n]) for n in COORDINATES
-) + tuple((f"{n}_dot", f"{_COORD_INFO[n][0]}/s", f"rate of {n}") for n in COORDINATES)
+def _states(coordinates, info) -> tuple[tuple[str, str, str], ...]:
+    return tuple((n, *info[n]) for n in coordinates) + tuple((f"{n}_dot", f"{info[n][0]}/s", f"rate of {n}") for n in coordinates)
+
+
+STATES = _states(COORDINATES, _COORD_INFO)
 STATE_NAMES = tuple(s[0] for s in STATES)
+
+# The UAV alone (Appendix A): the same names, of the UAV's geometric centre and attitude.
+UAV_COORDINATES = ("x", "y", "z", "phi", "theta", "psi", "alpha_R", "alpha_L")
+_UAV_COORD_INFO = {
+    **_COORD_INFO,
+    "x": ("m", "UAV geometric centre x in I"),
+    "y": ("m", "UAV geometric centre y in I"),
+    "z": ("m", "UAV geometric centre z in I"),
+    "phi": ("rad", "UAV roll (Z-Y-X Euler)"),
+    "theta": ("rad", "UAV pitch (Z-Y-X Euler)"),
+    "psi": ("rad", "UAV yaw (Z-Y-X Euler)"),
+}
+UAV_STATES = _states(UAV_COORDINATES, _UAV_COORD_INFO)
+UAV_STATE_NAMES = tuple(s[0] for s in UAV_STATES)
 
 INPUTS = (
     ("f_R", "N", "right propeller thrust (saturated to [f_min, f_max])"),
@@ -37,6 +53,7 @@ DISTURBANCES = (
 )
 INPUT_NAMES = tuple(i[0] for i in INPUTS)
 DISTURBANCE_NAMES = tuple(i[0] for i in DISTURBANCES)
+UAV_DISTURBANCES = tuple((n, u, d.replace("the load's centre", "the UAV's geometric centre")) for n, u, d in DISTURBANCES)
 
 # Order = the compiled library's output vector (model.PlantModel.diagnostics).
 DIAGNOSTICS = (

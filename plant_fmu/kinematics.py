@@ -1,7 +1,9 @@
-"""Kinematics of the four bodies from the load's perspective (thesis Sec. 2.2), in CasADi SX.
+"""Kinematics of the tilt-rotor UAV's three bodies, with the suspended load from its perspective
+(thesis Sec. 2.2) or alone (Appendix A), in CasADi SX.
 
 Positions and orientations only; velocities come from differentiating these, so the
-thesis's hand-derived W_eta, Q and Jacobians are never transcribed.
+thesis's hand-derived W_eta, Q and Jacobians are never transcribed. The UAV's bodies (main
+body and the two thruster groups) are written once, in uav_bodies(), for both vehicles.
 """
 
 from __future__ import annotations
@@ -46,12 +48,13 @@ class Body:
 
 @dataclass
 class Kinematics:
-    """Symbolic configuration of the system for generalized coordinates q and parameters p."""
+    """Symbolic configuration of the system for generalized coordinates q and parameters p.
+    bodies: [load, main, right, left] with the load, [main, right, left] without."""
 
     q: ca.SX
     p: ca.SX
-    R_L: ca.SX  # load orientation in I
-    R_B_L: ca.SX  # UAV frame relative to the rod (load frame)
+    R_L: ca.SX | None  # load orientation in I (None: the UAV alone)
+    R_B_L: ca.SX | None  # UAV frame relative to the rod (load frame)
     R_C_B: list[ca.SX]  # thruster frames relative to B (right, left)
     R_B: ca.SX  # UAV geometric-centre frame in I
     o_B: ca.SX  # UAV geometric centre in I
@@ -75,26 +78,41 @@ def vector(p: ca.SX, prefix: str) -> ca.SX:
     return ca.vertcat(*(param(p, f"{prefix}_{a}") for a in "xyz"))
 
 
+def uav_bodies(p: ca.SX, o_B: ca.SX, R_B: ca.SX, a_R: ca.SX, a_L: ca.SX) -> tuple[list[Body], list[ca.SX]]:
+    """The UAV's main body and thruster groups for its geometric centre o_B and frame R_B (Sec. 2.2),
+    and the thruster frames relative to B: R_C2^B = Rx(-beta) Ry(alpha_R), R_C3^B = Rx(beta) Ry(alpha_L)."""
+    beta = param(p, "beta")
+    R_C2_B = rot_x(-beta) @ rot_y(a_R)
+    R_C3_B = rot_x(beta) @ rot_y(a_L)
+    bodies = [
+        Body("main", param(p, "m_1"), inertia(p, "I_1"), o_B + R_B @ vector(p, "d_C1"), R_B),
+        Body("right", param(p, "m_2"), inertia(p, "I_2"), o_B + R_B @ vector(p, "d_C2"), R_B @ R_C2_B),
+        Body("left", param(p, "m_3"), inertia(p, "I_3"), o_B + R_B @ vector(p, "d_C3"), R_B @ R_C3_B),
+    ]
+    return bodies, [R_C2_B, R_C3_B]
+
+
 def build(q: ca.SX, p: ca.SX) -> Kinematics:
     """Forward kinematics (2.22)-(2.23) with R_L = Rz Ry Rx and R_B^L = Rx(-g1) Ry(-g2)."""
     xi = q[0:3]
     phi, theta, psi, g1, g2, a_R, a_L = (q[i] for i in range(3, 10))
-    beta = param(p, "beta")
     R_L = rot_z(psi) @ rot_y(theta) @ rot_x(phi)
     R_B_L = rot_x(-g1) @ rot_y(-g2)
     R_B = R_L @ R_B_L
     o_B = xi + R_L @ ca.vertcat(0, 0, param(p, "l"))
-    R_C2_B = rot_x(-beta) @ rot_y(a_R)
-    R_C3_B = rot_x(beta) @ rot_y(a_L)
-    R_C2 = R_B @ R_C2_B
-    R_C3 = R_B @ R_C3_B
-    bodies = [
-        Body("load", param(p, "m_L"), inertia(p, "I_L"), xi, R_L),
-        Body("main", param(p, "m_1"), inertia(p, "I_1"), o_B + R_B @ vector(p, "d_C1"), R_B),
-        Body("right", param(p, "m_2"), inertia(p, "I_2"), o_B + R_B @ vector(p, "d_C2"), R_C2),
-        Body("left", param(p, "m_3"), inertia(p, "I_3"), o_B + R_B @ vector(p, "d_C3"), R_C3),
-    ]
-    return Kinematics(q, p, R_L, R_B_L, [R_C2_B, R_C3_B], R_B, o_B, bodies)
+    uav, R_C_B = uav_bodies(p, o_B, R_B, a_R, a_L)
+    load = Body("load", param(p, "m_L"), inertia(p, "I_L"), xi, R_L)
+    return Kinematics(q, p, R_L, R_B_L, R_C_B, R_B, o_B, [load, *uav])
+
+
+def build_uav(q: ca.SX, p: ca.SX) -> Kinematics:
+    """The UAV alone (Appendix A): q = [x y z phi theta psi alpha_R alpha_L], (x, y, z) its geometric
+    centre and R_B = Rz(psi) Ry(theta) Rx(phi)."""
+    phi, theta, psi, a_R, a_L = (q[i] for i in range(3, 8))
+    R_B = rot_z(psi) @ rot_y(theta) @ rot_x(phi)
+    o_B = q[0:3]
+    uav, R_C_B = uav_bodies(p, o_B, R_B, a_R, a_L)
+    return Kinematics(q, p, None, None, R_C_B, R_B, o_B, uav)
 
 
 def time_derivative(expr: ca.SX, q: ca.SX, qd: ca.SX) -> ca.SX:
@@ -115,16 +133,20 @@ def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]
     with only the small relative rotations differentiated.
     """
     q = k.q
-    w_L = body_angular_velocity(k.R_L, q, qd)
-    w_B = k.R_B_L.T @ w_L + body_angular_velocity(k.R_B_L, q, qd)
+    if k.R_L is not None:  # from the load: the UAV's frame moves with the rod
+        w_L = body_angular_velocity(k.R_L, q, qd)
+        w_B = k.R_B_L.T @ w_L + body_angular_velocity(k.R_B_L, q, qd)
+        v_B = qd[0:3] + k.R_L @ ca.cross(w_L, ca.vertcat(0, 0, param(k.p, "l")))
+        velocities, omegas = [qd[0:3]], [w_L]
+    else:  # the UAV alone: q's first three entries are its geometric centre
+        w_B = body_angular_velocity(k.R_B, q, qd)
+        v_B = qd[0:3]
+        velocities, omegas = [], []
     w_C = [R.T @ w_B + body_angular_velocity(R, q, qd) for R in k.R_C_B]
-    rod = ca.vertcat(0, 0, param(k.p, "l"))
-    v_B = qd[0:3] + k.R_L @ ca.cross(w_L, rod)
-    velocities = [qd[0:3]]
-    for b in k.bodies[1:]:
+    for b in k.bodies[-3:]:
         offset = k.R_B.T @ (b.centre - k.o_B)  # d_Ci in B, constant
         velocities.append(v_B + k.R_B @ ca.cross(w_B, offset))
-    return velocities, [w_L, w_B, w_C[0], w_C[1]]
+    return velocities, [*omegas, w_B, w_C[0], w_C[1]]
 
 
 def euler_zyx(R: ca.SX) -> ca.SX:

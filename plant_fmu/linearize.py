@@ -19,10 +19,10 @@ class Linearization:
     F: np.ndarray
 
 
-def linearize(x, u, p, d=None) -> Linearization:
+def linearize(x, u, p, d=None, vehicle: str = "load") -> Linearization:
     """Exact Jacobians A_c, B_c, F_c by CasADi's automatic differentiation."""
     d = np.zeros(3) if d is None else d
-    A, B, F = (np.array(m) for m in model().f_jacobians(x, u, d, p))
+    A, B, F = (np.array(m) for m in model(vehicle).f_jacobians(x, u, d, p))
     return Linearization(A, B, F)
 
 

@@ -1,4 +1,5 @@
-"""Euler-Lagrange model of the tilt-rotor UAV with suspended load (thesis ch. 2), in CasADi.
+"""Euler-Lagrange model of the tilt-rotor UAV with suspended load (thesis ch. 2), or alone
+(Appendix A), in CasADi.
 
 From the kinematics alone CasADi builds K, U, M = d2K/dqd2, the Coriolis/centripetal
 term by the Lagrange equations, g = dU/dq, and the generalized forces by virtual power:
@@ -12,9 +13,9 @@ from functools import cached_property
 import casadi as ca
 
 from . import kinematics as kin
-from . import parameters as P
+from .vehicles import LOAD, VEHICLES, Vehicle
 
-NQ = 10
+NQ = 10  # the load plant's sizes (the UAV alone: model("uav").nq, .nx)
 NX = 2 * NQ
 NU = 4
 ND = 3
@@ -29,15 +30,18 @@ class PlantModel:
     builds the same M, C qd, g from K and U directly, as an independent check.
     """
 
-    def __init__(self) -> None:
-        self.q = ca.SX.sym("q", NQ)
-        self.qd = ca.SX.sym("qd", NQ)
+    def __init__(self, vehicle: Vehicle = LOAD) -> None:
+        self.vehicle, self.nq, self.nx = vehicle, vehicle.nq, vehicle.nx
+        self.q = ca.SX.sym("q", self.nq)
+        self.qd = ca.SX.sym("qd", self.nq)
         self.u = ca.SX.sym("u", NU)
         self.d = ca.SX.sym("d", ND)
-        self.p = ca.SX.sym("p", P.N_PARAMETERS)
+        self.p = ca.SX.sym("p", len(vehicle.parameters))
         self.x = ca.vertcat(self.q, self.qd)
-        self.kin = kin.build(self.q, self.p)
-        q, qd, p = self.q, self.qd, self.p
+        with_load = vehicle.name == "load"
+        p_full = vehicle.full_parameters(self.p)
+        self.kin = (kin.build if with_load else kin.build_uav)(self.q, p_full)
+        q, qd, p = self.q, self.qd, p_full
 
         self.velocities, self.omegas = kin.body_velocities(self.kin, qd)
         g = kin.param(p, "g")
@@ -58,9 +62,13 @@ class PlantModel:
         self.gravity = ca.gradient(self.potential, q)
 
         self.L_in = ca.jacobian(self._input_forces(), self.u)
-        self.L_db = ca.jacobian(ca.jacobian(self.velocities[0], qd).T @ self.d, self.d)
-        mu = kin.param(p, "mu_gamma")
-        self.L_fr = ca.diag(ca.vertcat(0, 0, 0, 0, 0, 0, mu, mu, 0, 0))
+        # the disturbance force acts on the load's centre, or on the UAV's geometric centre (A.1)
+        self.L_db = ca.jacobian(ca.jacobian(self.velocities[0] if with_load else qd[0:3], qd).T @ self.d, self.d)
+        if with_load:
+            mu = kin.param(p, "mu_gamma")
+            self.L_fr = ca.diag(ca.vertcat(0, 0, 0, 0, 0, 0, mu, mu, 0, 0))
+        else:
+            self.L_fr = ca.SX.zeros(self.nq, self.nq)
 
         forces = self.L_in @ self.u - self.L_fr @ qd + self.L_db @ self.d - self.coriolis - self.gravity
         D, LT, perm = ca.ldl(self.M)  # M is symmetric positive definite
@@ -74,9 +82,9 @@ class PlantModel:
         (2.15)-(2.16); the servo torque acts on the thruster and reacts on the main body.
         """
         p, qd = self.kin.p, self.qd
-        _, main, right, left = self.kin.bodies
-        v = dict(zip(("load", "main", "right", "left"), self.velocities))
-        w = dict(zip(("load", "main", "right", "left"), self.omegas))
+        main, right, left = self.kin.bodies[-3:]
+        v = {b.name: vel for b, vel in zip(self.kin.bodies, self.velocities)}
+        w = {b.name: om for b, om in zip(self.kin.bodies, self.omegas)}
         drag = kin.param(p, "k_tau") / kin.param(p, "b")
         a_y = ca.DM([0, 1, 0])
         a_z = ca.DM([0, 0, 1])
@@ -140,12 +148,11 @@ class PlantModel:
 
 
 
-_MODEL: PlantModel | None = None
+_MODELS: dict[str, PlantModel] = {}
 
 
-def model() -> PlantModel:
-    """The symbolic model, built once per process (about a second)."""
-    global _MODEL
-    if _MODEL is None:
-        _MODEL = PlantModel()
-    return _MODEL
+def model(vehicle: str = "load") -> PlantModel:
+    """The symbolic model of "load" (ch. 2) or "uav" (Appendix A), built once per process (about a second)."""
+    if vehicle not in _MODELS:
+        _MODELS[vehicle] = PlantModel(VEHICLES[vehicle])
+    return _MODELS[vehicle]

@@ -1,8 +1,9 @@
 """Hover trim: the equilibrium the controllers and estimators are linearized at.
 
 At rest (q_dot = 0) the equations of motion reduce to L_in(q) u = g(q): ten equations in
-phi, theta, gamma_1, gamma_2, alpha_R, alpha_L and the four inputs, for given x, y, z, psi.
-Newton's method with the exact CasADi Jacobian converges to machine precision.
+phi, theta, gamma_1, gamma_2, alpha_R, alpha_L and the four inputs, for given x, y, z, psi
+(the UAV alone: eight, without the gammas). Newton's method with the exact CasADi Jacobian
+converges to machine precision.
 """
 
 from __future__ import annotations
@@ -14,9 +15,8 @@ import numpy as np
 
 from . import interface as I
 from . import parameters as P
-from .model import NQ, model
-
-_UNKNOWN_Q = (3, 4, 6, 7, 8, 9)  # phi, theta, gamma_1, gamma_2, alpha_R, alpha_L
+from .model import model
+from .vehicles import VEHICLES
 
 
 @dataclass(frozen=True)
@@ -29,9 +29,9 @@ class Trim:
     iterations: int
 
     def as_dict(self) -> dict:
-        names = I.COORDINATES
+        names = I.COORDINATES if len(self.x) == 2 * len(I.COORDINATES) else I.UAV_COORDINATES
         return {
-            "q": dict(zip(names, map(float, self.x[:NQ]))),
+            "q": dict(zip(names, map(float, self.x[:len(names)]))),
             "u": dict(zip(I.INPUT_NAMES, map(float, self.u))),
             "residual": self.residual,
             "iterations": self.iterations,
@@ -42,28 +42,43 @@ class TrimError(RuntimeError):
     """Newton's method did not reach an equilibrium."""
 
 
-def _residual_function() -> ca.Function:
-    m = model()
-    z = ca.SX.sym("z", 10)
+def _unknown_coordinates(vehicle: str) -> list[int]:
+    """Every coordinate but x, y, z, psi (indices 0, 1, 2, 5 in both vehicles)."""
+    return [i for i in range(model(vehicle).nq) if i not in (0, 1, 2, 5)]
+
+
+def _residual_function(vehicle: str) -> ca.Function:
+    m = model(vehicle)
+    unknown = _unknown_coordinates(vehicle)
+    z = ca.SX.sym("z", m.nq)  # the unknown coordinates, then the four inputs
     pos = ca.SX.sym("pos", 4)  # x, y, z, psi
-    q = ca.vertcat(pos[0], pos[1], pos[2], z[0], z[1], pos[3], z[2], z[3], z[4], z[5])
-    u = z[6:10]
-    x = ca.vertcat(q, ca.DM.zeros(NQ))
+    q = [None] * m.nq
+    for k, i in enumerate((0, 1, 2, 5)):
+        q[i] = pos[k]
+    for k, i in enumerate(unknown):
+        q[i] = z[k]
+    u = z[len(unknown):]
+    x = ca.vertcat(*q, ca.DM.zeros(m.nq))
     _, _, g, L_in, _, _ = m.f_terms(x, m.p)
     r = L_in @ u - g
     return ca.Function("trim_residual", [z, pos, m.p], [r, ca.jacobian(r, z)])
 
 
 def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0, 0.0),
-               tol: float = 1e-12, max_iter: int = 50) -> Trim:
-    """Solve the hover trim at yaw psi; raise TrimError if Newton does not converge."""
-    p = P.default_vector() if p is None else np.asarray(p, dtype=float)
-    P.validate(p)
-    f = _residual_function()
+               tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load") -> Trim:
+    """Solve the hover trim at yaw psi; raise TrimError if Newton does not converge.
+    p: the vehicle's own parameter vector (default: Table 5.1)."""
+    v = VEHICLES[vehicle]
+    p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
+    full = np.array(ca.DM(v.full_parameters(ca.DM(p)))).ravel()
+    P.validate(full)
+    f = _residual_function(vehicle)
     pos = np.array([*position, psi], dtype=float)
-    weight = (p[P.index("m_L")] + sum(p[P.index(k)] for k in ("m_1", "m_2", "m_3"))) * p[P.index("g")]
-    z = np.zeros(10)
-    z[6:8] = weight / 2
+    masses = ("m_L", "m_1", "m_2", "m_3") if vehicle == "load" else ("m_1", "m_2", "m_3")
+    weight = sum(full[P.index(k)] for k in masses) * full[P.index("g")]
+    unknown = _unknown_coordinates(vehicle)
+    z = np.zeros(v.nq)
+    z[len(unknown):len(unknown) + 2] = weight / 2
     res = np.inf
     for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
         r, J = (np.array(v) for v in f(z, pos, p))
@@ -74,7 +89,7 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
         z = z - np.linalg.solve(J, r)
     else:
         raise TrimError(f"hover trim did not converge in {max_iter} iterations (residual {res:.3g})")
-    x = np.zeros(2 * NQ)
+    x = np.zeros(v.nx)
     x[[0, 1, 2, 5]] = pos
-    x[list(_UNKNOWN_Q)] = z[:6]
-    return Trim(x=x, u=z[6:10].copy(), residual=res, iterations=it)
+    x[unknown] = z[:len(unknown)]
+    return Trim(x=x, u=z[len(unknown):].copy(), residual=res, iterations=it)

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 from ..master import packaging
 from ..native_fmu import build as native
@@ -14,30 +15,37 @@ from ..native_fmu import casadi_c
 from ..plant_fmu import parameters as P
 from ..plant_fmu.build import BuildResult
 from ..plant_fmu.trim import hover_trim
+from ..plant_fmu.vehicles import VEHICLES
 from . import fmu_variables, measurement
+from .suite import SUITES
 
 HERE = Path(__file__).parent
 FMU_NAME = "TiltloadSensors.fmu"
+FMU_NAMES = {"load": FMU_NAME, "uav": "TiltrotorSensors.fmu"}
 MODEL_C = [HERE / "c" / "sensor_model.c", HERE / "c" / "sensor_model.h"]
 PLANT = HERE.parent / "plant_fmu"
 MODEL_PY = [*HERE.glob("*.py"), PLANT / "kinematics.py", PLANT / "parameters.py", PLANT / "interface.py", PLANT / "trim.py",
             PLANT / "model.py"]
 
 
-def build(dest: Path, cache: Path | None = None, force: bool = False) -> BuildResult:
+def build(dest: Path, cache: Path | None = None, force: bool = False, vehicle: str = "load") -> BuildResult:
     started = time.perf_counter()
-    target = Path(dest) / FMU_NAME
-    source_digest = native.digest([*MODEL_PY, *MODEL_C], ca.__version__, packaging.tiltload_version())
+    target = Path(dest) / FMU_NAMES[vehicle]
+    source_digest = native.digest([*MODEL_PY, *MODEL_C], ca.__version__, packaging.tiltload_version(), vehicle)
     if not force and native.is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
-    p = P.default_vector()
-    trim = hover_trim(p)
-    definition = fmu_variables.definition(trim.x, p[P.index("l")], packaging.tiltload_version())
+    suite, v = SUITES[vehicle], VEHICLES[vehicle]
+    p = v.default_parameters()
+    trim = hover_trim(p, vehicle=vehicle)
+    l_index = P.index("l") if "l" in v.parameters else None
+    definition = fmu_variables.definition(trim.x, p[l_index] if l_index is not None else None, packaging.tiltload_version(),
+                                          suite)
+    pi = measurement.pi_codegen_function(vehicle)
     with tempfile.TemporaryDirectory(prefix="tiltload_sensors_") as tmp:
         gen = Path(tmp)
-        generated = casadi_c.generate([measurement.pi_codegen_function()], gen, "tl_pi_gen")
+        generated = casadi_c.generate([pi], gen, "tl_pi_gen")
         table = gen / "sensor_groups.h"
-        table.write_text(fmu_variables.group_table(definition, p, P.index("l")))
+        table.write_text(fmu_variables.group_table(definition, p, l_index, suite))
         built = native.build_fmu(definition, native.NativeSources(MODEL_C, [*generated, table]), target, source_digest,
-                                 {"version": packaging.tiltload_version(), "pi_eq": measurement.pi(trim.x, p).tolist()})
+                                 {"version": packaging.tiltload_version(), "pi_eq": np.asarray(pi(trim.x, p)).ravel().tolist()})
     return BuildResult(target, True, time.perf_counter() - started, built.warnings)

@@ -41,11 +41,20 @@ def pi_function() -> ca.Function:
     return ca.Function("tl_pi_jac", [x, p], [y, ca.jacobian(y, x)], ["x", "p"], ["y", "H"])
 
 
-def pi_codegen_function() -> ca.Function:
-    """pi alone, for the compiled library the sensor FMU calls."""
-    x = ca.SX.sym("x", 20)
-    p = ca.SX.sym("p", len(MODEL_PARAMETERS))
-    return ca.Function("tl_pi", [x, p], [ca.cse(_pi_expr(x, p))], ["x", "p"], ["y"])
+def uav_pi_expr(x: ca.SX) -> ca.SX:
+    """(A.3) for the UAV alone: y = H_d x = [q; eta_dot; alpha_R_dot; alpha_L_dot] (13 of its 16 states)."""
+    return ca.vertcat(x[0:8], x[11:14], x[14:16])
+
+
+def pi_codegen_function(vehicle: str = "load") -> ca.Function:
+    """pi alone, for the compiled library the sensor FMU calls: (x, p) -> y for either vehicle."""
+    from ..plant_fmu.vehicles import VEHICLES
+
+    v = VEHICLES[vehicle]
+    x = ca.SX.sym("x", v.nx)
+    p = ca.SX.sym("p", len(v.parameters))
+    y = _pi_expr(x, p) if vehicle == "load" else uav_pi_expr(x)
+    return ca.Function("tl_pi", [x, p], [ca.cse(y)], ["x", "p"], ["y"])
 
 
 def pi(x: np.ndarray, p: np.ndarray) -> np.ndarray:

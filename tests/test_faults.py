@@ -188,3 +188,14 @@ def test_a_servo_stuck_at_its_angle_by_a_fault_on_an_unconnected_input(fmus, tmp
     held = (t > 1.2 + T + 1e-9) & (t <= 2.4 + 1e-9)  # the plant's messages at t_k + T: the steps from 1.2 s to 2.4 s
     assert np.ptp(alpha[held]) < 1e-12 and np.abs(rate[held]).max() < 1e-12
     assert np.ptp(alpha[t > 2.5]) > 1e-7  # released afterwards
+
+
+def test_a_fault_on_an_unknown_variable_is_a_usage_error_before_any_fmu_loads(fmus, tmp_path, capsys):
+    from tiltload.master.cli import main
+
+    schedule = tmp_path / "f.json"
+    schedule.write_text('{"faults": [{"action": "bias", "targets": ["plant.nothing"], "value": 1, "start": 0}]}')
+    code = main(["run", "--faults", str(schedule), "--stop-time", "0.1", "--fmus", str(fmus), "--out", str(tmp_path / "runs"),
+                 "--quiet", "--no-plots"])
+    assert code == 2 and "plant has no variable 'nothing'" in capsys.readouterr().err
+    assert not (tmp_path / "runs").exists()  # refused before the run: no log, no folder

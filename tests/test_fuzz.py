@@ -207,7 +207,11 @@ def _files(folder: Path, fmus: Path, misbehaving: dict[str, Path]) -> list[tuple
     faults = {"missing": None, "not json": b"{", "unknown target": b'[{"target": "plant.nothing", "kind": "bias", "value": 1}]',
               "unknown kind": b'[{"target": "plant.x", "kind": "explode"}]', "negative start": b'[{"target": "plant.x", "kind": '
               b'"bias", "value": 1, "start": -1}]', "nan value": b'[{"target": "plant.x", "kind": "bias", "value": NaN}]',
-              "no instance": b'[{"target": "nobody.x", "kind": "bias", "value": 1}]', "object": b'{"target": "plant.x"}'}
+              "no instance": b'[{"target": "nobody.x", "kind": "bias", "value": 1}]', "object": b'{"target": "plant.x"}',
+              "unknown variable": b'{"faults": [{"action": "bias", "targets": ["plant.nothing"], "value": 1, "start": 0}]}',
+              "unknown instance": b'{"faults": [{"action": "bias", "targets": ["nobody.x"], "value": 1, "start": 0}]}',
+              "a parameter": b'{"faults": [{"action": "bias", "targets": ["plant.m_L"], "value": 1, "start": 0}]}',
+              "bias on a Boolean": b'{"faults": [{"action": "bias", "targets": ["sensors.gps_new"], "value": 1, "start": 0}]}'}
     for label, data in faults.items():
         path = folder / f"faults_{label.replace(' ', '_')}.json"
         if data is not None:

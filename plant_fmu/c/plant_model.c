@@ -1,6 +1,8 @@
 /* The plant FMU's hooks: parameter checks, actuator saturation and fixed-step RK4 on the
    CasADi-generated model (tl_plant_gen.c). All values live in the layer's variable array, laid
-   out by the variable table so that states, inputs and parameters are the model's vectors. */
+   out by the variable table so that states, inputs and parameters are the model's vectors.
+   One source for both vehicles (with the load, and the UAV alone): plant_layout.h says where
+   this one's parameters are and which checks they get. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -8,8 +10,9 @@
 #include "tl_fmu.h"
 #include "tl_plant_gen.h"
 #include "tl_plant_gen_sizes.h"
+#include "plant_layout.h"
 
-#define NX 20
+#define NX TL_PLANT_NX
 #define TL_PI 3.14159265358979323846
 #define STATE(c) ((c)->s.real + TL_REAL_x)
 #define STATE0(c) ((c)->s.real + TL_REAL_x_0)
@@ -17,12 +20,12 @@
 #define APPLIED(c) ((c)->s.real + TL_REAL_f_R_applied)
 #define INPUTS(c) ((c)->s.real + TL_REAL_f_R)
 #define DISTURBANCE(c) ((c)->s.real + TL_REAL_d_x)
-#define PARAMS(c) ((c)->s.real + TL_REAL_m_L)
+#define PARAMS(c) ((c)->s.real + TL_PLANT_FIRST_PARAM)
 
 _Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "states are contiguous, in the model's order");
 _Static_assert(TL_REAL_alpha_L_dot_0 - TL_REAL_x_0 == NX - 1, "initial states are contiguous");
 _Static_assert(TL_REAL_L_z - TL_REAL_x_B == TL_PLANT_NY - 1, "diagnostic outputs are contiguous");
-_Static_assert(TL_REAL_mu_gamma - TL_REAL_m_L == TL_PLANT_NP - 1, "Table 5.1 parameters are contiguous");
+_Static_assert(TL_PLANT_LAST_PARAM - TL_PLANT_FIRST_PARAM == TL_PLANT_NP - 1, "Table 5.1 parameters are contiguous");
 _Static_assert(TL_REAL_tau_L_applied - TL_REAL_f_R_applied == 3 && TL_REAL_tau_L - TL_REAL_f_R == 3, "four actuators");
 _Static_assert(TL_REAL_d_z - TL_REAL_d_x == 2, "three disturbance components");
 
@@ -75,10 +78,10 @@ static void sym3_eigenvalues(const double* m, double e[3]) {
 /* One line naming the first parameter that does not describe a physical plant (as the
    Python model's parameters.validate words it), or 0 if all are fine. */
 static int check_parameters(TlInstance* c, char* why, size_t n) {
-  static const int positive[] = {TL_REAL_m_L, TL_REAL_m_1, TL_REAL_m_2, TL_REAL_m_3, TL_REAL_l, TL_REAL_b};
-  static const int non_negative[] = {TL_REAL_g, TL_REAL_k_tau, TL_REAL_mu_gamma};
-  static const int inertia[] = {TL_REAL_I_L_xx, TL_REAL_I_1_xx, TL_REAL_I_2_xx, TL_REAL_I_3_xx};
-  static const char* const inertia_name[] = {"I_L", "I_1", "I_2", "I_3"};
+  static const int positive[] = {TL_PLANT_POSITIVE};
+  static const int non_negative[] = {TL_PLANT_NON_NEGATIVE};
+  static const int inertia[] = {TL_PLANT_INERTIA};
+  static const char* const inertia_name[] = {TL_PLANT_INERTIA_NAMES};
   const double* r = c->s.real;
   size_t i;
   int k;
@@ -92,7 +95,7 @@ static int check_parameters(TlInstance* c, char* why, size_t n) {
     if (r[k] != 1.0 && r[k] != -1.0) return snprintf(why, n, "parameter %s must be +1 or -1, got %g", tl_real_name[k], r[k]);
   if (!(fabs(r[TL_REAL_beta]) < TL_PI / 2.0))
     return snprintf(why, n, "parameter beta must lie in (-pi/2, pi/2) rad, got %g", r[TL_REAL_beta]);
-  for (i = 0; i < 4; ++i) {
+  for (i = 0; i < TL_PLANT_N_INERTIA; ++i) {
     double e[3];
     sym3_eigenvalues(r + inertia[i], e);
     if (!(e[0] > 0.0))

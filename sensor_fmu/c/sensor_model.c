@@ -1,5 +1,5 @@
-/* The sensor FMU's hooks: the measurement model pi(x) (4.22, CasADi-generated) and q sampled on
-   each group's period with counter-based noise (tl_noise.h). A sample taken in doStep(t_k) uses
+/* The sensor FMU's hooks: the measurement model pi(x) (4.22, or (A.3) for the UAV alone;
+   CasADi-generated) and q sampled on each group's period with counter-based noise (tl_noise.h). A sample taken in doStep(t_k) uses
    the state set before the call and is held until the group's next sample (DESIGN §4). */
 #include <math.h>
 #include <stdio.h>
@@ -11,7 +11,7 @@
 #include "tl_pi_gen.h"
 #include "tl_pi_gen_sizes.h"
 
-#define NX 20
+#define NX TL_SENSOR_NX
 #define STATE(c) ((c)->s.real + TL_REAL_x)
 #define EXACT(c) ((c)->s.real + TL_REAL_exact_x)
 
@@ -20,7 +20,7 @@ _Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact
 _Static_assert(TL_N_GROUPS <= TL_SENSOR_MAX_GROUPS && TL_N_PARAMS <= TL_SENSOR_MAX_PARAMS, "model state fits");
 _Static_assert(TL_PI_SZ_ARG == 2 && TL_PI_SZ_RES == 1, "pi(x, p) -> y");
 
-static int evaluate_pi(TlInstance* c, double y[16]) {
+static int evaluate_pi(TlInstance* c, double y[TL_SENSOR_NY]) {
   const double* arg[TL_PI_SZ_ARG + 1];
   double* res[TL_PI_SZ_RES + 1];
   casadi_int iw[TL_PI_SZ_IW];
@@ -33,7 +33,7 @@ static int evaluate_pi(TlInstance* c, double y[16]) {
 
 /* Each group's held samples from the current state, with noise for sample k when noisy. */
 static fmi2Status sample(TlInstance* c, long k, int noisy) {
-  double y[16];
+  double y[TL_SENSOR_NY];
   int g, j;
   if (evaluate_pi(c, y)) {
     tl_log(c, fmi2Error, "measurement model evaluation failed at t=%.6g s", c->s.time);
@@ -61,12 +61,14 @@ static fmi2Status sample(TlInstance* c, long k, int noisy) {
 
 /* One line naming the first parameter that cannot be sampled, or 0. */
 static int check_parameters(TlInstance* c, char* why, size_t n) {
-  const double step = c->s.real[TL_REAL_step], l = c->s.real[TL_REAL_l];
+  const double step = c->s.real[TL_REAL_step];
   int g, j;
   if (!(step > 0.0)) return snprintf(why, n, "step must be a positive finite time, got %g", step);
   if (c->s.integer[TL_INTEGER_seed] < 0)
     return snprintf(why, n, "seed must be between 0 and 2147483647, got %d", c->s.integer[TL_INTEGER_seed]);
-  if (!(l > 0.0)) return snprintf(why, n, "l must be positive and finite, got %g", l);
+#if TL_HAS_ROD
+  if (!(c->s.real[TL_REAL_l] > 0.0)) return snprintf(why, n, "l must be positive and finite, got %g", c->s.real[TL_REAL_l]);
+#endif
   for (g = 0; g < TL_N_GROUPS; ++g) {
     const TlSensorGroup* grp = &tl_sensor_groups[g];
     double period = c->s.real[grp->period], ticks;
@@ -96,7 +98,9 @@ void tl_model_reset(TlInstance* c) {
 
 /* Before the first sample every channel holds its noise-free value and no flag is raised. */
 fmi2Status tl_model_outputs(TlInstance* c) {
+#if TL_HAS_ROD
   c->s.model.params[TL_L_INDEX] = c->s.real[TL_REAL_l];
+#endif
   return sample(c, 0, 0);
 }
 
