@@ -27,6 +27,7 @@ from .estimator_setup import augmented_model, lkf_setup, zse_setup
 
 HERE = Path(__file__).parent
 FMU_NAME = "TiltloadController.fmu"
+FMU_NAMES = {"load": FMU_NAME, "uav": "TiltrotorController.fmu"}
 C = HERE / "c"
 MODEL_C = [C / "controller_model.c", C / "controller_model.h", C / "tl_zse.c", C / "tl_zse.h", C / "tl_lkf.c", C / "tl_lkf.h",
            C / "tl_linalg.c", C / "tl_linalg.h"]
@@ -34,40 +35,43 @@ HOT = ["tl_zse.c", "tl_linalg.c", "tl_lkf.c"]
 TC = 0.012
 
 
-def bundle(Tc: float = TC, progress=print) -> dict[str, np.ndarray]:
-    """Gains of both designs (cached syntheses) and the estimator matrices of Sec. 5.3-5.4."""
-    designs = {}
-    for kind in ("dlqr", "mixed"):
-        designs[kind] = design(kind, Tc, use_cache=True, progress=progress)
-    m = augmented_model(Tc)
-    lkf, zse = lkf_setup(), zse_setup(m)
+def bundle(Tc: float = TC, progress=print, vehicle: str = "load") -> dict[str, np.ndarray]:
+    """Gains of the designs (cached syntheses) and the estimator matrices of Sec. 5.3-5.4 (Sec. A.4 for the UAV
+    alone: DLQR and ZSE only)."""
+    kinds = fmu_variables.CONTROLLERS[vehicle]
+    designs = {kind: design(kind, Tc, use_cache=True, progress=progress, vehicle=vehicle) for kind in kinds}
+    m = augmented_model(Tc, vehicle=vehicle)
+    zse = zse_setup(m, vehicle)
     d = designs["dlqr"]
-    return {"K_dlqr": designs["dlqr"].K, "K_mixed": designs["mixed"].K, "Tc": np.array(Tc),
-            "trim_x": d.trim_x, "trim_u": d.trim_u, "params": d.params,
-            "A_nu": m.A, "B_nu": m.B, "H_lkf": lkf.H, "Pw": lkf.Pw, "Pv": lkf.Pv, "P0": lkf.P0,
-            "H_zse": zse.H, "y_eq": zse.y_eq, "G_w": zse.G_w, "G_v": zse.G_v, "G_x0": zse.G_x0, "r_max": np.array(zse.r_max)}
+    b = {**{f"K_{kind}": designs[kind].K for kind in kinds}, "Tc": np.array(Tc),
+         "trim_x": d.trim_x, "trim_u": d.trim_u, "params": d.params, "A_nu": m.A, "B_nu": m.B,
+         "H_zse": zse.H, "y_eq": zse.y_eq, "G_w": zse.G_w, "G_v": zse.G_v, "G_x0": zse.G_x0, "r_max": np.array(zse.r_max)}
+    if "lkf" in fmu_variables.ESTIMATORS[vehicle]:
+        lkf = lkf_setup()
+        b.update({"H_lkf": lkf.H, "Pw": lkf.Pw, "Pv": lkf.Pv, "P0": lkf.P0})
+    return b
 
 
-def digest() -> str:
+def digest(vehicle: str = "load") -> str:
     files = [*HERE.glob("*.py"), *MODEL_C, *(HERE.parent / "plant_fmu").glob("*.py"), HERE.parent / "sensor_fmu" / "suite.py",
              HERE.parent / "sensor_fmu" / "fmu_variables.py", HERE.parent / "sensor_fmu" / "measurement.py"]
-    return native.digest(files, ca.__version__, packaging.tiltload_version(), design_cache.key("all", TC, np.zeros(1)))
+    return native.digest(files, ca.__version__, packaging.tiltload_version(), design_cache.key("all", TC, np.zeros(1)), vehicle)
 
 
-def build(dest: Path, cache: Path | None = None, force: bool = False, progress=print) -> BuildResult:
+def build(dest: Path, cache: Path | None = None, force: bool = False, progress=print, vehicle: str = "load") -> BuildResult:
     started = time.perf_counter()
-    target = Path(dest) / FMU_NAME
-    source_digest = digest()
+    target = Path(dest) / FMU_NAMES[vehicle]
+    source_digest = digest(vehicle)
     if not force and native.is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
-    b = bundle(TC, progress)
-    pi_eq = measurement.pi(b["trim_x"], b["params"])
-    definition = fmu_variables.definition(b["trim_x"], pi_eq, TC, packaging.tiltload_version())
+    b = bundle(TC, progress, vehicle)
+    pi_eq = np.asarray(measurement.pi_codegen_function(vehicle)(b["trim_x"], b["params"])).ravel()
+    definition = fmu_variables.definition(b["trim_x"], pi_eq, TC, packaging.tiltload_version(), vehicle)
     with tempfile.TemporaryDirectory(prefix="tiltload_controller_") as tmp:
         gen = Path(tmp)
-        generated = casadi_c.generate([codegen.feedforward_function()], gen, "tl_feedforward_gen")
-        (gen / "controller_dims.h").write_text(fmu_variables.dims_header(b))
-        (gen / "controller_data.h").write_text(fmu_variables.data_header(b, definition))
+        generated = casadi_c.generate([codegen.feedforward_function(vehicle)], gen, "tl_feedforward_gen")
+        (gen / "controller_dims.h").write_text(fmu_variables.dims_header(b, vehicle))
+        (gen / "controller_data.h").write_text(fmu_variables.data_header(b, definition, vehicle))
         sources = native.NativeSources(MODEL_C, [*generated, gen / "controller_dims.h", gen / "controller_data.h"], HOT)
         info = {"version": packaging.tiltload_version(), "Tc": TC, "trim_x": b["trim_x"].tolist(), "trim_u": b["trim_u"].tolist(),
                 "pi_eq": pi_eq.tolist()}

@@ -16,23 +16,27 @@ KINDS = ("dlqr", "hinf", "mixed")
 MIXED_GAMMA_SQ = 24.0**2  # prescribed H-infinity bound of the mixed design (thesis Sec. 5.2)
 
 
-def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False, progress=None) -> Design:
+def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False, progress=None, vehicle: str = "load") -> Design:
     """Synthesize the thesis's controller of this kind; use_cache reuses a stored identical design.
 
-    progress(str), if given, hears about a synthesis that runs (not about a cache hit)."""
+    progress(str), if given, hears about a synthesis that runs (not about a cache hit). The UAV alone
+    (vehicle "uav", Appendix A) has the DLQR of Sec. A.3 only: the thesis gives no H-infinity set-up for it."""
+    from ..plant_fmu.vehicles import VEHICLES
     from .error_dynamics import DesignError
 
-    if use_cache and kind in KINDS:
-        from ..plant_fmu.parameters import default_vector
+    kinds = KINDS if vehicle == "load" else ("dlqr",)
+    if kind not in kinds:
+        raise DesignError(f"unknown controller '{kind}' for the {vehicle} vehicle (available: {', '.join(kinds)})")
+    if use_cache:
         from .cache import cached
 
-        return cached(kind, Tc, default_vector(), lambda: design(kind, Tc, progress=progress))
+        label = kind if vehicle == "load" else f"{vehicle}-{kind}"
+        return cached(label, Tc, VEHICLES[vehicle].default_parameters(),
+                      lambda: design(kind, Tc, progress=progress, vehicle=vehicle))
 
-    if kind not in KINDS:
-        raise DesignError(f"unknown controller '{kind}' (available: {', '.join(KINDS)})")
     start = time.perf_counter()
-    sys = error_dynamics(Tc)
-    Q, R = omega_chi(), omega_u(sys.trim.u)
+    sys = error_dynamics(Tc, vehicle=vehicle)
+    Q, R = omega_chi(vehicle), omega_u(sys.trim.u)
     if kind == "dlqr":
         result = design_dlqr(sys, Q, R)
         K = result.K

@@ -1,7 +1,7 @@
 """Linearized error dynamics at the trim, augmented with integral action (thesis 3.7-3.9).
 
-chi = [dx (20), int(x - x_tr), int(y - y_tr), int(z - z_tr), int(psi - psi_tr)] in R^24,
-discretized by zero-order hold at the controller period T_c.
+chi = [dx (20), int(x - x_tr), int(y - y_tr), int(z - z_tr), int(psi - psi_tr)] in R^24 (the UAV
+alone, Sec. A.3: dx has 16 entries, chi 20), discretized by zero-order hold at the controller period T_c.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..plant_fmu import parameters as P
 from ..plant_fmu.linearize import linearize, zoh
+from ..plant_fmu.vehicles import VEHICLES
 from ..plant_fmu.trim import Trim, hover_trim
 from .control_law import REGULATED
 
@@ -56,13 +56,13 @@ def controllability_rank(A: np.ndarray, B: np.ndarray) -> int:
     return int(np.linalg.matrix_rank(np.hstack(blocks), tol=1e-10))
 
 
-def error_dynamics(Tc: float = 0.012, p: np.ndarray | None = None, psi: float = 0.0) -> ErrorDynamics:
+def error_dynamics(Tc: float = 0.012, p: np.ndarray | None = None, psi: float = 0.0, vehicle: str = "load") -> ErrorDynamics:
     """ZOH-discretized augmented error dynamics; raise DesignError if not controllable."""
     if not (np.isfinite(Tc) and Tc > 0):
         raise DesignError(f"controller period T_c must be positive and finite, got {Tc!r}")
-    p = P.default_vector() if p is None else np.asarray(p, dtype=float)
-    trim = hover_trim(p, psi=psi)
-    lin = linearize(trim.x, trim.u, p)
+    p = VEHICLES[vehicle].default_parameters() if p is None else np.asarray(p, dtype=float)
+    trim = hover_trim(p, psi=psi, vehicle=vehicle)
+    lin = linearize(trim.x, trim.u, p, vehicle=vehicle)
     A_c, B_c, F_c = augmented_continuous(lin.A, lin.B, lin.F)
     A, BF = zoh(A_c, np.hstack([B_c, F_c]), Tc)
     B, F = BF[:, :4], BF[:, 4:]

@@ -1,6 +1,7 @@
-"""The thesis's estimator set-ups (Sec. 5.3 and 5.4) on the disturbance-augmented linear model (4.14).
+"""The thesis's estimator set-ups (Sec. 5.3 and 5.4; Sec. A.4 for the UAV alone) on the
+disturbance-augmented linear model (4.14).
 
-nu = [dx (20); d (3)], A_nu = [[A_d, F_d], [0, I]], B_nu = [B_d; 0], from the same ZOH
+nu = [dx (20, or 16); d (3)], A_nu = [[A_d, F_d], [0, I]], B_nu = [B_d; 0], from the same ZOH
 linearization at the trim as the controllers (period T_c).
 """
 
@@ -8,11 +9,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
-from ..plant_fmu import parameters as P
 from ..plant_fmu.linearize import linearize, zoh
 from ..plant_fmu.trim import Trim, hover_trim
+from ..plant_fmu.vehicles import VEHICLES
 from ..sensor_fmu import measurement
 
 NNU = 23
@@ -28,12 +30,13 @@ class AugmentedModel:
     params: np.ndarray
 
 
-def augmented_model(Tc: float = 0.012, p: np.ndarray | None = None) -> AugmentedModel:
-    p = P.default_vector() if p is None else np.asarray(p, dtype=float)
-    trim = hover_trim(p)
-    lin = linearize(trim.x, trim.u, p)
+def augmented_model(Tc: float = 0.012, p: np.ndarray | None = None, vehicle: str = "load") -> AugmentedModel:
+    v = VEHICLES[vehicle]
+    p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
+    trim = hover_trim(p, vehicle=vehicle)
+    lin = linearize(trim.x, trim.u, p, vehicle=vehicle)
     Ad, BF = zoh(lin.A, np.hstack([lin.B, lin.F]), Tc)
-    A = np.block([[Ad, BF[:, 4:]], [np.zeros((3, 20)), np.eye(3)]])
+    A = np.block([[Ad, BF[:, 4:]], [np.zeros((3, v.nx)), np.eye(3)]])
     B = np.vstack([BF[:, :4], np.zeros((3, 4))])
     return AugmentedModel(A, B, Tc, trim, p)
 
@@ -70,8 +73,22 @@ class ZSESetup:
     r_max: int
 
 
-def zse_setup(model: AugmentedModel) -> ZSESetup:
-    """Sec. 5.4: W_bar = 0 + G_w B^23, V_bar = pi(x_eq) + G_v B^16, X0_bar box, r_max = 75 n."""
+# Sec. A.4, the UAV alone (state order x y z phi theta psi aR aL, their rates; y of (A.3))
+UAV_G_W_DIAG = np.array([1e-4] * 16 + [0.1, 0.1, 0.2])
+UAV_G_V_DIAG = np.array([0.15, 0.15, 0.51] + [5.15e-3] * 3 + [5.67e-3] * 2 + [5.15e-3] * 3 + [0.50772] * 2)
+UAV_R_MAX = 50 * 19  # order limit of Sec. A.4: fifty times the dimension
+
+
+def zse_setup(model: AugmentedModel, vehicle: str = "load") -> ZSESetup:
+    """Sec. 5.4: W_bar = 0 + G_w B^23, V_bar = pi(x_eq) + G_v B^16, X0_bar box, r_max = 75 n.
+    Sec. A.4 (the UAV alone): W_bar = 0 + G_w B^19, V_bar = H_d x_eq + G_v B^13, r_max = 50 n."""
+    if vehicle == "uav":
+        x_eq = model.trim.x
+        H_d = np.asarray(ca.Function("H", [x := ca.SX.sym("x", 16)], [ca.jacobian(measurement.uav_pi_expr(x), x)])(x_eq))
+        q_eq = x_eq[:8]
+        x0 = np.concatenate([[0.5] * 3, 0.2 * np.abs(q_eq[3:5]), [np.pi / 180], 0.2 * np.abs(q_eq[6:8]), [0.02] * 11])
+        return ZSESetup(np.hstack([H_d, np.zeros((13, 3))]), H_d @ x_eq, np.diag(UAV_G_W_DIAG), np.diag(UAV_G_V_DIAG),
+                        np.diag(x0), UAV_R_MAX)
     x_eq, p = model.trim.x, model.params
     H = np.hstack([measurement.pi_jacobian(x_eq, p), np.zeros((measurement.NY_ZSE, 3))])
     q_eq = x_eq[:10]

@@ -17,10 +17,17 @@ import numpy as np
 PI = np.pi
 
 
-def omega_chi() -> np.ndarray:
+def omega_chi(vehicle: str = "load") -> np.ndarray:
+    """Omega_chi of Sec. 5.2 (the load), or of (A.5) for the UAV alone: x, y, z 20/2^2; phi, theta 10/(pi/2)^2;
+    psi 15/pi^2; alpha 0.01/(pi/2)^2; the velocities 1/2^2; roll and pitch rates 5/(3 pi)^2; yaw and tilt rates
+    1/(3 pi)^2; integrals 30, 30, 30, 1 (the OCR prints the entries in this order, garbled only in layout)."""
+    integrals = [30.0, 30.0, 30.0, 1.0]
+    if vehicle == "uav":
+        q = [20 / 2**2] * 3 + [10 / (PI / 2) ** 2] * 2 + [15 / PI**2] + [0.01 / (PI / 2) ** 2] * 2
+        qd = [1 / 2**2] * 3 + [5 / (3 * PI) ** 2] * 2 + [1 / (3 * PI) ** 2] * 3
+        return np.diag(q + qd + integrals)
     q = [20 / 2**2] * 3 + [1 / (PI / 2) ** 2] * 2 + [15 / PI**2] + [10 / (PI / 2) ** 2] * 2 + [0.01 / (PI / 2) ** 2] * 2
     qd = [1 / 2**2] * 3 + [1 / (3 * PI) ** 2] * 3 + [5 / (3 * PI) ** 2] * 2 + [1 / (3 * PI) ** 2] * 2
-    integrals = [30.0, 30.0, 30.0, 1.0]
     return np.diag(q + qd + integrals)
 
 

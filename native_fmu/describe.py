@@ -73,6 +73,9 @@ def model_description(definition: FmuDefinition, guid_: str, source_files: list[
         typed = {"start": _fmt(v)} if v.has_start else {}
         if v.unit:
             typed["unit"] = v.unit
+        for key, bound in (("min", v.minimum), ("max", v.maximum)):
+            if bound is not None:
+                typed[key] = repr(bound)
         ET.SubElement(sv, v.type, typed)
     ms = ET.SubElement(root, "ModelStructure")
     for tag in ("Outputs", "InitialUnknowns"):

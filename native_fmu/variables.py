@@ -25,6 +25,8 @@ class Variable:
     description: str = ""
     unit: str = ""  # Real only; "" is dimensionless without a unit
     discrete: bool = False  # a Real that changes only at communication points (held samples)
+    minimum: float | None = None  # declared range (min/max in the model description), Real and Integer
+    maximum: float | None = None
 
     @property
     def variability(self) -> str:

@@ -6,10 +6,11 @@ from ..native_fmu.variables import FmuDefinition, Variable
 from .trajectories import DURATION, START
 
 DESCRIPTION = ("Scenarios of Rego (UFMG 2016) Sec. 5.1: trajectory 1 (circle) or 2 (Table 5.3) for the load, "
-               "psi_ref = 0, and 0.1 N wind gusts on the load through 0.5 s first-order lags")
+               "3 (Appendix A's circle) for the UAV alone, psi_ref = 0, and wind gusts (0.1 N by default) "
+               "through 0.5 s first-order lags")
 REF = ("x_ref", "y_ref", "z_ref", "vx_ref", "vy_ref", "vz_ref", "ax_ref", "ay_ref", "az_ref")
 REF_UNITS = ("m",) * 3 + ("m/s",) * 3 + ("m/s2",) * 3
-TRAJECTORIES = (0, 1, 2)  # 0 hover at the origin
+TRAJECTORIES = (0, 1, 2, 3)  # 0 hover at the origin
 
 
 def definition(version: str) -> FmuDefinition:
@@ -24,7 +25,8 @@ def definition(version: str) -> FmuDefinition:
           Variable("gust_tau", "Real", "parameter", 0.5, "time constant of the first-order lag", "s")]
     v += [Variable(f"gust_{a}_at", "Real", "parameter", f, f"onset of the {a} gust as a fraction of the duration (reconstructed)",
                    "1") for a, f in zip("xyz", (0.25, 0.5, 0.75))]
-    v.append(Variable("trajectory", "Integer", "parameter", 1, "0 hover at the origin, 1 circle (40 s), 2 Table 5.3 (50 s)"))
+    v.append(Variable("trajectory", "Integer", "parameter", 1, "0 hover at the origin, 1 circle (40 s), 2 Table 5.3 (50 s), "
+                      "3 Appendix A's circle for the UAV alone (80 s)", minimum=0, maximum=3))
     v.append(Variable("gusts", "Boolean", "parameter", True, "apply the wind gusts"))
     return FmuDefinition("TiltloadScenario", DESCRIPTION, v, "scenario_model.h", (0.0, 40.0, 0.012), version=version)
 

@@ -1,4 +1,5 @@
-"""Reference trajectories of Sec. 5.1.2 and the wind gusts of Sec. 5.1.3, written once in CasADi.
+"""Reference trajectories of Sec. 5.1.2 (and of Appendix A, for the UAV alone) and the wind gusts of
+Sec. 5.1.3, written once in CasADi.
 
 Only positions are written; velocity and acceleration are their exact time derivatives by
 automatic differentiation. The scenario FMU runs the C that CasADi generates from these
@@ -13,14 +14,22 @@ import math
 import casadi as ca
 
 PI = math.pi
-DURATION = {1: 40.0, 2: 50.0}  # s: one circle; Table 5.3 ends with the landing at t = 50 s
-START = {1: (1.7, 0.3, 0.7), 2: (0.3, -0.3, 0.0)}  # the load's initial position (30 cm off the path)
+DURATION = {1: 40.0, 2: 50.0, 3: 80.0}  # s: one circle; Table 5.3 ends with the landing at t = 50 s
+# the initial position: the load's, 30 cm off the path (1, 2); the UAV's of Appendix A, x0 = (3.9, 0.1, 0.9) (3)
+START = {1: (1.7, 0.3, 0.7), 2: (0.3, -0.3, 0.0), 3: (3.9, 0.1, 0.9)}
 
 
 def circle(t: ca.SX) -> list[ca.SX]:
     """Trajectory 1: x = 2 cos(pi t/20), y = 2 sin(pi t/20), z = 9 - 8 cos(pi t/20)."""
     w = PI / 20
     return [2 * ca.cos(w * t), 2 * ca.sin(w * t), 9 - 8 * ca.cos(w * t)]
+
+
+def appendix_a(t: ca.SX) -> list[ca.SX]:
+    """Trajectory 3, the UAV alone (Sec. A.4): x = 4 cos(pi t/40), y = 4 sin(pi t/40), z = 17 - 16 cos(pi t/40)
+    (one circle in 80 s)."""
+    w = PI / 40
+    return [4 * ca.cos(w * t), 4 * ca.sin(w * t), 17 - 16 * ca.cos(w * t)]
 
 
 def table_5_3(t: ca.SX) -> list[ca.SX]:
@@ -58,7 +67,8 @@ def reference_function(name: str, position) -> ca.Function:
 
 
 def functions() -> list[ca.Function]:
-    """The generated C's functions: both trajectories and the gust."""
+    """The generated C's functions: the three trajectories and the gust."""
     t, onset, mag, tau = (ca.SX.sym(n) for n in ("t", "onset", "magnitude", "tau"))
     g = ca.Function("tl_gust", [t, onset, mag, tau], [gust(t, onset, mag, tau)], ["t", "onset", "magnitude", "tau"], ["d"])
-    return [reference_function("tl_trajectory_1", circle), reference_function("tl_trajectory_2", table_5_3), g]
+    return [reference_function("tl_trajectory_1", circle), reference_function("tl_trajectory_2", table_5_3),
+            reference_function("tl_trajectory_3", appendix_a), g]

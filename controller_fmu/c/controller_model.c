@@ -1,7 +1,9 @@
 /* The controller FMU's hooks: each doStep(t_k, T_c) reads the reference and the sensor inputs at
    t_k, runs the estimator (none, LKF or ZSE), then u = sat(u_tr - K chi) with the feedforward
    (3.18) and the integral states, and holds u over the tick. As controller_fmu/runtime.py, the
-   Python reference the tests compare it with; the designs are embedded (controller_data.h). */
+   Python reference the tests compare it with; the designs are embedded (controller_data.h). One source
+   for both vehicles: controller_dims.h gives the state size, the first and last measurement, and
+   whether this build has the LKF and the mixed design (the UAV alone has neither). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -11,15 +13,18 @@
 #include "tl_feedforward_gen_sizes.h"
 #include "tl_fmu.h"
 
-#define NX 20
+#define NX TL_NX
 #define NNU TL_NNU
 
 _Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
 _Static_assert(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
 _Static_assert(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
 _Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
-_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1 && TL_REAL_lkf_alpha_L - TL_REAL_lkf_x == 9, "state inputs");
-_Static_assert(TL_REAL_meas_alpha_L_dot - TL_REAL_meas_x_B == TL_NY_ZSE - 1, "the 16 measurements are contiguous, in pi order");
+_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact state inputs are contiguous");
+#if TL_HAS_LKF
+_Static_assert(TL_REAL_lkf_alpha_L - TL_REAL_lkf_x == TL_NY_LKF - 1, "the LKF's q inputs are contiguous");
+#endif
+_Static_assert(TL_LAST_MEAS - TL_FIRST_MEAS == TL_NY_ZSE - 1, "the ZSE's measurements are contiguous, in pi order");
 
 static const char* const controllers[] = {"dlqr", "mixed"};
 static const char* const estimators[] = {"none", "lkf", "zse"};
@@ -32,7 +37,9 @@ static TlZseModel zse_model(const TlInstance* c) {
   return m;
 }
 
+#if TL_HAS_LKF
 static const TlLkfModel lkf_model = {tl_A_nu, tl_B_nu, tl_H_lkf, tl_Pw, tl_Pv, 4};
+#endif
 
 static int choose(const char* value, const char* const* names, int n) {
   int i;
@@ -75,14 +82,14 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   m->controller = choose(c->s.string[TL_STRING_controller], controllers, 2);
   m->estimator = choose(c->s.string[TL_STRING_estimator], estimators, 3);
   m->reduction = choose(c->s.string[TL_STRING_zse_reduction], reductions, 3);
-  if (m->controller < 0) {
-    tl_log(c, fmi2Error, "invalid controller parameters: unknown controller '%s' (available: dlqr, mixed)",
-           c->s.string[TL_STRING_controller]);
+  if (m->controller < 0 || (m->controller == 1 && !TL_HAS_MIXED)) {
+    tl_log(c, fmi2Error, "invalid controller parameters: unknown controller '%s' (available: %s)",
+           c->s.string[TL_STRING_controller], TL_HAS_MIXED ? "dlqr, mixed" : "dlqr");
     return fmi2Error;
   }
-  if (m->estimator < 0) {
-    tl_log(c, fmi2Error, "invalid controller parameters: unknown estimator '%s' (available: none, lkf, zse)",
-           c->s.string[TL_STRING_estimator]);
+  if (m->estimator < 0 || (m->estimator == 1 && !TL_HAS_LKF)) {
+    tl_log(c, fmi2Error, "invalid controller parameters: unknown estimator '%s' (available: %s)",
+           c->s.string[TL_STRING_estimator], TL_HAS_LKF ? "none, lkf, zse" : "none, zse");
     return fmi2Error;
   }
   if (m->reduction < 0) {
@@ -119,6 +126,7 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
     memset(half, 0, sizeof(double) * NNU);
     return 0;
   }
+#if TL_HAS_LKF
   if (m->estimator == 1) {
     if (m->k == 0) { /* Sec. 5.3: the initial state is known, at rest at the start position */
       memset(nu, 0, sizeof nu);
@@ -135,7 +143,9 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
       const double p = m->lkf.P[i * NNU + i];
       half[i] = 3.0 * sqrt(p > 0.0 ? p : 0.0);
     }
-  } else {
+  } else
+#endif
+  {
     TlZseModel model = zse_model(c);
     TlZseReport report;
     int available[TL_NY_ZSE], g, j;
@@ -146,8 +156,8 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
       double c0[NNU];
       memset(c0, 0, sizeof c0);
       for (i = 0; i < 3; ++i) c0[i] = m->reference_start[i] - tl_trim_x[i];
-      if (tl_zse_initialize(&m->zse, &model, c0, tl_zse_G0, TL_R0, r + TL_REAL_meas_x_B, available, &report)) return -1;
-    } else if (tl_zse_step(&m->zse, &model, du, r + TL_REAL_meas_x_B, available, &report)) {
+      if (tl_zse_initialize(&m->zse, &model, c0, tl_zse_G0, TL_R0, r + TL_FIRST_MEAS, available, &report)) return -1;
+    } else if (tl_zse_step(&m->zse, &model, du, r + TL_FIRST_MEAS, available, &report)) {
       return -1;
     }
     *skipped = report.n_nonfinite + report.n_inconsistent;
@@ -165,19 +175,19 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
 static int control(TlInstance* c, double* u) {
   TlModelState* m = &c->s.model;
   const double* ref = c->s.real + TL_REAL_x_ref;
-  const double* K = m->controller == 0 ? tl_K_dlqr : tl_K_mixed;
+  const double* K = tl_gains[m->controller];
   double x_tr[NX], qdd[NX / 2], chi[NX + 4], u_tr[4];
   const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
   double* res[TL_FEEDFORWARD_SZ_RES + 1];
   casadi_int iw[TL_FEEDFORWARD_SZ_IW];
   double w[TL_FEEDFORWARD_SZ_W];
   int i, j;
-  memcpy(x_tr, tl_trim_x, sizeof x_tr); /* the load on the path, the other coordinates at their trim (Sec. 3.2) */
+  memcpy(x_tr, tl_trim_x, sizeof x_tr); /* the load (or UAV) on the path, the rest at its trim (Sec. 3.2) */
   for (i = 0; i < 3; ++i) x_tr[i] = ref[i];
   x_tr[5] = ref[9];
   for (i = NX / 2; i < NX; ++i) x_tr[i] = 0.0;
   for (i = 0; i < 3; ++i) x_tr[NX / 2 + i] = ref[3 + i];
-  x_tr[15] = ref[10];
+  x_tr[NX / 2 + 5] = ref[10]; /* psi_dot */
   memset(qdd, 0, sizeof qdd);
   for (i = 0; i < 3; ++i) qdd[i] = ref[6 + i];
   arg[0] = x_tr;

@@ -13,7 +13,7 @@ typedef struct {
   double integral[4];        /* of the x, y, z, psi errors */
   double u_prev[4];          /* the input applied over the last tick */
   double reference_start[3]; /* the reference at the first tick (the ZSE's initial box is centred there) */
-  double estimate[20], disturbance[3];
+  double estimate[TL_NX], disturbance[3];
   TlLkf lkf;
   TlZse zse;
 } TlModelState;

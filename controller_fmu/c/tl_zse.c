@@ -13,37 +13,39 @@
 #define RESYNC_EVERY 64
 
 /* The one heavy product: dst rows = src rows times Mt (LD x LD, rows of M^T padded with zeros), i.e.
-   dst_i = M g_i: 1725 x 23 x 24 multiply-adds a step. Two rows at a time with their 2 x 6 four-wide
-   accumulators in registers (GCC/Clang vector extensions, so the same source compiles to SSE2 or
+   dst_i = M g_i: 1725 x 23 x 24 multiply-adds a step with the load. Two rows at a time with their
+   2 x (LD / 4) four-wide accumulators in registers (GCC/Clang vector extensions, so the same source compiles to SSE2 or
    AVX2); TL_DISPATCH (tl_linalg.h) adds an x86-64-v3 copy picked at run time. */
 #if defined(__GNUC__)
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
 #define TL_VECTORS (LD / 4)
-_Static_assert(TL_VECTORS == 6, "the kernel below is written for 21..24 states (6 four-wide vectors a row)");
+_Static_assert(TL_VECTORS >= 1 && TL_VECTORS <= 8, "a row pair's accumulators fit the vector registers");
 
-/* One row pair: a0..a5 and b0..b5 stay in registers across the 23 multiply-adds. */
-#define TL_MADD(acc, g, v) acc += (g) * (v)
+/* One row pair: the 2 x TL_VECTORS accumulators stay in registers across the N multiply-adds (the
+   constant-trip inner loops unroll at -O3). */
 TL_DISPATCH static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
-  int i, k;
+  int i, j, k;
   const v4d zero = {0.0, 0.0, 0.0, 0.0};
   for (i = 0; i < rows; i += 2) {
     const int pair = i + 1 < rows;
-    v4d a0 = zero, a1 = zero, a2 = zero, a3 = zero, a4 = zero, a5 = zero;
-    v4d b0 = zero, b1 = zero, b2 = zero, b3 = zero, b4 = zero, b5 = zero;
+    v4d a[TL_VECTORS], b[TL_VECTORS];
+    for (j = 0; j < TL_VECTORS; ++j) a[j] = b[j] = zero;
     for (k = 0; k < N; ++k) {
       const double ga = src[i][k], gb = pair ? src[i + 1][k] : 0.0;
       const v4d* m = (const v4d*)(Mt + k * LD);
-      const v4d m0 = m[0], m1 = m[1], m2 = m[2], m3 = m[3], m4 = m[4], m5 = m[5];
-      TL_MADD(a0, ga, m0); TL_MADD(a1, ga, m1); TL_MADD(a2, ga, m2); TL_MADD(a3, ga, m3); TL_MADD(a4, ga, m4); TL_MADD(a5, ga, m5);
-      TL_MADD(b0, gb, m0); TL_MADD(b1, gb, m1); TL_MADD(b2, gb, m2); TL_MADD(b3, gb, m3); TL_MADD(b4, gb, m4); TL_MADD(b5, gb, m5);
+      for (j = 0; j < TL_VECTORS; ++j) {
+        const v4d mj = m[j];
+        a[j] += ga * mj;
+        b[j] += gb * mj;
+      }
     }
     {
       v4d* da = (v4d*)dst[i];
-      da[0] = a0; da[1] = a1; da[2] = a2; da[3] = a3; da[4] = a4; da[5] = a5;
+      for (j = 0; j < TL_VECTORS; ++j) da[j] = a[j];
     }
     if (pair) {
       v4d* db = (v4d*)dst[i + 1];
-      db[0] = b0; db[1] = b1; db[2] = b2; db[3] = b3; db[4] = b4; db[5] = b5;
+      for (j = 0; j < TL_VECTORS; ++j) db[j] = b[j];
     }
   }
 }

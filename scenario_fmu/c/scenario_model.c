@@ -13,8 +13,10 @@
 _Static_assert(TL_REAL_az_ref - TL_REAL_x_ref == 8, "position, velocity, acceleration references are contiguous");
 _Static_assert(TL_REAL_d_z - TL_REAL_d_x == 2 && TL_REAL_z_start - TL_REAL_x_start == 2, "three axes");
 _Static_assert(TL_REAL_gust_z_at - TL_REAL_gust_x_at == 2, "three gust onsets");
-_Static_assert(TL_TRAJECTORY_1_SZ_IW <= 8 && TL_TRAJECTORY_2_SZ_IW <= 8 && TL_GUST_SZ_IW <= 8, "integer work fits");
+_Static_assert(TL_TRAJECTORY_1_SZ_IW <= 8 && TL_TRAJECTORY_2_SZ_IW <= 8 && TL_TRAJECTORY_3_SZ_IW <= 8 && TL_GUST_SZ_IW <= 8,
+               "integer work fits");
 _Static_assert(TL_TRAJECTORY_2_SZ_ARG <= 8 && TL_GUST_SZ_ARG <= 8, "arguments fit");
+_Static_assert(TL_N_TRAJECTORIES == 4, "hover and three generated trajectories");
 
 typedef int (*Generated)(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 
@@ -36,7 +38,8 @@ static fmi2Status evaluate(TlInstance* c, double t) {
   in[0] = &t;
   if (trajectory == 0) {
     memset(r + TL_REAL_x_ref, 0, 9 * sizeof(double));
-  } else if (call(trajectory == 1 ? tl_trajectory_1 : tl_trajectory_2, in, 1, r + TL_REAL_x_ref)) {
+  } else if (call(trajectory == 1 ? tl_trajectory_1 : trajectory == 2 ? tl_trajectory_2 : tl_trajectory_3, in, 1,
+                  r + TL_REAL_x_ref)) {
     tl_log(c, fmi2Error, "trajectory %d evaluation failed at t=%.6g s", trajectory, t);
     return fmi2Error;
   }
@@ -78,7 +81,7 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   const double* r = c->s.real;
   int trajectory = c->s.integer[TL_INTEGER_trajectory], i;
   if (trajectory < 0 || trajectory >= TL_N_TRAJECTORIES) {
-    tl_log(c, fmi2Error, "invalid scenario parameters: trajectory must be 0, 1 or 2, got %d", trajectory);
+    tl_log(c, fmi2Error, "invalid scenario parameters: trajectory must be 0, 1, 2 or 3, got %d", trajectory);
     return fmi2Error;
   }
   if (!(r[TL_REAL_gust_tau] >= 0.0)) {
