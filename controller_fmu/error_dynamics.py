@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..plant_fmu.linearize import linearize, zoh
-from ..plant_fmu.vehicles import VEHICLES
 from ..plant_fmu.trim import Trim, hover_trim
+from ..plant_fmu.vehicles import VEHICLES
 from .control_law import REGULATED
 
 NCHI = 24
