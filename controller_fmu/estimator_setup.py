@@ -74,7 +74,7 @@ class ZSESetup:
 
 
 # Sec. A.4, the UAV alone (state order x y z phi theta psi aR aL, their rates; y of (A.3))
-UAV_G_W_DIAG = np.array([1e-4] * 16 + [0.1, 0.1, 0.2])
+UAV_G_W_DIAG = np.array([1e-4] * 5 + [1e-3] + [1e-4] * 5 + [2e-3, 2e-3, 1e-2] + [1e-4] * 2 + [0.1, 0.1, 0.2])
 UAV_G_V_DIAG = np.array([0.15, 0.15, 0.51] + [5.15e-3] * 3 + [5.67e-3] * 2 + [5.15e-3] * 3 + [0.50772] * 2)
 UAV_R_MAX = 50 * 19  # order limit of Sec. A.4: fifty times the dimension
 

@@ -26,7 +26,7 @@ class OneLineParser(argparse.ArgumentParser):
 def cmd_build(args: argparse.Namespace) -> int:
     from .build_all import build_all
 
-    for result in build_all(args.out, force=args.force):
+    for result in build_all(args.out, force=args.force, vehicles=("load", "uav")):
         state = "built" if result.rebuilt else "up to date"
         print(f"{result.path}: {state} ({result.seconds:.1f} s)")
     return 0
@@ -107,9 +107,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     from .observers import Metrics
     from .plot import plot_run
     from .run import run_system
-    from .tiltload_system import default_stop, default_system, set_parameters
+    from .tiltload_system import LOOPS, default_stop, default_system, set_parameters
 
+    loop = LOOPS[args.vehicle]
+    args.trajectory = loop.default_trajectory if args.trajectory is None else args.trajectory
+    args.controller = loop.default_controller if args.controller is None else args.controller
+    if args.trajectory not in loop.trajectories:
+        raise UserError(f"--trajectory {args.trajectory}: the {args.vehicle} vehicle has trajectories "
+                        f"{', '.join(map(str, loop.trajectories))}")
+    if args.scenario not in loop.scenarios:
+        raise UserError(f"--scenario {args.scenario}: the {args.vehicle} vehicle has {', '.join(loop.scenarios)}")
     controller_fmu = None
+    if args.controller in ("dlqr", "mixed") and args.controller not in loop.controllers:
+        raise UserError(f"--controller {args.controller}: the {args.vehicle} vehicle has {', '.join(loop.controllers)} "
+                        "(or your own FMU)")
     if args.controller not in ("dlqr", "mixed"):
         controller_fmu = Path(args.controller)
         if not controller_fmu.is_file():
@@ -118,17 +129,17 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.system is not None:
             system = sysdesc.load(args.system)
         else:
-            results = build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr))
+            results = build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(args.vehicle,))
             rebuilt = [r.path.name for r in results if r.rebuilt]
             if rebuilt:
                 print(f"built {', '.join(rebuilt)} into {args.fmus}/")
-            system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else "mixed",
-                                    args.seed, controller_fmu, args.delay, not args.no_gusts)
+            system = default_system(args.fmus, args.scenario, args.trajectory, args.controller if controller_fmu is None else None,
+                                    args.seed, controller_fmu, args.delay, not args.no_gusts, args.vehicle)
             set_parameters(system, dict(args.set))
             if controller_fmu is not None:
                 from .ports import check_controller
 
-                check_controller(read_fmu(controller_fmu, "controller"), args.allow_unknown_inputs)
+                check_controller(read_fmu(controller_fmu, "controller"), args.allow_unknown_inputs, args.vehicle)
         if args.faults is not None:
             from .manipulators import FaultError
             from .manipulators import load as load_faults
@@ -141,11 +152,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(str(err)) from None
     stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
     who = controller_fmu.stem if controller_fmu else args.controller
-    label = args.name or f"{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}"
+    label = args.name or f"{'uav_' if args.vehicle == 'uav' else ''}{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}"
     log = None if args.no_log else args.out / f"{label}.mcap"
     names = {i.name for i in system.instances}
     metrics = Metrics("plant", "scenario", "controller") if {"plant", "scenario", "controller"} <= names else None
-    meta = {"scenario": args.scenario, "trajectory": args.trajectory, "controller": args.controller, "seed": args.seed,
+    meta = {"vehicle": args.vehicle, "scenario": args.scenario, "trajectory": args.trajectory, "controller": args.controller,
+            "seed": args.seed,
             "stop_time": stop, "delay": args.delay}
     print(f"running {label}: {stop:g} s of simulated time")
     try:
@@ -295,9 +307,13 @@ def main(argv: list[str] | None = None) -> int:
     w.add_argument("--out", type=Path, default=None, help="the FMU to write (default: next to the file, <name>.fmu)")
     w.set_defaults(func=cmd_wrap)
     r = sub.add_parser("run", help="main job: run the closed loop through the FMUs, log to MCAP, print ISE/IADU, plot")
+    r.add_argument("--vehicle", choices=("load", "uav"), default="load",
+                   help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
     r.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
-    r.add_argument("--trajectory", type=int, choices=(0, 1, 2), default=1, help="1 circle (default), 2 Table 5.3, 0 hover")
-    r.add_argument("--controller", default="mixed", help="dlqr, mixed (default) or PATH.fmu of your own controller")
+    r.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
+                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
+    r.add_argument("--controller", default=None,
+                   help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
     r.add_argument("--seed", type=_seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
     r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
     r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")

@@ -75,7 +75,7 @@ class McapLogger(Observer):
                 name="foxglove.SceneUpdate", encoding="jsonschema", data=json.dumps(scene.SCHEMA).encode()),
                 message_encoding="json", context=self._context)
             self._scene_names = [v.name for v in execution.instances[self.scene_from].outputs["Real"]]
-            self._scene = scene.SceneEncoder()
+            self._scene = scene.SceneEncoder(with_load="gamma_1" in self._scene_names)  # the UAV alone has no load
         self._faults_channel = None
         if execution.system.faults:
             self._faults_channel = foxglove.Channel("/faults", schema={"type": "object", "title": "fault events", "properties": {

@@ -55,11 +55,13 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
         plt.close(fig)
         files.append(path)
 
+    with_load = "gamma_1" in plant[0]  # else the UAV alone (Appendix A): Figs. A.2-A.8
     load, uav = _series(plant, "x", "y", "z"), _series(plant, "x_B", "y_B", "z_B")
     fig = plt.figure(figsize=(7, 6))
     ax = fig.add_subplot(projection="3d")
     ax.plot(*uav.T, label="UAV")
-    ax.plot(*load.T, label="load")
+    if with_load:
+        ax.plot(*load.T, label="load")
     if scen:
         ref = _series(scen, "x_ref", "y_ref", "z_ref")
         ax.plot(*ref.T, "k--", lw=0.8, label="reference")
@@ -81,8 +83,18 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
         axes[-1].set_xlabel("t (s)")
         save(fig, "tracking_error")
 
-    names = ("phi", "theta", "gamma_1", "gamma_2", "alpha_R", "alpha_L")
-    fig, axes = plt.subplots(3, 2, figsize=(9, 7), sharex=True)
+        if "d_x" in scen[0]:
+            fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+            for ax, n in zip(axes, ("d_x", "d_y", "d_z")):
+                ax.plot(ts, _series(scen, n)[:, 0])
+                ax.set_ylabel(f"{n} (N)")
+                ax.grid(alpha=0.3)
+            axes[0].set_title(f"disturbance force on the {'load' if with_load else 'UAV'}")
+            axes[-1].set_xlabel("t (s)")
+            save(fig, "disturbances")
+
+    names = ("phi", "theta", "gamma_1", "gamma_2", "alpha_R", "alpha_L") if with_load else ("phi", "theta", "alpha_R", "alpha_L")
+    fig, axes = plt.subplots(len(names) // 2, 2, figsize=(9, 7), sharex=True)
     for ax, n in zip(axes.ravel(), names):
         ax.plot(tp, _series(plant, n)[:, 0])
         ax.set_ylabel(f"{n} (rad)")
@@ -102,19 +114,33 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
         save(fig, "actuators")
 
     if ctrl and "est_x" in ctrl[0]:
+        ctrl = [m for m in ctrl if m["est_x_hi"] != m["est_x_lo"]] or ctrl  # not the message before the first estimate
         tc = _series(ctrl, "t")[:, 0]
-        fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-        for ax, n in zip(axes, "xyz"):
-            truth = np.interp(tc, tp, _series(plant, n)[:, 0])
-            est, lo, hi = (_series(ctrl, f"est_{n}{s}")[:, 0] for s in ("", "_lo", "_hi"))
-            ax.plot(tc, est - truth, label="estimation error")
-            ax.plot(tc, lo - truth, "k--", lw=0.7, label="confidence limits")
-            ax.plot(tc, hi - truth, "k--", lw=0.7)
-            ax.set_ylabel(f"{n} (m)")
-            ax.grid(alpha=0.3)
-        axes[0].legend()
-        axes[-1].set_xlabel("t (s)")
-        save(fig, "estimation_error")
+
+        def estimation_figure(states, name, columns=1):
+            rows = -(-len(states) // columns)
+            fig, axes = plt.subplots(rows, columns, figsize=(8 if columns == 1 else 11, 2.3 * rows + 0.5), sharex=True,
+                                     squeeze=False)
+            for ax, n in zip(axes.ravel(), states):
+                truth = np.interp(tc, tp, _series(plant, n)[:, 0])
+                est, lo, hi = (_series(ctrl, f"est_{n}{s}")[:, 0] for s in ("", "_lo", "_hi"))
+                ax.plot(tc, est - truth, label="estimation error")
+                ax.plot(tc, lo - truth, "k--", lw=0.7, label="confidence limits")
+                ax.plot(tc, hi - truth, "k--", lw=0.7)
+                ax.set_ylabel(n)
+                ax.grid(alpha=0.3)
+            axes[0][0].legend(fontsize=7)
+            for ax in axes[-1]:
+                ax.set_xlabel("t (s)")
+            save(fig, name)
+
+        if with_load:
+            estimation_figure(("x", "y", "z"), "estimation_error")
+        else:  # Fig. A.7: x, y and their rates (the GPS pattern); Fig. A.8: the other states
+            estimation_figure(("x", "y", "x_dot", "y_dot"), "estimation_error")
+            rest = ("z", "phi", "theta", "psi", "alpha_R", "alpha_L", "z_dot", "phi_dot", "theta_dot", "psi_dot",
+                    "alpha_R_dot", "alpha_L_dot")
+            estimation_figure(rest, "estimation_error_rest", columns=3)
         frob = _series(ctrl, "zse_G_frobenius")[:, 0]
         if np.nanmax(np.abs(frob)) > 0:
             fig, ax = plt.subplots(figsize=(8, 3))

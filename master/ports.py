@@ -12,33 +12,38 @@ REQUIRED_OUTPUTS = ("f_R", "f_L", "tau_R", "tau_L")
 OUTPUT_UNITS = {"f_R": "N", "f_L": "N", "tau_R": "N.m", "tau_L": "N.m"}
 
 
-def contract_inputs(trim_x, pi_eq) -> dict[str, tuple[str, str, object, str]]:
+def contract_inputs(trim_x, pi_eq, vehicle: str = "load") -> dict[str, tuple[str, str, object, str]]:
     """Every input a controller may declare: name -> (type, unit, start value, description)."""
     from ..controller_fmu import fmu_variables as cv
+    from ..plant_fmu.vehicles import VEHICLES
 
-    d = cv.definition(trim_x, pi_eq, 0.012, "0")
+    d = cv.definition(trim_x, pi_eq, 0.012, "0", vehicle)
     inputs = {v.name: (v.type, v.unit, v.start, v.description) for v in d.variables if v.causality == "input"}
-    inputs["lkf_new"] = ("Boolean", "", True, "the lkf sample is new this tick")
-    for i, (name, unit) in enumerate(zip(cv.STATE_NAMES, cv.STATE_UNITS)):
+    if vehicle == "load":
+        inputs["lkf_new"] = ("Boolean", "", True, "the lkf sample is new this tick")
+    for i, (name, unit, _) in enumerate(VEHICLES[vehicle].states):
         inputs[name] = ("Real", unit, float(trim_x[i]), f"plant state {name} (the truth)")
     return inputs
 
 
-def contract_names() -> set[str]:
+def contract_names(vehicle: str = "load") -> set[str]:
     """The names of every input the contract has (their types, units and start values: contract_inputs)."""
     import numpy as np
 
-    return set(contract_inputs(np.zeros(20), np.zeros(16)))
+    from ..plant_fmu.vehicles import VEHICLES
+    from ..sensor_fmu.suite import SUITES
+
+    return set(contract_inputs(np.zeros(VEHICLES[vehicle].nx), np.zeros(len(SUITES[vehicle].pi_names)), vehicle))
 
 
-def check_controller(md, allow_unknown_inputs: bool = False) -> None:
+def check_controller(md, allow_unknown_inputs: bool = False, vehicle: str = "load") -> None:
     """Refuse a controller FMU that lacks a required output, declares one with the wrong type or causality, or
     has an input the contract does not know (it would sit at its start value: a misspelt port) unless allowed."""
     import difflib
 
     found = {v.name: v for v in md.modelVariables}
     if not allow_unknown_inputs:
-        known = contract_names()
+        known = contract_names(vehicle)
         for v in md.modelVariables:
             if v.causality == "input" and v.name not in known:
                 same_words = [c for c in known if sorted(c.split("_")) == sorted(v.name.split("_"))]

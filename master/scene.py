@@ -54,8 +54,8 @@ def _vec(v) -> dict:
     return {"x": v[0], "y": v[1], "z": v[2]}
 
 
-def _entity(stamp: tuple, body: tuple, q: dict, thrusters: list[tuple], load: tuple) -> dict:
-    """The scene's structure; the numbers (or placeholders) come in."""
+def _entity(stamp: tuple, body: tuple, q: dict, thrusters: list[tuple], load: tuple | None) -> dict:
+    """The scene's structure; the numbers (or placeholders) come in. load None: the UAV alone (no rod, no load)."""
     cubes = [{"pose": {"position": _vec(body), "orientation": q}, "size": {"x": 0.12, "y": 0.45, "z": 0.06},
               "color": {"r": 0.2, "g": 0.4, "b": 0.9, "a": 1.0}}]
     for centre in thrusters:
@@ -65,11 +65,13 @@ def _entity(stamp: tuple, body: tuple, q: dict, thrusters: list[tuple], load: tu
         "timestamp": {"sec": stamp[0], "nsec": stamp[1]}, "frame_id": "world", "id": "tiltload", "lifetime": {"sec": 0, "nsec": 0},
         "frame_locked": False, "metadata": [],
         "cubes": cubes,
-        "spheres": [{"pose": {"position": _vec(load), "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
-                     "size": {"x": 0.06, "y": 0.06, "z": 0.06}, "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 1.0}}],
-        "lines": [{"type": 0, "pose": {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
-                   "thickness": 0.01, "scale_invariant": False, "points": [_vec(load), _vec(body)],
-                   "color": {"r": 0.8, "g": 0.8, "b": 0.8, "a": 1.0}, "colors": [], "indices": []}],
+        "spheres": [] if load is None else [
+            {"pose": {"position": _vec(load), "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+             "size": {"x": 0.06, "y": 0.06, "z": 0.06}, "color": {"r": 0.9, "g": 0.1, "b": 0.1, "a": 1.0}}],
+        "lines": [] if load is None else [
+            {"type": 0, "pose": {"position": {"x": 0, "y": 0, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+             "thickness": 0.01, "scale_invariant": False, "points": [_vec(load), _vec(body)],
+             "color": {"r": 0.8, "g": 0.8, "b": 0.8, "a": 1.0}, "colors": [], "indices": []}],
     }]}
 
 
@@ -83,18 +85,19 @@ def _numbers(plant: dict, ns: int):
     return (ns // 1_000_000_000, ns % 1_000_000_000), body, q, thrusters, (plant["x"], plant["y"], plant["z"])
 
 
-def scene_update(plant: dict, ns: int) -> dict | None:
+def scene_update(plant: dict, ns: int, with_load: bool = True) -> dict | None:
     """A foxglove.SceneUpdate as a dict, or None for a non-finite state (nothing sensible to draw)."""
     if any(plant.get(k) is None for k in _KEYS):
         return None
     stamp, body, q, thrusters, load = _numbers(plant, ns)
-    return _entity(stamp, body, q, thrusters, load)
+    return _entity(stamp, body, q, thrusters, load if with_load else None)
 
 
 class SceneEncoder:
     """The same message as JSON text from a template built once: one %-format a message, ~6x faster than json.dumps."""
 
-    def __init__(self) -> None:
+    def __init__(self, with_load: bool = True) -> None:
+        self.with_load = with_load
         slots = iter(range(10_000))
         mark = lambda: f"\x00{next(slots)}\x00"  # noqa: E731
         stamp = (mark(), mark())
@@ -102,7 +105,7 @@ class SceneEncoder:
         q = {"x": mark(), "y": mark(), "z": mark(), "w": mark()}
         thrusters = [(mark(), mark(), mark()) for _ in THRUSTERS]
         load = (mark(), mark(), mark())
-        text = json.dumps(_entity(stamp, body, q, thrusters, load)).replace("%", "%%")
+        text = json.dumps(_entity(stamp, body, q, thrusters, load if with_load else None)).replace("%", "%%")
         self._order = [int(m) for m in re.findall(r'"\\u0000(\d+)\\u0000"', text)]
         self._template = re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: "%d" if int(m.group(1)) < 2 else "%.17g", text)
 
@@ -110,5 +113,5 @@ class SceneEncoder:
         if any(plant.get(k) is None for k in _KEYS):
             return None
         stamp, body, q, thrusters, load = _numbers(plant, ns)
-        flat = [*stamp, *body, q["x"], q["y"], q["z"], q["w"], *(c for t in thrusters for c in t), *load]
+        flat = [*stamp, *body, q["x"], q["y"], q["z"], q["w"], *(c for t in thrusters for c in t), *(load if self.with_load else ())]
         return self._template % tuple(flat[i] for i in self._order)

@@ -1,7 +1,9 @@
-"""The tiltload loop as a system description: scenario -> sensors -> controller -> plant, on the 12 ms tick."""
+"""The tiltload loop as a system description: scenario -> sensors -> controller -> plant, on the 12 ms tick.
+Two vehicles: the UAV with its suspended load (ch. 5) and the UAV alone (Appendix A)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..scenario_fmu.trajectories import DURATION, START
@@ -11,23 +13,56 @@ TICK = 0.012
 SCENARIOS = {"fsi": "none", "lkf": "lkf", "zse": "zse"}  # thesis scenario -> controller FMU's estimator
 
 
-def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int = 1, controller: str = "mixed",
-                   seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True) -> System:
+@dataclass(frozen=True)
+class VehicleLoop:
+    """What differs between the two loops: FMU files, the choices the thesis gives, the defaults."""
+
+    plant: str
+    sensors: str
+    controller: str
+    scenarios: tuple[str, ...]
+    trajectories: tuple[int, ...]
+    controllers: tuple[str, ...]
+    default_trajectory: int
+    default_controller: str
+    gust_magnitude: float  # N
+
+
+LOOPS = {
+    "load": VehicleLoop("TiltloadPlant.fmu", "TiltloadSensors.fmu", "TiltloadController.fmu", ("fsi", "lkf", "zse"),
+                        (0, 1, 2), ("dlqr", "mixed"), 1, "mixed", 0.1),
+    # Appendix A: DLQR with the exact state or the ZSE; Fig. A.3's disturbance profile is lost: 0.5 N steps through
+    # the same 0.5 s lags at 1/4, 1/2 and 3/4 of the 80 s circle (chosen; docs/uav.md)
+    "uav": VehicleLoop("TiltrotorUAV.fmu", "TiltrotorSensors.fmu", "TiltrotorController.fmu", ("fsi", "zse"),
+                       (0, 3), ("dlqr",), 3, "dlqr", 0.5),
+}
+
+
+def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | None = None, controller: str | None = None,
+                   seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True,
+                   vehicle: str = "load") -> System:
     """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md)."""
+    loop = LOOPS[vehicle]
     fmu_dir = Path(fmu_dir)
+    trajectory = loop.default_trajectory if trajectory is None else trajectory
+    controller = loop.default_controller if controller is None else controller
     start = START.get(trajectory, (0.0, 0.0, 0.0))
     plant_start = {"x_0": start[0], "y_0": start[1], "z_0": start[2]}
     if controller_fmu is None:
-        ctrl = Instance("controller", fmu_dir / "TiltloadController.fmu",
-                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **plant_start})
+        known = {**plant_start} if vehicle == "load" else {}  # the load's LKF knows the start (Sec. 5.3)
+        ctrl = Instance("controller", fmu_dir / loop.controller,
+                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **known})
     else:
         ctrl = Instance("controller", Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"controller.{u}", f"plant.{u}", delay=1) for u in ("f_R", "f_L", "tau_R", "tau_L")] if delay else []
+    scenario_parameters = {"trajectory": trajectory, "gusts": gusts}
+    if vehicle != "load":
+        scenario_parameters["gust_magnitude"] = loop.gust_magnitude
     return System(TICK, [
-        Instance("scenario", fmu_dir / "TiltloadScenario.fmu", parameters={"trajectory": trajectory, "gusts": gusts}),
-        Instance("sensors", fmu_dir / "TiltloadSensors.fmu", parameters={"seed": seed}),
+        Instance("scenario", fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters),
+        Instance("sensors", fmu_dir / loop.sensors, parameters={"seed": seed}),
         ctrl,
-        Instance("plant", fmu_dir / "TiltloadPlant.fmu", parameters=plant_start, timing="continuous"),
+        Instance("plant", fmu_dir / loop.plant, parameters=plant_start, timing="continuous"),
     ], conns)
 
 

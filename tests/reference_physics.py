@@ -37,8 +37,29 @@ def Rz(a):
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
+def uav_bodies(state, par=TABLE_5_1):
+    """The UAV alone (Appendix A, 16 states): q = [x y z phi theta psi alpha_R alpha_L] with (x, y, z) the
+    geometric centre: (mass, inertia, centre, velocity, R, omega_body) of the main body and the thrusters."""
+    q, qd = np.asarray(state[:8]), np.asarray(state[8:])
+    (phi, th, psi), aR, aL = q[3:6], q[6], q[7]
+    R_B = Rz(psi) @ Ry(th) @ Rx(phi)
+    R_C2B, R_C3B = Rx(-par["beta"]) @ Ry(aR), Rx(par["beta"]) @ Ry(aL)
+    W_eta = np.array([[1, 0, -np.sin(th)], [0, np.cos(phi), np.sin(phi) * np.cos(th)], [0, -np.sin(phi), np.cos(phi) * np.cos(th)]])
+    w_B = W_eta @ qd[3:6]
+    w_2 = R_C2B.T @ w_B + np.array([0, 1, 0]) * qd[6]
+    w_3 = R_C3B.T @ w_B + np.array([0, 1, 0]) * qd[7]
+    out = []
+    for i, (I, R, w) in enumerate(((par["I_1"], R_B, w_B), (par["I_2"], R_B @ R_C2B, w_2), (par["I_3"], R_B @ R_C3B, w_3))):
+        d = np.asarray(par["d"][i])
+        out.append((par["m"][i + 1], I, q[:3] + R_B @ d, qd[:3] + R_B @ np.cross(w_B, d), R, w))
+    return out
+
+
 def bodies(state, par=TABLE_5_1):
-    """(mass, inertia, centre, velocity, R, omega_body) of load, main body, right and left thruster."""
+    """(mass, inertia, centre, velocity, R, omega_body) of load, main body, right and left thruster
+    (of the UAV alone for a 16-entry state)."""
+    if len(state) == 16:
+        return uav_bodies(state, par)
     q, qd = np.asarray(state[:10]), np.asarray(state[10:])
     xi, (phi, th, psi), (g1, g2), aR, aL = q[:3], q[3:6], q[6:8], q[8], q[9]
     R_L = Rz(psi) @ Ry(th) @ Rx(phi)
@@ -76,10 +97,10 @@ def angular_momentum(state):
 
 
 def external_force(state, f_R, f_L, d, g=9.81):
-    """Thrusts along each thruster's z axis + all weights + the load disturbance, in I."""
+    """Thrusts along each thruster's z axis + all weights + the disturbance (on the load, or the UAV alone), in I."""
     b = bodies(state)
     weight = -g * sum(m for m, *_ in b) * np.array([0, 0, 1.0])
-    return f_R * b[2][4][:, 2] + f_L * b[3][4][:, 2] + weight + np.asarray(d)
+    return f_R * b[-2][4][:, 2] + f_L * b[-1][4][:, 2] + weight + np.asarray(d)
 
 
 def zse_measurement(state, par=TABLE_5_1):
