@@ -23,9 +23,9 @@ def test_run_reports_metrics_log_and_plots(pipeline_fmus, tmp_path):
     log = tmp_path / "zse_traj1_mixed_seed1.mcap"
     assert f"log: {log}" in proc.stdout
     pngs = sorted(p.name for p in tmp_path.glob("*.png"))
-    assert len(pngs) == 6 and all((tmp_path / p).stat().st_size > 10_000 for p in pngs)
+    assert len(pngs) == 7 and all((tmp_path / p).stat().st_size > 10_000 for p in pngs)
     again = run("plot", str(log), "--out", str(tmp_path / "again"), cwd=tmp_path)
-    assert again.returncode == 0 and len(list((tmp_path / "again").glob("*.png"))) == 6
+    assert again.returncode == 0 and len(list((tmp_path / "again").glob("*.png"))) == 7
 
 
 def test_bad_stop_time_is_one_line_and_nonzero(tmp_path):

@@ -139,7 +139,7 @@ def test_a_libcosim_scenario_file_runs_unchanged(fmus, tmp_path, capsys):
     gust = lambda t: 0.1 * (1 - math.exp(-(t - 10.0) / 0.5))  # noqa: E731  (the x gust: 0.1 N from t = 10 s, 0.5 s lag)
     assert d_x[15.0] == 0.15 and d_x[13.992] == pytest.approx(gust(13.992), abs=1e-12)
     assert d_x[16.008] == pytest.approx(gust(16.008), abs=1e-12)  # the override ended: the gust's own value again
-    assert len(list(tmp_path.glob("*.png"))) == 6  # the figures, with the faults shaded
+    assert len(list(tmp_path.glob("*.png"))) == 7  # the figures, with the faults shaded
 
 
 @pytest.mark.parametrize("faults, needle", [

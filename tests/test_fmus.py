@@ -173,7 +173,7 @@ def test_zse_controller_keeps_the_true_state_inside_its_bounds(pipeline_fmus, se
     ("TiltloadSensors", {"imu_att_pdf": "cauchy"}, {}, "imu_att_pdf must be one of"),
     ("TiltloadController", {"controller": "pid"}, {}, "unknown controller 'pid'"),
     ("TiltloadController", {"estimator": "ekf"}, {}, "unknown estimator 'ekf'"),
-    ("TiltloadScenario", {"trajectory": 3}, {}, "trajectory must be 0, 1 or 2"),
+    ("TiltloadScenario", {"trajectory": 4}, {}, "trajectory must be 0, 1, 2 or 3"),
 ])
 def test_bad_parameters_fail_initialization_naming_them(pipeline_fmus, session, fmu, typed, reals, needle):
     s = session(pipeline_fmus[fmu], "bad")

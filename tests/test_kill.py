@@ -70,7 +70,7 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
     data, truncated = mcap_log.read_log(torn)
     assert truncated and killed_at - data["/plant"][-1]["t"] <= 0.2, (killed_at, data["/plant"][-1]["t"])
     assert main(["plot", str(torn), "--out", str(tmp_path / "plots")]) == 0
-    assert "is truncated" in capsys.readouterr().out and len(list((tmp_path / "plots").glob("*.png"))) == 6
+    assert "is truncated" in capsys.readouterr().out and len(list((tmp_path / "plots").glob("*.png"))) == 7
     code = main(["compare", str(torn), str(torn)])
     out, err = capsys.readouterr()
     assert code == 0 and "metrics recomputed from its messages up to t =" in out and "ISE(x)" in out and not err

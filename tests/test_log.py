@@ -74,7 +74,7 @@ def test_a_log_from_before_the_protobuf_log_still_reads_and_plots(tmp_path):
                                                     "/scene": 26}
     assert data["/plant"][0]["x"] == pytest.approx(1.7)
     files = plot_run(OLD_LOG, tmp_path)
-    assert len(files) == 6 and all(f.stat().st_size > 10_000 for f in files)
+    assert len(files) == 7 and all(f.stat().st_size > 10_000 for f in files)
     assert "metrics" in mcap_log.read_metadata(OLD_LOG)
 
 
