@@ -2,7 +2,7 @@
 
 `IsolatedFmu` offers what the execution uses of an in-process `FmuInstance` (output tables, raw
 setters, do_step, read_outputs, initialize, reset, close). Inputs set before a step are queued
-and travel with it, so one step is one round trip: set + doStep + get. Every reply must come
+and travel with it, so one step is one round trip: set + doStep + get, in raw bytes. Every reply must come
 within `timeout` seconds; a worker that dies (signal, exit()) or stays silent becomes one
 ExecutionError naming the instance, the call and what happened, and the worker is killed.
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from . import connections
 from .execution import _C_TYPE, ExecutionError
-from .fmu_worker import _HEADER, receive_exact, send
+from .fmu_worker import _HEADER, OUTPUTS, decode_outputs, encode_step, receive_exact, send, send_bytes
 from .system import DescriptionError
 
 STEP_TIMEOUT = 10.0  # s a call may take before the watchdog kills the FMU's process (--step-timeout)
@@ -103,13 +103,16 @@ class IsolatedFmu:
         return ExecutionError(f"{self.name}: {how} in {what}" + (f"; it said: {said}" if said else ""))
 
     def _exchange(self, request, what: str, timeout: float | None = None):
-        """Send request (None: only wait for the worker's greeting) and return the reply's outputs."""
+        """Send request (a tuple to pickle, raw step bytes, or None: only wait for the worker's greeting);
+        the reply's outputs land in self.values."""
         if self._dead:
             raise ExecutionError(f"{self.name}: {what}: the FMU's process has already ended")
         timeout = self.timeout if timeout is None else timeout
         started = time.perf_counter()
         try:
-            if request is not None:
+            if isinstance(request, bytes):
+                send_bytes(self._req, request)
+            elif request is not None:
                 send(self._req, request)
             deadline = started + timeout
             header = b""
@@ -132,9 +135,12 @@ class IsolatedFmu:
             self.fmi_seconds += time.perf_counter() - started
         if body is None:
             raise self._gone(what)
+        if body[:1] == OUTPUTS:  # a step's raw reply
+            self.log.extend(decode_outputs(body, self.values))
+            return None
         import pickle
 
-        reply = pickle.loads(body)
+        reply = pickle.loads(body[1:])
         if reply[0] == "ok":
             _, outputs, log = reply
             self.log.extend(log)
@@ -157,7 +163,7 @@ class IsolatedFmu:
 
     def do_step(self, t: float, h: float) -> None:
         sets, self._pending = self._pending, []
-        self._exchange(("step", sets, t, h), f"doStep at t={t:.6g} s")
+        self._exchange(encode_step(sets, t, h), f"doStep at t={t:.6g} s")
 
     def read_outputs(self) -> None:
         """Nothing to ask: the outputs came with the last step or the initialization."""
