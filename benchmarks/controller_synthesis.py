@@ -1,7 +1,7 @@
 """Synthesis time and figures of merit of the three designs (DESIGN §8; target mixed <= 10 s).
 
 Wall clock of tiltload.controller_fmu.design.design(kind), one run each, on this machine;
-the LMI designs are solved by Clarabel through cvxpy (solver time printed separately).
+the LMI designs are solved by SDPA through cvxpy, Clarabel as fallback (solver time printed separately).
 Run: python benchmarks/controller_synthesis.py
 """
 

@@ -87,7 +87,9 @@ def solve_sdpa(problem: cp.Problem, on_iteration=None, threads: int | None = Non
             raise SolverFailed(f"SDPA failed: {why}")
         with open(result, "rb") as f:
             solution = pickle.load(f)
-    problem.unpack_results(solution, chain, inverse_data)
+    with warnings.catch_warnings():  # "inaccurate" is judged by the caller, at the point itself
+        warnings.simplefilter("ignore")
+        problem.unpack_results(solution, chain, inverse_data)
     return Solved("SDPA", str(problem.status), seen, time.perf_counter() - start)
 
 
