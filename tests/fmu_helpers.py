@@ -95,3 +95,22 @@ def session(fmu_path, **kw):
         yield s
     finally:
         s.close()
+
+
+HOVER_THRUSTS = "9.987293721113877, 10.02221862357339, 0.0, 0.0"  # the load system's trim inputs
+
+
+def wrap_misbehaving(folder, acts: dict[str, str], at: float) -> dict:
+    """One `tiltload wrap` controller per entry of acts ({mode: a Python statement}) that hovers until t >= at,
+    then runs its statement (segfault, exit, hang, return NaN ...); returns {mode: FMU path}."""
+    from tiltload.master.cli import main
+
+    out = {}
+    for mode, act in acts.items():
+        name = mode.replace(" ", "_")
+        src = folder / f"bad_{name}.py"
+        src.write_text(f"import os, signal, time\n\nclass Bad{name.title().replace('_', '')}:\n    inputs = ['x_ref']\n\n"
+                       f"    def step(self, t, i):\n        if t >= {at}:\n            {act}\n        return {HOVER_THRUSTS}\n")
+        out[mode] = folder / f"bad_{name}.fmu"
+        assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
+    return out

@@ -17,11 +17,11 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from fmu_helpers import wrap_misbehaving
 from tiltload.master.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
-TRIM = "9.987293721113877, 10.02221862357339, 0.0, 0.0"
 
 
 def _cli_cases() -> list[tuple[str, list[str]]]:
@@ -260,19 +260,10 @@ def fmus(pipeline_fmus):
 
 @pytest.fixture(scope="module")
 def misbehaving(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("fuzz_misbehaving")
     acts = {"segfault": "os.kill(os.getpid(), signal.SIGSEGV)", "abort": "os.abort()", "exit": "os._exit(3)",
             "hang": "time.sleep(3600)", "nan": "return float('nan'), 0.0, 0.0, 0.0", "raise": "raise RuntimeError('boom')",
             "wrong arity": "return 1.0, 2.0"}
-    out = {}
-    for mode, act in acts.items():
-        name = mode.replace(" ", "_")
-        src = folder / f"{name}.py"
-        src.write_text(f"import os, signal, time\n\nclass Bad:\n    inputs = ['x_ref']\n\n    def step(self, t, i):\n"
-                       f"        if t >= 0.1:\n            {act}\n        return {TRIM}\n")
-        out[mode] = folder / f"{name}.fmu"
-        assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
-    return out
+    return wrap_misbehaving(tmp_path_factory.mktemp("fuzz_misbehaving"), acts, 0.1)
 
 
 def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbehaving, tmp_path, capsys, monkeypatch):

@@ -9,13 +9,13 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from fmu_helpers import wrap_misbehaving
 from tiltload.master import mcap_log
 from tiltload.master.cli import main
 from tiltload.master.execution import Execution
 from tiltload.master.observers import Metrics
 from tiltload.master.tiltload_system import default_system
 
-TRIM = "9.987293721113877, 10.02221862357339, 0.0, 0.0"  # hover thrusts: the loop stays up for the first second
 MISBEHAVIOURS = {
     "segfault": ("os.kill(os.getpid(), signal.SIGSEGV)", "crashed (SIGSEGV) in doStep at t=0.504 s"),
     "abort": ("os.abort()", "crashed (SIGABRT) in doStep at t=0.504 s"),
@@ -33,15 +33,7 @@ def fmus(pipeline_fmus):
 @pytest.fixture(scope="module")
 def misbehaving(tmp_path_factory):
     """One `tiltload wrap` controller per misbehaviour, which strikes at t = 0.5 s."""
-    folder = tmp_path_factory.mktemp("misbehaving")
-    out = {}
-    for mode, (act, _) in MISBEHAVIOURS.items():
-        src = folder / f"bad_{mode}.py"
-        src.write_text(f"import os, signal, time\n\nclass Bad{mode.capitalize()}:\n    inputs = ['x_ref']\n\n"
-                       f"    def step(self, t, i):\n        if t >= 0.5:\n            {act}\n        return {TRIM}\n")
-        out[mode] = folder / f"bad_{mode}.fmu"
-        assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
-    return out
+    return wrap_misbehaving(tmp_path_factory.mktemp("misbehaving"), {m: act for m, (act, _) in MISBEHAVIOURS.items()}, 0.5)
 
 
 def workers() -> list[str]:
