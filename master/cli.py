@@ -83,10 +83,11 @@ def cmd_design(args: argparse.Namespace) -> int:
     from ..controller_fmu.error_dynamics import DesignError
 
     try:
-        d = design(args.controller, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr))
+        d = design(args.controller, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr),
+                   vehicle=args.vehicle)
     except DesignError as err:
         raise UserError(str(err)) from None
-    path = artifact.save(d, args.out / f"{d.kind}.json")
+    path = artifact.save(d, args.out / f"{'uav_' if args.vehicle == 'uav' else ''}{d.kind}.json")
     r = d.report
     print(f"{d.kind}: ||K||_2 = {r['gain_norm']:.4g}, closed-loop spectral radius = {r['spectral_radius']:.6f} "
           f"(slowest continuous-time decay {np.log(r['spectral_radius']) / d.Tc:.3f} /s), {r['seconds']:.1f} s")
@@ -297,6 +298,7 @@ def main(argv: list[str] | None = None) -> int:
     b.set_defaults(func=cmd_build)
     d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
     d.add_argument("--controller", default="dlqr", help="dlqr (default), hinf or mixed")
+    d.add_argument("--vehicle", choices=("load", "uav"), default="load", help="load (default) or uav: the UAV alone (dlqr only)")
     d.add_argument("--Tc", type=_positive_time, default=0.012, help="controller period in s (default 0.012)")
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
     d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
