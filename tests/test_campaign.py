@@ -182,12 +182,12 @@ def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_r
            "--workers", "1", "--fmus", str(fmus)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 120
-    while len(list((out / "parts").glob("*.parquet"))) < 4 and time.time() < deadline:
-        time.sleep(0.05)
+    while len(list((out / "parts").glob("*.parquet"))) < 2 and time.time() < deadline:
+        time.sleep(0.002)  # a run takes tens of ms: kill early, while most of the twelve are still to do
     os.killpg(proc.pid, signal.SIGKILL)  # the campaign and its cluster, at once
     proc.wait()
     done = len(list((out / "parts").glob("*.parquet")))
-    assert 4 <= done < 12
+    assert 2 <= done < 12
     results, counts = campaign.run(spec, out, workers=2, fmus=fmus, progress=lambda _: None)
     assert counts["skipped"] == done and counts["ran"] == 12 - done
     assert _same_with_nan(rows(results), rows(local_results))

@@ -36,9 +36,12 @@ def misbehaving(tmp_path_factory):
     return wrap_misbehaving(tmp_path_factory.mktemp("misbehaving"), {m: act for m, (act, _) in MISBEHAVIOURS.items()}, 0.5)
 
 
-def workers() -> list[str]:
-    ps = subprocess.run(["ps", "-eo", "pid,args"], capture_output=True, text=True).stdout
-    return [line for line in ps.splitlines() if "tiltload.master.fmu_worker" in line and str(os.getpid()) not in line]
+def workers(parent: int | None = None) -> list[str]:
+    """The FMU workers whose parent is this process (or `parent`): other tiltload runs on the machine do not count."""
+    parent = os.getpid() if parent is None else parent
+    ps = subprocess.run(["ps", "-ww", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout  # -ww: never cut
+    return [line for line in ps.splitlines()[1:]
+            if "tiltload.master.fmu_worker" in line and int(line.split()[1]) == parent]
 
 
 @pytest.mark.parametrize("mode", list(MISBEHAVIOURS))
@@ -99,15 +102,17 @@ def test_a_killed_master_leaves_no_worker_behind(misbehaving, fmus, tmp_path):
 
     proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.cli", "run", "--controller", str(misbehaving["hang"]),
                              "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
-    while not workers() and time.time() < deadline:
+    while not workers(proc.pid) and time.time() < deadline:
         time.sleep(0.1)
-    assert workers(), "the worker never started"
+    hung = workers(proc.pid)
+    assert hung, f"the worker never started: {proc.poll()}, {proc.stderr.read() if proc.poll() is not None else ''}"
     time.sleep(1.0)  # now hung in doStep
     proc.send_signal(signal.SIGKILL)
     proc.wait()
+    pid = int(hung[0].split()[0])
     deadline = time.time() + 10
-    while workers() and time.time() < deadline:
+    while Path(f"/proc/{pid}").exists() and time.time() < deadline:
         time.sleep(0.1)
-    assert not workers()
+    assert not Path(f"/proc/{pid}").exists()  # orphaned, it would live on (hung) under init
