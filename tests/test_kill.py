@@ -27,8 +27,11 @@ def start(fmus: Path, folder: Path) -> tuple[subprocess.Popen, Path, Path]:
     clock = folder / "clock"
     clock.write_bytes(b"\0" * 8)
     log = folder / "run.mcap"
+    # SIGINT at its default, as in a terminal: a shell without job control starts background jobs (a CI script's
+    # `cmd &`) with SIGINT ignored, the child inherits that, and Python then leaves Ctrl-C ignored
     proc = subprocess.Popen([sys.executable, str(HOSTS / "kill_target.py"), str(fmus), str(log), str(clock)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     return proc, log, clock
 
 
