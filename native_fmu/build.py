@@ -146,6 +146,10 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str |
             warnings.append(said)
         objs.append(obj)
     link = [cc, "-shared", *extra_flags, "-o", str(output), *map(str, objs), "-lm"]
+    if platform.system() == "Linux":  # only fmi2*: -fvisibility=hidden does not hide target_clones' ifunc symbols
+        exports = folder / "exports.map"
+        exports.write_text("{ global: fmi2*; local: *; };\n")
+        link.append(f"-Wl,--version-script={exports}")
     proc = subprocess.run(link, capture_output=True, text=True)
     if proc.returncode != 0:
         raise BuildError(f"linking {output.name} with {cc} failed: {_first_error(proc.stderr)}")
