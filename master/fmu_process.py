@@ -12,7 +12,9 @@ user trusts it (`--trust-fmus`).
 
 from __future__ import annotations
 
+import ctypes
 import os
+import pickle
 import select
 import signal
 import subprocess
@@ -79,8 +81,10 @@ class IsolatedFmu:
         self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))
 
     def _queue(self, typ: str):
-        def setter(component, vrs, n, buf):
-            self._pending.append((typ, np.ctypeslib.as_array(vrs)[:n].copy(), np.ctypeslib.as_array(buf)[:n].copy()))
+        width = ctypes.sizeof(_C_TYPE[typ])
+
+        def setter(component, vrs, n, buf):  # the raw bytes the step message carries, copied once
+            self._pending.append((typ, n, ctypes.string_at(vrs, 4 * n), ctypes.string_at(buf, width * n)))
             return 0
         return setter
 
@@ -138,8 +142,6 @@ class IsolatedFmu:
         if body[:1] == OUTPUTS:  # a step's raw reply
             self.log.extend(decode_outputs(body, self.values))
             return None
-        import pickle
-
         reply = pickle.loads(body[1:])
         if reply[0] == "ok":
             _, outputs, log = reply

@@ -46,11 +46,10 @@ def send(fd: int, obj) -> None:
 
 
 def encode_step(sets, t: float, h: float) -> bytes:
-    import numpy as np
-
+    """sets: [(type, n, value references as uint32 bytes, values as fmi2 bytes)] in native byte order."""
     parts = [STEP, _TIMES.pack(t, h)]
-    for typ, vrs, values in sets:
-        parts += [_SET.pack(_CODE[typ], len(vrs)), np.asarray(vrs, "<u4").tobytes(), np.asarray(values, _DTYPE[typ]).tobytes()]
+    for typ, n, vrs, values in sets:
+        parts += [_SET.pack(_CODE[typ], n), vrs, values]
     return b"".join(parts)
 
 
