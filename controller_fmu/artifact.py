@@ -18,7 +18,7 @@ FORMAT = "tiltload-design/1"
 @dataclass
 class Design:
     kind: str  # "dlqr" or "mixed_h2_hinf"
-    K: np.ndarray  # 4 x 24
+    K: np.ndarray  # 4 x (24 + 4 loop_delay); the UAV alone 4 x (20 + 4 loop_delay)
     Tc: float
     trim_x: np.ndarray
     trim_u: np.ndarray
@@ -29,6 +29,7 @@ class Design:
     omega_chi: np.ndarray
     omega_u: np.ndarray
     report: dict  # figures of merit: spectral radius, residuals, gamma, bounds, timing
+    loop_delay: int = 0  # ticks of transport delay the design was made for (error_dynamics.with_loop_delay)
 
     @property
     def parameter_hash(self) -> str:
@@ -40,7 +41,7 @@ _ARRAYS = ("K", "trim_x", "trim_u", "params", "A", "B", "F", "omega_chi", "omega
 
 def save(design: Design, path: Path) -> Path:
     data = {"format": FORMAT, "kind": design.kind, "Tc": design.Tc, "parameter_hash": design.parameter_hash,
-            "report": design.report}
+            "report": design.report, "loop_delay": design.loop_delay}
     data.update({k: np.asarray(getattr(design, k)).tolist() for k in _ARRAYS})
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data))
@@ -54,8 +55,8 @@ def load(path: Path) -> Design:
         raise ValueError(f"cannot read design {path}: {err}") from None
     if data.get("format") != FORMAT:
         raise ValueError(f"{path} is not a {FORMAT} design (format {data.get('format')!r})")
-    design = Design(kind=data["kind"], Tc=data["Tc"], report=data["report"],
+    design = Design(kind=data["kind"], Tc=data["Tc"], report=data["report"], loop_delay=int(data.get("loop_delay", 0)),
                     **{k: np.array(data[k], dtype=float) for k in _ARRAYS})
-    if design.K.shape != (4, 24) or design.parameter_hash != data["parameter_hash"]:
+    if design.K.shape != (4, design.trim_x.size + 4 + 4 * design.loop_delay) or design.parameter_hash != data["parameter_hash"]:
         raise ValueError(f"{path} is inconsistent (gain shape {design.K.shape} or parameter hash)")
     return design

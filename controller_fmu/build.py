@@ -23,6 +23,7 @@ from ..sensor_fmu import measurement
 from . import cache as design_cache
 from . import fmu_variables
 from .design import design
+from .error_dynamics import LOOP_DELAYS
 from .estimator_setup import augmented_model, lkf_setup, zse_setup
 
 HERE = Path(__file__).parent
@@ -36,14 +37,15 @@ TC = 0.012
 
 
 def bundle(Tc: float = TC, progress=print, vehicle: str = "load") -> dict[str, np.ndarray]:
-    """Gains of the designs (cached syntheses) and the estimator matrices of Sec. 5.3-5.4 (Sec. A.4 for the UAV
-    alone: DLQR and ZSE only)."""
+    """Gains of the designs (cached syntheses; each for loop delays 0, 1, 2 ticks) and the estimator matrices of
+    Sec. 5.3-5.4 (Sec. A.4 for the UAV alone: DLQR and ZSE only)."""
     kinds = fmu_variables.CONTROLLERS[vehicle]
-    designs = {kind: design(kind, Tc, use_cache=True, progress=progress, vehicle=vehicle) for kind in kinds}
+    designs = {(kind, d): design(kind, Tc, use_cache=True, progress=progress, vehicle=vehicle, loop_delay=d)
+               for kind in kinds for d in LOOP_DELAYS}
     m = augmented_model(Tc, vehicle=vehicle)
     zse = zse_setup(m, vehicle)
-    d = designs["dlqr"]
-    b = {**{f"K_{kind}": designs[kind].K for kind in kinds}, "Tc": np.array(Tc),
+    d = designs["dlqr", 0]
+    b = {**{f"K_{kind}_d{delay}": designs[kind, delay].K for kind, delay in designs}, "Tc": np.array(Tc),
          "trim_x": d.trim_x, "trim_u": d.trim_u, "params": d.params, "A_nu": m.A, "B_nu": m.B,
          "H_zse": zse.H, "y_eq": zse.y_eq, "G_w": zse.G_w, "G_v": zse.G_v, "G_x0": zse.G_x0, "r_max": np.array(zse.r_max)}
     if "lkf" in fmu_variables.ESTIMATORS[vehicle]:

@@ -18,7 +18,10 @@ Feedforward = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (x_tr (20), qdd_
 
 @dataclass
 class StateFeedback:
-    """Discrete controller running at T_c: integral states, feedforward, gain, saturation."""
+    """Discrete controller running at T_c: integral states, feedforward, gain, saturation.
+
+    A delay-aware gain (4 x (nx + 4 + 4 d), error_dynamics.with_loop_delay) also acts on the deviations of the d
+    commands sent before, which have not reached the plant yet."""
 
     K: np.ndarray
     Tc: float
@@ -26,6 +29,11 @@ class StateFeedback:
     feedforward: Feedforward
     limits: tuple[float, float, float] = (0.0, 30.0, 2.0)
     integral: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    sent: list = field(default_factory=list)  # deviations du of the last d commands, newest first
+
+    @property
+    def loop_delay(self) -> int:
+        return (self.K.shape[1] - self.trim_x.size - 4) // 4
 
     def reference_state(self, xi, xi_dot, psi=0.0, psi_dot=0.0) -> np.ndarray:
         """x_tr: load on the path, the other coordinates at their trim values (Sec. 3.2)."""
@@ -40,8 +48,14 @@ class StateFeedback:
         qdd = np.zeros(10)
         qdd[0:3] = xi_ddot
         u_tr = self.feedforward(x_tr, qdd)
-        chi = np.r_[x - x_tr, self.integral]
+        d = self.loop_delay
+        if len(self.sent) != d:
+            self.sent = [np.zeros(4)] * d
+        chi = np.r_[x - x_tr, self.integral, *reversed(self.sent)]  # the oldest command first
         u = u_tr - self.K @ chi
         self.integral = self.integral + self.Tc * (x - x_tr)[list(REGULATED)]
         lo, hi, tau = self.limits
-        return np.r_[np.clip(u[:2], lo, hi), np.clip(u[2:], -tau, tau)]
+        u = np.r_[np.clip(u[:2], lo, hi), np.clip(u[2:], -tau, tau)]
+        if d:
+            self.sent = [u - u_tr, *self.sent[:-1]]
+        return u

@@ -18,6 +18,9 @@ from .control_law import REGULATED
 NCHI = 24
 
 
+LOOP_DELAYS = (0, 1, 2)  # ticks of transport delay a design can be made for (a Jacobi master adds 1 or 2: docs/ports.md)
+
+
 class DesignError(ValueError):
     """A design input or result that cannot give a valid controller; the message says which."""
 
@@ -70,3 +73,25 @@ def error_dynamics(Tc: float = 0.012, p: np.ndarray | None = None, psi: float = 
     if rank < A.shape[0]:
         raise DesignError(f"the augmented error dynamics are not controllable (rank {rank} < {A.shape[0]})")
     return ErrorDynamics(A, B, F, Tc, trim, p)
+
+
+def with_loop_delay(sys: ErrorDynamics, d: int) -> ErrorDynamics:
+    """The model a delay-aware design is made on: the input reaches the plant d ticks after it is computed.
+
+    State [chi_k; du_{k-d}; ...; du_{k-1}] (oldest first): chi_{k+1} = A chi_k + B du_{k-d}, the chain shifts, and
+    the new input du_k enters its last block. The controller knows every block (its own past outputs), so a state
+    feedback on this model is realizable; with d = 0 it is the model itself."""
+    if d not in LOOP_DELAYS:
+        raise DesignError(f"loop delay must be one of {', '.join(map(str, LOOP_DELAYS))} ticks, got {d!r}")
+    if d == 0:
+        return sys
+    n, m = sys.B.shape
+    size = n + m * d
+    A = np.zeros((size, size))
+    A[:n, :n], A[:n, n:n + m] = sys.A, sys.B
+    for j in range(d - 1):
+        A[n + m * j:n + m * (j + 1), n + m * (j + 1):n + m * (j + 2)] = np.eye(m)
+    B = np.zeros((size, m))
+    B[size - m:] = np.eye(m)
+    F = np.vstack([sys.F, np.zeros((m * d, sys.F.shape[1]))])
+    return ErrorDynamics(A, B, F, sys.Tc, sys.trim, sys.params)

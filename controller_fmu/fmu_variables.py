@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..native_fmu.variables import FmuDefinition, Variable
+from .error_dynamics import LOOP_DELAYS
 from ..plant_fmu.vehicles import VEHICLES
 from ..sensor_fmu.fmu_variables import channel_names, channel_units
 from ..sensor_fmu.suite import SUITES
@@ -69,7 +70,10 @@ def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load") ->
           Variable("f_max", "Real", "parameter", 30.0, "actuator limit (Table 5.2)", "N"),
           Variable("tau_max", "Real", "parameter", 2.0, "actuator limit (Table 5.2)", "N.m"),
           Variable("Tc", "Real", "parameter", Tc, "controller period the designs were made for", "s")]
-    v += [Variable("skipped_measurements", "Integer", "output", 0, "measurement entries the estimator skipped this tick")]
+    v += [Variable("skipped_measurements", "Integer", "output", 0, "measurement entries the estimator skipped this tick"),
+          Variable("loop_delay_ticks", "Integer", "parameter", 0,
+                   "ticks between measuring and actuating the designs are made for: 0 for tiltload's ordered master, "
+                   "2 for a Jacobi master (1 with the exact state; docs/ports.md)", minimum=LOOP_DELAYS[0], maximum=LOOP_DELAYS[-1])]
     v += [Variable(f"{g.name}_new", "Boolean", "input", True, f"the {g.name} sample is new this tick (estimator zse)")
           for g in zse_groups(vehicle)]
     controllers, estimators = CONTROLLERS[vehicle], ESTIMATORS[vehicle]
@@ -104,10 +108,15 @@ def dims_header(b: dict, vehicle: str = "load") -> str:
                       "#ifndef CONTROLLER_DIMS_H", "#define CONTROLLER_DIMS_H",
                       f"#define TL_NX {b['trim_x'].size}", f"#define TL_NNU {b['A_nu'].shape[0]}",
                       f"#define TL_NY_ZSE {b['H_zse'].shape[0]}",
-                      f"#define TL_HAS_LKF {int('H_lkf' in b)}", f"#define TL_HAS_MIXED {int('K_mixed' in b)}",
+                      f"#define TL_HAS_LKF {int('H_lkf' in b)}", f"#define TL_HAS_MIXED {int('K_mixed_d0' in b)}",
+                      f"#define TL_MAX_DELAY {LOOP_DELAYS[-1]}",
                       f"#define TL_NY_LKF {b['H_lkf'].shape[0] if 'H_lkf' in b else 1}", f"#define TL_R_MAX {int(b['r_max'])}",
                       f"#define TL_RW {e['Gw_rows'].shape[0]}",
                       f"#define TL_FIRST_MEAS TL_REAL_{first}", f"#define TL_LAST_MEAS TL_REAL_{last}", "#endif", ""])
+
+
+def gain_names(b: dict) -> list[str]:
+    return [f"K_{kind}_d{d}" for kind in ("dlqr", "mixed") for d in LOOP_DELAYS if f"K_{kind}_d{d}" in b]
 
 
 def data_header(b: dict, definition: FmuDefinition, vehicle: str = "load") -> str:
@@ -121,8 +130,9 @@ def data_header(b: dict, definition: FmuDefinition, vehicle: str = "load") -> st
              "#ifndef CONTROLLER_DATA_H", "#define CONTROLLER_DATA_H", "",
              f"#define TL_TC {float(b['Tc'])!r}", f"#define TL_R0 {e['G0_rows'].shape[0]}", f"#define TL_N_PARAMS {b['params'].size}",
              f"#define TL_N_ZSE_GROUPS {len(zse_groups(vehicle))}", "",
-             *(_array(f"tl_{k}", b[k]) for k in ("K_dlqr", "K_mixed") if k in b),
-             "static const double* const tl_gains[] = {" + ", ".join(f"tl_{k}" for k in ("K_dlqr", "K_mixed") if k in b) + "};",
+             "/* the gains by controller, then loop delay d (4 x (nx + 4 + 4 d) each) */",
+             *(_array(f"tl_{k}", b[k]) for k in gain_names(b)),
+             "static const double* const tl_gains[] = {" + ", ".join(f"tl_{k}" for k in gain_names(b)) + "};",
              _array("tl_trim_x", b["trim_x"]), _array("tl_trim_u", b["trim_u"]), _array("tl_params", b["params"]),
              _array("tl_A_nu", b["A_nu"]), _array("tl_B_nu", b["B_nu"]),
              *(_array(f"tl_{k}", b[k]) for k in ("H_lkf", "Pw", "Pv", "P0") if "H_lkf" in b),

@@ -4,7 +4,8 @@ The controller FMU runs the same tick in C (controller_fmu/c/controller_model.c)
 the design-time version the tests hold it to, tick by tick (tests/test_native_controller.py),
 and a way to run the controller offline. Everything is computed at build time and passed in as a
 bundle of arrays (gains, linearization, estimator matrices). Timing (DESIGN §4): tick k uses the
-reference and measurements at t_k and the input applied over the previous tick, u_{k-1}.
+reference and measurements at t_k and the input applied over the previous tick, u_{k-1}. With a delay-aware
+design for d ticks (loop_delay), the measurements at tick k are of the interval the command of k-1-d drove.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ def check_choice(name: str, value: str, allowed: tuple[str, ...]) -> str:
 
 class ControllerRuntime:
     def __init__(self, bundle: dict, controller: str, estimator: str, feedforward: Feedforward,
-                 limits=(0.0, 30.0, 2.0), start_position=None, reduction: str = "combastel") -> None:
+                 limits=(0.0, 30.0, 2.0), start_position=None, reduction: str = "combastel", loop_delay: int = 0) -> None:
         check_choice("controller", controller, CONTROLLERS)
         self.estimator = check_choice("estimator", estimator, ESTIMATORS)
         check_choice("zse_reduction", reduction, REDUCTIONS)
@@ -41,8 +42,10 @@ class ControllerRuntime:
             raise SetupError(f"actuator limits need f_min < f_max and tau_max > 0, got {limits}")
         b = bundle
         self.x_eq, self.u_eq = b["trim_x"], b["trim_u"]
-        self.law = StateFeedback(b[f"K_{controller}"], float(b["Tc"]), self.x_eq, feedforward, (lo, hi, tau))
-        self.u_prev = self.u_eq.copy()
+        if f"K_{controller}_d{loop_delay}" not in b:
+            raise SetupError(f"no {controller} design for loop_delay_ticks = {loop_delay!r}")
+        self.law = StateFeedback(b[f"K_{controller}_d{loop_delay}"], float(b["Tc"]), self.x_eq, feedforward, (lo, hi, tau))
+        self.sent = [self.u_eq.copy()] * (loop_delay + 1)  # the commands of the last d + 1 ticks, newest first
         self.k = 0
         self.b = b
         self.reduction = reduction
@@ -58,7 +61,7 @@ class ControllerRuntime:
 
     def _estimate(self, exact, lkf_q, zse_y, zse_available):
         b = self.b
-        du = self.u_prev - self.u_eq
+        du = self.sent[-1] - self.u_eq  # the command that drove the plant over the interval now measured
         if self.estimator == "none":
             self.estimate = np.asarray(exact, dtype=float).copy()
             self.lower = self.upper = np.r_[self.estimate, self.disturbance]
@@ -96,6 +99,6 @@ class ControllerRuntime:
             self._reference_start = ref[0:3].copy()
         self._estimate(exact, lkf_q, zse_y, zse_available)
         u = self.law(self.estimate, ref[0:3], ref[3:6], ref[6:9], ref[9], ref[10])
-        self.u_prev = u
+        self.sent = [u, *self.sent[:-1]]
         self.k += 1
         return u

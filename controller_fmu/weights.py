@@ -36,6 +36,18 @@ def omega_u(u_eq: np.ndarray) -> np.ndarray:
     return np.diag([750 / (30 - f_r) ** 2, 750 / (30 - f_l) ** 2, 5000 / 2**2, 5000 / 2**2])
 
 
+DELAYED_INPUT_WEIGHT = 1e-2  # of Omega_u, on each delayed input a delay-aware design carries (keeps the weight definite)
+
+
+def delayed(Q: np.ndarray, R: np.ndarray, d: int) -> np.ndarray:
+    """Omega_chi of the delay-aware model (error_dynamics.with_loop_delay): the states keep their weights, each of the
+    d delayed inputs gets a small multiple of Omega_u. The LMIs need it definite; the cost is the input's anyway,
+    paid when it reaches the plant."""
+    from scipy.linalg import block_diag
+
+    return block_diag(Q, *([DELAYED_INPUT_WEIGHT * R] * d))
+
+
 def check_weight(W: np.ndarray, n: int, name: str, definite: bool) -> np.ndarray:
     """Validate a weight: shape n x n, finite, symmetric, PSD (or PD); raise DesignError naming it."""
     from .error_dynamics import DesignError

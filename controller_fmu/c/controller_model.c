@@ -3,7 +3,10 @@
    (3.18) and the integral states, and holds u over the tick. As controller_fmu/runtime.py, the
    Python reference the tests compare it with; the designs are embedded (controller_data.h). One source
    for both vehicles: controller_dims.h gives the state size, the first and last measurement, and
-   whether this build has the LKF and the mixed design (the UAV alone has neither). */
+   whether this build has the LKF and the mixed design (the UAV alone has neither).
+   Delay-aware designs (loop_delay_ticks d): the command computed now reaches the plant d ticks later (a Jacobi
+   master adds one tick per connection, docs/ports.md); the gain then also acts on the d commands still on their way,
+   and the estimator propagates with the command that drove the plant over the interval it was measured in. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -79,6 +82,7 @@ fmi2Status tl_model_outputs(TlInstance* c) {
 fmi2Status tl_model_initialize(TlInstance* c) {
   TlModelState* m = &c->s.model;
   const double* r = c->s.real;
+  int i;
   m->controller = choose(c->s.string[TL_STRING_controller], controllers, 2);
   m->estimator = choose(c->s.string[TL_STRING_estimator], estimators, 3);
   m->reduction = choose(c->s.string[TL_STRING_zse_reduction], reductions, 3);
@@ -107,9 +111,16 @@ fmi2Status tl_model_initialize(TlInstance* c) {
            r[TL_REAL_f_min], r[TL_REAL_f_max], r[TL_REAL_tau_max]);
     return fmi2Error;
   }
+  if (c->s.integer[TL_INTEGER_loop_delay_ticks] < 0 || c->s.integer[TL_INTEGER_loop_delay_ticks] > TL_MAX_DELAY) {
+    tl_log(c, fmi2Error, "invalid controller parameters: loop_delay_ticks = %d, the designs are made for 0 to %d ticks",
+           (int)c->s.integer[TL_INTEGER_loop_delay_ticks], TL_MAX_DELAY);
+    return fmi2Error;
+  }
+  m->delay = (int)c->s.integer[TL_INTEGER_loop_delay_ticks];
   m->k = 0;
   memset(m->integral, 0, sizeof m->integral);
-  memcpy(m->u_prev, tl_trim_u, sizeof m->u_prev);
+  for (i = 0; i <= TL_MAX_DELAY; ++i) memcpy(m->u_sent[i], tl_trim_u, sizeof m->u_sent[i]);
+  memset(m->du_sent, 0, sizeof m->du_sent);
   return tl_model_outputs(c);
 }
 
@@ -120,7 +131,7 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
   double du[4], nu[NNU];
   int i;
   *skipped = 0;
-  for (i = 0; i < 4; ++i) du[i] = m->u_prev[i] - tl_trim_u[i];
+  for (i = 0; i < 4; ++i) du[i] = m->u_sent[m->delay][i] - tl_trim_u[i]; /* drove the plant over the measured tick */
   if (m->estimator == 0) {
     memcpy(m->estimate, r + TL_REAL_exact_x, sizeof m->estimate);
     memset(half, 0, sizeof(double) * NNU);
@@ -171,11 +182,12 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
   return 0;
 }
 
-/* u = sat(u_tr - K chi), chi = [x - x_tr; integrals]; the integrals advance after use. */
+/* u = sat(u_tr - K [chi; du_{k-d} .. du_{k-1}]), chi = [x - x_tr; integrals]; the integrals advance after use. */
 static int control(TlInstance* c, double* u) {
   TlModelState* m = &c->s.model;
   const double* ref = c->s.real + TL_REAL_x_ref;
-  const double* K = tl_gains[m->controller];
+  const int d = m->delay, width = NX + 4 + 4 * d;
+  const double* K = tl_gains[m->controller * (TL_MAX_DELAY + 1) + d];
   double x_tr[NX], qdd[NX / 2], chi[NX + 4], u_tr[4];
   const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
   double* res[TL_FEEDFORWARD_SZ_RES + 1];
@@ -199,7 +211,10 @@ static int control(TlInstance* c, double* u) {
   for (i = 0; i < 4; ++i) chi[NX + i] = m->integral[i];
   for (i = 0; i < 4; ++i) {
     double v = u_tr[i];
-    for (j = 0; j < NX + 4; ++j) v -= K[i * (NX + 4) + j] * chi[j];
+    int b;
+    for (j = 0; j < NX + 4; ++j) v -= K[i * width + j] * chi[j];
+    for (b = 0; b < d; ++b) /* block b holds du_{k-d+b}, the oldest first */
+      for (j = 0; j < 4; ++j) v -= K[i * width + NX + 4 + 4 * b + j] * m->du_sent[d - 1 - b][j];
     u[i] = v;
   }
   for (i = 0; i < 4; ++i) m->integral[i] += TL_TC * chi[regulated[i]];
@@ -208,6 +223,8 @@ static int control(TlInstance* c, double* u) {
     for (i = 0; i < 2; ++i) u[i] = u[i] < lo ? lo : u[i] > hi ? hi : u[i];
     for (i = 2; i < 4; ++i) u[i] = u[i] < -tau ? -tau : u[i] > tau ? tau : u[i];
   }
+  memmove(m->du_sent[1], m->du_sent[0], sizeof(double) * 4 * (TL_MAX_DELAY - 1));
+  for (i = 0; i < 4; ++i) m->du_sent[0][i] = u[i] - u_tr[i];
   return 0;
 }
 
@@ -230,7 +247,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
              estimators[m->estimator]);
       return fmi2Error;
     }
-  memcpy(m->u_prev, u, sizeof u);
+  memmove(m->u_sent[1], m->u_sent[0], sizeof(double) * 4 * TL_MAX_DELAY);
+  memcpy(m->u_sent[0], u, sizeof u);
   memcpy(c->s.real + TL_REAL_f_R, u, sizeof u);
   publish_estimate(c, half);
   c->s.integer[TL_INTEGER_skipped_measurements] = skipped;

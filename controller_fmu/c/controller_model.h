@@ -9,9 +9,11 @@ typedef struct {
   int controller; /* 0 dlqr, 1 mixed */
   int estimator;  /* 0 none, 1 lkf, 2 zse */
   int reduction;  /* TL_REDUCE_* */
+  int delay;      /* loop_delay_ticks: the design's transport delay d */
   long k;         /* ticks done */
   double integral[4];        /* of the x, y, z, psi errors */
-  double u_prev[4];          /* the input applied over the last tick */
+  double u_sent[TL_MAX_DELAY + 1][4]; /* the commands of the last d + 1 ticks, newest first */
+  double du_sent[TL_MAX_DELAY][4];    /* their deviations from the feedforward of their tick, newest first */
   double reference_start[3]; /* the reference at the first tick (the ZSE's initial box is centred there) */
   double estimate[TL_NX], disturbance[3];
   TlLkf lkf;
