@@ -69,6 +69,7 @@ def design(kind: str = "dlqr", Tc: float = 0.012, *, use_cache: bool = False, pr
     report["gain_norm"] = float(np.linalg.norm(K, 2))
     report["seconds"] = time.perf_counter() - start
     if progress is not None and kind != "dlqr":
-        progress(f"{kind} design{f' (d = {loop_delay})' if loop_delay else ''} synthesized in {report['seconds']:.1f} s ({res.solver}, {res.iterations} iterations, "
+        label = f"{kind} design (d = {loop_delay})" if loop_delay else f"{kind} design"
+        progress(f"{label} synthesized in {report['seconds']:.1f} s ({res.solver}, {res.iterations} iterations, "
                  f"status {res.status})")
     return Design(kind, K, Tc, sys.trim.x, sys.trim.u, sys.params, sys.A, sys.B, sys.F, Q, R, report, loop_delay)

@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..native_fmu.variables import FmuDefinition, Variable
-from .error_dynamics import LOOP_DELAYS
 from ..plant_fmu.vehicles import VEHICLES
 from ..sensor_fmu.fmu_variables import channel_names, channel_units
 from ..sensor_fmu.suite import SUITES
+from .error_dynamics import LOOP_DELAYS
 from .zonotope import interval_hull
 
 DESCRIPTION = {
