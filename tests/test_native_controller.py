@@ -38,14 +38,18 @@ def design_bundle():
     return bundle(T, progress=lambda *_: None)
 
 
-@pytest.mark.parametrize("controller, estimator, reduction", [
-    ("dlqr", "none", "combastel"), ("mixed", "none", "combastel"), ("dlqr", "lkf", "combastel"), ("mixed", "lkf", "combastel"),
-    ("dlqr", "zse", "combastel"), ("mixed", "zse", "combastel"), ("mixed", "zse", "girard")])
-def test_c_controller_equals_the_python_runtime(pipeline_fmus, design_bundle, controller, estimator, reduction):
-    """Closed loop with the plant and the sensors, 300 ticks from a 10 cm offset: u and the bounds, tick by tick."""
+@pytest.mark.parametrize("controller, estimator, reduction, delay", [
+    ("dlqr", "none", "combastel", 0), ("mixed", "none", "combastel", 0), ("dlqr", "lkf", "combastel", 0),
+    ("mixed", "lkf", "combastel", 0), ("dlqr", "zse", "combastel", 0), ("mixed", "zse", "combastel", 0),
+    ("mixed", "zse", "girard", 0), ("mixed", "none", "combastel", 1), ("dlqr", "lkf", "combastel", 2),
+    ("mixed", "zse", "combastel", 2)])
+def test_c_controller_equals_the_python_runtime(pipeline_fmus, design_bundle, controller, estimator, reduction, delay):
+    """Closed loop with the plant and the sensors, 300 ticks from a 10 cm offset: u and the bounds, tick by tick.
+    With a delay-aware design (delay d), each command reaches the plant d ticks after it is computed."""
     start = [0.1, -0.1, 0.1]
     rt = ControllerRuntime(design_bundle, controller, estimator, ff.bound(design_bundle["params"]), (0.0, 30.0, 2.0),
-                           np.array(start), reduction)
+                           np.array(start), reduction, loop_delay=delay)
+    on_the_way = [design_bundle["trim_u"]] * delay
     meas, lkf, exact = [f"meas_{n}" for n in ZSE_NAMES], [f"lkf_{n}" for n in STATE_NAMES[:10]], [f"exact_{n}" for n in STATE_NAMES]
     flags = [f"{g.name}_new" for g in ZSE_GROUPS]
     with session(pipeline_fmus["TiltloadPlant"], instance="plant") as plant, \
@@ -53,7 +57,7 @@ def test_c_controller_equals_the_python_runtime(pipeline_fmus, design_bundle, co
             session(pipeline_fmus["TiltloadController"], instance="controller") as ctrl:
         plant.set(**dict(zip(("x_0", "y_0", "z_0"), start)))
         ctrl.set(**dict(zip(("x_0", "y_0", "z_0"), start)))
-        ctrl.set_typed(controller=controller, estimator=estimator, zse_reduction=reduction)
+        ctrl.set_typed(controller=controller, estimator=estimator, zse_reduction=reduction, loop_delay_ticks=delay)
         for s in (plant, sensors, ctrl):
             s.start()
         worst_u = worst_bounds = 0.0
@@ -72,7 +76,8 @@ def test_c_controller_equals_the_python_runtime(pipeline_fmus, design_bundle, co
             worst_u = max(worst_u, np.abs(u - u_ref).max())
             lo, hi = ctrl.get(*[f"est_{n}_lo" for n in EXTENDED]), ctrl.get(*[f"est_{n}_hi" for n in EXTENDED])
             worst_bounds = max(worst_bounds, np.abs(lo - rt.lower).max(), np.abs(hi - rt.upper).max())
-            plant.set(**dict(zip(("f_R", "f_L", "tau_R", "tau_L"), u)))
+            on_the_way.append(u)
+            plant.set(**dict(zip(("f_R", "f_L", "tau_R", "tau_L"), on_the_way.pop(0))))
             plant.fmu.doStep(k * T, T)
         assert np.abs(plant.get("x", "y", "z")).max() < 0.3  # the loop is closed and stable (ZSE: a few cm of error)
     assert worst_u <= 1e-9 and worst_bounds <= 1e-9, (worst_u, worst_bounds)
