@@ -101,14 +101,14 @@ def cmd_design(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_run(args: argparse.Namespace) -> int:
+def _loop_system(args: argparse.Namespace):
+    """The system the run options describe: the thesis's loop (FMUs built when stale), with a controller FMU of the
+    user's, parameters set and faults added; or the system a --system file describes. Returns it with the stop time
+    and the schedule a package asks for (None for our loop)."""
     from . import system as sysdesc
     from .build_all import build_all
     from .execution import read_fmu
-    from .observers import Metrics
-    from .plot import plot_run
-    from .run import run_system
-    from .tiltload_system import LOOPS, default_stop, default_system, set_parameters
+    from .tiltload_system import LOOPS, default_system, set_parameters
 
     loop = LOOPS[args.vehicle]
     args.trajectory = loop.default_trajectory if args.trajectory is None else args.trajectory
@@ -126,9 +126,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         controller_fmu = Path(args.controller)
         if not controller_fmu.is_file():
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
+    args.controller_fmu = controller_fmu
+    stop, schedule = None, None
     try:
         if args.system is not None:
-            system = sysdesc.load(args.system)
+            system, stop, schedule = _read_system(args.system)
         else:
             results = build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(args.vehicle,))
             rebuilt = [r.path.name for r in results if r.rebuilt]
@@ -151,9 +153,44 @@ def cmd_run(args: argparse.Namespace) -> int:
                 raise UserError(str(err)) from None
     except sysdesc.DescriptionError as err:
         raise UserError(str(err)) from None
+    return system, stop, schedule
+
+
+def _read_system(path: Path):
+    """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description."""
+    from . import ssp
+    from . import system as sysdesc
+
+    if path.suffix.lower() in (".ssp", ".ssd"):
+        return ssp.load(path)
+    return sysdesc.load(path), None, None
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from . import system as sysdesc
+    from .observers import Metrics
+    from .plot import plot_run
+    from .run import run_system
+    from .tiltload_system import default_stop
+
+    system, package_stop, schedule = _loop_system(args)
+    controller_fmu = args.controller_fmu
+    schedule = args.schedule or schedule
+    if schedule == "jacobi":
+        from . import jacobi
+        from .execution import read_fmu
+
+        try:
+            system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
+        except sysdesc.DescriptionError as err:
+            raise UserError(str(err)) from None
+        print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
+    if args.stop_time is None and package_stop is not None:
+        args.stop_time = package_stop
     stop = args.stop_time if args.stop_time is not None else default_stop(args.trajectory)
     who = controller_fmu.stem if controller_fmu else args.controller
-    label = args.name or f"{'uav_' if args.vehicle == 'uav' else ''}{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}"
+    label = args.name or (args.system.stem if args.system is not None else
+                          f"{'uav_' if args.vehicle == 'uav' else ''}{args.scenario}_traj{args.trajectory}_{who}_seed{args.seed}")
     log = None if args.no_log else args.out / f"{label}.mcap"
     names = {i.name for i in system.instances}
     metrics = Metrics("plant", "scenario", "controller") if {"plant", "scenario", "controller"} <= names else None
@@ -181,6 +218,39 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.no_plots and log is not None:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def cmd_ssp(args: argparse.Namespace) -> int:
+    from . import jacobi, ssp
+    from . import system as sysdesc
+    from .execution import read_fmu
+    from .tiltload_system import default_stop
+
+    if args.action != "export":
+        raise UserError(f"ssp: unknown action '{args.action}' (available: export)")
+    system, package_stop, _ = _loop_system(args)
+    stop = args.stop_time or package_stop or default_stop(args.trajectory)
+    try:
+        mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
+        names = {i.name for i in system.instances}
+        ours = "controller" in names and any(v.name == "loop_delay_ticks" for v in mds["controller"].modelVariables)
+        delay = None
+        if ours and "loop_delay_ticks" not in system.instance("controller").parameters:
+            # the loop delay the package's master will add: Jacobi's one tick per sample-timed connection, or none
+            delay = jacobi.loop_delay(jacobi.explicit(system, mds, jacobi=args.schedule == "jacobi"), mds)
+            if delay > 2:
+                raise UserError(f"the loop would carry {delay} ticks of delay; the designs are made for 0 to 2")
+            system.instance("controller").parameters["loop_delay_ticks"] = delay
+        path = ssp.export(system, args.out, stop, args.schedule)
+    except sysdesc.DescriptionError as err:
+        raise UserError(str(err)) from None
+    except OSError as err:
+        raise UserError(f"cannot write {args.out}: {err.strerror or err}") from None
+    print(f"{path}: SSP 1.0 package, {len(system.instances)} FMUs, {stop:g} s, prepared for a {args.schedule} master"
+          + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
+    print(f"  run it: tiltload run --system {path}   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set="
+          f"'{ssp.PARAMETER_SET}'))")
     return 0
 
 
@@ -289,6 +359,29 @@ def _file_stem(text: str) -> str:
     return text
 
 
+def _loop_options(p: argparse.ArgumentParser) -> None:
+    """What describes a run of the loop: shared by run and ssp export."""
+    p.add_argument("--vehicle", choices=("load", "uav"), default="load",
+                   help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
+    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
+    p.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
+                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
+    p.add_argument("--controller", default=None,
+                   help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
+    p.add_argument("--seed", type=_seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
+    p.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
+    p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
+    p.add_argument("--no-gusts", action="store_true", help="no wind gusts")
+    p.add_argument("--faults", type=Path, default=None, metavar="FILE",
+                   help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
+    p.add_argument("--set", type=_assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
+                   help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
+    p.add_argument("--system", type=Path, default=None, help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop")
+    p.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    p.add_argument("--allow-unknown-inputs", action="store_true",
+                   help="accept a controller FMU whose inputs include names the port contract does not have")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = OneLineParser(prog="tiltload", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -309,27 +402,12 @@ def main(argv: list[str] | None = None) -> int:
     w.add_argument("--out", type=Path, default=None, help="the FMU to write (default: next to the file, <name>.fmu)")
     w.set_defaults(func=cmd_wrap)
     r = sub.add_parser("run", help="main job: run the closed loop through the FMUs, log to MCAP, print ISE/IADU, plot")
-    r.add_argument("--vehicle", choices=("load", "uav"), default="load",
-                   help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
-    r.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
-    r.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
-                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
-    r.add_argument("--controller", default=None,
-                   help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
-    r.add_argument("--seed", type=_seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
-    r.add_argument("--stop-time", type=_positive_time, default=None, help="s (default: the trajectory's duration)")
-    r.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
-    r.add_argument("--no-gusts", action="store_true", help="no wind gusts")
-    r.add_argument("--faults", type=Path, default=None, metavar="FILE",
-                   help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
-    r.add_argument("--set", type=_assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
-                   help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
-    r.add_argument("--system", type=Path, default=None, help="a system description (JSON) instead of the tiltload loop")
-    r.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    _loop_options(r)
+    r.add_argument("--schedule", choices=("ordered", "jacobi"), default=None,
+                   help="ordered: tiltload's master (default); jacobi: as libcosim and Ecos step (a package's own choice "
+                        "is the default for it)")
     r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")
     r.add_argument("--name", type=_file_stem, default=None, help="file name stem of the log")
-    r.add_argument("--allow-unknown-inputs", action="store_true",
-                   help="run a controller FMU whose inputs include names the port contract does not have")
     r.add_argument("--trust-fmus", action="store_true",
                    help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
                         "process, so a crash, exit() or hang in one ends the run with one line)")
@@ -341,6 +419,14 @@ def main(argv: list[str] | None = None) -> int:
                    help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
+    x = sub.add_parser("ssp", help="export the loop as an SSP 1.0 package that libcosim, Ecos and tiltload run (docs/ports.md)")
+    x.add_argument("action", help="export")
+    x.add_argument("out", type=Path, help="the package to write, e.g. loop.ssp")
+    _loop_options(x)
+    x.add_argument("--schedule", choices=("jacobi", "ordered"), default="jacobi",
+                   help="the master the package is for: jacobi (libcosim, Ecos; default) selects the designs made for the "
+                        "2-tick loop delay it adds; ordered (tiltload) selects 0")
+    x.set_defaults(func=cmd_ssp)
     rp = sub.add_parser("reproduce", help="the twelve cases of ch. 5 in parallel: tables vs the thesis, figures, baselines")
     rp.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR)
     rp.add_argument("--out", type=Path, default=Path("runs/reproduce"), help="logs, figures, results.md (default runs/reproduce)")

@@ -141,7 +141,8 @@ def _osp_annotation(tick: float):
 
 def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordered", name: str = "tiltload") -> bytes:
     """The SystemStructure.ssd of a system whose connections are all explicit (jacobi.explicit)."""
-    from pyssp_standard.ssd import SSD, Component, Connection as SspConnection, DefaultExperiment, ParameterBinding
+    from pyssp_standard.ssd import SSD, Component, DefaultExperiment, ParameterBinding
+    from pyssp_standard.ssd import Connection as SspConnection
     from pyssp_standard.ssd import System as SspSystem
 
     if schedule not in SCHEDULES:
