@@ -1,0 +1,198 @@
+"""SSP packages (issue: the loop in libcosim and Ecos, with delay-aware designs).
+
+One exported package runs in three masters: ours, libcosim (its own SSP loader) and Ecos (ecospy's
+SSP loader). Both are Jacobi masters; ours reproduces them by carrying one tick of delay on every
+connection out of a sample-timed FMU (master/jacobi.py). The package validates against the SSP 1.0
+schemas, and the plain designs, which the thesis made for no delay, are shown to diverge there.
+"""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tiltload.master import jacobi, ssp
+from tiltload.master.cli import main
+from tiltload.master.execution import Execution, read_fmu
+from tiltload.master.observers import Metrics
+from tiltload.master.run import run_system
+from tiltload.master.system import DescriptionError
+from tiltload.master.tiltload_system import default_system
+from tiltload.scenario_fmu.trajectories import circle
+
+TICK = 0.012
+TICKS = 3333  # 40 s of trajectory 1, a whole number of ticks for every master
+
+
+def _export(fmus: Path, out: Path, scenario: str, controller: str, schedule: str, *extra: str) -> Path:
+    code = main(["ssp", "export", str(out), "--fmus", str(fmus), "--scenario", scenario, "--controller", controller,
+                 "--stop-time", repr(TICKS * TICK), "--schedule", schedule, *extra])
+    assert code == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def packages(pipeline_fmus, tmp_path_factory):
+    fmus = pipeline_fmus["TiltloadPlant"].parent
+    folder = tmp_path_factory.mktemp("ssp")
+    return {(scenario, schedule): _export(fmus, folder / f"{scenario}_{schedule}.ssp", scenario, "mixed", schedule)
+            for scenario in ("fsi", "zse") for schedule in ("jacobi", "ordered")}
+
+
+def _ours(package: Path, ticks: int = TICKS) -> np.ndarray:
+    system, _, schedule = ssp.load(package)
+    mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
+    if schedule == "jacobi":
+        system = jacobi.explicit(system, mds, jacobi=True)
+    ex = Execution(system)
+    try:
+        ex.instantiate()
+        ex.run(ticks * TICK)
+        plant = ex.instances["plant"]
+        return np.array(plant.slave.getReal([plant.vars[n].valueReference for n in ("x", "y", "z")]))
+    finally:
+        ex.close()
+
+
+def _libcosim(package: Path, ticks: int = TICKS) -> np.ndarray | None:
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    log_output_level(CosimLogLevel.ERROR)
+    ex = CosimExecution.from_ssp_file(str(package))
+    observer = CosimObserver.create_last_value()
+    ex.add_observer(observer)
+    if not ex.simulate_until(int(round(ticks * TICK * 1e9))):
+        return None
+    index = {s.name.decode(): s.index for s in ex.slave_infos()}["plant"]
+    refs = {v.name.decode(): v.reference for v in ex.slave_variables(index)}
+    return np.array([observer.last_real_values(index, [refs[n]])[0] for n in ("x", "y", "z")])
+
+
+def _ecos(package: Path, ticks: int = TICKS) -> np.ndarray:
+    from ecospy import EcosSimulation
+
+    sim = EcosSimulation(ssp_path=str(package), step_size=TICK)
+    try:
+        sim.init(parameter_set=ssp.PARAMETER_SET)
+        sim.step(ticks)
+        return np.array([sim.get_real(f"plant::{n}") for n in ("x", "y", "z")])
+    finally:
+        sim.terminate()
+        sim.free()
+
+
+def test_the_package_validates_against_the_ssp_schema(packages):
+    with zipfile.ZipFile(packages["zse", "jacobi"]) as z:
+        names = set(z.namelist())
+        assert {"SystemStructure.ssd", "resources/TiltloadPlant.fmu", "resources/TiltloadController.fmu",
+                "resources/TiltloadSensors.fmu", "resources/TiltloadScenario.fmu", "resources/controller.ssv"} <= names
+        ssd = z.read("SystemStructure.ssd")
+        assert ssp.schema_errors(ssd, "ssd") == []
+        assert ssp.schema_errors(z.read("resources/controller.ssv"), "ssv") == []
+    # the check can fail: a connection without its end connector is refused by the schema
+    broken = ssd.replace(b'endConnector="f_R"', b"", 1)
+    assert broken != ssd and ssp.schema_errors(broken, "ssd")
+    from lxml import etree
+
+    root = etree.fromstring(ssd)
+    ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription", "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon"}
+    assert len(root.findall(".//ssd:Connection", ns)) == 92  # every connection written out
+    units = {c.get("name"): c.find("ssc:Real", ns).get("unit") for c in root.iterfind(".//ssd:Component[@name='plant']//ssd:Connector", ns)
+             if c.find("ssc:Real", ns) is not None}
+    assert units["x"] == "m" and units["f_R"] == "N" and units["tau_R"] == "N.m"
+    assert float(root.find("ssd:DefaultExperiment", ns).get("stopTime")) == pytest.approx(TICKS * TICK)
+
+
+@pytest.mark.parametrize("scenario", ["fsi", "zse"])
+def test_three_masters_run_one_package_and_agree(packages, scenario):
+    """d = 2 (the Jacobi export): ours, libcosim and Ecos all stable, final load positions within 1 cm."""
+    package = packages[scenario, "jacobi"]
+    system, _, _ = ssp.load(package)
+    assert system.instance("controller").parameters["loop_delay_ticks"] == 2
+    ours, theirs, ecos = _ours(package), _libcosim(package), _ecos(package)
+    assert theirs is not None
+    t = TICKS * TICK
+    end = np.array([float(v) for v in circle(t)[:3]])  # where the reference is at the end
+    for final in (ours, theirs, ecos):
+        assert np.isfinite(final).all() and np.linalg.norm(final - end) < 0.25  # on the path: FSI 3 mm, ZSE 10 cm
+    assert np.abs(ours - theirs).max() < 0.01 and np.abs(ours - ecos).max() < 0.01
+    assert np.abs(theirs - ecos).max() < 1e-9  # in fact the same arithmetic: measured 3e-13 m
+
+
+def test_the_plain_design_diverges_in_a_jacobi_master(pipeline_fmus, tmp_path):
+    """The thesis's mixed design, made for no delay, in libcosim: the 2 ticks a Jacobi master adds destabilize it."""
+    fmus = pipeline_fmus["TiltloadPlant"].parent
+    package = _export(fmus, tmp_path / "plain.ssp", "zse", "mixed", "jacobi", "--set", "controller.loop_delay_ticks=0")
+    final = _libcosim(package, round(10.0 / TICK))
+    assert final is None or not np.all(np.abs(final) < 100.0)
+
+
+def test_ordered_package_reproduces_tiltload_run_exactly(pipeline_fmus, packages):
+    """d = 0: our master on the package gives the metrics of the loop it was exported from, bit for bit."""
+    fmus = pipeline_fmus["TiltloadPlant"].parent
+    system, stop, schedule = ssp.load(packages["zse", "ordered"])
+    assert schedule == "ordered" and system.instance("controller").parameters["loop_delay_ticks"] == 0
+    assert stop == pytest.approx(TICKS * TICK)
+    ran = [run_system(s, stop, None, Metrics("plant", "scenario", "controller"), progress=False).metrics
+           for s in (system, default_system(fmus, "zse", 1, "mixed"))]
+    assert ran[0] == ran[1]
+
+
+def test_run_system_ssp_from_the_command_line(packages, tmp_path, capsys):
+    code = main(["run", "--system", str(packages["fsi", "jacobi"]), "--stop-time", "2", "--quiet", "--no-plots",
+                 "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert code == 0 and "schedule: jacobi" in out and (tmp_path / "fsi_jacobi.mcap").is_file()
+
+
+def test_export_is_reproducible(pipeline_fmus, packages, tmp_path):
+    fmus = pipeline_fmus["TiltloadPlant"].parent
+    again = _export(fmus, tmp_path / "again.ssp", "zse", "mixed", "jacobi")
+    assert again.read_bytes() == packages["zse", "jacobi"].read_bytes()
+
+
+def _rewrite(package: Path, out: Path, member: str, edit) -> Path:
+    with zipfile.ZipFile(package) as src, zipfile.ZipFile(out, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == member:
+                data = edit(data)
+                if data is None:
+                    continue
+            dst.writestr(item, data)
+    return out
+
+
+@pytest.mark.parametrize("label, member, edit, needle", [
+    ("no ssd", "SystemStructure.ssd", lambda d: None, "no SystemStructure.ssd"),
+    ("ssd not xml", "SystemStructure.ssd", lambda d: b"<ssd:Sys", "does not validate"),
+    ("schema violation", "SystemStructure.ssd", lambda d: d.replace(b'name="plant"', b"", 1), "does not validate"),
+    ("missing ssv", "resources/plant.ssv", lambda d: None, "is not in the package"),
+    ("bad ssv value", "resources/sensors.ssv", lambda d: d.replace(b'<ssv:Integer value="1"/>', b'<ssv:Integer value="x"/>'),
+     "sensors.ssv"),
+    ("missing fmu", "resources/TiltloadPlant.fmu", lambda d: None, "does not exist"),
+    ("unknown delay", "SystemStructure.ssd",
+     lambda d: d.replace(b"</tl:Master>", b'<tl:Delay source="a.b" target="c.d" ticks="1"/></tl:Master>'), "a.b -> c.d"),
+])
+def test_a_broken_package_is_one_line_and_exit_2(packages, tmp_path, capsys, label, member, edit, needle):
+    bad = _rewrite(packages["fsi", "ordered"], tmp_path / "bad.ssp", member, edit)
+    code = main(["run", "--system", str(bad), "--stop-time", "0.1", "--quiet", "--no-plots", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and needle in err[0], (label, err)
+
+
+def test_not_a_package(tmp_path):
+    (tmp_path / "text.ssp").write_text("hello")
+    for path, needle in ((tmp_path / "text.ssp", "not a zip"), (tmp_path / "none.ssp", "does not exist")):
+        with pytest.raises(DescriptionError, match=needle):
+            ssp.load(path)
+    empty = tmp_path / "empty.ssp"
+    with zipfile.ZipFile(empty, "w") as z:
+        z.writestr("readme.txt", io.BytesIO(b"x").getvalue())
+    with pytest.raises(DescriptionError, match="no SystemStructure.ssd"):
+        ssp.load(empty)
