@@ -5,9 +5,9 @@ Per scenario (trajectory 1, mixed design), printed: real-time factor with the fu
 tick (wall time outside the FMI calls, full log); each FMU's microseconds per tick (its FMI calls,
 marshalling included); and the same four FMUs in libcosim (libcosimpy, same process, fixed step
 12 ms, no observer but the last-value one) with the ratio of tick costs. libcosim is a Jacobi
-master: its loop carries a tick of delay on each connection, which the thesis's designs do not
-tolerate (it diverges after ~2 s), so both masters are timed over the first STOP_LIBCOSIM
-seconds for the ratio. Targets: FSI >= 100x full log and >= 250x no log, ZSE >= 40x full log,
+master: it runs the SSP package `tiltload ssp export` writes for it (designs for the 2-tick loop
+delay it adds, docs/ports.md), and ours runs the same package the same way (master/jacobi.py), no
+log, over the whole run. Targets: FSI >= 100x full log and >= 250x no log, ZSE >= 40x full log,
 master <= 50 us per tick with the full log, no-log master at least as fast as libcosim.
 
 Run: pip install -e ".[bench]" && python benchmarks/cosim.py [stop]
@@ -21,13 +21,13 @@ import tempfile
 import time
 from pathlib import Path
 
+from tiltload.master import jacobi, ssp
 from tiltload.master.build_all import build_all
-from tiltload.master.execution import Execution
+from tiltload.master.execution import Execution, read_fmu
 from tiltload.master.mcap_log import McapLogger
 from tiltload.master.observers import Metrics
 from tiltload.master.tiltload_system import default_system
 
-STOP_LIBCOSIM = 1.5
 TICK = 0.012
 
 
@@ -47,37 +47,30 @@ def ours(system, stop: float, log: Path | None) -> tuple[float, dict[str, float]
     return wall, fmi
 
 
-def libcosim(fmus: Path, estimator: str, stop: float) -> float | None:
-    """Wall time of the same loop in libcosim (None if libcosimpy is not installed)."""
+def libcosim(package: Path, stop: float) -> float | None:
+    """Wall time of the package in libcosim (None if libcosimpy is not installed or the run fails)."""
     try:
         from libcosimpy.CosimExecution import CosimExecution
         from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
         from libcosimpy.CosimObserver import CosimObserver
-        from libcosimpy.CosimSlave import CosimLocalSlave
     except ImportError:
         return None
-    from tiltload.master import connections
-    from tiltload.master.execution import read_fmu
-
     log_output_level(CosimLogLevel.ERROR)
-    system = default_system(fmus, estimator, 1, "mixed")
-    mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
-    ex = CosimExecution.from_step_size(int(TICK * 1e9))
-    index = {i.name: ex.add_local_slave(CosimLocalSlave(fmu_path=str(i.fmu), instance_name=i.name)) for i in system.instances}
-    for inst in system.instances:
-        for key, value in inst.parameters.items():
-            v = next(x for x in mds[inst.name].modelVariables if x.name == key)
-            setter = {"Real": ex.real_initial_value, "Integer": ex.integer_initial_value, "Boolean": ex.boolean_initial_value,
-                      "String": ex.string_initial_value}[v.type]
-            setter(index[inst.name], v.valueReference, value if v.type != "Real" else float(value))
-    for link in connections.resolve(system, mds):
-        connect = ex.connect_real_variables if link.type == "Real" else ex.connect_boolean_variables
-        connect(index[link.source], link.source_vr, index[link.target], link.target_vr)
+    ex = CosimExecution.from_ssp_file(str(package))
     ex.add_observer(CosimObserver.create_last_value())
     t0 = time.perf_counter()
-    ok = ex.simulate_until(int(round(stop * 1e9)))
+    ok = ex.simulate_until(int(round(stop / TICK)) * int(TICK * 1e9))
     wall = time.perf_counter() - t0
     return wall if ok else None
+
+
+def jacobi_package(fmus: Path, scenario: str, folder: Path, stop: float):
+    """The loop as the package a Jacobi master runs, and the same system for ours."""
+    system = default_system(fmus, scenario, 1, "mixed")
+    system.instance("controller").parameters["loop_delay_ticks"] = 2
+    package = ssp.export(system, folder / f"{scenario}.ssp", stop, "jacobi")
+    loaded, _, _ = ssp.load(package)
+    return package, jacobi.explicit(loaded, {i.name: read_fmu(i.fmu, i.name) for i in loaded.instances}, jacobi=True)
 
 
 def main() -> None:
@@ -86,7 +79,7 @@ def main() -> None:
     fmus = Path("fmus")
     build_all(fmus)
     ticks = round(stop / TICK)
-    print(f"{stop:g} s of trajectory 1 per run, mixed H2/Hinf design; libcosim over the first {STOP_LIBCOSIM} s\n")
+    print(f"{stop:g} s of trajectory 1 per run, mixed H2/Hinf design; libcosim and ours no-log on the Jacobi package\n")
     print(f"{'scenario':>8} {'x RT log':>9} {'x RT no log':>12} {'master us/tick':>15} {'per FMU us/tick (full log)':>40}"
           f" {'libcosim us/tick':>17} {'ours no log':>12} {'ratio':>6} {'log MB/s sim':>13}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -97,13 +90,13 @@ def main() -> None:
             wall_nolog, _ = ours(system, stop, None)
             master_us = (wall - sum(fmi.values())) / ticks * 1e6
             per = " ".join(f"{n[:4]} {s / ticks * 1e6:.1f}" for n, s in fmi.items())
-            short_ticks = round(STOP_LIBCOSIM / TICK)
-            ours_short, _ = ours(system, STOP_LIBCOSIM, None)
-            lc = libcosim(fmus, scenario, STOP_LIBCOSIM)
-            lc_text = f"{lc / short_ticks * 1e6:>17.1f}" if lc else f"{'n/a':>17}"
-            ratio = f"{lc / ours_short:>6.2f}" if lc else f"{'n/a':>6}"
+            package, jacobi_system = jacobi_package(fmus, scenario, Path(tmp), stop)
+            ours_jacobi, _ = ours(jacobi_system, stop, None)
+            lc = libcosim(package, stop)
+            lc_text = f"{lc / ticks * 1e6:>17.1f}" if lc else f"{'n/a':>17}"
+            ratio = f"{lc / ours_jacobi:>6.2f}" if lc else f"{'n/a':>6}"
             print(f"{scenario:>8} {stop / wall:>9.1f} {stop / wall_nolog:>12.1f} {master_us:>15.1f} {per:>40}"
-                  f" {lc_text} {ours_short / short_ticks * 1e6:>12.1f} {ratio} {log.stat().st_size / 1e6 / stop:>13.3f}")
+                  f" {lc_text} {ours_jacobi / ticks * 1e6:>12.1f} {ratio} {log.stat().st_size / 1e6 / stop:>13.3f}")
     print("\nratio = libcosim's time per tick / ours with no log (> 1: ours is faster); the JSON log before: 0.165 MB/s (ZSE)")
 
 

@@ -16,7 +16,6 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-
 from tiltload.controller_fmu.design import design
 from tiltload.controller_fmu.error_dynamics import error_dynamics, with_loop_delay
 from tiltload.master import jacobi

@@ -420,7 +420,7 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.set_defaults(func=cmd_run)
     x = sub.add_parser("ssp", help="export the loop as an SSP 1.0 package that libcosim, Ecos and tiltload run (docs/ports.md)")
-    x.add_argument("action", help="export")
+    x.add_argument("action", choices=("export",), help="export: write the package")
     x.add_argument("out", type=Path, help="the package to write, e.g. loop.ssp")
     _loop_options(x)
     x.add_argument("--schedule", choices=("jacobi", "ordered"), default="jacobi",

@@ -14,6 +14,7 @@ SSP is what a run is exchanged as. Both load into the same System, so nothing ex
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
@@ -35,7 +36,8 @@ PARAMETER_SET = "initialValues"  # every component's SSV set has this name: Ecos
 _FIXED_DATE = (2016, 1, 1, 0, 0, 0)  # zip member times: the same export twice is the same bytes
 
 
-def _schema(kind: str):
+@functools.cache
+def _schema(kind: str):  # building one takes 0.5 s
     import xmlschema
     from pyssp_standard.standard import ModelicaStandard
 
