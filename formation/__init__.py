@@ -1,0 +1,1 @@
+"""The formation of three tilt-rotor UAVs (thesis Appendix B)."""
