@@ -15,11 +15,13 @@
 #include "tl_feedforward_gen.h"
 #include "tl_feedforward_gen_sizes.h"
 #include "tl_fmu.h"
+#include "tl_law.h"
 
 #define NX TL_NX
 #define NNU TL_NNU
 
 _Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
+_Static_assert(TL_MAX_DELAY == TL_LAW_MAX_DELAY, "the law shifts as many commands in flight as the state keeps");
 _Static_assert(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
 _Static_assert(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
 _Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
@@ -32,7 +34,6 @@ _Static_assert(TL_LAST_MEAS - TL_FIRST_MEAS == TL_NY_ZSE - 1, "the ZSE's measure
 static const char* const controllers[] = {"dlqr", "mixed"};
 static const char* const estimators[] = {"none", "lkf", "zse"};
 static const char* const reductions[] = {"combastel", "girard", "pca"};
-static const int regulated[4] = {0, 1, 2, 5}; /* x, y, z, psi: steered along the path */
 
 static TlZseModel zse_model(const TlInstance* c) {
   TlZseModel m = {tl_A_nu, tl_B_nu, tl_H_zse, tl_zse_c_w, tl_zse_Gw, tl_zse_sigma, tl_zse_s, tl_zse_hull_w, tl_zse_Sw,
@@ -182,50 +183,32 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
   return 0;
 }
 
-/* u = sat(u_tr - K [chi; du_{k-d} .. du_{k-1}]), chi = [x - x_tr; integrals]; the integrals advance after use. */
-static int control(TlInstance* c, double* u) {
-  TlModelState* m = &c->s.model;
-  const double* ref = c->s.real + TL_REAL_x_ref;
-  const int d = m->delay, width = NX + 4 + 4 * d;
-  const double* K = tl_gains[m->controller * (TL_MAX_DELAY + 1) + d];
-  double x_tr[NX], qdd[NX / 2], chi[NX + 4], u_tr[4];
+static int feedforward(const double* x_tr, const double* qdd, double* u_tr) {
   const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
   double* res[TL_FEEDFORWARD_SZ_RES + 1];
   casadi_int iw[TL_FEEDFORWARD_SZ_IW];
   double w[TL_FEEDFORWARD_SZ_W];
-  int i, j;
-  memcpy(x_tr, tl_trim_x, sizeof x_tr); /* the load (or UAV) on the path, the rest at its trim (Sec. 3.2) */
-  for (i = 0; i < 3; ++i) x_tr[i] = ref[i];
-  x_tr[5] = ref[9];
-  for (i = NX / 2; i < NX; ++i) x_tr[i] = 0.0;
-  for (i = 0; i < 3; ++i) x_tr[NX / 2 + i] = ref[3 + i];
-  x_tr[NX / 2 + 5] = ref[10]; /* psi_dot */
-  memset(qdd, 0, sizeof qdd);
-  for (i = 0; i < 3; ++i) qdd[i] = ref[6 + i];
   arg[0] = x_tr;
   arg[1] = qdd;
   arg[2] = tl_params;
   res[0] = u_tr;
-  if (tl_feedforward(arg, res, iw, w, 0)) return -1;
-  for (i = 0; i < NX; ++i) chi[i] = m->estimate[i] - x_tr[i];
-  for (i = 0; i < 4; ++i) chi[NX + i] = m->integral[i];
-  for (i = 0; i < 4; ++i) {
-    double v = u_tr[i];
-    int b;
-    for (j = 0; j < NX + 4; ++j) v -= K[i * width + j] * chi[j];
-    for (b = 0; b < d; ++b) /* block b holds du_{k-d+b}, the oldest first */
-      for (j = 0; j < 4; ++j) v -= K[i * width + NX + 4 + 4 * b + j] * m->du_sent[d - 1 - b][j];
-    u[i] = v;
-  }
-  for (i = 0; i < 4; ++i) m->integral[i] += TL_TC * chi[regulated[i]];
-  {
-    const double lo = c->s.real[TL_REAL_f_min], hi = c->s.real[TL_REAL_f_max], tau = c->s.real[TL_REAL_tau_max];
-    for (i = 0; i < 2; ++i) u[i] = u[i] < lo ? lo : u[i] > hi ? hi : u[i];
-    for (i = 2; i < 4; ++i) u[i] = u[i] < -tau ? -tau : u[i] > tau ? tau : u[i];
-  }
-  memmove(m->du_sent[1], m->du_sent[0], sizeof(double) * 4 * (TL_MAX_DELAY - 1));
-  for (i = 0; i < 4; ++i) m->du_sent[0][i] = u[i] - u_tr[i];
-  return 0;
+  return tl_feedforward(arg, res, iw, w, 0);
+}
+
+/* The shared law (tl_law.c) with this build's gain for the chosen controller and loop delay. */
+static int control(TlInstance* c, double* u) {
+  TlModelState* m = &c->s.model;
+  TlLaw law;
+  law.nx = NX;
+  law.trim_x = tl_trim_x;
+  law.K = tl_gains[m->controller * (TL_MAX_DELAY + 1) + m->delay];
+  law.delay = m->delay;
+  law.Tc = TL_TC;
+  law.f_min = c->s.real[TL_REAL_f_min];
+  law.f_max = c->s.real[TL_REAL_f_max];
+  law.tau_max = c->s.real[TL_REAL_tau_max];
+  law.feedforward = feedforward;
+  return tl_law_step(&law, c->s.real + TL_REAL_x_ref, m->estimate, m->integral, m->du_sent, u);
 }
 
 fmi2Status tl_model_step(TlInstance* c, double t, double h) {
