@@ -24,9 +24,10 @@ class OneLineParser(argparse.ArgumentParser):
 
 
 def cmd_build(args: argparse.Namespace) -> int:
+    from ..formation.build import build as build_formation
     from .build_all import build_all
 
-    for result in build_all(args.out, force=args.force, vehicles=("load", "uav")):
+    for result in [*build_all(args.out, force=args.force, vehicles=("load", "uav")), *build_formation(args.out, args.force)]:
         state = "built" if result.rebuilt else "up to date"
         print(f"{result.path}: {state} ({result.seconds:.1f} s)")
     return 0
@@ -254,6 +255,27 @@ def cmd_ssp(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_formation(args: argparse.Namespace) -> int:
+    from ..formation import run as formation
+
+    formation.build_fmus(args.fmus, progress=lambda m: print(m, file=sys.stderr))
+    controllers = ("backstepping", "tsid") if args.controller == "both" else (args.controller,)
+    runs = []
+    for controller in controllers:
+        print(f"formation, {controller}{' with disturbances' if args.disturbances else ''}: {args.stop_time:g} s, 7 FMUs")
+        r = formation.run(args.fmus, args.out, controller, args.disturbances, args.stop_time, progress=not args.quiet)
+        if r.result.error:
+            where = f"the log is readable up to t = {r.result.sim_time:.3f} s" if r.log.is_file() else "no log was written"
+            print(f"tiltload: error: {r.result.error}; {where}", file=sys.stderr)
+            return 128 + r.result.signal if r.result.signal else 1
+        print(f"  {r.result.sim_time:.2f} s simulated in {r.result.wall:.1f} s; error norm: max {r.error.max():.4g}, "
+              f"over the last 5 s at most {r.settled():.3g}; log: {r.log}")
+        runs.append(r)
+    if not args.no_plots:
+        print(f"plots: {', '.join(str(f) for f in formation.plot(runs, args.out, args.disturbances))}")
+    return 0
+
+
 def _announce(execution) -> None:
     """Before the first step: the inputs nothing feeds (a misspelt port shows up here)."""
     if execution.unconnected:
@@ -427,6 +449,17 @@ def main(argv: list[str] | None = None) -> int:
                    help="the master the package is for: jacobi (libcosim, Ecos; default) selects the designs made for the "
                         "2-tick loop delay it adds; ordered (tiltload) selects 0")
     x.set_defaults(func=cmd_ssp)
+    fo = sub.add_parser("formation", help="the formation of three UAVs (Appendix B): 7 FMUs, log, error norms, paths")
+    fo.add_argument("--controller", choices=("both", "backstepping", "tsid"), default="both",
+                    help="the formation controller: backstepping (B.15), tsid (B.16) or both (default, one figure)")
+    fo.add_argument("--disturbances", action="store_true",
+                    help="constant acceleration disturbances and external forces from t = 10 s (docs/formation.md)")
+    fo.add_argument("--stop-time", type=_positive_time, default=60.0, help="s (default 60)")
+    fo.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    fo.add_argument("--out", type=Path, default=Path("runs/formation"), help="logs and figures (default runs/formation)")
+    fo.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    fo.add_argument("--quiet", action="store_true", help="no progress bar")
+    fo.set_defaults(func=cmd_formation)
     rp = sub.add_parser("reproduce", help="the twelve cases of ch. 5 in parallel: tables vs the thesis, figures, baselines")
     rp.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR)
     rp.add_argument("--out", type=Path, default=Path("runs/reproduce"), help="logs, figures, results.md (default runs/reproduce)")

@@ -70,12 +70,17 @@ class McapLogger(Observer):
                                                                              "properties": props},
                                                         context=self._context, metadata=meta)
             self._steps[name] = 0
-        if self.scene_from:
-            self._scene_channel = foxglove.Channel("/scene", schema=foxglove.Schema(
+        # the 3D scene of one vehicle on /scene, or of several (a formation) on /scene/<instance>
+        sources = (self.scene_from,) if isinstance(self.scene_from, str) else tuple(self.scene_from or ())
+        self._scenes = {}
+        for source in sources:
+            names = [v.name for v in execution.instances[source].outputs["Real"]]
+            channel = foxglove.Channel("/scene" if len(sources) == 1 else f"/scene/{source}", schema=foxglove.Schema(
                 name="foxglove.SceneUpdate", encoding="jsonschema", data=json.dumps(scene.SCHEMA).encode()),
                 message_encoding="json", context=self._context)
-            self._scene_names = [v.name for v in execution.instances[self.scene_from].outputs["Real"]]
-            self._scene = scene.SceneEncoder(with_load="gamma_1" in self._scene_names)  # the UAV alone has no load
+            # the UAV alone has no load
+            self._scenes[source] = (channel, names, scene.SceneEncoder(with_load="gamma_1" in names,
+                                                                          entity=source if len(sources) > 1 else "tiltload"))
         self._faults_channel = None
         if execution.system.faults:
             self._faults_channel = foxglove.Channel("/faults", schema={"type": "object", "title": "fault events", "properties": {
@@ -106,10 +111,11 @@ class McapLogger(Observer):
             msg.update({v.name: int(x) for v, x in zip(instance.outputs["Integer"], values["Integer"].tolist())})
             msg.update({v.name: bool(x) for v, x in zip(instance.outputs["Boolean"], values["Boolean"].tolist())})
             self._channels[name].log(json.dumps(msg), log_time=ns)
-        if self.scene_from == name and k % self.scene_every == 0:
-            text = self._scene.encode({n: _clean(x) for n, x in zip(self._scene_names, values["Real"].tolist())}, ns)
+        if name in self._scenes and k % self.scene_every == 0:
+            channel, names, encoder = self._scenes[name]
+            text = encoder.encode({n: _clean(x) for n, x in zip(names, values["Real"].tolist())}, ns)
             if text is not None:
-                self._scene_channel.log(text, log_time=ns)
+                channel.log(text, log_time=ns)
 
     def finish(self, execution, error) -> None:
         if self._writer is None:

@@ -1,0 +1,79 @@
+/* The tracker FMU's hooks: each doStep(t_k, T) reads the UAV's state and its references at t_k and holds
+   u = sat(u_tr - K chi) over the tick (the shared law, tl_law.c), K the D-stable H-infinity gain of
+   Sec. B.3.3 and u_tr the feedforward L+ (M qdd + C qd + g) of the reference (CasADi-generated). */
+#include <math.h>
+#include <string.h>
+
+#include "tl_feedforward_gen.h"
+#include "tl_feedforward_gen_sizes.h"
+#include "tl_fmu.h"
+#include "tl_law.h"
+#include "tracker_data.h"
+
+_Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
+_Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
+_Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == TL_NX - 1, "the measured state is contiguous");
+
+static int feedforward(const double* x_tr, const double* qdd, double* u_tr) {
+  const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
+  double* res[TL_FEEDFORWARD_SZ_RES + 1];
+  casadi_int iw[TL_FEEDFORWARD_SZ_IW];
+  double w[TL_FEEDFORWARD_SZ_W];
+  arg[0] = x_tr;
+  arg[1] = qdd;
+  arg[2] = tl_params;
+  res[0] = u_tr;
+  return tl_feedforward(arg, res, iw, w, 0);
+}
+
+void tl_model_reset(TlInstance* c) {
+  memset(&c->s.model, 0, sizeof c->s.model);
+  tl_model_outputs(c);
+}
+
+fmi2Status tl_model_outputs(TlInstance* c) {
+  memcpy(c->s.real + TL_REAL_f_R, tl_trim_u, sizeof(double) * 4);
+  return fmi2OK;
+}
+
+fmi2Status tl_model_initialize(TlInstance* c) {
+  const double* r = c->s.real;
+  if (!(r[TL_REAL_f_min] < r[TL_REAL_f_max] && r[TL_REAL_tau_max] > 0.0)) {
+    tl_log(c, fmi2Error, "invalid tracker parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
+           r[TL_REAL_f_min], r[TL_REAL_f_max], r[TL_REAL_tau_max]);
+    return fmi2Error;
+  }
+  memset(&c->s.model, 0, sizeof c->s.model);
+  return tl_model_outputs(c);
+}
+
+fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+  TlModelState* m = &c->s.model;
+  TlLaw law;
+  double u[4];
+  int i;
+  if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
+    tl_log(c, fmi2Error, "communication step %.9g s is not the tracker's period %g s; step refused", h, TL_TC);
+    return fmi2Error;
+  }
+  law.nx = TL_NX;
+  law.trim_x = tl_trim_x;
+  law.K = tl_K;
+  law.delay = 0;
+  law.Tc = TL_TC;
+  law.f_min = c->s.real[TL_REAL_f_min];
+  law.f_max = c->s.real[TL_REAL_f_max];
+  law.tau_max = c->s.real[TL_REAL_tau_max];
+  law.feedforward = feedforward;
+  if (tl_law_step(&law, c->s.real + TL_REAL_x_ref, c->s.real + TL_REAL_x, m->integral, m->du_sent, u)) {
+    tl_log(c, fmi2Error, "the feedforward failed numerically at t=%.6g s", t);
+    return fmi2Error;
+  }
+  for (i = 0; i < 4; ++i)
+    if (!isfinite(u[i])) {
+      tl_log(c, fmi2Error, "the tracker produced a non-finite input at t=%.6g s (is the UAV's state finite?)", t);
+      return fmi2Error;
+    }
+  memcpy(c->s.real + TL_REAL_f_R, u, sizeof u);
+  return fmi2OK;
+}
