@@ -38,14 +38,15 @@ class StateFeedback:
     def reference_state(self, xi, xi_dot, psi=0.0, psi_dot=0.0) -> np.ndarray:
         """x_tr: load on the path, the other coordinates at their trim values (Sec. 3.2)."""
         x = self.trim_x.copy()
+        half = x.size // 2  # 10 coordinates with the load, 8 for the UAV alone
         x[0:3], x[5] = xi, psi
-        x[10:20] = 0.0
-        x[10:13], x[15] = xi_dot, psi_dot
+        x[half:] = 0.0
+        x[half:half + 3], x[half + 5] = xi_dot, psi_dot
         return x
 
     def __call__(self, x, xi, xi_dot, xi_ddot, psi=0.0, psi_dot=0.0) -> np.ndarray:
         x_tr = self.reference_state(np.asarray(xi, float), np.asarray(xi_dot, float), psi, psi_dot)
-        qdd = np.zeros(10)
+        qdd = np.zeros(self.trim_x.size // 2)
         qdd[0:3] = xi_ddot
         u_tr = self.feedforward(x_tr, qdd)
         d = self.loop_delay

@@ -12,16 +12,17 @@ import numpy as np
 from ..plant_fmu.codegen import feedforward_function
 
 
-@lru_cache(maxsize=1)
-def _function():
-    return feedforward_function()
+@lru_cache(maxsize=2)
+def _function(vehicle: str = "load"):
+    return feedforward_function(vehicle)
 
 
-def feedforward(q_tr: np.ndarray, qd_tr: np.ndarray, qdd_tr: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """(3.18): u_tr = L_in^+ (M qdd + (C + L_fr) qd + g) at the reference."""
-    return np.asarray(_function()(np.r_[q_tr, qd_tr], qdd_tr, p)).ravel()
+def feedforward(q_tr: np.ndarray, qd_tr: np.ndarray, qdd_tr: np.ndarray, p: np.ndarray, vehicle: str = "load") -> np.ndarray:
+    """(3.18): u_tr = L_in^+ (M qdd + (C + L_fr) qd + g) at the reference (the UAV alone: its own M, C, g, L)."""
+    return np.asarray(_function(vehicle)(np.r_[q_tr, qd_tr], qdd_tr, p)).ravel()
 
 
-def bound(p: np.ndarray):
+def bound(p: np.ndarray, vehicle: str = "load"):
     """A control_law.Feedforward for fixed parameters."""
-    return lambda x_tr, qdd: feedforward(x_tr[:10], x_tr[10:], qdd, p)
+    n = len(p) and (10 if vehicle == "load" else 8)
+    return lambda x_tr, qdd: feedforward(x_tr[:n], x_tr[n:], qdd[:n], p, vehicle)
