@@ -84,7 +84,8 @@ def test_task_space_jacobian_is_the_derivative_and_the_thesis_formula():
     Ji = ca.Function("Ji", [r], [ca.jacobian(dq.pose(r[0:3], r[3]), r)])
     x_zeta, x_tau = (dq.pose(ca.DM(rho[4 * i:4 * i + 3]), rho[4 * i + 3]) for i in (1, 2))
     E8 = np.diag([1, -1, -1, -1, 1, -1, -1, -1])
-    J_r = np.hstack([np.array(dq.hminus8(x_tau)) @ E8 @ np.array(Ji(rho[4:8])), np.array(dq.hplus8(dq.conj(x_zeta))) @ np.array(Ji(rho[8:12]))])
+    J_r = np.hstack([np.array(dq.hminus8(x_tau)) @ E8 @ np.array(Ji(rho[4:8])),
+                     np.array(dq.hplus8(dq.conj(x_zeta))) @ np.array(Ji(rho[8:12]))])
     np.testing.assert_allclose(Jv[8:16, 4:12], J_r, atol=1e-12)
     np.testing.assert_allclose(Jv[8:16, 0:4], 0.0, atol=0)  # x_r does not depend on the leader
 
@@ -131,7 +132,7 @@ def test_d_stable_design_meets_its_regions_on_every_vertex(formation_fmus):
 
     d = cached_design()
     K = d["K"]
-    for A, B, F, _ in dstable.vertices():
+    for A, B, _, _ in dstable.vertices():
         poles = np.linalg.eigvals(A - B @ K)
         assert poles.real.max() < -dstable.LAMBDA  # Re(s) < -2.2
         assert np.abs(poles - dstable.DISC_C).max() < dstable.DISC_R  # |s| < 100
