@@ -31,7 +31,7 @@ FMU_NAME = "TiltloadController.fmu"
 FMU_NAMES = {"load": FMU_NAME, "uav": "TiltrotorController.fmu"}
 C = HERE / "c"
 MODEL_C = [C / "controller_model.c", C / "controller_model.h", C / "tl_zse.c", C / "tl_zse.h", C / "tl_lkf.c", C / "tl_lkf.h",
-           C / "tl_linalg.c", C / "tl_linalg.h", C / "tl_law.c", C / "tl_law.h"]
+           C / "tl_linalg.c", C / "tl_linalg.h", C / "tl_law.c", C / "tl_law.h", C / "tl_feedforward_call.h"]
 HOT = ["tl_zse.c", "tl_linalg.c", "tl_lkf.c"]
 TC = 0.012
 

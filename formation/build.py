@@ -29,7 +29,8 @@ from . import dstable, fmu_variables, kinematics
 HERE = Path(__file__).parent
 LAW = HERE.parent / "controller_fmu" / "c"
 FORMATION_C = [HERE / "c" / "formation_model.c", HERE / "c" / "formation_model.h"]
-TRACKER_C = [HERE / "c" / "tracker_model.c", HERE / "c" / "tracker_model.h", LAW / "tl_law.c", LAW / "tl_law.h"]
+TRACKER_C = [HERE / "c" / "tracker_model.c", HERE / "c" / "tracker_model.h", LAW / "tl_law.c", LAW / "tl_law.h",
+             LAW / "tl_feedforward_call.h"]
 FMU_NAMES = ("FormationController.fmu", "TiltrotorTracker.fmu")
 
 

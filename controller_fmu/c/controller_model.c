@@ -12,8 +12,7 @@
 #include <string.h>
 
 #include "controller_data.h"
-#include "tl_feedforward_gen.h"
-#include "tl_feedforward_gen_sizes.h"
+#include "tl_feedforward_call.h"
 #include "tl_fmu.h"
 #include "tl_law.h"
 
@@ -184,15 +183,7 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
 }
 
 static int feedforward(const double* x_tr, const double* qdd, double* u_tr) {
-  const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
-  double* res[TL_FEEDFORWARD_SZ_RES + 1];
-  casadi_int iw[TL_FEEDFORWARD_SZ_IW];
-  double w[TL_FEEDFORWARD_SZ_W];
-  arg[0] = x_tr;
-  arg[1] = qdd;
-  arg[2] = tl_params;
-  res[0] = u_tr;
-  return tl_feedforward(arg, res, iw, w, 0);
+  return tl_feedforward_eval(x_tr, qdd, tl_params, u_tr);
 }
 
 /* The shared law (tl_law.c) with this build's gain for the chosen controller and loop delay. */

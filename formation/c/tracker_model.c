@@ -4,8 +4,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "tl_feedforward_gen.h"
-#include "tl_feedforward_gen_sizes.h"
+#include "tl_feedforward_call.h"
 #include "tl_fmu.h"
 #include "tl_law.h"
 #include "tracker_data.h"
@@ -15,15 +14,7 @@ _Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are
 _Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == TL_NX - 1, "the measured state is contiguous");
 
 static int feedforward(const double* x_tr, const double* qdd, double* u_tr) {
-  const double* arg[TL_FEEDFORWARD_SZ_ARG + 1];
-  double* res[TL_FEEDFORWARD_SZ_RES + 1];
-  casadi_int iw[TL_FEEDFORWARD_SZ_IW];
-  double w[TL_FEEDFORWARD_SZ_W];
-  arg[0] = x_tr;
-  arg[1] = qdd;
-  arg[2] = tl_params;
-  res[0] = u_tr;
-  return tl_feedforward(arg, res, iw, w, 0);
+  return tl_feedforward_eval(x_tr, qdd, tl_params, u_tr);
 }
 
 void tl_model_reset(TlInstance* c) {
