@@ -18,11 +18,15 @@ from fmu_helpers import session
 from tiltload.formation import dualquat as dq
 from tiltload.formation import kinematics as kin
 
-dqr = pytest.importorskip("dqrobotics")
 RNG = np.random.default_rng(7)
 
 
+def _dqr():
+    return pytest.importorskip("dqrobotics")  # only the tests against it need it
+
+
 def _random_unit(angle: float | None = None):
+    dqr = _dqr()
     axis = RNG.normal(size=3)
     axis /= np.linalg.norm(axis)
     th = RNG.uniform(-3, 3) if angle is None else angle
@@ -37,6 +41,7 @@ def _num(x) -> np.ndarray:
 
 @pytest.mark.parametrize("angle", [None, None, 1e-2, 1e-5, 0.0])
 def test_dual_quaternions_agree_with_dqrobotics(angle):
+    dqr = _dqr()
     a, b = _random_unit(angle), _random_unit()
     A, B = ca.DM(dqr.vec8(a)), ca.DM(dqr.vec8(b))
     np.testing.assert_allclose(_num(dq.mul(A, B)), dqr.vec8(a * b), atol=1e-14)
@@ -48,6 +53,7 @@ def test_dual_quaternions_agree_with_dqrobotics(angle):
 
 
 def test_dual_quaternion_identities():
+    dqr = _dqr()
     x = ca.DM(dqr.vec8(_random_unit()))
     one = np.r_[1.0, np.zeros(7)]
     np.testing.assert_allclose(_num(dq.mul(x, dq.conj(x))), one, atol=1e-14)  # unit: x x* = 1
