@@ -228,9 +228,7 @@ def cmd_ssp(args: argparse.Namespace) -> int:
     from .execution import read_fmu
     from .tiltload_system import default_stop
 
-    if args.action != "export":
-        raise UserError(f"ssp: unknown action '{args.action}' (available: export)")
-    system, package_stop, _ = _loop_system(args)
+    system, package_stop, _ = _loop_system(args)  # the one action, export (argparse checked it)
     stop = args.stop_time or package_stop or default_stop(args.trajectory)
     try:
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
