@@ -71,7 +71,7 @@ def cmd_layout(args: argparse.Namespace) -> int:
     from .foxglove_layout import write
 
     try:
-        path = write(args.out)
+        path = write(args.out, args.formation)
     except OSError as err:
         raise UserError(f"cannot write {args.out}: {err.strerror or err}") from None
     print(f"{path}: Foxglove layout (in Foxglove: open a run's .mcap, then Layouts -> Import from file)")
@@ -486,6 +486,7 @@ def main(argv: list[str] | None = None) -> int:
     ca.set_defaults(func=cmd_campaign)
     lo = sub.add_parser("layout", help="write the Foxglove layout for tiltload logs (3D replay, tracking, bounds, actuators)")
     lo.add_argument("out", type=Path, nargs="?", default=Path("runs/foxglove_layout.json"))
+    lo.add_argument("--formation", action="store_true", help="the layout for `tiltload formation` logs (three UAVs)")
     lo.set_defaults(func=cmd_layout)
     pl = sub.add_parser("plot", help="draw the thesis's kinds of figures from a run's MCAP log")
     pl.add_argument("log", type=Path)

@@ -1,8 +1,9 @@
-"""A Foxglove layout for a tiltload log: the 3D replay, tracking, estimator bounds and actuators.
+"""Foxglove layouts for tiltload logs: the loop's (3D replay, tracking, estimator bounds, actuators) and the
+formation's (three UAVs in one 3D panel, error norms, each UAV against its references).
 
-Built with foxglove-sdk's layout classes; `tiltload layout OUT.json` writes it, and
-docs/foxglove_layout.json is that file (a test keeps the two equal and checks every plotted path
-exists in a run's log). In Foxglove: open the .mcap, then Layouts -> Import from file.
+Built with foxglove-sdk's layout classes; `tiltload layout [--formation] OUT.json` writes one, and
+docs/foxglove_layout.json, docs/foxglove_layout_formation.json are those files (tests keep them equal and
+check every plotted path exists in a run's log). In Foxglove: open the .mcap, then Layouts -> Import from file.
 """
 
 from __future__ import annotations
@@ -24,16 +25,28 @@ PATHS = {
 }
 
 
-def layout_json() -> str:
+FORMATION_PATHS = {
+    "formation error norms": [("/formation.error_norm", "||e_A||"), ("/formation.error_leader", "leader"),
+                              ("/formation.error_relative", "relative pose"), ("/formation.error_absolute", "absolute pose")],
+    **{f"UAV {a}: x, y, z and references (m)": [(f"/plant_{a}.{c}", c) for c in "xyz"]
+       + [(f"/formation.{a}_{c}_ref", f"{c} ref") for c in "xyz"] for a in ("sigma", "zeta", "tau")},
+    "thrusts of the leader (N)": [("/tracker_sigma.f_R", "f_R"), ("/tracker_sigma.f_L", "f_L")],
+}
+FORMATION_SCENES = ("/scene/plant_sigma", "/scene/plant_zeta", "/scene/plant_tau")
+
+
+def layout_json(formation: bool = False) -> str:
     from foxglove import layouts as L
 
     def plot(title, series):
         return L.PlotPanel(title=title, config=L.PlotConfig(paths=[L.PlotSeries(value=v, label=lab, enabled=True)
                                                                    for v, lab in series], show_legend=True))
 
-    plots = [L.SplitItem(content=plot(title, series)) for title, series in PATHS.items()]
-    scene = L.ThreeDeePanel(title="UAV, rod and load", config=L.ThreeDeeConfig(
-        topics={"/scene": L.BaseRendererSceneUpdateTopicSettings(visible=True)}))
+    paths = FORMATION_PATHS if formation else PATHS
+    plots = [L.SplitItem(content=plot(title, series)) for title, series in paths.items()]
+    topics = FORMATION_SCENES if formation else ("/scene",)
+    scene = L.ThreeDeePanel(title="three UAVs in formation" if formation else "UAV, rod and load", config=L.ThreeDeeConfig(
+        topics={t: L.BaseRendererSceneUpdateTopicSettings(visible=True) for t in topics}))
     content = L.SplitContainer(direction="row", items=[
         L.SplitItem(proportion=1, content=scene),
         L.SplitItem(proportion=1, content=L.SplitContainer(direction="column", items=plots[:3])),
@@ -41,8 +54,8 @@ def layout_json() -> str:
     return json.dumps(json.loads(L.Layout(content=content).to_json()), indent=1, sort_keys=True) + "\n"
 
 
-def write(path: Path) -> Path:
+def write(path: Path, formation: bool = False) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(layout_json())
+    path.write_text(layout_json(formation))
     return path

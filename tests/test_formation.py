@@ -254,3 +254,22 @@ def test_formation_command(formation_fmus, tmp_path, capsys):
 
     topics = mcap_log.read(tmp_path / "tsid.mcap", topics=["/scene/plant_sigma", "/scene/plant_tau"])
     assert topics["/scene/plant_sigma"] and topics["/scene/plant_tau"]  # one 3D scene per UAV
+
+
+def test_the_formation_layout_is_current_and_plots_paths_the_log_has(formation_fmus, tmp_path):
+    import json
+
+    from tiltload.formation.run import run
+    from tiltload.master import foxglove_layout, mcap_log
+
+    shipped = foxglove_layout.layout_json(formation=True)
+    assert (formation_fmus.parent / "docs" / "foxglove_layout_formation.json").read_text() == shipped
+    r = run(formation_fmus, tmp_path, "backstepping", False, stop=0.2, progress=False)
+    text = json.dumps(json.loads(shipped))
+    data = mcap_log.read(r.log)
+    for series in foxglove_layout.FORMATION_PATHS.values():
+        for path, _ in series:
+            topic, field = path.rsplit(".", 1)
+            assert f'"{path}"' in text and field in data[topic][-1], path
+    for topic in foxglove_layout.FORMATION_SCENES:
+        assert f'"{topic}"' in text and data[topic]
