@@ -23,10 +23,11 @@ from pathlib import Path
 
 from tiltload.master import jacobi, ssp
 from tiltload.master.build_all import build_all
-from tiltload.master.execution import Execution, read_fmu
+from tiltload.master.execution import read_fmu
 from tiltload.master.mcap_log import McapLogger
 from tiltload.master.observers import Metrics
 from tiltload.master.tiltload_system import default_system
+from timing import timed_run
 
 TICK = 0.012
 
@@ -35,16 +36,7 @@ def ours(system, stop: float, log: Path | None) -> tuple[float, dict[str, float]
     observers = [Metrics("plant", "scenario", "controller")]
     if log is not None:
         observers.insert(0, McapLogger(log, scene_from="plant"))
-    ex = Execution(system, observers)
-    ex.instantiate()
-    for inst in ex.instances.values():
-        inst.fmi_seconds = 0.0
-    t0 = time.perf_counter()
-    ex.run(stop)
-    wall = time.perf_counter() - t0
-    fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
-    ex.close()
-    return wall, fmi
+    return timed_run(system, stop, observers)
 
 
 def libcosim(package: Path, stop: float) -> float | None:

@@ -12,28 +12,17 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from tiltload.formation.kinematics import AGENTS
 from tiltload.formation.run import build_fmus
 from tiltload.formation.system import formation_system
-from tiltload.master.execution import Execution
 from tiltload.master.mcap_log import McapLogger
+from timing import timed_run
 
 
 def timed(system, stop: float, log: Path | None):
-    observers = [McapLogger(log, scene_from=tuple(f"plant_{a}" for a in AGENTS))] if log else []
-    ex = Execution(system, observers)
-    ex.instantiate()
-    for inst in ex.instances.values():
-        inst.fmi_seconds = 0.0
-    t0 = time.perf_counter()
-    ex.run(stop)
-    wall = time.perf_counter() - t0
-    fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
-    ex.close()
-    return wall, fmi
+    return timed_run(system, stop, [McapLogger(log, scene_from=tuple(f"plant_{a}" for a in AGENTS))] if log else [])
 
 
 def main() -> None:
