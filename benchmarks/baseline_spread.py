@@ -39,8 +39,8 @@ FLOOR = 1e-6  # ... and never tighter than this
 
 def run_variant(name: str, result: Path) -> None:
     """Child: build the FMUs into a fresh folder with a fresh cache, run the twelve cases, dump the metrics."""
-    from tiltload.master.build_all import build_all
-    from tiltload.master.reproduce import run_all
+    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.regression.reproduce import run_all
 
     with tempfile.TemporaryDirectory(prefix=f"tiltload_spread_{name}_") as tmp:
         os.environ["TILTLOAD_CACHE"] = str(Path(tmp) / "cache")

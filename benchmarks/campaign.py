@@ -16,10 +16,10 @@ import time
 from pathlib import Path
 
 import pyarrow.parquet as pq
-from tiltload.master import campaign
-from tiltload.master.build_all import build_all
-from tiltload.master.execution import Execution
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.campaign import runner as campaign
+from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop import default_system
+from tiltload.master.engine.execution import Execution
 
 SPEC = """
 name = "scaling"

@@ -8,7 +8,7 @@ Run: python benchmarks/controller_synthesis.py
 from __future__ import annotations
 
 import numpy as np
-from tiltload.controller_fmu.design import design
+from tiltload.controller_fmu.design.synthesize import design
 
 
 def main() -> None:

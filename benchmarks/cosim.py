@@ -21,21 +21,23 @@ import tempfile
 import time
 from pathlib import Path
 
-from tiltload.master import jacobi, ssp
-from tiltload.master.build_all import build_all
-from tiltload.master.execution import read_fmu
-from tiltload.master.mcap_log import McapLogger
-from tiltload.master.observers import Metrics
-from tiltload.master.tiltload_system import default_system
+from tiltload.controller_fmu.design.cache import cache_root
+from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.scene import scene_channels
+from tiltload.master.engine import jacobi, ssp
+from tiltload.master.engine.mcap_log import McapLogger
+from tiltload.master.engine.model_description import read_fmu
 from timing import timed_run
 
+UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
 TICK = 0.012
 
 
 def ours(system, stop: float, log: Path | None) -> tuple[float, dict[str, float]]:
-    observers = [Metrics("plant", "scenario", "controller")]
+    observers = [loop_metrics()]
     if log is not None:
-        observers.insert(0, McapLogger(log, scene_from="plant"))
+        observers.insert(0, McapLogger(log, derived=scene_channels("plant")))
     return timed_run(system, stop, observers)
 
 
@@ -61,7 +63,7 @@ def jacobi_package(fmus: Path, scenario: str, folder: Path, stop: float):
     system = default_system(fmus, scenario, 1, "mixed")
     system.instance("controller").parameters["loop_delay_ticks"] = 2
     package = ssp.export(system, folder / f"{scenario}.ssp", stop, "jacobi")
-    loaded, _, _ = ssp.load(package)
+    loaded, _, _ = ssp.load(package, UNPACK)
     return package, jacobi.explicit(loaded, {i.name: read_fmu(i.fmu, i.name) for i in loaded.instances}, jacobi=True)
 
 

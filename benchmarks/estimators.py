@@ -22,12 +22,12 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from scipy.linalg import solve_discrete_are
-from tiltload.controller_fmu import native_estimators
-from tiltload.controller_fmu.estimator_setup import augmented_model, lkf_setup, zse_setup
-from tiltload.controller_fmu.lkf import KalmanFilter
-from tiltload.controller_fmu.zonotope import REDUCTIONS, reduce_rows
-from tiltload.controller_fmu.zse import ZonotopicEstimator
-from tiltload.master.build_all import build_all
+from tiltload.controller_fmu.design.estimator_setup import augmented_model, lkf_setup, zse_setup
+from tiltload.controller_fmu.reference import native_estimators
+from tiltload.controller_fmu.reference.lkf import KalmanFilter
+from tiltload.controller_fmu.reference.zonotope import REDUCTIONS, reduce_rows
+from tiltload.controller_fmu.reference.zse import ZonotopicEstimator
+from tiltload.master.app.fmus import build_all
 
 ROOT = Path(__file__).resolve().parents[1]
 

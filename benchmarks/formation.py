@@ -15,14 +15,15 @@ import tempfile
 from pathlib import Path
 
 from tiltload.formation.kinematics import AGENTS
-from tiltload.formation.run import build_fmus
-from tiltload.formation.system import formation_system
-from tiltload.master.mcap_log import McapLogger
+from tiltload.master.app.fmus import build_formation as build_fmus
+from tiltload.master.app.formation_system import formation_system
+from tiltload.master.app.scene import scene_channels
+from tiltload.master.engine.mcap_log import McapLogger
 from timing import timed_run
 
 
 def timed(system, stop: float, log: Path | None):
-    return timed_run(system, stop, [McapLogger(log, scene_from=tuple(f"plant_{a}" for a in AGENTS))] if log else [])
+    return timed_run(system, stop, [McapLogger(log, derived=scene_channels(tuple(f"plant_{a}" for a in AGENTS)))] if log else [])
 
 
 def main() -> None:

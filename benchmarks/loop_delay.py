@@ -16,14 +16,13 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-from tiltload.controller_fmu.design import design
-from tiltload.controller_fmu.error_dynamics import error_dynamics, with_loop_delay
-from tiltload.master import jacobi
-from tiltload.master.build_all import build_all
-from tiltload.master.execution import read_fmu
-from tiltload.master.observers import Metrics
-from tiltload.master.run import run_system
-from tiltload.master.tiltload_system import default_system
+from tiltload.controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
+from tiltload.controller_fmu.design.synthesize import design
+from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine import jacobi
+from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.run import run_system
 
 STOP = 40.0
 
@@ -42,7 +41,7 @@ def loop(fmus: Path, scenario: str, kind: str, d: int, aware: bool):
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
     system = dataclasses.replace(system)
     system.instance("controller").parameters["loop_delay_ticks"] = d if aware else 0
-    return run_system(system, STOP, None, Metrics("plant", "scenario", "controller"), progress=False)
+    return run_system(system, STOP, None, loop_metrics(), progress=False)
 
 
 def main() -> None:

@@ -28,6 +28,7 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from scipy.integrate import solve_ivp
+from tiltload.native_fmu.build import build
 from tiltload.plant_fmu import build as plant_build
 from tiltload.plant_fmu import codegen
 from tiltload.plant_fmu import parameters as P
@@ -178,7 +179,7 @@ def main() -> None:
         fmus = {}
         for name, module in (("plant", plant_build), ("sensors", sensor_build), ("scenario", scenario_build)):
             start = time.perf_counter()
-            fmus[name] = module.build(Path(tmp), force=True).path
+            fmus[name] = build(module.recipe(), Path(tmp), force=True).path
             print(f"fresh build of the {name} FMU (codegen + cc + packaging): {time.perf_counter() - start:.2f} s")
         print(f"\nplant communication step of {DT * 1e3:.0f} ms, best of {REPEATS} x {N_STEPS} steps:")
         print(f"{'integrator step':>16} {'substeps':>9} {'doStep (C)':>11} {'FMPy raw arrays':>16} {'FMPy list API':>14}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from tiltload.master.execution import Execution
+from tiltload.master.engine.execution import Execution
 
 
 def timed_run(system, stop: float, observers=()) -> tuple[float, dict[str, float]]:

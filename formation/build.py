@@ -1,4 +1,4 @@
-"""Build the formation's native FMUs: FormationController.fmu and TiltrotorTracker.fmu (Appendix B).
+"""The formation's native FMUs as build recipes: FormationController.fmu and TiltrotorTracker.fmu (Appendix B).
 
 Both are C from CasADi (the formation law; the UAV's feedforward) plus hand-written hooks; the tracker
 embeds the D-stable H-infinity gain, synthesized once (about 9 s) and cached like the other designs.
@@ -9,25 +9,22 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
-import time
 from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
-from ..controller_fmu import cache as design_cache
-from ..controller_fmu.fmu_variables import _array
-from ..master import packaging
-from ..native_fmu import build as native
+from ..controller_fmu.design import cache as design_cache
 from ..native_fmu import casadi_c
+from ..native_fmu.build import Prepared, Recipe, tiltload_version
+from ..native_fmu.compile import NativeSources
+from ..native_fmu.describe import c_array
 from ..plant_fmu import codegen
-from ..plant_fmu.build import BuildResult
 from ..plant_fmu.vehicles import VEHICLES
 from . import dstable, fmu_variables, kinematics
 
 HERE = Path(__file__).parent
-LAW = HERE.parent / "controller_fmu" / "c"
+LAW = HERE.parent / "controller_fmu" / "fmu" / "c"
 FORMATION_C = [HERE / "c" / "formation_model.c", HERE / "c" / "formation_model.h"]
 TRACKER_C = [HERE / "c" / "tracker_model.c", HERE / "c" / "tracker_model.h", LAW / "tl_law.c", LAW / "tl_law.h",
              LAW / "tl_feedforward_call.h"]
@@ -63,38 +60,27 @@ def tracker_data(d: dict) -> str:
     return "\n".join(["/* Generated from the D-stable H-infinity design (formation/dstable.py): do not edit. */",
                       "#ifndef TRACKER_DATA_H", "#define TRACKER_DATA_H",
                       f"#define TL_NX {d['trim_x'].size}", f"#define TL_TC {fmu_variables.TICK!r}",
-                      _array("tl_K", d["K"]), _array("tl_trim_x", d["trim_x"]), _array("tl_trim_u", d["trim_u"]),
-                      _array("tl_params", p), "#endif", ""])
+                      c_array("tl_K", d["K"]), c_array("tl_trim_x", d["trim_x"]), c_array("tl_trim_u", d["trim_u"]),
+                      c_array("tl_params", p), "#endif", ""])
 
 
-def build(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:
-    version = packaging.tiltload_version()
-    results = []
-    started = time.perf_counter()
-    target = Path(dest) / FMU_NAMES[0]
-    source_digest = native.digest([*HERE.glob("*.py"), *FORMATION_C, HERE / "dualquat.py"], ca.__version__, version)
-    if force or not native.is_current(target, source_digest):
-        with tempfile.TemporaryDirectory(prefix="tiltload_formation_") as tmp:
-            generated = casadi_c.generate(kinematics.formation_functions(), Path(tmp), "tl_formation_gen")
-            built = native.build_fmu(fmu_variables.formation_definition(version), native.NativeSources(FORMATION_C, generated),
-                                     target, source_digest, {"version": version})
-        results.append(BuildResult(target, True, time.perf_counter() - started, built.warnings))
-    else:
-        results.append(BuildResult(target, False, time.perf_counter() - started))
-    started = time.perf_counter()
-    target = Path(dest) / FMU_NAMES[1]
-    source_digest = native.digest([*HERE.glob("*.py"), *TRACKER_C, *(HERE.parent / "plant_fmu").glob("*.py")], ca.__version__,
-                                  version)
-    if force or not native.is_current(target, source_digest):
-        d = cached_design(progress)
-        with tempfile.TemporaryDirectory(prefix="tiltload_tracker_") as tmp:
-            gen = Path(tmp)
-            generated = casadi_c.generate([codegen.feedforward_function("uav")], gen, "tl_feedforward_gen")
-            (gen / "tracker_data.h").write_text(tracker_data(d))
-            built = native.build_fmu(fmu_variables.tracker_definition(d["trim_x"], version),
-                                     native.NativeSources(TRACKER_C, [*generated, gen / "tracker_data.h"]), target, source_digest,
-                                     {"version": version, "gamma": d["gamma"], "hinf": list(d["hinf"])})
-        results.append(BuildResult(target, True, time.perf_counter() - started, built.warnings))
-    else:
-        results.append(BuildResult(target, False, time.perf_counter() - started))
-    return results
+def recipes() -> list[Recipe]:
+    """The formation controller and the tracker."""
+    formation_inputs = (*sorted(HERE.glob("*.py")), *FORMATION_C)
+    tracker_inputs = (*sorted(HERE.glob("*.py")), *TRACKER_C, *sorted((HERE.parent / "plant_fmu").glob("*.py")))
+    return [Recipe(FMU_NAMES[0], formation_inputs, (ca.__version__,), _prepare_formation),
+            Recipe(FMU_NAMES[1], tracker_inputs, (ca.__version__,), _prepare_tracker)]
+
+
+def _prepare_formation(folder: Path, progress) -> Prepared:
+    generated = casadi_c.generate(kinematics.formation_functions(), folder, "tl_formation_gen")
+    return Prepared(fmu_variables.formation_definition(tiltload_version()), NativeSources(FORMATION_C, generated))
+
+
+def _prepare_tracker(folder: Path, progress) -> Prepared:
+    d = cached_design(progress)
+    generated = casadi_c.generate([codegen.feedforward_function("uav")], folder, "tl_feedforward_gen")
+    (folder / "tracker_data.h").write_text(tracker_data(d))
+    return Prepared(fmu_variables.tracker_definition(d["trim_x"], tiltload_version()),
+                    NativeSources(TRACKER_C, [*generated, folder / "tracker_data.h"]),
+                    {"gamma": d["gamma"], "hinf": list(d["hinf"])})

@@ -22,9 +22,9 @@ import cvxpy as cp
 import numpy as np
 from scipy.linalg import sqrtm
 
-from ..controller_fmu import sdp_solver
-from ..controller_fmu.error_dynamics import DesignError, augmented_continuous
-from ..controller_fmu.weights import omega_chi, omega_u
+from ..controller_fmu.design import sdp_solver
+from ..controller_fmu.design.error_dynamics import DesignError, augmented_continuous
+from ..controller_fmu.design.weights import omega_chi, omega_u
 from ..plant_fmu.linearize import linearize
 from ..plant_fmu.trim import hover_trim
 from ..plant_fmu.vehicles import VEHICLES

@@ -7,7 +7,7 @@ TiltrotorTracker.fmu: one UAV's D-stable H-infinity state feedback with the feed
 
 from __future__ import annotations
 
-from ..controller_fmu.fmu_variables import OUTPUTS, REF, REF_UNITS
+from ..controller_fmu.fmu.fmu_variables import OUTPUTS, REF, REF_UNITS
 from ..native_fmu.variables import FmuDefinition, Variable
 from ..plant_fmu.vehicles import VEHICLES
 from .kinematics import AGENTS

@@ -14,6 +14,15 @@ LOG_CATEGORIES = (("logStatusError", "errors: invalid parameters or inputs, refu
                   ("logEvents", "informational messages: initialization summary"))
 
 
+def c_array(name: str, a, ctype: str = "double") -> str:
+    """A constant C array of the values (doubles written exactly, with repr), for a generated data header."""
+    import numpy as np
+
+    flat = np.asarray(a, dtype=float).ravel()
+    body = ", ".join(repr(float(x)) for x in flat) if ctype == "double" else ", ".join(str(int(x)) for x in flat)
+    return f"static const {ctype} {name}[{flat.size}] = {{{body}}};"
+
+
 def guid(definition: FmuDefinition, digest: str) -> str:
     """Deterministic GUID: the same sources and variables always give the same FMU identity."""
     h = hashlib.sha256(digest.encode())

@@ -103,7 +103,7 @@ HOVER_THRUSTS = "9.987293721113877, 10.02221862357339, 0.0, 0.0"  # the load sys
 def wrap_misbehaving(folder, acts: dict[str, str], at: float) -> dict:
     """One `tiltload wrap` controller per entry of acts ({mode: a Python statement}) that hovers until t >= at,
     then runs its statement (segfault, exit, hang, return NaN ...); returns {mode: FMU path}."""
-    from tiltload.master.cli import main
+    from tiltload.master.app.cli import main
 
     out = {}
     for mode, act in acts.items():

@@ -14,11 +14,11 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
-from tiltload.master import campaign, campaign_spec
-from tiltload.master.cli import main
-from tiltload.master.execution import Execution
-from tiltload.master.observers import Metrics
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.campaign import runner as campaign
+from tiltload.master.app.campaign import spec as campaign_spec
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine.execution import Execution
 
 SPEC = """
 name = "small"
@@ -97,13 +97,13 @@ def test_restart_on_the_same_fmus_equals_a_fresh_instantiation(fmus):
         return {k: v for k, v in execution.observers[0].table().items()}
     system = default_system(fmus, "zse", 1, "mixed", seed=4)
     system.instance("plant").parameters["m_L"] = 0.2
-    fresh = Execution(system, [Metrics("plant", "scenario", "controller")])
+    fresh = Execution(system, [loop_metrics()])
     fresh.instantiate()
     fresh.run(1.5)
-    reused = Execution(default_system(fmus, "zse", 1, "dlqr", seed=9), [Metrics("plant", "scenario", "controller")])
+    reused = Execution(default_system(fmus, "zse", 1, "dlqr", seed=9), [loop_metrics()])
     reused.instantiate()
     reused.run(0.6)  # a different run first
-    reused.restart({i.name: dict(i.parameters) for i in system.instances}, [Metrics("plant", "scenario", "controller")])
+    reused.restart({i.name: dict(i.parameters) for i in system.instances}, [loop_metrics()])
     reused.run(1.5)
     try:
         assert metrics_of(reused) == metrics_of(fresh)
@@ -199,10 +199,10 @@ def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_resu
     assert "## Per controller" in text and "## Worst runs" in text and (local_results.parent / "distributions.png").is_file()
     assert "error: " in text  # the failed runs come first
     row = next(r for r in rows(local_results) if r["completed"] and r["controller"] == "dlqr" and r["load_mass"] == 0.2)
-    from tiltload.master.campaign_report import rerun_command
-    from tiltload.master.campaign_spec import _read
+    from tiltload.master.app.campaign.report import rerun_command
+    from tiltload.master.app.campaign.spec import read_spec_file
 
-    command = rerun_command(row, _read(local_results.parent / "spec.toml")).split()[2:]
+    command = rerun_command(row, read_spec_file(local_results.parent / "spec.toml")).split()[2:]
     capsys.readouterr()
     assert main(["run", *command, "--fmus", str(fmus), "--no-log", "--quiet"]) == 0
     out = capsys.readouterr().out

@@ -6,11 +6,11 @@ import subprocess
 import sys
 
 import pytest
-from tiltload.master.cli import main
+from tiltload.master.app.cli import main
 
 
 def run(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "tiltload.master.cli", *args], capture_output=True, text=True, cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
 def test_run_reports_metrics_log_and_plots(pipeline_fmus, tmp_path):

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tiltload.controller_fmu import artifact
-from tiltload.controller_fmu.closed_loop import simulate
-from tiltload.controller_fmu.design import design
-from tiltload.controller_fmu.dlqr import design_dlqr
-from tiltload.controller_fmu.error_dynamics import DesignError, ErrorDynamics, error_dynamics
-from tiltload.controller_fmu.feedforward import feedforward
-from tiltload.controller_fmu.weights import omega_chi, omega_u
+from tiltload.controller_fmu.design import artifact
+from tiltload.controller_fmu.design.dlqr import design_dlqr
+from tiltload.controller_fmu.design.error_dynamics import DesignError, ErrorDynamics, error_dynamics
+from tiltload.controller_fmu.design.feedforward import feedforward
+from tiltload.controller_fmu.design.synthesize import design
+from tiltload.controller_fmu.design.weights import omega_chi, omega_u
+from tiltload.controller_fmu.reference.closed_loop import simulate
 
 
 @pytest.fixture(scope="module")
@@ -123,7 +123,7 @@ def test_mixed_design_on_the_nonlinear_plant(mixed):
 
 
 def test_empty_region_is_refused():
-    from tiltload.controller_fmu.lmi import synthesize
+    from tiltload.controller_fmu.design.lmi import synthesize
 
     sys = error_dynamics()
     with pytest.raises(DesignError, match="region is empty"):
@@ -140,7 +140,7 @@ def small_system(Tc=0.05):
 
 
 def test_mixed_synthesis_is_deterministic_and_feasible_at_its_point():
-    from tiltload.controller_fmu.lmi import synthesize
+    from tiltload.controller_fmu.design.lmi import synthesize
 
     sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
     a = synthesize(sys, Q, R, gamma_sq=30.0**2, eps=0.3, varpi=0.999)
@@ -153,7 +153,7 @@ def test_mixed_synthesis_is_deterministic_and_feasible_at_its_point():
 
 def test_infeasible_hinf_bound_is_named():
     """gamma~ below what any gain achieves (the pure H-infinity optimum) must fail as infeasible."""
-    from tiltload.controller_fmu.lmi import synthesize
+    from tiltload.controller_fmu.design.lmi import synthesize
 
     sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
     best = synthesize(sys, Q, R, eps=0.3, varpi=0.999)
@@ -164,8 +164,8 @@ def test_infeasible_hinf_bound_is_named():
 def test_sdpa_and_clarabel_agree_and_clarabel_takes_over_when_sdpa_fails(monkeypatch):
     """Two independent interior-point solvers on one problem: the same optimum to solver tolerance,
     and a failing SDPA (here: its child process exits) falls back to Clarabel, never to an unchecked point."""
-    from tiltload.controller_fmu import sdp_solver
-    from tiltload.controller_fmu.lmi import synthesize
+    from tiltload.controller_fmu.design import sdp_solver
+    from tiltload.controller_fmu.design.lmi import synthesize
 
     sys, Q, R = small_system(), np.diag([10.0, 1.0, 1.0]), np.eye(1)
     lines = []
@@ -181,7 +181,7 @@ def test_sdpa_and_clarabel_agree_and_clarabel_takes_over_when_sdpa_fails(monkeyp
 
 def test_sdpa_reports_every_iteration_in_order():
     import cvxpy as cp
-    from tiltload.controller_fmu import sdp_solver
+    from tiltload.controller_fmu.design import sdp_solver
 
     X = cp.Variable((3, 3), symmetric=True)
     problem = cp.Problem(cp.Minimize(cp.trace(X)), [X >> np.diag([1.0, 2.0, 3.0])])

@@ -7,11 +7,11 @@ import pytest
 from reference_physics import zse_measurement
 from scipy.linalg import solve_discrete_are
 from scipy.stats import chi2
-from tiltload.controller_fmu import native_estimators as c_estimators
-from tiltload.controller_fmu.estimator_setup import augmented_model, lkf_setup, zse_setup
-from tiltload.controller_fmu.lkf import KalmanFilter
-from tiltload.controller_fmu.zonotope import REDUCTIONS, ZonotopeError, contains_point, reduce_rows, support
-from tiltload.controller_fmu.zse import ZonotopicEstimator
+from tiltload.controller_fmu.design.estimator_setup import augmented_model, lkf_setup, zse_setup
+from tiltload.controller_fmu.reference import native_estimators as c_estimators
+from tiltload.controller_fmu.reference.lkf import KalmanFilter
+from tiltload.controller_fmu.reference.zonotope import REDUCTIONS, ZonotopeError, contains_point, reduce_rows, support
+from tiltload.controller_fmu.reference.zse import ZonotopicEstimator
 from tiltload.sensor_fmu.measurement import pi, pi_jacobian
 
 GPS, BARO, IMU, CAMERA, SERVOS = [0, 1], [2], list(range(3, 9)), [9, 10, 11], list(range(12, 16))

@@ -9,12 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
-from tiltload.master.manipulators import FaultError, load, parse
-from tiltload.master.run import run_system
-from tiltload.master.system import Instance, System
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import default_system
+from tiltload.master.engine import mcap_log
+from tiltload.master.engine.manipulators import FaultError, load, parse
+from tiltload.master.engine.run import run_system
+from tiltload.master.engine.system import Instance, System
 
 ROOT = Path(__file__).resolve().parents[1]
 T = 0.012
@@ -30,7 +30,7 @@ def scenario_run(fmus, tmp_path, fault: dict, stop=1.2) -> tuple[np.ndarray, np.
     """The scenario FMU alone, one fault on x_ref: the logged x_ref at every tick, and the fault events."""
     system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
     system.faults = parse([{"target": "scenario.x_ref", "start": 0.36, "end": 0.72, **fault}])
-    res = run_system(system, stop, tmp_path / "s.mcap", progress=False, scene_from=None)
+    res = run_system(system, stop, tmp_path / "s.mcap", progress=False)
     assert res.error is None
     data = mcap_log.read(res.log)
     msgs = data["/scenario"][1:]  # after the t = 0 message: one per step
@@ -78,7 +78,7 @@ def test_dropout_holds_the_last_sample_and_keeps_the_flag_down(fmus, tmp_path):
     system = System(T, [Instance("sensors", fmus / "TiltloadSensors.fmu")])
     system.faults = parse([{"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new",
                             "start": 0.5, "end": 1.0}])
-    res = run_system(system, 1.5, tmp_path / "d.mcap", progress=False, scene_from=None)
+    res = run_system(system, 1.5, tmp_path / "d.mcap", progress=False)
     msgs = mcap_log.read(res.log)["/sensors"][1:]
     t = np.array([m["t"] for m in msgs])
     flag = np.array([m["gps_new"] for m in msgs])
@@ -191,7 +191,7 @@ def test_a_servo_stuck_at_its_angle_by_a_fault_on_an_unconnected_input(fmus, tmp
 
 
 def test_a_fault_on_an_unknown_variable_is_a_usage_error_before_any_fmu_loads(fmus, tmp_path, capsys):
-    from tiltload.master.cli import main
+    from tiltload.master.app.cli import main
 
     schedule = tmp_path / "f.json"
     schedule.write_text('{"faults": [{"action": "bias", "targets": ["plant.nothing"], "value": 1, "start": 0}]}')

@@ -125,7 +125,7 @@ def test_both_laws_converge_and_only_backstepping_rejects_a_constant_disturbance
 
 @pytest.fixture(scope="module")
 def formation_fmus(pipeline_fmus):
-    from tiltload.formation.run import build_fmus
+    from tiltload.master.app.fmus import build_formation as build_fmus
 
     fmus = pipeline_fmus["TiltloadPlant"].parent
     build_fmus(fmus, progress=lambda *_: None)
@@ -148,11 +148,11 @@ def test_d_stable_design_meets_its_regions_on_every_vertex(formation_fmus):
 
 def test_tracker_fmu_is_the_python_law(formation_fmus):
     """TiltrotorTracker.fmu's command against control_law.StateFeedback with the same gain and feedforward."""
-    from tiltload.controller_fmu import feedforward as ff
-    from tiltload.controller_fmu.control_law import StateFeedback
+    from tiltload.controller_fmu.design import feedforward as ff
+    from tiltload.controller_fmu.design.control_law import StateFeedback
     from tiltload.formation.build import cached_design
     from tiltload.formation.fmu_variables import TICK
-    from tiltload.formation.system import REFERENCES, STATES
+    from tiltload.master.app.formation_system import REFERENCES, STATES
     from tiltload.plant_fmu.vehicles import VEHICLES
 
     d = cached_design()
@@ -173,7 +173,7 @@ def test_tracker_fmu_is_the_python_law(formation_fmus):
 def test_formation_fmu_is_the_python_law(formation_fmus):
     """FormationController.fmu's references: the CasADi law and the integration of Sec. B.3.4, in Python."""
     from tiltload.formation.fmu_variables import MEASURED, TICK
-    from tiltload.formation.system import REFERENCES
+    from tiltload.master.app.formation_system import REFERENCES
 
     f = kin.formation_functions()[0]
     rho_ref, rho_dot_ref, e_C = None, None, np.zeros(24)
@@ -210,8 +210,8 @@ def test_formation_fmu_is_the_python_law(formation_fmus):
 
 
 def _run(fmus, controller, disturbances, stop):
-    from tiltload.formation.system import formation_system
-    from tiltload.master.execution import Execution
+    from tiltload.master.app.formation_system import formation_system
+    from tiltload.master.engine.execution import Execution
 
     ex = Execution(formation_system(fmus, controller, disturbances))
     try:
@@ -244,13 +244,13 @@ def test_with_disturbances_backstepping_rejects_and_tsid_does_not(formation_fmus
 
 
 def test_formation_command(formation_fmus, tmp_path, capsys):
-    from tiltload.master.cli import main
+    from tiltload.master.app.cli import main
 
     assert main(["formation", "--controller", "tsid", "--stop-time", "2", "--fmus", str(formation_fmus), "--out", str(tmp_path),
                  "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "7 FMUs" in out and (tmp_path / "tsid.mcap").is_file() and (tmp_path / "error_norm.png").is_file()
-    from tiltload.master import mcap_log
+    from tiltload.master.engine import mcap_log
 
     topics = mcap_log.read(tmp_path / "tsid.mcap", topics=["/scene/plant_sigma", "/scene/plant_tau"])
     assert topics["/scene/plant_sigma"] and topics["/scene/plant_tau"]  # one 3D scene per UAV
@@ -259,8 +259,9 @@ def test_formation_command(formation_fmus, tmp_path, capsys):
 def test_the_formation_layout_is_current_and_plots_paths_the_log_has(formation_fmus, tmp_path):
     import json
 
-    from tiltload.formation.run import run
-    from tiltload.master import foxglove_layout, mcap_log
+    from tiltload.master.app import foxglove_layout
+    from tiltload.master.app.formation import run
+    from tiltload.master.engine import mcap_log
 
     shipped = foxglove_layout.layout_json(formation=True)
     assert (formation_fmus.parent / "docs" / "foxglove_layout_formation.json").read_text() == shipped

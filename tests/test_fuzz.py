@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 from fmu_helpers import wrap_misbehaving
-from tiltload.master.cli import main
+from tiltload.master.app.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form

@@ -10,11 +10,12 @@ from pathlib import Path
 
 import pytest
 from fmu_helpers import wrap_misbehaving
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
-from tiltload.master.execution import Execution
-from tiltload.master.observers import Metrics
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.cli import main
+from tiltload.master.app.fmus import is_foreign
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine import mcap_log
+from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.isolation.process import IsolatedFmu
 
 MISBEHAVIOURS = {
     "segfault": ("os.kill(os.getpid(), signal.SIGSEGV)", "crashed (SIGSEGV) in doStep at t=0.504 s"),
@@ -41,7 +42,7 @@ def workers(parent: int | None = None) -> list[str]:
     parent = os.getpid() if parent is None else parent
     ps = subprocess.run(["ps", "-ww", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout  # -ww: never cut
     return [line for line in ps.splitlines()[1:]
-            if "tiltload.master.fmu_worker" in line and int(line.split()[1]) == parent]
+            if "tiltload.master.engine.isolation.worker" in line and int(line.split()[1]) == parent]
 
 
 @pytest.mark.parametrize("mode", list(MISBEHAVIOURS))
@@ -72,9 +73,9 @@ def test_an_isolated_fmu_gives_the_in_process_results_bit_for_bit(fmus, tmp_path
     for trust in (True, False):
         system = default_system(fmus, "lkf", 1, "mixed")
         system.instances[2].fmu = foreign
-        ex = Execution(system, [Metrics("plant", "scenario", "controller")], trust_fmus=trust)
+        ex = Execution(system, [loop_metrics()], isolate=None if trust else is_foreign)
         ex.instantiate()
-        assert getattr(ex.instances["controller"], "isolated", False) is not trust
+        assert isinstance(ex.instances["controller"], IsolatedFmu) is not trust
         ex.run(1.2)
         results[trust] = ex.observers[0].table(), ex.instances["plant"].values["Real"].copy()
         ex.restart()  # fmi2Reset and initialization through the worker too
@@ -100,7 +101,7 @@ def test_a_killed_master_leaves_no_worker_behind(misbehaving, fmus, tmp_path):
     import sys
     import time
 
-    proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.cli", "run", "--controller", str(misbehaving["hang"]),
+    proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.app.cli", "run", "--controller", str(misbehaving["hang"]),
                              "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60

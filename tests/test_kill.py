@@ -12,8 +12,9 @@ import time
 from pathlib import Path
 
 import pytest
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import loop_metrics
+from tiltload.master.engine import mcap_log
 
 HOSTS = Path(__file__).parent / "hosts"
 
@@ -81,12 +82,11 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
 
 def test_metrics_recomputed_from_a_log_equal_the_runs_own(fmus, tmp_path):
     """The recomputation a torn log relies on, checked on a complete run against the Metrics observer."""
-    from tiltload.master.log_metrics import metrics_from_messages
-    from tiltload.master.observers import Metrics
-    from tiltload.master.run import run_system
-    from tiltload.master.tiltload_system import default_system
+    from tiltload.master.app.loop import default_system
+    from tiltload.master.app.regression.log_metrics import metrics_from_messages
+    from tiltload.master.engine.run import run_system
 
-    res = run_system(default_system(fmus, "zse", 1, "mixed"), 3.0, tmp_path / "m.mcap", Metrics("plant", "scenario", "controller"),
+    res = run_system(default_system(fmus, "zse", 1, "mixed"), 3.0, tmp_path / "m.mcap", loop_metrics(),
                      progress=False)
     again, last = metrics_from_messages(mcap_log.read(res.log))
     assert last == pytest.approx(2.988)

@@ -10,13 +10,15 @@ import numpy as np
 import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
-from tiltload.master import foxglove_layout, mcap_log
-from tiltload.master.cli import main
-from tiltload.master.execution import Execution
-from tiltload.master.log_encoding import FixedMessage
-from tiltload.master.mcap_log import McapLogger
-from tiltload.master.plot import plot_run
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app import foxglove_layout
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import default_system
+from tiltload.master.app.plot import plot_run
+from tiltload.master.app.scene import scene_channels
+from tiltload.master.engine import mcap_log
+from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.log_encoding import FixedMessage
+from tiltload.master.engine.mcap_log import McapLogger
 
 ROOT = Path(__file__).resolve().parents[1]
 OLD_LOG = ROOT / "tests" / "data" / "json_log_v0.mcap"  # written by tiltload before the protobuf log (JSON channels)
@@ -45,7 +47,7 @@ def protobuf_messages(path: Path, topic: str) -> list:
 def test_every_logged_value_is_what_the_fmu_output(fmus, tmp_path):
     """ZSE loop, 1.2 s: the last message of each instance, decoded by protobuf, equals the instance's outputs."""
     log = tmp_path / "run.mcap"
-    ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, scene_from="plant")])
+    ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, derived=scene_channels("plant"))])
     ex.instantiate()
     ex.run(1.2)
     final = {name: {v.name: inst.values[t][i] for t in ("Real", "Integer", "Boolean") for i, v in enumerate(inst.outputs[t])}
@@ -106,7 +108,7 @@ def test_the_shipped_foxglove_layout_is_current_and_plots_paths_the_log_has(fmus
     walk(layout)
     assert len(values) == sum(len(s) for s in foxglove_layout.PATHS.values())
     log = tmp_path / "run.mcap"
-    ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, scene_from="plant")])
+    ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, derived=scene_channels("plant"))])
     ex.instantiate()
     ex.run(0.12)
     ex.close()

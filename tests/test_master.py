@@ -12,13 +12,14 @@ import pytest
 from scipy.linalg import solve_discrete_are
 from third_party_controller import build as build_third_party
 from third_party_controller import user_controller
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
-from tiltload.master.connections import resolve
-from tiltload.master.observers import Metrics, Observer
-from tiltload.master.run import run_system
-from tiltload.master.system import Connection, DescriptionError, Instance, System
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine import mcap_log
+from tiltload.master.engine.connections import resolve
+from tiltload.master.engine.errors import DescriptionError
+from tiltload.master.engine.observers import Observer
+from tiltload.master.engine.run import run_system
+from tiltload.master.engine.system import Connection, Instance, System
 from tiltload.plant_fmu.interface import STATE_NAMES
 
 THESIS_ISE_TRAJ1 = {  # Tables 5.4 (FSI), 5.6 (LKF), 5.9 (ZSE): (DLQR, mixed) for x, y, z
@@ -35,7 +36,7 @@ def fmus(pipeline_fmus):
 
 def short_run(fmus, tmp_path, name, stop=1.2, **kw):
     system = default_system(fmus, **kw)
-    return run_system(system, stop, tmp_path / f"{name}.mcap", Metrics("plant", "scenario", "controller"), progress=False)
+    return run_system(system, stop, tmp_path / f"{name}.mcap", loop_metrics(), progress=False)
 
 
 @pytest.mark.parametrize("scenario", ["fsi", "lkf", "zse"])
@@ -75,7 +76,7 @@ def test_same_seed_same_metrics_bit_for_bit(fmus, tmp_path):
 
 
 def lqr_for_third_party():
-    from tiltload.controller_fmu.estimator_setup import augmented_model
+    from tiltload.controller_fmu.design.estimator_setup import augmented_model
 
     m = augmented_model()
     A, B = m.A[:20, :20], m.B[:20]

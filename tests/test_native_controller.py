@@ -19,12 +19,13 @@ import pytest
 from fmpy.validation import validate_fmu
 from fmu_helpers import session
 from test_native_fmus import HOSTS, libcosim_python  # noqa: F401  (the venv fixture)
-from tiltload.controller_fmu import feedforward as ff
-from tiltload.controller_fmu.build import bundle
-from tiltload.controller_fmu.runtime import ControllerRuntime
-from tiltload.master import connections
-from tiltload.master.execution import Execution, read_fmu
-from tiltload.master.tiltload_system import default_system
+from tiltload.controller_fmu.design import feedforward as ff
+from tiltload.controller_fmu.fmu.build import bundle
+from tiltload.controller_fmu.reference.runtime import ControllerRuntime
+from tiltload.master.app.loop import default_system
+from tiltload.master.engine import connections
+from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.model_description import read_fmu
 from tiltload.plant_fmu.interface import STATE_NAMES
 from tiltload.sensor_fmu.suite import GROUPS, ZSE_NAMES
 

@@ -92,7 +92,7 @@ def test_our_c_compiles_without_a_warning(unpacked, name):
 
 def _law_file(tmp_path: Path, md) -> Path:
     """The DLQR gain and the trim for the C host's hover (the open-loop plant is unstable)."""
-    from tiltload.controller_fmu.design import design
+    from tiltload.controller_fmu.design.synthesize import design
 
     d = design("dlqr", T, use_cache=True)
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -363,7 +363,7 @@ LIBCOSIMPY = "libcosimpy==0.0.6"
 @pytest.fixture(scope="module")
 def libcosim_python() -> Path:
     """A virtual environment with libcosimpy and nothing else (no numpy), kept in the tiltload cache."""
-    from tiltload.controller_fmu.cache import cache_root
+    from tiltload.controller_fmu.design.cache import cache_root
 
     venv = cache_root() / "venvs" / LIBCOSIMPY.replace("==", "-")
     python = venv / "bin" / "python"

@@ -6,9 +6,9 @@ import json
 from pathlib import Path
 
 import pytest
-from tiltload.master.cli import main
-from tiltload.master.reproduce import _run_case, tables
-from tiltload.master.thesis_values import METRICS
+from tiltload.master.app.cli import main
+from tiltload.master.app.regression.reproduce import run_case, tables
+from tiltload.master.app.regression.thesis_values import METRICS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -21,7 +21,7 @@ def fmus(pipeline_fmus):
 @pytest.mark.parametrize("case", [("fsi", 1, "mixed"), ("lkf", 2, "dlqr")])
 def test_committed_baselines_hold(fmus, tmp_path, case, capsys):
     """Two of the twelve cases, full length, against baselines/ with their own tolerance."""
-    r = _run_case(str(fmus), str(tmp_path), *case, None)
+    r = run_case(str(fmus), str(tmp_path), *case, None)
     assert r["error"] is None
     code = main(["compare", r["log"], str(ROOT / "baselines" / f"{r['case']}.json")])
     out = capsys.readouterr().out

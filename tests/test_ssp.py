@@ -14,14 +14,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tiltload.master import jacobi, ssp
-from tiltload.master.cli import main
-from tiltload.master.execution import Execution, read_fmu
-from tiltload.master.observers import Metrics
-from tiltload.master.run import run_system
-from tiltload.master.system import DescriptionError
-from tiltload.master.tiltload_system import default_system
+from tiltload.controller_fmu.design.cache import cache_root
+from tiltload.master.app.cli import main
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine import jacobi, ssp
+from tiltload.master.engine.errors import DescriptionError
+from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.run import run_system
 from tiltload.scenario_fmu.trajectories import circle
+
+UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
 
 TICK = 0.012
 TICKS = 3333  # 40 s of trajectory 1, a whole number of ticks for every master
@@ -43,7 +46,7 @@ def packages(pipeline_fmus, tmp_path_factory):
 
 
 def _ours(package: Path, ticks: int = TICKS) -> np.ndarray:
-    system, _, schedule = ssp.load(package)
+    system, _, schedule = ssp.load(package, UNPACK)
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     if schedule == "jacobi":
         system = jacobi.explicit(system, mds, jacobi=True)
@@ -112,7 +115,7 @@ def test_the_package_validates_against_the_ssp_schema(packages):
 def test_three_masters_run_one_package_and_agree(packages, scenario):
     """d = 2 (the Jacobi export): ours, libcosim and Ecos all stable, final load positions within 1 cm."""
     package = packages[scenario, "jacobi"]
-    system, _, _ = ssp.load(package)
+    system, _, _ = ssp.load(package, UNPACK)
     assert system.instance("controller").parameters["loop_delay_ticks"] == 2
     ours, theirs, ecos = _ours(package), _libcosim(package), _ecos(package)
     assert theirs is not None
@@ -126,7 +129,7 @@ def test_three_masters_run_one_package_and_agree(packages, scenario):
 
 def test_the_uav_alone_runs_in_the_three_masters_too(pipeline_fmus, tmp_path):
     """Appendix A's loop (DLQR + ZSE, 80 s circle) exported for a Jacobi master: the three agree."""
-    from tiltload.master.build_all import build_all
+    from tiltload.master.app.fmus import build_all
 
     fmus = pipeline_fmus["TiltloadPlant"].parent
     build_all(fmus, vehicles=("uav",))
@@ -149,10 +152,10 @@ def test_the_plain_design_diverges_in_a_jacobi_master(pipeline_fmus, tmp_path):
 def test_ordered_package_reproduces_tiltload_run_exactly(pipeline_fmus, packages):
     """d = 0: our master on the package gives the metrics of the loop it was exported from, bit for bit."""
     fmus = pipeline_fmus["TiltloadPlant"].parent
-    system, stop, schedule = ssp.load(packages["zse", "ordered"])
+    system, stop, schedule = ssp.load(packages["zse", "ordered"], UNPACK)
     assert schedule == "ordered" and system.instance("controller").parameters["loop_delay_ticks"] == 0
     assert stop == pytest.approx(TICKS * TICK)
-    ran = [run_system(s, stop, None, Metrics("plant", "scenario", "controller"), progress=False).metrics
+    ran = [run_system(s, stop, None, loop_metrics(), progress=False).metrics
            for s in (system, default_system(fmus, "zse", 1, "mixed"))]
     assert ran[0] == ran[1]
 
@@ -204,9 +207,9 @@ def test_not_a_package(tmp_path):
     (tmp_path / "text.ssp").write_text("hello")
     for path, needle in ((tmp_path / "text.ssp", "not a zip"), (tmp_path / "none.ssp", "does not exist")):
         with pytest.raises(DescriptionError, match=needle):
-            ssp.load(path)
+            ssp.load(path, UNPACK)
     empty = tmp_path / "empty.ssp"
     with zipfile.ZipFile(empty, "w") as z:
         z.writestr("readme.txt", io.BytesIO(b"x").getvalue())
     with pytest.raises(DescriptionError, match="no SystemStructure.ssd"):
-        ssp.load(empty)
+        ssp.load(empty, UNPACK)

@@ -9,8 +9,8 @@ import reference_physics as ref
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from fmu_helpers import session
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
+from tiltload.master.app.cli import main
+from tiltload.master.engine import mcap_log
 from tiltload.plant_fmu.trim import hover_trim
 
 STATES = ["x", "y", "z", "phi", "theta", "psi", "alpha_R", "alpha_L"]
@@ -25,7 +25,7 @@ A4_U = {"f_R": 9.74110841, "f_L": 9.77602843, "tau_R": 0.0, "tau_L": 0.0}
 def fmus(tmp_path_factory):
     from pathlib import Path
 
-    from tiltload.master.build_all import build_all
+    from tiltload.master.app.fmus import build_all
 
     root = Path(__file__).resolve().parents[1] / "fmus"
     return {r.path.stem: r.path for r in build_all(root, progress=lambda *_: None, vehicles=("uav",))}

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
-from tiltload.master import mcap_log
-from tiltload.master.cli import main
-from tiltload.master.pythonfmu_guard import pin
+from tiltload.master.app.cli import main
+from tiltload.master.engine import mcap_log
+from tiltload.master.engine.pythonfmu_guard import pin
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "hover_lqr.py"
 

@@ -23,7 +23,7 @@ class HoverLQR:
 
     def __init__(self, position_weight=10.0):
         from scipy.linalg import solve_discrete_are
-        from tiltload.controller_fmu.estimator_setup import augmented_model
+        from tiltload.controller_fmu.design.estimator_setup import augmented_model
 
         m = augmented_model(self.period)
         A, B = m.A[:20, :20], m.B[:20]

@@ -10,9 +10,9 @@ import sys
 import time
 from pathlib import Path
 
-from tiltload.master.observers import Metrics, Observer
-from tiltload.master.run import run_system, terminate_like_interrupt
-from tiltload.master.tiltload_system import default_system
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine.observers import Observer
+from tiltload.master.engine.run import run_system, terminate_like_interrupt
 
 
 class Reporter(Observer):
@@ -27,7 +27,7 @@ class Reporter(Observer):
 if __name__ == "__main__":
     terminate_like_interrupt()
     fmus, log, clock = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
-    result = run_system(default_system(fmus, "zse", 1, "mixed"), 40.0, log, Metrics("plant", "scenario", "controller"),
+    result = run_system(default_system(fmus, "zse", 1, "mixed"), 40.0, log, loop_metrics(),
                         progress=False, observers_extra=[Reporter(clock)])
     print(result.error or "done", flush=True)
     sys.exit(128 + result.signal if result.signal else (1 if result.error else 0))

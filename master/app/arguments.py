@@ -1,0 +1,86 @@
+"""Argument types of the `tiltload` command and the options that describe a run of the loop."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+DEFAULT_FMU_DIR = Path("fmus")
+
+
+def positive_time(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
+    return value
+
+
+def assignment(text: str) -> tuple[str, object]:
+    from .loop import parse_value
+
+    key, sep, value = text.partition("=")
+    if not sep or "." not in key or not value:
+        raise argparse.ArgumentTypeError(f"must be INSTANCE.NAME=VALUE (e.g. plant.m_L=0.2), got {text!r}")
+    return key.strip(), parse_value(value.strip())
+
+
+def tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
+def integer(low: int, high: int | None = None):
+    """An argparse type: a whole number in [low, high] (no upper bound if high is None)."""
+    what = f"a whole number from {low} to {high}" if high is not None else f"a whole number >= {low}"
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text}")
+        return value
+    return parse
+
+
+seed = integer(0, 2**31 - 1)
+whole_number = integer(1)
+
+
+def file_stem(text: str) -> str:
+    if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
+        raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")
+    return text
+
+
+def add_loop_options(p: argparse.ArgumentParser) -> None:
+    """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop)."""
+    p.add_argument("--vehicle", choices=("load", "uav"), default="load",
+                   help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
+    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
+    p.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
+                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
+    p.add_argument("--controller", default=None,
+                   help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
+    p.add_argument("--seed", type=seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
+    p.add_argument("--stop-time", type=positive_time, default=None, help="s (default: the trajectory's duration)")
+    p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
+    p.add_argument("--no-gusts", action="store_true", help="no wind gusts")
+    p.add_argument("--faults", type=Path, default=None, metavar="FILE",
+                   help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
+    p.add_argument("--set", type=assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
+                   help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
+    p.add_argument("--system", type=Path, default=None, help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop")
+    p.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    p.add_argument("--allow-unknown-inputs", action="store_true",
+                   help="accept a controller FMU whose inputs include names the port contract does not have")

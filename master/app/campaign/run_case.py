@@ -1,0 +1,162 @@
+"""One campaign run, as a Dask worker executes it: the tiltload loop with a case's parameters, and its row.
+
+Each worker process keeps one execution (one set of FMU instances) per system structure and
+starts every run on it with fmi2Reset (Execution.restart): cheaper than instantiating four FMUs
+per run (benchmarks/campaign.py measures both). A run that fails is a row with its error line.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...engine.execution import Execution
+from ...engine.mcap_log import McapLogger
+from ...engine.observers import Metrics
+from ..fmus import is_foreign
+from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop, default_system
+from ..scene import scene_channels
+
+_EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: reused across runs
+
+
+class CampaignMetrics(Metrics):
+    """ISE and IADU, plus the worst tracking error (after `settle` s: the runs start 30 cm off the path), the share of
+    ticks with an actuator at its limit and, in the ZSE scenario, the share of ticks with the true state in the bounds."""
+
+    def __init__(self, limits=(0.0, 30.0, 2.0), bounds: bool = True, settle: float = 5.0) -> None:
+        super().__init__(PLANT, SCENARIO, CONTROLLER, TRACKED, COMMANDS)
+        self.settle = settle  # the worst tracking error counts after the initial offset is taken up
+        self.limits = limits
+        self.bounds = bounds  # the controller's est_*_lo/hi are an estimator's set (the ZSE scenario)
+        self.max_error = 0.0
+        self.saturated = 0
+        self.contained = 0
+        self.controller_steps = 0
+        self._lo = self._hi = None  # set at start (a run that fails at initialization never starts)
+
+    def start(self, execution) -> None:
+        super().start(execution)
+        plant, ctrl = self._p, self._a
+        names = [v.name for v in plant.outputs["Real"]][:20]
+        ctrl_names = {v.name: i for i, v in enumerate(ctrl.outputs["Real"])}
+        self._state_index = np.arange(20)
+        has_bounds = self.bounds and all(f"est_{n}_lo" in ctrl_names and f"est_{n}_hi" in ctrl_names for n in names)
+        self._lo = np.array([ctrl_names[f"est_{n}_lo"] for n in names]) if has_bounds else None
+        self._hi = np.array([ctrl_names[f"est_{n}_hi"] for n in names]) if has_bounds else None
+        self._state = plant.values["Real"][self._state_index]
+
+    def on_step(self, instance, t) -> None:
+        if instance is self._a:
+            if t >= self.settle:
+                e = self._x[:3] - self._r.values["Real"][self._ri[:3]]
+                self.max_error = max(self.max_error, float(np.sqrt(e @ e)))
+            u = self._a.values["Real"][self._ui]
+            lo, hi, tau = self.limits
+            eps = 1e-9
+            if u[0] <= lo + eps or u[1] <= lo + eps or u[0] >= hi - eps or u[1] >= hi - eps or abs(u[2]) >= tau - eps \
+                    or abs(u[3]) >= tau - eps:
+                self.saturated += 1
+            if self._lo is not None:
+                v = self._a.values["Real"]
+                self.contained += bool(np.all((v[self._lo] <= self._state) & (self._state <= v[self._hi])))
+            self.controller_steps += 1
+        super().on_step(instance, t)
+        if instance is self._p:
+            self._state = self._p.values["Real"][self._state_index]
+
+    def row(self, keep: tuple[str, ...]) -> dict[str, float]:
+        out = {}
+        if "ISE" in keep:
+            out.update(self.ise)
+        if "IADU" in keep:
+            out.update(self.iadu)
+        if "max_tracking_error" in keep:
+            out["max_tracking_error"] = self.max_error
+        if "time_saturated" in keep:
+            out["time_saturated"] = self.saturated / max(self.controller_steps, 1)
+        if "zse_containment" in keep:
+            out["zse_containment"] = self.contained / self.controller_steps if self._lo is not None and self.controller_steps else math.nan
+        return out
+
+
+def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
+    import copy
+
+    from ...engine.manipulators import parse
+
+    is_fmu = controller not in ("dlqr", "mixed")
+    system = default_system(fmu_dir, base["scenario"], base["trajectory"], "mixed" if is_fmu else controller, seed,
+                            Path(controller) if is_fmu else None, gusts=base["gusts"])
+    faults = copy.deepcopy(base.get("faults", []))
+    for key, value in parameters.items():
+        if key.startswith("faults."):
+            _, index, field = key.split(".")
+            faults[int(index)][field] = value
+            continue
+        instance, _, name = key.partition(".")
+        system.instance(instance).parameters[name] = value
+    system.faults = parse(faults) if faults else []
+    return system
+
+
+def error_row(case: dict, error: str) -> dict:
+    """The row of a run that produced no metrics."""
+    controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
+    return {"run_id": case["run_id"], "controller": controller, "seed": case["seed"], **case["values"], "completed": False,
+            "diverged": False, "diverged_at": math.nan, "error": error}
+
+
+def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
+    """Run one case; returns its row (the varied values, the metrics, the error line) and its timings. Never raises."""
+    try:
+        return _run_case(base, case, fmu_dir, log_dir)
+    except Exception as err:  # anything the run itself did not turn into its error line
+        return {"row": error_row(case, f"{type(err).__name__}: {err}"), "wall": 0.0, "setup": 0.0, "sim_time": 0.0}
+
+
+def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
+    started = time.perf_counter()
+    system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    stop = base["stop_time"] or default_stop(base["trajectory"])
+    metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
+    observers = [metrics]
+    if log_dir:
+        observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
+                                       metadata={"run_id": case["run_id"], **case["parameters"]}))
+    key = (base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir)
+    execution = _EXECUTIONS.pop(key, None)
+    error = None
+    try:
+        if execution is None:
+            execution = Execution(system, observers, isolate=is_foreign)
+            execution.instantiate()
+        else:
+            execution.restart({i.name: i.parameters for i in system.instances}, observers, system.faults)
+        setup = time.perf_counter() - started
+        execution.run(stop)
+    except Exception as err:  # the run's one line; the row keeps it
+        setup = time.perf_counter() - started
+        error = str(err)
+    finally:
+        if execution is not None:
+            for obs in execution.observers:
+                try:
+                    obs.finish(execution, error)
+                except Exception:
+                    pass
+            execution.observers = []
+            if any(i.fatal for i in execution.instances.values()):
+                execution.close()  # an instance after fmi2Fatal cannot be reset: the next run starts afresh
+            else:
+                _EXECUTIONS[key] = execution
+    sim_time = execution.time if execution is not None else 0.0
+    diverged = error is not None and ("diverged" in error or "non-finite" in error)
+    row = {"run_id": case["run_id"], "controller": Path(case["controller"]).stem if case["controller"] not in ("dlqr", "mixed")
+           else case["controller"], "seed": case["seed"], **case["values"],
+           **metrics.row(tuple(base["keep_metrics"])), "completed": error is None, "diverged": diverged,
+           "diverged_at": sim_time if diverged else math.nan, "error": error or ""}
+    return {"row": row, "wall": time.perf_counter() - started, "setup": setup, "sim_time": sim_time}

@@ -1,0 +1,215 @@
+"""Campaign specifications (TOML or YAML): what is run, what varies, what is kept; validated, then expanded into runs.
+
+    name = "robustness"
+    [base]                      # the run every case starts from (tiltload run's options)
+    scenario = "zse"            # fsi | lkf | zse
+    trajectory = 1              # 0 hover | 1 circle | 2 Table 5.3
+    controllers = ["dlqr", "mixed"]   # ours by name, or paths of controller FMUs
+    stop_time = 40.0            # s (default: the trajectory's duration)
+    gusts = true
+    [vary]
+    seeds = [1, 2, 3]           # every case runs with each seed
+    method = "grid"             # grid (every combination) | random | lhs (scipy.stats.qmc)
+    samples = 20                # random and lhs: how many points
+    sample_seed = 0             # random and lhs: the sampler's seed
+    [[vary.parameters]]
+    name = "load_mass"          # the column in the results
+    targets = ["plant.m_L"]     # FMU parameters set to the value (instance.name)
+    values = [0.02, 0.1, 0.5]   # grid; random and lhs take range = [low, high]
+    [keep]
+    metrics = ["ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"]
+    logs = false                # true: keep every run's MCAP log
+
+`base.faults` is a fault schedule (docs/faults.md); a varied parameter's target `faults.N.start`,
+`faults.N.end` or `faults.N.value` varies fault N.
+
+A JSON Schema declares the format; a file that breaks it is refused with the path of the field.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+METRICS = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
+
+SCHEMA = {
+    "type": "object", "additionalProperties": False, "required": ["name", "base", "vary"],
+    "properties": {
+        "name": {"type": "string", "pattern": "^[A-Za-z0-9_.-]+$"},
+        "base": {"type": "object", "additionalProperties": False, "properties": {
+            "scenario": {"enum": ["fsi", "lkf", "zse"]},
+            "trajectory": {"enum": [0, 1, 2]},
+            "controllers": {"type": "array", "minItems": 1, "uniqueItems": True, "items": {"type": "string", "minLength": 1}},
+            "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
+            "gusts": {"type": "boolean"},
+            "parameters": {"type": "object", "propertyNames": {"pattern": r"^[A-Za-z_]\w*\.[A-Za-z_]\w*$"},
+                           "additionalProperties": {"type": ["number", "string", "boolean"]}},
+            "faults": {"type": "array"}}},
+        "vary": {"type": "object", "additionalProperties": False, "properties": {
+            "seeds": {"type": "array", "minItems": 1, "uniqueItems": True,
+                      "items": {"type": "integer", "minimum": 0, "maximum": 2147483647}},
+            "method": {"enum": ["grid", "random", "lhs"]},
+            "samples": {"type": "integer", "minimum": 1, "maximum": 100000},
+            "sample_seed": {"type": "integer", "minimum": 0},
+            "parameters": {"type": "array", "items": {
+                "type": "object", "additionalProperties": False, "required": ["name", "targets"],
+                "properties": {
+                    "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
+                    "targets": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern":
+                                r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value))$"}},
+                    "values": {"type": "array", "minItems": 1, "items": {"type": "number"}},
+                    "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}}}}}}},
+        "keep": {"type": "object", "additionalProperties": False, "properties": {
+            "metrics": {"type": "array", "items": {"enum": list(METRICS)}},
+            "logs": {"type": "boolean"}}},
+    },
+}
+
+
+class SpecError(ValueError):
+    """A campaign specification that cannot be run; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run: its id (a hash of everything that defines it), controller, seed and parameter values."""
+
+    run_id: str
+    controller: str
+    seed: int
+    values: dict[str, float]  # by varied name
+    parameters: dict[str, object] = field(default_factory=dict)  # by instance.name, base and varied
+
+
+@dataclass
+class Campaign:
+    name: str
+    scenario: str
+    trajectory: int
+    stop_time: float | None
+    gusts: bool
+    keep_metrics: tuple[str, ...]
+    keep_logs: bool
+    faults: list  # their JSON form; "faults.N.field" targets vary them
+    varied: list[str]
+    cases: list[Case]
+    source: Path
+
+
+def read_spec_file(path: Path) -> dict:
+    if not path.is_file():
+        raise SpecError(f"campaign spec {path} does not exist")
+    text = path.read_text()
+    try:
+        if path.suffix == ".toml":
+            return tomllib.loads(text)
+        if path.suffix in (".yaml", ".yml"):
+            import yaml
+
+            data = yaml.safe_load(text)
+            if not isinstance(data, dict):
+                raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
+            return data
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise SpecError(f"{path}: not valid TOML: {err}") from None
+    except Exception as err:  # yaml's errors
+        if isinstance(err, SpecError):
+            raise
+        raise SpecError(f"{path}: not valid YAML: {str(err).splitlines()[0]}") from None
+    raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
+
+
+def _validate(data: dict, path: Path) -> None:
+    import jsonschema
+
+    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.path))
+    if errors:
+        err = errors[0]
+        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise SpecError(f"{path}: {where}: {err.message}")
+
+
+def _points(vary: dict, path: Path) -> list[dict[str, float]]:
+    params = vary.get("parameters", [])
+    method = vary.get("method", "grid")
+    names = [p["name"] for p in params]
+    if len(set(names)) != len(names):
+        raise SpecError(f"{path}: vary.parameters: two parameters are named alike")
+    if not params:
+        return [{}]
+    if method == "grid":
+        for p in params:
+            if "values" not in p or "range" in p:
+                raise SpecError(f"{path}: vary.parameters.{p['name']}: a grid takes values = [...]")
+        return [dict(zip(names, combo)) for combo in itertools.product(*(p["values"] for p in params))]
+    for p in params:
+        if "range" not in p or "values" in p:
+            raise SpecError(f"{path}: vary.parameters.{p['name']}: {method} sampling takes range = [low, high]")
+        if not p["range"][0] < p["range"][1]:
+            raise SpecError(f"{path}: vary.parameters.{p['name']}.range: low must be below high")
+    from scipy.stats import qmc
+
+    n = vary.get("samples")
+    if n is None:
+        raise SpecError(f"{path}: vary.samples: {method} sampling needs the number of samples")
+    seed = vary.get("sample_seed", 0)
+    if method == "lhs":
+        unit = qmc.LatinHypercube(d=len(params), seed=seed).random(n)
+    else:
+        import numpy as np
+
+        unit = np.random.default_rng(seed).random((n, len(params)))
+    lows, highs = [p["range"][0] for p in params], [p["range"][1] for p in params]
+    scaled = qmc.scale(unit, lows, highs)
+    return [dict(zip(names, map(float, row))) for row in scaled]
+
+
+def run_id(controller: str, seed: int, parameters: dict) -> str:
+    key = json.dumps({"controller": controller, "seed": seed, "parameters": parameters}, sort_keys=True)
+    return hashlib.sha256(key.encode()).hexdigest()[:16]
+
+
+def load(path: Path) -> Campaign:
+    """Read, validate and expand a campaign spec into its runs."""
+    path = Path(path)
+    data = read_spec_file(path)
+    _validate(data, path)
+    base, vary, keep = data["base"], data["vary"], data.get("keep", {})
+    controllers = base.get("controllers", ["mixed"])
+    for c in controllers:
+        if c not in ("dlqr", "mixed") and not (path.parent / c).is_file():
+            raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
+    controllers = [c if c in ("dlqr", "mixed") else str((path.parent / c).resolve()) for c in controllers]
+    seeds = vary.get("seeds", [1])
+    faults = base.get("faults", [])
+    from ...engine.manipulators import FaultError, parse
+
+    try:
+        parse(faults, f"{path}: base.faults")
+    except FaultError as err:
+        raise SpecError(str(err)) from None
+    for p in vary.get("parameters", []):
+        for target in p["targets"]:
+            if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
+                raise SpecError(f"{path}: vary.parameters.{p['name']}: {target} names a fault base.faults does not have")
+    targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
+    cases = []
+    for point in _points(vary, path):
+        for controller in controllers:
+            for seed in seeds:
+                parameters = dict(base.get("parameters", {}))
+                for name, value in point.items():
+                    for target in targets[name]:
+                        parameters[target] = value
+                cases.append(Case(run_id(controller, seed, parameters), controller, seed, point, parameters))
+    ids = [c.run_id for c in cases]
+    if len(set(ids)) != len(ids):
+        raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
+    return Campaign(data["name"], base.get("scenario", "zse"), base.get("trajectory", 1), base.get("stop_time"),
+                    base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
+                    list(targets), cases, path)

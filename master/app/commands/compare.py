@@ -1,0 +1,31 @@
+"""`tiltload compare RUN BASELINE`: a run's metrics against a baseline; exit 0 same, 1 different."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .. import arguments
+
+
+def add_parser(sub) -> None:
+    cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
+    cp.add_argument("run", type=Path)
+    cp.add_argument("baseline", type=Path)
+    cp.add_argument("--rtol", type=arguments.tolerance, default=1e-6, help="relative tolerance (default 1e-6)")
+    cp.add_argument("--atol", type=arguments.tolerance, default=1e-12, help="absolute tolerance (default 1e-12)")
+    cp.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..regression import compare as cmp
+
+    notes: list[str] = []
+    run_metrics, _ = cmp.load_metrics(args.run, notes)
+    base, tol = cmp.load_metrics(args.baseline, notes)
+    for note in notes:
+        print(f"note: {note}")
+    ok, rows = cmp.compare(run_metrics, base, args.rtol, args.atol, tol)
+    print(cmp.format_rows(rows))
+    print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
+    return 0 if ok else 1

@@ -1,0 +1,41 @@
+"""`tiltload design`: a controller of the thesis (ch. 3) synthesized and saved as an artifact."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .. import arguments
+
+
+def add_parser(sub) -> None:
+    d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
+    d.add_argument("--controller", default="dlqr", help="dlqr (default), hinf or mixed")
+    d.add_argument("--vehicle", choices=("load", "uav"), default="load", help="load (default) or uav: the UAV alone (dlqr only)")
+    d.add_argument("--Tc", type=arguments.positive_time, default=0.012, help="controller period in s (default 0.012)")
+    d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
+    d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
+    d.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ....controller_fmu.design import artifact
+    from ....controller_fmu.design.synthesize import design
+
+    d = design(args.controller, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr),
+               vehicle=args.vehicle)
+    path = artifact.save(d, args.out / f"{'uav_' if args.vehicle == 'uav' else ''}{d.kind}.json")
+    r = d.report
+    print(f"{d.kind}: ||K||_2 = {r['gain_norm']:.4g}, closed-loop spectral radius = {r['spectral_radius']:.6f} "
+          f"(slowest continuous-time decay {np.log(r['spectral_radius']) / d.Tc:.3f} /s), {r['seconds']:.1f} s")
+    if "riccati_residual" in r:
+        print(f"  Riccati residual {r['riccati_residual']:.1e}")
+    else:
+        h2 = f", H2 bound {r['h2_bound']:.4g} (measured {r['h2_norm']:.4g})" if r["h2_bound"] else ""
+        print(f"  H-infinity bound {r['gamma_bound']:.4g} (measured {r['hinf_norm']:.4g}){h2}; "
+              f"poles in Re > {r['regions']['eps']} and |z| < {r['regions']['varpi']}; solver {r['solver_status']}")
+    print(f"saved {path}")
+    return 0

@@ -1,0 +1,31 @@
+"""What the `tiltload` command reports as the user's to fix (one line, exit 2), gathered in one place."""
+
+from __future__ import annotations
+
+from ...controller_fmu.design.error_dynamics import DesignError
+from ..engine.errors import DescriptionError
+from .campaign.report import ReportError
+from .campaign.spec import SpecError
+from .wrap.wrap import WrapError
+
+
+class UserError(Exception):
+    """A problem the user can fix; reported as one line, exit code 2."""
+
+
+# every error whose message is a complete line for the user: a bad option, file, description, spec or design
+USER_ERRORS = (UserError, DescriptionError, SpecError, ReportError, WrapError, DesignError)
+
+
+def run_failed(error: str, signal: int | None, log, sim_time: float) -> int:
+    """Say how a run ended early and where its log stands; the exit code (128 + signal, or 1)."""
+    import sys
+
+    if log is None:
+        where = "no log (--no-log)"
+    elif log.is_file():
+        where = f"the log is readable up to t = {sim_time:.3f} s"
+    else:
+        where = "no log was written"
+    print(f"tiltload: error: {error}; {where}", file=sys.stderr)
+    return 128 + signal if signal else 1

@@ -1,0 +1,48 @@
+"""The FMUs of the tiltload loops: which recipes exist, building them, and which FMUs tiltload built itself."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ...controller_fmu.fmu import build as controller
+from ...formation import build as formation
+from ...native_fmu.build import BuildResult, Recipe, build
+from ...native_fmu.package import read_build_info
+from ...plant_fmu import build as plant
+from ...scenario_fmu import build as scenario
+from ...sensor_fmu import build as sensors
+
+
+def loop_recipes(vehicles=("load",)) -> list[Recipe]:
+    """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav")."""
+    out = []
+    for v in vehicles:
+        out += [plant.recipe(v), sensors.recipe(v)]
+    out.append(scenario.recipe())
+    out += [controller.recipe(v) for v in vehicles]
+    return out
+
+
+def formation_recipes() -> list[Recipe]:
+    """The UAV alone's plant, the formation controller and the tracker (Appendix B)."""
+    return [plant.recipe("uav"), *formation.recipes()]
+
+
+def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",)) -> list[BuildResult]:
+    """The loop's FMUs of each vehicle into dest; each is rebuilt only if stale."""
+    return [build(r, dest, force, progress) for r in loop_recipes(vehicles)]
+
+
+def build_formation(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:
+    return [build(r, dest, force, progress) for r in formation_recipes()]
+
+
+def is_ours(fmu: Path, md) -> bool:
+    """A native FMU tiltload compiled (its build record names the GUID the model description declares)."""
+    info = read_build_info(Path(fmu))
+    return bool(info) and "wrapped" not in info and info.get("guid") == md.guid
+
+
+def is_foreign(fmu: Path, md) -> bool:
+    """The isolation policy of a run: every FMU tiltload did not compile runs in a worker process of its own."""
+    return not is_ours(fmu, md)

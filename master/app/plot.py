@@ -1,0 +1,152 @@
+"""The thesis's kinds of figures from a run's MCAP log, as PNG files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..engine import mcap_log  # noqa: E402
+
+
+def _series(msgs: list[dict], *names: str) -> np.ndarray:
+    return np.array([[np.nan if m.get(n) is None else m[n] for n in names] for m in msgs], dtype=float)
+
+
+def fault_intervals(events: list[dict], t_end: float) -> list[tuple[float, float, str]]:
+    """(start, end, name) of each fault from the /faults events; a fault still on at the end lasts to t_end."""
+    started, out = {}, []
+    for e in events:
+        if e["event"] == "start":
+            started[e["name"]] = e["t"]
+        elif e["name"] in started:
+            out.append((started.pop(e["name"]), e["t"], e["name"]))
+    out += [(t0, t_end, name) for name, t0 in started.items()]
+    return sorted(out)
+
+
+def plot_run(log: Path, out: Path | None = None) -> list[Path]:
+    """Write <stem>_*.png next to the log (or into out); returns the files written."""
+    log = Path(log)
+    out = log.parent if out is None else Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = mcap_log.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
+    if "/plant" not in data:
+        raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
+    plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
+    tp = _series(plant, "t")[:, 0]
+    files = []
+    intervals = fault_intervals(data.get("/faults", []), float(tp[-1]) if len(tp) else 0.0)
+
+    def save(fig, name):
+        for ax in fig.axes:  # faults as shaded intervals on every time axis
+            if ax.name != "3d":
+                for k, (t0, t1, label) in enumerate(intervals):
+                    ax.axvspan(t0, t1, color=f"C{3 + k % 6}", alpha=0.15, lw=0, label=label if ax is fig.axes[0] else None)
+        if intervals and fig.axes and fig.axes[0].name != "3d":
+            fig.axes[0].legend(fontsize=7, loc="upper right")
+        path = out / f"{log.stem}_{name}.png"
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+
+    with_load = "gamma_1" in plant[0]  # else the UAV alone (Appendix A): Figs. A.2-A.8
+    load, uav = _series(plant, "x", "y", "z"), _series(plant, "x_B", "y_B", "z_B")
+    fig = plt.figure(figsize=(7, 6))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(*uav.T, label="UAV")
+    if with_load:
+        ax.plot(*load.T, label="load")
+    if scen:
+        ref = _series(scen, "x_ref", "y_ref", "z_ref")
+        ax.plot(*ref.T, "k--", lw=0.8, label="reference")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.legend()
+    save(fig, "trajectory3d")
+
+    if scen:
+        ts = _series(scen, "t")[:, 0]
+        ref = _series(scen, "x_ref", "y_ref", "z_ref", "psi_ref")
+        fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
+        for i, (ax, label) in enumerate(zip(axes, ("x (m)", "y (m)", "z (m)", "ψ (rad)"))):
+            actual = np.interp(ts, tp, _series(plant, ("x", "y", "z", "psi")[i])[:, 0])
+            ax.plot(ts, ref[:, i] - actual)
+            ax.set_ylabel(f"error {label}")
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        save(fig, "tracking_error")
+
+        if "d_x" in scen[0]:
+            fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
+            for ax, n in zip(axes, ("d_x", "d_y", "d_z")):
+                ax.plot(ts, _series(scen, n)[:, 0])
+                ax.set_ylabel(f"{n} (N)")
+                ax.grid(alpha=0.3)
+            axes[0].set_title(f"disturbance force on the {'load' if with_load else 'UAV'}")
+            axes[-1].set_xlabel("t (s)")
+            save(fig, "disturbances")
+
+    names = ("phi", "theta", "gamma_1", "gamma_2", "alpha_R", "alpha_L") if with_load else ("phi", "theta", "alpha_R", "alpha_L")
+    fig, axes = plt.subplots(len(names) // 2, 2, figsize=(9, 7), sharex=True)
+    for ax, n in zip(axes.ravel(), names):
+        ax.plot(tp, _series(plant, n)[:, 0])
+        ax.set_ylabel(f"{n} (rad)")
+        ax.grid(alpha=0.3)
+    save(fig, "remaining_dof")
+
+    if ctrl and "f_R" in ctrl[0]:
+        tc = _series(ctrl, "t")[:, 0]
+        fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
+        for ax, n, (lo, hi) in zip(axes, ("f_R", "f_L", "tau_R", "tau_L"), ((0, 30), (0, 30), (-2, 2), (-2, 2))):
+            ax.step(tc, _series(ctrl, n)[:, 0], where="post")
+            ax.axhline(lo, color="r", ls=":")
+            ax.axhline(hi, color="r", ls=":")
+            ax.set_ylabel(n)
+            ax.grid(alpha=0.3)
+        axes[-1].set_xlabel("t (s)")
+        save(fig, "actuators")
+
+    if ctrl and "est_x" in ctrl[0]:
+        ctrl = [m for m in ctrl if m["est_x_hi"] != m["est_x_lo"]] or ctrl  # not the message before the first estimate
+        tc = _series(ctrl, "t")[:, 0]
+
+        def estimation_figure(states, name, columns=1):
+            rows = -(-len(states) // columns)
+            fig, axes = plt.subplots(rows, columns, figsize=(8 if columns == 1 else 11, 2.3 * rows + 0.5), sharex=True,
+                                     squeeze=False)
+            for ax, n in zip(axes.ravel(), states):
+                truth = np.interp(tc, tp, _series(plant, n)[:, 0])
+                est, lo, hi = (_series(ctrl, f"est_{n}{s}")[:, 0] for s in ("", "_lo", "_hi"))
+                ax.plot(tc, est - truth, label="estimation error")
+                ax.plot(tc, lo - truth, "k--", lw=0.7, label="confidence limits")
+                ax.plot(tc, hi - truth, "k--", lw=0.7)
+                ax.set_ylabel(n)
+                ax.grid(alpha=0.3)
+            axes[0][0].legend(fontsize=7)
+            for ax in axes[-1]:
+                ax.set_xlabel("t (s)")
+            save(fig, name)
+
+        if with_load:
+            estimation_figure(("x", "y", "z"), "estimation_error")
+        else:  # Fig. A.7: x, y and their rates (the GPS pattern); Fig. A.8: the other states
+            estimation_figure(("x", "y", "x_dot", "y_dot"), "estimation_error")
+            rest = ("z", "phi", "theta", "psi", "alpha_R", "alpha_L", "z_dot", "phi_dot", "theta_dot", "psi_dot",
+                    "alpha_R_dot", "alpha_L_dot")
+            estimation_figure(rest, "estimation_error_rest", columns=3)
+        frob = _series(ctrl, "zse_G_frobenius")[:, 0]
+        if np.nanmax(np.abs(frob)) > 0:
+            fig, ax = plt.subplots(figsize=(8, 3))
+            ax.plot(tc, frob)
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel("‖G‖_F")
+            ax.grid(alpha=0.3)
+            save(fig, "zse_frobenius")
+    return files

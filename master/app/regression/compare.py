@@ -1,0 +1,97 @@
+"""`tiltload compare`: a run's metrics against a baseline (another log, or a committed metrics file).
+
+A metric passes if |run - base| <= atol + rtol * |base| (numpy.isclose semantics). Tolerances:
+command-line defaults, overridden by the baseline file's "tolerances" (global or per metric).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from ...engine.errors import DescriptionError
+from ...engine.mcap_log import read_log, read_metadata
+
+
+def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
+    """(metrics, tolerances) from a .mcap log (its "metrics" record) or a baseline .json.
+
+    A log without a metrics record (a killed run, truncated) gets its metrics recomputed from its
+    messages; `notes` (a list) receives a line saying so."""
+    path = Path(path)
+    if not path.is_file():
+        raise DescriptionError(f"{path} does not exist")
+    if path.suffix == ".json":
+        try:
+            data = json.loads(path.read_text())
+            metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
+        except json.JSONDecodeError as err:
+            raise DescriptionError(f"{path} is not a metrics file: not JSON ({err.msg} at line {err.lineno})") from None
+        except UnicodeDecodeError:
+            raise DescriptionError(f"{path} is not a metrics file: not UTF-8 text") from None
+        except KeyError:
+            raise DescriptionError(f"{path} is not a metrics file: it has no 'metrics' entry") from None
+        except (TypeError, ValueError, AttributeError):
+            raise DescriptionError(f"{path} is not a metrics file: 'metrics' must map names to numbers") from None
+        if not metrics:
+            raise DescriptionError(f"{path} holds no metrics: nothing to compare")
+        if not all(math.isfinite(v) for v in metrics.values()):
+            raise DescriptionError(f"{path} holds a non-finite metric")
+        _check_tolerances(tolerances, path)
+        return metrics, tolerances
+    with open(path, "rb") as f:
+        if f.read(8) != b"\x89MCAP0\r\n":
+            raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
+    meta = read_metadata(path)
+    if "metrics" not in meta:
+        from .log_metrics import metrics_from_messages
+
+        data, truncated = read_log(path, topics=["/plant", "/scenario", "/controller"])
+        if not data.get("/controller") or not data.get("/plant"):
+            raise DescriptionError(f"{path} has no metrics record and no loop messages (not a tiltload run of the thesis loop?)")
+        metrics, last = metrics_from_messages(data)
+        if notes is not None:
+            notes.append(f"{path} {'is truncated (no footer: a killed run)' if truncated else 'has no metrics record'}: "
+                         f"metrics recomputed from its messages up to t = {last:.3f} s")
+        return metrics, {}
+    record = meta["metrics"]
+    if record.get("complete") != "True":
+        raise DescriptionError(f"{path} is an incomplete run (stopped after {record.get('ticks')} ticks)")
+    return {k: float(v) for k, v in record.items() if k not in ("ticks", "complete")}, {}
+
+
+def _check_tolerances(tolerances, path: Path) -> None:
+    """A baseline's tolerances: {rtol, atol} globally or per metric, each finite and >= 0."""
+    if not isinstance(tolerances, dict):
+        raise DescriptionError(f"{path}: tolerances must be a mapping")
+    for key, value in tolerances.items():
+        if isinstance(value, dict):
+            _check_tolerances(value, path)
+        elif key in ("rtol", "atol"):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
+                raise DescriptionError(f"{path}: tolerance {key} = {value!r} must be a finite number >= 0")
+
+
+def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[tuple]]:
+    rows, ok = [], True
+    for name in base:
+        tol = tolerances.get(name, tolerances)
+        r, a = float(tol.get("rtol", rtol)), float(tol.get("atol", atol))
+        if name not in run:
+            rows.append((name, math.nan, base[name], math.nan, math.nan, r, "MISSING"))
+            ok = False
+            continue
+        diff = abs(run[name] - base[name])
+        rel = diff / abs(base[name]) if base[name] else (0.0 if diff == 0 else math.inf)
+        passed = diff <= a + r * abs(base[name])
+        ok &= passed
+        rows.append((name, run[name], base[name], diff, rel, r, "ok" if passed else "DIFFERS"))
+    return ok, rows
+
+
+def format_rows(rows) -> str:
+    lines = [f"{'metric':>12} {'run':>14} {'baseline':>14} {'abs diff':>10} {'rel diff':>10} {'rtol':>8}  status"]
+    for name, r, b, d, rel, rt, status in rows:
+        lines.append(f"{name:>12} {r:>14.8g} {b:>14.8g} {d:>10.3g} {rel:>10.3g} {rt:>8.1g}  {status}")
+    return "\n".join(lines)

@@ -1,0 +1,16 @@
+"""A generic FMI 2.0 co-simulation engine: it runs any system of co-simulation FMUs and knows nothing of tilt-rotors.
+
+    system            what runs: instances, periods, parameters, connections (JSON), faults
+    ssp               the same as an SSP 1.0 package (export and load)
+    connections       connections resolved and checked against the model descriptions
+    model_description reading an FMU's description; values checked against it
+    slave             the interface of one FMU instance; fmu: in this process; isolation/: in a worker process
+    execution         the multirate algorithm: who steps when, inputs from outputs, delay lines
+    jacobi            what a Jacobi master (libcosim, Ecos) does to a system, as connection delays
+    manipulators      faults between outputs and inputs
+    observers         read-only views: metrics, progress; mcap_log: the MCAP logger and readers
+    run               one run: execution + logger + metrics, failures as one line
+
+What is specific to a system comes in from the caller: instance names for metrics, derived log
+channels (a 3D scene), and the policy of which FMUs run isolated.
+"""

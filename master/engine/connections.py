@@ -1,0 +1,94 @@
+"""Resolve and check a system's connections against the FMUs' model descriptions, before any step.
+
+Explicit connections first; then, if auto_connect, every still-unconnected input takes the
+output of the same name when exactly one other instance has it. Every problem is reported
+with the names involved: unknown variable, wrong causality, type mismatch, ambiguous name,
+an input left unconnected without a start value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .errors import DescriptionError
+from .slave import TYPES
+from .system import System
+
+
+@dataclass(frozen=True)
+class Link:
+    source: str  # instance
+    source_vr: int
+    target: str
+    target_vr: int
+    type: str
+    delay: int
+    source_name: str  # the variables' names
+    target_name: str
+
+    @property
+    def label(self) -> str:
+        return f"{self.source}.{self.source_name} -> {self.target}.{self.target_name}"
+
+
+def _var(mds, inst, name):
+    for v in mds[inst].modelVariables:
+        if v.name == name:
+            return v
+    raise DescriptionError(f"{inst} has no variable '{name}'")
+
+
+def resolve(system: System, mds: dict) -> list[Link]:
+    links: list[Link] = []
+    taken: set[tuple[str, str]] = set()
+    for c in system.connections:
+        si, sv = c.source.split(".", 1)
+        ti, tv = c.target.split(".", 1)
+        src, dst = _var(mds, si, sv), _var(mds, ti, tv)
+        if src.causality != "output":
+            raise DescriptionError(f"connection {c.source} -> {c.target}: {c.source} is a {src.causality}, not an output")
+        if dst.causality != "input":
+            raise DescriptionError(f"connection {c.source} -> {c.target}: {c.target} is a {dst.causality}, not an input")
+        if src.type != dst.type:
+            raise DescriptionError(f"connection {c.source} -> {c.target}: type mismatch ({src.type} -> {dst.type})")
+        if (ti, tv) in taken:
+            raise DescriptionError(f"{c.target} is connected twice")
+        taken.add((ti, tv))
+        links.append(Link(si, src.valueReference, ti, dst.valueReference, src.type, c.delay, sv, tv))
+    outputs: dict[str, list] = {}
+    for inst in system.instances:
+        for v in mds[inst.name].modelVariables:
+            if v.causality == "output":
+                outputs.setdefault(v.name, []).append((inst.name, v))
+    for inst in system.instances:
+        for v in mds[inst.name].modelVariables:
+            if v.causality != "input" or (inst.name, v.name) in taken:
+                continue
+            candidates = [(i, o) for i, o in outputs.get(v.name, []) if i != inst.name] if system.auto_connect else []
+            if len(candidates) > 1:
+                raise DescriptionError(f"{inst.name}.{v.name}: ambiguous, outputs of that name in "
+                                       f"{', '.join(i for i, _ in candidates)}; connect it explicitly")
+            if candidates:
+                si, o = candidates[0]
+                if o.type != v.type:
+                    raise DescriptionError(f"{si}.{o.name} -> {inst.name}.{v.name}: type mismatch ({o.type} -> {v.type})")
+                links.append(Link(si, o.valueReference, inst.name, v.valueReference, v.type, 0, o.name, v.name))
+            elif v.start is None:
+                raise DescriptionError(f"{inst.name}.{v.name} is an input with no connection and no start value")
+    for link in links:
+        if link.type not in TYPES:
+            raise DescriptionError(f"{link.label}: {link.type} connections are not supported")
+    return links
+
+
+def unconnected(system: System, mds: dict, links: list[Link]) -> list[str]:
+    """Inputs no connection feeds, as "instance.name = value": they hold their start value, or the value
+    the system's parameters give them, for the whole run."""
+    fed = {(link.target, link.type, link.target_vr) for link in links}
+    out = []
+    for inst in system.instances:
+        for v in mds[inst.name].modelVariables:
+            if v.causality == "input" and (inst.name, v.type, v.valueReference) not in fed:
+                value = inst.parameters.get(v.name, v.start)
+                out.append(f"{inst.name}.{v.name} = {str(value).lower() if v.type == 'Boolean' else value}")
+    return out

@@ -1,0 +1,211 @@
+"""The execution: owns the clock and the FMU instances, steps them on the fixed-step multirate schedule.
+
+Algorithm (docs/master.md, "Semantics"): one tick T; an instance of period P = nT is stepped
+doStep(t_k, P) at the ticks k with k % n == 0, in the system's order. Before an instance steps,
+its connected inputs are set from the latest outputs of their sources (or from d ticks back, for
+a connection with delay d). Observers only read: they see each instance's outputs after its
+step. Every FMI failure becomes an ExecutionError naming the instance, the call and the FMU's
+last log line.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import connections
+from .errors import DescriptionError
+from .fmu import InProcessFmu
+from .model_description import checked_value, read_fmu
+from .slave import C_TYPES, Slave
+from .system import System, validate
+
+# Which FMUs run in a worker process of their own: a predicate (fmu path, model description) -> bool
+IsolationPolicy = Callable[[Path, object], bool]
+
+
+def _check_parameters(system: System, mds: dict, links) -> None:
+    """Every given value fits its variable, and none is for an input a connection overwrites every step."""
+    fed = {(link.target, link.type, link.target_vr): link for link in links}
+    for spec in system.instances:
+        variables = {v.name: v for v in mds[spec.name].modelVariables}
+        for key, value in spec.parameters.items():
+            v = variables.get(key)
+            checked_value(spec.name, v, key, value)
+            link = fed.get((spec.name, v.type, v.valueReference)) if v.causality == "input" else None
+            if link is not None:
+                raise DescriptionError(f"{spec.name}.{key} is an input fed by {link.source}.{link.source_name} every step: "
+                                       "setting it has no effect")
+
+
+@dataclass
+class _Group:
+    """Links from one source into one target of one type and delay: a gather into an array the set reads."""
+
+    source: str
+    target: str
+    type: str
+    delay: int
+    src_index: np.ndarray
+    dst_vrs: object  # ctypes array of the target's value references
+    values: object  # ctypes array the set reads; `view` is it as numpy
+    view: np.ndarray
+    setter: object  # the target's raw fmi2Set<type>
+
+
+class Execution:
+    def __init__(self, system: System, observers=(), isolate: IsolationPolicy | None = None,
+                 step_timeout: float | None = None) -> None:
+        """isolate(fmu, md): True for an FMU to run in a worker process of its own, every call watched for
+        step_timeout seconds (isolation/process.py); None: every FMU runs in this process."""
+        self.system = validate(system)
+        self.isolate, self.step_timeout = isolate, step_timeout
+        self.observers = list(observers)
+        self.instances: dict[str, Slave] = {}
+        self.time = 0.0
+        self.ticks_done = 0
+        mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
+        self.links = connections.resolve(system, mds)
+        _check_parameters(system, mds, self.links)
+        self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
+        self.every = {i.name: (1 if i.period is None else round(i.period / system.tick)) for i in system.instances}
+        groups: dict[tuple, list] = {}
+        for link in self.links:
+            groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
+        self._mds = mds
+        self._raw_groups = groups
+        self.groups: dict[str, list[_Group]] = {}
+        self.max_delay = max((link.delay for link in self.links), default=0)
+        self.history: dict[str, deque] = {}
+        self.manipulator = None
+        if system.faults:
+            from .manipulators import Manipulator
+
+            self.manipulator = Manipulator(system.faults)
+            self.manipulator.check(mds, self.links)
+
+    @property
+    def model_descriptions(self) -> dict:
+        """{instance: model description}, as read before anything was loaded."""
+        return self._mds
+
+    def instantiate(self) -> None:
+        """Load every FMU (in this process or a worker of its own), bind the connections, initialize."""
+        for spec in self.system.instances:
+            md = self._mds[spec.name]
+            if self.isolate is not None and self.isolate(spec.fmu, md):
+                from .isolation.process import STEP_TIMEOUT, IsolatedFmu
+
+                self.instances[spec.name] = IsolatedFmu(spec.name, spec.fmu, md, self.step_timeout or STEP_TIMEOUT)
+            else:
+                self.instances[spec.name] = InProcessFmu(spec.name, spec.fmu, md)
+        for (src, dst, typ, delay), links in self._raw_groups.items():
+            idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
+            buf = (C_TYPES[typ] * len(links))()
+            vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
+            self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
+                                                          self.instances[dst].setters[typ]))
+        if self.manipulator is not None:
+            self.manipulator.bind(self)
+        self._initialize()
+
+    def _initialize(self) -> None:
+        """Set-up, parameters and initialization of every instance, then the observers start at t = 0."""
+        for spec in self.system.instances:
+            self.instances[spec.name].initialize(spec.parameters)
+        self.time, self.ticks_done = 0.0, 0
+        for name, inst in self.instances.items():
+            self.history[name] = deque([{t: v.copy() for t, v in inst.values.items()}], maxlen=self.max_delay + 1)
+        for obs in self.observers:
+            obs.start(self)
+
+    def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None) -> None:
+        """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
+        ({instance: {name: value}}, replacing the given instances' parameters) and these observers.
+        Cheaper than instantiating again (campaigns run many runs on one set of FMUs per worker)."""
+        for name, values in (parameters or {}).items():
+            self.system.instance(name).parameters = dict(values)
+        _check_parameters(self.system, self._mds, self.links)
+        if observers is not None:
+            self.observers = list(observers)
+        if faults is not None:  # a new fault schedule (a list, possibly empty)
+            from .manipulators import Manipulator
+
+            self.system.faults = list(faults)
+            self.manipulator = Manipulator(self.system.faults) if faults else None
+            if self.manipulator is not None:
+                self.manipulator.check(self._mds, self.links)
+                self.manipulator.bind(self)
+        elif self.manipulator is not None:
+            self.manipulator = type(self.manipulator)(self.system.faults)  # fresh state: holds, histories
+            self.manipulator.bind(self)
+        for spec in self.system.instances:
+            self.instances[spec.name].reset()
+        self._initialize()
+
+    def _set_inputs(self, name: str, t: float) -> None:
+        inst = self.instances[name]
+        component = inst.component
+        groups = self.groups.get(name, ())
+        for g in groups:
+            if g.delay == 0:
+                src = self.instances[g.source].values[g.type]
+            else:
+                hist = self.history[g.source]
+                src = hist[max(len(hist) - g.delay, 0)][g.type]
+            np.take(src, g.src_index, out=g.view)
+        if self.manipulator is not None:
+            self.manipulator.apply(name, "input", t, self.observers)
+        for g in groups:
+            started = time.perf_counter()
+            status = g.setter(component, g.dst_vrs, len(g.view), g.values)
+            inst.fmi_seconds += time.perf_counter() - started
+            if status > 1:
+                raise inst.failed(f"set{g.type} from {g.source} at t={t:.6g} s", status)
+
+    def step_tick(self) -> None:
+        k, tick = self.ticks_done, self.system.tick
+        t = k * tick
+        for spec in self.system.instances:
+            n = self.every[spec.name]
+            if k % n:
+                continue
+            inst = self.instances[spec.name]
+            self._set_inputs(spec.name, t)
+            inst.do_step(t, n * tick)
+            inst.read_outputs()
+            if self.manipulator is not None:
+                self.manipulator.apply(spec.name, "output", t, self.observers)
+            when = t + n * tick if spec.timing == "continuous" else t
+            for obs in self.observers:
+                obs.on_step(inst, when)
+        if self.max_delay:
+            for name, inst in self.instances.items():
+                self.history[name].append({typ: v.copy() for typ, v in inst.values.items()})
+        self.ticks_done = k + 1
+        self.time = self.ticks_done * tick
+        for obs in self.observers:
+            obs.on_tick(self.ticks_done, self.time)
+
+    def run(self, stop: float) -> None:
+        n = int(round(stop / self.system.tick))
+        while self.ticks_done < n:
+            self.step_tick()
+
+    def close(self, error: str | None = None) -> None:
+        """Finish the observers (the log first), then free the instances; safe to call twice."""
+        observers, self.observers = self.observers, []
+        for obs in observers:
+            try:
+                obs.finish(self, error)
+            except Exception:
+                pass
+        instances, self.instances = self.instances, {}
+        for inst in instances.values():
+            inst.close()

@@ -1,0 +1,240 @@
+"""MCAP logging (docs/master.md, "Logs"): one channel per FMU instance, log time = simulation time in ns.
+
+Every output of every instance is logged after each of its steps (and once at t = 0), or after
+every n-th step with `log_every`. Instance channels are protobuf messages of a fixed layout
+(log_encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
+case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
+which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
+load), are JSON messages computed from one instance's outputs. The writer is foxglove-sdk's
+(Rust); the file is finalized on any exit path, so an interrupted run leaves a readable log up to
+its last step. Readers decode both encodings, and logs from before.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from mcap.reader import make_reader
+
+from .log_encoding import LAYOUT, FixedMessage, fits
+from .observers import Observer
+
+CHUNK = 32 * 1024  # a killed run loses at most one chunk: about 12 ticks (0.15 s) of the loop
+
+
+def _clean(x: float):
+    return x if math.isfinite(x) else None
+
+
+@dataclass(frozen=True)
+class DerivedChannel:
+    """A JSON channel computed from one instance's Real outputs on every `every`-th logged step of it.
+
+    encoder(names) is called once, at the start, with the instance's Real output names; it returns
+    encode(values {name: float or None for a non-finite value}, log time in ns) -> JSON text, or None
+    for a step with nothing to log."""
+
+    topic: str
+    source: str  # the instance
+    schema_name: str
+    schema: dict  # JSON schema of the messages
+    encoder: Callable[[list[str]], Callable[[dict, int], str | None]]
+    every: int = 1
+
+
+class McapLogger(Observer):
+    def __init__(self, path: Path, metadata: dict | None = None, log_every: int = 1, derived=()) -> None:
+        if not (isinstance(log_every, int) and log_every >= 1):
+            raise ValueError(f"log_every must be a whole number of steps >= 1, got {log_every!r}")
+        self.path = Path(path)
+        self.log_every = log_every
+        self.final_metadata: dict[str, dict] = {}  # records written at finish (the run's metrics, for `tiltload compare`)
+        self.derived = tuple(derived)
+        self.metadata = metadata or {}
+        self._writer = None
+
+    def start(self, execution) -> None:
+        import foxglove
+        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._context = foxglove.Context()  # this log's own channels, apart from any other run in the process
+        options = MCAPWriteOptions(compression=MCAPCompression.Zstd, chunk_size=CHUNK, compression_threads=0)
+        # written under a temporary name: an earlier log of the same name is replaced only when this one is closed
+        # (complete, or partial after an error or an interrupt); a killed run leaves <name>.partial beside it
+        self.partial = self.path.with_name(self.path.name + ".partial")
+        self._writer = foxglove.open_mcap(str(self.partial), allow_overwrite=True, context=self._context, writer_options=options)
+        self._writer.write_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
+        self._channels, self._encoders, self._steps = {}, {}, {}
+        for name, inst in execution.instances.items():
+            names = {t: [v.name for v in inst.outputs[t]] for t in ("Real", "Integer", "Boolean")}
+            meta = {"fmu": str(inst.path)}
+            if fits(["t", *names["Real"], *names["Integer"], *names["Boolean"]]):
+                enc = FixedMessage(name, names["Real"], names["Integer"], names["Boolean"])
+                schema = foxglove.Schema(name=enc.full_name, encoding="protobuf", data=enc.schema())
+                self._channels[name] = foxglove.Channel(f"/{name}", schema=schema, message_encoding="protobuf",
+                                                        context=self._context, metadata={**meta, "layout": LAYOUT})
+                self._encoders[name] = enc
+            else:
+                props = {n: {"type": "number" if t == "Real" else "integer" if t == "Integer" else "boolean"}
+                         for t in ("Real", "Integer", "Boolean") for n in names[t]}
+                self._channels[name] = foxglove.Channel(f"/{name}", schema={"type": "object", "title": f"{name} outputs",
+                                                                             "properties": props},
+                                                        context=self._context, metadata=meta)
+            self._steps[name] = 0
+        self._derived: dict[str, list] = {}  # source instance -> [(channel, output names, encode, every)]
+        for d in self.derived:
+            names = [v.name for v in execution.instances[d.source].outputs["Real"]]
+            channel = foxglove.Channel(d.topic, schema=foxglove.Schema(name=d.schema_name, encoding="jsonschema",
+                                                                       data=json.dumps(d.schema).encode()),
+                                       message_encoding="json", context=self._context)
+            self._derived.setdefault(d.source, []).append((channel, names, d.encoder(names), d.every * self.log_every))
+        self._faults_channel = None
+        if execution.system.faults:
+            self._faults_channel = foxglove.Channel("/faults", schema={"type": "object", "title": "fault events", "properties": {
+                "t": {"type": "number"}, "event": {"type": "string"}, "name": {"type": "string"}, "action": {"type": "string"},
+                "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, context=self._context)
+        for inst in execution.instances.values():
+            self.on_step(inst, 0.0)
+
+    def on_fault(self, t, fault, what) -> None:
+        from .manipulators import describe
+
+        if self._faults_channel is not None:
+            self._faults_channel.log(json.dumps({"t": t, "event": what, **describe(fault)}), log_time=int(round(t * 1e9)))
+
+    def on_step(self, instance, t) -> None:
+        name = instance.name
+        k = self._steps[name]
+        self._steps[name] = k + 1
+        if k % self.log_every:
+            return
+        values = instance.values
+        ns = int(round(t * 1e9))
+        enc = self._encoders.get(name)
+        if enc is not None:
+            self._channels[name].log(enc.encode(t, values["Real"], values["Integer"], values["Boolean"]), log_time=ns)
+        else:  # JSON has no NaN: non-finite values are written as null
+            msg = {"t": t, **{v.name: _clean(x) for v, x in zip(instance.outputs["Real"], values["Real"].tolist())}}
+            msg.update({v.name: int(x) for v, x in zip(instance.outputs["Integer"], values["Integer"].tolist())})
+            msg.update({v.name: bool(x) for v, x in zip(instance.outputs["Boolean"], values["Boolean"].tolist())})
+            self._channels[name].log(json.dumps(msg), log_time=ns)
+        for channel, names, encode, every in self._derived.get(name, ()):
+            if k % every == 0:
+                text = encode({n: _clean(x) for n, x in zip(names, values["Real"].tolist())}, ns)
+                if text is not None:
+                    channel.log(text, log_time=ns)
+
+    def finish(self, execution, error) -> None:
+        if self._writer is None:
+            return
+        if error:
+            self._writer.write_metadata("error", {"message": error})
+        for name, record in self.final_metadata.items():
+            self._writer.write_metadata(name, {k: repr(v) if isinstance(v, float) else str(v) for k, v in record.items()})
+        self._writer.close()
+        self._writer = None
+        self.partial.replace(self.path)
+
+
+def _decoder(schema, channel):
+    """A function bytes -> dict for one channel: JSON, or the fixed-layout protobuf (rebuilt from its schema)."""
+    if channel.message_encoding == "json":
+        return json.loads
+    if channel.message_encoding == "protobuf" and channel.metadata.get("layout") == LAYOUT:
+        from google.protobuf import descriptor_pb2 as d
+
+        fds = d.FileDescriptorSet.FromString(schema.data)
+        fields = fds.file[0].message_type[0].field
+        kinds = {d.FieldDescriptorProto.TYPE_DOUBLE: "Real", d.FieldDescriptorProto.TYPE_SFIXED32: "Integer",
+                 d.FieldDescriptorProto.TYPE_BOOL: "Boolean"}
+        by = {"Real": [], "Integer": [], "Boolean": []}
+        for f in fields[1:]:  # fields[0] is t
+            by[kinds[f.type]].append(f.name)
+        return FixedMessage(channel.topic.lstrip("/"), by["Real"], by["Integer"], by["Boolean"]).decode
+    raise ValueError(f"{channel.topic}: cannot decode {channel.message_encoding} messages")
+
+
+def read(path: Path, topics: list[str] | None = None) -> dict[str, list[dict]]:
+    """Messages per topic, decoded (protobuf or JSON; non-finite JSON values come back as None), in log-time order.
+
+    A log without its summary (a run killed mid-way) is read record by record up to its last complete
+    chunk; `is_truncated(path)` tells whether that was needed."""
+    return read_log(path, topics)[0]
+
+
+def read_log(path: Path, topics: list[str] | None = None) -> tuple[dict[str, list[dict]], bool]:
+    """(messages per topic, truncated): truncated is True for a log without footer, recovered by a streaming read."""
+    out: dict[str, list[dict]] = {}
+    decoders: dict[int, object] = {}
+    try:
+        with open(path, "rb") as f:
+            for schema, channel, message in make_reader(f).iter_messages(topics=topics):
+                decode = decoders.get(channel.id)
+                if decode is None:
+                    decode = decoders[channel.id] = _decoder(schema, channel)
+                out.setdefault(channel.topic, []).append(decode(message.data))
+        return out, False
+    except Exception:  # no footer or summary: read what was written, record by record
+        return _stream(path, topics), True
+
+
+def _stream(path: Path, topics: list[str] | None) -> dict[str, list[dict]]:
+    from mcap.records import Channel, Message, Schema
+    from mcap.stream_reader import StreamReader
+
+    schemas, channels, decoders, out = {}, {}, {}, {}
+    with open(path, "rb") as f:
+        try:
+            for record in StreamReader(f).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, Channel):
+                    channels[record.id] = record
+                elif isinstance(record, Message):
+                    channel = channels.get(record.channel_id)
+                    if channel is None or (topics is not None and channel.topic not in topics):
+                        continue
+                    decode = decoders.get(channel.id)
+                    if decode is None:
+                        decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel)
+                    out.setdefault(channel.topic, []).append(decode(record.data))
+        except Exception:  # the torn end of the file: everything before it is kept
+            pass
+    for msgs in out.values():
+        msgs.sort(key=lambda m: m.get("t", 0.0))
+    return out
+
+
+def is_truncated(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            make_reader(f).get_summary()
+            f.seek(-8, 2)
+            return f.read(8) != b"\x89MCAP0\r\n"
+    except Exception:
+        return True
+
+
+def read_metadata(path: Path) -> dict[str, dict]:
+    """Metadata records by name ({} for a truncated log whose summary is lost)."""
+    try:
+        with open(path, "rb") as f:
+            return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+    except Exception:
+        from mcap.records import Metadata
+        from mcap.stream_reader import StreamReader
+
+        found = {}
+        with open(path, "rb") as f:
+            try:
+                for record in StreamReader(f).records:
+                    if isinstance(record, Metadata):
+                        found[record.name] = dict(record.metadata)
+            except Exception:
+                pass
+        return found

@@ -1,0 +1,70 @@
+"""The slave interface: what the execution, the manipulators and the observers use of one FMU instance.
+
+Two implementations: the FMU loaded into this process (fmu.InProcessFmu) and the FMU hosted in a
+worker process (isolation.process.IsolatedFmu). Both keep the outputs in typed arrays,
+`values[type]`, read after every step, and offer raw setters with the fmi2Set<type> signature, so
+the execution moves values between them without knowing where an FMU runs.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from abc import ABC, abstractmethod
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ExecutionError
+
+TYPES = ("Real", "Integer", "Boolean")  # the types connections carry, in the order outputs are read
+C_TYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}  # fmi2Boolean is an int
+FATAL = 4
+STATUS = {1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+
+
+class Slave(ABC):
+    """One FMU instance as the engine sees it.
+
+    values[type]: the outputs of that type, in model-description order (out_vrs[type]), as a numpy array;
+    setters[type](component, vrs, n, values): sets inputs, returns an FMI status; log: the FMU's log lines;
+    fatal: the instance reported fmi2Fatal (no further call is allowed); fmi_seconds: wall time spent in it.
+    """
+
+    def __init__(self, name: str, path: Path, md) -> None:
+        self.name, self.path, self.md = name, Path(path), md
+        self.log: list[str] = []
+        self.fatal = False
+        self.fmi_seconds = 0.0
+        self.outputs = {t: [v for v in md.modelVariables if v.causality == "output" and v.type == t] for t in TYPES}
+        self.out_vrs = {t: [v.valueReference for v in vs] for t, vs in self.outputs.items()}
+        self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.values: dict[str, np.ndarray] = {}
+        self.setters: dict[str, object] = {}
+        self.component = None  # what the setters take as their first argument
+
+    def failed(self, what: str, status: int) -> ExecutionError:
+        """The error for a failed call: the status, and the FMU's last words."""
+        self.fatal = status == FATAL
+        said = next((line for line in reversed(self.log) if line.strip() and "Fatal py exception" not in line), "")
+        return ExecutionError(f"{self.name}: {what} failed ({STATUS.get(status, status)})" + (f": {said}" if said else ""))
+
+    @abstractmethod
+    def initialize(self, parameters: dict) -> None:
+        """Set-up at t = 0, the parameters, initialization mode; then the outputs at t = 0 are in values."""
+
+    @abstractmethod
+    def reset(self) -> None:
+        """fmi2Reset: back to the state after instantiation."""
+
+    @abstractmethod
+    def do_step(self, t: float, h: float) -> None:
+        """fmi2DoStep(t, h), with the inputs the setters gave since the last step."""
+
+    @abstractmethod
+    def read_outputs(self) -> None:
+        """The outputs after the last step into values."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Terminate and free the instance (no call after fmi2Fatal); safe to call twice."""

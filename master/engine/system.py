@@ -1,0 +1,148 @@
+"""Declarative description of a co-simulation: FMU instances, their periods and parameters, connections.
+
+A system is plain data (JSON on disk, or an SSP package: ssp.py): the engine knows nothing of the
+FMUs it runs. The tiltload loop is one such system, built by the application (app/loop.py).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import DescriptionError
+
+
+@dataclass
+class Instance:
+    name: str
+    fmu: Path
+    period: float | None = None  # s; None: the tick
+    parameters: dict[str, object] = field(default_factory=dict)
+    timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
+
+
+@dataclass
+class Connection:
+    source: str  # "instance.variable"
+    target: str  # "instance.variable"
+    delay: int = 0  # ticks of transport delay (0: same tick)
+
+
+@dataclass
+class System:
+    tick: float
+    instances: list[Instance]  # in the in-tick stepping order
+    connections: list[Connection] = field(default_factory=list)  # explicit; the rest by unique name
+    auto_connect: bool = True
+    faults: list = field(default_factory=list)  # manipulators.Fault: injected between outputs and inputs
+
+    def instance(self, name: str) -> Instance:
+        for inst in self.instances:
+            if inst.name == name:
+                return inst
+        raise DescriptionError(f"unknown FMU instance '{name}' (have: {', '.join(i.name for i in self.instances)})")
+
+
+def _split(ref: str, what: str) -> tuple[str, str]:
+    if not isinstance(ref, str) or "." not in ref:
+        raise DescriptionError(f"connection {what} '{ref}' must be 'instance.variable'")
+    inst, var = ref.split(".", 1)
+    return inst, var
+
+
+def validate(system: System) -> System:
+    if not (isinstance(system.tick, (int, float)) and math.isfinite(system.tick) and system.tick > 0):
+        raise DescriptionError(f"tick must be a positive time, got {system.tick!r}")
+    names = [i.name for i in system.instances]
+    if not names:
+        raise DescriptionError("the system has no FMU instance")
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise DescriptionError(f"duplicate instance names: {', '.join(sorted(dup))}")
+    for inst in system.instances:
+        if inst.period is not None:
+            n = round(inst.period / system.tick)
+            if not (math.isfinite(inst.period) and n >= 1 and abs(n * system.tick - inst.period) <= 1e-9 * inst.period):
+                raise DescriptionError(f"{inst.name}: period {inst.period!r} s is not a whole multiple of the tick {system.tick} s")
+        if inst.timing not in ("sample", "continuous"):
+            raise DescriptionError(f"{inst.name}: timing must be 'sample' or 'continuous', got {inst.timing!r}")
+    for c in system.connections:
+        for ref, what in ((c.source, "source"), (c.target, "target")):
+            inst, _ = _split(ref, what)
+            system.instance(inst)
+        if not (isinstance(c.delay, int) and c.delay >= 0):
+            raise DescriptionError(f"connection {c.source} -> {c.target}: delay must be a non-negative integer of ticks")
+    return system
+
+
+_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+_REF = r"^[A-Za-z_][A-Za-z0-9_]*\.[^\s.][^\s]*$"
+SCHEMA = {
+    "type": "object", "additionalProperties": False, "required": ["tick", "instances"],
+    "properties": {
+        "tick": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
+        "auto_connect": {"type": "boolean"},
+        "instances": {"type": "array", "minItems": 1, "items": {
+            "type": "object", "additionalProperties": False, "required": ["name", "fmu"],
+            "properties": {
+                "name": {"type": "string", "pattern": _NAME},
+                "fmu": {"type": "string", "minLength": 1},
+                "period": {"type": ["number", "null"], "exclusiveMinimum": 0},
+                "parameters": {"type": "object", "propertyNames": {"pattern": "^[^\\s]+$"},
+                               "additionalProperties": {"type": ["number", "string", "boolean"]}},
+                "timing": {"enum": ["sample", "continuous"]}}}},
+        "connections": {"type": "array", "items": {
+            "type": "object", "additionalProperties": False, "required": ["source", "target"],
+            "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
+                           "delay": {"type": "integer", "minimum": 0, "maximum": 1000}}}},
+        "faults": {"type": "array"},
+    },
+}
+
+
+def _check_schema(data, path: Path) -> None:
+    """The description's shape: unknown keys, wrong types and out-of-range values named by their path."""
+    import jsonschema
+
+    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise DescriptionError(f"{path}: {where}: {err.message}")
+
+
+def load(path: Path) -> System:
+    """Read a system description (JSON), checked against SCHEMA; FMU paths are relative to the file."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DescriptionError(f"system description {path} does not exist") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise DescriptionError(f"cannot read system description {path}: {err}") from None
+    _check_schema(data, path)
+    try:
+        instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
+                              i.get("timing", "sample")) for i in data["instances"]]
+        conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
+        system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
+        if "faults" in data:
+            from .manipulators import parse
+
+            system.faults = parse(data["faults"], f"{path}: faults")
+    except DescriptionError:
+        raise
+    except (KeyError, TypeError, ValueError) as err:
+        raise DescriptionError(f"{path}: malformed system description ({err})") from None
+    return validate(system)
+
+
+def save(system: System, path: Path) -> Path:
+    data = {"tick": system.tick, "auto_connect": system.auto_connect,
+            "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing}
+                          for i in system.instances],
+            "connections": [{"source": c.source, "target": c.target, "delay": c.delay} for c in system.connections]}
+    Path(path).write_text(json.dumps(data, indent=1))
+    return Path(path)
