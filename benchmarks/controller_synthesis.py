@@ -1,4 +1,4 @@
-"""Synthesis time and figures of merit of the three designs (DESIGN §8; target mixed <= 10 s).
+"""Synthesis time and figures of merit of the three designs (docs/controller.md; target mixed <= 10 s).
 
 Wall clock of tiltload.controller_fmu.design.design(kind), one run each, on this machine;
 the LMI designs are solved by SDPA through cvxpy, Clarabel as fallback (solver time printed separately).

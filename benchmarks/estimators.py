@@ -1,5 +1,5 @@
 """Cost per 12 ms step of the ZSE and the LKF, C and Python, tightness of the reductions, and the
-controller FMU's doStep per estimator (DESIGN §8: ZSE <= 100 us, LKF <= 10 us, FSI law <= 5 us).
+controller FMU's doStep per estimator (docs/estimators.md; targets ZSE <= 100 us, LKF <= 10 us, FSI law <= 5 us).
 
 All variants run on the same recorded data: the linearized plant (Sec. 4.3.3) under an LQR on
 the true state, process noise uniform in W_bar, measurement noise uniform in V_bar, the
@@ -55,7 +55,7 @@ def record(model, z, steps, seed=0):
 
 
 def textbook_step(model, z, c, Gt, du, y, idx):
-    """Alg. 4.4 as printed: hstack per strip, Combastel by full sort (the DESIGN's 4.2 ms baseline)."""
+    """Alg. 4.4 as printed: hstack per strip, Combastel by full sort (the first implementation's 4.2 ms)."""
     G = np.hstack([z.G_w, model.A @ Gt.T])
     c = model.A @ c + model.B @ du
     for i in idx:

@@ -1,7 +1,7 @@
 """What running an FMU in its own process costs: per call, and on the whole loop.
 
 Our controller FMU (FSI scenario, mixed design) is copied without its build record, so the
-master treats it as foreign and hosts it in a worker process (master/fmu_process.py). Printed:
+master treats it as foreign and hosts it in a worker process (master/engine/isolation/process.py). Printed:
 the controller's microseconds per tick inside the master's FMI calls (set + doStep + get, the
 round trip included) in process and isolated, and the loop's real-time factor both ways, with
 no log. Also the start-up (worker process + instantiate). Target from issue 13: measure it, and

@@ -1,4 +1,4 @@
-"""Cost of the native FMUs' communication step, RK4 accuracy, build times (DESIGN §8).
+"""Cost of the native FMUs' communication step, RK4 accuracy, build times (docs/native_fmus.md, Measured).
 
 Measured, single process, wall clock (perf_counter), best of 5 runs of 250 steps:
 - the plant: setReal(7 inputs) + doStep(12 ms) + getReal(20 states), per integrator step

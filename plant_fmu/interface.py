@@ -1,4 +1,4 @@
-"""Names, units and meanings of the plant's states, inputs and outputs (DESIGN §5 stable names).
+"""Names, units and meanings of the plant's states, inputs and outputs (stable names that other tools and the tests rely on: docs/ports.md).
 
 CasADi-free: the FMU, the master and the docs read it.
 """

@@ -28,15 +28,6 @@ class Trim:
     residual: float
     iterations: int
 
-    def as_dict(self) -> dict:
-        names = I.COORDINATES if len(self.x) == 2 * len(I.COORDINATES) else I.UAV_COORDINATES
-        return {
-            "q": dict(zip(names, map(float, self.x[:len(names)]))),
-            "u": dict(zip(I.INPUT_NAMES, map(float, self.u))),
-            "residual": self.residual,
-            "iterations": self.iterations,
-        }
-
 
 class TrimError(RuntimeError):
     """Newton's method did not reach an equilibrium."""

@@ -1,12 +1,17 @@
-"""Shared fixtures: the plant FMU is built once per session (only if missing or stale)."""
+"""Shared fixtures: the FMUs are built once per session (only if missing or stale)."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).parent))  # the helpers package, tests/support
+LIBCOSIMPY = "libcosimpy==0.0.6"
 
 
 @pytest.fixture(scope="session")
@@ -22,7 +27,7 @@ def plant_fmu() -> Path:
 
 @pytest.fixture(scope="session")
 def pipeline_fmus() -> dict[str, Path]:
-    """All four FMUs (the controller's first build synthesizes the mixed design: about 90 s, then cached)."""
+    """All four FMUs (the controller's first build synthesizes the mixed designs, then cached)."""
     from tiltload.master.app.fmus import build_all
     from tiltload.master.engine.pythonfmu_guard import pin
 
@@ -32,6 +37,53 @@ def pipeline_fmus() -> dict[str, Path]:
     return paths
 
 
+@pytest.fixture(scope="session")
+def fmus(pipeline_fmus) -> Path:
+    """The folder of the loop's FMUs."""
+    return pipeline_fmus["TiltloadPlant"].parent
+
+
+@pytest.fixture(scope="module")
+def native(pipeline_fmus) -> dict[str, Path]:
+    """The plant, sensor and scenario FMUs (no designs inside)."""
+    from support import NATIVE
+
+    return {name: pipeline_fmus[name] for name in NATIVE}
+
+
+@pytest.fixture
+def opened():
+    """open_(fmu path, instance name) -> an FMPy session, closed after the test."""
+    from support.fmu_session import Session
+
+    sessions = []
+
+    def open_(path, instance="fmu"):
+        s = Session(path, instance)
+        sessions.append(s)
+        return s
+    yield open_
+    for s in sessions:
+        s.close()
+
+
+@pytest.fixture(scope="session")
+def libcosim_python() -> Path:
+    """A virtual environment with libcosimpy and nothing else (no numpy), kept in the tiltload cache."""
+    from tiltload.controller_fmu.design.cache import cache_root
+
+    venv = cache_root() / "venvs" / LIBCOSIMPY.replace("==", "-")
+    python = venv / "bin" / "python"
+    if not (venv / "ready").exists():
+        shutil.rmtree(venv, ignore_errors=True)
+        subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check", LIBCOSIMPY],
+                       check=True, timeout=600)
+        (venv / "ready").write_text(LIBCOSIMPY)
+    assert subprocess.run([str(python), "-c", "import numpy"], capture_output=True).returncode != 0
+    return python
+
+
 def pytest_sessionfinish(session, exitstatus):
     session.config._tiltload_exit = int(exitstatus)
 
@@ -39,7 +91,7 @@ def pytest_sessionfinish(session, exitstatus):
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
     """After the report: a process that loaded pythonfmu FMUs (wrapped controllers) leaves without the interpreter
-    shutdown those can crash (master/pythonfmu_guard.py); everything else exits normally."""
+    shutdown those can crash (engine/pythonfmu_guard.py); everything else exits normally."""
     from tiltload.master.engine.pythonfmu_guard import exit_now, pinned
 
     if pinned():

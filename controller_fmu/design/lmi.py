@@ -2,7 +2,7 @@
 
 Solved with cvxpy + SDPA (Clarabel as fallback, see sdp_solver.py) in Bryson-scaled coordinates (x~ = Omega_chi^1/2 x,
 u~ = Omega_u^1/2 u): there H_z = [I; 0] and D_zu = [0; I], and the problem is well
-conditioned (on the raw 24-state LMIs Clarabel fails, DESIGN §3). Regions: Re(z) > eps (3.43)
+conditioned (on the raw 24-state LMIs Clarabel fails: docs/controller.md). Regions: Re(z) > eps (3.43)
 and |z| < varpi (3.45), with the common X = T1 = T2 of Sec. 3.4.4. The returned gain is
 checked on its own (poles in both regions, H-infinity norm by a frequency sweep, H2 norm by
 a Lyapunov equation), never trusted from the solver status alone.

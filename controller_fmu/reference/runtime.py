@@ -1,9 +1,9 @@
 """The controller+estimator tick in Python: estimator, then u = sat(u_tr - K chi). The reference for the C.
 
 The controller FMU runs the same tick in C (controller_fmu/c/controller_model.c); this module is
-the design-time version the tests hold it to, tick by tick (tests/test_native_controller.py),
+the design-time version the tests hold it to, tick by tick (tests/fmus/test_controller_fmu.py),
 and a way to run the controller offline. Everything is computed at build time and passed in as a
-bundle of arrays (gains, linearization, estimator matrices). Timing (DESIGN §4): tick k uses the
+bundle of arrays (gains, linearization, estimator matrices). Timing (docs/ports.md): tick k uses the
 reference and measurements at t_k and the input applied over the previous tick, u_{k-1}. With a delay-aware
 design for d ticks (loop_delay), the measurements at tick k are of the interval the command of k-1-d drove.
 """

@@ -6,7 +6,7 @@ doStep(t_k) outputs hold the value at t_k (timing "sample": sensors, controller,
 one tick late; for a source whose outputs are at t_k + h (timing "continuous": the plant) it is on
 time, since the value at t_k is what the previous step produced. So the Jacobi master is the
 ordered one with a delay of one tick on every connection out of a sample-timed instance, which is
-how tiltload's master reproduces libcosim and Ecos on the same package (tests/test_ssp.py).
+how tiltload's master reproduces libcosim and Ecos on the same package (tests/engine/test_ssp.py).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 /* The scenario FMU's hooks: the reference of the chosen trajectory and the three gusts, sampled
-   at t_k in doStep(t_k, h) and held over the step (DESIGN §4). The trajectories and the gust are
+   at t_k in doStep(t_k, h) and held over the step (docs/ports.md, Timing). The trajectories and the gust are
    CasADi-generated (tl_scenario_gen.c); durations and starts come from scenario_table.h. */
 #include <math.h>
 #include <stdio.h>

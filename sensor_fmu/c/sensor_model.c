@@ -1,6 +1,6 @@
 /* The sensor FMU's hooks: the measurement model pi(x) (4.22, or (A.3) for the UAV alone;
    CasADi-generated) and q sampled on each group's period with counter-based noise (tl_noise.h). A sample taken in doStep(t_k) uses
-   the state set before the call and is held until the group's next sample (DESIGN §4). */
+   the state set before the call and is held until the group's next sample (docs/ports.md, Timing). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>

@@ -2,7 +2,7 @@
 
 resources/<unique>_lib/ holds the user's module and wrap.json (the ports the controller asked for,
 with their contract types, units and start values, its parameters and its period). Values live in
-dictionaries, never as attributes, so no port name can shadow the slave's own fields (DESIGN §6).
+dictionaries, never as attributes, so no port name can shadow the slave's own fields (docs/ports.md, "Your own controller in Python").
 """
 
 import importlib

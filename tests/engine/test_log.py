@@ -1,8 +1,7 @@
-"""The MCAP log: fixed-layout protobuf that any protobuf reader decodes, old JSON logs, --no-log, --log-every, layout."""
+"""MCAP logs: every logged value is what the FMU output, NaN survives, old logs read, --no-log and --log-every."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -10,7 +9,7 @@ import numpy as np
 import pytest
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
-from tiltload.master.app import foxglove_layout
+from support import ROOT
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
 from tiltload.master.app.plot import plot_run
@@ -20,13 +19,7 @@ from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.log_encoding import FixedMessage
 from tiltload.master.engine.mcap_log import McapLogger
 
-ROOT = Path(__file__).resolve().parents[1]
-OLD_LOG = ROOT / "tests" / "data" / "json_log_v0.mcap"  # written by tiltload before the protobuf log (JSON channels)
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
+OLD_LOG = ROOT / "tests" / "support" / "data" / "json_log_v0.mcap"  # written by tiltload before the protobuf log (JSON channels)
 
 
 def protobuf_messages(path: Path, topic: str) -> list:
@@ -89,31 +82,3 @@ def test_no_log_runs_metrics_only_and_log_every_thins_the_log(fmus, tmp_path, ca
     data = mcap_log.read(next((tmp_path / "b").glob("*.mcap")))
     assert len(data["/plant"]) == 21 and len(data["/scene"]) == 6  # steps 0, 5, ... 100 of 101; the scene every 20th
     assert [round(m["t"], 9) for m in data["/plant"][:3]] == [0.0, 0.06, 0.12]
-
-
-def test_the_shipped_foxglove_layout_is_current_and_plots_paths_the_log_has(fmus, tmp_path):
-    assert (ROOT / "docs" / "foxglove_layout.json").read_text() == foxglove_layout.layout_json()
-    layout = json.loads(foxglove_layout.layout_json())
-    values = []
-
-    def walk(node):
-        if isinstance(node, dict):
-            if "value" in node and isinstance(node["value"], str):
-                values.append(node["value"])
-            for v in node.values():
-                walk(v)
-        elif isinstance(node, list):
-            for v in node:
-                walk(v)
-    walk(layout)
-    assert len(values) == sum(len(s) for s in foxglove_layout.PATHS.values())
-    log = tmp_path / "run.mcap"
-    ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, derived=scene_channels("plant"))])
-    ex.instantiate()
-    ex.run(0.12)
-    ex.close()
-    data = mcap_log.read(log)
-    for path in values:
-        topic, field = path.split(".", 1)
-        assert field in data[topic][-1], path
-    assert "/scene" in json.dumps(layout) and data["/scene"]

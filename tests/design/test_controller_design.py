@@ -1,4 +1,4 @@
-"""Controller design (thesis ch. 3): DLQR against its mathematical guarantees and on the nonlinear plant."""
+"""Controller design (ch. 3): DLQR optimality, the LMI designs' guarantees on the returned gain, named failures."""
 
 from __future__ import annotations
 

@@ -1,21 +1,14 @@
-"""Regression runs: `tiltload compare` and the committed baselines (a CI-sized subset; the full set: `tiltload reproduce --check`)."""
+"""Reproduction and regression: the committed baselines hold; compare catches differences and refuses bad input."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
+from support import ROOT
 from tiltload.master.app.cli import main
 from tiltload.master.app.regression.reproduce import run_case, tables
 from tiltload.master.app.regression.thesis_values import METRICS
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return next(iter(pipeline_fmus.values())).parent
 
 
 @pytest.mark.parametrize("case", [("fsi", 1, "mixed"), ("lkf", 2, "dlqr")])

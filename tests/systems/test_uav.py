@@ -1,14 +1,14 @@
-"""The UAV alone (Appendix A): its trim against (A.4), its native plant FMU's physics against an independent
-reimplementation (tests/reference_physics.py), and the closed loop with the ZSE and the DLQR of Sec. A.3-A.4."""
+"""The UAV alone (Appendix A): trim (A.4), physics invariants, the loop with the ZSE."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-import reference_physics as ref
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
-from fmu_helpers import session
+from support import ROOT
+from support import reference_physics as ref
+from support.fmu_session import session
 from tiltload.master.app.cli import main
 from tiltload.master.engine import mcap_log
 from tiltload.plant_fmu.trim import hover_trim
@@ -16,19 +16,22 @@ from tiltload.plant_fmu.trim import hover_trim
 STATES = ["x", "y", "z", "phi", "theta", "psi", "alpha_R", "alpha_L"]
 STATES += [f"{s}_dot" for s in STATES]
 TUMBLE = dict(zip(STATES, [0.1, -0.2, 0.3, 0.3, -0.2, 0.4, 0.2, -0.15, 0.2, -0.1, 0.3, 0.4, -0.3, 0.5, 0.35, -0.25]))
+
+
+
+
 # (A.4), as printed: phi, theta, alpha_R, alpha_L (rad), f_R, f_L (N)
 A4 = {"phi": -0.00015712, "theta": -0.02887388, "psi": 0.0, "alpha_R": 0.02899790, "alpha_L": 0.02853108}
+
+
 A4_U = {"f_R": 9.74110841, "f_L": 9.77602843, "tau_R": 0.0, "tau_L": 0.0}
 
 
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    from pathlib import Path
-
+def uav_fmus():
     from tiltload.master.app.fmus import build_all
 
-    root = Path(__file__).resolve().parents[1] / "fmus"
-    return {r.path.stem: r.path for r in build_all(root, progress=lambda *_: None, vehicles=("uav",))}
+    return {r.path.stem: r.path for r in build_all(ROOT / "fmus", progress=lambda *_: None, vehicles=("uav",))}
 
 
 def test_the_trim_is_a4_to_every_printed_digit():
@@ -41,8 +44,8 @@ def test_the_trim_is_a4_to_every_printed_digit():
     assert trim.residual < 1e-12 and np.all(trim.x[8:] == 0.0)
 
 
-def test_the_fmu_validates_and_starts_at_that_trim(fmus):
-    plant = fmus["TiltrotorUAV"]
+def test_the_fmu_validates_and_starts_at_that_trim(uav_fmus):
+    plant = uav_fmus["TiltrotorUAV"]
     assert validate_fmu(str(plant)) == []
     md = read_model_description(str(plant))
     start = {v.name: float(v.start) for v in md.modelVariables if v.start is not None and v.type == "Real"}
@@ -64,17 +67,17 @@ def _run(plant, params, stop, record, dt=0.012, inputs=None):
         return s.run(stop, dt, record=record)
 
 
-def test_energy_is_conserved_with_no_inputs(fmus):
-    rows = _run(fmus["TiltrotorUAV"], {}, 2.0, STATES + ["E_total"])
+def test_energy_is_conserved_with_no_inputs(uav_fmus):
+    rows = _run(uav_fmus["TiltrotorUAV"], {}, 2.0, STATES + ["E_total"])
     e_ref = np.array([ref.energy(r[:16]) for r in rows])
     np.testing.assert_allclose(rows[:, 16], e_ref, rtol=1e-12, atol=1e-12)  # the FMU's energy = the reimplementation's
     assert np.max(np.abs(e_ref - e_ref[0])) / np.max(np.abs(e_ref)) < 1e-7
     assert np.ptp(rows[:, 5]) > 0.1  # it really tumbled
 
 
-def test_momenta_are_conserved_without_gravity(fmus):
+def test_momenta_are_conserved_without_gravity(uav_fmus):
     names = STATES + ["p_x", "p_y", "p_z", "L_x", "L_y", "L_z"]
-    rows = _run(fmus["TiltrotorUAV"], {"g": 0.0}, 2.0, names)
+    rows = _run(uav_fmus["TiltrotorUAV"], {"g": 0.0}, 2.0, names)
     p = np.array([ref.linear_momentum(r[:16]) for r in rows])
     L = np.array([ref.angular_momentum(r[:16]) for r in rows])
     np.testing.assert_allclose(rows[:, 16:19], p, atol=1e-12)
@@ -83,13 +86,13 @@ def test_momenta_are_conserved_without_gravity(fmus):
     assert np.linalg.norm(p[0]) > 0.1 and np.linalg.norm(L[0]) > 0.01
 
 
-def test_momentum_rate_equals_thrusts_weights_and_the_disturbance(fmus):
+def test_momentum_rate_equals_thrusts_weights_and_the_disturbance(uav_fmus):
     """d p/dt = thrusts + weights + d, with d on the geometric centre (A.1): integrated by Simpson on a 0.5 ms grid."""
     from scipy.integrate import simpson
 
     u = dict(f_R=9.0, f_L=11.5, tau_R=0.01, tau_L=-0.02, d_x=0.3, d_y=-0.2, d_z=0.1)
     dt = 0.0005
-    rows = _run(fmus["TiltrotorUAV"], {"integrator_step": dt}, 0.3, STATES, dt=dt, inputs=u)
+    rows = _run(uav_fmus["TiltrotorUAV"], {"integrator_step": dt}, 0.3, STATES, dt=dt, inputs=u)
     p = np.array([ref.linear_momentum(r) for r in rows])
     F = np.array([ref.external_force(r, u["f_R"], u["f_L"], [u["d_x"], u["d_y"], u["d_z"]]) for r in rows])
     impulse = simpson(F, dx=dt, axis=0)
@@ -109,10 +112,10 @@ def _containment(log) -> tuple[int, int]:
     return ticks, outside
 
 
-def test_the_loop_tracks_appendix_a_with_the_zse_which_contains_the_truth(fmus, tmp_path, capsys):
+def test_the_loop_tracks_appendix_a_with_the_zse_which_contains_the_truth(uav_fmus, tmp_path, capsys):
     """80 s of the circle of Sec. A.4 with gusts and sensor noise: near-zero steady error, the truth inside the
     zonotope's interval hull at every tick of the nonlinear loop."""
-    code = main(["run", "--vehicle", "uav", "--scenario", "zse", "--fmus", str(fmus["TiltrotorUAV"].parent),
+    code = main(["run", "--vehicle", "uav", "--scenario", "zse", "--fmus", str(uav_fmus["TiltrotorUAV"].parent),
                  "--out", str(tmp_path), "--quiet"])
     assert code == 0, capsys.readouterr().err
     log = tmp_path / "uav_zse_traj3_dlqr_seed1.mcap"

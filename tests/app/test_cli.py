@@ -1,4 +1,4 @@
-"""The `tiltload` command as a user meets it: the main job and bad input."""
+"""The `tiltload` command: a run's report, one-line errors for bad options, nothing left behind."""
 
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ def test_a_run_leaves_no_temporary_folder(pipeline_fmus, tmp_path):
     temp = tmp_path / "tmp"
     temp.mkdir()
     fmus = next(iter(pipeline_fmus.values())).parent
-    proc = subprocess.run([sys.executable, "-c", "from tiltload.master.cli import entry; entry()", "run", "--stop-time", "0.6",
+    proc = subprocess.run([sys.executable, "-c", "from tiltload.master.app.cli import entry; entry()", "run", "--stop-time", "0.6",
                            "--fmus", str(fmus), "--out", str(tmp_path / "out"), "--quiet", "--no-plots"],
                           capture_output=True, text=True, env={**os.environ, "TMPDIR": str(temp)})
     assert proc.returncode == 0, proc.stderr

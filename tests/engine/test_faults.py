@@ -1,14 +1,13 @@
-"""Manipulators (faults and timing faults): the exact effect of each on the logged signal, the GPS dropout
-seen by the ZSE, actuator faults on the plant's inputs, libcosim scenario files, bad schedules."""
+"""Manipulators: each fault changes the signal exactly and only while active; schedules from files, libcosim scenarios."""
 
 from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from support import ROOT, T
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
 from tiltload.master.engine import mcap_log
@@ -16,14 +15,7 @@ from tiltload.master.engine.manipulators import FaultError, load, parse
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.system import Instance, System
 
-ROOT = Path(__file__).resolve().parents[1]
-T = 0.012
 W = math.pi / 20  # trajectory 1: x_ref = 2 cos(W t)
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
 
 
 def scenario_run(fmus, tmp_path, fault: dict, stop=1.2) -> tuple[np.ndarray, np.ndarray, list]:

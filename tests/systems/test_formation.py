@@ -1,11 +1,4 @@
-"""The formation of three tilt-rotor UAVs (Appendix B).
-
-Dual quaternions against dqrobotics and the algebra's identities; the task-space Jacobian against
-finite differences and the thesis's own (B.4); the two formation laws' closed-loop properties
-(convergence; backstepping rejects a constant acceleration disturbance, TSID keeps the offset its
-linear error dynamics predict); the D-stable design's guarantees checked on every vertex; the two
-native FMUs against their Python references; seven FMU instances in one deterministic run.
-"""
+"""The formation of three UAVs (Appendix B)."""
 
 from __future__ import annotations
 
@@ -14,7 +7,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from fmu_helpers import session
+from support.fmu_session import session
 from tiltload.formation import dualquat as dq
 from tiltload.formation import kinematics as kin
 

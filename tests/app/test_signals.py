@@ -1,5 +1,4 @@
-"""Signals mid-run: SIGINT and SIGTERM finalize the log and end with one line and 130 / 143; after SIGKILL the
-torn log still reads, plots and compares, up to at most 0.2 s of simulated time before the kill."""
+"""Signals: SIGINT and SIGTERM finalize the log; after SIGKILL the torn log reads, plots and compares."""
 
 from __future__ import annotations
 
@@ -12,16 +11,10 @@ import time
 from pathlib import Path
 
 import pytest
+from support import HOSTS
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import loop_metrics
 from tiltload.master.engine import mcap_log
-
-HOSTS = Path(__file__).parent / "hosts"
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
 
 
 def start(fmus: Path, folder: Path) -> tuple[subprocess.Popen, Path, Path]:

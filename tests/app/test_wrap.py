@@ -1,4 +1,4 @@
-"""`tiltload wrap`: a user's Python controller class becomes a contract-conforming controller FMU."""
+"""`tiltload wrap`: a user's Python controller as a contract-conforming FMU."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from tiltload.master.app.cli import main
 from tiltload.master.engine import mcap_log
 from tiltload.master.engine.pythonfmu_guard import pin
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "docs" / "examples" / "hover_lqr.py"
+EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "hover_lqr.py"
 
 
 @pytest.fixture(scope="module")

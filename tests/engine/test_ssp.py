@@ -1,10 +1,4 @@
-"""SSP packages (issue: the loop in libcosim and Ecos, with delay-aware designs).
-
-One exported package runs in three masters: ours, libcosim (its own SSP loader) and Ecos (ecospy's
-SSP loader). Both are Jacobi masters; ours reproduces them by carrying one tick of delay on every
-connection out of a sample-timed FMU (master/jacobi.py). The package validates against the SSP 1.0
-schemas, and the plain designs, which the thesis made for no delay, are shown to diverge there.
-"""
+"""SSP 1.0 packages: schema-valid, run unmodified by libcosim, Ecos and tiltload, which agree."""
 
 from __future__ import annotations
 
@@ -26,7 +20,10 @@ from tiltload.scenario_fmu.trajectories import circle
 
 UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
 
+
 TICK = 0.012
+
+
 TICKS = 3333  # 40 s of trajectory 1, a whole number of ticks for every master
 
 

@@ -1,6 +1,4 @@
-"""Campaigns on Dask: specs refused with the field's path, reproducible sampling, FMU reuse by fmi2Reset,
-identical rows on a local cluster and on a separate scheduler with two workers, resume after a kill,
-failed runs kept as rows, and a report whose rerun commands reproduce their runs."""
+"""Campaigns on Dask: specs, expansion, resumable results, a separate scheduler, reports."""
 
 from __future__ import annotations
 
@@ -34,11 +32,6 @@ name = "load_mass"
 targets = ["plant.m_L"]
 values = [0.05, 0.2, {bad}]
 """
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
 
 
 def write_spec(folder: Path, bad: float = 0.3, text: str = SPEC) -> Path:
@@ -178,7 +171,7 @@ def _same_with_nan(a, b) -> bool:
 def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_results, tmp_path):
     spec = write_spec(tmp_path, bad=-1.0)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-c", "from tiltload.master.cli import entry; entry()", "campaign", str(spec), "--out", str(out),
+    cmd = [sys.executable, "-c", "from tiltload.master.app.cli import entry; entry()", "campaign", str(spec), "--out", str(out),
            "--workers", "1", "--fmus", str(fmus)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 120

@@ -1,4 +1,4 @@
-"""Foreign FMUs run in their own process: a crash, exit() or hang ends the run with one line, the log kept."""
+"""FMUs in worker processes of their own: a crash, exit() or hang ends the run with one line; results as in process."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from fmu_helpers import wrap_misbehaving
+from support.fmu_session import wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
@@ -24,11 +24,6 @@ MISBEHAVIOURS = {
     "hang": ("time.sleep(3600)", "doStep at t=0.504 s did not return within 1 s (watchdog"),
     "nan": ("return float('nan'), 0.0, 0.0, 0.0", "doStep at t=0.504 s failed (discard)"),
 }
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The symbolic model against the thesis's own formulas and against a second derivation."""
+"""The plant's model against the thesis's formulas and the design cross-checks."""
 
 from __future__ import annotations
 

@@ -1,12 +1,4 @@
-"""Generated bad input, the way a demanding user meets the tool: every case must end with a non-zero
-exit and exactly one line on stderr that names the problem; never a traceback, never a bare
-exception class name, never exit 0.
-
-Over 300 cases: CLI arguments of every command, system descriptions (valid ones mutated field by
-field, and broken files), FMU files (not a zip, broken XML, wrong FMI kind, misbehaving controllers
-in their own process: segfault, abort, exit(), hang, NaN), FMU parameters, fault schedules,
-campaign specs and `compare` inputs.
-"""
+"""Generated bad input: every one gets one line and a non-zero exit, never a traceback."""
 
 from __future__ import annotations
 
@@ -17,10 +9,12 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from fmu_helpers import wrap_misbehaving
+from support.fmu_session import wrap_misbehaving
 from tiltload.master.app.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
+
+
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
 
 
@@ -251,11 +245,6 @@ def _files(folder: Path, fmus: Path, misbehaving: dict[str, Path]) -> list[tuple
             source.write_text("class C(:\n")
         cases.append((f"wrap {label}", ["wrap", str(source), "--out", str(folder / "w.fmu")]))
     return cases
-
-
-@pytest.fixture(scope="module")
-def fmus(pipeline_fmus):
-    return pipeline_fmus["TiltloadPlant"].parent
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,13 @@
-"""Estimators (thesis ch. 4): measurement model, zonotope guarantees, ZSE containment, LKF consistency."""
+"""The estimators (ch. 4): zonotope containment, the ZSE against the textbook algorithm, the LKF's consistency,
+and the C estimators against the numpy reference."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from reference_physics import zse_measurement
 from scipy.linalg import solve_discrete_are
 from scipy.stats import chi2
+from support.reference_physics import zse_measurement
 from tiltload.controller_fmu.design.estimator_setup import augmented_model, lkf_setup, zse_setup
 from tiltload.controller_fmu.reference import native_estimators as c_estimators
 from tiltload.controller_fmu.reference.lkf import KalmanFilter
