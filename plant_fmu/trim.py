@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from . import interface as I
 from . import parameters as P
 from .model import model
 from .vehicles import VEHICLES

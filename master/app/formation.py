@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ...formation.kinematics import AGENTS  # noqa: E402
-from ..engine import mcap_log  # noqa: E402
+from ..engine import log_reader  # noqa: E402
 from ..engine.run import RunResult, run_system  # noqa: E402
 from .formation_system import DISTURBANCE_START, DURATION, formation_system  # noqa: E402
 from .scene import scene_channels  # noqa: E402
@@ -46,7 +46,7 @@ def run(fmus: Path, out: Path, controller: str, disturbances: bool, stop: float 
                         channels=scene_channels(tuple(f"plant_{a}" for a in AGENTS)))
     t, error = np.empty(0), np.empty(0)
     if log.is_file():
-        msgs = mcap_log.read(log, topics=["/formation"]).get("/formation", [])[1:]  # the first is before any step
+        msgs = log_reader.read(log, topics=["/formation"]).get("/formation", [])[1:]  # the first is before any step
         t = np.array([m["t"] for m in msgs])
         error = np.array([m["error_norm"] for m in msgs])
     return FormationRun(controller, log, result, t, error)
@@ -73,7 +73,7 @@ def plot(runs: list[FormationRun], out: Path, disturbances: bool) -> list[Path]:
     fig.savefig(files[-1], dpi=110)
     plt.close(fig)
     for r in runs:
-        data = mcap_log.read(r.log, topics=[f"/plant_{a}" for a in AGENTS])
+        data = log_reader.read(r.log, topics=[f"/plant_{a}" for a in AGENTS])
         fig = plt.figure(figsize=(11, 4.8))
         ax3 = fig.add_subplot(1, 2, 1, projection="3d")
         top = fig.add_subplot(1, 2, 2)

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..engine import mcap_log  # noqa: E402
+from ..engine import log_reader  # noqa: E402
 
 
 def _series(msgs: list[dict], *names: str) -> np.ndarray:
@@ -34,7 +34,7 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     log = Path(log)
     out = log.parent if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = mcap_log.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
+    data = log_reader.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
     if "/plant" not in data:
         raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
     plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])

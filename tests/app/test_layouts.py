@@ -8,7 +8,7 @@ from support import ROOT
 from tiltload.master.app import foxglove_layout
 from tiltload.master.app.loop import default_system
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.mcap_log import McapLogger
 
@@ -34,7 +34,7 @@ def test_the_shipped_foxglove_layout_is_current_and_plots_paths_the_log_has(fmus
     ex.instantiate()
     ex.run(0.12)
     ex.close()
-    data = mcap_log.read(log)
+    data = log_reader.read(log)
     for path in values:
         topic, field = path.split(".", 1)
         assert field in data[topic][-1], path

@@ -12,7 +12,7 @@ from support.third_party_controller import build as build_third_party
 from support.third_party_controller import user_controller
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.observers import Observer
 from tiltload.master.engine.run import run_system
 from tiltload.plant_fmu.interface import STATE_NAMES
@@ -35,7 +35,7 @@ def test_thesis_loop_trajectory_1_is_stable_and_tracks(fmus, tmp_path, scenario,
     """40 s of trajectory 1 through the four FMUs: stable, gusts rejected, ISE of the order of the thesis's tables."""
     res = short_run(fmus, tmp_path, f"{scenario}_{controller}", stop=40.0, scenario=scenario, controller=controller)
     assert res.error is None and res.ticks == 3333
-    plant = mcap_log.read(res.log, topics=["/plant", "/scenario"])
+    plant = log_reader.read(res.log, topics=["/plant", "/scenario"])
     last = plant["/plant"][-400:]  # the last 4.8 s, after every gust has developed
     ref = {m["t"]: m for m in plant["/scenario"]}
     err = [max(abs(m[a] - ref[round(m["t"] - 0.012, 9)][f"{a}_ref"]) for a in "xyz") for m in last
@@ -48,7 +48,7 @@ def test_thesis_loop_trajectory_1_is_stable_and_tracks(fmus, tmp_path, scenario,
 
 def test_zse_bounds_show_the_gps_and_camera_teeth(fmus, tmp_path):
     res = short_run(fmus, tmp_path, "teeth", stop=3.0, scenario="zse")
-    ctrl = mcap_log.read(res.log, topics=["/controller"])["/controller"][150:]
+    ctrl = log_reader.read(res.log, topics=["/controller"])["/controller"][150:]
     wx = np.array([m["est_x_hi"] - m["est_x_lo"] for m in ctrl])
     k = np.round(np.array([m["t"] for m in ctrl]) / 0.012).astype(int)
     drops = np.diff(wx) < 0
@@ -91,7 +91,7 @@ def test_third_party_controller_runs_through_the_cli(fmus, third_party, tmp_path
                  "--stop-time", "3", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--no-gusts"])
     out = capsys.readouterr().out
     assert code == 0, out
-    plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
+    plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert max(abs(m["z"]) for m in plant[-50:]) < 0.05  # it hovers the load at the origin
 
 
@@ -110,9 +110,9 @@ def test_nan_mid_run_stops_with_one_line_and_a_readable_log(fmus, third_party, t
     # the wrapped controller refuses to output it, naming the class and the time
     assert code == 1 and "controller: doStep at t=1.008 s" in err and "ThirdPartyLQR.step returned a non-finite command" in err
     assert "Traceback" not in err
-    plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
+    plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert 1.0 <= plant[-1]["t"] <= 1.008 + 1e-9  # everything up to the failed step (NaN from t = 1.008 s) is there
-    assert "error" in mcap_log.read_metadata(next(tmp_path.glob("*.mcap")))
+    assert "error" in log_reader.read_metadata(next(tmp_path.glob("*.mcap")))
 
 
 class Interrupt(Observer):
@@ -126,16 +126,16 @@ def test_ctrl_c_finalizes_the_log(fmus, tmp_path):
     log = tmp_path / "cut.mcap"
     res = run_system(default_system(fmus, "fsi", 1), 5.0, log, observers_extra=[Interrupt()], progress=False)
     assert res.error == "interrupted by SIGINT at t = 0.600 s" and res.signal == 2
-    msgs = mcap_log.read(log, topics=["/plant"])["/plant"]
+    msgs = log_reader.read(log, topics=["/plant"])["/plant"]
     assert len(msgs) == 51 and abs(msgs[-1]["t"] - 0.6) < 1e-9
-    assert mcap_log.read_metadata(log)["error"]["message"] == res.error
+    assert log_reader.read_metadata(log)["error"]["message"] == res.error
 
 
 @pytest.mark.parametrize("delay, lag", [(False, 1), (True, 2)])
 def test_delay_option_shifts_the_actuation_by_one_tick(fmus, tmp_path, delay, lag):
     """The plant's applied input over [t_k, t_k+1) is u_k, or u_(k-1) with --delay."""
     res = short_run(fmus, tmp_path, f"delay{delay}", stop=0.6, scenario="fsi", delay=delay)
-    data = mcap_log.read(res.log, topics=["/plant", "/controller"])
+    data = log_reader.read(res.log, topics=["/plant", "/controller"])
     u = {round(m["t"] / 0.012): m["f_R"] for m in data["/controller"][1:]}
     applied = {round(m["t"] / 0.012): m["f_R_applied"] for m in data["/plant"][1:]}
     pairs = [(applied[k], u[k - lag]) for k in applied if k - lag in u]
@@ -176,5 +176,5 @@ def test_a_controller_runs_at_its_declared_step_size(fmus, third_party, tmp_path
         assert code == 2 and "declares stepSize 0.02 s, not a whole multiple of the 12 ms tick" in capsys.readouterr().err
         return
     assert code == 0
-    times = [m["t"] for m in mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/controller"])["/controller"]]
+    times = [m["t"] for m in log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/controller"])["/controller"]]
     assert times[:4] == pytest.approx([0.0, 0.0, 0.024, 0.048])  # t = 0 (initial outputs), then every other tick

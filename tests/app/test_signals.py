@@ -14,7 +14,7 @@ import pytest
 from support import HOSTS
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import loop_metrics
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 
 
 def start(fmus: Path, folder: Path) -> tuple[subprocess.Popen, Path, Path]:
@@ -47,10 +47,10 @@ def test_sigint_and_sigterm_finalize_the_log(fmus, tmp_path, signum, code, name,
     assert proc.returncode == code, err
     assert out.strip().startswith(f"interrupted by {name} at t = ") and "Traceback" not in err
     stopped = float(out.split("t = ")[1].split()[0])
-    assert not mcap_log.is_truncated(log) and not (tmp_path / "run.mcap.partial").exists()  # closed and moved into place
-    plant = mcap_log.read(log, topics=["/plant"])["/plant"]
+    assert not log_reader.is_truncated(log) and not (tmp_path / "run.mcap.partial").exists()  # closed and moved into place
+    plant = log_reader.read(log, topics=["/plant"])["/plant"]
     assert abs(plant[-1]["t"] - stopped) <= 0.012 + 1e-9  # everything up to the interrupted tick is there
-    assert mcap_log.read_metadata(log)["error"]["message"].startswith(f"interrupted by {name}")
+    assert log_reader.read_metadata(log)["error"]["message"].startswith(f"interrupted by {name}")
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -64,7 +64,7 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
     killed_at = struct.unpack("d", clock.read_bytes()[:8])[0]
     assert earlier.read_bytes() == b"an earlier log"
     torn = tmp_path / "run.mcap.partial"
-    data, truncated = mcap_log.read_log(torn)
+    data, truncated = log_reader.read_log(torn)
     assert truncated and killed_at - data["/plant"][-1]["t"] <= 0.2, (killed_at, data["/plant"][-1]["t"])
     assert main(["plot", str(torn), "--out", str(tmp_path / "plots")]) == 0
     assert "is truncated" in capsys.readouterr().out and len(list((tmp_path / "plots").glob("*.png"))) == 7
@@ -81,7 +81,7 @@ def test_metrics_recomputed_from_a_log_equal_the_runs_own(fmus, tmp_path):
 
     res = run_system(default_system(fmus, "zse", 1, "mixed"), 3.0, tmp_path / "m.mcap", loop_metrics(),
                      progress=False)
-    again, last = metrics_from_messages(mcap_log.read(res.log))
+    again, last = metrics_from_messages(log_reader.read(res.log))
     assert last == pytest.approx(2.988)
     for key, value in res.metrics.items():
         assert again[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key

@@ -8,7 +8,7 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from tiltload.master.app.cli import main
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.pythonfmu_guard import pin
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "hover_lqr.py"
@@ -42,7 +42,7 @@ def test_the_wrapped_controller_holds_hover_through_tiltload_run(wrapped, pipeli
     code = main(["run", "--controller", str(wrapped), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "3",
                  "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--no-gusts"])
     assert code == 0, capsys.readouterr().err
-    plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
+    plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert max(abs(m[a]) for m in plant[-50:] for a in "xyz") < 0.01
 
 

@@ -10,7 +10,7 @@ import pytest
 from support import ROOT, T
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.manipulators import FaultError, load, parse
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.system import Instance, System
@@ -24,7 +24,7 @@ def scenario_run(fmus, tmp_path, fault: dict, stop=1.2) -> tuple[np.ndarray, np.
     system.faults = parse([{"target": "scenario.x_ref", "start": 0.36, "end": 0.72, **fault}])
     res = run_system(system, stop, tmp_path / "s.mcap", progress=False)
     assert res.error is None
-    data = mcap_log.read(res.log)
+    data = log_reader.read(res.log)
     msgs = data["/scenario"][1:]  # after the t = 0 message: one per step
     return np.array([m["t"] for m in msgs]), np.array([m["x_ref"] for m in msgs]), data["/faults"]
 
@@ -71,7 +71,7 @@ def test_dropout_holds_the_last_sample_and_keeps_the_flag_down(fmus, tmp_path):
     system.faults = parse([{"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new",
                             "start": 0.5, "end": 1.0}])
     res = run_system(system, 1.5, tmp_path / "d.mcap", progress=False)
-    msgs = mcap_log.read(res.log)["/sensors"][1:]
+    msgs = log_reader.read(res.log)["/sensors"][1:]
     t = np.array([m["t"] for m in msgs])
     flag = np.array([m["gps_new"] for m in msgs])
     x = np.array([m["meas_x_B"] for m in msgs])
@@ -88,7 +88,7 @@ def test_gps_lost_for_5_s_widens_the_zse_bounds_and_keeps_the_truth_inside(fmus,
     system.faults = load(ROOT / "docs" / "faults" / "gps_dropout.json")
     res = run_system(system, 30.0, tmp_path / "g.mcap", progress=False)
     assert res.error is None
-    data = mcap_log.read(res.log, topics=["/plant", "/controller"])
+    data = log_reader.read(res.log, topics=["/plant", "/controller"])
     ctrl = data["/controller"]
     t = np.array([m["t"] for m in ctrl])
     width = np.array([m["est_x_hi"] - m["est_x_lo"] for m in ctrl])
@@ -111,7 +111,7 @@ def test_thrust_loss_scales_what_the_plant_applies(fmus, tmp_path):
     system = default_system(fmus, "fsi", 1, "mixed")
     system.faults = parse([{"action": "scale", "target": "plant.f_R", "value": 0.7, "start": 1.2}])
     res = run_system(system, 2.4, tmp_path / "f.mcap", progress=False)
-    data = mcap_log.read(res.log, topics=["/plant", "/controller"])
+    data = log_reader.read(res.log, topics=["/plant", "/controller"])
     commanded = {round(m["t"], 6): m["f_R"] for m in data["/controller"]}
     for m in data["/plant"][1:]:
         t_k = round(m["t"] - T, 6)  # the plant's message at t_k + T holds what it applied over the tick from t_k
@@ -127,7 +127,7 @@ def test_a_libcosim_scenario_file_runs_unchanged(fmus, tmp_path, capsys):
                  "--fmus", str(fmus), "--out", str(tmp_path), "--quiet"])
     assert code == 0, capsys.readouterr().err
     log = next(tmp_path.glob("*.mcap"))
-    d_x = {round(m["t"], 6): m["d_x"] for m in mcap_log.read(log, topics=["/scenario"])["/scenario"]}
+    d_x = {round(m["t"], 6): m["d_x"] for m in log_reader.read(log, topics=["/scenario"])["/scenario"]}
     gust = lambda t: 0.1 * (1 - math.exp(-(t - 10.0) / 0.5))  # noqa: E731  (the x gust: 0.1 N from t = 10 s, 0.5 s lag)
     assert d_x[15.0] == 0.15 and d_x[13.992] == pytest.approx(gust(13.992), abs=1e-12)
     assert d_x[16.008] == pytest.approx(gust(16.008), abs=1e-12)  # the override ended: the gust's own value again
@@ -173,7 +173,7 @@ def test_a_servo_stuck_at_its_angle_by_a_fault_on_an_unconnected_input(fmus, tmp
                             "start": 1.2, "end": 2.4}])
     res = run_system(system, 3.6, tmp_path / "s.mcap", progress=False)
     assert res.error is None
-    plant = mcap_log.read(res.log, topics=["/plant"])["/plant"]
+    plant = log_reader.read(res.log, topics=["/plant"])["/plant"]
     t = np.array([m["t"] for m in plant])
     alpha = np.array([m["alpha_R"] for m in plant])
     rate = np.array([m["alpha_R_dot"] for m in plant])

@@ -13,7 +13,7 @@ from support.fmu_session import wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation.process import IsolatedFmu
 
@@ -48,7 +48,7 @@ def test_a_misbehaving_controller_ends_the_run_with_one_line_and_its_log(mode, m
     assert code == 1
     assert len(err) == 1 and err[0].startswith("tiltload: error: controller: ") and MISBEHAVIOURS[mode][1] in err[0], err
     assert "Traceback" not in err[0] and "the log is readable up to t = 0.504 s" in err[0]
-    plant = mcap_log.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
+    plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert plant[-1]["t"] == pytest.approx(0.504)  # everything up to the failing step is on disk
     assert not workers()
 

@@ -14,7 +14,7 @@ from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
 from tiltload.master.app.plot import plot_run
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.log_encoding import FixedMessage
 from tiltload.master.engine.mcap_log import McapLogger
@@ -46,7 +46,7 @@ def test_every_logged_value_is_what_the_fmu_output(fmus, tmp_path):
     final = {name: {v.name: inst.values[t][i] for t in ("Real", "Integer", "Boolean") for i, v in enumerate(inst.outputs[t])}
              for name, inst in ex.instances.items()}
     ex.close()
-    ours = mcap_log.read(log)
+    ours = log_reader.read(log)
     for name, values in final.items():
         pb = protobuf_messages(log, f"/{name}")
         assert len(pb) == len(ours[f"/{name}"]) == 101  # t = 0, then 100 steps
@@ -64,13 +64,13 @@ def test_non_finite_values_survive_the_encoding():
 
 
 def test_a_log_from_before_the_protobuf_log_still_reads_and_plots(tmp_path):
-    data = mcap_log.read(OLD_LOG)
+    data = log_reader.read(OLD_LOG)
     assert {k: len(v) for k, v in data.items()} == {"/scenario": 101, "/sensors": 101, "/controller": 101, "/plant": 101,
                                                     "/scene": 26}
     assert data["/plant"][0]["x"] == pytest.approx(1.7)
     files = plot_run(OLD_LOG, tmp_path)
     assert len(files) == 7 and all(f.stat().st_size > 10_000 for f in files)
-    assert "metrics" in mcap_log.read_metadata(OLD_LOG)
+    assert "metrics" in log_reader.read_metadata(OLD_LOG)
 
 
 def test_no_log_runs_metrics_only_and_log_every_thins_the_log(fmus, tmp_path, capsys):
@@ -79,6 +79,6 @@ def test_no_log_runs_metrics_only_and_log_every_thins_the_log(fmus, tmp_path, ca
     out = capsys.readouterr().out
     assert "log: none (--no-log)" in out and "ISE(x)" in out and not list((tmp_path / "a").glob("*.mcap"))
     assert main(["run", *args, "--no-plots", "--log-every", "5", "--out", str(tmp_path / "b")]) == 0
-    data = mcap_log.read(next((tmp_path / "b").glob("*.mcap")))
+    data = log_reader.read(next((tmp_path / "b").glob("*.mcap")))
     assert len(data["/plant"]) == 21 and len(data["/scene"]) == 6  # steps 0, 5, ... 100 of 101; the scene every 20th
     assert [round(m["t"], 9) for m in data["/plant"][:3]] == [0.0, 0.06, 0.12]

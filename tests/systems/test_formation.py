@@ -10,6 +10,7 @@ import pytest
 from support.fmu_session import session
 from tiltload.formation import dualquat as dq
 from tiltload.formation import kinematics as kin
+from tiltload.master.engine import log_reader
 
 RNG = np.random.default_rng(7)
 
@@ -243,9 +244,9 @@ def test_formation_command(formation_fmus, tmp_path, capsys):
                  "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "7 FMUs" in out and (tmp_path / "tsid.mcap").is_file() and (tmp_path / "error_norm.png").is_file()
-    from tiltload.master.engine import mcap_log
+    from tiltload.master.engine import log_reader
 
-    topics = mcap_log.read(tmp_path / "tsid.mcap", topics=["/scene/plant_sigma", "/scene/plant_tau"])
+    topics = log_reader.read(tmp_path / "tsid.mcap", topics=["/scene/plant_sigma", "/scene/plant_tau"])
     assert topics["/scene/plant_sigma"] and topics["/scene/plant_tau"]  # one 3D scene per UAV
 
 
@@ -254,13 +255,12 @@ def test_the_formation_layout_is_current_and_plots_paths_the_log_has(formation_f
 
     from tiltload.master.app import foxglove_layout
     from tiltload.master.app.formation import run
-    from tiltload.master.engine import mcap_log
 
     shipped = foxglove_layout.layout_json(formation=True)
     assert (formation_fmus.parent / "docs" / "foxglove_layout_formation.json").read_text() == shipped
     r = run(formation_fmus, tmp_path, "backstepping", False, stop=0.2, progress=False)
     text = json.dumps(json.loads(shipped))
-    data = mcap_log.read(r.log)
+    data = log_reader.read(r.log)
     for series in foxglove_layout.FORMATION_PATHS.values():
         for path, _ in series:
             topic, field = path.rsplit(".", 1)

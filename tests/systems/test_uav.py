@@ -10,7 +10,7 @@ from support import ROOT
 from support import reference_physics as ref
 from support.fmu_session import session
 from tiltload.master.app.cli import main
-from tiltload.master.engine import mcap_log
+from tiltload.master.engine import log_reader
 from tiltload.plant_fmu.trim import hover_trim
 
 STATES = ["x", "y", "z", "phi", "theta", "psi", "alpha_R", "alpha_L"]
@@ -100,7 +100,7 @@ def test_momentum_rate_equals_thrusts_weights_and_the_disturbance(uav_fmus):
 
 
 def _containment(log) -> tuple[int, int]:
-    data = mcap_log.read(log, topics=["/plant", "/controller"])
+    data = log_reader.read(log, topics=["/plant", "/controller"])
     plant = {round(m["t"], 6): m for m in data["/plant"]}
     ticks = outside = 0
     for m in data["/controller"]:
@@ -121,7 +121,7 @@ def test_the_loop_tracks_appendix_a_with_the_zse_which_contains_the_truth(uav_fm
     log = tmp_path / "uav_zse_traj3_dlqr_seed1.mcap"
     ticks, outside = _containment(log)
     assert ticks == 6667 and outside == 0
-    data = mcap_log.read(log, topics=["/plant", "/scenario"])
+    data = log_reader.read(log, topics=["/plant", "/scenario"])
     ref_at = {round(m["t"], 6): m for m in data["/scenario"]}
     late = [(m, ref_at[round(m["t"], 6)]) for m in data["/plant"] if m["t"] > 70 and round(m["t"], 6) in ref_at]
     error = np.array([[p[a] - r[f"{a}_ref"] for a in "xyz"] for p, r in late])

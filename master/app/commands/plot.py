@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...engine.mcap_log import is_truncated
+    from ...engine.log_reader import is_truncated
     from ..plot import plot_run
 
     if not args.log.is_file():

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from ...engine.errors import DescriptionError
-from ...engine.mcap_log import read_log, read_metadata
+from ...engine.log_reader import read_log, read_metadata
 
 
 def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:

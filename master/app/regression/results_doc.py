@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine import mcap_log
+from ...engine import log_reader
 from .thesis_values import thesis
 
 KEY_FIGURES = ("zse_traj1_mixed_estimation_error", "zse_traj1_mixed_tracking_error", "lkf_traj1_mixed_estimation_error",
@@ -19,14 +19,14 @@ def _estimator_figures(out: Path) -> dict[str, float]:
     stats = {}
     lkf = out / "lkf_traj1_mixed.mcap"
     if lkf.exists():
-        d = mcap_log.read(lkf, topics=["/plant", "/controller"])
+        d = log_reader.read(lkf, topics=["/plant", "/controller"])
         plant = {round(m["t"], 6): m for m in d["/plant"]}
         errs = [[c[f"est_{a}"] - plant[round(c["t"], 6)][a] for a in "xyz"] for c in d["/controller"]
                 if c["t"] > 5.0 and round(c["t"], 6) in plant]
         stats["lkf_sigma_cm"] = float(100 * np.std(np.array(errs), axis=0).mean())
     zse = out / "zse_traj1_mixed.mcap"
     if zse.exists():
-        d = mcap_log.read(zse, topics=["/plant", "/controller"])
+        d = log_reader.read(zse, topics=["/plant", "/controller"])
         plant = {round(m["t"], 6): m for m in d["/plant"]}
         inside, total = 0, 0
         for c in d["/controller"][1:]:
