@@ -75,6 +75,10 @@ class InProcessFmu(Slave):
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
         self.component = self.slave.component
 
+    def function_pointer(self, name: str) -> int:
+        """The address of one of the FMU's own functions (fmi2DoStep, fmi2SetReal, ...), for the C tick loop."""
+        return ctypes.cast(getattr(self.slave.dll, name), ctypes.c_void_p).value
+
     def call(self, what: str, fn):
         started = time.perf_counter()
         try:

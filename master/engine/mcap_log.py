@@ -68,6 +68,7 @@ class McapLogger(Observer):
         self._writer = foxglove.open_mcap(str(self.partial), allow_overwrite=True, context=self._context, writer_options=options)
         self._writer.write_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
         self._channels, self._encoders, self._steps = {}, {}, {}
+        self._outputs = {name: inst.outputs for name, inst in execution.instances.items()}
         for name, inst in execution.instances.items():
             names = {t: [v.name for v in inst.outputs[t]] for t in ("Real", "Integer", "Boolean")}
             meta = {"fmu": str(inst.path)}
@@ -106,26 +107,54 @@ class McapLogger(Observer):
             self._faults_channel.log(json.dumps({"t": t, "event": what, **describe(fault)}), log_time=int(round(t * 1e9)))
 
     def on_step(self, instance, t) -> None:
-        name = instance.name
+        v = instance.values
+        self._write(instance.name, t, v["Real"], v["Integer"], v["Boolean"])
+
+    def _write(self, name: str, t: float, reals, integers, booleans, encoded: bytes | None = None) -> None:
+        """One step of one instance: its message (encoded already, or now), and its derived channels' messages."""
         k = self._steps[name]
         self._steps[name] = k + 1
         if k % self.log_every:
             return
-        values = instance.values
         ns = int(round(t * 1e9))
         enc = self._encoders.get(name)
         if enc is not None:
-            self._channels[name].log(enc.encode(t, values["Real"], values["Integer"], values["Boolean"]), log_time=ns)
+            self._channels[name].log(encoded if encoded is not None else enc.encode(t, reals, integers, booleans), log_time=ns)
         else:  # JSON has no NaN: non-finite values are written as null
-            msg = {"t": t, **{v.name: _clean(x) for v, x in zip(instance.outputs["Real"], values["Real"].tolist())}}
-            msg.update({v.name: int(x) for v, x in zip(instance.outputs["Integer"], values["Integer"].tolist())})
-            msg.update({v.name: bool(x) for v, x in zip(instance.outputs["Boolean"], values["Boolean"].tolist())})
+            outputs = self._outputs[name]
+            msg = {"t": t, **{v.name: _clean(x) for v, x in zip(outputs["Real"], reals.tolist())}}
+            msg.update({v.name: int(x) for v, x in zip(outputs["Integer"], integers.tolist())})
+            msg.update({v.name: bool(x) for v, x in zip(outputs["Boolean"], booleans.tolist())})
             self._channels[name].log(json.dumps(msg), log_time=ns)
         for channel, names, encode, every in self._derived.get(name, ()):
             if k % every == 0:
-                text = encode({n: _clean(x) for n, x in zip(names, values["Real"].tolist())}, ns)
+                text = encode({n: _clean(x) for n, x in zip(names, reals.tolist())}, ns)
                 if text is not None:
                     channel.log(text, log_time=ns)
+
+    def on_batch(self, execution, batch) -> None:
+        """Every step of the batch in its order, fault events in their places; the fixed-layout messages of each
+        instance are encoded at once."""
+        encoded = {}
+        for name, rows in batch.rows.items():
+            enc = self._encoders.get(name)
+            if enc is not None and len(rows["Real"]) + len(rows["Integer"]) + len(rows["Boolean"]):
+                mine = batch.positions(name)
+                encoded[name] = enc.encode_rows(batch.time[mine], rows["Real"], rows["Integer"], rows["Boolean"])
+        events = batch.events
+        e = 0
+        names, instance, times, row = batch.names, batch.instance.tolist(), batch.time.tolist(), batch.row.tolist()
+        for p in range(len(instance)):
+            while e < len(events) and events[e][0] <= p:
+                self.on_fault(*events[e][1:])
+                e += 1
+            name, r = names[instance[p]], row[p]
+            rows = batch.rows[name]
+            matrix = encoded.get(name)
+            self._write(name, times[p], rows["Real"][r], rows["Integer"][r], rows["Boolean"][r],
+                        matrix[r].tobytes() if matrix is not None else None)
+        for event in events[e:]:
+            self.on_fault(*event[1:])
 
     def finish(self, execution, error) -> None:
         if self._writer is None:

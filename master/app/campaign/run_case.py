@@ -49,24 +49,27 @@ class CampaignMetrics(Metrics):
         self._hi = np.array([ctrl_names[f"est_{n}_hi"] for n in names]) if has_bounds else None
         self._state = plant.values["Real"][self._state_index]
 
-    def on_step(self, instance, t) -> None:
-        if instance is self._a:
-            if t >= self.settle:
-                e = self._x[:3] - self._r.values["Real"][self._ri[:3]]
-                self.max_error = max(self.max_error, float(np.sqrt(e @ e)))
-            u = self._a.values["Real"][self._ui]
+    def on_batch(self, execution, batch) -> None:
+        at, e, u = self._sampled(batch)
+        if len(at):
+            late = batch.time[at] >= self.settle
+            if late.any():
+                position = e[late, :3]
+                self.max_error = max(self.max_error, float(np.sqrt((position * position).sum(axis=1)).max()))
             lo, hi, tau = self.limits
             eps = 1e-9
-            if u[0] <= lo + eps or u[1] <= lo + eps or u[0] >= hi - eps or u[1] >= hi - eps or abs(u[2]) >= tau - eps \
-                    or abs(u[3]) >= tau - eps:
-                self.saturated += 1
+            self.saturated += int(np.count_nonzero((u[:, 0] <= lo + eps) | (u[:, 1] <= lo + eps) | (u[:, 0] >= hi - eps)
+                                                   | (u[:, 1] >= hi - eps) | (np.abs(u[:, 2]) >= tau - eps)
+                                                   | (np.abs(u[:, 3]) >= tau - eps)))
             if self._lo is not None:
-                v = self._a.values["Real"]
-                self.contained += bool(np.all((v[self._lo] <= self._state) & (self._state <= v[self._hi])))
-            self.controller_steps += 1
-        super().on_step(instance, t)
-        if instance is self._p:
-            self._state = self._p.values["Real"][self._state_index]
+                state = self._carried(batch, self.plant, self._state_index, self._state, at)
+                v = batch.rows[self.actuators]["Real"][batch.row[at]]
+                self.contained += int(np.count_nonzero(np.all((v[:, self._lo] <= state) & (state <= v[:, self._hi]), axis=1)))
+            self.controller_steps += len(at)
+        plant_rows = batch.rows[self.plant]["Real"]
+        if len(plant_rows):
+            self._state = plant_rows[-1, self._state_index]
+        self._accumulate(batch, at, e, u)
 
     def row(self, keep: tuple[str, ...]) -> dict[str, float]:
         out = {}
