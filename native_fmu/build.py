@@ -25,15 +25,16 @@ from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
 LAYER = HERE / "c"
-LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmu.h", LAYER / "tl_noise.h")
+LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmu.h", LAYER / "tl_noise.h", LAYER / "tl_platform.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 BUILD_INFO = "resources/build_info.json"
 # Portable optimisation (no -march=native: the binary ships); only the fmi2 symbols are exported.
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-DCASADI_SYMBOL_EXPORT=")
 # CasADi's generated code trips -Wextra's unused-parameter and similar: its warnings are not ours.
 GENERATED_CFLAGS = ("-Wno-unused-parameter", "-Wno-unused-variable", "-Wno-unused-function")
-# Hot numerical kernels (the ZSE's products): full vectorization and fused multiply-adds, still portable.
-HOT_CFLAGS = ("-O3", "-ffp-contract=fast")
+# Hot numerical kernels (the ZSE's products): full vectorization. No -ffp-contract=fast: the sources pin
+# contraction off (tl_platform.h), and clang would let that flag override them.
+HOT_CFLAGS = ("-O3",)
 
 
 def user_cflags() -> tuple[str, ...]:

@@ -5,6 +5,8 @@
    variables' causality, refuses non-finite Reals, and turns the hooks' results into statuses:
    fmi2Error puts the instance in an error state (get, reset, terminate and free remain),
    fmi2Discard refuses one step and keeps the state, fmi2Fatal marks the instance unusable. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
