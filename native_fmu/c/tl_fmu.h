@@ -33,6 +33,7 @@ typedef struct TlInstance {
   TlState s;
   fmi2CallbackFunctions host;
   char* name;
+  char* resources; /* the resources folder as a native path ending in a separator, or NULL (no file URI given) */
   fmi2Boolean logging_on;
 } TlInstance;
 
