@@ -93,10 +93,12 @@ static void load_start_values(TlInstance* c) {
   for (i = 0; i < TL_N_REAL; ++i) c->s.real[i] = tl_real_start[i];
   for (i = 0; i < TL_N_INTEGER; ++i) c->s.integer[i] = tl_integer_start[i];
   for (i = 0; i < TL_N_BOOLEAN; ++i) c->s.boolean[i] = tl_boolean_start[i] ? fmi2True : fmi2False;
+#if TL_N_STRING > 0 /* GCC at -O0 warns about the copy into the placeholder array of an FMU without Strings */
   for (i = 0; i < TL_N_STRING; ++i) {
     strncpy(c->s.string[i], tl_string_start[i], TL_STRING_LEN - 1);
     c->s.string[i][TL_STRING_LEN - 1] = '\0';
   }
+#endif
   c->s.time = c->s.start_time = 0.0;
   c->s.phase = TL_INSTANTIATED;
   tl_model_reset(c);
