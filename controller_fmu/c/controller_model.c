@@ -23,6 +23,7 @@
 
 TL_STATIC_ASSERT(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
 TL_STATIC_ASSERT(TL_MAX_DELAY == TL_LAW_MAX_DELAY, "the law shifts as many commands in flight as the state keeps");
+TL_STATIC_ASSERT(NNU == NX + 3, "the estimate is the state and three disturbance forces");
 TL_STATIC_ASSERT(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
 TL_STATIC_ASSERT(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
 TL_STATIC_ASSERT(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
@@ -57,12 +58,14 @@ static int choose(const char* value, const char* const* names, int n) {
 static void publish_estimate(TlInstance* c, const double* half) {
   TlModelState* m = &c->s.model;
   double* r = c->s.real;
+  double centre[NNU];
   int i;
+  memcpy(centre, m->estimate, sizeof m->estimate); /* not a ternary per entry: gcc -O3 warns it reads past estimate */
+  memcpy(centre + NX, m->disturbance, sizeof m->disturbance);
   for (i = 0; i < NNU; ++i) {
-    const double centre = i < NX ? m->estimate[i] : m->disturbance[i - NX];
-    r[TL_REAL_est_x + i] = centre;
-    r[TL_REAL_est_x_lo + i] = centre - (half ? half[i] : 0.0);
-    r[TL_REAL_est_x_hi + i] = centre + (half ? half[i] : 0.0);
+    r[TL_REAL_est_x + i] = centre[i];
+    r[TL_REAL_est_x_lo + i] = centre[i] - (half ? half[i] : 0.0);
+    r[TL_REAL_est_x_hi + i] = centre[i] + (half ? half[i] : 0.0);
   }
 }
 
