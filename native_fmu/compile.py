@@ -11,6 +11,7 @@ import platform
 import shlex
 import shutil
 import subprocess
+import tempfile
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -18,8 +19,9 @@ from pathlib import Path
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-DCASADI_SYMBOL_EXPORT=")
 # CasADi's generated code trips -Wextra's unused-parameter and similar: its warnings are not ours.
 GENERATED_CFLAGS = ("-Wno-unused-parameter", "-Wno-unused-variable", "-Wno-unused-function")
-# Hot numerical kernels (the ZSE's products): full vectorization and fused multiply-adds, still portable.
-HOT_CFLAGS = ("-O3", "-ffp-contract=fast")
+# Hot numerical kernels (the ZSE's products): full vectorization. No -ffp-contract=fast: the sources pin
+# contraction off (tl_platform.h), and clang would let that flag override them.
+HOT_CFLAGS = ("-O3",)
 
 
 class BuildError(RuntimeError):
@@ -98,11 +100,12 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str |
             warnings.append(said)
         objs.append(obj)
     link = [cc, "-shared", *extra_flags, "-o", str(output), *map(str, objs), "-lm"]
-    if platform.system() == "Linux":  # only fmi2*: -fvisibility=hidden does not hide target_clones' ifunc symbols
-        exports = folder / "exports.map"
-        exports.write_text("{ global: fmi2*; local: *; };\n")
-        link.append(f"-Wl,--version-script={exports}")
-    proc = subprocess.run(link, capture_output=True, text=True)
+    with tempfile.TemporaryDirectory(prefix="tiltload_link_") as tmp:
+        if platform.system() == "Linux":  # only fmi2*, whatever the sources say (they hide the rest themselves)
+            exports = Path(tmp) / "exports.map"  # outside the sources: it is not one of them
+            exports.write_text("{ global: fmi2*; local: *; };\n")
+            link.append(f"-Wl,--version-script={exports}")
+        proc = subprocess.run(link, capture_output=True, text=True)
     if proc.returncode != 0:
         raise BuildError(f"linking {output.name} with {cc} failed: {_first_error(proc.stderr)}")
     for obj in objs:

@@ -1,6 +1,8 @@
 /* The scenario FMU's hooks: the reference of the chosen trajectory and the three gusts, sampled
    at t_k in doStep(t_k, h) and held over the step (docs/ports.md, Timing). The trajectories and the gust are
    CasADi-generated (tl_scenario_gen.c); durations and starts come from scenario_table.h. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -10,13 +12,13 @@
 #include "tl_scenario_gen.h"
 #include "tl_scenario_gen_sizes.h"
 
-_Static_assert(TL_REAL_az_ref - TL_REAL_x_ref == 8, "position, velocity, acceleration references are contiguous");
-_Static_assert(TL_REAL_d_z - TL_REAL_d_x == 2 && TL_REAL_z_start - TL_REAL_x_start == 2, "three axes");
-_Static_assert(TL_REAL_gust_z_at - TL_REAL_gust_x_at == 2, "three gust onsets");
-_Static_assert(TL_TRAJECTORY_1_SZ_IW <= 8 && TL_TRAJECTORY_2_SZ_IW <= 8 && TL_TRAJECTORY_3_SZ_IW <= 8 && TL_GUST_SZ_IW <= 8,
+TL_STATIC_ASSERT(TL_REAL_az_ref - TL_REAL_x_ref == 8, "position, velocity, acceleration references are contiguous");
+TL_STATIC_ASSERT(TL_REAL_d_z - TL_REAL_d_x == 2 && TL_REAL_z_start - TL_REAL_x_start == 2, "three axes");
+TL_STATIC_ASSERT(TL_REAL_gust_z_at - TL_REAL_gust_x_at == 2, "three gust onsets");
+TL_STATIC_ASSERT(TL_TRAJECTORY_1_SZ_IW <= 8 && TL_TRAJECTORY_2_SZ_IW <= 8 && TL_TRAJECTORY_3_SZ_IW <= 8 && TL_GUST_SZ_IW <= 8,
                "integer work fits");
-_Static_assert(TL_TRAJECTORY_2_SZ_ARG <= 8 && TL_GUST_SZ_ARG <= 8, "arguments fit");
-_Static_assert(TL_N_TRAJECTORIES == 4, "hover and three generated trajectories");
+TL_STATIC_ASSERT(TL_TRAJECTORY_2_SZ_ARG <= 8 && TL_GUST_SZ_ARG <= 8, "arguments fit");
+TL_STATIC_ASSERT(TL_N_TRAJECTORIES == 4, "hover and three generated trajectories");
 
 typedef int (*Generated)(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 

@@ -1,4 +1,5 @@
 /* Small dense linear algebra (see tl_linalg.h). */
+#include "tl_platform.h"
 #include "tl_linalg.h"
 
 #include <math.h>
@@ -32,14 +33,9 @@ TL_DISPATCH static void matmul_narrow(int n, int k, int m, const double* A, cons
 }
 #endif
 
-TL_DISPATCH void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C) {
+/* Any width: an axpy per row of A. */
+TL_DISPATCH static void matmul_wide(int n, int k, int m, const double* A, const double* B, double* C) {
   int i, j, l;
-#if defined(__GNUC__)
-  if (m <= 24 && k <= TL_LINALG_MAX) {
-    matmul_narrow(n, k, m, A, B, C);
-    return;
-  }
-#endif
   for (i = 0; i < n; ++i) {
     double* c = C + (long)i * m;
     for (j = 0; j < m; ++j) c[j] = 0.0;
@@ -49,6 +45,18 @@ TL_DISPATCH void tl_matmul(int n, int k, int m, const double* A, const double* B
       for (j = 0; j < m; ++j) c[j] += a * b[j];
     }
   }
+}
+
+/* Not cloned itself: GCC gives a cloned function's resolver default visibility whatever the function's
+   (an exported tl_matmul.resolver); the static kernels' resolvers stay local. */
+void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C) {
+#if defined(__GNUC__)
+  if (m <= 24 && k <= TL_LINALG_MAX) {
+    matmul_narrow(n, k, m, A, B, C);
+    return;
+  }
+#endif
+  matmul_wide(n, k, m, A, B, C);
 }
 
 /* As a transpose and tl_matmul: its axpy inner loop vectorizes, a dot-product loop would not

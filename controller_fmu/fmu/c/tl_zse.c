@@ -1,5 +1,6 @@
 /* Multirate zonotopic state estimator: see tl_zse.h. Each step mirrors controller_fmu/zse.py
    operation for operation, so the two agree to rounding; tests check it. */
+#include "tl_platform.h"
 #include "tl_zse.h"
 
 #include <math.h>
@@ -19,7 +20,7 @@
 #if defined(__GNUC__)
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
 #define TL_VECTORS (LD / 4)
-_Static_assert(TL_VECTORS >= 1 && TL_VECTORS <= 8, "a row pair's accumulators fit the vector registers");
+TL_STATIC_ASSERT(TL_VECTORS >= 1 && TL_VECTORS <= 8, "a row pair's accumulators fit the vector registers");
 
 /* One row pair: the 2 x TL_VECTORS accumulators stay in registers across the N multiply-adds (the
    constant-trip inner loops unroll at -O3). */
