@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from .. import arguments
+from ..errors import UserError
 
 
 def add_parser(sub) -> None:
@@ -26,6 +27,10 @@ def add_parser(sub) -> None:
     r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
                    help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--realtime", type=arguments.positive_number, nargs="?", const=1.0, default=None, metavar="FACTOR",
+                   help="pace the ticks against the monotonic clock, FACTOR x real time (default 1); overruns are reported")
+    r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
+                   help="with --realtime: stop the run once more than N ticks missed their deadline")
     r.set_defaults(func=run)
 
 
@@ -47,6 +52,13 @@ def run(args: argparse.Namespace) -> int:
     from ..plot import plot_run
     from ..scene import scene_channels
 
+    pacer = None
+    if args.realtime is not None:
+        from ...engine.realtime import Pacer
+
+        pacer = Pacer(args.realtime, args.max_overruns)
+    elif args.max_overruns is not None:
+        raise UserError("--max-overruns needs --realtime")
     opts = resolve_loop(args)
     loop = loop_system(opts, cache_root() / "ssp")
     system, stop = loop.system, loop.stop
@@ -62,15 +74,17 @@ def run(args: argparse.Namespace) -> int:
     meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory, "controller": opts.controller,
             "seed": opts.seed, "stop_time": stop, "delay": opts.delay}
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
-    print(f"running {label}: {stop:g} s of simulated time")
+    print(f"running {label}: {stop:g} s of simulated time" + (f", paced at {args.realtime:g}x real time" if pacer else ""))
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
                         channels=scene_channels(scene) if scene else (), isolate=None if args.trust_fmus else is_foreign,
-                        step_timeout=args.step_timeout, announce=_announce)
+                        step_timeout=args.step_timeout, announce=_announce, realtime=pacer)
     print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
     if result.metrics and result.ticks:
         print(f"{'metric':>14} {'value':>12}")
         for k, v in result.metrics.items():
             print(f"{k:>14} {v:>12.6g}")
+    if pacer is not None:
+        print(pacer.summary())
     if log is None or log.is_file():
         print(f"log: {log}" if log else "log: none (--no-log)")
     if result.error:

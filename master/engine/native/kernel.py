@@ -54,7 +54,7 @@ class Plan(ctypes.Structure):
                 ("error_instance", ctypes.c_int), ("error_status", ctypes.c_int), ("error_group", ctypes.c_int),
                 ("error_type", ctypes.c_int), ("error_time", ctypes.c_double), ("realtime_factor", ctypes.c_double),
                 ("realtime_start_ns", ctypes.c_int64), ("realtime_first_tick", ctypes.c_int64),
-                ("lateness", ctypes.c_void_p)]
+                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
 
 
 def _cache_root() -> Path:

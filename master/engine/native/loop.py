@@ -20,6 +20,7 @@ from ..slave import TYPES
 from . import kernel
 
 CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
+REALTIME_BATCH = 0.25  # s of wall time between two batches of a paced run
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
 
 
@@ -98,6 +99,7 @@ class NativeLoop:
         self.record_row = np.zeros(chunk * n, dtype=np.int64)
         self.rows = np.zeros(n, dtype=np.int64)
         self.lateness = np.zeros(chunk, dtype=np.float64)
+        self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
                                 ticks_done=execution.ticks_done, slots=self.slots, profile=1, record_capacity=chunk)
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
@@ -139,15 +141,15 @@ class NativeLoop:
         """Run the given number of ticks, handing every call's steps to the observers; raise a run's failure."""
         # an observer of the per-step kind gets every tick as it happens (a batch of one), as it would from a Python loop
         chunk = 1 if self.ex.stepwise_observers() else self.chunk
+        if realtime is not None:  # paced: the observers hear from the loop about four times a (wall) second
+            chunk = min(chunk, max(1, round(REALTIME_BATCH * realtime.factor / self.ex.system.tick)))
         while ticks > 0:
             n = min(ticks, chunk)
             first = int(self.plan.ticks_done)
             if realtime is not None:
-                realtime.prepare(self.plan, first, self.lateness)
+                realtime.prepare(self.plan, first, self.lateness, self.overrun)
             self._queue.events = []
             done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
-            if realtime is not None:
-                realtime.took(self.lateness[:done])
             for slave, c in zip(self.slaves, self.instances):
                 slave.fmi_seconds += c.seconds
                 c.seconds = 0.0
@@ -156,6 +158,8 @@ class NativeLoop:
             self.ex.deliver(self._batch(first, done))
             if self.plan.error_kind:
                 raise self._error()
+            if realtime is not None:
+                realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
             ticks -= done
 
     def _batch(self, first: int, done: int) -> Batch:

@@ -153,11 +153,13 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
             int64_t deadline = plan->realtime_start_ns +
                 (int64_t)((double)(k - plan->realtime_first_tick) * plan->tick / plan->realtime_factor * 1e9);
             int64_t now = tl_monotonic_ns();
-            if (now < deadline) {
+            int late = now >= deadline;
+            if (!late) {
                 sleep_until(deadline);
                 now = tl_monotonic_ns();
             }
             if (plan->lateness != NULL) plan->lateness[done] = (double)(now - deadline) * 1e-9;
+            if (plan->overrun != NULL) plan->overrun[done] = (int8_t)late;
         }
         for (int i = 0; i < plan->n_instances; i++) {
             if (k % plan->instances[i].every) continue;

@@ -80,6 +80,7 @@ typedef struct {
     int64_t realtime_start_ns;  /* the monotonic time of tick 0 (set by the caller) */
     int64_t realtime_first_tick;
     double *lateness;           /* per tick run in this call: how late it started, s (NULL: not kept) */
+    int8_t *overrun;            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
 } tl_plan;
 
 /* Run up to n ticks; stop early after an error (error_kind != 0). Returns the ticks run. */
