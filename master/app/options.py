@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from .errors import UserError
@@ -33,6 +33,22 @@ class LoopOptions:
     @property
     def controller_label(self) -> str:
         return self.controller_fmu.stem if self.controller_fmu else self.controller
+
+    def to_dict(self) -> dict:
+        """JSON-able, for a snapshot to say which loop it is of."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key in ("controller_fmu", "faults", "system", "fmus"):
+            d[key] = None if d[key] is None else str(Path(d[key]).resolve())
+        d["settings"] = [list(s) for s in self.settings]
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LoopOptions:
+        d = dict(d)
+        for key in ("controller_fmu", "faults", "system", "fmus"):
+            d[key] = None if d[key] is None else Path(d[key])
+        d["settings"] = tuple(tuple(s) for s in d["settings"])
+        return cls(**d)
 
 
 def resolve_loop(args: argparse.Namespace) -> LoopOptions:

@@ -90,6 +90,7 @@ class Execution:
         self.max_delay = max((link.delay for link in self.links), default=0)
         self.manipulator = None
         self.loop: NativeLoop | None = None
+        self.resumed_at: float | None = None  # the time of the snapshot this run continues from
         if system.faults:
             from .manipulators import Manipulator
 
@@ -101,8 +102,9 @@ class Execution:
         """{instance: model description}, as read before anything was loaded."""
         return self._mds
 
-    def instantiate(self) -> None:
-        """Load every FMU (in this process or a worker of its own), bind the connections, initialize."""
+    def instantiate(self, resume=None) -> None:
+        """Load every FMU (in this process or a worker of its own), bind the connections, initialize; with resume (a
+        snapshot.Snapshot of this system), continue from where the snapshot was taken."""
         for spec in self.system.instances:
             md = self._mds[spec.name]
             if self.isolate is not None and self.isolate(spec.fmu, md):
@@ -119,16 +121,26 @@ class Execution:
                                                           self.instances[dst].setters[typ]))
         if self.manipulator is not None:
             self.manipulator.bind(self)
-        self._initialize()
+        self._initialize(resume)
 
-    def _initialize(self) -> None:
-        """Set-up, parameters and initialization of every instance, then the observers start at t = 0."""
+    def _initialize(self, resume=None) -> None:
+        """Set-up, parameters and initialization of every instance, then the observers start at t = 0 (or where the
+        snapshot resume was taken)."""
+        from . import snapshot
+
         for spec in self.system.instances:
             self.instances[spec.name].initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
+        self.resumed_at = None
+        if resume is not None:
+            snapshot.restore(self, resume)
+            self.resumed_at = resume.time
         for obs in self.observers:
             obs.start(self)
         self.loop = NativeLoop(self)  # the plan of the C tick loop over these instances, groups and faults
+        if resume is not None:
+            snapshot.restore_loop(self, resume)
+            snapshot.restore_observers(self, resume)
 
     def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None) -> None:
         """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters

@@ -100,6 +100,9 @@ class InProcessFmu(Slave):
     def reset(self) -> None:
         self.call("reset", self.slave.reset)
 
+    def set_values(self, values: dict) -> None:
+        self.set_parameters(values)
+
     def set_parameters(self, params: dict) -> None:
         for key, value in params.items():
             v = self.vars.get(key)
@@ -124,6 +127,25 @@ class InProcessFmu(Slave):
         self.fmi_seconds += time.perf_counter() - started
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
+
+    def get_state(self) -> bytes:
+        def serialize():
+            state = self.slave.getFMUstate()
+            try:
+                return self.slave.serializeFMUstate(state)
+            finally:
+                self.slave.freeFMUstate(state)
+        return self.call("getting its state", serialize)
+
+    def set_state(self, state: bytes) -> None:
+        def restore():
+            fmu_state = self.slave.deSerializeFMUstate(state)
+            try:
+                self.slave.setFMUstate(fmu_state)
+            finally:
+                self.slave.freeFMUstate(fmu_state)
+        self.call("restoring its state", restore)
+        self.read_outputs()
 
     def close(self) -> None:
         """Terminate and free the instance, then remove its extracted copy (a run leaves no folder behind)."""

@@ -244,6 +244,20 @@ class Manipulator:
         self._history: dict[str, list] = {t: [] for t in self._where}
         self._tick = execution.system.tick
 
+    def snapshot_state(self) -> dict:
+        """Where every fault stands: on or off, held values, the true values delays read, directly set inputs."""
+        return {"on": list(self._state), "held": [[k, target, v] for (k, target), v in self._held.items()],
+                "history": {t: list(h) for t, h in self._history.items()},
+                "direct": {t: [float(w[1].view[0]), w[1].changed] for t, w in self._where.items() if w[0] == "direct"}}
+
+    def restore_state(self, state: dict) -> None:
+        self._state = [bool(x) for x in state["on"]]
+        self._held = {(int(k), target): v for k, target, v in state["held"]}
+        self._history = {t: list(h) for t, h in state["history"].items()}
+        for target, (value, changed) in state["direct"].items():
+            owner = self._where[target][1]
+            owner.view[0], owner.changed = value, changed
+
     def _array(self, target: str) -> tuple[np.ndarray, int]:
         kind, owner, typ, index = self._where[target]
         if kind == "direct":

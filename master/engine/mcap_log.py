@@ -93,8 +93,12 @@ class McapLogger(Observer):
                 "t": {"type": "number"}, "event": {"type": "string"}, "name": {"type": "string"}, "action": {"type": "string"},
                 "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, {})
         self._batch = MessageBatch()
-        for inst in execution.instances.values():
-            self.on_step(inst, 0.0)
+        if execution.resumed_at is None:
+            for inst in execution.instances.values():
+                self.on_step(inst, 0.0)
+        else:  # a run continued from a snapshot logs from where it goes on, in the cadence of the uninterrupted run
+            for name in self._steps:  # the step at t = 0, then one per period of the ticks done
+                self._steps[name] = 1 + -(-execution.ticks_done // execution.every[name])
         self._flush_batch()
 
     def _json_channel(self, topic: str, schema: dict, metadata: dict, name: str | None = None) -> int:
@@ -177,6 +181,12 @@ class McapLogger(Observer):
         msg.update({v.name: int(x) for v, x in zip(outputs["Integer"], integers.tolist())})
         msg.update({v.name: bool(x) for v, x in zip(outputs["Boolean"], booleans.tolist())})
         return json.dumps(msg).encode()
+
+    def snapshot_state(self) -> dict:
+        return {"steps": dict(self._steps)}  # where each instance is in log_every and the derived channels' cadence
+
+    def restore_state(self, state: dict) -> None:
+        self._steps.update(state["steps"])
 
     def finish(self, execution, error) -> None:
         if self._writer is None:

@@ -70,6 +70,13 @@ class Observer:
 
     def finish(self, execution, error: str | None) -> None: ...
 
+    def snapshot_state(self) -> dict | None:
+        """What a run continued from a snapshot needs of this observer to go on as if uninterrupted (JSON-able; floats
+        round-trip exactly). None: nothing."""
+        return None
+
+    def restore_state(self, state: dict) -> None: ...
+
 
 class ReplayStopped(Exception):
     """An observer raised while a batch was replayed: `cut` records had been delivered (the error is the cause)."""
@@ -218,6 +225,15 @@ class Metrics(Observer):
 
     def table(self) -> dict[str, float]:
         return {**self.ise, **self.iadu}
+
+    def snapshot_state(self) -> dict:
+        return {"ise": self._ise.tolist(), "iadu": self._iadu.tolist(), "x": self._x.tolist(), "ref": self._ref.tolist(),
+                "prev_u": None if self._prev_u is None else self._prev_u.tolist()}
+
+    def restore_state(self, state: dict) -> None:
+        self._ise, self._iadu = np.array(state["ise"]), np.array(state["iadu"])
+        self._x, self._ref = np.array(state["x"]), np.array(state["ref"])
+        self._prev_u = None if state["prev_u"] is None else np.array(state["prev_u"])
 
 
 class Progress(Observer):

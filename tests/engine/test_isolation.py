@@ -9,7 +9,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from support.fmu_session import wrap_misbehaving
+from support.fmu_session import foreign_copy, wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
@@ -51,14 +51,6 @@ def test_a_misbehaving_controller_ends_the_run_with_one_line_and_its_log(mode, m
     plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert plant[-1]["t"] == pytest.approx(0.504)  # everything up to the failing step is on disk
     assert not workers()
-
-
-def foreign_copy(fmu: Path, dest: Path, drop=("resources/build_info.json",)) -> Path:
-    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
-        for item in src.infolist():
-            if not any(item.filename.startswith(d) for d in drop):
-                out.writestr(item, src.read(item.filename))
-    return dest
 
 
 def test_an_isolated_fmu_gives_the_in_process_results_bit_for_bit(fmus, tmp_path):

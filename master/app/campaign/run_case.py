@@ -71,6 +71,16 @@ class CampaignMetrics(Metrics):
             self._state = plant_rows[-1, self._state_index]
         self._accumulate(batch, at, e, u)
 
+    def snapshot_state(self) -> dict:
+        return {**super().snapshot_state(), "max_error": self.max_error, "saturated": self.saturated,
+                "contained": self.contained, "controller_steps": self.controller_steps, "state": self._state.tolist()}
+
+    def restore_state(self, state: dict) -> None:
+        super().restore_state(state)
+        self.max_error, self.saturated = state["max_error"], state["saturated"]
+        self.contained, self.controller_steps = state["contained"], state["controller_steps"]
+        self._state = np.array(state["state"])
+
     def row(self, keep: tuple[str, ...]) -> dict[str, float]:
         out = {}
         if "ISE" in keep:
