@@ -70,6 +70,7 @@ def take(execution, application: dict | None = None) -> Snapshot:
             raise SnapshotError(f"{name}: its FMU cannot serialize its state (canSerializeFMUstate is false): "
                                 "no snapshot of this system")
     loop = execution.loop
+    loop.sync_faults()  # the faults the C loop applies keep their state there
     observers = {}
     for obs in execution.observers:
         state = obs.snapshot_state()
@@ -125,6 +126,7 @@ def restore_loop(execution, snap: Snapshot) -> None:
     same_faults = [describe(f) for f in execution.system.faults] == snap.faults
     if execution.manipulator is not None and same_faults and snap.manipulator is not None:
         execution.manipulator.restore_state(snap.manipulator)
+        loop.push_faults()
 
 
 def restore_observers(execution, snap: Snapshot) -> None:

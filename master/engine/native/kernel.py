@@ -35,6 +35,16 @@ class Group(ctypes.Structure):
                 ("src_index", ctypes.c_void_p), ("dst_vrs", ctypes.c_void_p), ("values", ctypes.c_void_p)]
 
 
+class Fault(ctypes.Structure):
+    _fields_ = [("instance", ctypes.c_int), ("side", ctypes.c_int), ("action", ctypes.c_int), ("type", ctypes.c_int),
+                ("array", ctypes.c_void_p), ("index", ctypes.c_int), ("value", ctypes.c_double), ("high", ctypes.c_double),
+                ("start", ctypes.c_double), ("end", ctypes.c_double), ("fault", ctypes.c_int), ("reports", ctypes.c_int),
+                ("holding", ctypes.c_int), ("held", ctypes.c_double)]
+
+
+FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # tl_loop.h's enum, in order
+
+
 class Instance(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
                 ("get", ctypes.c_void_p * TYPES), ("every", ctypes.c_int), ("continuous", ctypes.c_int),
@@ -54,6 +64,9 @@ class Plan(ctypes.Structure):
                 ("error_instance", ctypes.c_int), ("error_status", ctypes.c_int), ("error_group", ctypes.c_int),
                 ("error_type", ctypes.c_int), ("error_time", ctypes.c_double), ("realtime_factor", ctypes.c_double),
                 ("realtime_start_ns", ctypes.c_int64), ("realtime_first_tick", ctypes.c_int64),
+                ("n_faults", ctypes.c_int), ("faults", ctypes.POINTER(Fault)), ("fault_on", ctypes.c_void_p),
+                ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
+                ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
                 ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
 
 

@@ -64,8 +64,7 @@ class NativeLoop:
             if not c.by_callback:
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
-            c.hook_inputs = bool(manipulator and manipulator.inputs.get(spec.name))
-            c.hook_outputs = bool(manipulator and manipulator.outputs.get(spec.name))
+
             history, record = {}, {}
             for t, typ in enumerate(TYPES):
                 values = slave.values[typ]
@@ -102,6 +101,10 @@ class NativeLoop:
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
                                 ticks_done=execution.ticks_done, slots=self.slots, profile=1, record_capacity=chunk)
+        self._native_faults(manipulator, index)
+        for spec, c in zip(specs, self.instances):  # the faults Python applies: a callback at that instance's side
+            c.hook_inputs = bool(manipulator and manipulator.python_entries(spec.name, "input"))
+            c.hook_outputs = bool(manipulator and manipulator.python_entries(spec.name, "output"))
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
         self._pending: BaseException | None = None
@@ -109,6 +112,50 @@ class NativeLoop:
         self.plan.step_callback = kernel.STEP_CALLBACK(self._step)
         self.plan.hook_callback = kernel.HOOK_CALLBACK(self._hook)
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
+
+    def _native_faults(self, manipulator, index: dict[str, int]) -> None:
+        """The value faults the kernel applies itself (override, bias, scale, ramp, clamp, hold), one entry per target."""
+        ops, self._fault_targets = [], []
+        if manipulator is not None:
+            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k)}
+            for k in sorted(manipulator.native):
+                f = manipulator.faults[k]
+                for j, target in enumerate(f.targets):
+                    side, array, i, typ = manipulator.target(target)
+                    value = f.value if f.action != "clamp" else f.value[0]
+                    ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=0 if side == "input" else 1,
+                                            action=kernel.FAULT_ACTIONS.index(f.action), type=TYPES.index(typ),
+                                            array=array.ctypes.data, index=i,
+                                            value=float(value) if value is not None else 0.0,
+                                            high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
+                                            end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0))
+                    self._fault_targets.append((k, target))
+        self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
+        self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
+        capacity = self.chunk * 2 * max(len(ops), 1)
+        self.event_record = np.zeros(capacity, dtype=np.int64)
+        self.event_fault = np.zeros(capacity, dtype=np.int32)
+        self.event_start = np.zeros(capacity, dtype=np.int8)
+        self.event_time = np.zeros(capacity, dtype=np.float64)
+        p = self.plan
+        p.n_faults, p.faults, p.fault_on, p.event_capacity = len(ops), self.faults, self.fault_on.ctypes.data, capacity
+        p.event_record, p.event_fault = self.event_record.ctypes.data, self.event_fault.ctypes.data
+        p.event_start, p.event_time = self.event_start.ctypes.data, self.event_time.ctypes.data
+
+    def sync_faults(self) -> None:
+        """The kernel's fault state into the manipulator (on/off, held values), for a snapshot."""
+        m = self.ex.manipulator
+        for op, (k, target) in zip(self.faults, self._fault_targets):
+            m.set_state_of(k, bool(self.fault_on[k]), target, op.held if op.holding else None)
+
+    def push_faults(self) -> None:
+        """The manipulator's fault state into the kernel (a run continued from a snapshot)."""
+        m = self.ex.manipulator
+        for op, (k, target) in zip(self.faults, self._fault_targets):
+            on, held = m.state_of(k, target)
+            self.fault_on[k] = on
+            if held is not None:
+                op.holding, op.held = 1, held
 
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:
@@ -165,8 +212,16 @@ class NativeLoop:
     def _batch(self, first: int, done: int) -> Batch:
         r = int(self.plan.records)
         rows = {name: {typ: rec[typ][:int(self.rows[i])] for typ in TYPES} for i, (name, rec) in enumerate(zip(self.names, self.records))}
+        events = list(self._queue.events)
+        m = self.ex.manipulator
+        for e in range(int(self.plan.events)):  # the kernel's fault events, merged in their places
+            k = int(self.event_fault[e])
+            events.append((int(self.event_record[e]), float(self.event_time[e]), m.faults[k],
+                           "start" if self.event_start[e] else "end"))
+        if self.plan.events:
+            events.sort(key=lambda ev: (ev[0], m.faults.index(ev[2])))
         return Batch(first, done, self.names, self.record_instance[:r], self.record_tick[:r], self.record_time[:r],
-                     self.record_row[:r], rows, list(self._queue.events))
+                     self.record_row[:r], rows, events)
 
     def _error(self) -> BaseException:
         p = self.plan

@@ -94,11 +94,55 @@ static void record(tl_plan *plan, int i, int64_t k, double when) {
     }
 }
 
+static void apply_faults(tl_plan *plan, int i, int side, double t) {
+    for (int f = 0; f < plan->n_faults; f++) {
+        tl_fault *q = &plan->faults[f];
+        if (q->instance != i || q->side != side) continue;
+        int on = q->start <= t + 1e-9 && t + 1e-9 < q->end; /* as manipulators.Fault.active */
+        if (q->reports && on != plan->fault_on[q->fault]) {
+            plan->fault_on[q->fault] = (int8_t)on;
+            if (plan->events < plan->event_capacity) {
+                int64_t e = plan->events++;
+                plan->event_record[e] = plan->records;
+                plan->event_fault[e] = q->fault;
+                plan->event_start[e] = (int8_t)on;
+                plan->event_time[e] = t;
+            }
+        }
+        if (!on) continue;
+        if (q->type != 0) { /* Integer and Boolean targets take an override only (checked before the run) */
+            ((int *)q->array)[q->index] = (int)q->value;
+            continue;
+        }
+        double *x = &((double *)q->array)[q->index];
+        switch (q->action) {
+        case TL_OVERRIDE: *x = q->value; break;
+        case TL_BIAS: *x = *x + q->value; break;
+        case TL_SCALE: *x = *x * q->value; break;
+        case TL_RAMP: *x = *x + q->value * (t - q->start); break;
+        case TL_CLAMP: { /* min(max(x, lo), hi) as Python's max and min pick */
+            double m = q->value > *x ? q->value : *x;
+            *x = q->high < m ? q->high : m;
+            break;
+        }
+        case TL_HOLD:
+            if (!q->holding) {
+                q->holding = 1;
+                q->held = *x;
+            }
+            *x = q->held;
+            break;
+        default: break;
+        }
+    }
+}
+
 /* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
     double h = in->every * plan->tick;
     for (int g = 0; g < in->n_groups; g++) gather(&in->groups[g], group_source(plan, &in->groups[g], k));
+    if (plan->n_faults) apply_faults(plan, i, 0, t);
     if (in->hook_inputs && plan->hook_callback(i, 0, t) != 0) {
         fail(plan, 5, i, 0, -1, -1, t);
         return 1;
@@ -133,6 +177,7 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         }
         if (plan->profile) in->seconds += (double)(tl_monotonic_ns() - started) * 1e-9;
     }
+    if (plan->n_faults) apply_faults(plan, i, 1, t);
     if (in->hook_outputs && plan->hook_callback(i, 1, t) != 0) {
         fail(plan, 5, i, 0, -1, -1, t);
         return 1;
@@ -144,6 +189,7 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
 TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
     plan->error_kind = 0;
     plan->records = 0;
+    plan->events = 0;
     for (int i = 0; i < plan->n_instances; i++) plan->rows[i] = 0;
     int64_t done = 0;
     for (; done < n; done++) {

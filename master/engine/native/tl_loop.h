@@ -35,6 +35,22 @@ typedef struct {
     void *values;               /* n values the set reads (double or int) */
 } tl_group;
 
+/* A value fault the loop applies itself (override, bias, scale, ramp, clamp, hold: functions of time and value),
+   at its instance's inputs (side 0, after the gather) or outputs (side 1, after the gets). */
+enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD };
+
+typedef struct {
+    int instance, side, action, type;
+    void *array;                /* the group's values or the instance's outputs */
+    int index;
+    double value, high;         /* the fault's value; clamp: [value, high] */
+    double start, end;          /* end: +inf without an end */
+    int fault;                  /* the fault's place in the schedule */
+    int reports;                /* this target's transitions are the fault's start and end events */
+    int holding;                /* hold: the value taken at the fault's first active tick */
+    double held;
+} tl_fault;
+
 typedef struct {
     void *component;
     tl_do_step_fn do_step;
@@ -79,6 +95,15 @@ typedef struct {
     double realtime_factor;
     int64_t realtime_start_ns;  /* the monotonic time of tick 0 (set by the caller) */
     int64_t realtime_first_tick;
+    /* value faults applied in the loop; their start and end events of the last call */
+    int n_faults;
+    tl_fault *faults;
+    int8_t *fault_on;           /* per fault of the schedule: active at the last tick it was looked at */
+    int64_t event_capacity, events;
+    int64_t *event_record;      /* the event came before this record */
+    int32_t *event_fault;
+    int8_t *event_start;        /* 1 start, 0 end */
+    double *event_time;
     double *lateness;           /* per tick run in this call: how late it started, s (NULL: not kept) */
     int8_t *overrun;            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
 } tl_plan;
