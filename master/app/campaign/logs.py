@@ -46,6 +46,8 @@ def _loggers() -> list[logging.Logger]:
 @contextmanager
 def campaign_log(verbose: bool = False):
     """Route Dask's logging to a CampaignLog for the duration (restored after); with verbose, the terminal keeps it too."""
+    import distributed  # noqa: F401  (its import gives its loggers their terminal handlers: take them after that)
+
     log = CampaignLog()
     saved = []
     for lg in _loggers():

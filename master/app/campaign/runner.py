@@ -137,9 +137,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 if client is None:
                     client, cluster = local_cluster(workers, opts.verbose)
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
-                base = {"scenario": campaign.scenario, "trajectory": campaign.trajectory, "stop_time": campaign.stop_time,
-                        "gusts": campaign.gusts, "keep_metrics": list(campaign.keep_metrics), "faults": campaign.faults}
-                task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
+                task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 dispatch = Dispatch(client, task, partial(_write_part, out / "parts"), where, len(campaign.cases),
                                     len(campaign.cases) - len(todo),
                                     Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say)
