@@ -395,7 +395,7 @@ def test_retry_failed_reruns_stored_failures_and_the_summary_counts_what_the_res
         false_failure = {k: row[k] for k in ("run_id", "controller", "seed", "load_mass")}
         false_failure.update(completed=False, diverged=False, diverged_at=math.nan,
                              error="worker lost: FutureCancelledError: cancelled for reason: scheduler-connection-lost.")
-        campaign._write_part(out / "parts", {"row": false_failure, "wall": 0.0, "setup": 0.0, "sim_time": 0.0})
+        campaign.write_part(out / "parts", {"row": false_failure, "wall": 0.0, "setup": 0.0, "sim_time": 0.0})
     args = ["campaign", str(write_spec(tmp_path, bad=-1.0)), "--out", str(out), "--fmus", str(fmus), "--workers", "1"]
     assert main(args) == 0
     assert "12 runs: 12 in the results, 6 completed, 6 failed (0 diverged); 12 were done before, 0 ran now" in \

@@ -101,13 +101,17 @@ def wait_for_workers(client, address: str, n: int, timeout: float) -> None:
 
 def local_cluster(workers: int | None, verbose: bool = False):
     """A LocalCluster on 127.0.0.1 (its scheduler, dashboard, nannies and workers), one single-threaded worker process
-    per core unless `workers` says; and its client."""
+    per core unless `workers` says, ready to run; and its client."""
     from dask.distributed import Client, LocalCluster
 
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
                            silence_logs=False if verbose else logging.CRITICAL)  # the workers' own logs: quiet
+    client = Client(cluster, set_as_default=False)
+    from .run_case import ready
+
+    client.run(ready)  # each new worker imports the runs' module now: part of the start, not of the first run
     LOGGER.info("local cluster: scheduler %s, dashboard %s, %d workers", cluster.scheduler_address,
                 cluster.dashboard_link, n)
-    return Client(cluster, set_as_default=False), cluster
+    return client, cluster

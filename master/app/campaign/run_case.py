@@ -116,6 +116,12 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     return system
 
 
+def ready() -> bool:
+    """Nothing: run on each worker of a new local cluster, so that importing this module (seconds: the controller's
+    design tools come with it) is part of the cluster's start, not of the first run."""
+    return True
+
+
 def _worker_address() -> str | None:
     """The address of the Dask worker running this (None outside a worker: called directly)."""
     try:

@@ -41,7 +41,7 @@ class Options:
     verbose: bool = False  # Dask's log on the terminal too
 
 
-def _write_part(folder: Path, result: dict) -> None:
+def write_part(folder: Path, result: dict) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -138,7 +138,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                     client, cluster = local_cluster(workers, opts.verbose)
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
-                dispatch = Dispatch(client, task, partial(_write_part, out / "parts"), where, len(campaign.cases),
+                dispatch = Dispatch(client, task, partial(write_part, out / "parts"), where, len(campaign.cases),
                                     len(campaign.cases) - len(todo),
                                     Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say)
                 started = time.perf_counter()
