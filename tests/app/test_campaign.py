@@ -9,6 +9,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -150,16 +151,24 @@ def _can_hide_folders() -> bool:
 class DaskCluster:
     """A real `dask scheduler` and `dask worker` processes on 127.0.0.1, started and stopped by the test."""
 
-    def __init__(self, port: int | None = None) -> None:
+    def __init__(self, port: int | None = None, tls: dict[str, Path] | None = None) -> None:
         self.port = port or _free_port()
-        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.address = f"{'tls' if tls else 'tcp'}://127.0.0.1:{self.port}"
         self.env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+        self.tls = ["--tls-ca-file", str(tls["ca"]), "--tls-cert", str(tls["cert"]), "--tls-key", str(tls["key"])] if tls else []
+        self.security = None
+        if tls:
+            from distributed.security import Security
+
+            self.security = Security(tls_ca_file=str(tls["ca"]), tls_client_cert=str(tls["cert"]),
+                                     tls_client_key=str(tls["key"]), require_encryption=True)
         self.scheduler: subprocess.Popen | None = None
         self.workers: list[subprocess.Popen] = []
 
     def start_scheduler(self) -> DaskCluster:
+        protocol = ["--protocol", "tls", *self.tls] if self.tls else []
         self.scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                                           "--port", str(self.port), "--no-dashboard"], stdout=subprocess.DEVNULL,
+                                           "--port", str(self.port), "--no-dashboard", *protocol], stdout=subprocess.DEVNULL,
                                           stderr=subprocess.DEVNULL, env=self.env)
         deadline = time.time() + 60
         while True:  # until it listens
@@ -170,10 +179,10 @@ class DaskCluster:
                 assert self.scheduler.poll() is None and time.time() < deadline, "the scheduler did not start"
                 time.sleep(0.1)
 
-    def add_worker(self, hiding: Path | None = None) -> subprocess.Popen:
+    def add_worker(self, hiding: Path | None = None, nanny: bool = True) -> subprocess.Popen:
         """A worker (with its nanny); hiding: a folder this worker sees empty (a tmpfs over it, its own mounts)."""
         command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--host",
-                   "127.0.0.1", "--no-dashboard"]
+                   "127.0.0.1", "--no-dashboard", *self.tls, *([] if nanny else ["--no-nanny"])]
         if hiding is not None:
             command = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs tmpfs "$0" && exec "$@"', str(hiding), *command]
         worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=self.env)
@@ -183,7 +192,7 @@ class DaskCluster:
     def wait_for_workers(self, n: int) -> None:
         from dask.distributed import Client
 
-        with Client(self.address, timeout="20s") as client:
+        with Client(self.address, timeout="20s", security=self.security) as client:
             client.wait_for_workers(n, timeout=60)
 
     def stop(self, process: subprocess.Popen) -> None:
@@ -205,8 +214,8 @@ class DaskCluster:
 def dask_cluster():
     clusters = []
 
-    def start(port=None) -> DaskCluster:
-        clusters.append(DaskCluster(port).start_scheduler())
+    def start(port=None, tls=None) -> DaskCluster:
+        clusters.append(DaskCluster(port, tls).start_scheduler())
         return clusters[-1]
     yield start
     for c in clusters:
@@ -362,6 +371,76 @@ def test_a_scheduler_without_enough_workers_is_one_line_and_exit_2_in_seconds(tm
     assert main([*args[:-4], "--scheduler", worker]) == 2
     assert f"{worker} is a Dask worker, not the scheduler (its scheduler: {cluster.address})" in capfd.readouterr().err
     assert not (tmp_path / "out").exists() and not (tmp_path / "fmus").exists()
+
+
+def test_the_runs_stop_when_the_last_worker_is_gone_for_good(fmus, local_results, tmp_path, dask_cluster, capfd):
+    cluster = dask_cluster()
+    worker = cluster.add_worker(nanny=False)  # no nanny to start it again
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+
+    def kill_after_two_runs():
+        deadline = time.time() + 120
+        while len(_parts(out)) < 2 and time.time() < deadline:
+            time.sleep(0.002)
+        worker.kill()
+    killer = threading.Thread(target=kill_after_two_runs)
+    killer.start()
+    code = main(["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address,
+                 "--worker-timeout", "2"])
+    killer.join()
+    done = len(_parts(out))
+    line = capfd.readouterr().err.strip().splitlines()[-1]
+    assert code == 1 and 2 <= done < 12
+    assert line.startswith(f"tiltload: error: the scheduler at {cluster.address} has had no workers for 2 s "
+                           f"(--worker-timeout) after {done} of 12 runs; start workers and rerun the same command")
+    reference = {r["run_id"]: r for r in rows(local_results)}
+    for part in _parts(out):  # the run the worker took with it is not among them
+        row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
+        assert identical([row], [reference[row["run_id"]]])
+
+
+def _certificate(folder: Path) -> dict[str, Path]:
+    """A self-signed certificate and its key (made by Dask's Security.temporary), as the files Dask's TLS options take."""
+    from distributed.security import Security
+
+    made = Security.temporary()
+    folder.mkdir(exist_ok=True)
+    files = {"ca": folder / "ca.pem", "cert": folder / "cert.pem", "key": folder / "key.pem"}
+    files["ca"].write_text(made.tls_ca_file)
+    files["cert"].write_text(made.tls_client_cert)
+    files["key"].write_text(made.tls_client_key)
+    return files
+
+
+def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only(fmus, local_results, tmp_path, dask_cluster,
+                                                                                capfd):
+    import dask
+
+    tls = _certificate(tmp_path / "cluster")
+    cluster = dask_cluster(tls=tls)
+    cluster.add_worker()
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--connect-timeout", "2"]
+    client_tls = {"distributed.comm.tls.ca-file": str(tls["ca"]), "distributed.comm.tls.client.cert": str(tls["cert"]),
+                  "distributed.comm.tls.client.key": str(tls["key"])}
+    with dask.config.set(client_tls):
+        assert main([*args, "--scheduler", cluster.address.replace("tls://", "tcp://")]) == 2
+    assert "does not answer as a Dask scheduler within 2 s" in capfd.readouterr().err
+    stranger = _certificate(tmp_path / "stranger")  # a certificate the cluster's CA did not sign
+    with dask.config.set({**client_tls, "distributed.comm.tls.client.cert": str(stranger["cert"]),
+                          "distributed.comm.tls.client.key": str(stranger["key"])}):
+        assert main([*args, "--scheduler", cluster.address]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and f"{cluster.address}" in err
+    assert not out.exists()
+    env = {**cluster.env, "DASK_DISTRIBUTED__COMM__TLS__CA_FILE": str(tls["ca"]),  # as docs/campaigns.md says
+           "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(tls["cert"]),
+           "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(tls["key"])}
+    done = subprocess.run(_cli(*args, "--scheduler", cluster.address), capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert identical(rows(out / "results.parquet"), rows(local_results))
 
 
 def test_nothing_the_campaign_starts_listens_beyond_loopback(fmus, tmp_path):
