@@ -40,6 +40,20 @@ def _identity(address: SchedulerAddress, timeout: float) -> dict:
     return asyncio.run(asyncio.wait_for(ask(), timeout))
 
 
+def _ssl_error(err: BaseException) -> str | None:
+    """The TLS failure behind a Dask connection error (Dask wraps it in CommClosedError), if one is."""
+    import ssl
+
+    seen = set()
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        if isinstance(err, ssl.SSLError) or "SSL" in str(err):
+            text = first_line(err)
+            return text[text.index("SSL"):] if "SSL" in text else text
+        err = err.__cause__ or err.__context__
+    return None
+
+
 def connect(scheduler: str, workers: int, connect_timeout: float, worker_timeout: float):
     """A client of the scheduler at that address once it has `workers` workers; or a ClusterError within about
     connect_timeout (a bad or unreachable address, not a scheduler) or worker_timeout (too few workers) seconds."""
@@ -54,11 +68,10 @@ def connect(scheduler: str, workers: int, connect_timeout: float, worker_timeout
         identity = _identity(address, connect_timeout)
     except Exception as err:  # a time-out, or the garbage a server that is not Dask's sends (any exception type)
         LOGGER.info("asking %s who it is failed", address, exc_info=True)
-        import ssl
-
-        if isinstance(err, ssl.SSLError) or "ssl" in type(err).__module__.lower():
-            raise ClusterError(f"{address}: the TLS handshake failed ({first_line(err)}): check Dask's TLS settings "
-                               "(docs/campaigns.md)") from None
+        ssl_error = _ssl_error(err)
+        if ssl_error is not None:
+            raise ClusterError(f"the scheduler at {address} refused the TLS session ({ssl_error}): does the cluster's CA "
+                               "sign this client's certificate (Dask's distributed.comm.tls.*: docs/campaigns.md)?") from None
         if address.scheme == "tcp":
             not_dask = not_dask[:-1] + ", or a TLS scheduler (tls://)?"
         raise ClusterError(not_dask) from None
