@@ -169,7 +169,7 @@ class DaskCluster:
         protocol = ["--protocol", "tls", *self.tls] if self.tls else []
         self.scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
                                            "--port", str(self.port), "--no-dashboard", *protocol], stdout=subprocess.DEVNULL,
-                                          stderr=subprocess.DEVNULL, env=self.env)
+                                          stderr=subprocess.DEVNULL, env=self.env, start_new_session=True)
         deadline = time.time() + 60
         while True:  # until it listens
             try:
@@ -185,7 +185,8 @@ class DaskCluster:
                    "127.0.0.1", "--no-dashboard", *self.tls, *([] if nanny else ["--no-nanny"])]
         if hiding is not None:
             command = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs tmpfs "$0" && exec "$@"', str(hiding), *command]
-        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=self.env)
+        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=self.env,
+                                  start_new_session=True)
         self.workers.append(worker)
         return worker
 
@@ -196,17 +197,16 @@ class DaskCluster:
             client.wait_for_workers(n, timeout=60)
 
     def stop(self, process: subprocess.Popen) -> None:
-        process.terminate()
+        """At once: the process and what it started (a nanny's worker), its own process group."""
         try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        process.wait()
 
     def stop_all(self) -> None:
         for p in [*self.workers, *([self.scheduler] if self.scheduler else [])]:
-            if p.poll() is None:
-                self.stop(p)
+            self.stop(p)
         self.workers = []
 
 
@@ -259,13 +259,13 @@ def _parts(out: Path) -> list[Path]:
 
 
 def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_finishes_it(fmus, local_results, tmp_path,
-                                                                                           dask_cluster):
+                                                                                           dask_cluster, capfd):
     cluster = dask_cluster()
     cluster.add_worker()
     cluster.wait_for_workers(1)
     spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
-    command = _cli("campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address)
-    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cluster.env)
+    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address]
+    proc = subprocess.Popen(_cli(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cluster.env)
     deadline = time.time() + 120
     while len(_parts(out)) < 3 and proc.poll() is None and time.time() < deadline:
         time.sleep(0.002)  # a run takes tens of ms: the scheduler goes with most of the twelve still to do
@@ -289,11 +289,12 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
     cluster.add_worker()
     cluster.add_worker()
     cluster.wait_for_workers(2)
-    rerun = subprocess.run(command, capture_output=True, text=True, env=cluster.env, timeout=300)
-    assert rerun.returncode == 0, rerun.stderr
-    assert f"12 runs, {done} already done, {12 - done} to run" in rerun.stderr
+    capfd.readouterr()
+    assert main(args) == 0  # the same command (in this process: a second start of the command is seconds)
+    rerun = capfd.readouterr()
+    assert f"12 runs, {done} already done, {12 - done} to run" in rerun.err
     assert (f"12 runs: 12 in the results, 8 completed, 4 failed (0 diverged); {done} were done before, {12 - done} ran now"
-            in rerun.stdout)  # each missing run ran once, none of the others again
+            in rerun.out)  # each missing run ran once, none of the others again
     assert identical(rows(out / "results.parquet"), rows(local_results))
 
 

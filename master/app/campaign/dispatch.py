@@ -16,7 +16,7 @@ from collections.abc import Callable
 from concurrent.futures import CancelledError
 from dataclasses import asdict, dataclass, field
 
-from .cluster import first_line, worker_count
+from .cluster import first_line
 from .errors import CampaignIncomplete
 from .logs import LOGGER
 from .spec import Case
@@ -37,6 +37,7 @@ class _Attempt:
     case: Case
     number: int = 0  # 0: the first try
     failed_on: set[str] = field(default_factory=set)  # workers where its environment failed
+    allowed: frozenset[str] | None = None  # the workers it may run on (None: any)
 
 
 class Dispatch:
@@ -54,6 +55,8 @@ class Dispatch:
         self.failed = 0  # stored rows of failed runs (data)
         self.retried = 0
         self.failures: dict[str, str] = {}  # run id -> the line of its environment's last failure (not stored)
+        self.finished = None  # as_completed over the pending futures
+        self._submitted = 0
 
     def run(self, cases: list[Case]) -> None:
         from dask.distributed import as_completed
@@ -63,11 +66,13 @@ class Dispatch:
         started = time.perf_counter()
         for case in cases:
             self._submit(_Attempt(case))
-        finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
+        finished = self.finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
         last_look, alone_since = time.monotonic(), None
         while not finished.is_empty():
             batch = finished.next_batch(block=False)
             for future in batch:
+                if future not in self.pending:  # replaced (_look)
+                    continue
                 again = self._settle(future, len(cases), started)
                 if again is not None:
                     finished.add(again)
@@ -80,20 +85,36 @@ class Dispatch:
                 alone_since = self._look(alone_since)
 
     def _submit(self, attempt: _Attempt):
-        workers = None
-        if attempt.failed_on:  # somewhere else if there is somewhere else (a preference: any worker if none is left)
-            workers = [w for w in self._workers() if w not in attempt.failed_on] or None
-        suffix = f"-try{attempt.number + 1}" if attempt.number else ""
+        """Its future; after failures of its environment, on the workers it has not failed on (any if none is left).
+        Strictly there: with a loose restriction Dask's work stealing hands it to an idle worker, the failing one."""
+        attempt.allowed = None
+        if attempt.failed_on:
+            attempt.allowed = frozenset(w for w in self._workers() if w not in attempt.failed_on) or None
+        self._submitted += 1
+        suffix = f"-try{attempt.number + 1}-{self._submitted}" if attempt.number or attempt.allowed else ""
         future = self.client.submit(self.task, asdict(attempt.case), key=f"run-{attempt.case.run_id}{suffix}", pure=False,
-                                    workers=workers, allow_other_workers=workers is not None)
+                                    workers=sorted(attempt.allowed) if attempt.allowed else None, allow_other_workers=False)
         self.pending[future] = attempt
         return future
 
+    def _resubmit_stranded(self, workers: set[str]) -> None:
+        """A run restricted to workers that are all gone would wait for ever: submitted again (not a further try)."""
+        for future, attempt in list(self.pending.items()):
+            if attempt.allowed is not None and not attempt.allowed & workers:
+                del self.pending[future]
+                future.cancel()
+                LOGGER.info("run %s: the workers it was left to are gone; submitted again", attempt.case.run_id)
+                self.finished.add(self._submit(attempt))
+
     def _workers(self) -> list[str]:
+        return sorted(self._workers_or_none() or ())
+
+    def _workers_or_none(self) -> set[str] | None:
+        """The scheduler's workers now; None if it did not say within answer_timeout."""
         try:
-            return list(self.client.nthreads(callback_timeout=self.policy.answer_timeout))
+            return set(self.client.nthreads(callback_timeout=self.policy.answer_timeout))
         except Exception:
-            return []
+            return None
 
     def _settle(self, future, runs: int, started: float):
         """Store the outcome of a finished future; the future of its next try when its environment failed."""
@@ -145,8 +166,10 @@ class Dispatch:
         """While nothing finishes: is the scheduler there, with workers? When it has had none for too long: the end."""
         if self.client.status != "running":
             self._lost()
-        count = worker_count(self.client, self.policy.answer_timeout)
+        workers = self._workers_or_none()
+        count = None if workers is None else len(workers)
         if count:
+            self._resubmit_stranded(workers)
             return None
         now = time.monotonic()
         alone_since = alone_since or now
