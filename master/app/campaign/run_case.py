@@ -2,17 +2,25 @@
 
 Each worker process keeps one execution (one set of FMU instances) per system structure and
 starts every run on it with fmi2Reset (Execution.restart): cheaper than instantiating four FMUs
-per run (benchmarks/campaign.py measures both). A run that fails is a row with its error line.
+per run (benchmarks/campaign.py measures both).
+
+What a run produced is its outcome, a row: completed, or failed with its one line (the engine's DescriptionError or
+ExecutionError: an FMU refused a value, the loop diverged, an FMU reported an error). Anything else (an FMU file this
+worker cannot see, an import error, memory, a bug) is a failure of the environment, not of the run: it comes back as
+such, with the worker's address, for the campaign to try again elsewhere; it is never a row.
 """
 
 from __future__ import annotations
 
 import math
+import socket
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
 from ...engine.observers import Metrics
@@ -21,6 +29,11 @@ from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop,
 from ..scene import scene_channels
 
 _EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: reused across runs
+RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
+
+
+class MissingFmu(FileNotFoundError):
+    """An FMU file of the run is not on this worker (or not a whole FMU): its environment, not the run."""
 
 
 class CampaignMetrics(Metrics):
@@ -116,24 +129,52 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     return system
 
 
-def error_row(case: dict, error: str) -> dict:
-    """The row of a run that produced no metrics."""
-    controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
-    return {"run_id": case["run_id"], "controller": controller, "seed": case["seed"], **case["values"], "completed": False,
-            "diverged": False, "diverged_at": math.nan, "error": error}
+def ready() -> bool:
+    """Nothing: run on each worker of a new local cluster, so that importing this module (seconds: the controller's
+    design tools come with it) is part of the cluster's start, not of the first run."""
+    return True
+
+
+def _worker_address() -> str | None:
+    """The address of the Dask worker running this (None outside a worker: called directly)."""
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return None
 
 
 def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
-    """Run one case; returns its row (the varied values, the metrics, the error line) and its timings. Never raises."""
+    """Run one case. Its outcome: {"row", "wall", "setup", "sim_time"}, the row holding the metrics or the run's error
+    line; or, when its environment failed, {"environment": the line, "worker": the worker's address}. Never raises."""
     try:
         return _run_case(base, case, fmu_dir, log_dir)
-    except Exception as err:  # anything the run itself did not turn into its error line
-        return {"row": error_row(case, f"{type(err).__name__}: {err}"), "wall": 0.0, "setup": 0.0, "sim_time": 0.0}
+    except Exception as err:  # not the run's outcome: retried, never stored
+        address = _worker_address()
+        where = f"worker {address} on {socket.gethostname()}" if address else f"{socket.gethostname()}"
+        if isinstance(err, MissingFmu):
+            line = f"{err} (the workers must see the FMU folder at the same path)"
+        else:
+            text = str(err).strip().splitlines()
+            line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
+        return {"environment": f"{where}: {line}", "worker": address}
+
+
+def _check_fmus(system) -> None:
+    for spec in system.instances:
+        if not Path(spec.fmu).is_file():
+            raise MissingFmu(f"no FMU at {spec.fmu}")
+        if not zipfile.is_zipfile(spec.fmu):
+            raise MissingFmu(f"{spec.fmu} is not a whole FMU (not a zip archive)")
 
 
 def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
     started = time.perf_counter()
+    if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
+        raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    _check_fmus(system)
     stop = base["stop_time"] or default_stop(base["trajectory"])
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
     observers = [metrics]
@@ -143,6 +184,7 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     key = (base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir)
     execution = _EXECUTIONS.pop(key, None)
     error = None
+    healthy = False
     try:
         if execution is None:
             execution = Execution(system, observers, isolate=is_foreign)
@@ -151,9 +193,11 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
             execution.restart({i.name: i.parameters for i in system.instances}, observers, system.faults)
         setup = time.perf_counter() - started
         execution.run(stop)
-    except Exception as err:  # the run's one line; the row keeps it
+        healthy = True
+    except RUN_FAILURES as err:  # the run's one line; the row keeps it
         setup = time.perf_counter() - started
         error = str(err)
+        healthy = True
     finally:
         if execution is not None:
             for obs in execution.observers:
@@ -162,8 +206,8 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
                 except Exception:
                     pass
             execution.observers = []
-            if any(i.fatal for i in execution.instances.values()):
-                execution.close()  # an instance after fmi2Fatal cannot be reset: the next run starts afresh
+            if not healthy or any(i.fatal for i in execution.instances.values()):
+                execution.close()  # after fmi2Fatal or a failure outside the run: the next run starts afresh
             else:
                 _EXECUTIONS[key] = execution
     sim_time = execution.time if execution is not None else 0.0

@@ -100,6 +100,11 @@ class Campaign:
     cases: list[Case]
     source: Path
 
+    def base(self) -> dict:
+        """What every run shares, as the workers get it (run_case's `base`)."""
+        return {"scenario": self.scenario, "trajectory": self.trajectory, "stop_time": self.stop_time, "gusts": self.gusts,
+                "keep_metrics": list(self.keep_metrics), "faults": self.faults}
+
 
 def read_spec_file(path: Path) -> dict:
     if not path.is_file():
