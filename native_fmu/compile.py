@@ -20,7 +20,7 @@ from functools import cache
 from pathlib import Path
 
 # The language the sources are written in (docs/platforms.md): every compiler here takes it warning-free.
-CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra")
+CFLAGS = ("-std=c99", "-pedantic", "-O2", "-Wall", "-Wextra")
 # Hot numerical kernels (the ZSE's products): full vectorization. No -ffp-contract=fast: the sources pin
 # contraction off (tl_platform.h), and clang would let that flag override them.
 HOT_CFLAGS = ("-O3",)
@@ -142,9 +142,10 @@ def _first_error(said: str) -> str:
     return next((ln for ln in lines if "error" in ln), lines[-1] if lines else "no message")
 
 
-def _compile(cc: str, source: Path, obj: Path, include: list[Path], extra: tuple[str, ...]) -> str:
-    cmd = [cc, *CFLAGS, *extra, *user_cflags(), *(f"-I{d}" for d in include), "-c", str(source), "-o", str(obj)]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+def _compile(cc: str, source: Path, obj: Path, extra: tuple[str, ...]) -> str:
+    """One file, compiled in its folder under its bare name: no build path ends up in the binary."""
+    cmd = [cc, *CFLAGS, *extra, *user_cflags(), "-I.", "-c", source.name, "-o", str(obj)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=source.parent)
     if proc.returncode != 0:
         raise BuildError(f"compiling {source.name} with {cc} failed: {_first_error(proc.stderr)}")
     return proc.stderr.strip()
@@ -158,14 +159,16 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, t: Toolch
     with tempfile.TemporaryDirectory(prefix="tiltload_objects_") as tmp:
         objects = [Path(tmp) / (f.stem + ".o") for f in files]
         with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
-            said = list(pool.map(lambda f, o: _compile(cc, f, o, [folder], (*t.cflags, *(
+            said = list(pool.map(lambda f, o: _compile(cc, f, o, (*t.cflags, *(
                 HOT_CFLAGS if f.name in sources.hot else ()))), files, objects))
-        link = [cc, "-shared", "-o", str(output), *map(str, objects), *t.ldflags]
+        # linked where it goes, under its bare name: MinGW's ld derives a DLL's image base from the output name as
+        # given, so a path (a temporary one) would make every build differ
+        link = [cc, "-shared", "-o", output.name, *map(str, objects), *t.ldflags]
         if t.export_map:  # only fmi2*: -fvisibility=hidden alone would not hide target_clones' resolvers
             exports = Path(tmp) / "exports.map"  # outside the sources: it is not one of them
             exports.write_text("{ global: fmi2*; local: *; };\n")
             link.append(f"-Wl,--version-script={exports}")
-        proc = subprocess.run(link, capture_output=True, text=True)
+        proc = subprocess.run(link, capture_output=True, text=True, cwd=output.parent)
     if proc.returncode != 0:
         raise BuildError(f"linking {output.name} with {cc} failed: {_first_error(proc.stderr)}")
     return [f"{t.folder}: {s}" for s in said if s]
