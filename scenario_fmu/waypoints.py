@@ -147,19 +147,23 @@ class MinimumJerk:
         return tuple(float(x) for x in self.p[0, :3])
 
     def evaluate(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity, acceleration ((len(times), 4)) at the times; the end waypoints held at rest outside."""
+        """Position, velocity, acceleration ((len(times), 4)) at the times; the end waypoints held at rest outside.
+        The arithmetic of scenario_waypoints.c, operation for operation (the two agree to the last bit)."""
         times = np.atleast_1d(np.asarray(times, dtype=float))
         n = self.t.size
-        seg = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, n - 2)
-        T = (self.t[seg + 1] - self.t[seg])[:, None]
-        s = ((times - self.t[seg])[:, None] / T)
-        d = np.stack([self.p[seg], T * self.v[seg], T * T * self.a[seg],
-                      self.p[seg + 1], T * self.v[seg + 1], T * T * self.a[seg + 1]], axis=-1)  # (m, 4, 6)
-        c = d @ B_HERMITE.T  # monomial coefficients (m, 4, 6)
-        s3 = s[..., None] ** np.arange(6)
-        pos = np.sum(c * s3, axis=-1)
-        vel = np.sum(c[..., 1:] * np.arange(1, 6) * s3[..., :5], axis=-1) / T
-        acc = np.sum(c[..., 2:] * np.array([2, 6, 12, 20]) * s3[..., :4], axis=-1) / (T * T)
+        lo = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, n - 2)
+        hi = lo + 1
+        T = (self.t[hi] - self.t[lo])[:, None]
+        s = (times[:, None] - self.t[lo][:, None]) / T
+        dp = self.p[hi] - self.p[lo]
+        m0, m1, a0, a1 = T * self.v[lo], T * self.v[hi], T * T * self.a[lo], T * T * self.a[hi]
+        c0, c1, c2 = self.p[lo], m0, 0.5 * a0
+        c3 = 10.0 * dp - 6.0 * m0 - 4.0 * m1 - 1.5 * a0 + 0.5 * a1
+        c4 = -15.0 * dp + 8.0 * m0 + 7.0 * m1 + 1.5 * a0 - a1
+        c5 = 6.0 * dp - 3.0 * m0 - 3.0 * m1 - 0.5 * a0 + 0.5 * a1
+        pos = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
+        vel = (c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)))) / T
+        acc = (2.0 * c2 + s * (6.0 * c3 + s * (12.0 * c4 + s * 20.0 * c5))) / (T * T)
         before, after = times < self.t[0], times >= self.t[-1]
         pos[before], pos[after] = self.p[0], self.p[-1]
         vel[before | after] = 0.0

@@ -237,6 +237,8 @@ static fmi2Status check_wind(TlInstance* c) {
 fmi2Status tl_model_initialize(TlInstance* c) {
   const double* r = c->s.real;
   int i;
+  for (i = 0; i < TL_N_REAL; ++i) /* used or not (a table's spare rows), a parameter that is not a number is a mistake */
+    if (tl_real_settable[i] == 1 && !isfinite(r[i])) REFUSE("%s = %g is not finite", tl_real_name[i], r[i]);
   if (check_reference(c) != fmi2OK || check_wind(c) != fmi2OK) return fmi2Error;
   if (!(r[TL_REAL_gust_tau] >= 0.0)) REFUSE("gust_tau must be >= 0, got %g", r[TL_REAL_gust_tau]);
   for (i = 0; i < 3; ++i) {
@@ -245,6 +247,7 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   }
   set_up(c);
   memset(c->s.model.turbulence, 0, sizeof c->s.model.turbulence);
+  memset(&c->s.model.step, 0, sizeof c->s.model.step);
   c->s.model.sample = 0;
   if (c->s.integer[TL_INTEGER_dryden] > 0)
     tl_dryden_start(&c->s.model.dryden, (uint64_t)c->s.integer[TL_INTEGER_seed], c->s.model.turbulence);
@@ -255,7 +258,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   fmi2Status status = evaluate(c, t); /* the sample at t_k, from the filters' state at t_k */
   if (status == fmi2OK && c->s.integer[TL_INTEGER_dryden] > 0) {
     c->s.model.sample += 1;
-    tl_dryden_step(&c->s.model.dryden, (uint64_t)c->s.integer[TL_INTEGER_seed], c->s.model.sample, h, c->s.model.turbulence);
+    tl_dryden_step(&c->s.model.dryden, (uint64_t)c->s.integer[TL_INTEGER_seed], c->s.model.sample, h, &c->s.model.step,
+                   c->s.model.turbulence);
   }
   return status;
 }

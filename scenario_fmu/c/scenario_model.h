@@ -11,6 +11,7 @@ typedef struct {
   TlDryden dryden;                /* intensities, scale lengths, speed: set at initialization */
   double axes[3][3];              /* inertial directions of u, v, w */
   double turbulence[TL_DRYDEN_STATES]; /* the shaping filters' state at the current time */
+  TlDrydenStep step;              /* the filters' discretization for the last step size */
   uint64_t sample;                /* noise draws taken (0: the stationary start) */
 } TlModelState;
 

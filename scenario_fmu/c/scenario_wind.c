@@ -64,27 +64,34 @@ void tl_dryden_start(const TlDryden* d, uint64_t seed, double x[TL_DRYDEN_STATES
   }
 }
 
-void tl_dryden_step(const TlDryden* d, uint64_t seed, uint64_t sample, double h, double x[TL_DRYDEN_STATES]) {
+static void discretize(const TlDryden* d, double h, TlDrydenStep* q) {
   int c;
-  double a = d->airspeed / d->length[0], y = 2.0 * a * h, e = exp(-a * h);
-  x[0] = e * x[0] + sqrt(tail(1, y) / (2.0 * a)) * normal(seed, sample, 0);
+  double a = d->airspeed / d->length[0];
+  q->h = h;
+  q->decay[0] = exp(-a * h);
+  q->chol[0][0] = sqrt(tail(1, 2.0 * a * h) / (2.0 * a));
   for (c = 1; c < 3; ++c) {
-    double i0, i1, i2, l11, l21, l22, n1, n2, x1, x2;
+    double y, i0, i1, i2;
     a = d->airspeed / d->length[c];
     y = 2.0 * a * h;
-    e = exp(-a * h);
+    q->decay[c] = exp(-a * h);
     i0 = tail(1, y) / (2.0 * a);
     i1 = tail(2, y) / (4.0 * a * a);
     i2 = 2.0 * tail(3, y) / (8.0 * a * a * a);
-    l11 = sqrt(i2);
-    l21 = i1 / l11;
-    l22 = sqrt(fmax(i0 - l21 * l21, 0.0));
-    n1 = normal(seed, sample, 2 * c - 1);
-    n2 = normal(seed, sample, 2 * c);
-    x1 = x[2 * c - 1];
-    x2 = x[2 * c];
-    x[2 * c - 1] = e * (x1 + h * x2) + l11 * n1;
-    x[2 * c] = e * x2 + l21 * n1 + l22 * n2;
+    q->chol[c][0] = sqrt(i2);
+    q->chol[c][1] = i1 / q->chol[c][0];
+    q->chol[c][2] = sqrt(fmax(i0 - q->chol[c][1] * q->chol[c][1], 0.0));
+  }
+}
+
+void tl_dryden_step(const TlDryden* d, uint64_t seed, uint64_t sample, double h, TlDrydenStep* q, double x[TL_DRYDEN_STATES]) {
+  int c;
+  if (q->h != h) discretize(d, h, q);
+  x[0] = q->decay[0] * x[0] + q->chol[0][0] * normal(seed, sample, 0);
+  for (c = 1; c < 3; ++c) {
+    double n1 = normal(seed, sample, 2 * c - 1), n2 = normal(seed, sample, 2 * c), x1 = x[2 * c - 1], x2 = x[2 * c];
+    x[2 * c - 1] = q->decay[c] * (x1 + h * x2) + q->chol[c][0] * n1;
+    x[2 * c] = q->decay[c] * x2 + q->chol[c][1] * n1 + q->chol[c][2] * n2;
   }
 }
 

@@ -14,6 +14,13 @@ typedef struct {
   double airspeed;  /* the speed V the frozen field passes at (m/s) */
 } TlDryden;
 
+/* The exact discretization over one step h, kept while the step stays the same. */
+typedef struct {
+  double h;        /* the step these are for (0: none yet) */
+  double decay[3]; /* e^{-a h} of u, v, w */
+  double chol[3][3]; /* u: [0] the noise's standard deviation; v, w: l11, l21, l22 of Q_d = L L' */
+} TlDrydenStep;
+
 /* Intensities and scale lengths for a severity (1 light, 2 moderate, 3 severe) at an altitude (m, within the
    low-altitude model's range); airspeed 0 picks the steady wind's speed, or W20 without steady wind. */
 void tl_dryden_parameters(int severity, double altitude, double airspeed, const double steady[3], TlDryden* d);
@@ -22,7 +29,7 @@ void tl_dryden_parameters(int severity, double altitude, double airspeed, const 
 void tl_dryden_start(const TlDryden* d, uint64_t seed, double x[TL_DRYDEN_STATES]);
 
 /* Advance the state over h with the exact discretization; `sample` (>= 1) indexes the noise draws. */
-void tl_dryden_step(const TlDryden* d, uint64_t seed, uint64_t sample, double h, double x[TL_DRYDEN_STATES]);
+void tl_dryden_step(const TlDryden* d, uint64_t seed, uint64_t sample, double h, TlDrydenStep* cache, double x[TL_DRYDEN_STATES]);
 
 /* The turbulence velocities u, v, w of a state. */
 void tl_dryden_output(const TlDryden* d, const double x[TL_DRYDEN_STATES], double uvw[3]);

@@ -16,11 +16,14 @@ import numpy as np
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
 from ...engine.observers import Metrics
+from ..feasibility import check_system
 from ..fmus import is_foreign
 from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop, default_system
 from ..scene import scene_channels
+from .spec import Flight
 
 _EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: reused across runs
+_CHECKED: dict[tuple, str | None] = {}  # per worker process: the feasibility verdict per reference and plant parameters
 
 
 class CampaignMetrics(Metrics):
@@ -89,8 +92,9 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     from ...engine.manipulators import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
-    system = default_system(fmu_dir, base["scenario"], base["trajectory"], "mixed" if is_fmu else controller, seed,
-                            Path(controller) if is_fmu else None, gusts=base["gusts"])
+    flight = _flight(base)
+    system = default_system(fmu_dir, base["scenario"], flight.trajectory, "mixed" if is_fmu else controller, seed,
+                            Path(controller) if is_fmu else None, gusts=base["gusts"], wind=dict(flight.wind))
     faults = copy.deepcopy(base.get("faults", []))
     for key, value in parameters.items():
         if key.startswith("faults."):
@@ -101,6 +105,26 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
         system.instance(instance).parameters[name] = value
     system.faults = parse(faults) if faults else []
     return system
+
+
+def _flight(base: dict) -> Flight:
+    """base["trajectory"]: the spec's Flight, or a thesis trajectory's number."""
+    flight = base["trajectory"]
+    if isinstance(flight, Flight):
+        return flight
+    from ....scenario_fmu.choice import as_trajectory
+
+    return Flight(as_trajectory(flight))
+
+
+def infeasible(system, stop: float, flight: Flight) -> str | None:
+    """The feasibility check's first problem for this case (None: it may run), once per reference and plant."""
+    key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance(PLANT).parameters.items())), stop)
+    if key not in _CHECKED:
+        report = check_system(system, stop, flight.max_tilt)
+        _CHECKED[key] = report.problems[0] if report is not None and report.problems else None
+    problem = _CHECKED[key]
+    return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
 
 
 def error_row(case: dict, error: str) -> dict:
@@ -121,7 +145,10 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
 def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
     started = time.perf_counter()
     system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
-    stop = base["stop_time"] or default_stop(base["trajectory"])
+    stop = base["stop_time"] or default_stop(_flight(base).trajectory)
+    refused = infeasible(system, stop, _flight(base))
+    if refused:  # before the first step, as tiltload run refuses it
+        return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
     observers = [metrics]
     if log_dir:
