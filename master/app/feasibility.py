@@ -111,9 +111,44 @@ def _vector(vehicle: str, overrides: dict) -> np.ndarray:
     return p
 
 
+@cache
+def _closed_loop_radius(kind: str, vehicle: str, delay: int, psi: float) -> float:
+    """Spectral radius of the loop of design `kind` (made at psi = 0) around the hover trim at yaw psi."""
+    from ...controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
+    from ...controller_fmu.design.synthesize import design
+
+    K = design(kind, use_cache=True, vehicle=vehicle, loop_delay=delay).K
+    e = with_loop_delay(error_dynamics(0.012, psi=psi, vehicle=vehicle), delay)
+    return float(np.abs(np.linalg.eigvals(e.A - e.B @ K)).max())
+
+
+def yaw_margin(kind: str, vehicle: str = "load", delay: int = 0) -> float:
+    """The largest |psi| (rad, to 0.01) at which the design's loop stays stable (bisection on the spectral radius)."""
+    lo, hi = 0.0, math.pi
+    if _closed_loop_radius(kind, vehicle, delay, hi) < 1:
+        return hi
+    while hi - lo > 0.01:
+        mid = round(0.5 * (lo + hi), 4)
+        lo, hi = (mid, hi) if _closed_loop_radius(kind, vehicle, delay, mid) < 1 else (lo, mid)
+    return lo
+
+
+def _check_yaw(report: Report, s, design: tuple[str, int] | None, vehicle: str) -> None:
+    k = int(np.argmax(np.abs(s.psi)))
+    if design is None or abs(s.psi[k]) < 0.05:  # not our controller, or near the design point
+        return
+    kind, delay = design
+    radius = _closed_loop_radius(kind, vehicle, delay, round(abs(float(s.psi[k])), 4))
+    if radius >= 1:
+        report.problems.append(f"psi_ref reaches {s.psi[k]:.3g} rad at t = {s.t[k]:.2f} s; the {kind} design keeps the loop "
+                               f"stable for |psi| <= {yaw_margin(kind, vehicle, delay):.2f} rad (it is linearized at psi = 0; "
+                               f"spectral radius {radius:.4f} there)")
+
+
 def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
-                    limits: Limits = Limits(), tick: float = 0.012) -> Report:
-    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop]."""
+                    limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None) -> Report:
+    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop]; with
+    design = (dlqr or mixed, loop delay), the yaw that design holds."""
     from ...plant_fmu.trim import TrimError, hover_trim
 
     ff, residual, unknown = _model(vehicle)
@@ -168,6 +203,7 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     else:
         tilt, k_tilt = math.nan, (0, 0)
     _jumps(report, s, tick)
+    _check_yaw(report, s, design, vehicle)
     forces = ", ".join(f"{n} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, n in enumerate(INPUT_NAMES[:2]))
     torque = np.abs(u_ff[:, 2:]).max()
     where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
@@ -245,7 +281,23 @@ def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Repo
     scenario = system.instance("scenario").parameters
     plant = {k: v for k, v in system.instance("plant").parameters.items() if k in P.PARAMETER_NAMES}
     limits = limits_of(system)
-    return check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt))
+    return check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt),
+                           design=_our_design(system))
+
+
+def _our_design(system) -> tuple[str, int] | None:
+    """(dlqr or mixed, loop delay) of our controller FMU in the system; None for a third party's."""
+    from ..engine.model_description import read_fmu
+
+    try:
+        ctrl = system.instance("controller")
+        md = read_fmu(ctrl.fmu, "controller")
+    except Exception:
+        return None
+    if md.coSimulation is None or md.coSimulation.modelIdentifier not in ("TiltloadController", "TiltrotorController"):
+        return None
+    kind = str(ctrl.parameters.get("controller", "dlqr" if md.coSimulation.modelIdentifier == "TiltrotorController" else "mixed"))
+    return (kind, int(ctrl.parameters.get("loop_delay_ticks", 0))) if kind in ("dlqr", "mixed") else None
 
 
 class InfeasibleReference(ValueError):
