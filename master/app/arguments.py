@@ -48,6 +48,16 @@ def tolerance(text: str) -> float:
     return value
 
 
+def tilt_limit(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}") from None
+    if not (0 < value <= 180):
+        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}")
+    return value
+
+
 def integer(low: int, high: int | None = None):
     """An argparse type: a whole number in [low, high] (no upper bound if high is None)."""
     what = f"a whole number from {low} to {high}" if high is not None else f"a whole number >= {low}"
@@ -78,8 +88,17 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--vehicle", choices=("load", "uav"), default="load",
                    help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
     p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
-    p.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
-                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
+    p.add_argument("--trajectory", default=None, metavar="N|SHAPE|FILE",
+                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover; a shape "
+                        "(lemniscate, lissajous, step-x/y/z, ramp-x/y/z, with :KEY=VALUE,... e.g. step-z:size=0.5); or a "
+                        "waypoint file (CSV t,x,y,z[,psi], JSON/YAML): docs/test_bench.md")
+    p.add_argument("--wind", type=Path, default=None, metavar="FILE",
+                   help="wind on the load: steady, Dryden turbulence, a profile (YAML/JSON, or a CSV profile t,x,y,z); "
+                        "seeded by --seed; docs/test_bench.md")
+    p.add_argument("--allow-infeasible", action="store_true",
+                   help="run a reference the actuators cannot follow (Table 5.2), with a warning instead of refusing it")
+    p.add_argument("--max-tilt", type=tilt_limit, default=30.0, metavar="DEG",
+                   help="largest trim tilt angle the feasibility check accepts (default 30 degrees)")
     p.add_argument("--controller", default=None,
                    help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
     p.add_argument("--seed", type=seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")

@@ -7,6 +7,7 @@ import sys
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+from ...scenario_fmu.choice import THESIS, Trajectory, as_trajectory
 from .errors import UserError
 from .loop import CONTROLLER, LOOPS, default_stop, default_system, set_parameters
 
@@ -17,7 +18,7 @@ class LoopOptions:
 
     vehicle: str
     scenario: str
-    trajectory: int
+    trajectory: int | str  # 0-3, or the label of a shape or file (reference)
     controller: str  # dlqr, mixed, or the path of a controller FMU
     controller_fmu: Path | None  # the user's controller FMU, if controller is one
     seed: int
@@ -29,6 +30,10 @@ class LoopOptions:
     system: Path | None  # a system file instead of the loop
     fmus: Path
     allow_unknown_inputs: bool
+    reference: Trajectory | None = None  # what the scenario FMU flies (None: the thesis's trajectory)
+    wind: Path | None = None  # a wind file (scenario_fmu.wind)
+    allow_infeasible: bool = False
+    max_tilt: float = 30.0  # degrees, the feasibility check's
 
     @property
     def controller_label(self) -> str:
@@ -54,9 +59,10 @@ class LoopOptions:
 def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     """The loop options of a command line, checked against the vehicle's choices."""
     loop = LOOPS[args.vehicle]
-    trajectory = loop.default_trajectory if args.trajectory is None else args.trajectory
+    reference = as_trajectory(loop.default_trajectory if args.trajectory is None else args.trajectory)
+    trajectory = reference.code if reference.code in THESIS else reference.label
     controller = loop.default_controller if args.controller is None else args.controller
-    if trajectory not in loop.trajectories:
+    if reference.code in THESIS and trajectory not in loop.trajectories:
         raise UserError(f"--trajectory {trajectory}: the {args.vehicle} vehicle has trajectories "
                         f"{', '.join(map(str, loop.trajectories))}")
     if args.scenario not in loop.scenarios:
@@ -71,7 +77,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
     return LoopOptions(args.vehicle, args.scenario, trajectory, controller, controller_fmu, args.seed, args.stop_time,
                        args.delay, not args.no_gusts, args.faults, tuple(args.set), args.system, args.fmus,
-                       args.allow_unknown_inputs)
+                       args.allow_unknown_inputs, reference, args.wind, args.allow_infeasible, args.max_tilt)
 
 
 @dataclass
@@ -96,8 +102,11 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
         rebuilt = [r.path.name for r in results if r.rebuilt]
         if rebuilt:
             print(f"built {', '.join(rebuilt)} into {opts.fmus}/")
-        system = default_system(opts.fmus, opts.scenario, opts.trajectory, opts.controller if opts.controller_fmu is None else None,
-                                opts.seed, opts.controller_fmu, opts.delay, opts.gusts, opts.vehicle)
+        from ...scenario_fmu.wind import read_wind
+
+        system = default_system(opts.fmus, opts.scenario, opts.reference or opts.trajectory,
+                                opts.controller if opts.controller_fmu is None else None, opts.seed, opts.controller_fmu,
+                                opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None)
         set_parameters(system, dict(opts.settings))
         if opts.controller_fmu is not None:
             from ..engine.model_description import read_fmu
@@ -107,7 +116,10 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
         stop, schedule = None, None
     if opts.faults is not None:
         system.faults = [*system.faults, *load_faults(opts.faults)]
-    stop = opts.stop_time or stop or default_stop(opts.trajectory)
+    stop = opts.stop_time or stop or default_stop(opts.reference or opts.trajectory)
+    from .feasibility import enforce
+
+    enforce(system, stop, opts.allow_infeasible, opts.max_tilt)  # before the first step: refuses what cannot be flown
     return LoopSystem(system, stop, schedule)
 
 

@@ -24,12 +24,17 @@ from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
 from ...engine.observers import Metrics
+from ..feasibility import check_system
 from ..fmus import is_foreign
 from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop, default_system
 from ..scene import scene_channels
+from .spec import Flight
 
 _EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: reused across runs
 RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
+
+
+_CHECKED: dict[tuple, str | None] = {}  # per worker process: the feasibility verdict per reference and plant parameters
 
 
 class MissingFmu(FileNotFoundError):
@@ -115,8 +120,9 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     from ...engine.manipulators import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
-    system = default_system(fmu_dir, base["scenario"], base["trajectory"], "mixed" if is_fmu else controller, seed,
-                            Path(controller) if is_fmu else None, gusts=base["gusts"])
+    flight = _flight(base)
+    system = default_system(fmu_dir, base["scenario"], flight.trajectory, "mixed" if is_fmu else controller, seed,
+                            Path(controller) if is_fmu else None, gusts=base["gusts"], wind=dict(flight.wind))
     faults = copy.deepcopy(base.get("faults", []))
     for key, value in parameters.items():
         if key.startswith("faults."):
@@ -143,6 +149,33 @@ def _worker_address() -> str | None:
         return get_worker().address
     except (ImportError, ValueError):
         return None
+
+
+def _flight(base: dict) -> Flight:
+    """base["trajectory"]: the spec's Flight, or a thesis trajectory's number."""
+    flight = base["trajectory"]
+    if isinstance(flight, Flight):
+        return flight
+    from ....scenario_fmu.choice import as_trajectory
+
+    return Flight(as_trajectory(flight))
+
+
+def infeasible(system, stop: float, flight: Flight) -> str | None:
+    """The feasibility check's first problem for this case (None: it may run), once per reference and plant."""
+    key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance(PLANT).parameters.items())), stop)
+    if key not in _CHECKED:
+        report = check_system(system, stop, flight.max_tilt)
+        _CHECKED[key] = report.problems[0] if report is not None and report.problems else None
+    problem = _CHECKED[key]
+    return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
+
+
+def error_row(case: dict, error: str) -> dict:
+    """The row of a run that produced no metrics."""
+    controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
+    return {"run_id": case["run_id"], "controller": controller, "seed": case["seed"], **case["values"], "completed": False,
+            "diverged": False, "diverged_at": math.nan, "error": error}
 
 
 def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
@@ -175,7 +208,10 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
     _check_fmus(system)
-    stop = base["stop_time"] or default_stop(base["trajectory"])
+    stop = base["stop_time"] or default_stop(_flight(base).trajectory)
+    refused = infeasible(system, stop, _flight(base))
+    if refused:  # before the first step, as tiltload run refuses it
+        return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
     observers = [metrics]
     if log_dir:
