@@ -29,13 +29,28 @@ def fault_intervals(events: list[dict], t_end: float) -> list[tuple[float, float
     return sorted(out)
 
 
+TOPICS = ["/plant", "/scenario", "/controller", "/faults"]
+
+
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
-    """Write <stem>_*.png next to the log (or into out); returns the files written."""
-    log = Path(log)
+    """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
+    log_reader.DamagedLog (plot_intact draws the intact part of one)."""
+    return plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out)
+
+
+def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:
+    """The figures of what the log holds intact (all of it, up to a torn end, or up to the damage), and its state."""
+    data, state = log_reader.read_checked(log, topics=TOPICS)
+    if state.damage is not None and not data.get("/plant"):
+        raise log_reader.DamagedLog(state.describe(Path(log)) + ": nothing to draw")
+    return plot_messages(data, Path(log), out), state
+
+
+def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None) -> list[Path]:
+    """Write <log stem>_*.png from the log's messages next to the log (or into out)."""
     out = log.parent if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = log_reader.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
-    if "/plant" not in data:
+    if not data.get("/plant"):
         raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
     plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
     tp = _series(plant, "t")[:, 0]

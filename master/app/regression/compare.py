@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from ...engine.errors import DescriptionError
-from ...engine.log_reader import read_log, read_metadata
+from ...engine.log_reader import DamagedLog, check, read_log, read_metadata
 
 
 def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
@@ -43,6 +43,9 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
+    state = check(path)
+    if state.damage is not None:  # its metrics record may read, but a damaged log is no run to compare
+        raise DamagedLog(state.describe(path))
     meta = read_metadata(path)
     if "metrics" not in meta:
         from .log_metrics import metrics_from_messages
