@@ -35,7 +35,25 @@ def _announce(execution) -> None:
         print(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
 
 
+def _metadata(opts, stop: float) -> dict:
+    """The log's "run" record: what this run was, as it ran (a system file's own settings are in the file)."""
+    if opts.system is not None:
+        meta = {"system": str(opts.system)}
+    else:
+        meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory,
+                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts}
+        if opts.settings:
+            meta["set"] = " ".join(f"{k}={v}" for k, v in opts.settings)
+    if opts.faults is not None:
+        meta["faults"] = str(opts.faults)
+    return {**meta, "stop_time": stop}
+
+
 def run(args: argparse.Namespace) -> int:
+    if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
+        print("tiltload run: preparing " + (f"the system {args.system}" if args.system else
+                                            f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
+              + " ...", flush=True)
     from ....controller_fmu.design.cache import cache_root
     from ...engine import jacobi
     from ...engine.model_description import read_fmu
@@ -54,13 +72,12 @@ def run(args: argparse.Namespace) -> int:
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
         print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
-    label = args.name or (opts.system.stem if opts.system is not None else
-                          f"{'uav_' if opts.vehicle == 'uav' else ''}{opts.scenario}_traj{opts.trajectory}_"
-                          f"{opts.controller_label}_seed{opts.seed}")
+    label = args.name or opts.run_name(loop.natural_stop)
     log = None if args.no_log else args.out / f"{label}.mcap"
+    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
+        print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
     metrics = loop_metrics() if is_loop(system) else None
-    meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory, "controller": opts.controller,
-            "seed": opts.seed, "stop_time": stop, "delay": opts.delay}
+    meta = _metadata(opts, stop)
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     print(f"running {label}: {stop:g} s of simulated time")
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
