@@ -135,10 +135,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
-        results = build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))
-        rebuilt = [r.path.name for r in results if r.rebuilt]
-        if rebuilt:
-            print(f"built {', '.join(rebuilt)} into {opts.fmus}/")
+        build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))  # says what it builds
         system = default_system(opts.fmus, opts.scenario, opts.trajectory, opts.controller if opts.controller_fmu is None else None,
                                 opts.seed, opts.controller_fmu, opts.delay, opts.gusts, opts.vehicle)
         set_parameters(system, dict(opts.settings))

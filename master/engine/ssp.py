@@ -314,7 +314,7 @@ def _checked_members(path: Path, z: zipfile.ZipFile) -> list[zipfile.ZipInfo]:
             raise DescriptionError(f"{path}: archive member {name!r} expands {info.file_size / max(info.compress_size, 1):.0f}-fold "
                                    f"(to {info.file_size / 2**20:.0f} MiB): more than the {MAX_RATIO}-fold a package may (a zip bomb?)")
     if total > MAX_UNPACKED:
-        raise DescriptionError(f"{path}: the archive unpacks to {total / 2**20:.0f} MiB, more than the "
+        raise DescriptionError(f"{path}: the archive unpacks to {total / 2**20:.1f} MiB, more than the "
                                f"{MAX_UNPACKED // 2**20} MiB a package may")
     return members
 
