@@ -96,6 +96,6 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
                 progress(f"  {solver}'s point was refused ({err}); solving again with {solvers[-1]}")
     hinf_norm, h2_norm = closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
     return LMIResult(K, float(np.sqrt(point.gamma_sq)), h2_bound(point), hinf_norm, h2_norm, poles, solved.status,
-                     solved.seconds, solved.solver, solved.iterations, lmi_min_eig, point)
+                     solved.seconds, solved.solver, solved.iterations, lmi_min_eig, point, solved.summary)
 
 

@@ -58,6 +58,7 @@ class LMIResult:
     iterations: int
     lmi_min_eig: dict  # smallest eigenvalue of every LMI evaluated at the returned point (must be > 0)
     point: LMIPoint | None = None
+    solver_summary: dict | None = None  # what the solver said of its point (SDPA's phase, gap, feasibility errors)
 
 
 def closed_loop_norms(A, B, F, K, Hz, Dzu, Dzd) -> tuple[float, float]:
@@ -196,6 +197,7 @@ def lmi_report(res: LMIResult) -> dict:
         "solver": res.solver,
         "solver_status": res.status,
         "solver_iterations": res.iterations,
+        "solver_summary": res.solver_summary,
         "solver_seconds": res.seconds,
         "lmi_min_eig": res.lmi_min_eig,
     }

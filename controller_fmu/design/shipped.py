@@ -63,7 +63,8 @@ def find(kind: str, Tc: float, vehicle: str = "load", loop_delay: int = 0, progr
     original = stored.report
     report = {**lmi_report(res), "hinf_norm": None, "h2_norm": None,  # measured on demand (measured_norms: ~0.3 s)
               "solver": original.get("solver"), "solver_status": original.get("solver_status"),
-              "solver_iterations": original.get("solver_iterations"), "solver_seconds": original.get("solver_seconds"),
+              "solver_iterations": original.get("solver_iterations"), "solver_summary": original.get("solver_summary"),
+              "solver_seconds": original.get("solver_seconds"),
               "synthesis_machine": original.get("synthesis_machine"), "gain_norm": float(np.linalg.norm(res.K, 2)),
               "seconds": original.get("seconds"), "check_seconds": checked, "load_seconds": time.perf_counter() - started}
     say(f"{describe(kind, loop_delay)}: the shipped one, checked on this model in {report['check_seconds'] * 1e3:.0f} ms "

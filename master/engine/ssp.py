@@ -229,11 +229,11 @@ _SSD_NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
            "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues", "tl": TL_NS}
 
 
-# Limits on what an archive may unpack to: a package holds a few FMUs (the loop's is 2.3 MB; a big FMU with its
+# Limits on what an archive may unpack to: a package holds a few FMUs (the loop's is 0.45 MB; a big FMU with its
 # resources, hundreds of MB), a zip bomb expands a thousandfold. Checked on the declared sizes before anything is
 # written, and again on the bytes actually written (a declared size can lie).
 MAX_UNPACKED = 1 << 30  # 1 GiB unpacked in all
-MAX_RATIO = 100  # a member may expand at most 100-fold (XML compresses 5-20x, FMUs not at all) ...
+MAX_RATIO = 100  # a member may expand at most 100-fold (the loop's SSD: 16-fold; FMUs hardly) ...
 RATIO_FREE = 1 << 20  # ... unless it unpacks to at most 1 MiB
 MAX_MEMBERS = 10_000
 _BLOCK = 1 << 20

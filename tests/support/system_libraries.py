@@ -19,6 +19,6 @@ def loadable(soname: str) -> bool:
     return True
 
 
-def needs_library(soname: str) -> pytest.MarkDecorator:
-    """skipif the loader cannot load soname, the reason naming it and how to get it."""
-    return pytest.mark.skipif(not loadable(soname), reason=f"needs the system library {soname} ({LIBRARIES[soname]})")
+def needs_library(soname: str, how: str | None = None) -> pytest.MarkDecorator:
+    """skipif the loader cannot load soname, the reason naming it and how to get it (LIBRARIES, unless how)."""
+    return pytest.mark.skipif(not loadable(soname), reason=f"needs the system library {soname} ({how or LIBRARIES[soname]})")
