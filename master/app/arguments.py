@@ -84,10 +84,12 @@ def file_stem(text: str) -> str:
 
 
 def add_loop_options(p: argparse.ArgumentParser) -> None:
-    """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop)."""
-    p.add_argument("--vehicle", choices=("load", "uav"), default="load",
+    """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop). The loop's
+    own options default to None (False for flags), so that resolve_loop knows which were given: with --system they
+    are refused, not ignored."""
+    p.add_argument("--vehicle", choices=("load", "uav"), default=None,
                    help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
-    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
+    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default=None, help="estimation scenario (default zse)")
     p.add_argument("--trajectory", default=None, metavar="N|SHAPE|FILE",
                    help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover; a shape "
                         "(lemniscate, lissajous, step-x/y/z, ramp-x/y/z, with :KEY=VALUE,... e.g. step-z:size=0.5); or a "
@@ -101,7 +103,7 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="largest trim tilt angle the feasibility check accepts (default 30 degrees)")
     p.add_argument("--controller", default=None,
                    help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
-    p.add_argument("--seed", type=seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
+    p.add_argument("--seed", type=seed, default=None, help="noise seed, 0 .. 2147483647 (default 1)")
     p.add_argument("--stop-time", type=positive_time, default=None, help="s (default: the trajectory's duration)")
     p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     p.add_argument("--no-gusts", action="store_true", help="no wind gusts")
@@ -109,7 +111,12 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
     p.add_argument("--set", type=assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
-    p.add_argument("--system", type=Path, default=None, help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop")
-    p.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    p.add_argument("--system", type=Path, default=None,
+                   help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop (the loop's options "
+                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --set, --fmus do "
+                        "not apply to it; --faults and --stop-time do)")
+    p.add_argument("--allow-external-fmus", action="store_true",
+                   help="--system: let a component's FMU lie outside the package or the system file's folder")
+    p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus)")
     p.add_argument("--allow-unknown-inputs", action="store_true",
                    help="accept a controller FMU whose inputs include names the port contract does not have")

@@ -8,12 +8,10 @@ is one foreign call per type and nothing is copied or converted.
 from __future__ import annotations
 
 import ctypes
-import shutil
 import time
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException, calloc, free
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -24,6 +22,7 @@ from fmpy.fmi2 import (
 )
 
 from .errors import ExecutionError
+from .extraction import Unpacked
 from .model_description import checked_value
 from .pythonfmu_guard import pin
 from .slave import C_TYPES, TYPES, Slave
@@ -36,7 +35,8 @@ class InProcessFmu(Slave):
         super().__init__(name, path, md)
         self._closed = False
         pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
-        self.dir = extract(str(path))
+        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self.dir = self._unpacked.folder
 
         def logger(env, inst, status, category, message):
             self.log.append(message.decode("utf-8", "replace"))
@@ -49,7 +49,7 @@ class InProcessFmu(Slave):
                                    instanceName=name)
             self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
         except BaseException:
-            shutil.rmtree(self.dir, ignore_errors=True)  # nothing of a failed instantiation stays behind
+            self._unpacked.release()  # nothing of a failed instantiation stays behind
             raise
         self._bind()
 
@@ -161,4 +161,4 @@ class InProcessFmu(Slave):
                 self.slave.freeInstance()
             except Exception:
                 pass
-        shutil.rmtree(self.dir, ignore_errors=True)
+        self._unpacked.release()

@@ -33,15 +33,13 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ....native_fmu.build import build
     from ....native_fmu.compile import choose
-    from ..fmus import formation_recipes, loop_recipes
+    from ..fmus import build_many, formation_recipes, loop_recipes
 
     toolchains, missing = choose(args.platforms)
     if missing:
         print(f"tiltload build: {missing}", file=sys.stderr)
     recipes = {r.fmu_name: r for r in [*loop_recipes(("load", "uav")), *formation_recipes()]}  # the UAV's plant once
-    for recipe in recipes.values():
-        result = build(recipe, args.out, args.force, toolchains=toolchains)
-        print(f"{result.path}: {'built' if result.rebuilt else 'up to date'} ({result.seconds:.1f} s)")
+    for result in build_many(list(recipes.values()), args.out, args.force, toolchains=toolchains):
+        print(f"{result.path}: {'built' if result.rebuilt else 'up to date'}" + (f" ({result.seconds:.1f} s)" if result.rebuilt else ""))
     return 0

@@ -45,8 +45,9 @@ def _announce(execution) -> None:
 
 
 # the options that say which loop runs: a run continued from a snapshot takes them from the snapshot
-_LOOP_DEFINING = {"vehicle": "load", "scenario": "zse", "trajectory": None, "controller": None, "seed": 1, "delay": False,
-                  "no_gusts": False, "system": None, "schedule": None, "allow_unknown_inputs": False}
+# (their argparse defaults: None or False, so a given option is one that is neither)
+_LOOP_DEFINING = ("vehicle", "scenario", "trajectory", "controller", "seed", "delay", "no_gusts", "system", "schedule",
+                  "allow_unknown_inputs", "wind")
 
 
 def _branch(args: argparse.Namespace):
@@ -54,7 +55,7 @@ def _branch(args: argparse.Namespace):
     from ...engine import snapshot
     from ..options import LoopOptions
 
-    given = [f"--{k.replace('_', '-')}" for k, default in _LOOP_DEFINING.items() if getattr(args, k) != default]
+    given = [f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING if getattr(args, k, None) not in (None, False)]
     if given:
         raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says which "
                         "loop it is; --faults, --set of tunable parameters and --stop-time can)")
@@ -66,7 +67,7 @@ def _branch(args: argparse.Namespace):
     import dataclasses
 
     opts = LoopOptions.from_dict(snap.application["options"])
-    opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus,
+    opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus or opts.fmus,
                                stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time)
     branch: dict[str, dict] = {}
     for key, value in args.set:
@@ -86,7 +87,25 @@ def _snapshot_at(args: argparse.Namespace):
         raise UserError(f"--snapshot-at {at}: {err}") from None
 
 
+def _metadata(opts, stop: float) -> dict:
+    """The log's "run" record: what this run was, as it ran (a system file's own settings are in the file)."""
+    if opts.system is not None:
+        meta = {"system": str(opts.system)}
+    else:
+        meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory,
+                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts}
+        if opts.settings:
+            meta["set"] = " ".join(f"{k}={v}" for k, v in opts.settings)
+    if opts.faults is not None:
+        meta["faults"] = str(opts.faults)
+    return {**meta, "stop_time": stop}
+
+
 def run(args: argparse.Namespace) -> int:
+    if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
+        print("tiltload run: preparing " + (f"the system {args.system}" if args.system else
+                                            f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
+              + " ...", flush=True)
     from ....controller_fmu.design.cache import cache_root
     from ...engine import jacobi, snapshot
     from ...engine.model_description import read_fmu
@@ -117,13 +136,12 @@ def run(args: argparse.Namespace) -> int:
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
         print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
-    label = args.name or (opts.system.stem if opts.system is not None else
-                          f"{'uav_' if opts.vehicle == 'uav' else ''}{opts.scenario}_traj{opts.trajectory}_"
-                          f"{opts.controller_label}_seed{opts.seed}") + (f"_from{snap.time:g}s" if snap else "")
+    label = args.name or (opts.run_name(loop.natural_stop) + (f"_from{snap.time:g}s" if snap else ""))
     log = None if args.no_log else args.out / f"{label}.mcap"
+    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
+        print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
     metrics = loop_metrics() if is_loop(system) else None
-    meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory, "controller": opts.controller,
-            "seed": opts.seed, "stop_time": stop, "delay": opts.delay}
+    meta = _metadata(opts, stop)
     checkpoints = []
     if checkpoint is not None:
         at, path = checkpoint
