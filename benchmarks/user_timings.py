@@ -184,11 +184,11 @@ def main() -> int:
         result.update(machine=machine(), date=datetime.date.today().isoformat(), load=max(before, load()))
         print(f"{key}: {shown(result['seconds'])} (load average {result['load']:.1f})", flush=True)
         data[key] = result
-    if args.write:
-        TIMINGS.write_text(json.dumps(data, indent=1) + "\n")
-        PAGE.write_text(render(data))
-        for page in rewrite_markers(data):
-            print(f"updated {page.relative_to(ROOT)}")
+        if args.write:  # after each figure: a long run cut short keeps what it measured
+            TIMINGS.write_text(json.dumps(data, indent=1) + "\n")
+            PAGE.write_text(render(data))
+            for page in rewrite_markers(data):
+                print(f"updated {page.relative_to(ROOT)}")
     return 0
 
 
