@@ -4,7 +4,7 @@ Each variant rebuilds everything from scratch (empty design cache, no shipped de
 process whose environment changes what differs between machines:
   - OpenBLAS kernels (OPENBLAS_CORETYPE): numpy/scipy (DARE, ZOH, estimator set-up) and SDPA's
     own OpenBLAS round differently per CPU family;
-  - no AVX2/FMA: the controller's estimator kernels without their x86-64-v3 clone
+  - no AVX2/FMA: the controller's estimator kernels without their AVX2 copy
     (TILTLOAD_CFLAGS=-DTL_PORTABLE_FP) and glibc's libm without its FMA variants (GLIBC_TUNABLES);
   - one thread everywhere (SDPA, BLAS).
 It prints, per case and metric, the largest relative deviation from the reference variant, and

@@ -151,20 +151,20 @@ def _compile(cc: str, source: Path, obj: Path, extra: tuple[str, ...]) -> str:
     return proc.stderr.strip()
 
 
-def compile_shared(sources: NativeSources, folder: Path, output: Path, t: Toolchain) -> list[str]:
+def compile_shared(sources: NativeSources, folder: Path, output: Path, t: Toolchain, jobs: int | None = None) -> list[str]:
     """Compile the C files of folder (layer + model + generated) into the shared library output for platform t,
-    the files in parallel; return the compiler's warnings (the sources have none)."""
+    `jobs` files at a time (default: one per core); return the compiler's warnings (the sources have none)."""
     cc = compiler(t)
     files = sorted(folder.glob("*.c"))
     with tempfile.TemporaryDirectory(prefix="tiltload_objects_") as tmp:
         objects = [Path(tmp) / (f.stem + ".o") for f in files]
-        with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:
+        with ThreadPoolExecutor(max_workers=jobs or os.cpu_count() or 1) as pool:
             said = list(pool.map(lambda f, o: _compile(cc, f, o, (*t.cflags, *(
                 HOT_CFLAGS if f.name in sources.hot else ()))), files, objects))
         # linked where it goes, under its bare name: MinGW's ld derives a DLL's image base from the output name as
         # given, so a path (a temporary one) would make every build differ
         link = [cc, "-shared", "-o", output.name, *map(str, objects), *t.ldflags]
-        if t.export_map:  # only fmi2*: -fvisibility=hidden alone would not hide target_clones' resolvers
+        if t.export_map:  # only fmi2*, whatever the sources say (they hide the rest themselves)
             exports = Path(tmp) / "exports.map"  # outside the sources: it is not one of them
             exports.write_text("{ global: fmi2*; local: *; };\n")
             link.append(f"-Wl,--version-script={exports}")

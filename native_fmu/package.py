@@ -74,7 +74,8 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
         tool = f"tiltload {definition.version} (native FMI 2.0 layer, {compilers})"
         (stage / "modelDescription.xml").write_bytes(describe.model_description(definition, guid, c_files, tool))
         (stage / "resources").mkdir()
-        (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, **(info or {})}, indent=1))
+        (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, **(info or {}),
+                                                    "platforms": [t.folder for t in toolchains], "warnings": warnings}, indent=1))
         partial = target.with_name(target.name + ".partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(stage.rglob("*")):

@@ -5,14 +5,20 @@
 
 #include "tl_platform.h"
 
-/* On x86-64 Linux with GCC, hot routines get a second, x86-64-v3 (AVX2) copy chosen at run time: the
-   shipped binary stays portable. Contraction is off (tl_platform.h), so that copy does the same IEEE
-   operations four wide and gives the default copy's results to the bit, as every other platform does;
-   -DTL_PORTABLE_FP (via $TILTLOAD_CFLAGS) builds the default copy only. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__) && !defined(TL_PORTABLE_FP)
-#define TL_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+/* The hot kernels (tl_matmul, tl_zse.c's products) are written per vector width: a baseline copy for 128-bit
+   registers (any x86-64: SSE2; aarch64: NEON) and, on x86-64 with GCC or clang, an AVX2 copy (TL_WIDE) called
+   when the CPU and the OS have AVX2 (libgcc's CPUID check: on Linux and in a Windows DLL alike, where there is
+   no ifunc). Contraction is off (tl_platform.h) and each entry is the same sum in the same order in either copy,
+   so the results do not depend on the copy; -DTL_PORTABLE_FP (via $TILTLOAD_CFLAGS) builds the baseline only. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(TL_PORTABLE_FP)
+#define TL_HAVE_WIDE 1
+#define TL_WIDE __attribute__((target("avx2")))
+static inline int tl_wide(void) {
+  __builtin_cpu_init(); /* idempotent; needed before constructors have run */
+  return __builtin_cpu_supports("avx2") != 0;
+}
 #else
-#define TL_DISPATCH
+#define TL_HAVE_WIDE 0
 #endif
 
 #define TL_LINALG_MAX 32 /* the largest k and m tl_matmul_bt transposes on the stack */
