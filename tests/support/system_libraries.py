@@ -21,4 +21,5 @@ def loadable(soname: str) -> bool:
 
 def needs_library(soname: str, how: str | None = None) -> pytest.MarkDecorator:
     """skipif the loader cannot load soname, the reason naming it and how to get it (LIBRARIES, unless how)."""
-    return pytest.mark.skipif(not loadable(soname), reason=f"needs the system library {soname} ({how or LIBRARIES.get(soname, 'install it')})")
+    how = how or LIBRARIES.get(soname, "install it")
+    return pytest.mark.skipif(not loadable(soname), reason=f"needs the system library {soname} ({how})")
