@@ -25,7 +25,7 @@ from .log_encoding import LAYOUT, FixedMessage, fits
 from .mcap_writer import McapWriter, MessageBatch
 from .observers import Observer
 
-CHUNK = 32 * 1024  # a killed run loses at most one chunk: about 12 ticks (0.15 s) of the loop
+CHUNK = 32 * 1024  # a killed run loses at most this chunk and the last batch: about 12 ticks (0.15 s) and the batch
 
 
 def _clean(x: float):

@@ -82,6 +82,10 @@ class McapWriter:
         self._pending_times: list[tuple[int, int]] = []  # (first, last) log time of each part of the chunk
         self._compressor = zstandard.ZstdCompressor(level=1)
         self._queue: queue.Queue = queue.Queue(maxsize=64)
+        # message bytes handed to the writing thread and not yet in a written chunk: held under one chunk before more
+        # are handed over, so a killed run loses at most the chunk being filled and the last batch (not a backlog)
+        self._unwritten = 0
+        self._room = threading.Condition()
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._drain, name="mcap-writer", daemon=True)
         self._thread.start()
@@ -184,7 +188,15 @@ class McapWriter:
         first, last = int(times.min()), int(times.max())
         self._start = first if self._start is None else min(self._start, first)
         self._end = last if self._end is None else max(self._end, last)
+        self._wait_for_room()
+        with self._room:
+            self._unwritten += len(blob)
         self._put(lambda: self._append(blob, starts, ends, channels, times))  # chunking and indexes in the writing thread
+
+    def _wait_for_room(self) -> None:
+        with self._room:
+            while self._unwritten >= self.chunk_size and self._error is None and self._thread.is_alive():
+                self._room.wait(0.1)
 
     def _append(self, blob: np.ndarray, starts: np.ndarray, ends: np.ndarray, channels: np.ndarray, times: np.ndarray) -> None:
         """Message records (laid out in blob) into the chunk being filled, split at record boundaries (the writing
@@ -235,7 +247,11 @@ class McapWriter:
         indexes = b.end()
         entry.message_index_length = len(indexes)
         self._file.write(raw + indexes)
+        self._file.flush()  # in the kernel's hands: a killed process loses nothing of it
         self._chunk_indexes.append(entry)
+        with self._room:
+            self._unwritten -= len(data)
+            self._room.notify_all()
 
     def flush(self) -> None:
         """Seal the chunk being filled and wait until everything so far is on disk."""

@@ -65,7 +65,8 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
     assert earlier.read_bytes() == b"an earlier log"
     torn = tmp_path / "run.mcap.partial"
     data, truncated = log_reader.read_log(torn)
-    assert truncated and killed_at - data["/plant"][-1]["t"] <= 0.2, (killed_at, data["/plant"][-1]["t"])
+    # lost: the chunk being filled (32 KiB: 13 ticks, 0.156 s of this loop) and the few ticks in hand, never a backlog
+    assert truncated and killed_at - data["/plant"][-1]["t"] <= 0.25, (killed_at, data["/plant"][-1]["t"])
     assert main(["plot", str(torn), "--out", str(tmp_path / "plots")]) == 0
     assert "is truncated" in capsys.readouterr().out and len(list((tmp_path / "plots").glob("*.png"))) == 7
     code = main(["compare", str(torn), str(torn)])
