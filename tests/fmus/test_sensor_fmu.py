@@ -138,6 +138,8 @@ def test_seed_is_tunable_and_a_new_seed_draws_that_seeds_noise_from_then_on(pipe
     np.testing.assert_array_equal(rows[fresh[0]:], nine[fresh[0]:])  # every sample drawn since: seed 9's
     assert not np.array_equal(rows[fresh[0]:], switched[fresh[0]:])
     s.fmu.setInteger([s.vr["seed"]], [-1])
-    with pytest.raises(Exception):
+    from fmpy.fmi1 import FMICallException
+
+    with pytest.raises(FMICallException):
         s.fmu.doStep(currentCommunicationPoint=100 * T, communicationStepSize=T)
     assert any("seed must be between 0 and 2147483647, got -1" in line for line in s.log)
