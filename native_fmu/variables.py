@@ -16,7 +16,8 @@ class DefinitionError(ValueError):
 
 @dataclass(frozen=True)
 class Variable:
-    """One scalar variable. Parameters are fixed; outputs are calculated at initialization."""
+    """One scalar variable. Parameters are fixed unless declared tunable (settable between steps: a run continued
+    from a snapshot may change them); outputs are calculated at initialization."""
 
     name: str
     type: str
@@ -27,11 +28,12 @@ class Variable:
     discrete: bool = False  # a Real that changes only at communication points (held samples)
     minimum: float | None = None  # declared range (min/max in the model description), Real and Integer
     maximum: float | None = None
+    tunable: bool = False  # parameters only: the model reads it afresh at every step
 
     @property
     def variability(self) -> str:
         if self.causality == "parameter":
-            return "fixed"
+            return "tunable" if self.tunable else "fixed"
         return "continuous" if self.type == "Real" and not self.discrete else "discrete"
 
     @property
@@ -65,6 +67,8 @@ class FmuDefinition:
                 raise DefinitionError(f"{self.model_identifier}.{v.name}: type {v.type!r} / causality {v.causality!r}")
             if v.unit and v.type != "Real":
                 raise DefinitionError(f"{self.model_identifier}.{v.name}: only Reals carry units")
+            if v.tunable and v.causality != "parameter":
+                raise DefinitionError(f"{self.model_identifier}.{v.name}: only parameters are tunable")
             seen.add(v.name)
             self.value_references[v.name] = counters[v.type]
             counters[v.type] += 1

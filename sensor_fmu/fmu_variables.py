@@ -56,7 +56,9 @@ def definition(trim_x, rod_length: float | None, version: str, suite: Suite = LO
     v.append(Variable("step", "Real", "parameter", TICK, "tick: the communication step the suite expects", "s"))
     if rod_length is not None:
         v.append(Variable("l", "Real", "parameter", rod_length, "rod length, as in the plant", "m"))
-    v.append(Variable("seed", "Integer", "parameter", 1, "seed of every noise stream (0 .. 2147483647)"))
+    # tunable: noise is a function of (seed, group, tick, channel), so a new seed gives new noise from the next sample
+    # on (a branch from a snapshot draws other noise after it)
+    v.append(Variable("seed", "Integer", "parameter", 1, "seed of every noise stream (0 .. 2147483647)", tunable=True))
     v += [Variable(f"{g.name}_pdf", "String", "parameter", g.pdf, f"{g.name} noise distribution: gaussian or uniform")
           for g in groups]
     v += [Variable(f"{g.name}_new", "Boolean", "output", False, f"{g.name} took a new sample this step") for g in groups]

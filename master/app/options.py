@@ -153,23 +153,25 @@ class LoopSystem:
     natural_stop: float  # the stop time without --stop-time: the trajectory's duration, or the package's
 
 
-def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
+def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) -> LoopSystem:
     """The system the options describe: the thesis's loop (FMUs built when stale), with the user's controller FMU,
-    parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into)."""
+    parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
+    prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot)."""
     from ..engine.manipulators import load as load_faults
     from .fmus import build_all
 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
-        build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))  # says what it builds
+        if not prepared:
+            build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))  # says what it builds
         from ...scenario_fmu.wind import read_wind
 
         system = default_system(opts.fmus, opts.scenario, opts.reference or opts.trajectory,
                                 opts.controller if opts.controller_fmu is None else None, opts.seed, opts.controller_fmu,
                                 opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None)
         set_parameters(system, dict(opts.settings))
-        if opts.controller_fmu is not None:
+        if opts.controller_fmu is not None and not prepared:
             from ..engine.model_description import read_fmu
             from .ports import check_controller
 
@@ -179,7 +181,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
         system.faults = [*system.faults, *load_faults(opts.faults)]
     natural = stop or default_stop(opts.reference or opts.trajectory)
     stop = opts.stop_time or natural
-    if opts.system is None:
+    if opts.system is None and not prepared:
         from .feasibility import enforce
 
         enforce(system, stop, opts.allow_infeasible, opts.max_tilt)  # before the first step: refuses what cannot be flown

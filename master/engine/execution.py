@@ -142,10 +142,11 @@ class Execution:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)
 
-    def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None) -> None:
+    def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None, resume=None) -> None:
         """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
-        ({instance: {name: value}}, replacing the given instances' parameters) and these observers.
-        Cheaper than instantiating again (campaigns run many runs on one set of FMUs per worker)."""
+        ({instance: {name: value}}, replacing the given instances' parameters) and these observers; with resume (a
+        snapshot of this system), from where it was taken. Cheaper than instantiating again (campaigns run many
+        runs on one set of FMUs per worker)."""
         for name, values in (parameters or {}).items():
             self.system.instance(name).parameters = dict(values)
         _check_parameters(self.system, self._mds, self.links)
@@ -162,9 +163,13 @@ class Execution:
         elif self.manipulator is not None:
             self.manipulator = type(self.manipulator)(self.system.faults)  # fresh state: holds, histories
             self.manipulator.bind(self)
+        if resume is not None:
+            from .snapshot import check
+
+            check(self, resume)
         for spec in self.system.instances:
             self.instances[spec.name].reset()
-        self._initialize()
+        self._initialize(resume)
 
     def set_gathered_inputs(self, name: str, t: float) -> None:
         """Set an instance's connected inputs from its groups' arrays (filled by the tick loop, manipulated already)."""

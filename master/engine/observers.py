@@ -190,6 +190,8 @@ class Metrics(Observer):
         self._ui = np.array([_real(self._a, u) for u in self.inputs])
         self._x = self._p.values["Real"][self._pi]  # the plant's value at the start of the tick (a copy: fancy index)
         self._ref = self._r.values["Real"][self._ri]  # the reference's latest value
+        if getattr(execution, "resumed_at", None) is not None:  # from a snapshot: the first step's change is from the command held there
+            self._prev_u = self._a.values["Real"][self._ui]
 
     def _carried(self, batch: Batch, name: str, columns: np.ndarray, carry: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The named instance's columns as they were just before each record position in at."""

@@ -121,5 +121,9 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
     tl_log(c, fmi2Error, "communication step %.9g s differs from the suite's step %.9g s; step refused", h, step);
     return fmi2Error;
   }
+  if (c->s.integer[TL_INTEGER_seed] < 0) { /* tunable: may have changed since initialization */
+    tl_log(c, fmi2Error, "seed must be between 0 and 2147483647, got %d; step refused", c->s.integer[TL_INTEGER_seed]);
+    return fmi2Error;
+  }
   return sample(c, lround(t / step), 1);
 }

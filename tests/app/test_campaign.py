@@ -518,3 +518,70 @@ def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_resu
     out = capsys.readouterr().out
     ise_x = float(next(line.split()[1] for line in out.splitlines() if line.strip().startswith("ISE(x)")))
     assert ise_x == pytest.approx(row["ISE(x)"], rel=1e-5)  # the printed table has 6 digits
+
+
+BRANCHES = """
+name = "branches"
+[base]
+snapshot = "at.snapshot"
+stop_time = 3.0
+faults = [{{action = "scale", target = "plant.f_L", value = 1.0, start = 2.0}}]
+[vary]
+seeds = [{seeds}]
+[[vary.parameters]]
+name = "thrust_left"
+targets = ["faults.0.value"]
+values = [1.0, 0.8]
+"""
+
+
+def _log_metrics(path: Path) -> dict[str, float]:
+    from tiltload.master.engine.log_reader import read_metadata
+
+    return {k: float(v) for k, v in read_metadata(path)["metrics"].items() if k.startswith(("ISE", "IADU"))}
+
+
+def test_fifty_branches_from_one_snapshot_each_cover_the_rest_of_the_run(fmus, tmp_path, capsys):
+    """A ZSE run snapshotted at 1.5 s; 50 branches (25 sensor seeds x a left rotor at 100 % or 80 % from 2 s) run on
+    Dask from it. Independent fact: the branch that changes nothing (the run's own seed, the fault at 100 %) has the
+    metrics of the uninterrupted 3 s run minus those of its first 1.5 s; the others differ from it."""
+    common = ["--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--scenario", "zse", "--controller",
+              "dlqr", "--seed", "1"]
+    assert main(["run", "--stop-time", "3", "--snapshot-at", "1.5", str(tmp_path / "at.snapshot"), "--name", "whole",
+                 *common]) == 0
+    assert main(["run", "--stop-time", "1.5", "--name", "prefix", *common]) == 0
+    spec = tmp_path / "branches.toml"
+    spec.write_text(BRANCHES.format(seeds=", ".join(map(str, range(1, 26)))))
+    results, counts = campaign.run(spec, tmp_path / "out", workers=2, fmus=fmus, progress=lambda _: None)
+    assert (counts["total"], counts["completed"], counts["failed"]) == (50, 50, 0)
+    table = rows(results)
+    whole, prefix = _log_metrics(tmp_path / "whole.mcap"), _log_metrics(tmp_path / "prefix.mcap")
+    unchanged = next(r for r in table if r["seed"] == 1 and r["thrust_left"] == 1.0)
+    for key in whole:
+        assert unchanged[key] == pytest.approx(whole[key] - prefix[key], rel=1e-9, abs=1e-12), key
+    ise = [r["ISE(x)"] for r in table]
+    assert len(set(ise)) == 50  # every seed and every thrust gives its own branch
+    weak = {r["seed"]: r for r in table if r["thrust_left"] == 0.8}
+    assert all(weak[s]["ISE(x)"] != r["ISE(x)"] for s, r in ((r["seed"], r) for r in table if r["thrust_left"] == 1.0))
+
+
+@pytest.mark.parametrize("edit, needle", [
+    (lambda s: s.replace("stop_time = 3.0", "stop_time = 3.0\ntrajectory = 2"),
+     "base.trajectory: a campaign from a snapshot runs the snapshot's loop"),
+    (lambda s: s.replace('targets = ["faults.0.value"]', 'targets = ["plant.m_L"]'),
+     "plant.m_L is a fixed parameter: only tunable parameters can change"),
+    (lambda s: s.replace("stop_time = 3.0", "stop_time = 1.0"), "base.stop_time: 1.0 s is not after the snapshot's time"),
+    (lambda s: s.replace("at.snapshot", "missing.snapshot"), "missing.snapshot does not exist"),
+])
+def test_a_bad_branching_spec_is_one_line_before_any_run(fmus, tmp_path, capfd, edit, needle):
+    common = ["--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--scenario", "fsi", "--controller",
+              "dlqr"]
+    assert main(["run", "--stop-time", "2", "--snapshot-at", "1.5", str(tmp_path / "at.snapshot"), "--no-log", *common]) == 0
+    capfd.readouterr()
+    spec = tmp_path / "branches.toml"
+    spec.write_text(edit(BRANCHES.format(seeds="1, 2")))
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "out"), "--fmus", str(fmus), "--workers", "1"]) == 2
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("tiltload: error: "), err
+    assert needle in err.strip().splitlines()[-1], err
+    assert not (tmp_path / "out" / "parts").exists() or not list((tmp_path / "out" / "parts").iterdir())

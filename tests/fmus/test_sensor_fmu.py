@@ -111,3 +111,35 @@ def test_same_seed_same_stream_other_seed_differs(pipeline_fmus, opened):
     b, _ = sensor_run(opened, pipeline_fmus["TiltloadSensors"], 200, seed=7)
     c, _ = sensor_run(opened, pipeline_fmus["TiltloadSensors"], 200, seed=8)
     assert np.array_equal(a, b) and not np.allclose(a, c)
+
+
+def test_seed_is_tunable_and_a_new_seed_draws_that_seeds_noise_from_then_on(pipeline_fmus, opened):
+    """The noise is a function of (seed, group, tick, channel): a seed set between steps (a branch from a snapshot)
+    gives, from the next sample on, exactly the samples of a run seeded so from the start; a negative one is refused."""
+    path = pipeline_fmus["TiltloadSensors"]
+    seed_var = next(v for v in opened(path, "probe").md.modelVariables if v.name == "seed")
+    assert (seed_var.causality, seed_var.variability) == ("parameter", "tunable")
+    switched, _ = sensor_run(opened, path, 100, seed=3)
+    s = opened(path, "switching")
+    s.set_typed(seed=3)
+    s.start()
+    names = [f"meas_{n}" for n in ZSE_NAMES] + [f"lkf_{n}" for n in STATE_NAMES[:10]]
+    rows = []
+    for k in range(100):
+        if k == 50:
+            s.fmu.setInteger([s.vr["seed"]], [9])
+        s.fmu.doStep(currentCommunicationPoint=k * T, communicationStepSize=T)
+        rows.append(s.get(*names))
+    rows = np.array(rows)
+    nine, _ = sensor_run(opened, path, 100, seed=9)
+    np.testing.assert_array_equal(rows[:50], switched[:50])  # before the change: seed 3's
+    fresh = [k for k in range(50, 100) if not np.array_equal(rows[k], rows[k - 1])]
+    assert fresh, "no new sample after the change"
+    np.testing.assert_array_equal(rows[fresh[0]:], nine[fresh[0]:])  # every sample drawn since: seed 9's
+    assert not np.array_equal(rows[fresh[0]:], switched[fresh[0]:])
+    s.fmu.setInteger([s.vr["seed"]], [-1])
+    from fmpy.fmi1 import FMICallException
+
+    with pytest.raises(FMICallException):
+        s.fmu.doStep(currentCommunicationPoint=100 * T, communicationStepSize=T)
+    assert any("seed must be between 0 and 2147483647, got -1" in line for line in s.log)

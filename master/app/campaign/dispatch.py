@@ -45,8 +45,10 @@ class Dispatch:
     the campaign's runs (for the line that says how far it got)."""
 
     def __init__(self, client, task: Callable[[dict], dict], store: Callable[[dict], None], where: str, total: int,
-                 done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None) -> None:
+                 done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
+                 shared: dict | None = None) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
+        self.shared = shared or {}  # keyword arguments of every run: futures of data scattered once (a snapshot)
         self.total, self.done_before = total, done_before
         self.policy = policy or Policy()
         self.say = progress or (lambda _: None)
@@ -92,7 +94,7 @@ class Dispatch:
             attempt.allowed = frozenset(w for w in self._workers() if w not in attempt.failed_on) or None
         self._submitted += 1
         suffix = f"-try{attempt.number + 1}-{self._submitted}" if attempt.number or attempt.allowed else ""
-        future = self.client.submit(self.task, asdict(attempt.case), key=f"run-{attempt.case.run_id}{suffix}", pure=False,
+        future = self.client.submit(self.task, asdict(attempt.case), **self.shared, key=f"run-{attempt.case.run_id}{suffix}", pure=False,
                                     workers=sorted(attempt.allowed) if attempt.allowed else None, allow_other_workers=False)
         self.pending[future] = attempt
         return future

@@ -12,6 +12,8 @@ such, with the worker's address, for the campaign to try again elsewhere; it is 
 
 from __future__ import annotations
 
+import copy
+import hashlib
 import math
 import socket
 import time
@@ -178,10 +180,13 @@ def error_row(case: dict, error: str) -> dict:
             "diverged": False, "diverged_at": math.nan, "error": error}
 
 
-def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
-    """Run one case. Its outcome: {"row", "wall", "setup", "sim_time"}, the row holding the metrics or the run's error
-    line; or, when its environment failed, {"environment": the line, "worker": the worker's address}. Never raises."""
+def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot: bytes | None = None) -> dict:
+    """Run one case (with snapshot, the bytes of a snapshot file: from there). Its outcome: {"row", "wall", "setup",
+    "sim_time"}, the row holding the metrics or the run's error line; or, when its environment failed,
+    {"environment": the line, "worker": the worker's address}. Never raises."""
     try:
+        if snapshot is not None:
+            return _run_branch(base, case, fmu_dir, log_dir, snapshot)
         return _run_case(base, case, fmu_dir, log_dir)
     except Exception as err:  # not the run's outcome: retried, never stored
         address = _worker_address()
@@ -192,6 +197,61 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
             text = str(err).strip().splitlines()
             line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
         return {"environment": f"{where}: {line}", "worker": address}
+
+
+_SNAPSHOTS: dict[str, object] = {}  # per worker process: the snapshot of each digest, read once
+
+
+def branch_system(fmu_dir: Path, snap, faults, parameters: dict):
+    """The system a snapshot was taken of (its loop options, the FMUs of fmu_dir), with a case's faults (None: the
+    run's own) and the snapshot's settings for its tunable parameters."""
+    import dataclasses
+
+    from ...engine.manipulators import parse
+    from ..options import LoopOptions, loop_system
+
+    opts = dataclasses.replace(LoopOptions.from_dict(snap.application["options"]), fmus=fmu_dir)
+    if faults is not None:
+        opts = dataclasses.replace(opts, faults=None)
+    system = loop_system(opts, fmu_dir, prepared=True).system
+    settings: dict[str, dict] = {}
+    if faults is not None:
+        faults = copy.deepcopy(faults)
+    for key, value in parameters.items():
+        if key.startswith("faults."):
+            _, index, field = key.split(".")
+            faults[int(index)][field] = value
+        else:
+            instance, _, name = key.partition(".")
+            settings.setdefault(instance, {})[name] = value
+    if faults is not None:
+        system.faults = parse(faults) if faults else []
+    return system, dataclasses.replace(snap, settings=settings)
+
+
+def _snapshot(data: bytes):
+    from ...engine import snapshot
+
+    digest = hashlib.sha256(data).hexdigest()
+    if digest not in _SNAPSHOTS:
+        _SNAPSHOTS.clear()  # one campaign at a time per worker
+        _SNAPSHOTS[digest] = snapshot.from_bytes(data)
+    return digest, _SNAPSHOTS[digest]
+
+
+def _run_branch(base: dict, case: dict, fmu_dir: str, log_dir: str | None, data: bytes) -> dict:
+    started = time.perf_counter()
+    digest, snap = _snapshot(data)
+    system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"])
+    _check_fmus(system)
+    metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=snap.time)  # the branch's own: from the snapshot
+    observers = [metrics]
+    if log_dir:
+        observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
+                                       metadata={"run_id": case["run_id"], "from_snapshot": f"t = {snap.time:.3f} s",
+                                                 **{k: str(v) for k, v in case["parameters"].items()}}))
+    return _execute(("branch", digest, fmu_dir), system, observers, metrics, base, case, started,
+                    lambda ex: ex.restart(None, observers, system.faults, resume=snap), snap)
 
 
 def _check_fmus(system) -> None:
@@ -218,15 +278,22 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
                                        metadata={"run_id": case["run_id"], **case["parameters"]}))
     key = (base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir)
+    return _execute(key, system, observers, metrics, base, case, started,
+                    lambda ex: ex.restart({i.name: i.parameters for i in system.instances}, observers, system.faults))
+
+
+def _execute(key, system, observers, metrics, base, case, started, restart, resume=None) -> dict:
+    """Run the case on this worker's execution of its structure (restarted), or a new one; its outcome."""
+    stop = base["stop_time"] or default_stop(_flight(base).trajectory)
     execution = _EXECUTIONS.pop(key, None)
     error = None
     healthy = False
     try:
         if execution is None:
             execution = Execution(system, observers, isolate=is_foreign)
-            execution.instantiate()
+            execution.instantiate(resume)
         else:
-            execution.restart({i.name: i.parameters for i in system.instances}, observers, system.faults)
+            restart(execution)
         setup = time.perf_counter() - started
         execution.run(stop)
         healthy = True

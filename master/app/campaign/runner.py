@@ -23,7 +23,7 @@ from pathlib import Path
 
 from .errors import CampaignIncomplete
 from .logs import LOG, LOGGER, campaign_log
-from .spec import Campaign, Case, load
+from .spec import Campaign, Case, SpecError, load
 
 RESULTS, TIMINGS = "results.parquet", "timings.parquet"
 
@@ -133,14 +133,19 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 from .run_case import run_case
 
                 build_all(fmus, progress=say)
+                if campaign.snapshot is not None:
+                    _check_branches(campaign, Path(fmus).resolve())
                 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
                 if client is None:
                     client, cluster = local_cluster(workers, opts.verbose)
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
+                shared = {}
+                if campaign.snapshot is not None:  # to every worker once, not with every run
+                    shared["snapshot"] = client.scatter(campaign.snapshot.read_bytes(), broadcast=True, hash=False)
                 dispatch = Dispatch(client, task, partial(write_part, out / "parts"), where, len(campaign.cases),
                                     len(campaign.cases) - len(todo),
-                                    Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say)
+                                    Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say, shared)
                 started = time.perf_counter()
                 try:
                     dispatch.run(todo)
@@ -161,6 +166,23 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
         incomplete.counts = counts
         raise incomplete
     return results, counts
+
+
+def _check_branches(campaign: Campaign, fmus: Path) -> None:
+    """Before any run: the snapshot continues on these FMUs (their build), with the cases' faults and tunable
+    parameters (a fixed one is refused), as a worker will run them (the first case: all set the same names)."""
+    from ...engine import snapshot
+    from ...engine.errors import DescriptionError
+    from ...engine.execution import Execution
+    from .run_case import branch_system
+
+    snap = snapshot.read(campaign.snapshot)
+    for case in campaign.cases[:1]:
+        try:
+            system, branch = branch_system(fmus, snap, campaign.faults, case.parameters)
+            snapshot.check(Execution(system, []), branch)
+        except DescriptionError as err:
+            raise SpecError(f"{campaign.source}: base.snapshot: {err}") from None
 
 
 def _see(log: Path | None) -> str:

@@ -29,6 +29,14 @@ Files (trajectory, wind) are relative to the spec. Every case's reference is che
 `base.faults` is a fault schedule (docs/faults.md); a varied parameter's target `faults.N.start`,
 `faults.N.end` or `faults.N.value` varies fault N.
 
+Branches: `base.snapshot = "at20s.snapshot"` (written by `tiltload run --snapshot-at`) runs every case from
+where that run was, as `tiltload run --from-snapshot` does. The snapshot fixes the loop (scenario,
+trajectory, controller, wind, gusts: none of those may be given); what a case may change is what a
+continued run may: the faults (base.faults and their varied fields, which replace the run's own), tunable
+parameters (base.parameters and varied targets; the build's tunable ones: sensors.seed) and
+base.stop_time. vary.seeds sets sensors.seed: the noise after the snapshot (the scenario's wind and
+gusts keep the snapshot's seed). Each row's metrics cover the branch: from the snapshot to the stop time.
+
 A JSON Schema declares the format; a file that breaks it is refused with the path of the field.
 """
 
@@ -60,7 +68,8 @@ SCHEMA = {
             "gusts": {"type": "boolean"},
             "parameters": {"type": "object", "propertyNames": {"pattern": r"^[A-Za-z_]\w*\.[A-Za-z_]\w*$"},
                            "additionalProperties": {"type": ["number", "string", "boolean"]}},
-            "faults": {"type": "array"}}},
+            "faults": {"type": "array"},
+            "snapshot": {"type": "string", "minLength": 1}}},
         "vary": {"type": "object", "additionalProperties": False, "properties": {
             "seeds": {"type": "array", "minItems": 1, "uniqueItems": True,
                       "items": {"type": "integer", "minimum": 0, "maximum": 2147483647}},
@@ -120,15 +129,17 @@ class Campaign:
     gusts: bool
     keep_metrics: tuple[str, ...]
     keep_logs: bool
-    faults: list  # their JSON form; "faults.N.field" targets vary them
+    faults: list | None  # their JSON form; "faults.N.field" targets vary them; None: a branch keeps its run's own
     varied: list[str]
     cases: list[Case]
     source: Path
+    snapshot: Path | None = None  # the cases branch from this snapshot (base.snapshot)
+    branch_start: float = 0.0  # the snapshot's time (s)
 
     def base(self) -> dict:
         """What every run shares, as the workers get it (run_case's `base`)."""
         return {"scenario": self.scenario, "trajectory": self.trajectory, "stop_time": self.stop_time, "gusts": self.gusts,
-                "keep_metrics": list(self.keep_metrics), "faults": self.faults}
+                "keep_metrics": list(self.keep_metrics), "faults": self.faults, "branch": self.snapshot is not None}
 
 
 def read_spec_file(path: Path) -> dict:
@@ -213,9 +224,48 @@ def _flight(base: dict, path: Path) -> Flight:
     return Flight(trajectory, wind, base.get("allow_infeasible", False), base.get("max_tilt", 30.0))
 
 
-def run_id(controller: str, seed: int, parameters: dict) -> str:
-    key = json.dumps({"controller": controller, "seed": seed, "parameters": parameters}, sort_keys=True)
-    return hashlib.sha256(key.encode()).hexdigest()[:16]
+def run_id(controller: str, seed: int, parameters: dict, snapshot: str | None = None) -> str:
+    what = {"controller": controller, "seed": seed, "parameters": parameters}
+    if snapshot is not None:  # a branch: of which snapshot (its digest)
+        what["snapshot"] = snapshot
+    return hashlib.sha256(json.dumps(what, sort_keys=True).encode()).hexdigest()[:16]
+
+
+# what a snapshot fixes: a branching campaign may not give these
+_FIXED_BY_SNAPSHOT = ("scenario", "trajectory", "wind", "controllers", "gusts", "allow_infeasible", "max_tilt")
+TUNED_SEED = "sensors.seed"  # vary.seeds in a branching campaign: the sensors' noise after the snapshot
+
+
+@dataclass(frozen=True)
+class Branching:
+    """The snapshot a campaign's cases branch from: its file, digest, time, stop time and loop options."""
+
+    path: Path
+    digest: str
+    time: float
+    stop: float | None
+    options: dict  # LoopOptions.to_dict() of the run it was taken in
+
+
+def _branching(base: dict, path: Path) -> Branching:
+    from ...engine import snapshot
+
+    given = [k for k in _FIXED_BY_SNAPSHOT if k in base]
+    if given:
+        raise SpecError(f"{path}: base.{given[0]}: a campaign from a snapshot runs the snapshot's loop (drop "
+                        f"{', '.join('base.' + k for k in given)}; faults, tunable parameters, stop_time and seeds can vary)")
+    file = (path.parent / base["snapshot"]).resolve()
+    try:
+        snap = snapshot.read(file)
+    except snapshot.SnapshotError as err:
+        raise SpecError(f"{path}: base.snapshot: {err}") from None
+    options = snap.application.get("options")
+    if options is None:
+        raise SpecError(f"{path}: base.snapshot: {file} was not taken by `tiltload run` (it names no loop options)")
+    if options.get("system") is not None:
+        raise SpecError(f"{path}: base.snapshot: {file} is of a --system run; campaigns branch from the thesis's loop")
+    return Branching(file, hashlib.sha256(file.read_bytes()).hexdigest()[:16], snap.time, snap.application.get("stop"),
+                     options)
 
 
 def load(path: Path) -> Campaign:
@@ -224,23 +274,15 @@ def load(path: Path) -> Campaign:
     data = read_spec_file(path)
     _validate(data, path)
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
+    if "snapshot" in base:
+        return _load_branches(data, path, _branching(base, path))
     controllers = base.get("controllers", ["mixed"])
     for c in controllers:
         if c not in ("dlqr", "mixed") and not (path.parent / c).is_file():
             raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
     controllers = [c if c in ("dlqr", "mixed") else str((path.parent / c).resolve()) for c in controllers]
     seeds = vary.get("seeds", [1])
-    faults = base.get("faults", [])
-    from ...engine.manipulators import FaultError, parse
-
-    try:
-        parse(faults, f"{path}: base.faults")
-    except FaultError as err:
-        raise SpecError(str(err)) from None
-    for p in vary.get("parameters", []):
-        for target in p["targets"]:
-            if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
-                raise SpecError(f"{path}: vary.parameters.{p['name']}: {target} names a fault base.faults does not have")
+    faults = _faults(base, vary, path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     cases = []
     for point in _points(vary, path):
@@ -257,3 +299,54 @@ def load(path: Path) -> Campaign:
     return Campaign(data["name"], base.get("scenario", "zse"), _flight(base, path), base.get("stop_time"),
                     base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
                     list(targets), cases, path)
+
+
+def _faults(base: dict, vary: dict, path: Path) -> list:
+    from ...engine.manipulators import FaultError, parse
+
+    faults = base.get("faults", [])
+    try:
+        parse(faults, f"{path}: base.faults")
+    except FaultError as err:
+        raise SpecError(str(err)) from None
+    for p in vary.get("parameters", []):
+        for target in p["targets"]:
+            if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
+                raise SpecError(f"{path}: vary.parameters.{p['name']}: {target} names a fault base.faults does not have")
+    return faults
+
+
+def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
+    """The cases of a campaign from a snapshot: its loop, each case's faults, tunable parameters and seed."""
+    from ..options import LoopOptions
+
+    base, vary, keep = data["base"], data["vary"], data.get("keep", {})
+    options = LoopOptions.from_dict(branching.options)
+    stop = base.get("stop_time") or branching.stop
+    if stop is None or stop <= branching.time:
+        raise SpecError(f"{path}: base.stop_time: {stop} s is not after the snapshot's time ({branching.time:g} s)")
+    faults = _faults(base, vary, path) if "faults" in base else None  # None: the run's own faults, as --from-snapshot
+    targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
+    for name, these in targets.items():
+        if TUNED_SEED in these and "seeds" in vary:
+            raise SpecError(f"{path}: vary.parameters.{name}: {TUNED_SEED} is what vary.seeds sets")
+    controller = str(options.controller_fmu) if options.controller_fmu else options.controller
+    seeds = vary.get("seeds")
+    cases = []
+    for point in _points(vary, path):
+        for seed in seeds or [options.seed]:
+            parameters = dict(base.get("parameters", {}))
+            for name, value in point.items():
+                for target in targets[name]:
+                    parameters[target] = value
+            if seeds:
+                parameters[TUNED_SEED] = seed
+            cases.append(Case(run_id(controller, seed, parameters, branching.digest), controller, seed, point, parameters))
+    ids = [c.run_id for c in cases]
+    if len(set(ids)) != len(ids):
+        raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
+    from ....scenario_fmu.choice import as_trajectory
+
+    return Campaign(data["name"], options.scenario, Flight(options.reference or as_trajectory(options.trajectory)),
+                    stop, options.gusts, tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
+                    list(targets), cases, path, branching.path, branching.time)
