@@ -29,6 +29,7 @@ class LoopOptions:
     system: Path | None  # a system file instead of the loop
     fmus: Path
     allow_unknown_inputs: bool
+    remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order
 
     @property
     def controller_label(self) -> str:
@@ -55,7 +56,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
     return LoopOptions(args.vehicle, args.scenario, trajectory, controller, controller_fmu, args.seed, args.stop_time,
                        args.delay, not args.no_gusts, args.faults, tuple(args.set), args.system, args.fmus,
-                       args.allow_unknown_inputs)
+                       args.allow_unknown_inputs, tuple(args.remote))
 
 
 @dataclass
@@ -89,6 +90,8 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
 
             check_controller(read_fmu(opts.controller_fmu, CONTROLLER), opts.allow_unknown_inputs, opts.vehicle)
         stop, schedule = None, None
+    for name, address in opts.remotes:
+        system.instance(name).remote = address
     if opts.faults is not None:
         system.faults = [*system.faults, *load_faults(opts.faults)]
     stop = opts.stop_time or stop or default_stop(opts.trajectory)

@@ -21,6 +21,8 @@ def add_parser(sub) -> None:
                         "process, so a crash, exit() or hang in one ends the run with one line)")
     r.add_argument("--step-timeout", type=arguments.positive_time, default=None, metavar="S",
                    help="watchdog for an FMU in its own process: the longest a call may take (default 10 s)")
+    r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
+                   help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
     r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
@@ -30,9 +32,33 @@ def add_parser(sub) -> None:
 
 
 def _announce(execution) -> None:
-    """Before the first step: the inputs nothing feeds (a misspelt port shows up here)."""
+    """Before the first step: the inputs nothing feeds (a misspelt port shows up here), the instances run elsewhere."""
     if execution.unconnected:
         print(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
+    remote = [i for i in execution.system.instances if i.remote]
+    if remote:
+        from ...engine.isolation.hosting import hosts_remote
+        from ..errors import UserError
+
+        if not hosts_remote(execution):
+            raise UserError("this master's execution does not host remote instances yet (isolation.hosting.slave_for "
+                            "is not wired into Execution.instantiate)")
+        print(f"remote: {', '.join(f'{i.name} on tiltload serve at {i.remote}' for i in remote)}")
+
+
+def _with_token(system, token_file: Path | None) -> None:
+    """The run's secret for every instance that runs on a tiltload serve: read now, so a bad file is one line."""
+    from ...engine.isolation.handshake import read_token
+    from ..errors import UserError
+
+    remote = [i.name for i in system.instances if i.remote]
+    if remote and token_file is None:
+        raise UserError(f"{', '.join(remote)} run on tiltload serve: give its shared secret with --token-file")
+    if remote:
+        read_token(token_file)
+    for inst in system.instances:
+        if inst.remote:
+            inst.token_file = token_file
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     opts = resolve_loop(args)
     loop = loop_system(opts, cache_root() / "ssp")
     system, stop = loop.system, loop.stop
+    _with_token(system, args.token_file)
     schedule = args.schedule or loop.schedule
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)

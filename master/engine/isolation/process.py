@@ -46,6 +46,11 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
+def how_it_ended(code: int) -> str:
+    """A worker's end by its exit status (Popen's returncode: negative for a signal)."""
+    return f"the FMU crashed ({_signal_name(-code)})" if code < 0 else f"the FMU ended its process with exit({code})"
+
+
 class WorkerProcess:
     """The FMU's host on this machine: a worker process (worker.py) on a pipe pair."""
 
@@ -78,8 +83,7 @@ class WorkerProcess:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             code = self.proc.wait()
-        how = (f"the FMU crashed ({_signal_name(-code)})" if code < 0 else
-               f"the FMU ended its process with exit({code})")
+        how = how_it_ended(code)
         said = self._last_stderr()
         return f"{how} in {what}" + (f"; it said: {said}" if said else "")
 
@@ -169,6 +173,8 @@ class IsolatedFmu(slave.Slave):
         self.fatal = bool(reply.get("fatal"))
         if reply["error"] == "protocol":
             raise self._fail(f"{what}: its host refused the request ({reply['message']})")
+        if reply["error"] == "ended":  # the server saw the FMU's process end, and says how
+            raise self._fail(f"{reply['message']} in {what}" + (f" on {self.host.where}" if hasattr(self.host, "where") else ""))
         raise (DescriptionError if reply["error"] == "description" else ExecutionError)(reply["message"])
 
     def initialize(self, parameters: dict) -> None:
