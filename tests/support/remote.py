@@ -68,6 +68,13 @@ class ServerProcess:
             if text in line:
                 return line
 
+    def count(self, text: str, n: int, timeout: float = 20.0) -> int:
+        """How many log lines contain text, once there are n of them (or timeout s have passed)."""
+        deadline = time.monotonic() + timeout
+        while sum(text in line for line in self.lines) < n and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return sum(text in line for line in self.lines)
+
     def workers(self) -> list[int]:
         """The FMU processes the server runs now."""
         out = subprocess.run(["ps", "-ww", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout.splitlines()[1:]
@@ -83,7 +90,8 @@ class ServerProcess:
         return children[0] if children else self.proc.pid
 
     def kill(self) -> None:
-        os.killpg(self.proc.pid, signal.SIGKILL)
+        """SIGKILL to the server alone: its FMU processes must die with it (PR_SET_PDEATHSIG)."""
+        os.kill(self.server_pid(), signal.SIGKILL)
         self.proc.wait()
 
     def stop(self) -> None:
@@ -92,7 +100,8 @@ class ServerProcess:
             try:
                 self.proc.wait(timeout=10)
             except subprocess.TimeoutExpired:
-                self.kill()
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
 
 
 def connect(address: str) -> socket.socket:
