@@ -33,9 +33,11 @@ def token_file(folder: Path, name: str = "token") -> Path:
 class ServerProcess:
     """tiltload serve --fmus folder in a child process (its own session: its own process tree); its log is kept."""
 
-    def __init__(self, fmus: Path, token: Path, *extra: str, bind: str = "127.0.0.1:0", netns: str | None = None) -> None:
-        command = [sys.executable, "-m", "tiltload.master.app.cli", "serve", "--fmus", str(fmus), "--token-file", str(token),
-                   "--bind", bind, *extra]
+    def __init__(self, fmus: Path, token: Path, *extra: str, bind: str = "127.0.0.1:0", netns: str | None = None,
+                 engine_only: bool = False) -> None:
+        """engine_only: as a board without the application runs it, `python -m tiltload.master.engine.isolation.server`."""
+        entry = ["tiltload.master.engine.isolation.server"] if engine_only else ["tiltload.master.app.cli", "serve"]
+        command = [sys.executable, "-m", *entry, "--fmus", str(fmus), "--token-file", str(token), "--bind", bind, *extra]
         if netns is not None:
             command = ["ip", "netns", "exec", netns, *command]
         self.proc = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,

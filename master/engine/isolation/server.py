@@ -20,6 +20,7 @@ What keeps one client from harming the server or the others:
 
 from __future__ import annotations
 
+import argparse
 import os
 import queue
 import re
@@ -56,6 +57,10 @@ class ServeOptions:
     handshake_timeout: float = 5.0  # s from the connection to the FMU's pick
     idle_timeout: float = 600.0  # s a session may wait for the master's next request
     max_pending: int = 16  # connections being admitted at a time
+
+
+class ServeError(Exception):
+    """The server cannot start (a missing folder, a bad token file, an address it cannot listen on): one line."""
 
 
 class Refused(Exception):
@@ -368,3 +373,95 @@ class Server:
                 os.close(fd)
             except OSError:
                 pass
+
+
+# --- the command line: `tiltload serve`, or `python -m tiltload.master.engine.isolation.server` on a board that has
+# only numpy and FMPy (the engine's own dependencies), not the whole application ---
+
+def _address(text: str) -> tuple[str, int]:
+    from ..system import parse_address
+
+    try:
+        return parse_address(text, port_zero=True)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
+    return value
+
+
+def _count(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
+    return int(text)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fmus", type=Path, default=Path("fmus"),
+                   help="the folder whose FMUs are served, built for this machine (default: fmus); nothing else is")
+    p.add_argument("--bind", type=_address, default=("127.0.0.1", DEFAULT_PORT), metavar="HOST:PORT",
+                   help=f"where to listen (default 127.0.0.1:{DEFAULT_PORT}, this machine only; 0.0.0.0:{DEFAULT_PORT} or "
+                        "the board's address for a master elsewhere; port 0 picks a free one)")
+    p.add_argument("--token-file", type=Path, required=True, metavar="FILE",
+                   help="the shared secret (at least 16 bytes, readable by you only) a master must prove, as "
+                        "tiltload run --token-file")
+    p.add_argument("--clients-per-fmu", type=_count, default=1, metavar="N", help="sessions one FMU serves at a time (default 1)")
+    p.add_argument("--handshake-timeout", type=_positive, default=5.0, metavar="S",
+                   help="the time a client has from connecting to naming its FMU (default 5 s)")
+    p.add_argument("--idle-timeout", type=_positive, default=600.0, metavar="S",
+                   help="a session ends after this long without a request from its master (default 600 s)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve until Ctrl-C or SIGTERM (raised as KeyboardInterrupt); ServeError if it cannot start."""
+    from .handshake import read_token
+
+    if not args.fmus.is_dir():
+        raise ServeError(f"--fmus {args.fmus}: no such folder")
+    try:
+        secret = read_token(args.token_file)
+    except DescriptionError as err:
+        raise ServeError(str(err)) from None
+    host, port = args.bind
+    server = Server(ServeOptions(args.fmus.resolve(), secret, host, port, args.clients_per_fmu, args.handshake_timeout,
+                                 args.idle_timeout))
+    try:
+        server.start()
+    except OSError as err:
+        raise ServeError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt as err:
+        server.say(f"stopped ({'SIGTERM' if getattr(err, 'signum', 2) == 15 else 'SIGINT'}); every session ended")
+    return 0
+
+
+class _Terminated(KeyboardInterrupt):
+    signum = 15
+
+
+def main() -> None:
+    import signal
+
+    def terminated(signum, frame):
+        raise _Terminated()
+    signal.signal(signal.SIGTERM, terminated)
+    p = argparse.ArgumentParser(prog="python -m tiltload.master.engine.isolation.server",
+                                description="Serve the FMUs of a folder to tiltload masters elsewhere (docs/remote.md).")
+    add_arguments(p)
+    try:
+        sys.exit(run(p.parse_args()))
+    except ServeError as err:
+        print(f"{p.prog}: error: {err}", file=sys.stderr)
+        sys.exit(2)
+
+
+if __name__ == "__main__":
+    main()
