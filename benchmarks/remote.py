@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import os
 import platform
+import socket
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -27,6 +29,7 @@ from support.remote import Namespace, ServerProcess, netns_available, remote_exe
 from tiltload.master.app.fmus import build_all  # noqa: E402
 from tiltload.master.app.loop import TICK, default_system, loop_metrics  # noqa: E402
 from tiltload.master.engine.execution import Execution  # noqa: E402
+from tiltload.master.engine.isolation.transport import Channel  # noqa: E402
 
 
 def timed(fmus: Path, scenario: str, stop: float, isolate=None, remote: str | None = None, token: Path | None = None):
@@ -45,6 +48,67 @@ def timed(fmus: Path, scenario: str, stop: float, isolate=None, remote: str | No
     metrics = ex.observers[0].table()
     ex.close()
     return per_step, wall, metrics
+
+
+ECHO = """
+import socket, sys
+from tiltload.master.engine.isolation.transport import Channel
+kind, arg = sys.argv[1], sys.argv[2]
+if kind == "pipes":
+    r, w = map(int, arg.split(","))
+    channel = Channel.over_pipes(r, w)
+else:
+    host, port = arg.rsplit(":", 1)
+    channel = Channel.over_socket(socket.create_connection((host, int(port))))
+reply = bytes(int(sys.argv[3]))
+try:
+    while True:
+        channel.receive()
+        channel.send(reply)
+except Exception:
+    pass
+"""
+
+
+def link_round_trip(kind: str, request: int, reply: int, n: int = 3000, netns: str | None = None,
+                    listen: str = "127.0.0.1") -> list[float]:
+    """Seconds per round trip of a request and a reply of these sizes (a step's), with nothing computed: the link alone,
+    Python on both ends as in a run. kind: pipes or tcp."""
+    prefix = ["ip", "netns", "exec", netns] if netns else []
+    if kind == "pipes":
+        req_r, req_w = os.pipe()
+        rep_r, rep_w = os.pipe()
+        proc = subprocess.Popen([sys.executable, "-c", ECHO, "pipes", f"{req_r},{rep_w}", str(reply)], pass_fds=(req_r, rep_w))
+        os.close(req_r)
+        os.close(rep_w)
+        channel = Channel.over_pipes(rep_r, req_w)
+    else:
+        listener = socket.create_server((listen, 0))
+        proc = subprocess.Popen([*prefix, sys.executable, "-c", ECHO, "tcp", f"{listen}:{listener.getsockname()[1]}", str(reply)])
+        channel = Channel.over_socket(listener.accept()[0])
+        listener.close()
+    payload, times = bytes(request), []
+    for _ in range(n):
+        started = time.perf_counter()
+        channel.send(payload)
+        channel.receive(10)
+        times.append(time.perf_counter() - started)
+    channel.close()
+    proc.wait(timeout=10)
+    return times[100:]  # without the first: caches, page faults
+
+
+def step_sizes(fmus: Path) -> tuple[int, int]:
+    """The bytes of the controller's step request and reply in the loop (wire.py): what the link carries per tick."""
+    from tiltload.master.engine.isolation import wire
+    from tiltload.master.engine.model_description import read_fmu
+
+    md = read_fmu(fmus / "TiltloadController.fmu", "controller")
+    inputs = [v for v in md.modelVariables if v.causality == "input"]
+    outputs = {t: sum(v.causality == "output" and v.type == t for v in md.modelVariables) for t in wire.TYPES}
+    request = 1 + 16 + sum(5 + (4 + wire.WIDTH[t]) * sum(v.type == t for v in inputs) for t in wire.TYPES
+                           if any(v.type == t for v in inputs))
+    return request + 4, 1 + wire.output_bytes(outputs) + 4
 
 
 def machine() -> str:
@@ -72,6 +136,16 @@ def main() -> int:
             hosts.append(("tiltload serve, other netns (veth)", {"remote": servers[1].address, "token": token}))
         ok = True
         try:
+            request, reply = step_sizes(fmus)
+            print(f"the link alone: {request} bytes out, {reply} back per step (the controller's), Python at both ends, "
+                  "nothing computed; microseconds per round trip, median / p99 of 2900")
+            links = [("pipes", {}), ("loopback TCP", {"kind": "tcp"})]
+            if namespace is not None:
+                links.append(("veth to another netns", {"kind": "tcp", "netns": namespace.name, "listen": namespace.master_ip}))
+            for label, how in links:
+                times = sorted(link_round_trip(how.pop("kind", "pipes"), request, reply, **how))
+                print(f"  {label:<36} {1e6 * statistics.median(times):7.1f} / {1e6 * times[int(0.99 * len(times))]:7.1f}")
+            print()
             for scenario, what in (("fsi", "the lightest step: no estimator"), ("zse", "the heaviest: the ZSE")):
                 runs: dict[str, list] = {label: [] for label, _ in hosts}
                 for _ in range(rounds):

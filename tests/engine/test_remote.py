@@ -4,13 +4,14 @@ is refused with a log line, and the server goes on serving; the watchdog and the
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import struct
 import time
 
 import pytest
 from support.fmu_session import wrap_misbehaving
-from support.remote import Namespace, ServerProcess, connect, netns_available, remote_execution, token_file
+from support.remote import CROSS_CC, Namespace, ServerProcess, connect, cross_build, netns_available, remote_execution, token_file
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
@@ -18,6 +19,7 @@ from tiltload.master.engine.isolation import handshake, wire
 from tiltload.master.engine.isolation.hosting import remote_fmu
 from tiltload.master.engine.isolation.process import IsolatedFmu
 from tiltload.master.engine.isolation.remote_client import RemoteHost
+from tiltload.master.engine.isolation.server import library_machine, this_machine
 from tiltload.master.engine.isolation.transport import Channel, FrameTooLarge, LinkClosed
 from tiltload.master.engine.model_description import read_fmu
 
@@ -241,6 +243,29 @@ def test_a_server_can_serve_two_clients_of_one_fmu_when_told(fmus, token):
         assert len(srv.workers()) == 2
         for inst in two:
             inst.close()
+    finally:
+        srv.stop()
+
+
+@pytest.mark.skipif(shutil.which(CROSS_CC) is None, reason=f"needs the {CROSS_CC} cross compiler")
+def test_an_fmu_cross_built_for_a_board_keeps_its_guid_and_is_not_loaded_on_another_processor(fmus, token, tmp_path):
+    """docs/remote.md's cross-build: the same FMU identity with an aarch64 library, which an x86-64 server refuses to load."""
+    served = tmp_path / "board"
+    served.mkdir()
+    board = cross_build(fmus / "TiltloadController.fmu", served / "TiltloadController.fmu")
+    md = read_fmu(fmus / "TiltloadController.fmu", "controller")
+    assert read_fmu(board, "controller").guid == md.guid
+    assert library_machine(board, "TiltloadController") == "aarch64"
+    assert library_machine(fmus / "TiltloadController.fmu", "TiltloadController") == this_machine()
+    if this_machine() == "aarch64":
+        pytest.skip("this machine is the board")
+    srv = ServerProcess(served, token)
+    try:
+        with pytest.raises(ExecutionError, match="TiltloadController.fmu here holds a library for aarch64, this machine is "
+                                                 f"{this_machine()}: build the FMU for it"):
+            remote_fmu("controller", fmus / "TiltloadController.fmu", md, srv.address, token)
+        srv.wait_for("refused: TiltloadController.fmu here holds a library for aarch64")
+        assert not srv.workers()
     finally:
         srv.stop()
 

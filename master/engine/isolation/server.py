@@ -67,6 +67,36 @@ class Refused(Exception):
     """A client's request this server does not grant; the message goes to the client and the log."""
 
 
+_ELF_MACHINES = {3: "x86", 40: "arm", 62: "x86_64", 183: "aarch64", 243: "riscv64"}
+_THIS_MACHINE = {"amd64": "x86_64", "arm64": "aarch64", "i686": "x86", "i386": "x86"}
+
+
+def library_machine(fmu: Path, model_identifier: str) -> str | None:
+    """The processor the FMU's Linux library is built for (from its ELF header), or None if it has none or it
+    cannot be read: a library copied from another machine is then refused with a line, not a loader error."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            names = [n for n in z.namelist() if n.startswith("binaries/linux") and n.endswith(f"/{model_identifier}.so")]
+            if not names:
+                return None
+            with z.open(names[0]) as f:
+                header = f.read(20)
+    except (OSError, zipfile.BadZipFile):
+        return None
+    if header[:4] != b"\x7fELF" or len(header) < 20:
+        return None
+    return _ELF_MACHINES.get(int.from_bytes(header[18:20], "little" if header[5] == 1 else "big"), "another processor")
+
+
+def this_machine() -> str:
+    import platform
+
+    machine = platform.machine().lower()
+    return _THIS_MACHINE.get(machine, machine)
+
+
 class Catalogue:
     """The FMUs of the folder by model identifier and GUID, read again whenever a file changes."""
 
@@ -100,6 +130,10 @@ class Catalogue:
         entries = self.entries()
         for path, md in entries:
             if md.coSimulation.modelIdentifier == model_identifier and md.guid == guid:
+                built_for = library_machine(path, model_identifier)
+                if built_for is not None and built_for != this_machine():
+                    raise Refused(f"{path.name} here holds a library for {built_for}, this machine is {this_machine()}: "
+                                  "build the FMU for it (docs/remote.md)")
                 return path
         same = [(path, md.guid) for path, md in entries if md.coSimulation.modelIdentifier == model_identifier]
         if same:
