@@ -28,6 +28,8 @@ NONCE = 32
 MAC = hashlib.sha256().digest_size
 ACCEPTED, REFUSED = b"\x01", b"\x00"
 MIN_SECRET = 16  # bytes in the token file (after surrounding white space)
+PROTOCOL = 1  # what the client's request for an FMU, which follows the handshake, says it speaks
+OPEN_LIMIT = 4096  # bytes of that request and of the server's answer
 
 
 class HandshakeFailed(Exception):

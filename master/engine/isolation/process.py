@@ -118,7 +118,7 @@ class IsolatedFmu(slave.Slave):
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
         self.setters = {t: self._queue(t) for t in slave.TYPES}
         self._pending: list = []
-        self._dead = False
+        self._dead = self._closed = False
         self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
         self.host = host if host is not None else WorkerProcess(self.path, name)
         self.channel = self.host.channel
@@ -194,7 +194,7 @@ class IsolatedFmu(slave.Slave):
 
     def close(self) -> None:
         """Ask the host to terminate and free the FMU (within the watchdog, at most 5 s), then let it go."""
-        if getattr(self, "_closed", False):
+        if self._closed:
             return
         self._closed = True
         try:

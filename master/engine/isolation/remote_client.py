@@ -18,8 +18,6 @@ from . import handshake, wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 CONNECT_TIMEOUT = 10.0  # s to reach the server, prove the token and have the FMU picked
-OPEN_LIMIT = 4096  # bytes of the server's answer to the open request (and of the request itself, server.py)
-PROTOCOL = 1
 
 
 class RemoteHost:
@@ -42,9 +40,9 @@ class RemoteHost:
             raise ExecutionError(f"{where}: {err}") from None
         try:
             self.channel.send(wire.control({
-                "op": "open", "protocol": PROTOCOL, "model_identifier": md.coSimulation.modelIdentifier, "guid": md.guid,
+                "op": "open", "protocol": handshake.PROTOCOL, "model_identifier": md.coSimulation.modelIdentifier, "guid": md.guid,
                 "instance": name, "byteorder": sys.byteorder, "client": f"{socket.gethostname()} pid {os.getpid()}"}))
-            reply = wire.decode_reply(self.channel.receive(timeout, OPEN_LIMIT))
+            reply = wire.decode_reply(self.channel.receive(timeout, handshake.OPEN_LIMIT))
         except (LinkClosed, LinkTimeout, FrameTooLarge, wire.ProtocolError) as err:
             self.channel.close()
             raise ExecutionError(f"{where}: no answer to the request for {md.coSimulation.modelIdentifier} "

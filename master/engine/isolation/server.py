@@ -40,8 +40,6 @@ from .process import WORKER_MODULE, how_it_ended
 from .transport import HEADER, Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 DEFAULT_PORT = 7390
-OPEN_LIMIT = 4096  # bytes of the request that names the FMU
-PROTOCOL = 1
 GRACE = 2.0  # s a worker has to end once its client has left, before it is killed
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 _TEXT = re.compile(r"^[\x20-\x7e]{1,200}$")  # printable ASCII: what may reach the log from a client
@@ -218,7 +216,7 @@ class Server:
             handshake.server_side(sock, self.options.secret, self.options.handshake_timeout)
             channel = Channel.over_socket(sock)
             try:
-                request = wire.decode_control(channel.receive(max(deadline - time.monotonic(), 0.001), OPEN_LIMIT))
+                request = wire.decode_control(channel.receive(max(deadline - time.monotonic(), 0.001), handshake.OPEN_LIMIT))
             except LinkTimeout:
                 raise Refused(f"no request for an FMU within {self.options.handshake_timeout:g} s") from None
             except LinkClosed:
@@ -258,8 +256,8 @@ class Server:
     def _check_request(self, request: dict, label: str) -> str:
         if request.get("op") != "open":
             raise Refused(f"expected a request for an FMU, got {str(request.get('op'))[:40]!r}")
-        if request.get("protocol") != PROTOCOL:
-            raise Refused(f"protocol {str(request.get('protocol'))[:20]!r}, this server speaks {PROTOCOL}")
+        if request.get("protocol") != handshake.PROTOCOL:
+            raise Refused(f"protocol {str(request.get('protocol'))[:20]!r}, this server speaks {handshake.PROTOCOL}")
         if request.get("byteorder") != sys.byteorder:
             raise Refused(f"the master is {str(request.get('byteorder'))[:20]}-endian, this machine {sys.byteorder}-endian")
         for key in ("model_identifier", "guid", "client"):
