@@ -137,7 +137,7 @@ def main() -> int:
         ok = True
         try:
             request, reply = step_sizes(fmus)
-            print(f"the link alone: {request} bytes out, {reply} back per step (the controller's), Python at both ends, "
+            print(f"the link alone: about {request} bytes out, {reply} back per step (the controller's), Python at both ends, "
                   "nothing computed; microseconds per round trip, median / p99 of 2900")
             links = [("pipes", {}), ("loopback TCP", {"kind": "tcp"})]
             if namespace is not None:
