@@ -172,7 +172,8 @@ def transport_frame(body: bytes) -> bytes:
     (transport_frame(b"J" + b"\xff" * 40), "malformed J message"),
     ("unknown", "no FMU NotThere in the served folder"),
     ("other guid", "the master's has {00000000-"),
-], ids=["waits", "1GB-frame", "garbage", "unknown-fmu", "other-guid"])
+    ("ahead", "it sent more than its request before the answer"),
+], ids=["waits", "1GB-frame", "garbage", "unknown-fmu", "other-guid", "sends-ahead"])
 def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(sends, why, fmus, token, server):
     md = read_fmu(fmus / "TiltloadController.fmu", "controller")
     sock = authenticated(server.address, token)
@@ -181,7 +182,7 @@ def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(send
     if sends == "other guid":
         md.guid = "{00000000-0000-0000-0000-000000000000}"
     if isinstance(sends, str):
-        sends = transport_frame(open_request(md))
+        sends = transport_frame(open_request(md)) + (transport_frame(b"S" + bytes(16)) if sends == "ahead" else b"")
     if sends is not None:
         sock.sendall(sends)
     lines = refused(server, sock, why)

@@ -223,6 +223,8 @@ class Server:
                 raise Refused("the connection closed before it asked for an FMU") from None
             except (FrameTooLarge, wire.ProtocolError) as err:
                 raise Refused(str(err)) from None
+            if channel.buffered():  # the worker takes over the stream: nothing may be waiting in our buffer
+                raise Refused("it sent more than its request before the answer")
             instance = self._check_request(request, label)
             fmu = self.catalogue.find(request["model_identifier"], request["guid"])
             with self._lock:

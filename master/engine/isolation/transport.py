@@ -103,6 +103,10 @@ class Channel:
         del self._buffer[:HEADER.size + size]
         return frame
 
+    def buffered(self) -> int:
+        """Bytes received past the last frame returned (a peer that sent ahead of its answer)."""
+        return len(self._buffer)
+
     def close(self) -> None:
         if self.closed:
             return
