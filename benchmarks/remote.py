@@ -25,7 +25,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the server helpers of the test suite
 
-from support.remote import Namespace, ServerProcess, netns_available, remote_execution, token_file  # noqa: E402
+from support.remote import Namespace, ServerProcess, netns_available, token_file  # noqa: E402
 from tiltload.master.app.fmus import build_all  # noqa: E402
 from tiltload.master.app.loop import TICK, default_system, loop_metrics  # noqa: E402
 from tiltload.master.engine.execution import Execution  # noqa: E402
@@ -36,9 +36,8 @@ def timed(fmus: Path, scenario: str, stop: float, isolate=None, remote: str | No
     system = default_system(fmus, scenario, 1, "mixed")
     ctrl = system.instance("controller")
     ctrl.remote, ctrl.token_file = remote, token
-    with remote_execution():
-        ex = Execution(system, [loop_metrics()], isolate=isolate)
-        ex.instantiate()
+    ex = Execution(system, [loop_metrics()], isolate=isolate)
+    ex.instantiate()
     for inst in ex.instances.values():
         inst.fmi_seconds = 0.0
     started = time.perf_counter()

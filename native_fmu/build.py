@@ -64,12 +64,12 @@ class BuildResult:
     warnings: list[str] = field(default_factory=list)  # the compiler's warnings on our own sources (the tests want none)
 
 
-def digest(recipe: Recipe) -> str:
-    """Identity of a build: its input files, the toolkit, the compiler and the flags, the versions."""
+def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...]) -> str:
+    """Identity of a build: its input files, the toolkit, the platforms with their compilers and flags, the versions."""
     h = hashlib.sha256()
     for f in sorted({*recipe.inputs, *TOOLKIT_FILES}, key=str):
         h.update(f.name.encode() + b"\0" + f.read_bytes())
-    for e in (*cc.identity(), tiltload_version(), *recipe.identity):
+    for e in (*cc.identity(toolchains), tiltload_version(), *recipe.identity):
         h.update(e.encode() + b"\0")
     return h.hexdigest()
 
@@ -79,19 +79,23 @@ def is_current(fmu: Path, source_digest: str) -> bool:
     return bool(info) and info.get("source_hash") == source_digest
 
 
-def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[str], None] = print) -> BuildResult:
-    """Write dest/<recipe.fmu_name> unless an FMU of the same inputs is already there (or force)."""
+def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[str], None] = print,
+          toolchains: tuple[cc.Toolchain, ...] = ()) -> BuildResult:
+    """Write dest/<recipe.fmu_name> with a binary for each of toolchains (default: every platform whose compiler
+    is here, compile.choose) unless an FMU of the same inputs and platforms is already there (or force)."""
     started = time.perf_counter()
     target = Path(dest) / recipe.fmu_name
-    source_digest = digest(recipe)
+    toolchains = toolchains or cc.choose()[0]
+    source_digest = digest(recipe, toolchains)
     if not force and is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
     with tempfile.TemporaryDirectory(prefix="tiltload_prepare_") as tmp:
         prepared = recipe.prepare(Path(tmp), progress)
         info = {"version": tiltload_version(), **prepared.info}
-        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info)
+        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains)
     return BuildResult(target, True, time.perf_counter() - started, warnings)
 
 
-def build_all(recipes: list[Recipe], dest: Path, force: bool = False, progress: Callable[[str], None] = print) -> list[BuildResult]:
-    return [build(r, dest, force, progress) for r in recipes]
+def build_all(recipes: list[Recipe], dest: Path, force: bool = False, progress: Callable[[str], None] = print,
+              toolchains: tuple[cc.Toolchain, ...] = ()) -> list[BuildResult]:
+    return [build(r, dest, force, progress, toolchains) for r in recipes]

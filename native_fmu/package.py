@@ -1,8 +1,9 @@
 """Package a native FMU: stage its sources and generated tables, compile, write the model description, zip.
 
-The FMU holds modelDescription.xml, binaries/<platform>/<id>.so, every C source and header it was
-built from under sources/ (listed in the model description, so another platform can rebuild it)
-and resources/build_info.json (the source digest that decides staleness, and the GUID).
+The FMU holds modelDescription.xml, a binary per platform built (binaries/linux64/<id>.so,
+binaries/win64/<id>.dll, binaries/aarch64-linux/<id>.so: compile.TOOLCHAINS), every C source and
+header it was built from under sources/ (listed in the model description, so any other platform can
+rebuild it) and resources/build_info.json (the source digest that decides staleness, and the GUID).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
 LAYER = HERE / "c"
-LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmu.h", LAYER / "tl_noise.h")
+LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmu.h", LAYER / "tl_noise.h", LAYER / "tl_platform.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 BUILD_INFO = "resources/build_info.json"
 
@@ -45,8 +46,10 @@ def read_build_info(fmu: Path) -> dict | None:
 
 
 def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path, source_digest: str,
-              info: dict | None = None) -> list[str]:
-    """Write target (under a temporary name, then moved); return the compiler's warnings on our own sources."""
+              info: dict | None = None, toolchains: tuple[cc.Toolchain, ...] = ()) -> list[str]:
+    """Write target (under a temporary name, then moved) with a binary for each of toolchains (default: every
+    platform whose compiler is here); return the compilers' warnings."""
+    toolchains = toolchains or cc.choose()[0]
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     guid = describe.guid(definition, source_digest)
@@ -61,14 +64,18 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
             shutil.copy2(f, src / f.name)
         (src / "tl_model.h").write_text(describe.c_header(definition, guid))
         (src / "tl_model_tables.c").write_text(describe.c_tables(definition))
-        bin_dir = stage / "binaries" / cc.platform_folder()
-        bin_dir.mkdir(parents=True)
-        warnings = cc.compile_shared(sources, src, bin_dir / f"{definition.model_identifier}.so")
+        warnings = []
+        for t in toolchains:  # the same sources for every platform
+            bin_dir = stage / "binaries" / t.folder
+            bin_dir.mkdir(parents=True)
+            warnings += cc.compile_shared(sources, src, bin_dir / f"{definition.model_identifier}{t.suffix}", t)
         c_files = sorted(p.name for p in src.glob("*.c"))
-        tool = f"tiltload {definition.version} (native FMI 2.0 layer, {cc.compiler_identity(cc.compiler())})"
+        compilers = "; ".join(f"{t.folder}: {cc.compiler_identity(cc.compiler(t))}" for t in toolchains)
+        tool = f"tiltload {definition.version} (native FMI 2.0 layer, {compilers})"
         (stage / "modelDescription.xml").write_bytes(describe.model_description(definition, guid, c_files, tool))
         (stage / "resources").mkdir()
-        (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, **(info or {})}, indent=1))
+        (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, **(info or {}),
+                                                    "platforms": [t.folder for t in toolchains], "warnings": warnings}, indent=1))
         partial = target.with_name(target.name + ".partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(stage.rglob("*")):

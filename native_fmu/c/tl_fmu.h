@@ -7,6 +7,8 @@
 #ifndef TL_FMU_H
 #define TL_FMU_H
 
+#include "tl_platform.h"
+
 #include "fmi2Functions.h"
 #include "tl_model.h"
 
@@ -31,21 +33,22 @@ typedef struct TlInstance {
   TlState s;
   fmi2CallbackFunctions host;
   char* name;
+  char* resources; /* the resources folder as a native path ending in a separator, or NULL (no file URI given) */
   fmi2Boolean logging_on;
 } TlInstance;
 
 /* Log a formatted message through the host's logger (errors and discards always; others when
    logging is on). The message is formatted here: hosts print it as it is. */
-void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...)
+TL_INTERNAL void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
 
 /* Model hooks. */
-void tl_model_reset(TlInstance* c);                           /* start values are loaded: set the model state */
-fmi2Status tl_model_outputs(TlInstance* c);                   /* outputs from parameters and inputs (initialization mode) */
-fmi2Status tl_model_initialize(TlInstance* c);                /* exitInitializationMode: check parameters, set outputs */
-fmi2Status tl_model_step(TlInstance* c, double t, double h);  /* advance [t, t + h); the layer advances the clock on OK */
+TL_INTERNAL void tl_model_reset(TlInstance* c);                          /* start values are loaded: set the model state */
+TL_INTERNAL fmi2Status tl_model_outputs(TlInstance* c);                  /* outputs from parameters and inputs (initialization mode) */
+TL_INTERNAL fmi2Status tl_model_initialize(TlInstance* c);               /* exitInitializationMode: check parameters, set outputs */
+TL_INTERNAL fmi2Status tl_model_step(TlInstance* c, double t, double h); /* advance [t, t + h); the layer advances the clock on OK */
 
 #endif

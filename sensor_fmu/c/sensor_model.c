@@ -1,6 +1,8 @@
 /* The sensor FMU's hooks: the measurement model pi(x) (4.22, or (A.3) for the UAV alone;
    CasADi-generated) and q sampled on each group's period with counter-based noise (tl_noise.h). A sample taken in doStep(t_k) uses
    the state set before the call and is held until the group's next sample (docs/ports.md, Timing). */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -15,10 +17,10 @@
 #define STATE(c) ((c)->s.real + TL_REAL_x)
 #define EXACT(c) ((c)->s.real + TL_REAL_exact_x)
 
-_Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "the state inputs are contiguous");
-_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact channel is contiguous");
-_Static_assert(TL_N_GROUPS <= TL_SENSOR_MAX_GROUPS && TL_N_PARAMS <= TL_SENSOR_MAX_PARAMS, "model state fits");
-_Static_assert(TL_PI_SZ_ARG == 2 && TL_PI_SZ_RES == 1, "pi(x, p) -> y");
+TL_STATIC_ASSERT(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "the state inputs are contiguous");
+TL_STATIC_ASSERT(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact channel is contiguous");
+TL_STATIC_ASSERT(TL_N_GROUPS <= TL_SENSOR_MAX_GROUPS && TL_N_PARAMS <= TL_SENSOR_MAX_PARAMS, "model state fits");
+TL_STATIC_ASSERT(TL_PI_SZ_ARG == 2 && TL_PI_SZ_RES == 1, "pi(x, p) -> y");
 
 static int evaluate_pi(TlInstance* c, double y[TL_SENSOR_NY]) {
   const double* arg[TL_PI_SZ_ARG + 1];

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
-from support.remote import ServerProcess, remote_execution, token_file
+from support.remote import ServerProcess, token_file
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.engine import log_reader, ssp
@@ -20,12 +20,6 @@ from tiltload.master.engine import system as sysdesc
 @pytest.fixture(scope="module")
 def token(tmp_path_factory):
     return token_file(tmp_path_factory.mktemp("secret"))
-
-
-@pytest.fixture(autouse=True)
-def wired():
-    with remote_execution():
-        yield
 
 
 def alive(pid: int, wait: float = 5.0) -> bool:

@@ -11,7 +11,7 @@ import time
 
 import pytest
 from support.fmu_session import wrap_misbehaving
-from support.remote import CROSS_CC, Namespace, ServerProcess, connect, cross_build, netns_available, remote_execution, token_file
+from support.remote import CROSS_CC, Namespace, ServerProcess, connect, cross_build, netns_available, token_file
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
@@ -47,9 +47,8 @@ def loop(fmus, address=None, token=None):
 
 
 def run_loop(system, stop: float, restart: float | None = None):
-    with remote_execution():
-        ex = Execution(system, [loop_metrics()])
-        ex.instantiate()
+    ex = Execution(system, [loop_metrics()])
+    ex.instantiate()
     try:
         hosted = ex.instances["controller"]
         ex.run(stop)
@@ -298,9 +297,8 @@ def test_a_remote_fmu_that_hangs_trips_the_watchdog_and_the_server_kills_it(fmus
     system = default_system(fmus, "fsi", 1, controller_fmu=bad["hang"])
     ctrl = system.instance("controller")
     ctrl.remote, ctrl.token_file = srv.address, token
-    with remote_execution():
-        ex = Execution(system, [loop_metrics()], step_timeout=1.0)
-        ex.instantiate()
+    ex = Execution(system, [loop_metrics()], step_timeout=1.0)
+    ex.instantiate()
     try:
         with pytest.raises(ExecutionError, match=r"controller: doStep at t=0\.504 s did not return within 1 s \(watchdog; "
                                                  r"--step-timeout sets the limit\): the connection to .* was closed"):
@@ -317,9 +315,8 @@ def test_a_remote_fmu_that_crashes_is_one_line_and_the_server_survives(fmus, tok
     system = default_system(fmus, "fsi", 1, controller_fmu=bad["segfault"])
     ctrl = system.instance("controller")
     ctrl.remote, ctrl.token_file = srv.address, token
-    with remote_execution():
-        ex = Execution(system, [loop_metrics()])
-        ex.instantiate()
+    ex = Execution(system, [loop_metrics()])
+    ex.instantiate()
     try:
         with pytest.raises(ExecutionError, match=r"controller: the FMU crashed \(SIGSEGV\) in doStep at t=0\.504 s "
                                                  r"on tiltload serve at 127"):

@@ -3,7 +3,6 @@ and clients that misbehave on purpose."""
 
 from __future__ import annotations
 
-import contextlib
 import os
 import queue
 import re
@@ -16,9 +15,6 @@ import sys
 import threading
 import time
 from pathlib import Path
-
-from tiltload.master.engine import execution as execution_module
-from tiltload.master.engine.isolation.hosting import slave_for
 
 LISTENING = re.compile(r"listening on (\S+),")
 
@@ -109,35 +105,6 @@ class ServerProcess:
 def connect(address: str) -> socket.socket:
     host, port = address.rsplit(":", 1)
     return socket.create_connection((host, int(port)), timeout=10)
-
-
-@contextlib.contextmanager
-def remote_execution():
-    """The execution as it creates slaves once it calls isolation.hosting.slave_for (to be wired in execution.py):
-    until then, its local fallback is routed through slave_for, which honours Instance.remote."""
-    if "slave_for" in execution_module.Execution.instantiate.__code__.co_names:
-        yield  # wired: nothing to do
-        return
-    original = execution_module.Execution.instantiate
-
-    def instantiate(self):
-        specs, isolate, timeout = {s.name: s for s in self.system.instances}, self.isolate, self.step_timeout
-        local, make = execution_module.InProcessFmu, slave_for  # naming slave_for here: hosting.hosts_remote sees it
-
-        def create(name, path, md):
-            return make(specs[name], md, isolate, timeout)
-        self.isolate = None  # every instance through create, which applies the real policy
-        execution_module.InProcessFmu = create
-        try:
-            original(self)
-        finally:
-            execution_module.InProcessFmu = local
-            self.isolate = isolate
-    execution_module.Execution.instantiate = instantiate
-    try:
-        yield
-    finally:
-        execution_module.Execution.instantiate = original
 
 
 def netns_available() -> bool:

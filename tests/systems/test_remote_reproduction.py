@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 from support import ROOT
-from support.remote import Namespace, ServerProcess, netns_available, remote_execution, token_file
+from support.remote import Namespace, ServerProcess, netns_available, token_file
 from tiltload.master.app.loop import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression import reproduce
 from tiltload.master.engine.run import run_system
@@ -27,8 +27,7 @@ def metrics(fmus, scenario, trajectory, controller, remote=None, token=None) -> 
     system = default_system(fmus, scenario, trajectory, controller, reproduce.SEED)
     ctrl = system.instance("controller")
     ctrl.remote, ctrl.token_file = remote, token
-    with remote_execution():
-        result = run_system(system, default_stop(trajectory), None, loop_metrics(), progress=False)
+    result = run_system(system, default_stop(trajectory), None, loop_metrics(), progress=False)
     assert result.error is None, result.error
     return result.metrics
 

@@ -33,13 +33,3 @@ def slave_for(spec, md, isolate=None, step_timeout: float | None = None) -> Slav
         return IsolatedFmu(spec.name, spec.fmu, md, timeout)
     return InProcessFmu(spec.name, spec.fmu, md)
 
-
-def hosts_remote(execution) -> bool:
-    """Does this execution create its slaves with slave_for (and so honour Instance.remote)? True once execution.py
-    calls it (imported at its top or inside a method); until then a remote instance would silently run here."""
-    import sys
-
-    cls = type(execution)
-    if getattr(sys.modules.get(cls.__module__), "slave_for", None) is slave_for:
-        return True
-    return any("slave_for" in getattr(getattr(f, "__code__", None), "co_names", ()) for f in vars(cls).values())

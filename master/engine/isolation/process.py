@@ -140,9 +140,9 @@ class IsolatedFmu(slave.Slave):
         self._dead = self.fatal = True
         return ExecutionError(f"{self.name}: {message}")
 
-    def _exchange(self, request: bytes | None, what: str, timeout: float | None = None):
+    def _exchange(self, request: bytes | None, what: str, timeout: float | None = None, limit: int | None = None):
         """Send request (wire bytes, or None: only wait for the host's greeting); a reply with outputs lands in
-        self.values."""
+        self.values, a state is returned. limit: the longest reply accepted (the model's outputs and a log)."""
         if self._dead:
             raise ExecutionError(f"{self.name}: {what}: the FMU's host has already ended")
         timeout = self.timeout if timeout is None else timeout
@@ -150,7 +150,7 @@ class IsolatedFmu(slave.Slave):
         try:
             if request is not None:
                 self.channel.send(request)
-            body = self.channel.receive(timeout, self._reply_limit)
+            body = self.channel.receive(timeout, self._reply_limit if limit is None else limit)
         except LinkTimeout:
             raise self._fail(f"{what} did not return within {timeout:g} s (watchdog; --step-timeout sets the limit): "
                              f"{self.host.cut_off()}") from None
@@ -163,13 +163,17 @@ class IsolatedFmu(slave.Slave):
         try:
             if body[:1] == wire.OUTPUTS:  # a step's (or the initialization's) raw reply
                 self.log.extend(wire.decode_outputs(body, self.values))
-                return
+                return None
+            if body[:1] == wire.STATE:  # get_state's reply
+                state, log = wire.decode_state(body)
+                self.log.extend(log)
+                return state
             reply = wire.decode_reply(body)
         except wire.ProtocolError as err:
             raise self._fail(f"{what}: its host sent a malformed reply ({err}; {self.host.cut_off()})") from None
         self.log.extend(reply["log"])
         if reply.get("ok") is True:
-            return
+            return None
         self.fatal = bool(reply.get("fatal"))
         if reply["error"] == "protocol":
             raise self._fail(f"{what}: its host refused the request ({reply['message']})")
@@ -184,6 +188,20 @@ class IsolatedFmu(slave.Slave):
     def reset(self) -> None:
         self._pending.clear()
         self._exchange(wire.control({"op": "reset"}), "reset")
+
+    def set_values(self, values: dict) -> None:
+        self._exchange(wire.control({"op": "set", "values": dict(values)}), "setting values")
+
+    def get_state(self) -> bytes:
+        return self._exchange(wire.control({"op": "get_state"}), "getting its state", limit=wire.STATE_FRAME_LIMIT)
+
+    def set_state(self, state: bytes) -> None:
+        self._pending.clear()
+        try:
+            request = wire.encode_state(state)
+        except wire.ProtocolError as err:
+            raise ExecutionError(f"{self.name}: restoring its state: {err}") from None
+        self._exchange(request, "restoring its state")
 
     def do_step(self, t: float, h: float) -> None:
         sets, self._pending = self._pending, []

@@ -5,8 +5,12 @@ JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requ
   S t h {type n vrs values}     apply the sets, doStep(t, h); reply: the outputs
   J {"op": "init", "parameters": {name: value}}   initialization; reply: the outputs at t = 0
   J {"op": "reset"}             fmi2Reset
+  J {"op": "set", "values": {name: value}}        set parameters or inputs by name
+  J {"op": "get_state"}         the FMU's serialized state; reply: T state
+  T n state                     restore a state get_state gave (n bytes); reply: the outputs
   J {"op": "close"}             terminate, free, exit
 Replies: O outputs [log lines as JSON]           the outputs, raw, plus the FMU's new log lines if any
+         T n state [log lines as JSON]           the FMU's serialized state (n bytes, STATE_LIMIT at most)
          J {"ok": true, "log": [...]}
          J {"error": kind, "message": ..., "fatal": bool, "log": [...]}  kind: description, execution, protocol
 Values travel in the FMI types' layout, little-endian: fmi2Real as float64, fmi2Integer and fmi2Boolean as int32.
@@ -21,11 +25,14 @@ import struct
 
 import numpy as np
 
-STEP, CONTROL, OUTPUTS = b"S", b"J", b"O"
+STEP, CONTROL, OUTPUTS, STATE = b"S", b"J", b"O", b"T"
 TYPES = ("Real", "Integer", "Boolean")  # the order outputs travel in (slave.TYPES)
 WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}
 LOG_LIMIT = 256 * 1024  # bytes of log lines one reply carries at most (the rest is summarized in one line)
 CONTROL_LIMIT = 1 << 20  # bytes of a JSON request (an initialization's parameters) or error reply
+STATE_LIMIT = 64 << 20  # bytes of an FMU's serialized state (a snapshot's), either way
+_STATE_SIZE = struct.Struct("<Q")
+STATE_FRAME_LIMIT = 1 + _STATE_SIZE.size + STATE_LIMIT + LOG_LIMIT + 1024  # a T frame, with its log lines
 _TIMES = struct.Struct("<dd")
 _SET = struct.Struct("<cI")
 _DTYPE = {"Real": "<f8", "Integer": "<i4", "Boolean": "<i4"}
@@ -174,3 +181,27 @@ def decode_reply(body: bytes) -> dict:
     if not (isinstance(reply.get("error"), str) and isinstance(reply.get("message"), str)):
         raise ProtocolError("malformed reply (neither ok nor an error)")
     return reply
+
+
+def encode_state(state: bytes, log: list | None = None) -> bytes:
+    """A serialized FMU state (a set_state request, or get_state's reply with the FMU's new log lines)."""
+    if len(state) > STATE_LIMIT:
+        raise ProtocolError(f"an FMU state of {len(state)} bytes, over the {STATE_LIMIT >> 20} MiB a state may have")
+    return b"".join([STATE, _STATE_SIZE.pack(len(state)), state, json.dumps(fitting_log(log)).encode() if log else b""])
+
+
+def decode_state(body: bytes) -> tuple[bytes, list]:
+    """(state, log lines) of a T frame, or a ProtocolError."""
+    if body[:1] != STATE or len(body) < 1 + _STATE_SIZE.size:
+        raise ProtocolError(f"expected a state (T message), got {len(body)} bytes starting {body[:1]!r}")
+    (n,) = _STATE_SIZE.unpack_from(body, 1)
+    at = 1 + _STATE_SIZE.size
+    if n > STATE_LIMIT or at + n > len(body):
+        raise ProtocolError(f"a state announces {n} bytes and the message has {len(body) - at}")
+    state, rest = body[at:at + n], body[at + n:]
+    if not rest:
+        return state, []
+    try:
+        return state, _decode_log(json.loads(rest.decode()))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise ProtocolError(f"malformed log lines ({err})") from None

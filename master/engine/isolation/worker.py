@@ -76,10 +76,12 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         return 1
     inputs = model_inputs(md)
     step_limit = wire.step_limit(inputs)
+    serializes = inst.can_serialize  # only then may a peer send a state (up to wire.STATE_LIMIT bytes)
+    frame_limit = max(step_limit, wire.CONTROL_LIMIT, wire.STATE_FRAME_LIMIT if serializes else 0)
     checked: set = set()
     while True:
         try:
-            body = channel.receive(idle_timeout, max(step_limit, wire.CONTROL_LIMIT))
+            body = channel.receive(idle_timeout, frame_limit)
         except LinkClosed:
             break  # the master is gone
         except LinkTimeout:
@@ -99,11 +101,27 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                 inst.read_outputs()
                 channel.send(wire.encode_outputs(inst.values, new_log()))
                 continue
+            if body[:1] == wire.STATE:
+                if not serializes:
+                    raise wire.ProtocolError("a state for an FMU that cannot serialize its state")
+                state, _ = wire.decode_state(body)
+                inst.set_state(state)
+                channel.send(wire.encode_outputs(inst.values, new_log()))
+                continue
             request = wire.decode_control(body)
             op = request.get("op")
             if op == "init" and isinstance(request.get("parameters"), dict):
                 inst.initialize(request["parameters"])
                 channel.send(wire.encode_outputs(inst.values, new_log()))
+            elif op == "set" and isinstance(request.get("values"), dict):
+                inst.set_values(request["values"])
+                channel.send(wire.ok(new_log()))
+            elif op == "get_state" and serializes:
+                state = inst.get_state()
+                if len(state) > wire.STATE_LIMIT:
+                    raise ExecutionError(f"{name}: its state is {len(state)} bytes, over the {wire.STATE_LIMIT >> 20} MiB "
+                                         "a state may have on the link")
+                channel.send(wire.encode_state(state, new_log()))
             elif op == "reset":
                 inst.reset()
                 channel.send(wire.ok(new_log()))
