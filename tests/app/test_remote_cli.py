@@ -173,3 +173,30 @@ def test_remote_in_a_json_description_and_an_ssp_package(fmus, token, tmp_path, 
     description.write_text(json.dumps(bad))
     assert main(["run", "--system", str(description), "--token-file", str(token), "--quiet"]) == 2
     assert "controller: remote 'somewhere' is not HOST:PORT" in capsys.readouterr().err
+
+
+def test_a_snapshot_of_a_remote_controller_continues_on_the_server_and_nowhere_else(fmus, token, tmp_path, capsys):
+    """The controller's state travels over the link both ways (get_state, set_state): the continued run's log is the
+    tail of the uninterrupted in-process run's, to the bit. Where each instance runs may not change across it."""
+    srv = ServerProcess(fmus, token)
+    remote = ["--remote", f"controller={srv.address}", "--token-file", str(token)]
+    snap, local_snap = tmp_path / "remote.snapshot", tmp_path / "local.snapshot"
+    try:
+        assert run(fmus, tmp_path, "--stop-time", "4", "--snapshot-at", "2", str(local_snap), "--name", "local") == 0
+        assert run(fmus, tmp_path, "--stop-time", "4", "--snapshot-at", "2", str(snap), "--name", "taken", *remote) == 0
+        assert "snapshot at t = 2.004 s" in capsys.readouterr().out
+        continued = ["run", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--from-snapshot"]
+        assert main([*continued, str(snap), "--name", "rest", *remote]) == 0
+        assert "continuing from" in capsys.readouterr().out
+        srv.wait_for("session ended (controller: exit 0)")
+        whole = log_reader.read(tmp_path / "local.mcap", topics=["/plant", "/controller"])
+        rest = log_reader.read(tmp_path / "rest.mcap", topics=["/plant", "/controller"])
+        for topic in ("/plant", "/controller"):
+            assert len(rest[topic]) > 100 and rest[topic] == whole[topic][-len(rest[topic]):], topic
+        for path, extra, needle in ((snap, [], "controller ran on tiltload serve at 127.0.0.1:"),
+                                    (local_snap, remote, "controller ran in this master's machine")):
+            assert main([*continued, str(path), *extra]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert len(err) == 1 and needle in err[0], err
+    finally:
+        srv.stop()

@@ -207,7 +207,9 @@ def opened(server, token, md) -> tuple[socket.socket, Channel]:
     (transport_frame(b"S" + struct.pack("<dd", 0.0, 0.012) + b"R\x05\x00\x00\x00" + bytes(3)),
      "protocol error: a step announces 5 Real values and ends before them"),
     (transport_frame(wire.control({"op": "rm -rf"})), "protocol error: unknown request 'rm -rf'"),
-], ids=["1GB-frame", "not-an-input", "truncated", "unknown-op"])
+    (transport_frame(wire.STATE + struct.pack("<Q", 10**6) + bytes(8)),
+     "protocol error: a state announces 1000000 bytes and the message has 8"),
+], ids=["1GB-frame", "not-an-input", "truncated", "unknown-op", "truncated-state"])
 def test_a_session_that_sends_what_the_model_cannot_take_ends_and_the_server_goes_on(request_, why, fmus, token, server):
     md = read_fmu(fmus / "TiltloadController.fmu", "controller")
     sock, channel = opened(server, token, md)
@@ -218,6 +220,31 @@ def test_a_session_that_sends_what_the_model_cannot_take_ends_and_the_server_goe
     assert closed_by_server(sock)
     channel.close()
     served_fine(server, fmus, token)
+
+
+def test_a_remote_fmu_state_travels_both_ways_and_the_fmu_refuses_bytes_not_its_own(fmus, token, server):
+    """Snapshots of a remote instance: get_state comes back as the FMU serialized it, set_state puts it back (the
+    outputs follow); bytes that are not a state of this build are the FMU's one-line refusal, and the session goes on."""
+    md = read_fmu(fmus / "TiltloadController.fmu", "controller")
+    local = IsolatedFmu("controller", fmus / "TiltloadController.fmu", md)  # the same FMU in a worker on pipes
+    inst = remote_fmu("controller", fmus / "TiltloadController.fmu", md, server.address, token)
+    try:
+        for fmu in (local, inst):
+            fmu.initialize({})
+            fmu.do_step(0.0, 0.012)
+        state = inst.get_state()
+        assert state == local.get_state() and len(state) > 1000
+        inst.do_step(0.012, 0.012)
+        with pytest.raises(ExecutionError, match="not a state of this TiltloadController build"):
+            inst.set_state(b"garbage" * 10)
+        inst.set_state(state)
+        local.do_step(0.012, 0.012)
+        inst.do_step(0.012, 0.012)  # the step after the restored state, again: the same outputs as a local worker's
+        assert all((inst.values[t] == local.values[t]).all() for t in inst.values)
+    finally:
+        inst.close()
+        local.close()
+    server.wait_for("session ended (controller: exit 0)")
 
 
 def test_one_client_per_fmu_unless_configured(fmus, token, server):

@@ -87,6 +87,7 @@ def _branch(args: argparse.Namespace):
     import dataclasses
 
     opts = LoopOptions.from_dict(snap.application["options"])
+    _same_places(dict(opts.remotes), dict(args.remote), args.from_snapshot)
     opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus or opts.fmus,
                                stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time,
                                remotes=tuple(args.remote))  # where an instance runs is this run's, not the snapshot's
@@ -96,6 +97,18 @@ def _branch(args: argparse.Namespace):
         branch.setdefault(instance, {})[name] = value
     snap.settings = branch
     return snap, opts
+
+
+def _same_places(then: dict[str, str], now: dict[str, str], path: Path) -> None:
+    """An FMU's serialized state is its machine's (a library built elsewhere may lay its memory out otherwise): a run
+    continues with each instance where it ran when the snapshot was taken, on a tiltload serve or here (the server's
+    address may change)."""
+    for name in sorted(set(then) ^ set(now)):
+        if name in then:
+            raise UserError(f"--from-snapshot {path}: {name} ran on tiltload serve at {then[name]} when it was taken, and "
+                            f"its state is that machine's: continue with --remote {name}=HOST:PORT")
+        raise UserError(f"--from-snapshot {path}: {name} ran in this master's machine when it was taken, and its state "
+                        f"is this machine's: continue without --remote {name}")
 
 
 def _snapshot_at(args: argparse.Namespace):
