@@ -4,15 +4,16 @@ is refused with a log line, and the server goes on serving; the watchdog and the
 from __future__ import annotations
 
 import os
-import shutil
 import socket
 import struct
 import time
+import zipfile
 
 import pytest
 from support.fmu_session import wrap_misbehaving
-from support.remote import CROSS_CC, Namespace, ServerProcess, connect, cross_build, netns_available, token_file
+from support.remote import Namespace, ServerProcess, board_copy, connect, netns_available, token_file
 from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine.binaries import library_member
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation import handshake, wire
@@ -274,23 +275,30 @@ def test_a_server_can_serve_two_clients_of_one_fmu_when_told(fmus, token):
         srv.stop()
 
 
-@pytest.mark.skipif(shutil.which(CROSS_CC) is None, reason=f"needs the {CROSS_CC} cross compiler")
-def test_an_fmu_cross_built_for_a_board_keeps_its_guid_and_is_not_loaded_on_another_processor(fmus, token, tmp_path):
-    """docs/remote.md's cross-build: the same FMU identity with an aarch64 library, which an x86-64 server refuses to load."""
+def test_an_fmu_built_for_the_board_keeps_its_guid_and_is_not_loaded_on_another_processor(fmus, token, tmp_path):
+    """docs/remote.md: one FMU for desktop and board (binaries/linux64 and binaries/aarch64-linux, the same GUID); each
+    machine loads its own library, and a server with only another processor's library refuses it in one line."""
+    full = fmus / "TiltloadController.fmu"
+    with zipfile.ZipFile(full) as z:
+        names = z.namelist()
+    if "binaries/aarch64-linux/TiltloadController.so" not in names:
+        pytest.skip("the FMUs were built without the aarch64 cross compiler (tiltload build --platforms)")
+    assert library_member(names, "TiltloadController", "aarch64-linux") == "binaries/aarch64-linux/TiltloadController.so"
+    assert library_member(names, "TiltloadController", "x86_64-linux") == "binaries/linux64/TiltloadController.so"
+    assert library_machine(full, "TiltloadController") == this_machine()  # what this machine loads of it
     served = tmp_path / "board"
     served.mkdir()
-    board = cross_build(fmus / "TiltloadController.fmu", served / "TiltloadController.fmu")
-    md = read_fmu(fmus / "TiltloadController.fmu", "controller")
+    board = board_copy(full, served / "TiltloadController.fmu")
+    md = read_fmu(full, "controller")
     assert read_fmu(board, "controller").guid == md.guid
     assert library_machine(board, "TiltloadController") == "aarch64"
-    assert library_machine(fmus / "TiltloadController.fmu", "TiltloadController") == this_machine()
     if this_machine() == "aarch64":
         pytest.skip("this machine is the board")
     srv = ServerProcess(served, token)
     try:
         with pytest.raises(ExecutionError, match="TiltloadController.fmu here holds a library for aarch64, this machine is "
                                                  f"{this_machine()}: build the FMU for it"):
-            remote_fmu("controller", fmus / "TiltloadController.fmu", md, srv.address, token)
+            remote_fmu("controller", full, md, srv.address, token)
         srv.wait_for("refused: TiltloadController.fmu here holds a library for aarch64")
         assert not srv.workers()
     finally:

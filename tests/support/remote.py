@@ -137,35 +137,12 @@ class Namespace:
         subprocess.run(["ip", "netns", "del", self.name], capture_output=True)
 
 
-CROSS_CC = "aarch64-linux-gnu-gcc"
-HOT = ("tl_zse.c", "tl_linalg.c", "tl_lkf.c")  # as controller_fmu/fmu/build.py compiles them
-
-
-def cross_build(fmu: Path, out: Path, cc: str = CROSS_CC) -> Path:
-    """docs/remote.md's recipe: the FMU's own sources/ compiled by another compiler into binaries/linux64 of a copy."""
-    import tempfile
+def board_copy(fmu: Path, out: Path, folder: str = "aarch64-linux") -> Path:
+    """The FMU with only the binaries of one platform, as `tiltload build --platforms aarch64-linux` writes it."""
     import zipfile
 
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        with zipfile.ZipFile(fmu) as z:
-            z.extractall(folder)
-        src = folder / "sources"
-        objects = []
-        for c in sorted(src.glob("*.c")):
-            hot = ["-O3", "-ffp-contract=fast"] if c.name in HOT else []
-            obj = c.with_suffix(".o")
-            subprocess.run([cc, "-std=c11", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-DCASADI_SYMBOL_EXPORT=",
-                            *hot, "-Wno-unused-parameter", "-Wno-unused-variable", "-Wno-unused-function", f"-I{src}", "-c",
-                            str(c), "-o", str(obj)], check=True, capture_output=True)
-            objects.append(str(obj))
-        library = next((folder / "binaries" / "linux64").glob("*.so"))
-        subprocess.run([cc, "-shared", "-o", str(library), *objects, "-lm", f"-Wl,--version-script={src / 'exports.map'}"],
-                       check=True, capture_output=True)
-        for obj in objects:
-            Path(obj).unlink()
-        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
-            for f in sorted(folder.rglob("*")):
-                if f.is_file():
-                    z.write(f, f.relative_to(folder).as_posix())
+    with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as copy:
+        for item in z.infolist():
+            if not item.filename.startswith("binaries/") or item.filename.startswith(f"binaries/{folder}/"):
+                copy.writestr(item, z.read(item.filename))
     return out

@@ -70,16 +70,19 @@ _THIS_MACHINE = {"amd64": "x86_64", "arm64": "aarch64", "i686": "x86", "i386": "
 
 
 def library_machine(fmu: Path, model_identifier: str) -> str | None:
-    """The processor the FMU's Linux library is built for (from its ELF header), or None if it has none or it
-    cannot be read: a library copied from another machine is then refused with a line, not a loader error."""
+    """The processor of the Linux library this machine would load from the FMU (binaries.py; failing that, of any it
+    holds), from its ELF header; None if it has none or it cannot be read. A library for another processor is then
+    refused with a line, not a loader error."""
     import zipfile
+
+    from ..binaries import library_member
 
     try:
         with zipfile.ZipFile(fmu) as z:
-            names = [n for n in z.namelist() if n.startswith("binaries/linux") and n.endswith(f"/{model_identifier}.so")]
-            if not names:
+            member = library_member(z.namelist(), model_identifier)
+            if member is None:
                 return None
-            with z.open(names[0]) as f:
+            with z.open(member) as f:
                 header = f.read(20)
     except (OSError, zipfile.BadZipFile):
         return None
