@@ -277,7 +277,8 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
                                                f"of 12 runs; rerun the same command to finish (details: {out / 'campaign.log'})")
     assert "Traceback" not in stderr and "distributed" not in stderr  # Dask's own words are in the log
     log = (out / "campaign.log").read_text()
-    assert f"stopped after {done} of 12 runs" in log and "Traceback" in log  # what Dask said is kept there
+    # what Dask said is kept there (its words vary with timing: a traceback or only its error line)
+    assert f"stopped after {done} of 12 runs" in log and "distributed." in log
     reference = {r["run_id"]: r for r in rows(local_results)}
     for part in _parts(out):  # outcomes only, each the undisturbed campaign's: nothing cancelled was stored
         row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
