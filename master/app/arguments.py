@@ -83,6 +83,20 @@ def file_stem(text: str) -> str:
     return text
 
 
+def remote(text: str) -> tuple[str, str]:
+    """INSTANCE=HOST:PORT: that instance's FMU runs on the `tiltload serve` at HOST:PORT."""
+    from ..engine.system import parse_address
+
+    name, sep, address = text.partition("=")
+    if not sep or not name.strip():
+        raise argparse.ArgumentTypeError(f"must be INSTANCE=HOST:PORT (e.g. controller=192.168.1.20:7390), got {text!r}")
+    try:
+        parse_address(address.strip())
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    return name.strip(), address.strip()
+
+
 def add_loop_options(p: argparse.ArgumentParser) -> None:
     """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop). The loop's
     own options default to None (False for flags), so that resolve_loop knows which were given: with --system they
@@ -120,3 +134,6 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus)")
     p.add_argument("--allow-unknown-inputs", action="store_true",
                    help="accept a controller FMU whose inputs include names the port contract does not have")
+    p.add_argument("--remote", type=remote, action="append", default=[], metavar="INSTANCE=HOST:PORT",
+                   help="run that instance's FMU on the tiltload serve at HOST:PORT (the same FMU, picked there by model "
+                        "identifier and GUID; docs/remote.md); repeatable")

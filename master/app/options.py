@@ -43,6 +43,7 @@ class LoopOptions:
     allow_infeasible: bool = False
     max_tilt: float = 30.0  # degrees, the feasibility check's
     allow_external_fmus: bool = False  # a system file's FMUs may lie outside its package or folder
+    remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order (where, not which loop)
 
     @property
     def controller_label(self) -> str:
@@ -54,6 +55,7 @@ class LoopOptions:
         for key in ("controller_fmu", "faults", "system", "fmus", "wind"):
             d[key] = None if d[key] is None else str(Path(d[key]).resolve())
         d["settings"] = [list(s) for s in self.settings]
+        d["remotes"] = [list(r) for r in self.remotes]
         d["reference"] = None if self.reference is None else asdict(self.reference)
         return d
 
@@ -63,6 +65,7 @@ class LoopOptions:
         for key in ("controller_fmu", "faults", "system", "fmus", "wind"):
             d[key] = None if d[key] is None else Path(d[key])
         d["settings"] = tuple(tuple(s) for s in d["settings"])
+        d["remotes"] = tuple(tuple(r) for r in d.get("remotes", ()))
         r = d["reference"]
         d["reference"] = None if r is None else Trajectory(r["label"], r["code"], tuple(tuple(x) for x in r["settings"]),
                                                              tuple(r["start"]), r["duration"], r["source"])
@@ -114,7 +117,8 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
         load = LOOPS["load"]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
         return LoopOptions("load", DEFAULT_SCENARIO, load.default_trajectory, load.default_controller, None, DEFAULT_SEED,
                            args.stop_time, False, True, args.faults, (), args.system, DEFAULT_FMU_DIR, False,
-                           allow_external_fmus=getattr(args, "allow_external_fmus", False))
+                           allow_external_fmus=getattr(args, "allow_external_fmus", False),
+                           remotes=tuple(getattr(args, "remote", ())))
     if getattr(args, "allow_external_fmus", False):
         raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
     vehicle = args.vehicle or "load"
@@ -140,7 +144,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     return LoopOptions(vehicle, scenario, trajectory, controller, controller_fmu, seed, args.stop_time,
                        args.delay, not args.no_gusts, args.faults, tuple(args.set), None, args.fmus or DEFAULT_FMU_DIR,
                        args.allow_unknown_inputs, reference=reference, wind=args.wind, allow_infeasible=args.allow_infeasible,
-                       max_tilt=args.max_tilt)
+                       max_tilt=args.max_tilt, remotes=tuple(getattr(args, "remote", ())))
 
 
 @dataclass
@@ -177,6 +181,8 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) ->
 
             check_controller(read_fmu(opts.controller_fmu, CONTROLLER), opts.allow_unknown_inputs, opts.vehicle)
         stop, schedule = None, None
+    for name, address in opts.remotes:
+        system.instance(name).remote = address
     if opts.faults is not None:
         system.faults = [*system.faults, *load_faults(opts.faults)]
     natural = stop or default_stop(opts.reference or opts.trajectory)

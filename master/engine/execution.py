@@ -25,7 +25,6 @@ import numpy as np
 
 from . import connections
 from .errors import DescriptionError
-from .fmu import InProcessFmu
 from .model_description import checked_value, read_fmu
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, replay
@@ -103,16 +102,12 @@ class Execution:
         return self._mds
 
     def instantiate(self, resume=None) -> None:
-        """Load every FMU (in this process or a worker of its own), bind the connections, initialize; with resume (a
-        snapshot.Snapshot of this system), continue from where the snapshot was taken."""
-        for spec in self.system.instances:
-            md = self._mds[spec.name]
-            if self.isolate is not None and self.isolate(spec.fmu, md):
-                from .isolation.process import STEP_TIMEOUT, IsolatedFmu
+        """Load every FMU (in this process, a worker of its own or on the tiltload serve its instance names), bind the
+        connections, initialize; with resume (a snapshot.Snapshot of this system), continue from where it was taken."""
+        from .isolation.hosting import slave_for
 
-                self.instances[spec.name] = IsolatedFmu(spec.name, spec.fmu, md, self.step_timeout or STEP_TIMEOUT)
-            else:
-                self.instances[spec.name] = InProcessFmu(spec.name, spec.fmu, md)
+        for spec in self.system.instances:  # on a tiltload serve, in a worker process or in this one (hosting.py)
+            self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout)
         for (src, dst, typ, delay), links in self._raw_groups.items():
             idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
             buf = (C_TYPES[typ] * len(links))()

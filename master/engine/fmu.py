@@ -21,6 +21,7 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 
+from .binaries import library_path
 from .errors import ExecutionError
 from .extraction import Unpacked
 from .model_description import checked_value
@@ -46,7 +47,7 @@ class InProcessFmu(Slave):
         self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         try:
             self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
-                                   instanceName=name)
+                                   instanceName=name, libraryPath=library_path(self.dir, md.coSimulation.modelIdentifier))
             self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
         except BaseException:
             self._unpacked.release()  # nothing of a failed instantiation stays behind

@@ -4,8 +4,9 @@ An export is one zip: SystemStructure.ssd (every component with its input, outpu
 connectors, typed and with units; every connection written out; the default experiment) and, under
 resources/, the FMUs and one SSV parameter set per component. The SSD is built with pyssp-standard's
 object model and checked against the SSP 1.0 schemas it ships. What SSP has no element for travels in
-annotations other masters ignore: tiltload's tick, periods, output timing, connection delays, faults and
-the schedule the package was prepared for (org.tiltload.master); the fixed step for libcosim
+annotations other masters ignore: tiltload's tick, periods, output timing, the `tiltload serve` an instance
+runs on (remote="HOST:PORT"), connection delays, faults and the schedule the package was prepared for
+(org.tiltload.master); the fixed step for libcosim
 (com.opensimulationplatform).
 
 JSON system descriptions stay as the hand-written format (auto-connection by name, a dozen lines);
@@ -122,6 +123,8 @@ def _master_annotation(system: System, schedule: str, delays: list[Connection]):
         attrs = {"name": inst.name, "timing": inst.timing}
         if inst.period is not None:
             attrs["period"] = repr(inst.period)
+        if inst.remote is not None:
+            attrs["remote"] = inst.remote  # HOST:PORT of the tiltload serve it runs on (its secret comes with the run)
         etree.SubElement(master, f"{{{TL_NS}}}Instance", **attrs)
     for c in delays:
         etree.SubElement(master, f"{{{TL_NS}}}Delay", source=c.source, target=c.target, ticks=str(c.delay))
@@ -416,7 +419,8 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
         extra = timing.get(name)
         period = float(extra.get("period")) if extra is not None and extra.get("period") else None
         instances.append(Instance(name, fmu, period, params,
-                                  extra.get("timing", "sample") if extra is not None else "sample"))
+                                  extra.get("timing", "sample") if extra is not None else "sample",
+                                  extra.get("remote") if extra is not None else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
     delays = {}

@@ -21,6 +21,8 @@ class Instance:
     period: float | None = None  # s; None: the tick
     parameters: dict[str, object] = field(default_factory=dict)
     timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
+    remote: str | None = None  # "HOST:PORT": the FMU runs on the `tiltload serve` there (fmu is the local copy it must match)
+    token_file: Path | None = None  # the shared secret for remote: the run's, never written into a description
 
 
 @dataclass
@@ -52,6 +54,19 @@ def _split(ref: str, what: str) -> tuple[str, str]:
     return inst, var
 
 
+def parse_address(text: str, port_zero: bool = False) -> tuple[str, int]:
+    """HOST:PORT (an IPv6 host in brackets: [::1]:7390) as (host, port); ValueError says what is wrong.
+    port_zero: port 0 (a listener's "any free port") is allowed."""
+    host, sep, port = str(text).rpartition(":")
+    if not sep or not host or not port.isdigit() or not (0 if port_zero else 1) <= int(port) < 65536:
+        raise ValueError(f"'{text}' is not HOST:PORT (e.g. 127.0.0.1:7390)")
+    if host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    elif ":" in host:
+        raise ValueError(f"'{text}': an IPv6 address goes in brackets ([::1]:7390)")
+    return host, int(port)
+
+
 def validate(system: System) -> System:
     if not (isinstance(system.tick, (int, float)) and math.isfinite(system.tick) and system.tick > 0):
         raise DescriptionError(f"tick must be a positive time, got {system.tick!r}")
@@ -68,6 +83,11 @@ def validate(system: System) -> System:
                 raise DescriptionError(f"{inst.name}: period {inst.period!r} s is not a whole multiple of the tick {system.tick} s")
         if inst.timing not in ("sample", "continuous"):
             raise DescriptionError(f"{inst.name}: timing must be 'sample' or 'continuous', got {inst.timing!r}")
+        if inst.remote is not None:
+            try:
+                parse_address(inst.remote)
+            except ValueError as err:
+                raise DescriptionError(f"{inst.name}: remote {err}") from None
     for c in system.connections:
         for ref, what in ((c.source, "source"), (c.target, "target")):
             inst, _ = _split(ref, what)
@@ -92,7 +112,8 @@ SCHEMA = {
                 "period": {"type": ["number", "null"], "exclusiveMinimum": 0},
                 "parameters": {"type": "object", "propertyNames": {"pattern": "^[^\\s]+$"},
                                "additionalProperties": {"type": ["number", "string", "boolean"]}},
-                "timing": {"enum": ["sample", "continuous"]}}}},
+                "timing": {"enum": ["sample", "continuous"]},
+                "remote": {"type": "string", "minLength": 3, "maxLength": 300}}}},
         "connections": {"type": "array", "items": {
             "type": "object", "additionalProperties": False, "required": ["source", "target"],
             "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
@@ -125,7 +146,7 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "sample")) for i in data["instances"]]
+                              i.get("timing", "sample"), i.get("remote")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
         if "faults" in data:
@@ -141,8 +162,8 @@ def load(path: Path) -> System:
 
 def save(system: System, path: Path) -> Path:
     data = {"tick": system.tick, "auto_connect": system.auto_connect,
-            "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing}
-                          for i in system.instances],
+            "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
+                           **({"remote": i.remote} if i.remote else {})} for i in system.instances],
             "connections": [{"source": c.source, "target": c.target, "delay": c.delay} for c in system.connections]}
     Path(path).write_text(json.dumps(data, indent=1))
     return Path(path)

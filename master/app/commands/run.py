@@ -22,6 +22,8 @@ def add_parser(sub) -> None:
                         "process, so a crash, exit() or hang in one ends the run with one line)")
     r.add_argument("--step-timeout", type=arguments.positive_time, default=None, metavar="S",
                    help="watchdog for an FMU in its own process: the longest a call may take (default 10 s)")
+    r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
+                   help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
     r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
@@ -39,9 +41,27 @@ def add_parser(sub) -> None:
 
 
 def _announce(execution) -> None:
-    """Before the first step: the inputs nothing feeds (a misspelt port shows up here)."""
+    """Before the first step: the inputs nothing feeds (a misspelt port shows up here), the instances run elsewhere."""
     if execution.unconnected:
         print(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
+    remote = [i for i in execution.system.instances if i.remote]
+    if remote:
+        print(f"remote: {', '.join(f'{i.name} on tiltload serve at {i.remote}' for i in remote)}")
+
+
+def _with_token(system, token_file: Path | None) -> None:
+    """The run's secret for every instance that runs on a tiltload serve: read now, so a bad file is one line."""
+    from ...engine.isolation.handshake import read_token
+    from ..errors import UserError
+
+    remote = [i.name for i in system.instances if i.remote]
+    if remote and token_file is None:
+        raise UserError(f"{', '.join(remote)} run on tiltload serve: give its shared secret with --token-file")
+    if remote:
+        read_token(token_file)
+    for inst in system.instances:
+        if inst.remote:
+            inst.token_file = token_file
 
 
 # the options that say which loop runs: a run continued from a snapshot takes them from the snapshot
@@ -67,14 +87,28 @@ def _branch(args: argparse.Namespace):
     import dataclasses
 
     opts = LoopOptions.from_dict(snap.application["options"])
+    _same_places(dict(opts.remotes), dict(args.remote), args.from_snapshot)
     opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus or opts.fmus,
-                               stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time)
+                               stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time,
+                               remotes=tuple(args.remote))  # where an instance runs is this run's, not the snapshot's
     branch: dict[str, dict] = {}
     for key, value in args.set:
         instance, _, name = key.partition(".")
         branch.setdefault(instance, {})[name] = value
     snap.settings = branch
     return snap, opts
+
+
+def _same_places(then: dict[str, str], now: dict[str, str], path: Path) -> None:
+    """An FMU's serialized state is its machine's (a library built elsewhere may lay its memory out otherwise): a run
+    continues with each instance where it ran when the snapshot was taken, on a tiltload serve or here (the server's
+    address may change)."""
+    for name in sorted(set(then) ^ set(now)):
+        if name in then:
+            raise UserError(f"--from-snapshot {path}: {name} ran on tiltload serve at {then[name]} when it was taken, and "
+                            f"its state is that machine's: continue with --remote {name}=HOST:PORT")
+        raise UserError(f"--from-snapshot {path}: {name} ran in this master's machine when it was taken, and its state "
+                        f"is this machine's: continue without --remote {name}")
 
 
 def _snapshot_at(args: argparse.Namespace):
@@ -132,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
     checkpoint = _snapshot_at(args)
     loop = loop_system(opts, cache_root() / "ssp")
     system, stop = loop.system, loop.stop
+    _with_token(system, args.token_file)
     schedule = (snap.application.get("schedule") if snap else None) or args.schedule or loop.schedule
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)

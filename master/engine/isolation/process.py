@@ -1,10 +1,16 @@
-"""The master's side of an FMU hosted in its own process (worker.py), with a watchdog.
+"""The master's side of an FMU hosted elsewhere (a worker process here, or `tiltload serve` on another machine),
+with a watchdog.
 
 `IsolatedFmu` is a Slave like the in-process FMU: output tables, raw setters, do_step,
 read_outputs, initialize, reset, close. Inputs set before a step are queued and travel with
 it, so one step is one round trip: set + doStep + get, in raw bytes (wire.py). Every reply must
-come within `timeout` seconds; a worker that dies (signal, exit()) or stays silent becomes one
-ExecutionError naming the instance, the call and what happened, and the worker is killed.
+come within `timeout` seconds; a host that dies (signal, exit(), a lost connection) or stays
+silent becomes one ExecutionError naming the instance, the call and what happened.
+
+Where the FMU runs is the host's business: `WorkerProcess` (below: a worker on a pipe pair) or
+`remote_client.RemoteHost` (a TCP connection to `tiltload serve`). Both give a transport.Channel,
+say how they ended, and can be cut off when the watchdog fires; the exchange, the watchdog and
+the error lines here are the same for both.
 
 Which FMUs run this way is the caller's policy (Execution's `isolate`): the tiltload application
 isolates every FMU it did not compile itself, unless the user trusts it (`--trust-fmus`).
@@ -14,7 +20,6 @@ from __future__ import annotations
 
 import ctypes
 import os
-import select
 import signal
 import subprocess
 import sys
@@ -27,9 +32,10 @@ import numpy as np
 from .. import slave
 from ..errors import DescriptionError, ExecutionError
 from . import wire
+from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
-STEP_TIMEOUT = 10.0  # s a call may take before the watchdog kills the FMU's process (--step-timeout)
-START_TIMEOUT = 60.0  # s for the process to start and instantiate (a pythonfmu FMU starts an interpreter)
+STEP_TIMEOUT = 10.0  # s a call may take before the watchdog ends it (--step-timeout)
+START_TIMEOUT = 60.0  # s for the host to start and instantiate (a pythonfmu FMU starts an interpreter)
 WORKER_MODULE = "tiltload.master.engine.isolation.worker"
 
 
@@ -40,27 +46,87 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-class IsolatedFmu(slave.Slave):
-    """One FMU instance in a worker process."""
+def how_it_ended(code: int) -> str:
+    """A worker's end by its exit status (Popen's returncode: negative for a signal)."""
+    return f"the FMU crashed ({_signal_name(-code)})" if code < 0 else f"the FMU ended its process with exit({code})"
 
-    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT) -> None:
+
+class WorkerProcess:
+    """The FMU's host on this machine: a worker process (worker.py) on a pipe pair."""
+
+    def __init__(self, path: Path, name: str) -> None:
+        self._stderr = tempfile.TemporaryFile()
+        req_r, req_w = os.pipe()
+        rep_r, rep_w = os.pipe()
+        try:
+            self.proc = subprocess.Popen(
+                [sys.executable, "-m", WORKER_MODULE, str(path), name, "--pipes", str(req_r), str(rep_w)],
+                pass_fds=(req_r, rep_w), stdin=subprocess.DEVNULL, stdout=self._stderr, stderr=self._stderr)
+        except BaseException:
+            for fd in (req_w, rep_r):
+                os.close(fd)
+            raise
+        finally:
+            os.close(req_r)
+            os.close(rep_w)
+        self.channel = Channel.over_pipes(rep_r, req_w)
+
+    def _last_stderr(self) -> str:
+        self._stderr.seek(0)
+        lines = [ln.strip() for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
+        return lines[-1] if lines else ""
+
+    def ended(self, what: str) -> str:
+        """The worker closed its pipe: how it ended, and its last words."""
+        try:
+            code = self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            code = self.proc.wait()
+        how = how_it_ended(code)
+        said = self._last_stderr()
+        return f"{how} in {what}" + (f"; it said: {said}" if said else "")
+
+    def cut_off(self) -> str:
+        """The watchdog fired: kill the worker (it may be hung inside the FMU)."""
+        self.proc.kill()
+        self.proc.wait()
+        return "its process was killed"
+
+    def close(self) -> None:
+        """After the close request (or none): wait for the worker to exit, kill it if it does not."""
+        try:
+            if self.proc.poll() is None:
+                try:
+                    self.proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait()
+        finally:
+            self.channel.close()
+            self._stderr.close()
+
+
+class IsolatedFmu(slave.Slave):
+    """One FMU instance hosted outside this process: by a local worker unless another host is given."""
+
+    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT, host=None) -> None:
+        """host: something with `channel` (transport.Channel), `ended(what)`, `cut_off()` and `close()`,
+        already started (remote_client.RemoteHost); None: a worker process on this machine."""
         super().__init__(name, path, md)
         self.timeout = float(timeout)
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
         self.setters = {t: self._queue(t) for t in slave.TYPES}
         self._pending: list = []
-        self._dead = False
-        self._stderr = tempfile.TemporaryFile()
-        req_r, self._req = os.pipe()
-        self._rep, rep_w = os.pipe()
+        self._dead = self._closed = False
+        self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
+        self.host = host if host is not None else WorkerProcess(self.path, name)
+        self.channel = self.host.channel
         try:
-            self.proc = subprocess.Popen(
-                [sys.executable, "-m", WORKER_MODULE, str(self.path), name, str(req_r), str(rep_w)],
-                pass_fds=(req_r, rep_w), stdin=subprocess.DEVNULL, stdout=self._stderr, stderr=self._stderr)
-        finally:
-            os.close(req_r)
-            os.close(rep_w)
-        self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))
+            self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))
+        except BaseException:
+            self.close()
+            raise
 
     def _queue(self, typ: str):
         width = ctypes.sizeof(slave.C_TYPES[typ])
@@ -70,92 +136,72 @@ class IsolatedFmu(slave.Slave):
             return 0
         return setter
 
-    def _last_stderr(self) -> str:
-        self._stderr.seek(0)
-        lines = [ln.strip() for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
-        return lines[-1] if lines else ""
-
-    def _gone(self, what: str) -> ExecutionError:
-        """The worker closed its pipe: say how it ended."""
+    def _fail(self, message: str) -> ExecutionError:
         self._dead = self.fatal = True
-        try:
-            code = self.proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            code = self.proc.wait()
-        how = (f"the FMU crashed ({_signal_name(-code)})" if code < 0 else
-               f"the FMU ended its process with exit({code})")
-        said = self._last_stderr()
-        return ExecutionError(f"{self.name}: {how} in {what}" + (f"; it said: {said}" if said else ""))
+        return ExecutionError(f"{self.name}: {message}")
 
-    def _exchange(self, request, what: str, timeout: float | None = None):
-        """Send request (a tuple to pickle, raw step bytes, or None: only wait for the worker's greeting);
-        the reply's outputs land in self.values."""
+    def _exchange(self, request: bytes | None, what: str, timeout: float | None = None, limit: int | None = None):
+        """Send request (wire bytes, or None: only wait for the host's greeting); a reply with outputs lands in
+        self.values, a state is returned. limit: the longest reply accepted (the model's outputs and a log)."""
         if self._dead:
-            raise ExecutionError(f"{self.name}: {what}: the FMU's process has already ended")
+            raise ExecutionError(f"{self.name}: {what}: the FMU's host has already ended")
         timeout = self.timeout if timeout is None else timeout
         started = time.perf_counter()
         try:
-            if isinstance(request, bytes):
-                wire.send_bytes(self._req, request)
-            elif request is not None:
-                wire.send(self._req, request)
-            deadline = started + timeout
-            header = b""
-            while len(header) < wire.HEADER.size:
-                left = deadline - time.perf_counter()
-                if left <= 0 or not select.select([self._rep], [], [], left)[0]:
-                    self._dead = self.fatal = True
-                    self.proc.kill()
-                    self.proc.wait()
-                    raise ExecutionError(f"{self.name}: {what} did not return within {timeout:g} s (watchdog; "
-                                         f"--step-timeout sets the limit): its process was killed")
-                chunk = os.read(self._rep, wire.HEADER.size - len(header))
-                if not chunk:
-                    raise self._gone(what)
-                header += chunk
-            body = wire.receive_exact(self._rep, wire.HEADER.unpack(header)[0])
-        except BrokenPipeError:
-            raise self._gone(what) from None
+            if request is not None:
+                self.channel.send(request)
+            body = self.channel.receive(timeout, self._reply_limit if limit is None else limit)
+        except LinkTimeout:
+            raise self._fail(f"{what} did not return within {timeout:g} s (watchdog; --step-timeout sets the limit): "
+                             f"{self.host.cut_off()}") from None
+        except LinkClosed:
+            raise self._fail(self.host.ended(what)) from None
+        except FrameTooLarge as err:
+            raise self._fail(f"{what}: its host sent {err} ({self.host.cut_off()})") from None
         finally:
             self.fmi_seconds += time.perf_counter() - started
-        if body is None:
-            raise self._gone(what)
-        if body[:1] == wire.OUTPUTS:  # a step's raw reply
-            self.log.extend(wire.decode_outputs(body, self.values))
+        try:
+            if body[:1] == wire.OUTPUTS:  # a step's (or the initialization's) raw reply
+                self.log.extend(wire.decode_outputs(body, self.values))
+                return None
+            if body[:1] == wire.STATE:  # get_state's reply
+                state, log = wire.decode_state(body)
+                self.log.extend(log)
+                return state
+            reply = wire.decode_reply(body)
+        except wire.ProtocolError as err:
+            raise self._fail(f"{what}: its host sent a malformed reply ({err}; {self.host.cut_off()})") from None
+        self.log.extend(reply["log"])
+        if reply.get("ok") is True:
             return None
-        reply = wire.unpickle(body)
-        if reply[0] == "ok":
-            _, outputs, log = reply
-            self.log.extend(log)
-            if isinstance(outputs, bytes):  # a serialized state
-                return outputs
-            if outputs is not None:
-                for t, v in outputs.items():
-                    self.values[t][:] = v
-            return outputs
-        _, kind, message, fatal, log = reply
-        self.log.extend(log)
-        self.fatal = fatal
-        raise (DescriptionError if kind == "description" else ExecutionError)(message)
+        self.fatal = bool(reply.get("fatal"))
+        if reply["error"] == "protocol":
+            raise self._fail(f"{what}: its host refused the request ({reply['message']})")
+        if reply["error"] == "ended":  # the server saw the FMU's process end, and says how
+            raise self._fail(f"{reply['message']} in {what}" + (f" on {self.host.where}" if hasattr(self.host, "where") else ""))
+        raise (DescriptionError if reply["error"] == "description" else ExecutionError)(reply["message"])
 
     def initialize(self, parameters: dict) -> None:
         self._pending.clear()
-        self._exchange(("init", dict(parameters)), "initialization")
+        self._exchange(wire.control({"op": "init", "parameters": dict(parameters)}), "initialization")
 
     def reset(self) -> None:
         self._pending.clear()
-        self._exchange(("reset",), "reset")
+        self._exchange(wire.control({"op": "reset"}), "reset")
 
     def set_values(self, values: dict) -> None:
-        self._exchange(("set", dict(values)), "setting values")
+        self._exchange(wire.control({"op": "set", "values": dict(values)}), "setting values")
 
     def get_state(self) -> bytes:
-        return self._exchange(("get_state",), "getting its state")
+        return self._exchange(wire.control({"op": "get_state"}), "getting its state", limit=wire.STATE_FRAME_LIMIT)
 
     def set_state(self, state: bytes) -> None:
         self._pending.clear()
-        self._exchange(("set_state", state), "restoring its state")
+        try:
+            request = wire.encode_state(state)
+        except wire.ProtocolError as err:
+            raise ExecutionError(f"{self.name}: restoring its state: {err}") from None
+        self._exchange(request, "restoring its state")
 
     def do_step(self, t: float, h: float) -> None:
         sets, self._pending = self._pending, []
@@ -165,24 +211,16 @@ class IsolatedFmu(slave.Slave):
         """Nothing to ask: the outputs came with the last step or the initialization."""
 
     def close(self) -> None:
-        """Ask the worker to terminate and free the FMU; kill it if it does not within the watchdog."""
+        """Ask the host to terminate and free the FMU (within the watchdog, at most 5 s), then let it go."""
+        if self._closed:
+            return
+        self._closed = True
         try:
             if not self._dead:
                 try:
-                    self._exchange(("close",), "terminate", timeout=min(self.timeout, 5.0))
+                    self._exchange(wire.control({"op": "close"}), "terminate", timeout=min(self.timeout, 5.0))
                 except (ExecutionError, DescriptionError):
                     pass
-            if self.proc.poll() is None:
-                try:
-                    self.proc.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    self.proc.kill()
-                    self.proc.wait()
         finally:
-            for fd in (self._req, self._rep):
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
-            self._stderr.close()
             self._dead = True
+            self.host.close()

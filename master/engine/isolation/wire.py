@@ -1,29 +1,38 @@
-"""The wire format between the master and an FMU's worker process: length-prefixed messages.
+"""The messages between the master and an FMU's host (a worker process, or `tiltload serve` across the network).
 
-The step, the hot path, is raw bytes (encode_step / encode_outputs: no pickling per tick); every
-other message is pickled, after a b"P". Requests:
-  step                          apply sets [(type, vrs, values)], doStep(t, h); reply: the outputs
-  P ("init", parameters)        initialization; reply: the outputs at t = 0
-  P ("reset",)                  fmi2Reset
-  P ("set", {name: value})      set parameters or inputs
-  P ("get_state",)              the serialized FMU state; reply: P ("ok", state bytes, log)
-  P ("set_state", state)        restore it; reply: the outputs
-  P ("close",)                  terminate, free, exit
-Replies: the outputs as raw bytes (plus new log lines, pickled, when there are any), or
-         P ("ok", outputs {type: ndarray} or None, new log lines) or
-         P ("error", kind, message, fatal, new log lines), kind "description" or "execution".
-Values travel in the FMI types' native layout: fmi2Real as float64, fmi2Integer and fmi2Boolean as int32.
+Every message is one frame (transport.py). The step, the hot path, is raw bytes; the rare ones are
+JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requests:
+  S t h {type n vrs values}     apply the sets, doStep(t, h); reply: the outputs
+  J {"op": "init", "parameters": {name: value}}   initialization; reply: the outputs at t = 0
+  J {"op": "reset"}             fmi2Reset
+  J {"op": "set", "values": {name: value}}        set parameters or inputs by name
+  J {"op": "get_state"}         the FMU's serialized state; reply: T state
+  T n state                     restore a state get_state gave (n bytes); reply: the outputs
+  J {"op": "close"}             terminate, free, exit
+Replies: O outputs [log lines as JSON]           the outputs, raw, plus the FMU's new log lines if any
+         T n state [log lines as JSON]           the FMU's serialized state (n bytes, STATE_LIMIT at most)
+         J {"ok": true, "log": [...]}
+         J {"error": kind, "message": ..., "fatal": bool, "log": [...]}  kind: description, execution, protocol
+Values travel in the FMI types' layout, little-endian: fmi2Real as float64, fmi2Integer and fmi2Boolean as int32.
+Every frame is checked against the model's sizes (step_limit, reply_limit) and its content against the model
+(decode_step: only the model's inputs, only whole sets), so a peer that sends garbage gets a ProtocolError.
 """
 
 from __future__ import annotations
 
-import os
-import pickle
+import json
 import struct
 
-HEADER = struct.Struct("<I")  # the length of the message that follows
-STEP, PICKLED, OUTPUTS = b"S", b"P", b"O"
+import numpy as np
+
+STEP, CONTROL, OUTPUTS, STATE = b"S", b"J", b"O", b"T"
 TYPES = ("Real", "Integer", "Boolean")  # the order outputs travel in (slave.TYPES)
+WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}
+LOG_LIMIT = 256 * 1024  # bytes of log lines one reply carries at most (the rest is summarized in one line)
+CONTROL_LIMIT = 1 << 20  # bytes of a JSON request (an initialization's parameters) or error reply
+STATE_LIMIT = 64 << 20  # bytes of an FMU's serialized state (a snapshot's), either way
+_STATE_SIZE = struct.Struct("<Q")
+STATE_FRAME_LIMIT = 1 + _STATE_SIZE.size + STATE_LIMIT + LOG_LIMIT + 1024  # a T frame, with its log lines
 _TIMES = struct.Struct("<dd")
 _SET = struct.Struct("<cI")
 _DTYPE = {"Real": "<f8", "Integer": "<i4", "Boolean": "<i4"}
@@ -31,70 +40,168 @@ _CODE = {"Real": b"R", "Integer": b"I", "Boolean": b"B"}
 _TYPE = {c: t for t, c in _CODE.items()}
 
 
+class ProtocolError(Exception):
+    """A frame that is not a message of this protocol, or not one for this model."""
+
+
 def type_code(typ: str) -> bytes:
     return _CODE[typ]
 
 
-def send_bytes(fd: int, data: bytes) -> None:
-    view = memoryview(HEADER.pack(len(data)) + data)
-    while view:
-        view = view[os.write(fd, view):]
+def _json_default(value):
+    if isinstance(value, np.generic):  # a numpy scalar among the parameters
+        return value.item()
+    raise TypeError(f"{type(value).__name__} cannot travel to an FMU's host")
 
 
-def send(fd: int, obj) -> None:
-    send_bytes(fd, PICKLED + pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL))
+def control(message: dict) -> bytes:
+    return CONTROL + json.dumps(message, default=_json_default, allow_nan=False).encode()
 
 
-def unpickle(body: bytes):
-    """The object of a pickled message (body starts with PICKLED)."""
-    return pickle.loads(body[1:])
+def decode_control(body: bytes) -> dict:
+    """The JSON object of a b"J" frame, or a ProtocolError."""
+    if body[:1] != CONTROL:
+        raise ProtocolError(f"expected a J message, got {body[:1]!r}")
+    try:
+        message = json.loads(body[1:].decode())
+    except (UnicodeDecodeError, ValueError) as err:
+        raise ProtocolError(f"malformed J message ({err})") from None
+    if not isinstance(message, dict):
+        raise ProtocolError("malformed J message (not an object)")
+    return message
+
+
+def fitting_log(lines: list[str]) -> list[str]:
+    """The log lines one reply carries: at most LOG_LIMIT bytes of JSON, what does not fit said in one last line."""
+    size = 2
+    for i, line in enumerate(lines):
+        size += len(json.dumps(line)) + 1
+        if size > LOG_LIMIT:
+            return [*lines[:i], f"[{len(lines) - i} more log lines not sent: over {LOG_LIMIT} bytes in one reply]"]
+    return list(lines)
+
+
+def _decode_log(lines) -> list[str]:
+    if not isinstance(lines, list) or not all(isinstance(x, str) for x in lines):
+        raise ProtocolError("malformed log lines (not a list of strings)")
+    return lines
+
+
+def ok(log: list[str]) -> bytes:
+    return control({"ok": True, "log": fitting_log(log)})
+
+
+def error(kind: str, message: str, fatal: bool, log: list[str]) -> bytes:
+    return control({"error": kind, "message": message[:4096], "fatal": bool(fatal), "log": fitting_log(log)})
 
 
 def encode_step(sets, t: float, h: float) -> bytes:
-    """sets: [(type, n, value references as uint32 bytes, values as fmi2 bytes)] in native byte order."""
+    """sets: [(type, n, value references as uint32 bytes, values as fmi2 bytes)]."""
     parts = [STEP, _TIMES.pack(t, h)]
     for typ, n, vrs, values in sets:
         parts += [_SET.pack(_CODE[typ], n), vrs, values]
     return b"".join(parts)
 
 
-def decode_step(body: bytes):
-    """(sets [(type, vrs bytes, values bytes, n)], t, h) of a step request."""
+def step_limit(inputs: dict[str, frozenset]) -> int:
+    """The longest step a model can be sent: each input at most twice (its connection and a fault's hold),
+    each in a set of its own at worst."""
+    return 1 + _TIMES.size + sum(2 * len(vrs) * (_SET.size + 4 + WIDTH[t]) for t, vrs in inputs.items())
+
+
+def decode_step(body: bytes, inputs: dict[str, frozenset], checked: set | None = None):
+    """(sets [(type, vrs bytes, values bytes, n)], t, h) of a step request whose sets name only the model's
+    inputs (inputs: {type: value references}); a ProtocolError otherwise. checked: the sets' value references
+    found good before (type code + vrs bytes), not checked again."""
+    if len(body) < 1 + _TIMES.size:
+        raise ProtocolError(f"a step of {len(body)} bytes is too short")
     t, h = _TIMES.unpack_from(body, 1)
     at, sets = 1 + _TIMES.size, []
     while at < len(body):
+        if at + _SET.size > len(body):
+            raise ProtocolError("a step ends inside a set's header")
         code, n = _SET.unpack_from(body, at)
         at += _SET.size
-        typ = _TYPE[code]
-        width = 8 if typ == "Real" else 4
-        sets.append((typ, body[at:at + 4 * n], body[at + 4 * n:at + 4 * n + width * n], n))
-        at += 4 * n + width * n
+        typ = _TYPE.get(code)
+        if typ is None:
+            raise ProtocolError(f"a step sets values of unknown type {code!r}")
+        end = at + (4 + WIDTH[typ]) * n
+        if end > len(body):
+            raise ProtocolError(f"a step announces {n} {typ} values and ends before them")
+        vrs = body[at:at + 4 * n]
+        if checked is None or code + vrs not in checked:
+            allowed = inputs.get(typ, frozenset())
+            if any(vr not in allowed for vr in np.frombuffer(vrs, dtype="<u4").tolist()):
+                raise ProtocolError(f"a step sets a {typ} that is not an input of this model")
+            if checked is not None:
+                checked.add(code + vrs)
+        sets.append((typ, vrs, body[at + 4 * n:end], n))
+        at = end
     return sets, t, h
 
 
+def output_bytes(counts: dict[str, int]) -> int:
+    return sum(WIDTH[t] * counts.get(t, 0) for t in TYPES)
+
+
+def reply_limit(counts: dict[str, int]) -> int:
+    """The longest reply a model's host may send: its outputs or an error, plus a bounded log."""
+    return max(1 + output_bytes(counts), CONTROL_LIMIT) + LOG_LIMIT + 1024
+
+
 def encode_outputs(values: dict, log: list) -> bytes:
-    return b"".join([OUTPUTS, *(values[t].tobytes() for t in TYPES), pickle.dumps(log) if log else b""])
+    return b"".join([OUTPUTS, *(values[t].astype(_DTYPE[t], copy=False).tobytes() for t in TYPES),
+                     json.dumps(fitting_log(log)).encode() if log else b""])
 
 
 def decode_outputs(body: bytes, targets: dict) -> list:
     """Copy the outputs of a raw reply into targets {type: ndarray}; return the log lines that came with them."""
-    import numpy as np
-
     at = 1
+    size = 1 + sum(targets[t].size * WIDTH[t] for t in TYPES)
+    if len(body) < size:
+        raise ProtocolError(f"outputs of {len(body)} bytes, the model has {size - 1}")
     for t in TYPES:
-        n = targets[t].size * targets[t].itemsize
-        targets[t][:] = np.frombuffer(body, dtype=_DTYPE[t], count=targets[t].size, offset=at)
-        at += n
-    return pickle.loads(body[at:]) if at < len(body) else []
+        n = targets[t].size
+        targets[t][:] = np.frombuffer(body, dtype=_DTYPE[t], count=n, offset=at)
+        at += n * WIDTH[t]
+    if at == len(body):
+        return []
+    try:
+        return _decode_log(json.loads(body[at:].decode()))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise ProtocolError(f"malformed log lines ({err})") from None
 
 
-def receive_exact(fd: int, n: int) -> bytes | None:
-    """n bytes from fd, or None at end of file (the other side is gone)."""
-    chunks, left = [], n
-    while left:
-        chunk = os.read(fd, left)
-        if not chunk:
-            return None
-        chunks.append(chunk)
-        left -= len(chunk)
-    return b"".join(chunks)
+def decode_reply(body: bytes) -> dict:
+    """A J reply: {"ok": True, "log": [...]} or {"error": kind, "message", "fatal", "log"}, checked."""
+    reply = decode_control(body)
+    reply["log"] = _decode_log(reply.get("log", []))
+    if reply.get("ok") is True:
+        return reply
+    if not (isinstance(reply.get("error"), str) and isinstance(reply.get("message"), str)):
+        raise ProtocolError("malformed reply (neither ok nor an error)")
+    return reply
+
+
+def encode_state(state: bytes, log: list | None = None) -> bytes:
+    """A serialized FMU state (a set_state request, or get_state's reply with the FMU's new log lines)."""
+    if len(state) > STATE_LIMIT:
+        raise ProtocolError(f"an FMU state of {len(state)} bytes, over the {STATE_LIMIT >> 20} MiB a state may have")
+    return b"".join([STATE, _STATE_SIZE.pack(len(state)), state, json.dumps(fitting_log(log)).encode() if log else b""])
+
+
+def decode_state(body: bytes) -> tuple[bytes, list]:
+    """(state, log lines) of a T frame, or a ProtocolError."""
+    if body[:1] != STATE or len(body) < 1 + _STATE_SIZE.size:
+        raise ProtocolError(f"expected a state (T message), got {len(body)} bytes starting {body[:1]!r}")
+    (n,) = _STATE_SIZE.unpack_from(body, 1)
+    at = 1 + _STATE_SIZE.size
+    if n > STATE_LIMIT or at + n > len(body):
+        raise ProtocolError(f"a state announces {n} bytes and the message has {len(body) - at}")
+    state, rest = body[at:at + n], body[at + n:]
+    if not rest:
+        return state, []
+    try:
+        return state, _decode_log(json.loads(rest.decode()))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise ProtocolError(f"malformed log lines ({err})") from None

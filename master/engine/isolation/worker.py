@@ -1,35 +1,54 @@
 """A process that hosts one FMU for the master (`python -m tiltload.master.engine.isolation.worker`).
 
 An FMU that is not trusted can crash (segfault), call exit() or hang. In its own process that
-costs the process, not the run: the master sees the pipe close or its watchdog expire and says
-so in one line, with the log it has written so far intact. See process.py for the master's side
-and wire.py for the messages.
+costs the process, not the run: the master sees the link close or its watchdog expire and says
+so in one line, with the log it has written so far intact. The link is a pipe pair to a local
+master (--pipes) or a TCP connection `tiltload serve` accepted and authenticated (--socket,
+server.py); the messages are the same (wire.py), and every request is checked against the model
+before it reaches the FMU. See process.py for the master's side.
 """
 
 from __future__ import annotations
 
+import argparse
 import ctypes
 import signal
+import socket
 import sys
 
 from . import wire
+from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 
 def _die_with_parent() -> None:
-    """Linux: be killed when the master dies, even while hung inside the FMU."""
+    """Linux: be killed when the master (or the server) dies, even while hung inside the FMU."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
-        pass  # elsewhere a dead master still closes the request pipe, which ends the loop
+        pass  # elsewhere a dead master still closes the link, which ends the loop
 
 
-def serve(fmu: str, name: str, requests: int, replies: int) -> int:
+def _say(label: str):
+    def say(message: str) -> None:
+        print(f"{label}: {message}" if label else message, file=sys.stderr, flush=True)
+    return say
+
+
+def model_inputs(md) -> dict[str, frozenset]:
+    """{type: value references of the model's inputs}: what a step may set."""
+    return {t: frozenset(v.valueReference for v in md.modelVariables if v.causality == "input" and v.type == t)
+            for t in wire.TYPES}
+
+
+def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None) -> int:
+    """Instantiate the FMU, answer the master's requests until it closes the link or asks to close."""
     from ..errors import DescriptionError, ExecutionError
     from ..fmu import InProcessFmu
     from ..model_description import read_fmu
     from ..slave import C_TYPES
 
+    say = say or _say("")
     inst, sent = None, 0
 
     def new_log():
@@ -37,9 +56,6 @@ def serve(fmu: str, name: str, requests: int, replies: int) -> int:
         lines = inst.log[sent:] if inst is not None else []
         sent += len(lines)
         return lines
-
-    def outputs():
-        return {t: v.copy() for t, v in inst.values.items()}
 
     vr_arrays: dict[bytes, object] = {}  # the value-reference arrays of each set, built once
 
@@ -52,58 +68,106 @@ def serve(fmu: str, name: str, requests: int, replies: int) -> int:
             raise inst.failed(f"set{typ} at t={t:.6g} s", status)
 
     try:
-        inst = InProcessFmu(name, fmu, read_fmu(fmu, name))
-        wire.send(replies, ("ok", None, new_log()))
+        md = read_fmu(fmu, name)
+        inst = InProcessFmu(name, fmu, md)
+        channel.send(wire.ok(new_log()))
     except (ExecutionError, DescriptionError) as err:
-        wire.send(replies, ("error", "execution", str(err), False, new_log()))
+        channel.send(wire.error("execution", str(err), False, new_log()))
         return 1
+    inputs = model_inputs(md)
+    step_limit = wire.step_limit(inputs)
+    serializes = inst.can_serialize  # only then may a peer send a state (up to wire.STATE_LIMIT bytes)
+    frame_limit = max(step_limit, wire.CONTROL_LIMIT, wire.STATE_FRAME_LIMIT if serializes else 0)
+    checked: set = set()
     while True:
-        header = wire.receive_exact(requests, wire.HEADER.size)
-        if header is None:
-            break  # the master is gone
-        body = wire.receive_exact(requests, wire.HEADER.unpack(header)[0])
-        if body is None:
-            break
-        request = wire.unpickle(body) if body[:1] == wire.PICKLED else ("step",)
-        op = request[0]
         try:
-            if op == "step":
-                sets, t, h = wire.decode_step(body)
+            body = channel.receive(idle_timeout, frame_limit)
+        except LinkClosed:
+            break  # the master is gone
+        except LinkTimeout:
+            say(f"no request for {idle_timeout:g} s: session ended")
+            return 1
+        except FrameTooLarge as err:
+            say(f"refused {err}: session ended")
+            return 1
+        try:
+            if body[:1] == wire.STEP:
+                if len(body) > step_limit:
+                    raise wire.ProtocolError(f"a step of {len(body)} bytes, this model's are at most {step_limit}")
+                sets, t, h = wire.decode_step(body, inputs, checked)
                 for typ, vrs, values, n in sets:
                     apply(typ, vrs, values, n, t)
                 inst.do_step(t, h)
                 inst.read_outputs()
-                wire.send_bytes(replies, wire.encode_outputs(inst.values, new_log()))
-            elif op == "init":
-                inst.initialize(request[1])
-                wire.send(replies, ("ok", outputs(), new_log()))
-            elif op == "set":
-                inst.set_parameters(request[1])
-                wire.send(replies, ("ok", None, new_log()))
-            elif op == "get_state":
-                wire.send(replies, ("ok", inst.get_state(), new_log()))
-            elif op == "set_state":
-                inst.set_state(request[1])
-                wire.send(replies, ("ok", outputs(), new_log()))
+                channel.send(wire.encode_outputs(inst.values, new_log()))
+                continue
+            if body[:1] == wire.STATE:
+                if not serializes:
+                    raise wire.ProtocolError("a state for an FMU that cannot serialize its state")
+                state, _ = wire.decode_state(body)
+                inst.set_state(state)
+                channel.send(wire.encode_outputs(inst.values, new_log()))
+                continue
+            request = wire.decode_control(body)
+            op = request.get("op")
+            if op == "init" and isinstance(request.get("parameters"), dict):
+                inst.initialize(request["parameters"])
+                channel.send(wire.encode_outputs(inst.values, new_log()))
+            elif op == "set" and isinstance(request.get("values"), dict):
+                inst.set_values(request["values"])
+                channel.send(wire.ok(new_log()))
+            elif op == "get_state" and serializes:
+                state = inst.get_state()
+                if len(state) > wire.STATE_LIMIT:
+                    raise ExecutionError(f"{name}: its state is {len(state)} bytes, over the {wire.STATE_LIMIT >> 20} MiB "
+                                         "a state may have on the link")
+                channel.send(wire.encode_state(state, new_log()))
             elif op == "reset":
                 inst.reset()
-                wire.send(replies, ("ok", None, new_log()))
+                channel.send(wire.ok(new_log()))
             elif op == "close":
                 inst.close()
-                wire.send(replies, ("ok", None, new_log()))
+                channel.send(wire.ok(new_log()))
                 break
+            else:
+                raise wire.ProtocolError(f"unknown request {str(op)[:40]!r}")
+        except wire.ProtocolError as err:
+            say(f"protocol error: {err}: session ended")
+            try:
+                channel.send(wire.error("protocol", str(err), False, []))
+            except LinkClosed:
+                pass
+            return 1
+        except LinkClosed:
+            break
         except DescriptionError as err:
-            wire.send(replies, ("error", "description", str(err), inst.fatal, new_log()))
+            channel.send(wire.error("description", str(err), inst.fatal, new_log()))
         except ExecutionError as err:
-            wire.send(replies, ("error", "execution", str(err), inst.fatal, new_log()))
+            channel.send(wire.error("execution", str(err), inst.fatal, new_log()))
     return 0
 
 
 def main() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the master's to handle; it closes us
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the master's (or the server's) to handle
     _die_with_parent()
-    fmu, name, requests, replies = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
-    code = serve(fmu, name, requests, replies)
+    p = argparse.ArgumentParser(prog="worker")
+    p.add_argument("fmu")
+    p.add_argument("name")
+    link = p.add_mutually_exclusive_group(required=True)
+    link.add_argument("--pipes", type=int, nargs=2, metavar=("REQUESTS", "REPLIES"))
+    link.add_argument("--socket", type=int, metavar="FD")
+    p.add_argument("--idle-timeout", type=float, default=None)
+    p.add_argument("--label", default="")
+    args = p.parse_args()
+    if args.socket is not None:
+        channel = Channel.over_socket(socket.socket(fileno=args.socket))
+    else:
+        channel = Channel.over_pipes(*args.pipes)
+    try:
+        code = serve(args.fmu, args.name, channel, args.idle_timeout, _say(args.label))
+    except LinkClosed:
+        code = 0
+    channel.close()  # a socket is shut down: the master sees the end at once
     from ..pythonfmu_guard import exit_now
 
     exit_now(code)  # no interpreter shutdown: a pythonfmu FMU can crash in it

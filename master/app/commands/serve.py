@@ -1,0 +1,29 @@
+"""`tiltload serve`: this machine hosts the FMUs of a folder for masters elsewhere (docs/remote.md).
+
+The options and the serving are the engine's (isolation/server.py), which a board without the
+whole application also runs as `python -m tiltload.master.engine.isolation.server`.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub) -> None:
+    from ...engine.isolation.server import add_arguments
+
+    s = sub.add_parser("serve", help="host the FMUs of a folder for a master on another machine "
+                                     "(tiltload run --remote INSTANCE=HOST:PORT; docs/remote.md)")
+    add_arguments(s)
+    s.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ...engine.isolation.server import ServeError
+    from ...engine.isolation.server import run as serve
+    from ..errors import UserError
+
+    try:
+        return serve(args)
+    except ServeError as err:
+        raise UserError(str(err)) from None

@@ -1,0 +1,35 @@
+"""Where one instance's FMU runs: on a `tiltload serve` (its description names one), in a worker process of its
+own (the isolation policy says so), or in this process.
+
+`slave_for` is what the execution calls to create each instance's slave; the three kinds are the
+same Slave to everything after it.
+"""
+
+from __future__ import annotations
+
+from ..errors import ExecutionError
+from ..fmu import InProcessFmu
+from ..slave import Slave
+from . import handshake
+from .process import STEP_TIMEOUT, IsolatedFmu
+from .remote_client import RemoteHost
+
+
+def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = STEP_TIMEOUT) -> IsolatedFmu:
+    """The FMU of model description md served by `tiltload serve` at address (picked there by model identifier and
+    GUID), authenticated with the secret in token_file; every call watched for timeout seconds."""
+    if token_file is None:
+        raise ExecutionError(f"{name}: runs on tiltload serve at {address}, which needs the shared secret (--token-file)")
+    return IsolatedFmu(name, path, md, timeout, host=RemoteHost(address, handshake.read_token(token_file), name, md))
+
+
+def slave_for(spec, md, isolate=None, step_timeout: float | None = None) -> Slave:
+    """The slave of instance spec (system.Instance) with model description md: remote if spec.remote names a server,
+    isolated if isolate(fmu, md) says so (None: never), else in this process."""
+    timeout = step_timeout or STEP_TIMEOUT
+    if spec.remote is not None:
+        return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout)
+    if isolate is not None and isolate(spec.fmu, md):
+        return IsolatedFmu(spec.name, spec.fmu, md, timeout)
+    return InProcessFmu(spec.name, spec.fmu, md)
+
