@@ -19,7 +19,7 @@ from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
 LAYER = HERE / "c"
-LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmu.h", LAYER / "tl_noise.h")
+LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_core.c", LAYER / "tl_core.h", LAYER / "tl_fmu.h", LAYER / "tl_noise.h")
 FMI_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 BUILD_INFO = "resources/build_info.json"
 
