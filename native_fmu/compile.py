@@ -1,7 +1,7 @@
 """Compile an FMU's C sources into a shared library with the system C compiler.
 
 Flags: portable optimisation (no -march=native: the binary ships), every warning on for our own
-sources, only the fmi2 symbols exported.
+sources, only the FMI API's symbols exported (fmi2* or fmi3*).
 """
 
 from __future__ import annotations
@@ -47,6 +47,34 @@ def platform_folder() -> str:
     return "linux64" if platform.architecture()[0] == "64bit" else "linux32"
 
 
+@dataclass(frozen=True)
+class Target:
+    """One platform an FMU's binary is built for: where it goes in each FMI version, and what builds it.
+
+    A build takes a list of targets (default: this machine's); a cross compiler plugs in as another entry, e.g.
+    Target("x86_64-windows", "win64", "x86_64-w64-mingw32-gcc", ".dll", export_map=False)."""
+
+    platform_tuple: str  # FMI 3.0: binaries/<platform_tuple>/ (x86_64-linux, aarch64-linux, x86_64-windows)
+    fmi2_folder: str | None  # FMI 2.0: binaries/<folder>/ (linux64, win64); None where FMI 2.0 has no name
+    compiler: str | None = None  # None: the system compiler (compiler())
+    suffix: str = ".so"
+    export_map: bool = True  # an ELF version script keeps only the API exported (a DLL exports only what it marks)
+
+    def folder(self, fmi_version: int) -> str:
+        if fmi_version == 3:
+            return self.platform_tuple
+        if self.fmi2_folder is None:
+            raise BuildError(f"FMI 2.0 has no platform folder for {self.platform_tuple}; build it as FMI 3.0")
+        return self.fmi2_folder
+
+
+def native_target() -> Target:
+    """This machine's platform, built with the system compiler."""
+    folder = platform_folder()
+    machine = {"AMD64": "x86_64", "arm64": "aarch64"}.get(platform.machine(), platform.machine())
+    return Target(f"{machine}-linux", folder if machine in ("x86_64", "i686") else None)
+
+
 def compiler() -> str:
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if not cc:
@@ -82,11 +110,13 @@ def _compile(cc: str, source: Path, obj: Path, include: list[Path], extra: tuple
 
 
 def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str | None = None,
-                   extra_flags: tuple[str, ...] = ()) -> list[str]:
-    """Compile the C files of folder (layer + model + generated) into the shared library output; return the
-    compiler's warnings on our own sources."""
+                   extra_flags: tuple[str, ...] = (), include: tuple[Path, ...] = (), api: str = "fmi2",
+                   export_map: bool = True) -> list[str]:
+    """Compile the C files of folder (layer + model + generated) into the shared library output, exporting only the
+    api's functions (fmi2*, fmi3*); include: header folders besides folder. Return the compiler's warnings on our
+    own sources."""
     cc = cc or compiler()
-    include = [folder]
+    include = [folder, *include]
     objs, warnings = [], []
     generated = {p.name for p in sources.generated}
     for source in sorted(folder.glob("*.c")):
@@ -98,9 +128,9 @@ def compile_shared(sources: NativeSources, folder: Path, output: Path, cc: str |
             warnings.append(said)
         objs.append(obj)
     link = [cc, "-shared", *extra_flags, "-o", str(output), *map(str, objs), "-lm"]
-    if platform.system() == "Linux":  # only fmi2*: -fvisibility=hidden does not hide target_clones' ifunc symbols
+    if export_map:  # only the API: -fvisibility=hidden does not hide target_clones' ifunc symbols
         exports = folder / "exports.map"
-        exports.write_text("{ global: fmi2*; local: *; };\n")
+        exports.write_text(f"{{ global: {api}*; local: *; }};\n")
         link.append(f"-Wl,--version-script={exports}")
     proc = subprocess.run(link, capture_output=True, text=True)
     if proc.returncode != 0:

@@ -12,6 +12,13 @@ from ...plant_fmu import build as plant
 from ...scenario_fmu import build as scenario
 from ...sensor_fmu import build as sensors
 
+FMI3_FOLDER = "fmi3"  # the FMI 3.0 set lives beside the FMI 2.0 one: fmus/fmi3/ (the same file names)
+
+
+def fmu_folder(base: Path, fmi_version: int = 2) -> Path:
+    """Where a set of FMUs lives: the FMI 2.0 set in base (fmus/), the FMI 3.0 set in base/fmi3/."""
+    return Path(base) if fmi_version == 2 else Path(base) / FMI3_FOLDER
+
 
 def loop_recipes(vehicles=("load",)) -> list[Recipe]:
     """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav")."""
@@ -28,9 +35,9 @@ def formation_recipes() -> list[Recipe]:
     return [plant.recipe("uav"), *formation.recipes()]
 
 
-def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",)) -> list[BuildResult]:
-    """The loop's FMUs of each vehicle into dest; each is rebuilt only if stale."""
-    return [build(r, dest, force, progress) for r in loop_recipes(vehicles)]
+def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2) -> list[BuildResult]:
+    """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0); each is rebuilt only if stale."""
+    return [build(r, dest, force, progress, fmi_version) for r in loop_recipes(vehicles)]
 
 
 def build_formation(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:

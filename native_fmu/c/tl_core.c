@@ -19,6 +19,7 @@ void tl_load_start_values(TlInstance* c) {
     c->s.string[i][TL_STRING_LEN - 1] = '\0';
   }
   c->s.time = c->s.start_time = 0.0;
+  c->s.stop_time = INFINITY;
   c->s.phase = TL_INSTANTIATED;
   c->s.stop_requested = 0;
   memset(c->s.clock_active, 0, sizeof c->s.clock_active);

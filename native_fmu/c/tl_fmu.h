@@ -43,6 +43,7 @@ typedef struct {
   int phase;
   double time;
   double start_time;
+  double stop_time;   /* FMI 3.0: a step beyond it is an error (infinite: none given) */
   int stop_requested; /* set by a model that refuses all further steps: fmi2Terminated reads it */
   fmi2Real real[TL_CAP_REAL];
   fmi2Integer integer[TL_CAP_INTEGER];
