@@ -20,14 +20,20 @@ def fmu_folder(base: Path, fmi_version: int = 2) -> Path:
     return Path(base) if fmi_version == 2 else Path(base) / FMI3_FOLDER
 
 
-def loop_recipes(vehicles=("load",)) -> list[Recipe]:
-    """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav")."""
+def loop_recipes(vehicles=("load",), clocked: bool = False) -> list[Recipe]:
+    """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav"); clocked: the sensors'
+    and the controller's FMI 3.0 variants with clocks (the plant and the scenario have none)."""
     out = []
     for v in vehicles:
-        out += [plant.recipe(v), sensors.recipe(v)]
+        out += [plant.recipe(v), sensors.recipe(v, clocked)]
     out.append(scenario.recipe())
-    out += [controller.recipe(v) for v in vehicles]
+    out += [controller.recipe(v, clocked) for v in vehicles]
     return out
+
+
+def clocked_recipes(vehicles=("load", "uav")) -> list[Recipe]:
+    """The FMI 3.0 variants with clocks: the sensors (a clock per group) and the controller (T_c) of each vehicle."""
+    return [r for v in vehicles for r in (sensors.recipe(v, True), controller.recipe(v, True))]
 
 
 def formation_recipes() -> list[Recipe]:
@@ -35,9 +41,10 @@ def formation_recipes() -> list[Recipe]:
     return [plant.recipe("uav"), *formation.recipes()]
 
 
-def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2) -> list[BuildResult]:
-    """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0); each is rebuilt only if stale."""
-    return [build(r, dest, force, progress, fmi_version) for r in loop_recipes(vehicles)]
+def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2,
+              clocked: bool = False) -> list[BuildResult]:
+    """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0, with clocks or not); each rebuilt only if stale."""
+    return [build(r, dest, force, progress, fmi_version) for r in loop_recipes(vehicles, clocked)]
 
 
 def build_formation(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:

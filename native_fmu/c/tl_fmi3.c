@@ -96,18 +96,16 @@ static fmi3Status fail(TlInstance* c, const char* format, ...) {
 #define SETTER_PHASES (IN(TL_INSTANTIATED) | IN(TL_INITIALIZATION) | IN(TL_EVENT) | IN(TL_STEPPING))
 
 /* ---- Event Mode: the partition of the active clocks ------------------------------------------------------ */
-static void begin_instant(TlInstance* c) {
-#if TL_HAS_EVENT_MODE
-  c->s.pre_event = c->s.model;
-#endif
-  c->s.event_ran = 0;
-}
+static void begin_instant(TlInstance* c) { c->s.event_ran = 0; }
 
+/* The partition, if inputs or clocks changed since it last ran in this instant. Its first run keeps the model state
+   it starts from (one copy per event), so that a later change runs it again from there. */
 static fmi2Status run_event(TlInstance* c) {
 #if TL_HAS_EVENT_MODE
   fmi2Status status;
   if (!c->s.event_dirty) return fmi2OK;
   if (c->s.event_ran) c->s.model = c->s.pre_event; /* inputs or clocks changed: run again from the event's start */
+  else c->s.pre_event = c->s.model;
   status = tl_model_event(c, c->s.time);
   c->s.event_ran = 1;
   c->s.event_dirty = 0;

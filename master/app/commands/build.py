@@ -13,15 +13,17 @@ def add_parser(sub) -> None:
     b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
     b.add_argument("--force", action="store_true", help="rebuild even if up to date")
     b.add_argument("--fmi", type=int, choices=(2, 3), default=2,
-                   help="FMI version: 2 (default) into OUT/, 3 (FMI 3.0 co-simulation) into OUT/fmi3/ (docs/fmi3.md)")
+                   help="FMI version: 2 (default) into OUT/; 3: FMI 3.0 co-simulation into OUT/fmi3/, the plain FMUs and "
+                        "the sensors' and controllers' variants with clocks (*Clocked.fmu; docs/fmi3.md)")
     b.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ....native_fmu.build import build
-    from ..fmus import fmu_folder, formation_recipes, loop_recipes
+    from ..fmus import clocked_recipes, fmu_folder, formation_recipes, loop_recipes
 
-    recipes = {r.fmu_name: r for r in [*loop_recipes(("load", "uav")), *formation_recipes()]}  # the UAV's plant once
+    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if args.fmi == 3 else ())]
+    recipes = {r.fmu_name: r for r in every}  # the UAV's plant once
     out = fmu_folder(args.out, args.fmi)
     for recipe in recipes.values():
         result = build(recipe, out, args.force, fmi_version=args.fmi)
