@@ -82,5 +82,10 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
     p.add_argument("--system", type=Path, default=None, help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop")
     p.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="the loop's FMUs as FMI 2.0 (default; in FMUS/) or FMI 3.0 co-simulation FMUs (in FMUS/fmi3/)")
+    p.add_argument("--clocks", action="store_true",
+                   help="with --fmi 3: the sensors and the controller with FMI 3.0 clocks, which replace their periods "
+                        "(default: the plain FMI 3.0 FMUs, which every FMI 3.0 importer runs; docs/fmi3.md)")
     p.add_argument("--allow-unknown-inputs", action="store_true",
                    help="accept a controller FMU whose inputs include names the port contract does not have")

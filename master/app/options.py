@@ -27,8 +27,10 @@ class LoopOptions:
     faults: Path | None
     settings: tuple[tuple[str, object], ...]  # --set INSTANCE.NAME=VALUE, in order
     system: Path | None  # a system file instead of the loop
-    fmus: Path
+    fmus: Path  # the FMU folder of the FMI 2.0 set (the FMI 3.0 set is in fmus/fmi3/)
     allow_unknown_inputs: bool
+    fmi: int = 2  # the FMI version of the loop's FMUs
+    clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
 
     @property
     def controller_label(self) -> str:
@@ -48,6 +50,12 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     if controller in ("dlqr", "mixed") and controller not in loop.controllers:
         raise UserError(f"--controller {controller}: the {args.vehicle} vehicle has {', '.join(loop.controllers)} "
                         "(or your own FMU)")
+    fmi, clocks = getattr(args, "fmi", 2), getattr(args, "clocks", False)
+    if clocks and fmi != 3:
+        raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
+    if args.system is not None and (fmi != 2 or clocks):
+        raise UserError("--fmi and --clocks choose the loop's FMUs; a --system file names its own (and may give each "
+                        "instance's FMI version, \"fmi\": 3)")
     controller_fmu = None
     if controller not in ("dlqr", "mixed"):
         controller_fmu = Path(controller)
@@ -55,7 +63,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
     return LoopOptions(args.vehicle, args.scenario, trajectory, controller, controller_fmu, args.seed, args.stop_time,
                        args.delay, not args.no_gusts, args.faults, tuple(args.set), args.system, args.fmus,
-                       args.allow_unknown_inputs)
+                       args.allow_unknown_inputs, fmi, clocks)
 
 
 @dataclass
@@ -71,17 +79,19 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
     """The system the options describe: the thesis's loop (FMUs built when stale), with the user's controller FMU,
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into)."""
     from ..engine.manipulators import load as load_faults
-    from .fmus import build_all
+    from .fmus import build_all, fmu_folder
 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into)
     else:
-        results = build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))
+        folder = fmu_folder(opts.fmus, opts.fmi)
+        results = build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,), fmi_version=opts.fmi,
+                            clocked=opts.clocks)
         rebuilt = [r.path.name for r in results if r.rebuilt]
         if rebuilt:
-            print(f"built {', '.join(rebuilt)} into {opts.fmus}/")
-        system = default_system(opts.fmus, opts.scenario, opts.trajectory, opts.controller if opts.controller_fmu is None else None,
-                                opts.seed, opts.controller_fmu, opts.delay, opts.gusts, opts.vehicle)
+            print(f"built {', '.join(rebuilt)} into {folder}/")
+        system = default_system(folder, opts.scenario, opts.trajectory, opts.controller if opts.controller_fmu is None else None,
+                                opts.seed, opts.controller_fmu, opts.delay, opts.gusts, opts.vehicle, opts.fmi, opts.clocks)
         set_parameters(system, dict(opts.settings))
         if opts.controller_fmu is not None:
             from ..engine.model_description import read_fmu

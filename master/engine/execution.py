@@ -22,7 +22,8 @@ import numpy as np
 from . import connections
 from .errors import DescriptionError
 from .fmu import InProcessFmu
-from .model_description import checked_value, read_fmu
+from .fmu3 import Fmu3Slave
+from .model_description import checked_value, fmi_version, read_fmu, steps_every
 from .slave import C_TYPES, Slave
 from .system import System, validate
 
@@ -74,7 +75,7 @@ class Execution:
         self.links = connections.resolve(system, mds)
         _check_parameters(system, mds, self.links)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
-        self.every = {i.name: (1 if i.period is None else round(i.period / system.tick)) for i in system.instances}
+        self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
         groups: dict[tuple, list] = {}
         for link in self.links:
             groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
@@ -99,7 +100,9 @@ class Execution:
         """Load every FMU (in this process or a worker of its own), bind the connections, initialize."""
         for spec in self.system.instances:
             md = self._mds[spec.name]
-            if self.isolate is not None and self.isolate(spec.fmu, md):
+            if fmi_version(md) == 3:  # in this process (isolation is FMI 2.0's)
+                self.instances[spec.name] = Fmu3Slave(spec.name, spec.fmu, md, self.system.tick)
+            elif self.isolate is not None and self.isolate(spec.fmu, md):
                 from .isolation.process import STEP_TIMEOUT, IsolatedFmu
 
                 self.instances[spec.name] = IsolatedFmu(spec.name, spec.fmu, md, self.step_timeout or STEP_TIMEOUT)

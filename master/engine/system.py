@@ -21,6 +21,7 @@ class Instance:
     period: float | None = None  # s; None: the tick
     parameters: dict[str, object] = field(default_factory=dict)
     timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
+    fmi: int | None = None  # the FMI version the description names (2 or 3; checked against the FMU), None: any
 
 
 @dataclass
@@ -68,6 +69,8 @@ def validate(system: System) -> System:
                 raise DescriptionError(f"{inst.name}: period {inst.period!r} s is not a whole multiple of the tick {system.tick} s")
         if inst.timing not in ("sample", "continuous"):
             raise DescriptionError(f"{inst.name}: timing must be 'sample' or 'continuous', got {inst.timing!r}")
+        if inst.fmi not in (None, 2, 3):
+            raise DescriptionError(f"{inst.name}: fmi must be 2 or 3 (the FMI version), got {inst.fmi!r}")
     for c in system.connections:
         for ref, what in ((c.source, "source"), (c.target, "target")):
             inst, _ = _split(ref, what)
@@ -92,7 +95,8 @@ SCHEMA = {
                 "period": {"type": ["number", "null"], "exclusiveMinimum": 0},
                 "parameters": {"type": "object", "propertyNames": {"pattern": "^[^\\s]+$"},
                                "additionalProperties": {"type": ["number", "string", "boolean"]}},
-                "timing": {"enum": ["sample", "continuous"]}}}},
+                "timing": {"enum": ["sample", "continuous"]},
+                "fmi": {"enum": [2, 3]}}}},
         "connections": {"type": "array", "items": {
             "type": "object", "additionalProperties": False, "required": ["source", "target"],
             "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
@@ -125,7 +129,7 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "sample")) for i in data["instances"]]
+                              i.get("timing", "sample"), i.get("fmi")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
         if "faults" in data:
@@ -141,8 +145,8 @@ def load(path: Path) -> System:
 
 def save(system: System, path: Path) -> Path:
     data = {"tick": system.tick, "auto_connect": system.auto_connect,
-            "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing}
-                          for i in system.instances],
+            "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
+                           **({"fmi": i.fmi} if i.fmi is not None else {})} for i in system.instances],
             "connections": [{"source": c.source, "target": c.target, "delay": c.delay} for c in system.connections]}
     Path(path).write_text(json.dumps(data, indent=1))
     return Path(path)

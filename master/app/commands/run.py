@@ -56,11 +56,12 @@ def run(args: argparse.Namespace) -> int:
         print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
     label = args.name or (opts.system.stem if opts.system is not None else
                           f"{'uav_' if opts.vehicle == 'uav' else ''}{opts.scenario}_traj{opts.trajectory}_"
-                          f"{opts.controller_label}_seed{opts.seed}")
+                          f"{opts.controller_label}_seed{opts.seed}"
+                          f"{'' if opts.fmi == 2 else '_fmi3' + ('_clocks' if opts.clocks else '')}")
     log = None if args.no_log else args.out / f"{label}.mcap"
     metrics = loop_metrics() if is_loop(system) else None
     meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory, "controller": opts.controller,
-            "seed": opts.seed, "stop_time": stop, "delay": opts.delay}
+            "seed": opts.seed, "stop_time": stop, "delay": opts.delay, "fmi": opts.fmi, "clocks": opts.clocks}
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     print(f"running {label}: {stop:g} s of simulated time")
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
