@@ -37,6 +37,19 @@ def test_twelve_cases_on_clocked_fmi3_fmus_equal_the_fmi2_runs_bit_for_bit(fmus,
         assert passed, cmp.format_rows(rows)
 
 
+def test_the_uav_alone_on_clocked_fmi3_fmus_equals_fmi2_bit_for_bit(fmus, fmi3_set):
+    """Appendix A's loop (the UAV without the load, its own sensor suite of Table A.1 and controller)."""
+    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop import default_system, loop_metrics
+    from tiltload.master.engine.run import run_system
+
+    build_all(fmus, progress=lambda *_: None, vehicles=("uav",))
+    build_all(fmi3_set, progress=lambda *_: None, vehicles=("uav",), fmi_version=3, clocked=True)
+    runs = [run_system(default_system(folder, "zse", 3, "dlqr", vehicle="uav", **kw), 3.0, None, loop_metrics(), progress=False)
+            for folder, kw in ((fmus, {}), (fmi3_set, {"fmi": 3, "clocked": True}))]
+    assert all(r.error is None for r in runs) and runs[0].metrics == runs[1].metrics
+
+
 def test_run_fmi3_with_clocks_reports_its_metrics_and_log(fmi3_set, tmp_path, capsys):
     fmus = fmi3_set.parent
     args = ["run", "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"]
