@@ -44,6 +44,7 @@ class Fmu3State:
 
     fmu: bytes
     values: dict[str, np.ndarray]
+    held: list[np.ndarray]  # the clocked outputs as read at their clocks' last ticks
     event_asked: bool
     next_event: float | None
 
@@ -169,6 +170,7 @@ class Fmu3Slave(Slave):
                     self._reads.append(entry)
                 else:
                     self._clocked_outputs.setdefault(clock, []).append(entry)
+        self._held = [e for entries in self._clocked_outputs.values() for e in entries]
         self._staged: dict[int, _Inputs] = {}
         self._discrete_inputs: list[_Inputs] = []
         self._clock_calls: dict[tuple[int, ...], tuple] = {}  # due clocks -> the arrays of their fmi3SetClock
@@ -318,7 +320,11 @@ class Fmu3Slave(Slave):
         self._event_asked = bool(event_needed.value)
 
     def read_outputs(self) -> None:
+        """The outputs after a step: those not clocked from the FMU, the clocked ones as read at their clock's last
+        tick (again each step: what an observer or a fault did to values since is not the FMU's)."""
         self._read(self._reads, "get")
+        for _, out, _, _, _, view, idx in self._held:
+            out[idx] = view
 
     def save_state(self) -> Fmu3State:
         """Between two steps: everything a new instance of this FMU needs to continue (restore_state)."""
@@ -327,7 +333,8 @@ class Fmu3Slave(Slave):
             blob = self.call("serializeFMUState", lambda: self.fmu.serializeFMUState(state))
         finally:
             self.call("freeFMUState", lambda: self.fmu.freeFMUState(state))
-        return Fmu3State(blob, {t: v.copy() for t, v in self.values.items()}, self._event_asked, self._next_event)
+        return Fmu3State(blob, {t: v.copy() for t, v in self.values.items()}, [e[5].copy() for e in self._held],
+                         self._event_asked, self._next_event)
 
     def restore_state(self, saved: Fmu3State) -> None:
         """Continue from a state save_state took (of this FMU, in any instance), in place of initialize."""
@@ -338,6 +345,8 @@ class Fmu3Slave(Slave):
             self.call("freeFMUState", lambda: self.fmu.freeFMUState(state))
         for t, v in saved.values.items():
             self.values[t][:] = v
+        for entry, held in zip(self._held, saved.held):
+            entry[5][:] = held
         self._in_event, self._event_asked, self._next_event = False, saved.event_asked, saved.next_event
 
     def close(self) -> None:

@@ -141,7 +141,7 @@ static int set_inputs(Fmu* fmus, int fi, Link* links, int n_links, int which, co
 
 #define SYM(f, field, name) ((f)->field = (void*)dlsym((f)->lib, name)) == NULL
 
-static int load(Fmu* f, const char* binary, const char* token) {
+static int load(Fmu* f, const char* binary) {
   f->lib = dlopen(binary, RTLD_NOW | RTLD_LOCAL);
   if (f->lib == NULL) {
     fprintf(stderr, "dlopen %s: %s\n", binary, dlerror());
@@ -157,7 +157,6 @@ static int load(Fmu* f, const char* binary, const char* token) {
     fprintf(stderr, "%s: missing fmi3 symbol\n", f->name);
     return 1;
   }
-  (void)token;
   return 0;
 }
 
@@ -238,7 +237,7 @@ int main(int argc, char** argv) {
     line[strcspn(line, "\n")] = '\0';
     if (line[0] == 'F' && n_fmus < MAX_FMUS) {
       Fmu* f = &fmus[n_fmus];
-      if (sscanf(line, "F %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary, f->token)) return 1;
+      if (sscanf(line, "F %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary)) return 1;
       ++n_fmus;
     } else if (line[0] == 'K' && sscanf(line, "K %63s %u %ld %ld", name, &a, &p, &q) == 4) {
       Fmu* f = &fmus[find(fmus, n_fmus, name)];
