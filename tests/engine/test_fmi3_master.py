@@ -9,12 +9,11 @@ from __future__ import annotations
 import json
 import subprocess
 import xml.etree.ElementTree as ET
-import zipfile
-from fractions import Fraction
 
 import numpy as np
 import pytest
 from support import HOSTS, T
+from support.fmi3_plan import host_plan
 from support.fmu3_session import Session3
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import connections
@@ -270,45 +269,10 @@ def test_fmpy_steps_the_plain_fmi3_loop_as_our_master_does(fmi3_set):
     assert np.array_equal(np.array(trajectory), np.array(rec.rows["plant"])[:, index])
 
 
-def _host_plan(system, folder, ticks: int, record: list[str]):
-    """The C host's plan, from the model descriptions (read here with ElementTree) and the system's connections."""
-    mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
-    lines = []
-    tick = Fraction(repr(system.tick))
-    for inst in system.instances:
-        unpacked = folder / inst.name
-        with zipfile.ZipFile(inst.fmu) as z:
-            z.extractall(unpacked)
-        root = ET.parse(unpacked / "modelDescription.xml").getroot()
-        model = root.find("CoSimulation").get("modelIdentifier")
-        lines.append(f"F {inst.name} {unpacked / 'binaries' / 'x86_64-linux' / (model + '.so')} {root.get('instantiationToken')}")
-        elements = {e.get("name"): e for e in root.find("ModelVariables")}
-        for e in elements.values():
-            if e.tag == "Clock":
-                interval = Fraction(int(e.get("intervalCounter")), int(e.get("resolution"))) / tick
-                assert interval.denominator == 1
-                lines.append(f"K {inst.name} {e.get('valueReference')} {interval.numerator} 0")
-            elif e.get("clocks"):
-                lines.append(f"V {inst.name} {e.get('valueReference')} {e.get('clocks')}")
-        for key, value in inst.parameters.items():
-            e = elements[key]
-            code = {"Float64": "R", "Int32": "I", "Boolean": "B", "String": "S"}[e.tag]
-            text = str(int(value)) if code in "IB" else (repr(float(value)) if code == "R" else str(value))
-            lines.append(f"P {inst.name} {code} {e.get('valueReference')} {text}")
-    for link in connections.resolve(system, mds):
-        lines.append(f"C {link.source} {link.type[0]} {link.source_vr} {link.target} {link.target_vr}")
-    lines.append(f"T {system.tick!r} {ticks}")
-    plant = {v.name: v.valueReference for v in mds["plant"].modelVariables}
-    lines += [f"O plant {plant[n]}" for n in record]
-    path = folder / "plan.txt"
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
 def test_a_c_host_written_from_the_standard_runs_the_clocked_loop_as_our_master_does(fmi3_set, tmp_path):
     system = default_system(fmi3_set, "zse", 1, "mixed", seed=2, fmi=3, clocked=True)
     ticks = round(5.0 / T)
-    plan = _host_plan(system, tmp_path, ticks, list(STATE_NAMES))
+    plan = host_plan(system, tmp_path, ticks, [("plant", n) for n in STATE_NAMES])
     host = tmp_path / "fmi3_loop_host"
     subprocess.run(["cc", "-std=c11", "-Wall", "-Wextra", "-Werror", f"-I{fmi_header_dir(3)}", str(HOSTS / "fmi3_loop_host.c"),
                     "-o", str(host), "-ldl", "-lm"], check=True)
@@ -329,7 +293,7 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
     """The clocked FMUs rebuilt from their sources/ (the files buildDescription.xml lists) with ASan and UBSan, the C
     host too: 2 s of the clocked loop with no finding (the plain FMUs' layer path is the FMI 2.0 tests' ASan run's)."""
     system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
-    plan = _host_plan(system, tmp_path, round(2.0 / T), list(STATE_NAMES))
+    plan = host_plan(system, tmp_path, round(2.0 / T), [("plant", n) for n in STATE_NAMES])
     sanitize = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined", "-g"]
     lines = plan.read_text().splitlines()
     for i, line in enumerate(lines):

@@ -18,7 +18,8 @@
      P name R|I|B|S vr value       a parameter or start value (S: the rest of the line)
      C src R|I|B vr dst vr         a connection from src's output to dst's input
      T tick ticks                  the tick (s) and how many to run
-     O name vr                     a Float64 output printed after every tick ("k name vr value", C99 hex float)
+     O name vr                     a Float64 output printed after every tick ("k name vr value", C99 hex float); a
+                                   clocked one as read at its clock's last tick
    Exit 0 when every call succeeded. */
 #include <dlfcn.h>
 #include <math.h>
@@ -161,6 +162,11 @@ static int load(Fmu* f, const char* binary) {
 }
 
 
+/* The recorded outputs (O lines): instance, value reference, the value a clocked one had at its clock's last tick. */
+static int n_out, out_fmu[MAX_OUT];
+static fmi3ValueReference out_vr[MAX_OUT];
+static fmi3Float64 out_held[MAX_OUT];
+
 /* Event Mode at tick k for the due clocks (the FMU is in Step Mode unless this is the first event). */
 static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, const int* due) {
   Fmu* f = &fmus[fi];
@@ -179,6 +185,11 @@ static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, const int* du
   if (n) failed |= f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK;
   failed |= set_inputs(fmus, fi, links, n_links, 1, due);
   failed |= read_outputs(fmus, fi, links, n_links, 1, due); /* before the update: it deactivates the clocks */
+  for (j = 0; j < n_out; ++j) {
+    fmi3ValueReference clock = clock_of(f, out_vr[j]);
+    if (out_fmu[j] == fi && clock && is_due(f, clock, due))
+      failed |= f->get_float64(f->c, &out_vr[j], 1, &out_held[j], 1) != fmi3OK;
+  }
   while (need && !failed && rounds++ < 100)
     failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
   failed |= need || terminate;
@@ -222,8 +233,7 @@ int main(int argc, char** argv) {
   static Link links[MAX_LINKS];
   static char params[MAX_PARAMS][512];
   char line[4096], name[64], other[64], binary[2048], type;
-  int n_fmus = 0, n_links = 0, n_out = 0, n_params = 0, out_fmu[MAX_OUT], failed = 0, i;
-  fmi3ValueReference out_vr[MAX_OUT];
+  int n_fmus = 0, n_links = 0, n_params = 0, failed = 0, i;
   double tick = 0.0;
   long ticks = 0, k;
   FILE* plan;
@@ -261,6 +271,7 @@ int main(int argc, char** argv) {
       if (sscanf(line, "T %lf %ld", &tick, &ticks) != 2) return 2;
     } else if (line[0] == 'O' && sscanf(line, "O %63s %u", name, &a) == 2) {
       out_fmu[n_out] = find(fmus, n_fmus, name);
+      out_held[n_out] = NAN;
       out_vr[n_out++] = a;
     }
   }
@@ -302,7 +313,7 @@ int main(int argc, char** argv) {
       failed |= read_outputs(fmus, i, links, n_links, 0, due);
       for (j = 0; j < n_out; ++j)
         if (out_fmu[j] == i) {
-          fmi3Float64 v = NAN;
+          fmi3Float64 v = out_held[j];
           if (clock_of(f, out_vr[j]) == 0) failed |= f->get_float64(f->c, &out_vr[j], 1, &v, 1) != fmi3OK;
           printf("%ld %s %u %a\n", k, f->name, out_vr[j], v);
         }
