@@ -1,16 +1,16 @@
 """How far the twelve baseline metrics move on another machine, emulated on this one.
 
-Each variant rebuilds everything from scratch (empty design cache, new FMUs) in a child process
-whose environment changes what differs between machines:
+Each variant rebuilds everything from scratch (empty design cache, no shipped designs, new FMUs) in a child
+process whose environment changes what differs between machines:
   - OpenBLAS kernels (OPENBLAS_CORETYPE): numpy/scipy (DARE, ZOH, estimator set-up) and SDPA's
     own OpenBLAS round differently per CPU family;
-  - no AVX2/FMA: the controller's estimator kernels without their x86-64-v3 clone
+  - no AVX2/FMA: the controller's estimator kernels without their AVX2 copy
     (TILTLOAD_CFLAGS=-DTL_PORTABLE_FP) and glibc's libm without its FMA variants (GLIBC_TUNABLES);
   - one thread everywhere (SDPA, BLAS).
 It prints, per case and metric, the largest relative deviation from the reference variant, and
 with --write-tolerances stores rtol = max(FLOOR, SAFETY x spread) per metric in baselines/.
 
-Run: python benchmarks/baseline_spread.py [--write-tolerances]   (about 30 s per variant, 2 cores)
+Run: python benchmarks/baseline_spread.py [--write-tolerances]   (per variant: docs/timings.md)
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ def main() -> int:
         for name in args.only:
             started = time.perf_counter()
             out = Path(tmp) / f"{name}.json"
-            env = dict(os.environ, **VARIANTS[name])
+            env = dict(os.environ, **VARIANTS[name], TILTLOAD_SHIPPED_DESIGNS="0")  # each variant synthesizes its designs
             subprocess.run([sys.executable, __file__, "--variant", name, "--result", str(out)], env=env, check=True)
             metrics[name] = json.loads(out.read_text())
             print(f"{name}: {time.perf_counter() - started:.0f} s", flush=True)

@@ -1,97 +1,173 @@
-"""Loop throughput per scenario: tiltload's master with a full log, with no log, and libcosim on the same FMUs.
+"""Loop throughput per scenario against the FMUs' own C cost, libcosim and a native container of the same FMUs.
 
-Per scenario (trajectory 1, mixed design), printed: real-time factor with the full MCAP log (as
-`tiltload run`) and with no log (metrics only, as campaigns); the master's own microseconds per
-tick (wall time outside the FMI calls, full log); each FMU's microseconds per tick (its FMI calls,
-marshalling included); and the same four FMUs in libcosim (libcosimpy, same process, fixed step
-12 ms, no observer but the last-value one) with the ratio of tick costs. libcosim is a Jacobi
-master: it runs the SSP package `tiltload ssp export` writes for it (designs for the 2-tick loop
-delay it adds, docs/ports.md), and ours runs the same package the same way (master/jacobi.py), no
-log, over the whole run. Targets: FSI >= 100x full log and >= 250x no log, ZSE >= 40x full log,
-master <= 50 us per tick with the full log, no-log master at least as fast as libcosim.
+Per scenario (FSI, LKF, ZSE; trajectory 1, mixed H2/Hinf design, OpenBLAS single-threaded), printed:
+1. ours with the full MCAP log (as `tiltload run`) and with no log (metrics only, as a campaign): us per tick, x RT;
+2. the FMUs' own C cost per tick: the time the C tick loop measured around each FMU's set, doStep and get calls (summed,
+   and per FMU), in the no-log run; the ratios no-log / C cost (target <= 1.15) and full log / C cost (<= 1.5);
+3. libcosim (libcosimpy, same process, a last-value observer) on the SSP package exported for a Jacobi master, against
+   ours running the same package the same way (`tiltload run --system` of it: jacobi.explicit), no observer: target
+   libcosim / ours >= 2 for FSI and LKF (ZSE stated); and how far apart the two plants end (they are not the same
+   arithmetic: libcosim's Jacobi step is reproduced, not its every rounding);
+4. the fmu-manipulation-toolbox's container of the same four FMUs (fmu_container.py: built from the ordered package,
+   sequential, run by FMPy) against ours on that package, no observer: target container / ours >= 1; and whether the
+   plants end bit for bit equal.
+Every master runs the same whole number of ticks (stop / tick, rounded); instantiation and initialization are not
+timed; each figure is the best of --repeat runs (the machine is shared: the least disturbed run), taken in turn.
 
-Run: pip install -e ".[bench]" && python benchmarks/cosim.py [stop]
+Run: pip install -e ".[bench]" && python benchmarks/cosim.py [--stop 20] [--repeat 3] [--quick]
 """
 
 from __future__ import annotations
 
+import argparse
 import os
-import sys
 import tempfile
-import time
 from pathlib import Path
 
+import fmu_container
+import libcosim_master
+import numpy as np
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop import TICK, default_system, loop_metrics, select_loop_delay
 from tiltload.master.app.scene import scene_channels
 from tiltload.master.engine import jacobi, ssp
 from tiltload.master.engine.mcap_log import McapLogger
 from tiltload.master.engine.model_description import read_fmu
-from timing import timed_run
+from timing import Timed, best, machine, timed
 
 UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
-TICK = 0.012
+SCENARIOS = ("fsi", "lkf", "zse")
+TARGETS = {"nolog": 1.15, "log": 1.5, "libcosim": 2.0, "container": 1.0}
 
 
-def ours(system, stop: float, log: Path | None) -> tuple[float, dict[str, float]]:
-    observers = [loop_metrics()]
-    if log is not None:
-        observers.insert(0, McapLogger(log, derived=scene_channels("plant")))
-    return timed_run(system, stop, observers)
-
-
-def libcosim(package: Path, stop: float) -> float | None:
-    """Wall time of the package in libcosim (None if libcosimpy is not installed or the run fails)."""
-    try:
-        from libcosimpy.CosimExecution import CosimExecution
-        from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-        from libcosimpy.CosimObserver import CosimObserver
-    except ImportError:
-        return None
-    log_output_level(CosimLogLevel.ERROR)
-    ex = CosimExecution.from_ssp_file(str(package))
-    ex.add_observer(CosimObserver.create_last_value())
-    t0 = time.perf_counter()
-    ok = ex.simulate_until(int(round(stop / TICK)) * int(TICK * 1e9))
-    wall = time.perf_counter() - t0
-    return wall if ok else None
-
-
-def jacobi_package(fmus: Path, scenario: str, folder: Path, stop: float):
-    """The loop as the package a Jacobi master runs, and the same system for ours."""
+def package(fmus: Path, scenario: str, schedule: str, folder: Path, stop: float):
+    """The loop exported for a master of this schedule, and the system ours runs of it (as tiltload run --system)."""
     system = default_system(fmus, scenario, 1, "mixed")
-    system.instance("controller").parameters["loop_delay_ticks"] = 2
-    package = ssp.export(system, folder / f"{scenario}.ssp", stop, "jacobi")
-    loaded, _, _ = ssp.load(package, UNPACK)
-    return package, jacobi.explicit(loaded, {i.name: read_fmu(i.fmu, i.name) for i in loaded.instances}, jacobi=True)
+    select_loop_delay(system, schedule)
+    path = ssp.export(system, folder / f"{scenario}-{schedule}.ssp", stop, schedule)
+    loaded, _, _ = ssp.load(path, UNPACK)
+    if schedule == "jacobi":
+        loaded = jacobi.explicit(loaded, {i.name: read_fmu(i.fmu, i.name) for i in loaded.instances}, jacobi=True)
+    return path, loaded
+
+
+def plant_states(fmus: Path) -> list[str]:
+    """The plant's 20 state outputs (positions, angles and their rates), by name."""
+    md = read_fmu(fmus / "TiltloadPlant.fmu", "plant")
+    return [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"][:20]
+
+
+def state_of(run: Timed, fmus: Path, names: list[str]) -> np.ndarray:
+    md = read_fmu(fmus / "TiltloadPlant.fmu", "plant")
+    outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    return run.outputs["plant"][[outputs.index(n) for n in names]]
+
+
+def measure(fmus: Path, scenario: str, stop: float, repeat: int, folder: Path, others: bool) -> dict:
+    system = default_system(fmus, scenario, 1, "mixed")
+    names = plant_states(fmus)
+    log = folder / f"{scenario}.mcap"
+    out: dict = {"log": [], "nolog": [], "jacobi": [], "libcosim": [], "ordered": [], "container": []}
+    if others:
+        jacobi_path, jacobi_system = package(fmus, scenario, "jacobi", folder, stop)
+        ordered_path, ordered_system = package(fmus, scenario, "ordered", folder, stop)
+        container = fmu_container.build(ordered_path, ordered_system, {"plant": names}, TICK)
+    for _ in range(repeat):  # in turn: a change of the machine's load hits every master alike
+        out["log"].append(timed(system, stop, [McapLogger(log, derived=scene_channels("plant")), loop_metrics()]))
+        out["nolog"].append(timed(system, stop, [loop_metrics()]))
+        if not others:
+            continue
+        ticks = out["nolog"][-1].ticks
+        out["jacobi"].append(timed(jacobi_system, stop, []))
+        if libcosim_master.available():
+            lc = libcosim_master.run(jacobi_path, ticks, TICK, "plant", names)
+            if lc is not None:
+                out["libcosim"].append(lc)
+        out["ordered"].append(timed(ordered_system, stop, []))
+        out["container"].append(fmu_container.run(container, ticks, TICK, [f"plant_{n}" for n in names]))
+    result = {k: best(v) if v else None for k, v in out.items()}
+    result["log_bytes"] = log.stat().st_size
+    if others:
+        result["jacobi_state"] = state_of(result["jacobi"], fmus, names)
+        result["ordered_state"] = state_of(result["ordered"], fmus, names)
+    return result
+
+
+def _met(value: float, target: float, at_most: bool = False) -> str:
+    return "met" if (value <= target if at_most else value >= target) else "NOT met"
+
+
+def _us(seconds: float, ticks: int) -> float:
+    return seconds / ticks * 1e6
+
+
+def _versus(label: str, theirs, ours: Timed, ticks: int, target: str) -> str:
+    """Their time per tick against ours, in wall time (the target's measure) and in CPU time (what a loaded machine
+    does not inflate)."""
+    return (f"{label} {_us(theirs.wall, ticks):7.1f} us/tick (CPU {_us(theirs.cpu, ticks):.1f}), ours {ours.us_per_tick():7.1f} "
+            f"(CPU {ours.us_per_tick(ours.cpu):.1f}), no observer: ratio {theirs.wall / ours.wall:.2f} ({target}; "
+            f"CPU {theirs.cpu / ours.cpu:.2f})")
+
+
+def report(scenario: str, r: dict, stop: float) -> list[str]:
+    log, nolog = r["log"], r["nolog"]
+    ticks = nolog.ticks
+    c_cost = nolog.us_per_tick(nolog.fmi_total)
+    lines = [f"{scenario.upper()} ({ticks} ticks)",
+             f"  ours, full log  {log.us_per_tick():7.1f} us/tick  {stop / log.wall:6.0f}x RT  (CPU {log.us_per_tick(log.cpu):.1f} "
+             f"us/tick; log {r['log_bytes'] / 1e6 / stop:.3f} MB per simulated s)",
+             f"  ours, no log    {nolog.us_per_tick():7.1f} us/tick  {stop / nolog.wall:6.0f}x RT  "
+             f"(CPU {nolog.us_per_tick(nolog.cpu):.1f})",
+             f"  FMUs' C cost    {c_cost:7.1f} us/tick  ("
+             + ", ".join(f"{n} {nolog.us_per_tick(s):.1f}" for n, s in nolog.fmi.items()) + ")",
+             f"  no log / C cost {nolog.wall / nolog.fmi_total:7.3f}  (target <= {TARGETS['nolog']}: "
+             f"{_met(nolog.wall / nolog.fmi_total, TARGETS['nolog'], True)})",
+             f"  full log / C    {log.wall / nolog.fmi_total:7.3f}  (target <= {TARGETS['log']}: "
+             f"{_met(log.wall / nolog.fmi_total, TARGETS['log'], True)}; against its own run's C cost, "
+             f"{log.us_per_tick(log.fmi_total):.1f} us/tick: {log.wall / log.fmi_total:.3f})"]
+    jac, lc = r["jacobi"], r["libcosim"]
+    if jac is None:
+        return lines
+    if lc is not None:
+        ratio = lc.wall / jac.wall
+        target = f"target >= {TARGETS['libcosim']:g}: {_met(ratio, TARGETS['libcosim'])}" if scenario != "zse" else "stated"
+        gap = np.abs(lc.outputs[:3] - r["jacobi_state"][:3]).max()
+        lines.append("  Jacobi package: " + _versus("libcosim", lc, jac, ticks, target) + f"; plants end {gap:.1e} m apart")
+    else:
+        lines.append(f"  Jacobi package: ours {jac.us_per_tick():7.1f} us/tick; libcosim not installed or failed")
+    ct, ordered = r["container"], r["ordered"]
+    ratio = ct.wall / ordered.wall
+    same = ("bit for bit equal" if np.array_equal(ct.outputs, r["ordered_state"])
+            else f"differ by up to {np.abs(ct.outputs - r['ordered_state']).max():.2e}")
+    lines.append("  ordered package: " + _versus("container", ct, ordered, ticks,
+                                                 f"target >= {TARGETS['container']:g}: {_met(ratio, TARGETS['container'])}")
+                 + f"; the plants' 20 states {same}")
+    return lines
 
 
 def main() -> None:
-    stop = float(sys.argv[1]) if len(sys.argv) > 1 else 20.0
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--stop", type=float, default=20.0, help="s of trajectory 1 per run (default 20)")
+    p.add_argument("--repeat", type=int, default=3, help="runs of each master per scenario, the best kept (default 3)")
+    p.add_argument("--quick", action="store_true", help="5 s runs, once each: shows the script works, figures are rough")
+    p.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
+    p.add_argument("--ours-only", action="store_true", help="no libcosim and no container")
+    args = p.parse_args()
+    if args.stop <= 0 or args.repeat < 1:
+        p.error("--stop must be > 0 and --repeat >= 1")
+    stop, repeat = (5.0, 1) if args.quick else (args.stop, args.repeat)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     fmus = Path("fmus")
-    build_all(fmus)
-    ticks = round(stop / TICK)
-    print(f"{stop:g} s of trajectory 1 per run, mixed H2/Hinf design; libcosim and ours no-log on the Jacobi package\n")
-    print(f"{'scenario':>8} {'x RT log':>9} {'x RT no log':>12} {'master us/tick':>15} {'per FMU us/tick (full log)':>40}"
-          f" {'libcosim us/tick':>17} {'ours no log':>12} {'ratio':>6} {'log MB/s sim':>13}")
+    build_all(fmus, progress=lambda _: None)
+    print(f"{machine()}\n{stop:g} s of trajectory 1 per run, mixed H2/Hinf design, best of {repeat}\n")
     with tempfile.TemporaryDirectory() as tmp:
-        for scenario in ("fsi", "lkf", "zse"):
-            system = default_system(fmus, scenario, 1, "mixed")
-            log = Path(tmp) / f"{scenario}.mcap"
-            wall, fmi = ours(system, stop, log)
-            wall_nolog, _ = ours(system, stop, None)
-            master_us = (wall - sum(fmi.values())) / ticks * 1e6
-            per = " ".join(f"{n[:4]} {s / ticks * 1e6:.1f}" for n, s in fmi.items())
-            package, jacobi_system = jacobi_package(fmus, scenario, Path(tmp), stop)
-            ours_jacobi, _ = ours(jacobi_system, stop, None)
-            lc = libcosim(package, stop)
-            lc_text = f"{lc / ticks * 1e6:>17.1f}" if lc else f"{'n/a':>17}"
-            ratio = f"{lc / ours_jacobi:>6.2f}" if lc else f"{'n/a':>6}"
-            print(f"{scenario:>8} {stop / wall:>9.1f} {stop / wall_nolog:>12.1f} {master_us:>15.1f} {per:>40}"
-                  f" {lc_text} {ours_jacobi / ticks * 1e6:>12.1f} {ratio} {log.stat().st_size / 1e6 / stop:>13.3f}")
-    print("\nratio = libcosim's time per tick / ours with no log (> 1: ours is faster); the JSON log before: 0.165 MB/s (ZSE)")
+        for scenario in args.scenarios:
+            folder = Path(tmp) / scenario
+            folder.mkdir()
+            r = measure(fmus, scenario, stop, repeat, folder, not args.ours_only)
+            print("\n".join(report(scenario, r, stop)), flush=True)
+    print(f"\nload average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
 
 
 if __name__ == "__main__":

@@ -64,14 +64,14 @@ class BuildResult:
     warnings: list[str] = field(default_factory=list)  # the compiler's warnings on our own sources (the tests want none)
 
 
-def digest(recipe: Recipe, fmi_version: int = 2, targets: tuple[cc.Target, ...] | None = None) -> str:
-    """Identity of a build: its input files, the toolkit, the compilers and the flags, the versions (FMI's too)."""
+def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...], fmi_version: int = 2) -> str:
+    """Identity of a build: its input files, the toolkit, the platforms with their compilers and flags, the versions
+    (FMI's too)."""
     h = hashlib.sha256()
     for f in sorted({*recipe.inputs, *TOOLKIT_FILES}, key=str):
         h.update(f.name.encode() + b"\0" + f.read_bytes())
-    extra = [repr(t) + (cc.compiler_identity(t.compiler) if t.compiler else "") for t in targets] if targets else []
     fmi = [f"FMI {fmi_version}"] if fmi_version != 2 else []  # FMI 2.0 builds keep the identity they had
-    for e in (*cc.identity(), tiltload_version(), *recipe.identity, *fmi, *extra):
+    for e in (*cc.identity(toolchains), tiltload_version(), *recipe.identity, *fmi):
         h.update(e.encode() + b"\0")
     return h.hexdigest()
 
@@ -81,22 +81,24 @@ def is_current(fmu: Path, source_digest: str) -> bool:
     return bool(info) and info.get("source_hash") == source_digest
 
 
-def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[str], None] = print, fmi_version: int = 2,
-          targets: tuple[cc.Target, ...] | None = None) -> BuildResult:
-    """Write dest/<recipe.fmu_name> as an FMI 2.0 or 3.0 FMU with a binary per target (default: this machine's)
-    unless an FMU of the same inputs is already there (or force)."""
+def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[str], None] = print,
+          toolchains: tuple[cc.Toolchain, ...] = (), fmi_version: int = 2) -> BuildResult:
+    """Write dest/<recipe.fmu_name> as an FMI 2.0 or 3.0 FMU with a binary for each of toolchains (default: every
+    platform whose compiler is here, compile.choose) unless an FMU of the same inputs and platforms is already there
+    (or force)."""
     started = time.perf_counter()
     target = Path(dest) / recipe.fmu_name
-    source_digest = digest(recipe, fmi_version, targets)
+    toolchains = toolchains or cc.choose()[0]
+    source_digest = digest(recipe, toolchains, fmi_version)
     if not force and is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
     with tempfile.TemporaryDirectory(prefix="tiltload_prepare_") as tmp:
         prepared = recipe.prepare(Path(tmp), progress)
         info = {"version": tiltload_version(), **prepared.info}
-        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, fmi_version, targets)
+        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains, fmi_version)
     return BuildResult(target, True, time.perf_counter() - started, warnings)
 
 
 def build_all(recipes: list[Recipe], dest: Path, force: bool = False, progress: Callable[[str], None] = print,
-              fmi_version: int = 2) -> list[BuildResult]:
-    return [build(r, dest, force, progress, fmi_version) for r in recipes]
+              toolchains: tuple[cc.Toolchain, ...] = (), fmi_version: int = 2) -> list[BuildResult]:
+    return [build(r, dest, force, progress, toolchains, fmi_version) for r in recipes]

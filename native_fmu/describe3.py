@@ -180,11 +180,12 @@ def c_header(definition: FmuDefinition, token: str) -> str:
     lines += [f"#define TL_CLOCK_{k.name} {i}" for i, k in enumerate(d.clocks)]
     lines += ["/* a variable's clock (-1: none) and whether it is discrete, by type and index */"]
     for t in TYPES[:3]:
-        lines.append(f"extern const int tl_{t.lower()}_clock[TL_CAP_{t.upper()}];")
-        lines.append(f"extern const unsigned char tl_{t.lower()}_discrete[TL_CAP_{t.upper()}];")
-    lines += ["extern const char* const tl_clock_name[TL_CAP_CLOCK];", "extern const double tl_clock_interval[TL_CAP_CLOCK];",
-              "extern const unsigned long long tl_clock_counter[TL_CAP_CLOCK];",
-              "extern const unsigned long long tl_clock_resolution[TL_CAP_CLOCK];"]
+        lines.append(f"TL_INTERNAL extern const int tl_{t.lower()}_clock[TL_CAP_{t.upper()}];")
+        lines.append(f"TL_INTERNAL extern const unsigned char tl_{t.lower()}_discrete[TL_CAP_{t.upper()}];")
+    lines += ["TL_INTERNAL extern const char* const tl_clock_name[TL_CAP_CLOCK];",
+              "TL_INTERNAL extern const double tl_clock_interval[TL_CAP_CLOCK];",
+              "TL_INTERNAL extern const unsigned long long tl_clock_counter[TL_CAP_CLOCK];",
+              "TL_INTERNAL extern const unsigned long long tl_clock_resolution[TL_CAP_CLOCK];"]
     return describe.c_header(d, token, 3, tuple(lines))
 
 

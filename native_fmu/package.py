@@ -1,8 +1,9 @@
 """Package a native FMU: stage its sources and generated tables, compile, write the model description, zip.
 
-The FMU holds modelDescription.xml, one binary per target (FMI 2.0: binaries/<folder>/<id>.so, e.g. linux64;
-FMI 3.0: binaries/<platform tuple>/<id>.so, e.g. x86_64-linux), every C source and header it was built from
-under sources/ (so another platform can rebuild it: listed in the FMI 2.0 model description, in
+The FMU holds modelDescription.xml, a binary per platform built (compile.TOOLCHAINS; FMI 2.0:
+binaries/linux64/<id>.so, binaries/win64/<id>.dll, binaries/aarch64-linux/<id>.so; FMI 3.0 the same binaries
+under the platform tuples x86_64-linux, x86_64-windows, aarch64-linux), every C source and header it was built
+from under sources/ (so any other platform can rebuild it: listed in the FMI 2.0 model description, in
 sources/buildDescription.xml for FMI 3.0) and resources/build_info.json (the source digest that decides
 staleness, and the GUID or instantiation token). Both versions compile the same hooks and tables; only the
 layer differs (c/tl_fmi2.c or c/tl_fmi3.c, sharing c/tl_core.c).
@@ -22,7 +23,7 @@ from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
 LAYER = HERE / "c"
-SHARED_FILES = (LAYER / "tl_core.c", LAYER / "tl_core.h", LAYER / "tl_fmu.h", LAYER / "tl_noise.h")
+SHARED_FILES = (LAYER / "tl_core.c", LAYER / "tl_core.h", LAYER / "tl_fmu.h", LAYER / "tl_noise.h", LAYER / "tl_platform.h")
 LAYER_FILES = (LAYER / "tl_fmi2.c", LAYER / "tl_fmi3.c", *SHARED_FILES)  # every file of the toolkit's C
 FMI_HEADERS = {2: ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"),
                3: ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")}
@@ -67,14 +68,14 @@ def _stage_sources(definition: FmuDefinition, sources: cc.NativeSources, src: Pa
 
 
 def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path, source_digest: str,
-              info: dict | None = None, fmi_version: int = 2, targets: tuple[cc.Target, ...] | None = None) -> list[str]:
+              info: dict | None = None, toolchains: tuple[cc.Toolchain, ...] = (), fmi_version: int = 2) -> list[str]:
     """Write target (under a temporary name, then moved) as an FMI 2.0 or 3.0 co-simulation FMU with a binary for
-    each of targets (default: this machine); return the compiler's warnings on our own sources."""
+    each of toolchains (default: every platform whose compiler is here); return the compilers' warnings."""
     if fmi_version not in FMI_VERSIONS:
         raise cc.BuildError(f"FMI version must be one of {', '.join(map(str, FMI_VERSIONS))}, got {fmi_version!r}")
     if definition.clocks and fmi_version != 3:
         raise cc.BuildError(f"{definition.model_identifier} declares clocks: it can only be built as FMI 3.0")
-    targets = targets or (cc.native_target(),)
+    toolchains = toolchains or cc.choose()[0]
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     guid = describe.guid(definition, source_digest)
@@ -85,16 +86,15 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
         src = stage / "sources"
         src.mkdir()
         _stage_sources(definition, sources, src, guid, fmi_version)
-        warnings, compilers = [], []
-        for t in targets:
-            bin_dir = stage / "binaries" / t.folder(fmi_version)
+        warnings = []
+        for t in toolchains:  # the same sources and toolchains for every platform; the FMI version names the folder
+            bin_dir = stage / "binaries" / t.binary_folder(fmi_version)
             bin_dir.mkdir(parents=True)
-            compiler = t.compiler or cc.compiler()
-            warnings += cc.compile_shared(sources, src, bin_dir / f"{definition.model_identifier}{t.suffix}", compiler,
-                                          include=include, api=api, export_map=t.export_map)
-            compilers.append(cc.compiler_identity(compiler))
+            warnings += cc.compile_shared(sources, src, bin_dir / f"{definition.model_identifier}{t.suffix}", t,
+                                          api=api, include=include)
         c_files = sorted(p.name for p in src.glob("*.c"))
-        tool = f"tiltload {definition.version} (native FMI {fmi_version}.0 layer, {'; '.join(dict.fromkeys(compilers))})"
+        compilers = "; ".join(f"{t.binary_folder(fmi_version)}: {cc.compiler_identity(cc.compiler(t))}" for t in toolchains)
+        tool = f"tiltload {definition.version} (native FMI {fmi_version}.0 layer, {compilers})"
         if fmi_version == 2:
             md = describe.model_description(definition, guid, c_files, tool)
         else:
@@ -103,7 +103,8 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
         (stage / "modelDescription.xml").write_bytes(md)
         (stage / "resources").mkdir()
         (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, "fmi_version": fmi_version,
-                                                    **(info or {})}, indent=1))
+                                                    **(info or {}), "platforms": [t.binary_folder(fmi_version) for t in toolchains],
+                                                    "warnings": warnings}, indent=1))
         partial = target.with_name(target.name + ".partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(stage.rglob("*")):

@@ -17,7 +17,7 @@ FORMAT = "tiltload-design/1"
 
 @dataclass
 class Design:
-    kind: str  # "dlqr" or "mixed_h2_hinf"
+    kind: str  # "dlqr", "hinf" or "mixed"
     K: np.ndarray  # 4 x (24 + 4 loop_delay); the UAV alone 4 x (20 + 4 loop_delay)
     Tc: float
     trim_x: np.ndarray
@@ -30,6 +30,8 @@ class Design:
     omega_u: np.ndarray
     report: dict  # figures of merit: spectral radius, residuals, gamma, bounds, timing
     loop_delay: int = 0  # ticks of transport delay the design was made for (error_dynamics.with_loop_delay)
+    lmi_point: dict | None = None  # LMI designs: the solver's point (lmi_check.LMIPoint.to_json), checkable again
+    origin: str = "synthesized"  # where this copy comes from: synthesized (now), cache (a file), shipped; not saved
 
     @property
     def parameter_hash(self) -> str:
@@ -42,21 +44,26 @@ _ARRAYS = ("K", "trim_x", "trim_u", "params", "A", "B", "F", "omega_chi", "omega
 def save(design: Design, path: Path) -> Path:
     data = {"format": FORMAT, "kind": design.kind, "Tc": design.Tc, "parameter_hash": design.parameter_hash,
             "report": design.report, "loop_delay": design.loop_delay}
+    if design.lmi_point is not None:
+        data["lmi_point"] = design.lmi_point
     data.update({k: np.asarray(getattr(design, k)).tolist() for k in _ARRAYS})
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(data))
     return path
 
 
-def load(path: Path) -> Design:
+def load(path: Path, origin: str = "cache") -> Design:
     try:
         data = json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as err:
         raise ValueError(f"cannot read design {path}: {err}") from None
     if data.get("format") != FORMAT:
         raise ValueError(f"{path} is not a {FORMAT} design (format {data.get('format')!r})")
-    design = Design(kind=data["kind"], Tc=data["Tc"], report=data["report"], loop_delay=int(data.get("loop_delay", 0)),
-                    **{k: np.array(data[k], dtype=float) for k in _ARRAYS})
+    try:
+        design = Design(kind=data["kind"], Tc=data["Tc"], report=data["report"], loop_delay=int(data.get("loop_delay", 0)),
+                        lmi_point=data.get("lmi_point"), origin=origin, **{k: np.array(data[k], dtype=float) for k in _ARRAYS})
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(f"{path} is not a complete design ({type(err).__name__}: {err})") from None
     if design.K.shape != (4, design.trim_x.size + 4 + 4 * design.loop_delay) or design.parameter_hash != data["parameter_hash"]:
         raise ValueError(f"{path} is inconsistent (gain shape {design.K.shape} or parameter hash)")
     return design

@@ -1,4 +1,4 @@
-"""On-disk cache of designs: the mixed H2/H-infinity synthesis takes about 10 s (SDPA), so it runs once.
+"""On-disk cache of designs: an LMI synthesis takes tens of seconds (SDPA), so it runs once.
 
 The key covers everything the gain depends on: the kind, T_c, the plant parameters, the
 sources of the design and model code, and the versions of the solver stack. A changed input
@@ -19,7 +19,8 @@ from .artifact import Design
 
 _HERE, _PLANT = Path(__file__).parent, Path(__file__).parents[2] / "plant_fmu"
 # the code a gain depends on: the design modules and the model they linearize (not the FMU run-time code)
-_CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.py", "synthesize.py", "artifact.py", "control_law.py")] + \
+_CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.py", "lmi_check.py", "problems.py", "synthesize.py",
+                              "artifact.py", "control_law.py")] + \
         [_PLANT / f for f in ("model.py", "kinematics.py", "parameters.py", "trim.py", "linearize.py")]
 
 

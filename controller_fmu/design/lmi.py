@@ -10,34 +10,16 @@ a Lyapunov equation), never trusted from the solver status alone.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cvxpy as cp
 import numpy as np
-from scipy.linalg import solve_discrete_lyapunov, sqrtm
 
 from . import sdp_solver
 from .error_dynamics import DesignError, ErrorDynamics
+from .lmi_check import EPS_REGION, VARPI_REGION, LMIPoint, LMIResult, build_lmis, checked_gain, closed_loop_norms, h2_bound, scaled
 from .weights import check_weight
 
-EPS_REGION = 0.55  # Re(z) > eps
-VARPI_REGION = 0.99402  # |z| < varpi
+__all__ = ["EPS_REGION", "VARPI_REGION", "MARGIN", "LMIPoint", "LMIResult", "synthesize"]
 MARGIN = 1e-4  # strictness of every LMI (scaled units): solver-tolerance slack must not void the bounds
-
-
-@dataclass(frozen=True)
-class LMIResult:
-    K: np.ndarray
-    gamma_bound: float  # sqrt of the optimal gamma~ (H-infinity bound)
-    h2_bound: float | None  # sqrt(trace N), mixed design only
-    hinf_norm: float  # measured on the closed loop
-    h2_norm: float  # measured on the closed loop
-    poles: np.ndarray
-    status: str
-    seconds: float
-    solver: str
-    iterations: int
-    lmi_min_eig: dict  # smallest eigenvalue of every LMI evaluated at the returned point (must be > 0)
 
 
 def _iteration_reporter(progress, every: float = 2.0):
@@ -49,31 +31,6 @@ def _iteration_reporter(progress, every: float = 2.0):
             last[0] = seconds
             progress(f"  SDPA iteration {iteration} (usually 25-35), duality measure {mu:.1e}, {seconds:.0f} s")
     return report if progress is not None else None
-
-
-def _closed_loop_norms(A, B, F, K, Hz, Dzu, Dzd) -> tuple[float, float]:
-    """H-infinity norm (frequency sweep, refined) and H2 norm of d -> z for u = -K chi."""
-    Acl, Hcl = A - B @ K, Hz - Dzu @ K
-    n = A.shape[0]
-
-    def sigma(w):
-        G = Hcl @ np.linalg.solve(np.exp(1j * w) * np.eye(n) - Acl, F) + Dzd
-        return np.linalg.svd(G, compute_uv=False)[0]
-
-    grid = np.concatenate([np.geomspace(1e-6, np.pi, 3000)])
-    values = np.array([sigma(w) for w in grid])
-    i = int(np.argmax(values))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
-    for _ in range(60):  # golden-section refinement around the peak
-        a, b = lo + 0.382 * (hi - lo), lo + 0.618 * (hi - lo)
-        if sigma(a) > sigma(b):
-            hi = b
-        else:
-            lo = a
-    hinf = max(values.max(), sigma(0.5 * (lo + hi)), sigma(0.0))
-    Wc = solve_discrete_lyapunov(Acl, F @ F.T)
-    h2 = float(np.sqrt(np.trace(Hcl @ Wc @ Hcl.T)))
-    return float(hinf), h2
 
 
 def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: float | None = None,
@@ -92,46 +49,17 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
     Dzd = np.zeros((nz, nd)) if Dzd is None else np.asarray(Dzd, dtype=float)
     if Dzd.shape != (nz, nd):
         raise DesignError(f"D_zd must be {nz}x{nd}, got {Dzd.shape}")
-    S, Rh = np.real(sqrtm(Q)), np.real(sqrtm(R))
-    Si, Rhi = np.linalg.inv(S), np.linalg.inv(Rh)
-    A, B, F = S @ sys.A @ Si, S @ sys.B @ Rhi, S @ sys.F  # scaled plant
-    Hz = np.vstack([np.eye(n), np.zeros((m, n))])
-    Dzu = np.vstack([np.zeros((n, m)), np.eye(m)])
+    A, B, F, S, Rh, Rhi, Hz, Dzu = scaled(sys, Q, R)
 
     X = cp.Variable((n, n), symmetric=True)
     P = cp.Variable((n, n), symmetric=True)
     Y = cp.Variable((m, n))
-    AXBY = A @ X + B @ Y
-    W = 2 * X - P
-    margin = MARGIN
-    lmis = {"X > 0": X, "Re(z) > eps (3.43)": AXBY + AXBY.T - 2 * eps * X,
-            "|z| < varpi (3.45)": cp.bmat([[varpi * X, AXBY], [AXBY.T, varpi * X]])}
     g = cp.Variable() if gamma_sq is None else gamma_sq
-    HXDY = Hz @ X + Dzu @ Y
-    hinf = cp.bmat([
-        [P, AXBY, F, np.zeros((n, nz))],
-        [AXBY.T, W, np.zeros((n, nd)), HXDY.T],
-        [F.T, np.zeros((nd, n)), np.eye(nd), Dzd.T],
-        [np.zeros((nz, n)), HXDY, Dzd, g * np.eye(nz)],
-    ])
-    lmis["H-infinity (3.39)"] = 0.5 * (hinf + hinf.T)
-    if gamma_sq is None:
-        objective = cp.Minimize(g)
-        N = None
-    else:
-        N = cp.Variable((nz, nz), symmetric=True)
-        h2a = cp.bmat([[N, HXDY], [HXDY.T, W]])
-        h2b = cp.bmat([
-            [P, AXBY, F],
-            [AXBY.T, W, np.zeros((n, nd))],
-            [F.T, np.zeros((nd, n)), np.eye(nd)],
-        ])
-        lmis["H2 output (3.28)"] = 0.5 * (h2a + h2a.T)
-        objective = cp.Minimize(cp.trace(N))
-    cons = [expr >> margin * np.eye(expr.shape[0]) for expr in lmis.values()]
-    if gamma_sq is not None:
-        # (3.27) is a principal submatrix of (3.39) with the common X, P: implied, so only checked afterwards
-        lmis["H2 state (3.27)"] = 0.5 * (h2b + h2b.T)
+    N = None if gamma_sq is None else cp.Variable((nz, nz), symmetric=True)
+    lmis = build_lmis(cp.bmat, A, B, F, Hz, Dzu, Dzd, X, P, Y, N, g, eps, varpi)
+    objective = cp.Minimize(g) if gamma_sq is None else cp.Minimize(cp.trace(N))
+    # (3.27) is a principal submatrix of (3.39) with the common X, P: implied, so only checked afterwards
+    cons = [expr >> MARGIN * np.eye(expr.shape[0]) for name, expr in lmis.items() if name != "H2 state (3.27)"]
     problem = cp.Problem(objective, cons)
     solvers = ["SDPA", "Clarabel"] if sdp_solver.sdpa_available() else ["Clarabel"]
     failures = []
@@ -155,8 +83,10 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
                 raise DesignError(failure)
             failures.append(f"{solver}: {failure}")
             continue
+        point = LMIPoint(X.value, P.value, Y.value, None if N is None else N.value,
+                         float(g.value) if gamma_sq is None else float(gamma_sq))
         try:
-            K, poles, lmi_min_eig = _checked_gain(sys, lmis, X.value, Y.value, S, Rhi, eps, varpi, solved.status)
+            K, poles, lmi_min_eig = checked_gain(sys, Q, R, point, Dzd, eps, varpi, f"status {solved.status}")
             break
         except DesignError as err:
             if last:
@@ -164,25 +94,8 @@ def synthesize(sys: ErrorDynamics, Q: np.ndarray, R: np.ndarray, *, gamma_sq: fl
             failures.append(f"{solver}: {err}")
             if progress is not None:
                 progress(f"  {solver}'s point was refused ({err}); solving again with {solvers[-1]}")
-    hinf_norm, h2_norm = _closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
-    gamma_val = float(g.value) if gamma_sq is None else float(gamma_sq)
-    h2_bound = float(np.sqrt(np.trace(N.value))) if N is not None else None
-    return LMIResult(K, float(np.sqrt(gamma_val)), h2_bound, hinf_norm, h2_norm, poles, solved.status, solved.seconds,
-                     solved.solver, solved.iterations, lmi_min_eig)
+    hinf_norm, h2_norm = closed_loop_norms(sys.A, sys.B, sys.F, K, Hz @ S, Dzu @ Rh, Dzd)
+    return LMIResult(K, float(np.sqrt(point.gamma_sq)), h2_bound(point), hinf_norm, h2_norm, poles, solved.status,
+                     solved.seconds, solved.solver, solved.iterations, lmi_min_eig, point, solved.summary)
 
 
-def _checked_gain(sys, lmis, Xv, Yv, S, Rhi, eps, varpi, status):
-    """The physical gain at the solver's point, refused unless every LMI holds there and the poles are in the regions."""
-    lmi_min_eig = {name: float(np.linalg.eigvalsh(expr.value)[0]) for name, expr in lmis.items()}
-    broken = {name: v for name, v in lmi_min_eig.items() if not v > 0}
-    if broken:
-        raise DesignError(f"the solver's point (status {status}) violates the LMIs: "
-                          + ", ".join(f"{name} min eigenvalue {v:.2e}" for name, v in broken.items()))
-    K = Rhi @ (-Yv @ np.linalg.inv(Xv)) @ S  # back to physical units
-    poles = np.linalg.eigvals(sys.A - sys.B @ K)
-    if not (np.all(poles.real > eps - 1e-6) and np.all(np.abs(poles) < varpi + 1e-6)):
-        raise DesignError(
-            f"the solver returned a gain whose poles leave the regions (status {status}; "
-            f"min Re {poles.real.min():.5f} vs eps {eps}, max |z| {np.abs(poles).max():.6f} vs varpi {varpi})"
-        )
-    return K, poles, lmi_min_eig

@@ -20,7 +20,7 @@ import sys
 import tempfile
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cvxpy as cp
 
@@ -29,6 +29,9 @@ import cvxpy as cp
 SDPA_OPTIONS = dict(epsilonStar=1e-6, epsilonDash=1e-6, maxIteration=100)
 CLARABEL_OPTIONS = dict(max_iter=500, tol_gap_abs=1e-7, tol_gap_rel=1e-7, tol_feas=1e-7, static_regularization_constant=1e-7)
 _ITERATION = re.compile(r"^\s*(\d+)\s+([0-9.]+e[+-]\d+)\s")  # "12 3.1e+01 3.4e-06 ..." (iteration, mu)
+# the end of SDPA's log: "phase.value  = pdFEAS", "relative gap = +1.2e-06", "p.feas.error = ...", "d.feas.error = ..."
+_SUMMARY = {"phase.value": "phase", "relative gap": "relative_gap", "p.feas.error": "primal_infeasibility",
+            "d.feas.error": "dual_infeasibility"}
 INFEASIBLE = {cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE, cp.UNBOUNDED, cp.UNBOUNDED_INACCURATE}
 
 
@@ -42,6 +45,7 @@ class Solved:
     status: str
     iterations: int
     seconds: float
+    summary: dict = field(default_factory=dict)  # SDPA: its phase and where it stopped (docs/controller.md)
 
 
 def sdpa_available() -> bool:
@@ -87,10 +91,28 @@ def solve_sdpa(problem: cp.Problem, on_iteration=None, threads: int | None = Non
             raise SolverFailed(f"SDPA failed: {why}")
         with open(result, "rb") as f:
             solution = pickle.load(f)
+        with open(log) as f:
+            summary = _summary(f.read())
     with warnings.catch_warnings():  # "inaccurate" is judged by the caller, at the point itself
         warnings.simplefilter("ignore")
         problem.unpack_results(solution, chain, inverse_data)
-    return Solved("SDPA", str(problem.status), seen, time.perf_counter() - start)
+    return Solved("SDPA", str(problem.status), seen, time.perf_counter() - start, summary)
+
+
+def _summary(log: str) -> dict:
+    """SDPA's closing lines: the phase it ended in (pdOPT: the gap criterion met; pdFEAS: primal and dual feasible,
+    stopped before it), the relative gap and the feasibility errors at the point."""
+    out = {}
+    for line in log.splitlines():
+        key, sep, value = line.partition("=")
+        name = _SUMMARY.get(key.strip())
+        if sep and name:
+            value = value.strip()
+            try:
+                out[name] = float(value)
+            except ValueError:
+                out[name] = value
+    return out
 
 
 def _child(job: str, result: str, log: str) -> None:

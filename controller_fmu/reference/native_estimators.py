@@ -29,7 +29,7 @@ def compile_library(fmu: Path, folder: Path) -> Path:
         z.extractall(folder, [n for n in z.namelist() if n.startswith("sources/")])
     src = folder / "sources"
     lib = folder / "libestimators.so"
-    subprocess.run(["cc", "-std=c11", *HOT_CFLAGS, "-fPIC", "-shared", f"-I{src}", *(str(src / f) for f in FILES),
+    subprocess.run(["cc", "-std=c11", *HOT_CFLAGS, "-fPIC", "-shared", "-DTL_INTERNAL=", f"-I{src}", *(str(src / f) for f in FILES),
                     "-o", str(lib), "-lm"], check=True)
     return lib
 

@@ -3,6 +3,8 @@
    backstepping (B.15) or TSID (B.16), exact Jacobians) gives the accelerations rho_S''. The references held
    over the tick are the integrated position and velocity and that acceleration (Sec. B.3.4); then the
    references, and the backstepping's e_C, advance to t_k + h (exactly, for an acceleration held over h). */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -12,10 +14,10 @@
 
 #define AGENT_INPUTS (TL_REAL_zeta_x - TL_REAL_sigma_x)
 #define AGENT_REFS (TL_REAL_zeta_x_ref - TL_REAL_sigma_x_ref)
-_Static_assert(AGENT_INPUTS == 8 && TL_REAL_tau_x - TL_REAL_zeta_x == 8, "8 measured values per UAV, UAV after UAV");
-_Static_assert(AGENT_REFS == 11 && TL_REAL_tau_x_ref - TL_REAL_zeta_x_ref == 11, "11 references per UAV, UAV after UAV");
-_Static_assert(TL_REAL_sigma_psi_dot - TL_REAL_sigma_x == 7, "x y z psi, then their rates");
-_Static_assert(TL_REAL_tau_az_disturbance - TL_REAL_sigma_ax_disturbance == 8, "3 disturbances per UAV");
+TL_STATIC_ASSERT(AGENT_INPUTS == 8 && TL_REAL_tau_x - TL_REAL_zeta_x == 8, "8 measured values per UAV, UAV after UAV");
+TL_STATIC_ASSERT(AGENT_REFS == 11 && TL_REAL_tau_x_ref - TL_REAL_zeta_x_ref == 11, "11 references per UAV, UAV after UAV");
+TL_STATIC_ASSERT(TL_REAL_sigma_psi_dot - TL_REAL_sigma_x == 7, "x y z psi, then their rates");
+TL_STATIC_ASSERT(TL_REAL_tau_az_disturbance - TL_REAL_sigma_ax_disturbance == 8, "3 disturbances per UAV");
 
 static const char* const laws[] = {"backstepping", "tsid"};
 

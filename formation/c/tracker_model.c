@@ -1,6 +1,8 @@
 /* The tracker FMU's hooks: each doStep(t_k, T) reads the UAV's state and its references at t_k and holds
    u = sat(u_tr - K chi) over the tick (the shared law, tl_law.c), K the D-stable H-infinity gain of
    Sec. B.3.3 and u_tr the feedforward L+ (M qdd + C qd + g) of the reference (CasADi-generated). */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <string.h>
 
@@ -9,9 +11,9 @@
 #include "tl_law.h"
 #include "tracker_data.h"
 
-_Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
-_Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
-_Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == TL_NX - 1, "the measured state is contiguous");
+TL_STATIC_ASSERT(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
+TL_STATIC_ASSERT(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
+TL_STATIC_ASSERT(TL_REAL_alpha_L_dot - TL_REAL_x == TL_NX - 1, "the measured state is contiguous");
 
 static int feedforward(const double* x_tr, const double* qdd, double* u_tr) {
   return tl_feedforward_eval(x_tr, qdd, tl_params, u_tr);

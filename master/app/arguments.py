@@ -19,6 +19,16 @@ def positive_time(text: str) -> float:
     return value
 
 
+def positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
+    return value
+
+
 def assignment(text: str) -> tuple[str, object]:
     from .loop import parse_value
 
@@ -35,6 +45,16 @@ def tolerance(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}") from None
     if not (math.isfinite(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return value
+
+
+def tilt_limit(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}") from None
+    if not (0 < value <= 180):
+        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}")
     return value
 
 
@@ -64,15 +84,26 @@ def file_stem(text: str) -> str:
 
 
 def add_loop_options(p: argparse.ArgumentParser) -> None:
-    """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop)."""
-    p.add_argument("--vehicle", choices=("load", "uav"), default="load",
+    """What describes a run of the loop: shared by run and ssp export (resolved by options.resolve_loop). The loop's
+    own options default to None (False for flags), so that resolve_loop knows which were given: with --system they
+    are refused, not ignored."""
+    p.add_argument("--vehicle", choices=("load", "uav"), default=None,
                    help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
-    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default="zse", help="estimation scenario (default zse)")
-    p.add_argument("--trajectory", type=int, choices=(0, 1, 2, 3), default=None,
-                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover")
+    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default=None, help="estimation scenario (default zse)")
+    p.add_argument("--trajectory", default=None, metavar="N|SHAPE|FILE",
+                   help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover; a shape "
+                        "(lemniscate, lissajous, step-x/y/z, ramp-x/y/z, with :KEY=VALUE,... e.g. step-z:size=0.5); or a "
+                        "waypoint file (CSV t,x,y,z[,psi], JSON/YAML): docs/test_bench.md")
+    p.add_argument("--wind", type=Path, default=None, metavar="FILE",
+                   help="wind on the load: steady, Dryden turbulence, a profile (YAML/JSON, or a CSV profile t,x,y,z); "
+                        "seeded by --seed; docs/test_bench.md")
+    p.add_argument("--allow-infeasible", action="store_true",
+                   help="run a reference the actuators cannot follow (Table 5.2), with a warning instead of refusing it")
+    p.add_argument("--max-tilt", type=tilt_limit, default=30.0, metavar="DEG",
+                   help="largest trim tilt angle the feasibility check accepts (default 30 degrees)")
     p.add_argument("--controller", default=None,
                    help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
-    p.add_argument("--seed", type=seed, default=1, help="noise seed, 0 .. 2147483647 (default 1)")
+    p.add_argument("--seed", type=seed, default=None, help="noise seed, 0 .. 2147483647 (default 1)")
     p.add_argument("--stop-time", type=positive_time, default=None, help="s (default: the trajectory's duration)")
     p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     p.add_argument("--no-gusts", action="store_true", help="no wind gusts")
@@ -80,9 +111,14 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="a fault schedule (JSON/YAML, or a libcosim scenario): docs/faults.md")
     p.add_argument("--set", type=assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
-    p.add_argument("--system", type=Path, default=None, help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop")
-    p.add_argument("--fmus", type=Path, default=DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
-    p.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+    p.add_argument("--system", type=Path, default=None,
+                   help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop (the loop's options "
+                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --set, --fmus do "
+                        "not apply to it; --faults and --stop-time do)")
+    p.add_argument("--allow-external-fmus", action="store_true",
+                   help="--system: let a component's FMU lie outside the package or the system file's folder")
+    p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=None,
                    help="the loop's FMUs as FMI 2.0 (default; in FMUS/) or FMI 3.0 co-simulation FMUs (in FMUS/fmi3/)")
     p.add_argument("--clocks", action="store_true",
                    help="with --fmi 3: the sensors and the controller with FMI 3.0 clocks, which replace their periods "

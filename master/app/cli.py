@@ -27,19 +27,13 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one command; errors become one line on stderr: 2 for the user's to fix, 1 for a build failure or a bug."""
-    from ...native_fmu.compile import BuildError
-    from .errors import USER_ERRORS
+    """Run one command; errors become one line on stderr: 2 for the user's to fix, 1 for a build failure or a bug.
 
+    The error classes are imported only when an error happens: they pull in numpy, scipy and CasADi (a second or
+    two), and a command should say what it does from its first second."""
     args = parser().parse_args(argv)
     try:
         return args.func(args)
-    except USER_ERRORS as err:
-        print(f"tiltload: error: {err}", file=sys.stderr)
-        return 2
-    except BuildError as err:  # the compiler failed or is missing: the environment, not a bug
-        print(f"tiltload: error: building the FMUs failed: {err}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("tiltload: interrupted", file=sys.stderr)
         return 130
@@ -47,8 +41,17 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         print("tiltload: stopped: standard output was closed (broken pipe)", file=sys.stderr)
         return 141
-    except Exception as err:  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
-        if os.environ.get("TILTLOAD_DEBUG"):
+    except Exception as err:
+        from ...native_fmu.compile import BuildError
+        from .errors import USER_ERRORS
+
+        if isinstance(err, USER_ERRORS):
+            print(f"tiltload: error: {err}", file=sys.stderr)
+            return 2
+        if isinstance(err, BuildError):  # the compiler failed or is missing: the environment, not a bug
+            print(f"tiltload: error: building the FMUs failed: {err}", file=sys.stderr)
+            return 1
+        if os.environ.get("TILTLOAD_DEBUG"):  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
             raise
         print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)
         return 1

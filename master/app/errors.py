@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from ...controller_fmu.design.error_dynamics import DesignError
+from ...scenario_fmu.files import ScenarioFileError
 from ..engine.errors import DescriptionError
 from .campaign.report import ReportError
 from .campaign.spec import SpecError
+from .feasibility import InfeasibleReference
 from .wrap.wrap import WrapError
 
 
@@ -13,8 +15,10 @@ class UserError(Exception):
     """A problem the user can fix; reported as one line, exit code 2."""
 
 
-# every error whose message is a complete line for the user: a bad option, file, description, spec or design
-USER_ERRORS = (UserError, DescriptionError, SpecError, ReportError, WrapError, DesignError)
+# every error whose message is a complete line for the user: a bad option, file, description, spec or design, a trajectory
+# or wind file, a reference the vehicle cannot fly
+USER_ERRORS = (UserError, DescriptionError, SpecError, ReportError, WrapError, DesignError, ScenarioFileError,
+               InfeasibleReference)
 
 
 def run_failed(error: str, signal: int | None, log, sim_time: float) -> int:

@@ -63,7 +63,7 @@ def plot(runs: list[FormationRun], out: Path, disturbances: bool) -> list[Path]:
     if disturbances:
         ax.axvline(DISTURBANCE_START, color="grey", ls="--", lw=0.8, label="disturbances on")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("‖e_A‖")
+    ax.set_ylabel(r"$\Vert e_A \Vert$ (mixed units of the task vector)")
     ax.set_yscale("log")
     ax.set_title("Formation error norm" + (" with disturbances (Fig. B.3)" if disturbances else " (Fig. B.2)"))
     ax.grid(True, which="both", alpha=0.3)

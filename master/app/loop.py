@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...controller_fmu.design.error_dynamics import LOOP_DELAYS
-from ...scenario_fmu.trajectories import DURATION, START
+from ...scenario_fmu.choice import Trajectory, as_trajectory
 from ..engine import jacobi
 from ..engine.errors import DescriptionError
 from ..engine.model_description import read_fmu
@@ -55,18 +55,20 @@ def clocked_name(fmu_name: str) -> str:
     return fmu_name.removesuffix(".fmu") + "Clocked.fmu"
 
 
-def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | None = None, controller: str | None = None,
+def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Trajectory | None = None, controller: str | None = None,
                    seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True,
-                   vehicle: str = "load", fmi: int | None = None, clocked: bool = False) -> System:
-    """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md). fmi: the
-    FMI version of the FMUs in fmu_dir (checked when they load; None: any); clocked: the sensors' and the controller's
-    FMI 3.0 variants with clocks, which replace their periods (docs/fmi3.md)."""
+                   vehicle: str = "load", wind: dict | None = None, fmi: int | None = None, clocked: bool = False) -> System:
+    """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md).
+    trajectory: 0-3 or any Trajectory (scenario_fmu.choice: shapes, waypoint files); wind: the scenario FMU's wind
+    parameters (scenario_fmu.wind.read_wind), seeded like the sensors. fmi: the FMI version of the FMUs in fmu_dir
+    (checked when they load; None: any); clocked: the sensors' and the controller's FMI 3.0 variants with clocks, which
+    replace their periods (docs/fmi3.md)."""
     loop = LOOPS[vehicle]
     fmu_dir = Path(fmu_dir)
     named = clocked_name if clocked else (lambda name: name)
-    trajectory = loop.default_trajectory if trajectory is None else trajectory
+    trajectory = as_trajectory(loop.default_trajectory if trajectory is None else trajectory)
     controller = loop.default_controller if controller is None else controller
-    start = START.get(trajectory, (0.0, 0.0, 0.0))
+    start = trajectory.start
     plant_start = {"x_0": start[0], "y_0": start[1], "z_0": start[2]}
     if controller_fmu is None:
         known = {**plant_start} if vehicle == "load" else {}  # the load's LKF knows the start (Sec. 5.3)
@@ -75,9 +77,11 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | None 
     else:
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
-    scenario_parameters = {"trajectory": trajectory, "gusts": gusts}
+    scenario_parameters = {**trajectory.parameters, "gusts": gusts}
     if vehicle != "load":
         scenario_parameters["gust_magnitude"] = loop.gust_magnitude
+    if wind:
+        scenario_parameters.update({"seed": seed, **wind})
     return System(TICK, [
         Instance(SCENARIO, fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters, fmi=fmi),
         Instance(SENSORS, fmu_dir / named(loop.sensors), parameters={"seed": seed}, fmi=fmi),
@@ -127,9 +131,9 @@ def controller_period(fmu: Path) -> float | None:
     return n * TICK
 
 
-def default_stop(trajectory: int) -> float:
+def default_stop(trajectory: int | Trajectory) -> float:
     """The trajectory's duration; hovering (0) runs 20 s, so that the first gust (at 10 s) excites the loop."""
-    return DURATION.get(trajectory, 20.0)
+    return as_trajectory(trajectory).duration
 
 
 def set_parameters(system: System, values: dict[str, object]) -> System:

@@ -4,11 +4,21 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
+from ...scenario_fmu.choice import THESIS, Trajectory, as_trajectory
+from .arguments import DEFAULT_FMU_DIR
 from .errors import UserError
 from .loop import CONTROLLER, LOOPS, default_stop, default_system, set_parameters
+
+DEFAULT_SEED = 1
+DEFAULT_SCENARIO = "zse"
+# the options that describe the thesis's loop, which a system file describes itself: given with --system, an error
+LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
+             ("controller", "--controller"), ("seed", "--seed"), ("delay", "--delay"), ("no_gusts", "--no-gusts"),
+             ("set", "--set"), ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
+             ("clocks", "--clocks"))
 
 
 @dataclass(frozen=True)
@@ -17,7 +27,7 @@ class LoopOptions:
 
     vehicle: str
     scenario: str
-    trajectory: int
+    trajectory: int | str  # 0-3, or the label of a shape or file (reference)
     controller: str  # dlqr, mixed, or the path of a controller FMU
     controller_fmu: Path | None  # the user's controller FMU, if controller is one
     seed: int
@@ -29,26 +39,104 @@ class LoopOptions:
     system: Path | None  # a system file instead of the loop
     fmus: Path  # the FMU folder of the FMI 2.0 set (the FMI 3.0 set is in fmus/fmi3/)
     allow_unknown_inputs: bool
-    fmi: int = 2  # the FMI version of the loop's FMUs
+    reference: Trajectory | None = None  # what the scenario FMU flies (None: the thesis's trajectory)
+    wind: Path | None = None  # a wind file (scenario_fmu.wind)
+    allow_infeasible: bool = False
+    max_tilt: float = 30.0  # degrees, the feasibility check's
+    allow_external_fmus: bool = False  # a system file's FMUs may lie outside its package or folder
+    fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
     clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
 
     @property
     def controller_label(self) -> str:
         return self.controller_fmu.stem if self.controller_fmu else self.controller
 
+    def to_dict(self) -> dict:
+        """JSON-able, for a snapshot to say which loop it is of."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key in ("controller_fmu", "faults", "system", "fmus", "wind"):
+            d[key] = None if d[key] is None else str(Path(d[key]).resolve())
+        d["settings"] = [list(s) for s in self.settings]
+        d["reference"] = None if self.reference is None else asdict(self.reference)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> LoopOptions:
+        d = dict(d)
+        for key in ("controller_fmu", "faults", "system", "fmus", "wind"):
+            d[key] = None if d[key] is None else Path(d[key])
+        d["settings"] = tuple(tuple(s) for s in d["settings"])
+        r = d["reference"]
+        d["reference"] = None if r is None else Trajectory(r["label"], r["code"], tuple(tuple(x) for x in r["settings"]),
+                                                             tuple(r["start"]), r["duration"], r["source"])
+        return cls(**d)
+
+    def run_name(self, default_stop_time: float | None = None) -> str:
+        """The default name of the run's log: what sets this run apart, so two different runs do not share a log.
+        The loop: vehicle, scenario, trajectory, controller, seed; then each of the delay, calm air, the faults
+        file, the --set values and a stop time other than default_stop_time, when given."""
+        if self.system is not None:
+            parts = [self.system.stem]
+        else:
+            parts = [f"{'uav_' if self.vehicle == 'uav' else ''}{self.scenario}_traj{self.trajectory}_"
+                     f"{self.controller_label}_seed{self.seed}"]
+            parts += ["delay"] * self.delay + ["calm"] * (not self.gusts)
+            parts += ["fmi3" + "_clocks" * self.clocks] * (self.fmi == 3)
+        if self.faults is not None:
+            parts.append(f"faults-{self.faults.stem}")
+        if self.settings:
+            parts.append("set-" + _settings_tag(self.settings))
+        if self.stop_time is not None and self.stop_time != default_stop_time:
+            parts.append(f"t{self.stop_time:g}s")
+        return _file_safe("_".join(parts))
+
+
+def _settings_tag(settings) -> str:
+    """--set values in a file name: readable while short (plant.m_L=0.2-plant.l=0.7), else a digest of them."""
+    import hashlib
+
+    text = "-".join(f"{k}={v}" for k, v in settings)
+    return text if len(text) <= 40 else hashlib.sha256(text.encode()).hexdigest()[:10]
+
+
+def _file_safe(name: str) -> str:
+    import re
+
+    return re.sub(r"[^A-Za-z0-9._=+-]", "_", name)
+
 
 def resolve_loop(args: argparse.Namespace) -> LoopOptions:
-    """The loop options of a command line, checked against the vehicle's choices."""
-    loop = LOOPS[args.vehicle]
-    trajectory = loop.default_trajectory if args.trajectory is None else args.trajectory
+    """The loop options of a command line, checked against the vehicle's choices. With --system, the loop's own
+    options are refused (one line naming them): the system file describes its run itself."""
+    fmi, clocks = getattr(args, "fmi", None) or 2, getattr(args, "clocks", False)
+    if clocks and fmi != 3:
+        raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
+    if args.system is not None:
+        given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [])]
+        if given:
+            one = len(given) == 1
+            raise UserError(f"--system {args.system} runs the system as its file describes it: {', '.join(given)} "
+                            f"{'applies' if one else 'apply'} to the thesis's loop only (drop {'it' if one else 'them'}, "
+                            "or set it in the system file)")
+        load = LOOPS["load"]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
+        return LoopOptions("load", DEFAULT_SCENARIO, load.default_trajectory, load.default_controller, None, DEFAULT_SEED,
+                           args.stop_time, False, True, args.faults, (), args.system, DEFAULT_FMU_DIR, False,
+                           allow_external_fmus=getattr(args, "allow_external_fmus", False))
+    if getattr(args, "allow_external_fmus", False):
+        raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
+    vehicle = args.vehicle or "load"
+    loop = LOOPS[vehicle]
+    reference = as_trajectory(loop.default_trajectory if args.trajectory is None else args.trajectory)
+    trajectory = reference.code if reference.code in THESIS else reference.label
     controller = loop.default_controller if args.controller is None else args.controller
-    if trajectory not in loop.trajectories:
-        raise UserError(f"--trajectory {trajectory}: the {args.vehicle} vehicle has trajectories "
+    scenario = args.scenario or DEFAULT_SCENARIO
+    if reference.code in THESIS and trajectory not in loop.trajectories:
+        raise UserError(f"--trajectory {trajectory}: the {vehicle} vehicle has trajectories "
                         f"{', '.join(map(str, loop.trajectories))}")
-    if args.scenario not in loop.scenarios:
-        raise UserError(f"--scenario {args.scenario}: the {args.vehicle} vehicle has {', '.join(loop.scenarios)}")
+    if scenario not in loop.scenarios:
+        raise UserError(f"--scenario {scenario}: the {vehicle} vehicle has {', '.join(loop.scenarios)}")
     if controller in ("dlqr", "mixed") and controller not in loop.controllers:
-        raise UserError(f"--controller {controller}: the {args.vehicle} vehicle has {', '.join(loop.controllers)} "
+        raise UserError(f"--controller {controller}: the {vehicle} vehicle has {', '.join(loop.controllers)} "
                         "(or your own FMU)")
     fmi, clocks = getattr(args, "fmi", 2), getattr(args, "clocks", False)
     if clocks and fmi != 3:
@@ -61,9 +149,11 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
         controller_fmu = Path(controller)
         if not controller_fmu.is_file():
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
-    return LoopOptions(args.vehicle, args.scenario, trajectory, controller, controller_fmu, args.seed, args.stop_time,
-                       args.delay, not args.no_gusts, args.faults, tuple(args.set), args.system, args.fmus,
-                       args.allow_unknown_inputs, fmi, clocks)
+    seed = DEFAULT_SEED if args.seed is None else args.seed
+    return LoopOptions(vehicle, scenario, trajectory, controller, controller_fmu, seed, args.stop_time,
+                       args.delay, not args.no_gusts, args.faults, tuple(args.set), None, args.fmus or DEFAULT_FMU_DIR,
+                       args.allow_unknown_inputs, reference=reference, wind=args.wind, allow_infeasible=args.allow_infeasible,
+                       max_tilt=args.max_tilt, fmi=fmi, clocks=clocks)
 
 
 @dataclass
@@ -73,6 +163,7 @@ class LoopSystem:
     system: object  # engine.system.System
     stop: float
     schedule: str | None
+    natural_stop: float  # the stop time without --stop-time: the trajectory's duration, or the package's
 
 
 def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
@@ -82,16 +173,17 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
     from .fmus import build_all, fmu_folder
 
     if opts.system is not None:
-        system, stop, schedule = read_system(opts.system, unpack_into)
+        system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
-        results = build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,), fmi_version=opts.fmi,
-                            clocked=opts.clocks)
-        rebuilt = [r.path.name for r in results if r.rebuilt]
-        if rebuilt:
-            print(f"built {', '.join(rebuilt)} into {folder}/")
-        system = default_system(folder, opts.scenario, opts.trajectory, opts.controller if opts.controller_fmu is None else None,
-                                opts.seed, opts.controller_fmu, opts.delay, opts.gusts, opts.vehicle, opts.fmi, opts.clocks)
+        build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,),  # says what it builds
+                  fmi_version=opts.fmi, clocked=opts.clocks)
+        from ...scenario_fmu.wind import read_wind
+
+        system = default_system(folder, opts.scenario, opts.reference or opts.trajectory,
+                                opts.controller if opts.controller_fmu is None else None, opts.seed, opts.controller_fmu,
+                                opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None,
+                                opts.fmi, opts.clocks)
         set_parameters(system, dict(opts.settings))
         if opts.controller_fmu is not None:
             from ..engine.model_description import read_fmu
@@ -101,15 +193,23 @@ def loop_system(opts: LoopOptions, unpack_into: Path) -> LoopSystem:
         stop, schedule = None, None
     if opts.faults is not None:
         system.faults = [*system.faults, *load_faults(opts.faults)]
-    stop = opts.stop_time or stop or default_stop(opts.trajectory)
-    return LoopSystem(system, stop, schedule)
+    natural = stop or default_stop(opts.reference or opts.trajectory)
+    stop = opts.stop_time or natural
+    if opts.system is None:
+        from .feasibility import enforce
+
+        enforce(system, stop, opts.allow_infeasible, opts.max_tilt)  # before the first step: refuses what cannot be flown
+    return LoopSystem(system, stop, schedule, natural)
 
 
-def read_system(path: Path, unpack_into: Path):
+def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False):
     """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule)."""
     from ..engine import ssp
     from ..engine import system as sysdesc
 
     if path.suffix.lower() in (".ssp", ".ssd"):
-        return ssp.load(path, unpack_into)
+        return ssp.load(path, unpack_into, allow_external=allow_external_fmus)
+    if allow_external_fmus:
+        raise UserError(f"--allow-external-fmus is for SSP packages (.ssp/.ssd); {path} is a JSON description, "
+                        "whose FMU paths are the user's own")
     return sysdesc.load(path), None, None

@@ -29,31 +29,65 @@ def fault_intervals(events: list[dict], t_end: float) -> list[tuple[float, float
     return sorted(out)
 
 
+TOPICS = ["/plant", "/scenario", "/controller", "/faults"]
+
+
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
-    """Write <stem>_*.png next to the log (or into out); returns the files written."""
-    log = Path(log)
+    """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
+    log_reader.DamagedLog (plot_intact draws the intact part of one)."""
+    return plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out)
+
+
+def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:
+    """The figures of what the log holds intact (all of it, up to a torn end, or up to the damage), and its state."""
+    data, state = log_reader.read_checked(log, topics=TOPICS)
+    if state.damage is not None and not data.get("/plant"):
+        raise log_reader.DamagedLog(state.describe(Path(log)) + ": nothing to draw")
+    return plot_messages(data, Path(log), out), state
+
+
+def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None) -> list[Path]:
+    """Write <log stem>_*.png from the log's messages next to the log (or into out)."""
     out = log.parent if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    data = log_reader.read(log, topics=["/plant", "/scenario", "/controller", "/faults"])
-    if "/plant" not in data:
+    if not data.get("/plant"):
         raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
+    files = []
+    for name, fig in figures(data):
+        path = out / f"{log.stem}_{name}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files.append(path)
+    return files
+
+
+def unit(name: str) -> str:
+    """The SI unit of a plant state or input by its name (docs/ports.md)."""
+    if name in ("f_R", "f_L", "d_x", "d_y", "d_z"):
+        return "N"
+    if name in ("tau_R", "tau_L"):
+        return "N m"
+    base, rate = (name[:-4], True) if name.endswith("_dot") else (name, False)
+    length = base in ("x", "y", "z", "x_B", "y_B", "z_B")
+    return ("m" if length else "rad") + ("/s" if rate else "")
+
+
+def figures(data: dict[str, list[dict]]):
+    """(name, matplotlib figure) of each of the thesis's kinds of figures the messages allow, every axis with its unit;
+    faults shaded on every time axis."""
     plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
     tp = _series(plant, "t")[:, 0]
-    files = []
     intervals = fault_intervals(data.get("/faults", []), float(tp[-1]) if len(tp) else 0.0)
 
-    def save(fig, name):
+    def done(fig, name):
         for ax in fig.axes:  # faults as shaded intervals on every time axis
             if ax.name != "3d":
                 for k, (t0, t1, label) in enumerate(intervals):
                     ax.axvspan(t0, t1, color=f"C{3 + k % 6}", alpha=0.15, lw=0, label=label if ax is fig.axes[0] else None)
         if intervals and fig.axes and fig.axes[0].name != "3d":
             fig.axes[0].legend(fontsize=7, loc="upper right")
-        path = out / f"{log.stem}_{name}.png"
         fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        files.append(path)
+        return name, fig
 
     with_load = "gamma_1" in plant[0]  # else the UAV alone (Appendix A): Figs. A.2-A.8
     load, uav = _series(plant, "x", "y", "z"), _series(plant, "x_B", "y_B", "z_B")
@@ -69,7 +103,7 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
     ax.legend()
-    save(fig, "trajectory3d")
+    yield done(fig, "trajectory3d")
 
     if scen:
         ts = _series(scen, "t")[:, 0]
@@ -81,7 +115,7 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
             ax.set_ylabel(f"error {label}")
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel("t (s)")
-        save(fig, "tracking_error")
+        yield done(fig, "tracking_error")
 
         if "d_x" in scen[0]:
             fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
@@ -91,15 +125,17 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
                 ax.grid(alpha=0.3)
             axes[0].set_title(f"disturbance force on the {'load' if with_load else 'UAV'}")
             axes[-1].set_xlabel("t (s)")
-            save(fig, "disturbances")
+            yield done(fig, "disturbances")
 
     names = ("phi", "theta", "gamma_1", "gamma_2", "alpha_R", "alpha_L") if with_load else ("phi", "theta", "alpha_R", "alpha_L")
     fig, axes = plt.subplots(len(names) // 2, 2, figsize=(9, 7), sharex=True)
     for ax, n in zip(axes.ravel(), names):
         ax.plot(tp, _series(plant, n)[:, 0])
-        ax.set_ylabel(f"{n} (rad)")
+        ax.set_ylabel(f"{n} ({unit(n)})")
         ax.grid(alpha=0.3)
-    save(fig, "remaining_dof")
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    yield done(fig, "remaining_dof")
 
     if ctrl and "f_R" in ctrl[0]:
         tc = _series(ctrl, "t")[:, 0]
@@ -108,10 +144,10 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
             ax.step(tc, _series(ctrl, n)[:, 0], where="post")
             ax.axhline(lo, color="r", ls=":")
             ax.axhline(hi, color="r", ls=":")
-            ax.set_ylabel(n)
+            ax.set_ylabel(f"{n} ({unit(n)})")
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel("t (s)")
-        save(fig, "actuators")
+        yield done(fig, "actuators")
 
     if ctrl and "est_x" in ctrl[0]:
         ctrl = [m for m in ctrl if m["est_x_hi"] != m["est_x_lo"]] or ctrl  # not the message before the first estimate
@@ -127,26 +163,25 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
                 ax.plot(tc, est - truth, label="estimation error")
                 ax.plot(tc, lo - truth, "k--", lw=0.7, label="confidence limits")
                 ax.plot(tc, hi - truth, "k--", lw=0.7)
-                ax.set_ylabel(n)
+                ax.set_ylabel(f"{n} error ({unit(n)})")
                 ax.grid(alpha=0.3)
             axes[0][0].legend(fontsize=7)
             for ax in axes[-1]:
                 ax.set_xlabel("t (s)")
-            save(fig, name)
+            return done(fig, name)
 
         if with_load:
-            estimation_figure(("x", "y", "z"), "estimation_error")
+            yield estimation_figure(("x", "y", "z"), "estimation_error")
         else:  # Fig. A.7: x, y and their rates (the GPS pattern); Fig. A.8: the other states
-            estimation_figure(("x", "y", "x_dot", "y_dot"), "estimation_error")
+            yield estimation_figure(("x", "y", "x_dot", "y_dot"), "estimation_error")
             rest = ("z", "phi", "theta", "psi", "alpha_R", "alpha_L", "z_dot", "phi_dot", "theta_dot", "psi_dot",
                     "alpha_R_dot", "alpha_L_dot")
-            estimation_figure(rest, "estimation_error_rest", columns=3)
+            yield estimation_figure(rest, "estimation_error_rest", columns=3)
         frob = _series(ctrl, "zse_G_frobenius")[:, 0]
         if np.nanmax(np.abs(frob)) > 0:
             fig, ax = plt.subplots(figsize=(8, 3))
             ax.plot(tc, frob)
             ax.set_xlabel("t (s)")
-            ax.set_ylabel("‖G‖_F")
+            ax.set_ylabel(r"$\Vert G \Vert_F$ (mixed state units)")  # the zonotope's size: G's rows mix m, rad, ...
             ax.grid(alpha=0.3)
-            save(fig, "zse_frobenius")
-    return files
+            yield done(fig, "zse_frobenius")

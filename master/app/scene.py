@@ -103,7 +103,8 @@ class SceneEncoder:
         self._template = re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: "%d" if int(m.group(1)) < 2 else "%.17g", text)
 
     def encode(self, plant: dict, ns: int) -> str | None:
-        if any(plant.get(k) is None for k in _KEYS):
+        """The message for the plant's outputs by name (None for a non-finite pose: nothing sensible to draw)."""
+        if any(plant.get(k) is None or not math.isfinite(plant[k]) for k in _KEYS):
             return None
         stamp, body, q, thrusters, load = _numbers(plant, ns)
         flat = [*stamp, *body, q["x"], q["y"], q["z"], q["w"], *(c for t in thrusters for c in t), *(load if self.with_load else ())]
@@ -118,8 +119,16 @@ def scene_channels(sources: str | tuple[str, ...] = "plant") -> list[DerivedChan
     A plant without the rod's joint angles (the UAV alone) is drawn without rod and load."""
     sources = (sources,) if isinstance(sources, str) else tuple(sources)
 
+    def encoder(names: list[str], entity: str):
+        scene = SceneEncoder(with_load="gamma_1" in names, entity=entity)
+        index = [names.index(k) for k in _KEYS]
+
+        def encode(values, ns: int) -> str | None:  # values: the plant's Real outputs
+            return scene.encode(dict(zip(_KEYS, values[index].tolist())), ns)
+        return encode
+
     def channel(source: str) -> DerivedChannel:
         entity = source if len(sources) > 1 else "tiltload"
         return DerivedChannel("/scene" if len(sources) == 1 else f"/scene/{source}", source, "foxglove.SceneUpdate", SCHEMA,
-                              lambda names: SceneEncoder(with_load="gamma_1" in names, entity=entity).encode, SCENE_EVERY)
+                              lambda names: encoder(names, entity), SCENE_EVERY)
     return [channel(s) for s in sources]

@@ -6,13 +6,17 @@ its connected inputs are set from the latest outputs of their sources (or from d
 a connection with delay d). Observers only read: they see each instance's outputs after its
 step. Every FMI failure becomes an ExecutionError naming the instance, the call and the FMU's
 last log line.
+
+The execution checks the system, loads the FMUs and builds the plan; the ticks themselves run in C
+(native/tl_loop.c), many per call, calling the FMUs' own fmi2 functions. Python steps in only where
+it must: an FMU in a worker process (or any slave without fmi2 function pointers) and faults are
+called back from the loop, and the observers read each call's records afterwards.
 """
 
 from __future__ import annotations
 
 import ctypes
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +28,8 @@ from .errors import DescriptionError
 from .fmu import InProcessFmu
 from .fmu3 import Fmu3Slave
 from .model_description import checked_value, fmi_version, read_fmu, steps_every
+from .native.loop import NativeLoop
+from .observers import Batch, Observer, ReplayStopped, replay
 from .slave import C_TYPES, Slave
 from .system import System, validate
 
@@ -83,8 +89,9 @@ class Execution:
         self._raw_groups = groups
         self.groups: dict[str, list[_Group]] = {}
         self.max_delay = max((link.delay for link in self.links), default=0)
-        self.history: dict[str, deque] = {}
         self.manipulator = None
+        self.loop: NativeLoop | None = None
+        self.resumed_at: float | None = None  # the time of the snapshot this run continues from
         if system.faults:
             from .manipulators import Manipulator
 
@@ -96,8 +103,9 @@ class Execution:
         """{instance: model description}, as read before anything was loaded."""
         return self._mds
 
-    def instantiate(self) -> None:
-        """Load every FMU (in this process or a worker of its own), bind the connections, initialize."""
+    def instantiate(self, resume=None) -> None:
+        """Load every FMU (in this process or a worker of its own), bind the connections, initialize; with resume (a
+        snapshot.Snapshot of this system), continue from where the snapshot was taken."""
         for spec in self.system.instances:
             md = self._mds[spec.name]
             if fmi_version(md) == 3:  # in this process (isolation is FMI 2.0's)
@@ -116,17 +124,26 @@ class Execution:
                                                           self.instances[dst].setters[typ]))
         if self.manipulator is not None:
             self.manipulator.bind(self)
-        self._initialize()
+        self._initialize(resume)
 
-    def _initialize(self) -> None:
-        """Set-up, parameters and initialization of every instance, then the observers start at t = 0."""
+    def _initialize(self, resume=None) -> None:
+        """Set-up, parameters and initialization of every instance, then the observers start at t = 0 (or where the
+        snapshot resume was taken)."""
+        from . import snapshot
+
         for spec in self.system.instances:
             self.instances[spec.name].initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
-        for name, inst in self.instances.items():
-            self.history[name] = deque([{t: v.copy() for t, v in inst.values.items()}], maxlen=self.max_delay + 1)
+        self.resumed_at = None
+        if resume is not None:
+            snapshot.restore(self, resume)
+            self.resumed_at = resume.time
         for obs in self.observers:
             obs.start(self)
+        self.loop = NativeLoop(self)  # the plan of the C tick loop over these instances, groups and faults
+        if resume is not None:
+            snapshot.restore_loop(self, resume)
+            snapshot.restore_observers(self, resume)
 
     def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None) -> None:
         """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
@@ -152,54 +169,45 @@ class Execution:
             self.instances[spec.name].reset()
         self._initialize()
 
-    def _set_inputs(self, name: str, t: float) -> None:
+    def set_gathered_inputs(self, name: str, t: float) -> None:
+        """Set an instance's connected inputs from its groups' arrays (filled by the tick loop, manipulated already)."""
         inst = self.instances[name]
         component = inst.component
-        groups = self.groups.get(name, ())
-        for g in groups:
-            if g.delay == 0:
-                src = self.instances[g.source].values[g.type]
-            else:
-                hist = self.history[g.source]
-                src = hist[max(len(hist) - g.delay, 0)][g.type]
-            np.take(src, g.src_index, out=g.view)
-        if self.manipulator is not None:
-            self.manipulator.apply(name, "input", t, self.observers)
-        for g in groups:
+        for g in self.groups.get(name, ()):
             started = time.perf_counter()
             status = g.setter(component, g.dst_vrs, len(g.view), g.values)
             inst.fmi_seconds += time.perf_counter() - started
             if status > 1:
                 raise inst.failed(f"set{g.type} from {g.source} at t={t:.6g} s", status)
 
-    def step_tick(self) -> None:
-        k, tick = self.ticks_done, self.system.tick
-        t = k * tick
-        for spec in self.system.instances:
-            n = self.every[spec.name]
-            if k % n:
-                continue
-            inst = self.instances[spec.name]
-            self._set_inputs(spec.name, t)
-            inst.do_step(t, n * tick)
-            inst.read_outputs()
-            if self.manipulator is not None:
-                self.manipulator.apply(spec.name, "output", t, self.observers)
-            when = t + n * tick if spec.timing == "continuous" else t
-            for obs in self.observers:
-                obs.on_step(inst, when)
-        if self.max_delay:
-            for name, inst in self.instances.items():
-                self.history[name].append({typ: v.copy() for typ, v in inst.values.items()})
-        self.ticks_done = k + 1
-        self.time = self.ticks_done * tick
-        for obs in self.observers:
-            obs.on_tick(self.ticks_done, self.time)
+    def stepwise_observers(self) -> list:
+        """The observers of the per-step kind (no on_batch of their own)."""
+        return [obs for obs in self.observers if type(obs).on_batch is Observer.on_batch]
 
-    def run(self, stop: float) -> None:
+    def deliver(self, batch: Batch) -> None:
+        """A call's steps to the observers: replayed step by step to those of the per-step kind, then whole to those
+        that take batches (cut where a per-step observer stopped the run, so every observer saw the same steps)."""
+        stepwise = self.stepwise_observers()
+        batchwise = [obs for obs in self.observers if obs not in stepwise]
+        try:
+            replay(self, batch, stepwise)
+        except ReplayStopped as stop:
+            head = batch.head(stop.cut)
+            for obs in batchwise:
+                obs.on_batch(self, head)
+            raise stop.__cause__ from None
+        for obs in batchwise:
+            obs.on_batch(self, batch)
+
+    def step_tick(self) -> None:
+        """One tick."""
+        self.loop.run(1)
+
+    def run(self, stop: float, realtime=None) -> None:
+        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py)."""
         n = int(round(stop / self.system.tick))
-        while self.ticks_done < n:
-            self.step_tick()
+        if self.ticks_done < n:
+            self.loop.run(n - self.ticks_done, realtime)
 
     def close(self, error: str | None = None) -> None:
         """Finish the observers (the log first), then free the instances; safe to call twice."""

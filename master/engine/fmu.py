@@ -8,12 +8,10 @@ is one foreign call per type and nothing is copied or converted.
 from __future__ import annotations
 
 import ctypes
-import shutil
 import time
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException, calloc, free
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -24,6 +22,7 @@ from fmpy.fmi2 import (
 )
 
 from .errors import ExecutionError
+from .extraction import Unpacked
 from .model_description import checked_value
 from .pythonfmu_guard import pin
 from .slave import C_TYPES, TYPES, Slave
@@ -36,7 +35,8 @@ class InProcessFmu(Slave):
         super().__init__(name, path, md)
         self._closed = False
         pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
-        self.dir = extract(str(path))
+        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self.dir = self._unpacked.folder
 
         def logger(env, inst, status, category, message):
             self.log.append(message.decode("utf-8", "replace"))
@@ -49,7 +49,7 @@ class InProcessFmu(Slave):
                                    instanceName=name)
             self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
         except BaseException:
-            shutil.rmtree(self.dir, ignore_errors=True)  # nothing of a failed instantiation stays behind
+            self._unpacked.release()  # nothing of a failed instantiation stays behind
             raise
         self._bind()
 
@@ -75,6 +75,10 @@ class InProcessFmu(Slave):
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
         self.component = self.slave.component
 
+    def function_pointer(self, name: str) -> int:
+        """The address of one of the FMU's own functions (fmi2DoStep, fmi2SetReal, ...), for the C tick loop."""
+        return ctypes.cast(getattr(self.slave.dll, name), ctypes.c_void_p).value
+
     def call(self, what: str, fn):
         started = time.perf_counter()
         try:
@@ -95,6 +99,9 @@ class InProcessFmu(Slave):
 
     def reset(self) -> None:
         self.call("reset", self.slave.reset)
+
+    def set_values(self, values: dict) -> None:
+        self.set_parameters(values)
 
     def set_parameters(self, params: dict) -> None:
         for key, value in params.items():
@@ -121,6 +128,25 @@ class InProcessFmu(Slave):
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
 
+    def get_state(self) -> bytes:
+        def serialize():
+            state = self.slave.getFMUstate()
+            try:
+                return self.slave.serializeFMUstate(state)
+            finally:
+                self.slave.freeFMUstate(state)
+        return self.call("getting its state", serialize)
+
+    def set_state(self, state: bytes) -> None:
+        def restore():
+            fmu_state = self.slave.deSerializeFMUstate(state)
+            try:
+                self.slave.setFMUstate(fmu_state)
+            finally:
+                self.slave.freeFMUstate(fmu_state)
+        self.call("restoring its state", restore)
+        self.read_outputs()
+
     def close(self) -> None:
         """Terminate and free the instance, then remove its extracted copy (a run leaves no folder behind)."""
         if self._closed:
@@ -135,4 +161,4 @@ class InProcessFmu(Slave):
                 self.slave.freeInstance()
             except Exception:
                 pass
-        shutil.rmtree(self.dir, ignore_errors=True)
+        self._unpacked.release()

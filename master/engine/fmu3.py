@@ -14,28 +14,36 @@ interval n ticks and shift s ticks is due at tick k when k >= s and (k - s) % n 
 is the Event Mode that follows fmi3ExitInitializationMode. The setters the execution calls stage the values:
 they reach the FMU in the Step Mode before the step (continuous inputs) or in the Event Mode (discrete and
 clocked ones; a discrete input that changed makes the step an event). `activations` records every clock tick.
+
+The C tick loop (native/tl_loop.c) steps it through its Python callback, as it does a slave in a worker process:
+the kernel gathers the inputs (faults applied), the callback sets them here, steps and reads the outputs into
+`values`, where the kernel's output faults and records find them. A snapshot's bytes (get_state) carry the FMU's
+own serialized state and what this slave holds besides: the clocked outputs as read at their last ticks and a
+pending event.
 """
 
 from __future__ import annotations
 
 import ctypes
-import shutil
+import json
+import struct
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave
 
 from .errors import ExecutionError
+from .extraction import Unpacked
 from .model_description import checked_value, clock_ticks, clocks_of
 from .slave import TYPES, Slave
 
 FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
 FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
 MAX_EVENT_ITERATIONS = 100
+STATE_MAGIC = b"TLFMU3S1"  # get_state's bytes: magic, header length (u32 LE), JSON header, the FMU's state, held outputs
 
 
 @dataclass
@@ -47,6 +55,35 @@ class Fmu3State:
     held: list[np.ndarray]  # the clocked outputs as read at their clocks' last ticks
     event_asked: bool
     next_event: float | None
+
+    def to_bytes(self) -> bytes:
+        """Plain bytes (no pickle): a JSON header with the flags and the held arrays' layout, then the raw data."""
+        header = json.dumps({"fmu": len(self.fmu), "held": [[a.dtype.str, a.size] for a in self.held],
+                             "event_asked": self.event_asked, "next_event": self.next_event}).encode()
+        return b"".join([STATE_MAGIC, struct.pack("<I", len(header)), header, self.fmu,
+                         *(a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes() for a in self.held)])
+
+    @classmethod
+    def from_bytes(cls, data: bytes, name: str) -> Fmu3State:
+        """The state to_bytes wrote (values are the snapshot's business: empty here); a one-line error otherwise."""
+        try:
+            if data[:8] != STATE_MAGIC:
+                raise ValueError("not an FMI 3.0 slave's state")
+            (n,) = struct.unpack_from("<I", data, 8)
+            header = json.loads(data[12:12 + n])
+            at = 12 + n
+            fmu = data[at:at + header["fmu"]]
+            at += header["fmu"]
+            held = []
+            for dtype, size in header["held"]:
+                dt = np.dtype(dtype)
+                held.append(np.frombuffer(data, dtype=dt, count=size, offset=at).astype(dt.newbyteorder("="), copy=True))
+                at += dt.itemsize * size
+            if len(fmu) != header["fmu"] or at != len(data):
+                raise ValueError("its length does not match its header")
+            return cls(fmu, {}, held, bool(header["event_asked"]), header["next_event"])
+        except (ValueError, KeyError, TypeError, struct.error, json.JSONDecodeError, UnicodeDecodeError) as err:
+            raise ExecutionError(f"{name}: cannot restore its state: {err}") from None
 
 
 class _Inputs:
@@ -105,7 +142,8 @@ class Fmu3Slave(Slave):
             if v.causality == "input" and v.type in TYPES:
                 kind = clock if clock is not None else ("discrete" if v.variability == "discrete" else "continuous")
                 self.input_kind[(v.type, v.valueReference)] = kind
-        self.dir = extract(str(path))
+        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self.dir = self._unpacked.folder
 
         def log_message(env, status, category, message):
             self.log.append(message.decode("utf-8", "replace"))
@@ -116,7 +154,7 @@ class Fmu3Slave(Slave):
             self.call("instantiate", lambda: self.fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked,
                                                                   logMessage=self._log_message))
         except BaseException:
-            shutil.rmtree(self.dir, ignore_errors=True)
+            self._unpacked.release()  # nothing of a failed instantiation stays behind
             raise
         self._bind()
 
@@ -222,6 +260,9 @@ class Fmu3Slave(Slave):
         self.call("reset", self.fmu.reset)
         self._staged.clear()
         self._discrete_inputs = []
+
+    def set_values(self, values: dict) -> None:
+        self.set_parameters(values)
 
     def set_parameters(self, params: dict) -> None:
         setters = {"Real": self.fmu.setFloat64, "Integer": self.fmu.setInt32, "Boolean": self.fmu.setBoolean,
@@ -349,6 +390,19 @@ class Fmu3Slave(Slave):
             entry[5][:] = held
         self._in_event, self._event_asked, self._next_event = False, saved.event_asked, saved.next_event
 
+    def get_state(self) -> bytes:
+        """save_state as bytes, for a snapshot (which keeps values itself)."""
+        return self.save_state().to_bytes()
+
+    def set_state(self, state: bytes) -> None:
+        """Restore what get_state gave (of this FMU): the FMU's state, the held clocked outputs, a pending event;
+        the outputs follow (the held ones as held, the others read from the FMU)."""
+        saved = Fmu3State.from_bytes(state, self.name)
+        if len(saved.held) != len(self._held) or any(h.size != e[5].size for h, e in zip(saved.held, self._held)):
+            raise ExecutionError(f"{self.name}: cannot restore its state: it holds other clocked outputs than this FMU")
+        self.restore_state(saved)
+        self.read_outputs()
+
     def close(self) -> None:
         """Terminate and free the instance, then remove its extracted copy; safe to call twice."""
         if self._closed:
@@ -363,4 +417,4 @@ class Fmu3Slave(Slave):
                 self.fmu.freeInstance()
             except Exception:
                 pass
-        shutil.rmtree(self.dir, ignore_errors=True)
+        self._unpacked.release()

@@ -1,21 +1,61 @@
-"""Reading MCAP logs back: messages per topic decoded (fixed-layout protobuf or JSON), metadata, and logs without
-their footer (a killed run) recovered by a streaming read up to their last complete chunk."""
+"""Reading MCAP logs back: messages per topic decoded (fixed-layout protobuf or JSON), metadata, and the log's state.
+
+One streaming pass over the file, every chunk checked (its CRC, its decompression) before its messages are used:
+- a complete log (footer and summary) reads whole;
+- a torn log (a killed run: no footer) reads up to its last complete chunk;
+- a damaged log (a chunk that fails its CRC or does not decompress, or broken framing before the end) reads up to
+  the damage, and says so: `LogState.damage` names it, `intact_until` is the log time up to which it is intact.
+`read` raises DamagedLog for a damaged log: no reader draws or scores the front of a damaged file as if it were
+the whole (`read_checked` returns what is intact with the state, for a reader that reports it itself).
+"""
 
 from __future__ import annotations
 
 import json
+import os
+from dataclasses import dataclass
 from pathlib import Path
 
-from mcap.reader import make_reader
-
+from .errors import DescriptionError
 from .log_encoding import LAYOUT, FixedMessage
+
+MAGIC = b"\x89MCAP0\r\n"
+
+
+class DamagedLog(DescriptionError):
+    """A log whose bytes are damaged inside (not merely cut short); the message says where it stops being intact."""
+
+
+@dataclass(frozen=True)
+class LogState:
+    """What a pass over a log found."""
+
+    torn: bool  # no footer: the file ends where a killed run stopped writing
+    damage: str | None  # what is broken inside the file, if anything
+    intact_until: float | None  # s: the last message time before the damage or the torn end (None: no message)
+    duration: float | None  # s: the last message time the log's summary declares (None: no summary)
+
+    @property
+    def complete(self) -> bool:
+        return not self.torn and self.damage is None
+
+    def describe(self, path: Path) -> str:
+        """One line for the user (empty for a complete log)."""
+        upto = "no message is intact" if self.intact_until is None else f"intact up to t = {self.intact_until:.3f} s"
+        if self.duration is not None and self.intact_until is not None:
+            upto += f" of {self.duration:.3f} s"
+        if self.damage is not None:
+            return f"{path} is damaged ({self.damage}): {upto}"
+        if self.torn:
+            return f"{path} is truncated (no footer: a killed run): {upto}"
+        return ""
 
 
 def _decoder(schema, channel):
     """A function bytes -> dict for one channel: JSON, or the fixed-layout protobuf (rebuilt from its schema)."""
     if channel.message_encoding == "json":
         return json.loads
-    if channel.message_encoding == "protobuf" and channel.metadata.get("layout") == LAYOUT:
+    if channel.message_encoding == "protobuf" and channel.metadata.get("layout") == LAYOUT and schema is not None:
         from google.protobuf import descriptor_pb2 as d
 
         fds = d.FileDescriptorSet.FromString(schema.data)
@@ -29,82 +69,170 @@ def _decoder(schema, channel):
     raise ValueError(f"{channel.topic}: cannot decode {channel.message_encoding} messages")
 
 
+@dataclass
+class _Scan:
+    messages: dict[str, list[dict]]
+    metadata: dict[str, dict]
+    state: LogState
+
+
+def _has_footer(f) -> bool:
+    """The file ends with a footer record and the closing magic (what a finished writer leaves)."""
+    size = f.seek(0, os.SEEK_END)
+    if size < 2 * len(MAGIC) + 29:
+        return False
+    f.seek(size - len(MAGIC) - 29)  # footer: opcode, length, summary start, summary offset start, CRC = 1 + 8 + 20
+    tail = f.read()
+    f.seek(0)
+    return tail[-len(MAGIC):] == MAGIC and tail[0] == 0x02
+
+
+def _scan(path: Path, topics: list[str] | None, want_messages: bool = True) -> _Scan:
+    from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema, Statistics
+    from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
+
+    schemas, channels, decoders = {}, {}, {}
+    messages: dict[str, list[dict]] = {}
+    metadata: dict[str, dict] = {}
+    last_time = None  # ns
+    damage, duration, data_ended, footer = None, None, False, False
+
+    def take(record) -> None:
+        nonlocal last_time
+        if isinstance(record, Schema):
+            schemas[record.id] = record
+        elif isinstance(record, Channel):
+            channels[record.id] = record
+        elif isinstance(record, Message):
+            last_time = record.log_time if last_time is None else max(last_time, record.log_time)
+            channel = channels.get(record.channel_id)
+            if not want_messages or channel is None or (topics is not None and channel.topic not in topics):
+                return
+            decode = decoders.get(channel.id)
+            if decode is None:
+                decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel)
+            messages.setdefault(channel.topic, []).append(decode(record.data))
+
+    with open(path, "rb") as f:
+        ends_well = _has_footer(f)
+        records = StreamReader(f, emit_chunks=True, validate_crcs=True, record_size_limit=1 << 31).records
+        chunk_no = 0
+        while True:
+            try:
+                record = next(records)
+            except StopIteration:
+                break
+            except Exception as err:  # broken framing: the torn end of a killed run, or damage in a file with its end
+                if ends_well:
+                    damage = (f"its summary is unreadable ({_why(err)})" if data_ended
+                              else f"unreadable record after chunk {chunk_no} ({_why(err)})")
+                break
+            if isinstance(record, Chunk):
+                chunk_no += 1
+                try:
+                    if want_messages:
+                        inner = breakup_chunk(record, validate_crc=True)
+                    else:  # decompressed and its CRC checked, its records not parsed
+                        get_chunk_data_stream(record, validate_crc=True)
+                        inner = ()
+                        last_time = record.message_end_time if last_time is None else max(last_time, record.message_end_time)
+                except Exception as err:
+                    damage = f"chunk {chunk_no}, from t = {record.message_start_time / 1e9:.3f} s, {_why(err)}"
+                    break
+                for r in inner:
+                    take(r)
+            elif isinstance(record, Metadata):
+                if not data_ended:
+                    metadata[record.name] = dict(record.metadata)
+            elif isinstance(record, DataEnd):
+                data_ended = True
+            elif isinstance(record, Statistics):
+                duration = record.message_end_time / 1e9 if record.message_count else None
+            elif isinstance(record, Footer):
+                footer = True
+            else:
+                take(record)
+    if damage is None and ends_well and not footer:
+        damage = "its end is unreadable"
+    if damage is not None and ends_well and duration is None:
+        duration = _declared_duration(path)
+    for msgs in messages.values():
+        msgs.sort(key=lambda m: m.get("t", 0.0))
+    state = LogState(torn=not ends_well, damage=damage, intact_until=None if last_time is None else last_time / 1e9,
+                     duration=duration)
+    return _Scan(messages, metadata, state)
+
+
+def _declared_duration(path: Path) -> float | None:
+    """The last message time the summary declares (a damaged log whose summary is intact says how long it was)."""
+    from mcap.reader import make_reader
+
+    try:
+        with open(path, "rb") as f:
+            stats = make_reader(f).get_summary().statistics
+        return stats.message_end_time / 1e9 if stats is not None and stats.message_count else None
+    except Exception:
+        return None
+
+
+def _why(err: Exception) -> str:
+    from mcap.stream_reader import CRCValidationError
+
+    if isinstance(err, CRCValidationError):
+        return "fails its CRC check"
+    text = str(err).strip() or type(err).__name__
+    if type(err).__name__ == "ZstdError":
+        return f"does not decompress: {text}"
+    return f"{type(err).__name__}: {text}"[:160]
+
+
+def read_checked(path: Path, topics: list[str] | None = None) -> tuple[dict[str, list[dict]], LogState]:
+    """(messages per topic up to any damage or torn end, the log's state): for a reader that reports the state."""
+    scan = _scan(Path(path), topics)
+    return scan.messages, scan.state
+
+
 def read(path: Path, topics: list[str] | None = None) -> dict[str, list[dict]]:
     """Messages per topic, decoded (protobuf or JSON; non-finite JSON values come back as None), in log-time order.
 
-    A log without its summary (a run killed mid-way) is read record by record up to its last complete
-    chunk; `is_truncated(path)` tells whether that was needed."""
-    return read_log(path, topics)[0]
+    A log without its footer (a run killed mid-way) is read up to its last complete chunk (`is_truncated` tells).
+    A damaged log raises DamagedLog, naming the damage and the time up to which the log is intact."""
+    messages, state = read_checked(path, topics)
+    if state.damage is not None:
+        raise DamagedLog(state.describe(Path(path)))
+    return messages
 
 
 def read_log(path: Path, topics: list[str] | None = None) -> tuple[dict[str, list[dict]], bool]:
-    """(messages per topic, truncated): truncated is True for a log without footer, recovered by a streaming read."""
-    out: dict[str, list[dict]] = {}
-    decoders: dict[int, object] = {}
-    try:
-        with open(path, "rb") as f:
-            for schema, channel, message in make_reader(f).iter_messages(topics=topics):
-                decode = decoders.get(channel.id)
-                if decode is None:
-                    decode = decoders[channel.id] = _decoder(schema, channel)
-                out.setdefault(channel.topic, []).append(decode(message.data))
-        return out, False
-    except Exception:  # no footer or summary: read what was written, record by record
-        return _stream(path, topics), True
+    """(messages per topic, truncated): truncated is True for a log without footer. DamagedLog as read."""
+    messages, state = read_checked(path, topics)
+    if state.damage is not None:
+        raise DamagedLog(state.describe(Path(path)))
+    return messages, state.torn
 
 
-def _stream(path: Path, topics: list[str] | None) -> dict[str, list[dict]]:
-    from mcap.records import Channel, Message, Schema
-    from mcap.stream_reader import StreamReader
-
-    schemas, channels, decoders, out = {}, {}, {}, {}
-    with open(path, "rb") as f:
-        try:
-            for record in StreamReader(f).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
-                elif isinstance(record, Message):
-                    channel = channels.get(record.channel_id)
-                    if channel is None or (topics is not None and channel.topic not in topics):
-                        continue
-                    decode = decoders.get(channel.id)
-                    if decode is None:
-                        decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel)
-                    out.setdefault(channel.topic, []).append(decode(record.data))
-        except Exception:  # the torn end of the file: everything before it is kept
-            pass
-    for msgs in out.values():
-        msgs.sort(key=lambda m: m.get("t", 0.0))
-    return out
+def check(path: Path) -> LogState:
+    """The log's state without decoding its messages (every chunk is still read and checked)."""
+    return _scan(Path(path), None, want_messages=False).state
 
 
 def is_truncated(path: Path) -> bool:
     try:
         with open(path, "rb") as f:
-            make_reader(f).get_summary()
-            f.seek(-8, 2)
-            return f.read(8) != b"\x89MCAP0\r\n"
-    except Exception:
+            return not _has_footer(f)
+    except OSError:
         return True
 
 
 def read_metadata(path: Path) -> dict[str, dict]:
-    """Metadata records by name ({} for a truncated log whose summary is lost)."""
-    try:
-        with open(path, "rb") as f:
-            return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
-    except Exception:
-        from mcap.records import Metadata
-        from mcap.stream_reader import StreamReader
+    """Metadata records by name: through the summary's index when the log has its footer, else those a streaming
+    read finds before the torn end or the damage. (Whether the messages are intact is check's job.)"""
+    from mcap.reader import make_reader
 
-        found = {}
-        with open(path, "rb") as f:
+    with open(path, "rb") as f:
+        if _has_footer(f):
             try:
-                for record in StreamReader(f).records:
-                    if isinstance(record, Metadata):
-                        found[record.name] = dict(record.metadata)
-            except Exception:
+                return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+            except Exception:  # a damaged summary: the records themselves may still read
                 pass
-        return found
+    return _scan(Path(path), None, want_messages=False).metadata

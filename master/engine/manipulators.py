@@ -38,6 +38,7 @@ import numpy as np
 from .errors import DescriptionError
 
 ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise", "dropout", "delay", "stale", "jitter")
+VALUE_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # functions of time and value only
 _NEEDS_VALUE = {"override", "bias", "scale", "ramp", "clamp", "noise", "delay", "stale", "jitter"}
 _TICKS = {"delay", "stale", "jitter"}
 
@@ -199,6 +200,7 @@ class Manipulator:
         self.faults = faults
         self._state = [False] * len(faults)
         self._held: dict[tuple[int, str], float] = {}
+        self.native: set[int] = set()  # faults the C tick loop applies itself (native/loop.py); apply skips them
 
     def check(self, mds: dict, links) -> None:
         """Every target exists and can take its fault; FaultError naming the fault otherwise. From the model
@@ -244,6 +246,47 @@ class Manipulator:
         self._history: dict[str, list] = {t: [] for t in self._where}
         self._tick = execution.system.tick
 
+    def python_entries(self, instance: str, side: str) -> bool:
+        """Are there faults on this instance's side ("input" or "output") that Python applies?"""
+        return any(k not in self.native for k, _ in (self.outputs if side == "output" else self.inputs).get(instance, ()))
+
+    def native_capable(self, k: int) -> bool:
+        """A value fault on connected inputs or outputs only, sharing no target with a fault Python applies: the C
+        loop can apply it (override, bias, scale, ramp, clamp, hold are functions of time and value)."""
+        f = self.faults[k]
+        if f.action not in VALUE_ACTIONS or f.flag:
+            return False
+        others = {t for j, g in enumerate(self.faults) if j != k and g.action not in VALUE_ACTIONS for t in g.targets}
+        return all(self._where[t][0] in ("input", "output") and t not in others for t in f.targets)
+
+    def target(self, target: str):
+        """(side, array the value is in, its index, type) of a bound target."""
+        kind, owner, typ, index = self._where[target]
+        return kind, (owner.values[typ] if kind == "output" else owner.view), index, typ
+
+    def state_of(self, k: int, target: str) -> tuple[bool, float | None]:
+        """(fault k active at the last look, the value it holds at target or None)."""
+        return self._state[k], self._held.get((k, target))
+
+    def set_state_of(self, k: int, on: bool, target: str, held: float | None) -> None:
+        self._state[k] = on
+        if held is not None:
+            self._held[(k, target)] = held
+
+    def snapshot_state(self) -> dict:
+        """Where every fault stands: on or off, held values, the true values delays read, directly set inputs."""
+        return {"on": list(self._state), "held": [[k, target, v] for (k, target), v in self._held.items()],
+                "history": {t: list(h) for t, h in self._history.items()},
+                "direct": {t: [float(w[1].view[0]), w[1].changed] for t, w in self._where.items() if w[0] == "direct"}}
+
+    def restore_state(self, state: dict) -> None:
+        self._state = [bool(x) for x in state["on"]]
+        self._held = {(int(k), target): v for k, target, v in state["held"]}
+        self._history = {t: list(h) for t, h in state["history"].items()}
+        for target, (value, changed) in state["direct"].items():
+            owner = self._where[target][1]
+            owner.view[0], owner.changed = value, changed
+
     def _array(self, target: str) -> tuple[np.ndarray, int]:
         kind, owner, typ, index = self._where[target]
         if kind == "direct":
@@ -252,7 +295,7 @@ class Manipulator:
 
     def apply(self, instance: str, side: str, t: float, observers) -> None:
         """Manipulate the instance's outputs just read (side "output") or inputs about to be set ("input")."""
-        entries = (self.outputs if side == "output" else self.inputs).get(instance)
+        entries = [e for e in (self.outputs if side == "output" else self.inputs).get(instance, ()) if e[0] not in self.native]
         if not entries:
             return
         for _, target in entries:  # remember the true values first: delays read them

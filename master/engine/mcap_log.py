@@ -5,9 +5,10 @@ every n-th step with `log_every`. Instance channels are protobuf messages of a f
 (log_encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
 case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
 which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
-load), are JSON messages computed from one instance's outputs. The writer is foxglove-sdk's
-(Rust); the file is finalized on any exit path, so an interrupted run leaves a readable log up to
-its last step. The readers are in log_reader.py.
+load), are JSON messages computed from one instance's outputs. The writer (mcap_writer.py) takes
+each call of the tick loop's messages at once and compresses beside the loop; the file is finalized
+on any exit path, so an interrupted run leaves a readable log up to its last step, and a killed one
+up to its last chunk. The readers are in log_reader.py.
 """
 
 from __future__ import annotations
@@ -18,7 +19,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .log_encoding import LAYOUT, FixedMessage, fits
+from .mcap_writer import McapWriter, MessageBatch
 from .observers import Observer
 
 CHUNK = 32 * 1024  # a killed run loses at most one chunk: about 12 ticks (0.15 s) of the loop
@@ -33,8 +37,8 @@ class DerivedChannel:
     """A JSON channel computed from one instance's Real outputs on every `every`-th logged step of it.
 
     encoder(names) is called once, at the start, with the instance's Real output names; it returns
-    encode(values {name: float or None for a non-finite value}, log time in ns) -> JSON text, or None
-    for a step with nothing to log."""
+    encode(values, log time in ns) -> JSON text, or None for a step with nothing to log, where values is
+    the instance's Real outputs in that order (a float64 array; read it, do not keep it)."""
 
     topic: str
     source: str  # the instance
@@ -53,87 +57,145 @@ class McapLogger(Observer):
         self.final_metadata: dict[str, dict] = {}  # records written at finish (the run's metrics, for `tiltload compare`)
         self.derived = tuple(derived)
         self.metadata = metadata or {}
-        self._writer = None
+        self._writer: McapWriter | None = None
 
     def start(self, execution) -> None:
-        import foxglove
-        from foxglove.mcap import MCAPCompression, MCAPWriteOptions
-
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._context = foxglove.Context()  # this log's own channels, apart from any other run in the process
-        options = MCAPWriteOptions(compression=MCAPCompression.Zstd, chunk_size=CHUNK, compression_threads=0)
         # written under a temporary name: an earlier log of the same name is replaced only when this one is closed
         # (complete, or partial after an error or an interrupt); a killed run leaves <name>.partial beside it
         self.partial = self.path.with_name(self.path.name + ".partial")
-        self._writer = foxglove.open_mcap(str(self.partial), allow_overwrite=True, context=self._context, writer_options=options)
-        self._writer.write_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
+        self._writer = w = McapWriter(self.partial, CHUNK)
+        w.add_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
         self._channels, self._encoders, self._steps = {}, {}, {}
+        self._outputs = {name: inst.outputs for name, inst in execution.instances.items()}
         for name, inst in execution.instances.items():
             names = {t: [v.name for v in inst.outputs[t]] for t in ("Real", "Integer", "Boolean")}
             meta = {"fmu": str(inst.path)}
             if fits(["t", *names["Real"], *names["Integer"], *names["Boolean"]]):
                 enc = FixedMessage(name, names["Real"], names["Integer"], names["Boolean"])
-                schema = foxglove.Schema(name=enc.full_name, encoding="protobuf", data=enc.schema())
-                self._channels[name] = foxglove.Channel(f"/{name}", schema=schema, message_encoding="protobuf",
-                                                        context=self._context, metadata={**meta, "layout": LAYOUT})
+                schema = w.add_schema(enc.full_name, "protobuf", enc.schema())
+                self._channels[name] = w.add_channel(f"/{name}", schema, "protobuf", {**meta, "layout": LAYOUT})
                 self._encoders[name] = enc
             else:
                 props = {n: {"type": "number" if t == "Real" else "integer" if t == "Integer" else "boolean"}
                          for t in ("Real", "Integer", "Boolean") for n in names[t]}
-                self._channels[name] = foxglove.Channel(f"/{name}", schema={"type": "object", "title": f"{name} outputs",
-                                                                             "properties": props},
-                                                        context=self._context, metadata=meta)
+                self._channels[name] = self._json_channel(f"/{name}", {"type": "object", "title": f"{name} outputs",
+                                                                        "properties": props}, meta)
             self._steps[name] = 0
-        self._derived: dict[str, list] = {}  # source instance -> [(channel, output names, encode, every)]
+        self._derived: dict[str, list] = {}  # source instance -> [(channel, encode, every)]
         for d in self.derived:
             names = [v.name for v in execution.instances[d.source].outputs["Real"]]
-            channel = foxglove.Channel(d.topic, schema=foxglove.Schema(name=d.schema_name, encoding="jsonschema",
-                                                                       data=json.dumps(d.schema).encode()),
-                                       message_encoding="json", context=self._context)
-            self._derived.setdefault(d.source, []).append((channel, names, d.encoder(names), d.every * self.log_every))
+            channel = self._json_channel(d.topic, d.schema, {}, d.schema_name)
+            self._derived.setdefault(d.source, []).append((channel, d.encoder(names), d.every * self.log_every))
         self._faults_channel = None
         if execution.system.faults:
-            self._faults_channel = foxglove.Channel("/faults", schema={"type": "object", "title": "fault events", "properties": {
+            self._faults_channel = self._json_channel("/faults", {"type": "object", "title": "fault events", "properties": {
                 "t": {"type": "number"}, "event": {"type": "string"}, "name": {"type": "string"}, "action": {"type": "string"},
-                "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, context=self._context)
-        for inst in execution.instances.values():
-            self.on_step(inst, 0.0)
+                "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, {})
+        self._batch = MessageBatch()
+        if execution.resumed_at is None:
+            for inst in execution.instances.values():
+                self.on_step(inst, 0.0)
+        else:  # a run continued from a snapshot logs from where it goes on, in the cadence of the uninterrupted run
+            for name in self._steps:  # the step at t = 0, then one per period of the ticks done
+                self._steps[name] = 1 + -(-execution.ticks_done // execution.every[name])
+        self._flush_batch()
+
+    def _json_channel(self, topic: str, schema: dict, metadata: dict, name: str | None = None) -> int:
+        schema_id = self._writer.add_schema(name or schema.get("title", ""), "jsonschema", json.dumps(schema).encode())
+        return self._writer.add_channel(topic, schema_id, "json", metadata)
+
+    def _flush_batch(self) -> None:
+        batch, self._batch = self._batch, MessageBatch()
+        self._writer.add_messages(batch)
 
     def on_fault(self, t, fault, what) -> None:
         from .manipulators import describe
 
         if self._faults_channel is not None:
-            self._faults_channel.log(json.dumps({"t": t, "event": what, **describe(fault)}), log_time=int(round(t * 1e9)))
+            self._batch.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode())
 
     def on_step(self, instance, t) -> None:
-        name = instance.name
+        v = instance.values
+        self._write(instance.name, t, v["Real"], v["Integer"], v["Boolean"])
+
+    def _write(self, name: str, t: float, reals, integers, booleans) -> None:
+        """One step of one instance (the values at t = 0): its message and its derived channels' messages."""
         k = self._steps[name]
         self._steps[name] = k + 1
         if k % self.log_every:
             return
-        values = instance.values
         ns = int(round(t * 1e9))
         enc = self._encoders.get(name)
-        if enc is not None:
-            self._channels[name].log(enc.encode(t, values["Real"], values["Integer"], values["Boolean"]), log_time=ns)
-        else:  # JSON has no NaN: non-finite values are written as null
-            msg = {"t": t, **{v.name: _clean(x) for v, x in zip(instance.outputs["Real"], values["Real"].tolist())}}
-            msg.update({v.name: int(x) for v, x in zip(instance.outputs["Integer"], values["Integer"].tolist())})
-            msg.update({v.name: bool(x) for v, x in zip(instance.outputs["Boolean"], values["Boolean"].tolist())})
-            self._channels[name].log(json.dumps(msg), log_time=ns)
-        for channel, names, encode, every in self._derived.get(name, ()):
+        payload = enc.encode(t, reals, integers, booleans) if enc is not None else self._json(name, t, reals, integers, booleans)
+        self._batch.add(self._channels[name], ns, payload)
+        for channel, encode, every in self._derived.get(name, ()):
             if k % every == 0:
-                text = encode({n: _clean(x) for n, x in zip(names, values["Real"].tolist())}, ns)
+                text = encode(reals, ns)
                 if text is not None:
-                    channel.log(text, log_time=ns)
+                    self._batch.add(channel, ns, text.encode())
+
+    def on_batch(self, execution, batch) -> None:
+        """Every step of the batch in its order, fault events in their places: the fixed-layout messages of each
+        instance encoded at once, and the writer taking all of them in one call. A message's order key is
+        4 p + 1 for record p (its derived messages 4 p + 2, fault events before it 4 p), as the steps happened."""
+        out = self._batch
+        for name in batch.names:
+            mine = batch.positions(name)
+            if not len(mine):
+                continue
+            rows = batch.rows[name]
+            k = self._steps[name] + np.arange(len(mine))
+            self._steps[name] += len(mine)
+            logged = np.flatnonzero(k % self.log_every == 0)
+            if not len(logged):
+                continue
+            times = batch.time[mine][logged]
+            ns = np.rint(times * 1e9).astype(np.uint64)
+            keys = 4 * mine[logged] + 1
+            enc = self._encoders.get(name)
+            if enc is not None:
+                out.add_rows(self._channels[name], ns, enc.encode_rows(times, rows["Real"][logged], rows["Integer"][logged],
+                                                                        rows["Boolean"][logged]), keys)
+            else:
+                for j, r in enumerate(logged.tolist()):
+                    out.add(self._channels[name], int(ns[j]), self._json(name, float(times[j]), rows["Real"][r],
+                                                                           rows["Integer"][r], rows["Boolean"][r]), int(keys[j]))
+            for channel, encode, every in self._derived.get(name, ()):
+                for j in np.flatnonzero(k[logged] % every == 0).tolist():
+                    text = encode(rows["Real"][logged[j]], int(ns[j]))
+                    if text is not None:
+                        out.add(channel, int(ns[j]), text.encode(), int(keys[j]) + 1)
+        if self._faults_channel is not None:
+            from .manipulators import describe
+
+            for position, t, fault, what in batch.events:
+                out.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode(),
+                        4 * position)
+        self._flush_batch()
+
+    def _json(self, name: str, t: float, reals, integers, booleans) -> bytes:
+        """A JSON message (for outputs whose names are not identifiers). JSON has no NaN: non-finite values are null."""
+        outputs = self._outputs[name]
+        msg = {"t": t, **{v.name: _clean(x) for v, x in zip(outputs["Real"], reals.tolist())}}
+        msg.update({v.name: int(x) for v, x in zip(outputs["Integer"], integers.tolist())})
+        msg.update({v.name: bool(x) for v, x in zip(outputs["Boolean"], booleans.tolist())})
+        return json.dumps(msg).encode()
+
+    def snapshot_state(self) -> dict:
+        return {"steps": dict(self._steps)}  # where each instance is in log_every and the derived channels' cadence
+
+    def restore_state(self, state: dict) -> None:
+        self._steps.update(state["steps"])
 
     def finish(self, execution, error) -> None:
         if self._writer is None:
             return
+        self._flush_batch()
         if error:
-            self._writer.write_metadata("error", {"message": error})
+            self._writer.add_metadata("error", {"message": error})
         for name, record in self.final_metadata.items():
-            self._writer.write_metadata(name, {k: repr(v) if isinstance(v, float) else str(v) for k, v in record.items()})
+            self._writer.add_metadata(name, {k: repr(v) if isinstance(v, float) else str(v) for k, v in record.items()})
         self._writer.close()
         self._writer = None
         self.partial.replace(self.path)

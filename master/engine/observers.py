@@ -1,19 +1,66 @@
 """Observers: read-only views of an execution (metrics, progress). The MCAP logger is in mcap_log.py.
 
 An observer sees the execution start, every instance's outputs after each of its steps (with the
-time they hold), the end of every tick, the start and end of every fault, and the finish.
+time they hold), the end of every tick, the start and end of every fault, and the finish. The tick
+loop runs in C and records many ticks per call; an observer takes them as one Batch (on_batch), in
+the order they happened. An observer that only implements the per-step methods (on_step, on_tick,
+on_fault) gets the same sequence replayed step by step, each instance's values set as they were.
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from dataclasses import dataclass, field
 
 import numpy as np
 
 
+@dataclass
+class Batch:
+    """The steps of one call of the tick loop, in order. Arrays are views valid until the next call: copy to keep.
+
+    Record p: instance[p] (an index into names) stepped at tick[p]; its outputs then held the values at time[p]
+    and are row[p] of rows[name][type]. events: fault starts and ends, (p, t, fault, "start" | "end"): before
+    record p, as they happened."""
+
+    first_tick: int  # the first tick of the call
+    ticks: int  # ticks run
+    names: list[str]
+    instance: np.ndarray
+    tick: np.ndarray
+    time: np.ndarray
+    row: np.ndarray
+    rows: dict[str, dict[str, np.ndarray]]
+    events: list = field(default_factory=list)
+
+    def positions(self, name: str) -> np.ndarray:
+        """The records of one instance, in order."""
+        return np.flatnonzero(self.instance == self.names.index(name))
+
+    def head(self, cut: int) -> Batch:
+        """The batch's first cut records (and the fault events before them)."""
+        rows = {}
+        for i, name in enumerate(self.names):
+            n = int(np.count_nonzero(self.instance[:cut] == i))
+            rows[name] = {typ: r[:n] for typ, r in self.rows[name].items()}
+        ticks = int(self.tick[cut - 1]) - self.first_tick + 1 if cut else 0
+        return Batch(self.first_tick, ticks, self.names, self.instance[:cut], self.tick[:cut], self.time[:cut], self.row[:cut],
+                     rows, [e for e in self.events if e[0] < cut])
+
+    def latest_before(self, name: str, positions: np.ndarray) -> np.ndarray:
+        """For each record position, the row of the named instance's last record before it (-1: none in this batch)."""
+        mine = self.instance == self.names.index(name)
+        count = np.cumsum(mine) - mine  # its records strictly before each position
+        return count[positions] - 1
+
+
 class Observer:
     def start(self, execution) -> None: ...
+
+    def on_batch(self, execution, batch: Batch) -> None:
+        """Every step of a call of the tick loop. The default replays them through the per-step methods."""
+        replay(execution, batch, [self])
 
     def on_step(self, instance, t: float) -> None: ...
 
@@ -22,6 +69,80 @@ class Observer:
     def on_fault(self, t: float, fault, what: str) -> None: ...  # what: "start" or "end" (manipulators.py)
 
     def finish(self, execution, error: str | None) -> None: ...
+
+    def snapshot_state(self) -> dict | None:
+        """What a run continued from a snapshot needs of this observer to go on as if uninterrupted (JSON-able; floats
+        round-trip exactly). None: nothing."""
+        return None
+
+    def restore_state(self, state: dict) -> None: ...
+
+
+class ReplayStopped(Exception):
+    """An observer raised while a batch was replayed: `cut` records had been delivered (the error is the cause)."""
+
+    def __init__(self, cut: int) -> None:
+        super().__init__(cut)
+        self.cut = cut
+
+
+def replay(execution, batch: Batch, observers) -> None:
+    """The batch step by step for observers of the per-step kind: each instance's values as they were after each of
+    its steps, on_tick at the end of every tick, fault events in their places. The live values are restored after.
+    An observer's exception stops the replay where it happened: ReplayStopped(cut) from it, cut being the records
+    the run got to (the step being delivered included, as the log has it)."""
+    if not observers:
+        return
+    try:
+        _replay(execution, batch, observers)
+    except _Stopped as stop:
+        raise ReplayStopped(stop.cut) from stop.__cause__
+
+
+class _Stopped(Exception):
+    def __init__(self, cut: int) -> None:
+        self.cut = cut
+
+
+def _replay(execution, batch: Batch, observers) -> None:
+    slaves = [execution.instances[n] for n in batch.names]
+    live = [{t: v.copy() for t, v in s.values.items()} for s in slaves]
+    events = iter(batch.events)
+    event = next(events, None)
+    tick_of, tick = batch.tick, execution.system.tick
+    p, n = 0, len(batch.instance)
+    try:
+        for k in range(batch.first_tick, batch.first_tick + batch.ticks):
+            execution.ticks_done, execution.time = k, k * tick  # where the observers see the run: an exception stops it here
+            while p < n and tick_of[p] == k:
+                while event is not None and event[0] <= p:
+                    for obs in observers:
+                        obs.on_fault(*event[1:])
+                    event = next(events, None)
+                i = int(batch.instance[p])
+                slave, rows = slaves[i], batch.rows[batch.names[i]]
+                for typ, values in slave.values.items():
+                    values[:] = rows[typ][batch.row[p]]
+                try:
+                    for obs in observers:
+                        obs.on_step(slave, float(batch.time[p]))
+                except BaseException as err:
+                    raise _Stopped(p + 1) from err
+                p += 1
+            execution.ticks_done, execution.time = k + 1, (k + 1) * tick
+            try:
+                for obs in observers:
+                    obs.on_tick(k + 1, (k + 1) * tick)
+            except BaseException as err:
+                raise _Stopped(p) from err
+        while event is not None:  # faults that started in a call that then failed
+            for obs in observers:
+                obs.on_fault(*event[1:])
+            event = next(events, None)
+    finally:
+        for slave, values in zip(slaves, live):
+            for typ, v in values.items():
+                slave.values[typ][:] = v
 
 
 def _real(instance, name: str) -> int:
@@ -37,7 +158,8 @@ class Metrics(Observer):
     ISE(v) = sum_k (v(t_k) - v_ref(t_k))^2 T and IADU(u) = sum_k |u_k - u_{k-1}|, the discrete forms
     of the integrals. The plant's value at t_k is its output before the tick's step. plant, reference
     and actuators are instance names; tracked pairs a plant output with a reference output; inputs
-    names the actuator instance's command outputs.
+    names the actuator instance's command outputs. The sums run in the order of the steps (a sequential
+    accumulate, not a pairwise sum), so they do not depend on how the steps were batched.
     """
 
     def __init__(self, plant: str, reference: str, actuators: str, tracked: tuple[tuple[str, str], ...],
@@ -67,20 +189,51 @@ class Metrics(Observer):
         self._ri = np.array([_real(self._r, r) for _, r in self.tracked])
         self._ui = np.array([_real(self._a, u) for u in self.inputs])
         self._x = self._p.values["Real"][self._pi]  # the plant's value at the start of the tick (a copy: fancy index)
+        self._ref = self._r.values["Real"][self._ri]  # the reference's latest value
 
-    def on_step(self, instance, t) -> None:
-        if instance is self._a:  # u_k and ref(t_k) are known, the plant has not stepped yet
-            e = self._x - self._r.values["Real"][self._ri]
-            self._ise += e * e * self.tick
-            u = self._a.values["Real"][self._ui]
-            if self._prev_u is not None:
-                self._iadu += np.abs(u - self._prev_u)
-            self._prev_u = u
-        elif instance is self._p:
-            self._x = self._p.values["Real"][self._pi]
+    def _carried(self, batch: Batch, name: str, columns: np.ndarray, carry: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """The named instance's columns as they were just before each record position in at."""
+        rows = batch.rows[name]["Real"][:, columns]
+        before = batch.latest_before(name, at)
+        return np.where((before >= 0)[:, None], rows[np.maximum(before, 0)], carry[None, :])
+
+    def _sampled(self, batch: Batch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(positions, e, u) at each actuator step of the batch: the tracking error before it, the command it gave."""
+        at = batch.positions(self.actuators)
+        x = self._carried(batch, self.plant, self._pi, self._x, at)
+        ref = self._carried(batch, self.reference, self._ri, self._ref, at)
+        u = batch.rows[self.actuators]["Real"][batch.row[at]][:, self._ui]
+        return at, x - ref, u
+
+    def on_batch(self, execution, batch: Batch) -> None:
+        self._accumulate(batch, *self._sampled(batch))
+
+    def _accumulate(self, batch: Batch, at: np.ndarray, e: np.ndarray, u: np.ndarray) -> None:
+        if len(at):
+            self._ise = np.add.accumulate(np.vstack([self._ise, e * e * self.tick]), axis=0)[-1]
+            previous = np.vstack([u[:1] if self._prev_u is None else self._prev_u[None, :], u[:-1]])
+            steps = np.abs(u - previous)
+            if self._prev_u is None:
+                steps = steps[1:]
+            if len(steps):
+                self._iadu = np.add.accumulate(np.vstack([self._iadu, steps]), axis=0)[-1]
+            self._prev_u = u[-1].copy()
+        for name, columns, attr in ((self.plant, self._pi, "_x"), (self.reference, self._ri, "_ref")):
+            rows = batch.rows[name]["Real"]
+            if len(rows):
+                setattr(self, attr, rows[-1, columns])
 
     def table(self) -> dict[str, float]:
         return {**self.ise, **self.iadu}
+
+    def snapshot_state(self) -> dict:
+        return {"ise": self._ise.tolist(), "iadu": self._iadu.tolist(), "x": self._x.tolist(), "ref": self._ref.tolist(),
+                "prev_u": None if self._prev_u is None else self._prev_u.tolist()}
+
+    def restore_state(self, state: dict) -> None:
+        self._ise, self._iadu = np.array(state["ise"]), np.array(state["iadu"])
+        self._x, self._ref = np.array(state["x"]), np.array(state["ref"])
+        self._prev_u = None if state["prev_u"] is None else np.array(state["prev_u"])
 
 
 class Progress(Observer):
@@ -90,6 +243,10 @@ class Progress(Observer):
         self.stop, self.stream = stop, stream
         self._t0 = time.perf_counter()
         self._last = self._t0  # first refresh after 0.5 s, when the rate means something
+
+    def on_batch(self, execution, batch: Batch) -> None:
+        k = batch.first_tick + batch.ticks
+        self.on_tick(k, k * execution.system.tick)
 
     def on_tick(self, k, t) -> None:
         now = time.perf_counter()

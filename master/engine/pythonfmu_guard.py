@@ -22,20 +22,21 @@ from __future__ import annotations
 
 import atexit
 import os
-import shutil
 import sys
 from pathlib import Path
 
 _PINNED: dict[str, object] = {}
-_FOLDERS: list[str] = []
+_FOLDERS: list = []  # the pinned copies (extraction.Unpacked)
 
 
 def pin(fmu: Path | str) -> None:
     """Instantiate one pythonfmu FMU once and keep its library loaded until the process exits."""
     import zipfile
 
-    from fmpy import extract, read_model_description
+    from fmpy import read_model_description
     from fmpy.fmi2 import FMU2Slave
+
+    from .extraction import Unpacked
 
     with zipfile.ZipFile(fmu) as z:
         if "resources/slavemodule.txt" not in z.namelist():
@@ -43,7 +44,8 @@ def pin(fmu: Path | str) -> None:
     md = read_model_description(str(fmu))
     if md.coSimulation.modelIdentifier in _PINNED:
         return
-    unzipdir = extract(str(fmu))
+    unpacked = Unpacked(fmu)  # removed at exit, or by its reaper if the process dies (a pythonfmu FMU that crashes)
+    unzipdir = unpacked.folder
     slave = FMU2Slave(
         guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName="tiltload_pin",
@@ -51,8 +53,8 @@ def pin(fmu: Path | str) -> None:
     slave.instantiate()
     slave.fmi2FreeInstance(slave.component)  # the instance goes, the library stays
     _PINNED[md.coSimulation.modelIdentifier] = slave
-    _FOLDERS.append(unzipdir)
-    atexit.register(shutil.rmtree, unzipdir, True)
+    _FOLDERS.append(unpacked)
+    atexit.register(unpacked.release)
 
 
 def pinned() -> bool:
@@ -61,8 +63,8 @@ def pinned() -> bool:
 
 def exit_now(code: int) -> None:
     """End the process with code, skipping the interpreter shutdown that pinned pythonfmu libraries can crash."""
-    for folder in _FOLDERS:
-        shutil.rmtree(folder, ignore_errors=True)
+    for unpacked in _FOLDERS:
+        unpacked.release()
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()

@@ -29,11 +29,14 @@ class RunResult:
 
 def run_system(system: System, stop: float, log: Path | None, metrics: Metrics | None = None, progress: bool = True,
                metadata: dict | None = None, channels=(), observers_extra=(), log_every: int = 1,
-               isolate: IsolationPolicy | None = None, step_timeout: float | None = None, announce=None) -> RunResult:
+               isolate: IsolationPolicy | None = None, step_timeout: float | None = None, announce=None,
+               realtime=None, resume=None, checkpoints=()) -> RunResult:
     """Run to stop; log to MCAP unless log is None (metrics only), every log_every-th step of each FMU, with the
     derived channels given (mcap_log.DerivedChannel: a 3D scene, say). isolate(fmu, md) picks the FMUs that run
     in worker processes of their own (isolation/process.py). announce(execution), if given, is called once the
-    system is checked, before any FMU is loaded."""
+    system is checked, before any FMU is loaded. realtime (realtime.Pacer) paces the ticks; its statistics go into
+    the log's "realtime" record. resume (snapshot.Snapshot) continues a run from where it was taken; checkpoints
+    [(t, fn)] call fn(execution) when the run reaches t (a snapshot, say)."""
     logger = McapLogger(log, metadata=metadata, log_every=log_every, derived=channels) if log is not None else None
     observers = [*([logger] if logger else []), *observers_extra]
     if metrics is not None:
@@ -41,13 +44,21 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
     if progress:
         observers.append(Progress(stop))
     ex = Execution(system, observers, isolate=isolate, step_timeout=step_timeout)
+    if resume is not None:
+        from .snapshot import check
+
+        check(ex, resume)  # another system, another build, a fixed parameter: refused before anything loads
     if announce is not None:
         announce(ex)
     started = time.perf_counter()
     error, signum = None, None
     try:
-        ex.instantiate()
-        ex.run(stop)
+        ex.instantiate(resume)
+        for t, fn in sorted(checkpoints, key=lambda c: c[0]):
+            if t < stop:
+                ex.run(t, realtime)
+                fn(ex)
+        ex.run(stop, realtime)
     except KeyboardInterrupt as err:
         signum = getattr(err, "signum", 2)
         error = f"interrupted by {'SIGTERM' if signum == 15 else 'SIGINT'} at t = {ex.time:.3f} s"
@@ -56,6 +67,8 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
     finally:
         if metrics is not None and logger is not None:
             logger.final_metadata["metrics"] = {**metrics.table(), "ticks": ex.ticks_done, "complete": error is None}
+        if realtime is not None and logger is not None:
+            logger.final_metadata["realtime"] = realtime.statistics()
         ex.close(error)
     return RunResult(metrics.table() if metrics else {}, Path(log) if log is not None else None, ex.ticks_done, ex.time,
                      time.perf_counter() - started, error, signum)

@@ -65,6 +65,24 @@ class Slave(ABC):
     def read_outputs(self) -> None:
         """The outputs after the last step into values."""
 
+    @property
+    def can_serialize(self) -> bool:
+        """Can its state be saved to bytes and restored (canGetAndSetFMUstate and canSerializeFMUstate)?"""
+        cs = self.md.coSimulation
+        return bool(cs.canGetAndSetFMUstate and cs.canSerializeFMUstate)
+
+    @abstractmethod
+    def set_values(self, values: dict) -> None:
+        """Set parameters or inputs by name, each checked against its variable (model_description.checked_value)."""
+
+    @abstractmethod
+    def get_state(self) -> bytes:
+        """The instance's whole state, serialized by the FMU (fmi2GetFMUstate + fmi2SerializeFMUstate)."""
+
+    @abstractmethod
+    def set_state(self, state: bytes) -> None:
+        """Restore a state get_state gave (fmi2DeSerializeFMUstate + fmi2SetFMUstate); the outputs follow."""
+
     @abstractmethod
     def close(self) -> None:
         """Terminate and free the instance (no call after fmi2Fatal); safe to call twice."""

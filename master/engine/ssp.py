@@ -19,6 +19,7 @@ import functools
 import hashlib
 import io
 import json
+import os
 import zipfile
 from pathlib import Path
 
@@ -245,31 +246,123 @@ _SSD_NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
            "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues", "tl": TL_NS}
 
 
-def _unpack(path: Path, into: Path) -> Path:
-    """The archive unpacked once into the folder into (FMUs are loaded from files), keyed by its content."""
-    digest = hashlib.sha256(path.read_bytes()).hexdigest()[:20]
-    folder = Path(into) / digest
-    if not (folder / ".complete").exists():
-        partial = folder.with_name(folder.name + ".partial")
-        import shutil
+# Limits on what an archive may unpack to: a package holds a few FMUs (the loop's is 0.45 MB; a big FMU with its
+# resources, hundreds of MB), a zip bomb expands a thousandfold. Checked on the declared sizes before anything is
+# written, and again on the bytes actually written (a declared size can lie).
+MAX_UNPACKED = 1 << 30  # 1 GiB unpacked in all
+MAX_RATIO = 100  # a member may expand at most 100-fold (the loop's SSD: 16-fold; FMUs hardly) ...
+RATIO_FREE = 1 << 20  # ... unless it unpacks to at most 1 MiB
+MAX_MEMBERS = 10_000
+_BLOCK = 1 << 20
 
-        shutil.rmtree(partial, ignore_errors=True)
+
+def package_digest(path: Path) -> str:
+    """The archive's SHA-256, read in blocks (a large package is never held in memory)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def _unpack(path: Path, into: Path) -> Path:
+    """The archive unpacked once into the folder into (FMUs are loaded from files), keyed by its content.
+
+    Refused with one line, leaving nothing behind: a link or any other non-regular member, a name that leaves the
+    package, more than MAX_MEMBERS members, more than MAX_UNPACKED bytes in all, a member that expands more than
+    MAX_RATIO-fold (above RATIO_FREE bytes)."""
+    import shutil
+
+    folder = Path(into) / package_digest(path)[:20]
+    if (folder / ".complete").exists():
+        return folder
+    partial = folder.with_name(f"{folder.name}.{os.getpid()}.partial")
+    shutil.rmtree(partial, ignore_errors=True)
+    try:
         with zipfile.ZipFile(path) as z:
-            for member in z.namelist():
-                target = (partial / member).resolve()
-                if not str(target).startswith(str(partial.resolve())):
-                    raise DescriptionError(f"{path}: archive member {member!r} points outside the package")
-            z.extractall(partial)
+            members = _checked_members(path, z)
+            partial.mkdir(parents=True)
+            written = 0
+            for info in members:
+                target = partial / info.filename
+                if info.is_dir():
+                    target.mkdir(parents=True, exist_ok=True)
+                    continue
+                target.parent.mkdir(parents=True, exist_ok=True)
+                written += _copy_member(path, z, info, target, MAX_UNPACKED - written)
         (partial / ".complete").write_text("")
-        shutil.rmtree(folder, ignore_errors=True)
-        partial.replace(folder)
+        if (folder / ".complete").exists():  # another process unpacked the same package meanwhile
+            shutil.rmtree(partial, ignore_errors=True)
+        else:
+            shutil.rmtree(folder, ignore_errors=True)
+            partial.replace(folder)
+    except BaseException as err:
+        shutil.rmtree(partial, ignore_errors=True)
+        if isinstance(err, zipfile.BadZipFile):
+            raise DescriptionError(f"{path}: the archive is damaged ({err})") from None
+        if isinstance(err, OSError) and not isinstance(err, DescriptionError):
+            raise DescriptionError(f"{path}: cannot unpack into {into}: {err.strerror or err}") from None
+        raise
     return folder
 
 
-def _parameters(folder: Path, binding, where: str) -> dict:
+def _checked_members(path: Path, z: zipfile.ZipFile) -> list[zipfile.ZipInfo]:
+    """The archive's members, each a plain file or folder whose name stays inside the package; the declared sizes
+    within the limits."""
+    import stat
+
+    members = z.infolist()
+    if len(members) > MAX_MEMBERS:
+        raise DescriptionError(f"{path}: the archive has {len(members)} members, more than the {MAX_MEMBERS} a package may have")
+    total, seen = 0, set()
+    for info in members:
+        name = info.filename
+        if name.rstrip("/") in seen:
+            raise DescriptionError(f"{path}: archive member {name!r} appears twice")
+        seen.add(name.rstrip("/"))
+        mode = info.external_attr >> 16
+        kind = stat.S_IFMT(mode)
+        if stat.S_ISLNK(mode):
+            raise DescriptionError(f"{path}: archive member {name!r} is a symbolic link: a package holds files only")
+        if kind and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            raise DescriptionError(f"{path}: archive member {name!r} is not a regular file: a package holds files only")
+        parts = name.replace("\\", "/").split("/")
+        if name.startswith(("/", "\\")) or ".." in parts or (parts and ":" in parts[0]) or "\0" in name:
+            raise DescriptionError(f"{path}: archive member {name!r} points outside the package")
+        total += info.file_size
+        if info.file_size > RATIO_FREE and info.file_size > MAX_RATIO * max(info.compress_size, 1):
+            raise DescriptionError(f"{path}: archive member {name!r} expands {info.file_size / max(info.compress_size, 1):.0f}-fold "
+                                   f"(to {info.file_size / 2**20:.0f} MiB): more than the {MAX_RATIO}-fold a package may (a zip bomb?)")
+    if total > MAX_UNPACKED:
+        raise DescriptionError(f"{path}: the archive unpacks to {total / 2**20:.1f} MiB, more than the "
+                               f"{MAX_UNPACKED // 2**20} MiB a package may")
+    return members
+
+
+def _copy_member(path: Path, z: zipfile.ZipFile, info: zipfile.ZipInfo, target: Path, room: int) -> int:
+    """Stream one member to target, never past its declared size, the ratio or the room left; the bytes written."""
+    limit = min(info.file_size, room)
+    written = 0
+    with z.open(info) as src, open(target, "xb") as dst:
+        while block := src.read(_BLOCK):
+            written += len(block)
+            if written > limit:
+                if written > room:
+                    raise DescriptionError(f"{path}: the archive unpacks to more than the {MAX_UNPACKED // 2**20} MiB a package may")
+                raise DescriptionError(f"{path}: archive member {info.filename!r} holds more than the {info.file_size} bytes it declares")
+            dst.write(block)
+    return written
+
+
+def _inside(folder: Path, source: str, allow_external: bool, where: str, what: str) -> Path:
+    """A file a package names, resolved; refused if it lies outside the package's folder unless allow_external."""
+    resolved = (folder / source).resolve()
+    if not allow_external and not resolved.is_relative_to(folder.resolve()):
+        raise DescriptionError(f"{where}: its {what} {source!r} lies outside the package (--allow-external-fmus allows it)")
+    return resolved
+
+
+def _parameters(folder: Path, binding, where: str, allow_external: bool = False) -> dict:
     """One ParameterBinding's values: inline ParameterValues or an SSV file."""
     if binding.get("source"):
-        ssv_path = folder / binding.get("source")
+        ssv_path = _inside(folder, binding.get("source"), allow_external, where, "parameter set")
         try:
             data = ssv_path.read_bytes()
         except OSError:
@@ -299,10 +392,11 @@ def _parameters(folder: Path, binding, where: str) -> dict:
     return values
 
 
-def load(path: Path, unpack_into: Path) -> tuple[System, float | None, str]:
+def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[System, float | None, str]:
     """An SSP archive (.ssp) or a bare SystemStructure file (.ssd, FMUs relative to it) as a System, with the default
     experiment's stop time and the schedule it was prepared for. An archive is unpacked once into a folder of
-    unpack_into named by its content."""
+    unpack_into named by its content (_unpack: its limits). Every component's FMU and parameter set must lie in the
+    package (the .ssd's folder for a bare one) unless allow_external."""
     path = Path(path)
     if not path.exists():
         raise DescriptionError(f"SSP package {path} does not exist")
@@ -339,15 +433,16 @@ def load(path: Path, unpack_into: Path) -> tuple[System, float | None, str]:
         name, source = comp.get("name"), comp.get("source")
         if comp.get("type", FMU_TYPE) != FMU_TYPE:
             raise DescriptionError(f"{path}: component {name} is a {comp.get('type')}, not an FMU")
+        fmu = _inside(folder, source, allow_external, f"{path}: component {name}", "FMU")
         params = {}
         for binding in comp.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", _SSD_NS):
-            params.update(_parameters(folder, binding, f"{path}: component {name}"))
+            params.update(_parameters(folder, binding, f"{path}: component {name}", allow_external))
         extra = timing.get(name)
         period = float(extra.get("period")) if extra is not None and extra.get("period") else None
         fmi = extra.get("fmi") if extra is not None else None
         if fmi not in (None, "2", "3"):
             raise DescriptionError(f"{path}: component {name}: the FMI version must be 2 or 3, got {fmi!r}")
-        instances.append(Instance(name, (folder / source).resolve(), period, params,
+        instances.append(Instance(name, fmu, period, params,
                                   extra.get("timing", "sample") if extra is not None else "sample", int(fmi) if fmi else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")

@@ -1,5 +1,7 @@
 /* The code both FMI layers share (tl_core.h): one definition of the start values, the set checks with their
    messages and the snapshot format, so an FMI 2.0 and an FMI 3.0 build of a model behave alike. */
+#include "tl_platform.h"
+
 #include "tl_core.h"
 
 #include <math.h>
@@ -14,10 +16,12 @@ void tl_load_start_values(TlInstance* c) {
   for (i = 0; i < TL_N_REAL; ++i) c->s.real[i] = tl_real_start[i];
   for (i = 0; i < TL_N_INTEGER; ++i) c->s.integer[i] = tl_integer_start[i];
   for (i = 0; i < TL_N_BOOLEAN; ++i) c->s.boolean[i] = tl_boolean_start[i] ? fmi2True : fmi2False;
+#if TL_N_STRING > 0 /* GCC at -O0 warns about the copy into the placeholder array of an FMU without Strings */
   for (i = 0; i < TL_N_STRING; ++i) {
     strncpy(c->s.string[i], tl_string_start[i], TL_STRING_LEN - 1);
     c->s.string[i][TL_STRING_LEN - 1] = '\0';
   }
+#endif
   c->s.time = c->s.start_time = 0.0;
   c->s.stop_time = INFINITY;
   c->s.phase = TL_INSTANTIATED;

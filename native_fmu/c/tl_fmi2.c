@@ -5,6 +5,8 @@
    variables' causality, refuses non-finite Reals, and turns the hooks' results into statuses:
    fmi2Error puts the instance in an error state (get, reset, terminate and free remain),
    fmi2Discard refuses one step and keeps the state, fmi2Fatal marks the instance unusable. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -73,6 +75,94 @@ static fmi2Status refuse(TlInstance* c, const char* call) {
 #define IN(p) ((unsigned)1 << (p))
 #define ANY_BUT_FATAL (IN(TL_INSTANTIATED) | IN(TL_INITIALIZATION) | IN(TL_STEPPING) | IN(TL_TERMINATED) | IN(TL_ERRORED))
 
+/* The fmuResourceLocation URI as a path the C library opens: file:///C:/a%20b/resources (RFC 8089),
+   file:/C:/..., file://localhost/..., file://C:/... (a common slip), a UNC host on Windows, or a bare
+   path as some importers pass one; percent-escapes decoded, backslashes taken as separators on Windows.
+   Always ends in a separator. NULL when there is no such location (then a model has no resources). */
+static int hex_digit(char c) {
+  return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+}
+
+static int is_drive(const char* p) {
+  return ((p[0] >= 'A' && p[0] <= 'Z') || (p[0] >= 'a' && p[0] <= 'z')) && (p[1] == ':' || p[1] == '|') &&
+         (p[2] == '/' || p[2] == '\\' || p[2] == '\0');
+}
+
+static int same_letters(const char* a, const char* b, size_t n) {
+  size_t i;
+  for (i = 0; i < n; ++i) {
+    char x = a[i] >= 'A' && a[i] <= 'Z' ? (char)(a[i] - 'A' + 'a') : a[i];
+    if (x != b[i]) return 0;
+  }
+  return 1;
+}
+
+static char* resource_path(const fmi2CallbackFunctions* host, const char* uri) {
+#if defined(_WIN32)
+  const char separator = '\\';
+#else
+  const char separator = '/';
+#endif
+  const char *p = uri, *host_name = NULL;
+  size_t host_len = 0, n, i, j = 0;
+  char* out;
+  if (uri == NULL || uri[0] == '\0') return NULL;
+  if (same_letters(p, "file:", 5)) {
+    p += 5;
+    if (p[0] == '/' && p[1] == '/') { /* an authority: empty, localhost, a drive by mistake, or a host */
+      const char* end;
+      p += 2;
+      end = p + strcspn(p, "/\\");
+      if (is_drive(p)) {
+        /* file://C:/dir: the drive is the path's start */
+      } else {
+        if (end - p != 0 && !((size_t)(end - p) == 9 && same_letters(p, "localhost", 9))) {
+          host_name = p;
+          host_len = (size_t)(end - p);
+        }
+        p = end;
+      }
+    }
+  } else {
+    size_t k = 0; /* another scheme (http:, ...) is nothing the C library opens; a drive letter is no scheme */
+    while ((p[k] >= 'a' && p[k] <= 'z') || (p[k] >= 'A' && p[k] <= 'Z') || (k > 0 && ((p[k] >= '0' && p[k] <= '9') ||
+                                                                                     p[k] == '+' || p[k] == '-' || p[k] == '.')))
+      ++k;
+    if (k > 1 && p[k] == ':') return NULL;
+  }
+#if defined(_WIN32)
+  if (p[0] == '/' && is_drive(p + 1)) ++p; /* /C:/dir -> C:/dir */
+#else
+  if (host_name != NULL) return NULL; /* file://server/share: only Windows opens it */
+#endif
+  n = strlen(p) + host_len + 4;
+  out = (char*)host->allocateMemory(n, 1);
+  if (out == NULL) return NULL;
+  if (host_name != NULL) {
+    out[j++] = separator;
+    out[j++] = separator;
+    memcpy(out + j, host_name, host_len);
+    j += host_len;
+  }
+  for (i = 0; p[i] != '\0'; ++i) {
+    char c = p[i];
+    if (c == '%' && hex_digit(p[i + 1]) >= 0 && hex_digit(p[i + 2]) >= 0) {
+      c = (char)(hex_digit(p[i + 1]) * 16 + hex_digit(p[i + 2]));
+      i += 2;
+    } else if (c == '?' || c == '#') {
+      break; /* a query or fragment is not part of the path */
+    }
+#if defined(_WIN32)
+    if (c == '/' || c == '\\') c = separator;
+    if (c == '|' && j == 1) c = ':'; /* file:///C|/dir, the old form of a drive */
+#endif
+    out[j++] = c;
+  }
+  if (j == 0 || out[j - 1] != separator) out[j++] = separator;
+  out[j] = '\0';
+  return out;
+}
+
 /* ---- information and life cycle ------------------------------------------------------- */
 const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char* fmi2GetVersion(void) { return fmi2Version; }
@@ -89,7 +179,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
                               const fmi2CallbackFunctions* host, fmi2Boolean visible, fmi2Boolean logging_on) {
   TlInstance* c;
   size_t n;
-  (void)resources; (void)visible;
+  (void)visible;
   if (host == NULL || host->allocateMemory == NULL || host->freeMemory == NULL) return NULL;
   if (name == NULL || name[0] == '\0') {
     log_host(host, "?", "fmi2Instantiate: the instance name is empty");
@@ -116,6 +206,11 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
   memcpy(c->name, name, n);
   c->host = *host;
   c->logging_on = logging_on;
+  c->resources = resource_path(host, resources);
+  if (resources != NULL && resources[0] != '\0' && c->resources == NULL)
+    tl_log(c, fmi2Warning, "fmi2Instantiate: the resource location %s is not a file this platform opens; ignored", resources);
+  else
+    tl_log(c, fmi2OK, "fmi2Instantiate: resources in %s", c->resources ? c->resources : "(none given)");
   tl_load_start_values(c);
   return c;
 }
@@ -125,6 +220,7 @@ void fmi2FreeInstance(fmi2Component instance) {
   fmi2CallbackFreeMemory release;
   if (c == NULL) return;
   release = c->host.freeMemory;
+  if (c->resources != NULL) release(c->resources);
   release(c->name);
   release(c);
 }

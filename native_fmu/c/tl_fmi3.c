@@ -13,6 +13,8 @@
    or clock set after a Get makes it run again, from the model state the event began with. Clocked variables
    are accessible only while their clock is active (and at initialization). Every fmi3 function is exported;
    those of model exchange and scheduled execution refuse with a reason. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -127,6 +129,26 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean on, size_t n, 
   return fmi3OK;
 }
 
+/* FMI 3.0 gives the resources folder as a native path already (2_3: "absolute file path with a trailing file
+   separator"); kept as given, with the separator added if an importer left it off. NULL for none. */
+static char* resource_path(const char* path) {
+#if defined(_WIN32)
+  const char separator = '\\';
+#else
+  const char separator = '/';
+#endif
+  size_t n;
+  char* out;
+  if (path == NULL || path[0] == '\0') return NULL;
+  n = strlen(path);
+  out = (char*)malloc(n + 2);
+  if (out == NULL) return NULL;
+  memcpy(out, path, n);
+  if (out[n - 1] != '/' && out[n - 1] != '\\') out[n++] = separator;
+  out[n] = '\0';
+  return out;
+}
+
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
                                          fmi3Boolean logging_on, fmi3Boolean event_mode_used, fmi3Boolean early_return_allowed,
                                          const fmi3ValueReference required_intermediate[], size_t n_required_intermediate,
@@ -135,7 +157,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
   TlHost host;
   TlInstance* c;
   size_t n;
-  (void)resources; (void)visible; (void)early_return_allowed; (void)required_intermediate; (void)intermediate_update;
+  (void)visible; (void)early_return_allowed; (void)required_intermediate; (void)intermediate_update;
   host.environment = environment;
   host.log_message = log_message;
   if (name == NULL || strspn(name, " \t\r\n") == strlen(name)) {
@@ -174,6 +196,8 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
   c->host = host;
   c->logging_on = logging_on ? fmi2True : fmi2False;
   c->event_mode_used = event_mode_used ? 1 : 0;
+  c->resources = resource_path(resources);
+  tl_log(c, fmi2OK, "fmi3InstantiateCoSimulation: resources in %s", c->resources ? c->resources : "(none given)");
   tl_load_start_values(c);
   return c;
 }
@@ -205,6 +229,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token
 void fmi3FreeInstance(fmi3Instance instance) {
   TlInstance* c = (TlInstance*)instance;
   if (c == NULL) return;
+  free(c->resources);
   free(c->name);
   free(c);
 }

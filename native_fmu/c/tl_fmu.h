@@ -8,6 +8,8 @@
 #ifndef TL_FMU_H
 #define TL_FMU_H
 
+#include "tl_platform.h"
+
 #include "tl_model.h"
 
 #ifndef TL_FMI_VERSION
@@ -64,28 +66,29 @@ typedef struct TlInstance {
   TlState s;
   TlHost host;
   char* name;
+  char* resources; /* the resources folder as a native path ending in a separator, or NULL (no file URI given) */
   fmi2Boolean logging_on;
   int event_mode_used; /* FMI 3.0: the importer runs Event Mode (clocked FMUs require it) */
 } TlInstance;
 
 /* Log a formatted message through the host's logger (errors and discards always; others when
    logging is on). The message is formatted here: hosts print it as it is. Each layer implements it. */
-void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...)
+TL_INTERNAL void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
 
 /* Model hooks. */
-void tl_model_reset(TlInstance* c);                           /* start values are loaded: set the model state */
-fmi2Status tl_model_outputs(TlInstance* c);                   /* outputs from parameters and inputs (initialization mode) */
-fmi2Status tl_model_initialize(TlInstance* c);                /* exitInitializationMode: check parameters, set outputs */
-fmi2Status tl_model_step(TlInstance* c, double t, double h);  /* advance [t, t + h); the layer advances the clock on OK */
+TL_INTERNAL void tl_model_reset(TlInstance* c);                          /* start values are loaded: set the model state */
+TL_INTERNAL fmi2Status tl_model_outputs(TlInstance* c);                  /* outputs from parameters and inputs (initialization mode) */
+TL_INTERNAL fmi2Status tl_model_initialize(TlInstance* c);               /* exitInitializationMode: check parameters, set outputs */
+TL_INTERNAL fmi2Status tl_model_step(TlInstance* c, double t, double h); /* advance [t, t + h); the layer advances the clock on OK */
 #if TL_N_CLOCK > 0
 /* Event Mode at time t with the clocks c->s.clock_active (any of them, or none): run their partitions from the
    inputs set, write the clocked outputs and the discrete ones. May run again in the same event, from the model
    state the event began with (the layer restores it), when inputs or clocks change after an output was read. */
-fmi2Status tl_model_event(TlInstance* c, double t);
+TL_INTERNAL fmi2Status tl_model_event(TlInstance* c, double t);
 #endif
 
 #endif

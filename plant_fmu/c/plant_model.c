@@ -3,6 +3,8 @@
    out by the variable table so that states, inputs and parameters are the model's vectors.
    One source for both vehicles (with the load, and the UAV alone): plant_layout.h says where
    this one's parameters are and which checks they get. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -22,12 +24,12 @@
 #define DISTURBANCE(c) ((c)->s.real + TL_REAL_d_x)
 #define PARAMS(c) ((c)->s.real + TL_PLANT_FIRST_PARAM)
 
-_Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "states are contiguous, in the model's order");
-_Static_assert(TL_REAL_alpha_L_dot_0 - TL_REAL_x_0 == NX - 1, "initial states are contiguous");
-_Static_assert(TL_REAL_L_z - TL_REAL_x_B == TL_PLANT_NY - 1, "diagnostic outputs are contiguous");
-_Static_assert(TL_PLANT_LAST_PARAM - TL_PLANT_FIRST_PARAM == TL_PLANT_NP - 1, "Table 5.1 parameters are contiguous");
-_Static_assert(TL_REAL_tau_L_applied - TL_REAL_f_R_applied == 3 && TL_REAL_tau_L - TL_REAL_f_R == 3, "four actuators");
-_Static_assert(TL_REAL_d_z - TL_REAL_d_x == 2, "three disturbance components");
+TL_STATIC_ASSERT(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "states are contiguous, in the model's order");
+TL_STATIC_ASSERT(TL_REAL_alpha_L_dot_0 - TL_REAL_x_0 == NX - 1, "initial states are contiguous");
+TL_STATIC_ASSERT(TL_REAL_L_z - TL_REAL_x_B == TL_PLANT_NY - 1, "diagnostic outputs are contiguous");
+TL_STATIC_ASSERT(TL_PLANT_LAST_PARAM - TL_PLANT_FIRST_PARAM == TL_PLANT_NP - 1, "Table 5.1 parameters are contiguous");
+TL_STATIC_ASSERT(TL_REAL_tau_L_applied - TL_REAL_f_R_applied == 3 && TL_REAL_tau_L - TL_REAL_f_R == 3, "four actuators");
+TL_STATIC_ASSERT(TL_REAL_d_z - TL_REAL_d_x == 2, "three disturbance components");
 
 static fmi2Status evaluate_outputs(TlInstance* c) {
   const double* arg[TL_PLANT_OUT_SZ_ARG + 1];

@@ -3,6 +3,8 @@
    the state set before the call and is held until the group's next sample (docs/ports.md, Timing).
    The clocked FMI 3.0 variant (TL_N_CLOCK > 0, one clock per group) takes the same sample in the Event Mode at t_k
    when the group's clock is active (tl_model_event), and its steps only move the exact channel. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -17,10 +19,10 @@
 #define STATE(c) ((c)->s.real + TL_REAL_x)
 #define EXACT(c) ((c)->s.real + TL_REAL_exact_x)
 
-_Static_assert(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "the state inputs are contiguous");
-_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact channel is contiguous");
-_Static_assert(TL_N_GROUPS <= TL_SENSOR_MAX_GROUPS && TL_N_PARAMS <= TL_SENSOR_MAX_PARAMS, "model state fits");
-_Static_assert(TL_PI_SZ_ARG == 2 && TL_PI_SZ_RES == 1, "pi(x, p) -> y");
+TL_STATIC_ASSERT(TL_REAL_alpha_L_dot - TL_REAL_x == NX - 1, "the state inputs are contiguous");
+TL_STATIC_ASSERT(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact channel is contiguous");
+TL_STATIC_ASSERT(TL_N_GROUPS <= TL_SENSOR_MAX_GROUPS && TL_N_PARAMS <= TL_SENSOR_MAX_PARAMS, "model state fits");
+TL_STATIC_ASSERT(TL_PI_SZ_ARG == 2 && TL_PI_SZ_RES == 1, "pi(x, p) -> y");
 
 static int evaluate_pi(TlInstance* c, double y[TL_SENSOR_NY]) {
   const double* arg[TL_PI_SZ_ARG + 1];

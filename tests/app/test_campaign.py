@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import math
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -109,7 +113,8 @@ def test_restart_on_the_same_fmus_equals_a_fresh_instantiation(fmus):
 def local_results(fmus, tmp_path_factory):
     folder = tmp_path_factory.mktemp("local")
     results, counts = campaign.run(write_spec(folder, bad=-1.0), folder / "out", workers=2, fmus=fmus, progress=lambda _: None)
-    assert {k: counts[k] for k in ("total", "skipped", "ran", "failed")} == {"total": 12, "skipped": 0, "ran": 12, "failed": 4}
+    assert {k: counts[k] for k in ("total", "skipped", "ran", "stored", "completed", "failed", "diverged")} == \
+        {"total": 12, "skipped": 0, "ran": 12, "stored": 12, "completed": 8, "failed": 4, "diverged": 0}
     return results
 
 
@@ -127,45 +132,104 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_a_separate_scheduler_with_two_workers_gives_identical_rows(fmus, local_results, tmp_path):
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
+def identical(a: list[dict], b: list[dict]) -> bool:
+    """Row for row, bit for bit (NaN equal to NaN)."""
+    def norm(r):
+        return {k: (v.hex() if isinstance(v, float) else v) for k, v in r.items()}
+    return [norm(r) for r in a] == [norm(r) for r in b]
+
+
+def _can_hide_folders() -> bool:
+    """Can a process get a mount namespace of its own (to be a worker that does not see the FMU folder)?"""
     try:
-        for _ in range(2):
-            procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
-                                           "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        return subprocess.run(["unshare", "-m", "sh", "-c", "mount -t tmpfs tmpfs /mnt"], capture_output=True,
+                              timeout=20).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+class DaskCluster:
+    """A real `dask scheduler` and `dask worker` processes on 127.0.0.1, started and stopped by the test."""
+
+    def __init__(self, port: int | None = None, tls: dict[str, Path] | None = None) -> None:
+        self.port = port or _free_port()
+        self.address = f"{'tls' if tls else 'tcp'}://127.0.0.1:{self.port}"
+        self.env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+        self.tls = ["--tls-ca-file", str(tls["ca"]), "--tls-cert", str(tls["cert"]), "--tls-key", str(tls["key"])] if tls else []
+        self.security = None
+        if tls:
+            from distributed.security import Security
+
+            self.security = Security(tls_ca_file=str(tls["ca"]), tls_client_cert=str(tls["cert"]),
+                                     tls_client_key=str(tls["key"]), require_encryption=True)
+        self.scheduler: subprocess.Popen | None = None
+        self.workers: list[subprocess.Popen] = []
+
+    def start_scheduler(self) -> DaskCluster:
+        protocol = ["--protocol", "tls", *self.tls] if self.tls else []
+        self.scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                           "--port", str(self.port), "--no-dashboard", *protocol], stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL, env=self.env, start_new_session=True)
+        deadline = time.time() + 60
+        while True:  # until it listens
+            try:
+                socket.create_connection(("127.0.0.1", self.port), timeout=1).close()
+                return self
+            except OSError:
+                assert self.scheduler.poll() is None and time.time() < deadline, "the scheduler did not start"
+                time.sleep(0.1)
+
+    def add_worker(self, hiding: Path | None = None, nanny: bool = True) -> subprocess.Popen:
+        """A worker (with its nanny); hiding: a folder this worker sees empty (a tmpfs over it, its own mounts)."""
+        command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--host",
+                   "127.0.0.1", "--no-dashboard", *self.tls, *([] if nanny else ["--no-nanny"])]
+        if hiding is not None:
+            command = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs tmpfs "$0" && exec "$@"', str(hiding), *command]
+        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=self.env,
+                                  start_new_session=True)
+        self.workers.append(worker)
+        return worker
+
+    def wait_for_workers(self, n: int) -> None:
         from dask.distributed import Client
 
-        deadline = time.time() + 60
-        while True:
-            try:
-                with Client(address, timeout="5s") as client:
-                    client.wait_for_workers(2, timeout=30)
-                break
-            except Exception:
-                if time.time() > deadline:
-                    raise
-                time.sleep(0.5)
-        results, counts = campaign.run(write_spec(tmp_path, bad=-1.0), tmp_path / "out", scheduler=address, fmus=fmus,
-                                       progress=lambda _: None)
-    finally:
-        for p in procs:
-            p.terminate()
-        for p in procs:
-            p.wait(timeout=30)
-    assert counts["ran"] == 12
-    assert rows(results) == rows(local_results) or _same_with_nan(rows(results), rows(local_results))
+        with Client(self.address, timeout="20s", security=self.security) as client:
+            client.wait_for_workers(n, timeout=60)
+
+    def stop(self, process: subprocess.Popen) -> None:
+        """At once: the process and what it started (a nanny's worker), its own process group."""
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        process.wait()
+
+    def stop_all(self) -> None:
+        for p in [*self.workers, *([self.scheduler] if self.scheduler else [])]:
+            self.stop(p)
+        self.workers = []
 
 
-def _same_with_nan(a, b) -> bool:
-    import math
+@pytest.fixture
+def dask_cluster():
+    clusters = []
 
-    def norm(r):
-        return {k: ("nan" if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
-    return [norm(r) for r in a] == [norm(r) for r in b]
+    def start(port=None, tls=None) -> DaskCluster:
+        clusters.append(DaskCluster(port, tls).start_scheduler())
+        return clusters[-1]
+    yield start
+    for c in clusters:
+        c.stop_all()
+
+
+def test_a_separate_scheduler_with_two_workers_gives_identical_rows(fmus, local_results, tmp_path, dask_cluster):
+    cluster = dask_cluster()
+    cluster.add_worker()
+    cluster.add_worker()
+    results, counts = campaign.run(write_spec(tmp_path, bad=-1.0), tmp_path / "out", fmus=fmus, progress=lambda _: None,
+                                   scheduler=cluster.address, workers=2)
+    assert counts["ran"] == 12 and counts["retried"] == 0
+    assert identical(rows(results), rows(local_results))
 
 
 def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_results, tmp_path):
@@ -181,9 +245,261 @@ def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_r
     proc.wait()
     done = len(list((out / "parts").glob("*.parquet")))
     assert 2 <= done < 12
-    results, counts = campaign.run(spec, out, workers=2, fmus=fmus, progress=lambda _: None)
+    results, counts = campaign.run(spec, out, fmus=fmus, progress=lambda _: None, workers=2)
     assert counts["skipped"] == done and counts["ran"] == 12 - done
-    assert _same_with_nan(rows(results), rows(local_results))
+    assert identical(rows(results), rows(local_results))
+
+
+def _cli(*args: str) -> list[str]:
+    return [sys.executable, "-c", "from tiltload.master.app.cli import entry; entry()", *args]
+
+
+def _parts(out: Path) -> list[Path]:
+    return sorted((out / "parts").glob("*.parquet"))
+
+
+def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_finishes_it(fmus, local_results, tmp_path,
+                                                                                           dask_cluster, capfd):
+    cluster = dask_cluster()
+    cluster.add_worker()
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address]
+    proc = subprocess.Popen(_cli(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cluster.env)
+    deadline = time.time() + 120
+    while len(_parts(out)) < 3 and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.002)  # a run takes tens of ms: the scheduler goes with most of the twelve still to do
+    cluster.scheduler.kill()
+    _, stderr = proc.communicate(timeout=60)
+    done = len(_parts(out))
+    assert proc.returncode == 1 and 3 <= done < 12
+    assert stderr.strip().splitlines()[-1] == (f"tiltload: error: the scheduler at {cluster.address} went away after {done} "
+                                               f"of 12 runs; rerun the same command to finish (details: {out / 'campaign.log'})")
+    assert "Traceback" not in stderr and "distributed" not in stderr  # Dask's own words are in the log
+    log = (out / "campaign.log").read_text()
+    assert f"stopped after {done} of 12 runs" in log and "Traceback" in log  # what Dask said is kept there
+    reference = {r["run_id"]: r for r in rows(local_results)}
+    for part in _parts(out):  # outcomes only, each the undisturbed campaign's: nothing cancelled was stored
+        row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
+        assert identical([row], [reference[row["run_id"]]])
+    for worker in cluster.workers:
+        cluster.stop(worker)
+    cluster.workers = []
+    cluster.start_scheduler()  # the cluster back at the same address, and the same command
+    cluster.add_worker()
+    cluster.add_worker()
+    cluster.wait_for_workers(2)
+    capfd.readouterr()
+    assert main(args) == 0  # the same command (in this process: a second start of the command is seconds)
+    rerun = capfd.readouterr()
+    assert f"12 runs, {done} already done, {12 - done} to run" in rerun.err
+    assert (f"12 runs: 12 in the results, 8 completed, 4 failed (0 diverged); {done} were done before, {12 - done} ran now"
+            in rerun.out)  # each missing run ran once, none of the others again
+    assert identical(rows(out / "results.parquet"), rows(local_results))
+
+
+@pytest.mark.skipif(not _can_hide_folders(), reason="a worker that does not see the FMU folder needs a mount namespace "
+                                                   "(unshare -m)")
+def test_a_worker_without_the_fmus_fails_no_run_and_the_rerun_after_the_fix_completes_them(fmus, local_results, tmp_path,
+                                                                                            dask_cluster, capfd):
+    cluster = dask_cluster()
+    cluster.add_worker(hiding=fmus)  # sees an empty folder at the FMUs' path
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address]
+    capfd.readouterr()
+    assert main(args) == 1
+    err = capfd.readouterr().err
+    line = err.strip().splitlines()[-1]
+    assert line.startswith("tiltload: error: 12 of 12 runs failed for their environment, not for themselves, up to 3 tries "
+                           "each (worker tcp://127.0.0.1:")
+    assert f"no FMU at {fmus}" in line and "nothing of them is stored: fix it and rerun the same command" in line
+    assert "Traceback" not in err and not _parts(out) and rows(out / "results.parquet") == []
+    cluster.add_worker()  # the fix: a worker that sees the FMUs, beside the blind one
+    cluster.wait_for_workers(2)
+    results, counts = campaign.run(spec, out, fmus=fmus, progress=lambda _: None, scheduler=cluster.address, workers=2)
+    assert counts["ran"] == 12 and counts["retried"] >= 1  # what the blind worker took was tried again on the other
+    assert identical(rows(results), rows(local_results))
+
+
+@pytest.mark.parametrize("address, needle", [
+    ("garbage", "--scheduler garbage: no port; a Dask scheduler's address is tcp://HOST:PORT"),
+    ("", "--scheduler is empty: a Dask scheduler's address is"),
+    ("http://127.0.0.1:8787", "http:// is the dashboard's (port 8787 by default)"),
+    ("udp://127.0.0.1:8786", "unknown scheme udp://"),
+    ("tcp://127.0.0.1:99999", "the port must be a number from 1 to 65535, got '99999'"),
+    ("tcp://127.0.0.1:{closed}", "nothing listens at tcp://127.0.0.1:{closed} (connection refused)"),
+    ("tcp://127.0.0.1:{silent}", "tcp://127.0.0.1:{silent} accepts connections but does not answer as a Dask scheduler "
+                                 "within 1 s"),
+    ("tcp://nohost.invalid:8786", "nohost.invalid"),  # unknown, or not resolved within the second
+    ("tls://127.0.0.1:{closed}", "tls:// needs Dask's TLS settings"),
+])
+def test_a_bad_scheduler_address_is_one_line_and_exit_2_in_seconds_before_anything_is_built(tmp_path, capfd, address,
+                                                                                            needle):
+    closed = _free_port()
+    with socket.socket() as silent:  # listens, never answers: like a port that is not a Dask scheduler's
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(8)
+        ports = {"closed": closed, "silent": silent.getsockname()[1]}
+        started = time.perf_counter()
+        code = main(["campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(tmp_path / "fmus"),
+                     "--scheduler", address.format(**ports), "--connect-timeout", "1"])
+        seconds = time.perf_counter() - started
+    err = capfd.readouterr().err
+    assert code == 2 and err.startswith("tiltload: error: ") and err.count("\n") == 1, err
+    assert needle.format(**ports) in err
+    assert seconds < 10
+    assert not (tmp_path / "out").exists() and not (tmp_path / "fmus").exists()  # nothing written, nothing built
+
+
+def test_a_scheduler_without_enough_workers_is_one_line_and_exit_2_in_seconds(tmp_path, dask_cluster, capfd):
+    cluster = dask_cluster()
+    args = ["campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(tmp_path / "fmus"),
+            "--scheduler", cluster.address, "--worker-timeout", "2"]
+    started = time.perf_counter()
+    assert main(args) == 2
+    assert time.perf_counter() - started < 10
+    assert capfd.readouterr().err == (f"tiltload: error: the scheduler at {cluster.address} has 0 workers (waited 2 s for "
+                                      f"1, --worker-timeout): start them with: dask worker {cluster.address}\n")
+    cluster.add_worker()
+    cluster.wait_for_workers(1)
+    assert main([*args, "--workers", "2"]) == 2  # with --scheduler, --workers is how many to wait for
+    assert "has 1 worker (waited 2 s for 2, --worker-timeout)" in capfd.readouterr().err
+    from dask.distributed import Client
+
+    with Client(cluster.address, timeout="20s") as client:
+        worker = next(iter(client.nthreads()))
+    assert main([*args[:-4], "--scheduler", worker]) == 2
+    assert f"{worker} is a Dask worker, not the scheduler (its scheduler: {cluster.address})" in capfd.readouterr().err
+    assert not (tmp_path / "out").exists() and not (tmp_path / "fmus").exists()
+
+
+def test_the_runs_stop_when_the_last_worker_is_gone_for_good(fmus, local_results, tmp_path, dask_cluster, capfd):
+    cluster = dask_cluster()
+    worker = cluster.add_worker(nanny=False)  # no nanny to start it again
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+
+    def kill_after_two_runs():
+        deadline = time.time() + 120
+        while len(_parts(out)) < 2 and time.time() < deadline:
+            time.sleep(0.002)
+        worker.kill()
+    killer = threading.Thread(target=kill_after_two_runs)
+    killer.start()
+    code = main(["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address,
+                 "--worker-timeout", "2"])
+    killer.join()
+    done = len(_parts(out))
+    line = capfd.readouterr().err.strip().splitlines()[-1]
+    assert code == 1 and 2 <= done < 12
+    assert line.startswith(f"tiltload: error: the scheduler at {cluster.address} has had no workers for 2 s "
+                           f"(--worker-timeout) after {done} of 12 runs; start workers and rerun the same command")
+    reference = {r["run_id"]: r for r in rows(local_results)}
+    for part in _parts(out):  # the run the worker took with it is not among them
+        row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
+        assert identical([row], [reference[row["run_id"]]])
+
+
+def _certificate(folder: Path) -> dict[str, Path]:
+    """A self-signed certificate and its key (made by Dask's Security.temporary), as the files Dask's TLS options take."""
+    from distributed.security import Security
+
+    made = Security.temporary()
+    folder.mkdir(exist_ok=True)
+    files = {"ca": folder / "ca.pem", "cert": folder / "cert.pem", "key": folder / "key.pem"}
+    files["ca"].write_text(made.tls_ca_file)
+    files["cert"].write_text(made.tls_client_cert)
+    files["key"].write_text(made.tls_client_key)
+    return files
+
+
+def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only(fmus, local_results, tmp_path, dask_cluster,
+                                                                                capfd):
+    import dask
+
+    tls = _certificate(tmp_path / "cluster")
+    cluster = dask_cluster(tls=tls)
+    cluster.add_worker()
+    cluster.wait_for_workers(1)
+    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
+    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--connect-timeout", "2"]
+    client_tls = {"distributed.comm.tls.ca-file": str(tls["ca"]), "distributed.comm.tls.client.cert": str(tls["cert"]),
+                  "distributed.comm.tls.client.key": str(tls["key"])}
+    with dask.config.set(client_tls):
+        assert main([*args, "--scheduler", cluster.address.replace("tls://", "tcp://")]) == 2
+    assert "does not answer as a Dask scheduler within 2 s" in capfd.readouterr().err
+    stranger = _certificate(tmp_path / "stranger")  # a certificate the cluster's CA did not sign
+    with dask.config.set({**client_tls, "distributed.comm.tls.client.cert": str(stranger["cert"]),
+                          "distributed.comm.tls.client.key": str(stranger["key"])}):
+        assert main([*args, "--scheduler", cluster.address]) == 2
+    err = capfd.readouterr().err
+    assert err.count("\n") == 1 and f"the scheduler at {cluster.address} refused the TLS session (SSL" in err
+    assert not out.exists()
+    env = {**cluster.env, "DASK_DISTRIBUTED__COMM__TLS__CA_FILE": str(tls["ca"]),  # as docs/campaigns.md says
+           "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(tls["cert"]),
+           "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(tls["key"])}
+    done = subprocess.run(_cli(*args, "--scheduler", cluster.address), capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert identical(rows(out / "results.parquet"), rows(local_results))
+
+
+def test_nothing_the_campaign_starts_listens_beyond_loopback(fmus, tmp_path):
+    psutil = pytest.importorskip("psutil")
+    proc = subprocess.Popen(_cli("campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(fmus),
+                                 "--workers", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    listening = set()  # (ip, port, pid) of every listening socket of the campaign's process tree, looked at while it runs
+    while proc.poll() is None:
+        try:
+            family = [psutil.Process(proc.pid), *psutil.Process(proc.pid).children(recursive=True)]
+        except psutil.NoSuchProcess:
+            break
+        for p in family:
+            try:
+                listening |= {(c.laddr.ip, c.laddr.port, p.pid) for c in p.net_connections("inet")
+                              if c.status == psutil.CONN_LISTEN}
+            except (psutil.NoSuchProcess, psutil.AccessDenied):
+                pass
+        time.sleep(0.05)
+    assert proc.wait() == 0
+    # the scheduler, its dashboard and the nannies in the campaign's process, a worker in each of two others
+    assert len(listening) >= 6 and len({pid for *_, pid in listening}) >= 3, listening
+    assert {ip for ip, *_ in listening} <= {"127.0.0.1", "::1"}, listening
+
+
+def test_retry_failed_reruns_stored_failures_and_the_summary_counts_what_the_results_hold(fmus, local_results, tmp_path,
+                                                                                          capsys):
+    out = tmp_path / "out"
+    shutil.copytree(local_results.parent / "parts", out / "parts")
+    for row in [r for r in rows(local_results) if r["completed"]][:2]:  # as an older tiltload stored lost futures
+        false_failure = {k: row[k] for k in ("run_id", "controller", "seed", "load_mass")}
+        false_failure.update(completed=False, diverged=False, diverged_at=math.nan,
+                             error="worker lost: FutureCancelledError: cancelled for reason: scheduler-connection-lost.")
+        campaign.write_part(out / "parts", {"row": false_failure, "wall": 0.0, "setup": 0.0, "sim_time": 0.0})
+    args = ["campaign", str(write_spec(tmp_path, bad=-1.0)), "--out", str(out), "--fmus", str(fmus), "--workers", "1"]
+    assert main(args) == 0
+    assert "12 runs: 12 in the results, 6 completed, 6 failed (0 diverged); 12 were done before, 0 ran now" in \
+        capsys.readouterr().out
+    assert main([*args, "--retry-failed"]) == 0
+    assert "12 runs: 12 in the results, 8 completed, 4 failed (0 diverged); 6 were done before, 6 ran now" in \
+        capsys.readouterr().out
+    assert identical(rows(out / "results.parquet"), rows(local_results))
+
+
+def test_a_missing_fmu_is_the_environment_s_failure_and_a_refused_value_the_run_s(fmus, tmp_path):
+    from tiltload.master.app.campaign.run_case import run_case
+
+    c = campaign_spec.load(write_spec(tmp_path, bad=-1.0))
+    refused = next(x for x in c.cases if x.values["load_mass"] == -1.0)
+    outcome = run_case(c.base(), asdict(refused), str(fmus), None)
+    assert outcome["row"]["completed"] is False and "parameter m_L must be positive, got -1" in outcome["row"]["error"]
+    elsewhere = tmp_path / "elsewhere"
+    lost = run_case(c.base(), asdict(c.cases[0]), str(elsewhere), None)
+    assert "row" not in lost and f"no FMU at {elsewhere}/" in lost["environment"]
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    unwritable = run_case(c.base(), asdict(c.cases[0]), str(fmus), str(blocked / "logs"))  # the log folder cannot exist
+    assert "row" not in unwritable and "Error" in unwritable["environment"]
 
 
 def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_results, fmus, tmp_path, capsys):

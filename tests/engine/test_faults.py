@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from support import ROOT, T
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import log_reader
 from tiltload.master.engine.manipulators import FaultError, load, parse
 from tiltload.master.engine.run import run_system
@@ -191,3 +191,28 @@ def test_a_fault_on_an_unknown_variable_is_a_usage_error_before_any_fmu_loads(fm
                  "--quiet", "--no-plots"])
     assert code == 2 and "plant has no variable 'nothing'" in capsys.readouterr().err
     assert not (tmp_path / "runs").exists()  # refused before the run: no log, no folder
+
+
+VALUE_FAULTS = [{"action": "override", "target": "sensors.meas_z_B", "value": 1.5, "start": 0.3, "end": 0.6},
+                {"action": "bias", "target": "plant.f_R", "value": -0.4, "start": 0.2},
+                {"action": "scale", "targets": ["plant.f_L", "plant.tau_R"], "value": 0.8, "start": 0.25, "end": 0.9},
+                {"action": "ramp", "target": "sensors.meas_x_B", "value": 0.05, "start": 0.1, "end": 1.0},
+                {"action": "clamp", "target": "controller.tau_L", "value": [-0.01, 0.01], "start": 0.4},
+                {"action": "hold", "target": "scenario.x_ref", "start": 0.5, "end": 0.8}]
+
+
+def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmus, tmp_path, monkeypatch):
+    """The six value faults, applied by the C tick loop, against the same faults applied by the Python manipulator."""
+    from tiltload.master.engine.manipulators import Manipulator
+
+    def run(name):
+        system = default_system(fmus, "zse", 1, "mixed")
+        system.faults = parse(VALUE_FAULTS)
+        res = run_system(system, 1.2, tmp_path / f"{name}.mcap", loop_metrics(), progress=False)
+        assert res.error is None
+        return res.metrics, log_reader.read(tmp_path / f"{name}.mcap")
+    native = run("native")
+    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k: False)
+    python = run("python")
+    assert native[0] == python[0] and native[1] == python[1]
+    assert len(native[1]["/faults"]) == 10  # six starts, four ends within 1.2 s

@@ -9,7 +9,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from support.fmu_session import wrap_misbehaving
+from support.fmu_session import foreign_copy, wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
@@ -51,14 +51,6 @@ def test_a_misbehaving_controller_ends_the_run_with_one_line_and_its_log(mode, m
     plant = log_reader.read(next(tmp_path.glob("*.mcap")), topics=["/plant"])["/plant"]
     assert plant[-1]["t"] == pytest.approx(0.504)  # everything up to the failing step is on disk
     assert not workers()
-
-
-def foreign_copy(fmu: Path, dest: Path, drop=("resources/build_info.json",)) -> Path:
-    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
-        for item in src.infolist():
-            if not any(item.filename.startswith(d) for d in drop):
-                out.writestr(item, src.read(item.filename))
-    return dest
 
 
 def test_an_isolated_fmu_gives_the_in_process_results_bit_for_bit(fmus, tmp_path):
@@ -112,3 +104,56 @@ def test_a_killed_master_leaves_no_worker_behind(misbehaving, fmus, tmp_path):
     while Path(f"/proc/{pid}").exists() and time.time() < deadline:
         time.sleep(0.1)
     assert not Path(f"/proc/{pid}").exists()  # orphaned, it would live on (hung) under init
+
+
+def _empty_soon(folder: Path, seconds: float = 10.0) -> list[str]:
+    """What is left in folder once the reapers of dead processes had their moment."""
+    import time
+
+    deadline = time.time() + seconds
+    while list(folder.iterdir()) and time.time() < deadline:
+        time.sleep(0.1)
+    return sorted(p.name for p in folder.iterdir())
+
+
+def _guid_mismatch(fmu: Path, dest: Path) -> Path:
+    """The FMU with one digit of its model description's GUID changed: its binary refuses to instantiate."""
+    import re
+
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = re.sub(rb'guid="\{(.)', lambda m: b'guid="{' + (b"0" if m.group(1) != b"0" else b"1"), data, count=1)
+            out.writestr(item, data)
+    return dest
+
+
+@pytest.mark.parametrize("how", ["segfault", "guid mismatch", "guid mismatch, trusted", "SIGKILL"])
+def test_a_failed_run_leaves_no_temporary_folder(how, misbehaving, fmus, tmp_path):
+    """Every unpacked FMU copy goes, also when its process cannot clean up: a worker that segfaults, a master killed."""
+    import sys
+
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    controller = (misbehaving["segfault"] if how == "segfault" else misbehaving["hang"] if how == "SIGKILL"
+                  else _guid_mismatch(fmus / "TiltloadController.fmu", tmp_path / "BadGuid.fmu"))
+    argv = [sys.executable, "-c", "from tiltload.master.app.cli import entry; entry()", "run", "--controller", str(controller),
+            "--scenario", "fsi", "--stop-time", "1", "--fmus", str(fmus), "--out", str(tmp_path / "out"), "--quiet",
+            "--no-plots", *(["--trust-fmus"] if "trusted" in how else [])]
+    env = {**os.environ, "TMPDIR": str(temp)}
+    if how == "SIGKILL":
+        import time
+
+        proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 60
+        while not workers(proc.pid) and time.time() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)  # the master and the hung worker each hold unpacked copies
+        assert len(list(temp.iterdir())) >= 3
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    else:
+        proc = subprocess.run(argv, env=env, capture_output=True, text=True)
+        assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert _empty_soon(temp) == []

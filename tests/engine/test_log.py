@@ -82,3 +82,50 @@ def test_no_log_runs_metrics_only_and_log_every_thins_the_log(fmus, tmp_path, ca
     data = log_reader.read(next((tmp_path / "b").glob("*.mcap")))
     assert len(data["/plant"]) == 21 and len(data["/scene"]) == 6  # steps 0, 5, ... 100 of 101; the scene every 20th
     assert [round(m["t"], 9) for m in data["/plant"][:3]] == [0.0, 0.06, 0.12]
+
+
+@pytest.fixture(scope="module")
+def two_second_log(fmus, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("damage")
+    assert main(["run", "--stop-time", "2", "--fmus", str(fmus), "--out", str(out), "--quiet", "--no-plots", "--name", "run"]) == 0
+    return out / "run.mcap"
+
+
+CHUNK_DATA = 1 + 8 + 8 + 8 + 8 + 4 + 4 + 4 + 8  # opcode, length, start and end times, size, CRC, "zstd", records length
+
+
+def _flip_inside_a_chunk(log: Path, dest: Path, offset: int, count: int = 64) -> float:
+    """dest: log with count bytes inverted at offset into the middle chunk record (footer intact); that chunk's start."""
+    with open(log, "rb") as f:
+        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+    middle = chunks[len(chunks) // 2]
+    data = bytearray(log.read_bytes())
+    at = middle.chunk_start_offset + offset
+    data[at:at + count] = bytes(b ^ 0xFF for b in data[at:at + count])
+    dest.write_bytes(bytes(data))
+    return middle.message_start_time / 1e9
+
+
+@pytest.mark.parametrize("offset, what", [(CHUNK_DATA + 100, r"chunk \d+, from t = \d\.\d+ s, (fails its CRC check|does not "
+                                                                        r"decompress)"),
+                                           (CHUNK_DATA - 8, r"unreadable record after chunk \d+")])
+def test_a_damaged_log_is_reported_by_every_reader(two_second_log, tmp_path, capsys, offset, what):
+    """64 flipped bytes mid-file (in a chunk's data, or in its framing), footer intact: read, plot and compare each
+    say it is damaged and up to when it holds."""
+    bad = tmp_path / "bad.mcap"
+    damaged_from = _flip_inside_a_chunk(two_second_log, bad, offset)
+    assert 0.3 < damaged_from < 1.7
+    with pytest.raises(log_reader.DamagedLog, match=rf"is damaged \({what}.*\): intact up to t = \d\.\d+ s of 2\.0\d\d s"):
+        log_reader.read(bad)
+    data, state = log_reader.read_checked(bad, topics=["/plant"])
+    assert state.damage and not state.torn and state.intact_until <= damaged_from
+    assert data["/plant"][-1]["t"] <= damaged_from and data["/plant"][-1]["t"] >= damaged_from - 0.2  # the front is kept
+    assert main(["plot", str(bad), "--out", str(tmp_path / "plots")]) == 1  # the intact part drawn, and said
+    err_lines = capsys.readouterr().err.strip().splitlines()
+    assert len(err_lines) == 1 and "is damaged" in err_lines[0] and "intact up to t = " in err_lines[0], err_lines
+    assert len(list((tmp_path / "plots").glob("*.png"))) == 7
+    for args in ([str(bad), str(two_second_log)], [str(two_second_log), str(bad)]):
+        assert main(["compare", *args]) == 2
+        err_lines = capsys.readouterr().err.strip().splitlines()
+        assert len(err_lines) == 1 and "is damaged" in err_lines[0], err_lines
+    assert log_reader.check(two_second_log).complete  # the original is fine

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support.system_libraries import needs_library
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
@@ -25,6 +26,7 @@ TICK = 0.012
 
 
 TICKS = 3333  # 40 s of trajectory 1, a whole number of ticks for every master
+ECOS = needs_library("libtbb.so.12")  # ecospy loads it at import
 
 
 def _export(fmus: Path, out: Path, scenario: str, controller: str, schedule: str, *extra: str) -> Path:
@@ -73,17 +75,33 @@ def _libcosim(package: Path, ticks: int = TICKS) -> np.ndarray | None:
     return np.array([observer.last_real_values(index, [refs[n]])[0] for n in ("x", "y", "z")])
 
 
-def _ecos(package: Path, ticks: int = TICKS) -> np.ndarray:
+def _ecos(package: Path, scratch: Path, ticks: int = TICKS) -> np.ndarray:
+    """Ecos unpacks the package into $TMPDIR (ecos_ssp_*) and leaves it there: here it unpacks into scratch, and the
+    folder is removed after the run."""
+    import os
+    import shutil
+
     from ecospy import EcosSimulation
 
-    sim = EcosSimulation(ssp_path=str(package), step_size=TICK)
+    scratch.mkdir(exist_ok=True)
+    before = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = str(scratch)  # read by the C++ library when it makes its folder
     try:
-        sim.init(parameter_set=ssp.PARAMETER_SET)
-        sim.step(ticks)
-        return np.array([sim.get_real(f"plant::{n}") for n in ("x", "y", "z")])
+        sim = EcosSimulation(ssp_path=str(package), step_size=TICK)
+        try:
+            sim.init(parameter_set=ssp.PARAMETER_SET)
+            sim.step(ticks)
+            return np.array([sim.get_real(f"plant::{n}") for n in ("x", "y", "z")])
+        finally:
+            sim.terminate()
+            sim.free()
     finally:
-        sim.terminate()
-        sim.free()
+        if before is None:
+            os.environ.pop("TMPDIR")
+        else:
+            os.environ["TMPDIR"] = before
+        for folder in scratch.glob("ecos_ssp_*"):
+            shutil.rmtree(folder)
 
 
 def test_the_package_validates_against_the_ssp_schema(packages):
@@ -108,13 +126,14 @@ def test_the_package_validates_against_the_ssp_schema(packages):
     assert float(root.find("ssd:DefaultExperiment", ns).get("stopTime")) == pytest.approx(TICKS * TICK)
 
 
+@ECOS
 @pytest.mark.parametrize("scenario", ["fsi", "zse"])
-def test_three_masters_run_one_package_and_agree(packages, scenario):
+def test_three_masters_run_one_package_and_agree(packages, scenario, tmp_path):
     """d = 2 (the Jacobi export): ours, libcosim and Ecos all stable, final load positions within 1 cm."""
     package = packages[scenario, "jacobi"]
     system, _, _ = ssp.load(package, UNPACK)
     assert system.instance("controller").parameters["loop_delay_ticks"] == 2
-    ours, theirs, ecos = _ours(package), _libcosim(package), _ecos(package)
+    ours, theirs, ecos = _ours(package), _libcosim(package), _ecos(package, tmp_path / "ecos")
     assert theirs is not None
     t = TICKS * TICK
     end = np.array([float(v) for v in circle(t)[:3]])  # where the reference is at the end
@@ -124,6 +143,7 @@ def test_three_masters_run_one_package_and_agree(packages, scenario):
     assert np.abs(theirs - ecos).max() < 1e-9  # in fact the same arithmetic: measured 3e-13 m
 
 
+@ECOS
 def test_the_uav_alone_runs_in_the_three_masters_too(pipeline_fmus, tmp_path):
     """Appendix A's loop (DLQR + ZSE, 80 s circle) exported for a Jacobi master: the three agree."""
     from tiltload.master.app.fmus import build_all
@@ -133,7 +153,7 @@ def test_the_uav_alone_runs_in_the_three_masters_too(pipeline_fmus, tmp_path):
     ticks = 6666
     package = tmp_path / "uav.ssp"
     assert main(["ssp", "export", str(package), "--fmus", str(fmus), "--vehicle", "uav", "--stop-time", repr(ticks * TICK)]) == 0
-    ours, theirs, ecos = _ours(package, ticks), _libcosim(package, ticks), _ecos(package, ticks)
+    ours, theirs, ecos = _ours(package, ticks), _libcosim(package, ticks), _ecos(package, tmp_path / "ecos", ticks)
     assert theirs is not None and np.linalg.norm(ours - np.array([4.0, 0.0, 1.0])) < 0.1  # back at the circle's start
     assert np.abs(ours - theirs).max() < 0.01 and np.abs(ours - ecos).max() < 0.01
 
@@ -161,7 +181,7 @@ def test_run_system_ssp_from_the_command_line(packages, tmp_path, capsys):
     code = main(["run", "--system", str(packages["fsi", "jacobi"]), "--stop-time", "2", "--quiet", "--no-plots",
                  "--out", str(tmp_path)])
     out = capsys.readouterr().out
-    assert code == 0 and "schedule: jacobi" in out and (tmp_path / "fsi_jacobi.mcap").is_file()
+    assert code == 0 and "schedule: jacobi" in out and (tmp_path / "fsi_jacobi_t2s.mcap").is_file()
 
 
 def test_export_is_reproducible(pipeline_fmus, packages, tmp_path):
@@ -210,3 +230,99 @@ def test_not_a_package(tmp_path):
         z.writestr("readme.txt", io.BytesIO(b"x").getvalue())
     with pytest.raises(DescriptionError, match="no SystemStructure.ssd"):
         ssp.load(empty, UNPACK)
+
+
+def _unpacked_leftovers() -> list[Path]:
+    return [p for p in UNPACK.glob("*") if p.name.endswith(".partial")] if UNPACK.exists() else []
+
+
+def _zip(path: Path, members) -> Path:
+    """members: (ZipInfo or name, bytes, compression)."""
+    with zipfile.ZipFile(path, "w") as z:
+        for info, data, compression in members:
+            z.writestr(info, data, compression)
+    return path
+
+
+def test_a_link_in_a_package_is_refused_with_one_line(tmp_path, capsys):
+    """A symbolic link, then a file written through it: refused at the link, nothing written anywhere."""
+    link = zipfile.ZipInfo("resources/evil")
+    link.create_system = 3
+    link.external_attr = (0o120777 << 16)  # S_IFLNK
+    package = _zip(tmp_path / "link.ssp", [(link, str(tmp_path / "outside").encode(), zipfile.ZIP_STORED),
+                                           ("resources/evil/x.fmu", b"data", zipfile.ZIP_STORED)])
+    code = main(["run", "--system", str(package), "--quiet", "--no-plots"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "'resources/evil' is a symbolic link" in err[0], err
+    assert not (tmp_path / "outside").exists() and not _unpacked_leftovers()
+
+
+def test_a_zip_bomb_is_refused_before_it_unpacks(tmp_path):
+    """20 MiB of zeros in a 20 KiB member: more than the 100-fold expansion a package may have."""
+    package = _zip(tmp_path / "bomb.ssp", [("SystemStructure.ssd", b"<x/>", zipfile.ZIP_DEFLATED),
+                                           ("resources/zeros.bin", bytes(20 << 20), zipfile.ZIP_DEFLATED)])
+    assert package.stat().st_size < 100_000
+    with pytest.raises(DescriptionError, match=r"'resources/zeros.bin' expands \d+-fold .* more than the 100-fold"):
+        ssp.load(package, UNPACK)
+    assert not _unpacked_leftovers()
+
+
+def test_a_member_that_lies_about_its_size_is_refused(tmp_path):
+    """The declared size checked before unpacking, the written bytes while unpacking: a member that holds more
+    than it declares (a crafted header) stops at its declared size."""
+    package = _zip(tmp_path / "liar.ssp", [("SystemStructure.ssd", b"<x/>", zipfile.ZIP_DEFLATED),
+                                           ("resources/data.bin", bytes(3 << 20), zipfile.ZIP_DEFLATED)])
+    raw = bytearray(package.read_bytes())
+    declared = (3 << 20).to_bytes(4, "little")
+    assert raw.count(declared) == 2  # in the local header and in the central directory
+    raw = raw.replace(declared, (1000).to_bytes(4, "little"))
+    liar = tmp_path / "liar2.ssp"
+    liar.write_bytes(bytes(raw))
+    with pytest.raises(DescriptionError, match="holds more than the 1000 bytes it declares|the archive is damaged"):
+        ssp.load(liar, UNPACK)
+    assert not _unpacked_leftovers()
+
+
+def test_the_unpacked_total_is_limited(tmp_path, monkeypatch):
+    monkeypatch.setattr(ssp, "MAX_UNPACKED", 1 << 20)
+    package = _zip(tmp_path / "big.ssp", [("SystemStructure.ssd", b"<x/>", zipfile.ZIP_DEFLATED),
+                                          ("resources/a.bin", bytes(700 << 10), zipfile.ZIP_STORED),
+                                          ("resources/b.bin", bytes(700 << 10), zipfile.ZIP_STORED)])
+    with pytest.raises(DescriptionError, match="unpacks to 1.4 MiB, more than the 1 MiB a package may"):
+        ssp.load(package, UNPACK)
+
+
+def test_a_package_is_hashed_without_reading_it_whole(packages, monkeypatch, tmp_path):
+    """The unpack folder is named by the package's SHA-256, read in blocks: a 1 GB package never sits in memory."""
+    import hashlib
+    import tracemalloc
+
+    package = packages["fsi", "ordered"]
+    real = Path.read_bytes
+
+    def guarded(self):
+        assert self != package, "the package was read whole"
+        return real(self)
+    monkeypatch.setattr(Path, "read_bytes", guarded)
+    ssp.load(package, UNPACK)
+    big = tmp_path / "big.ssp"
+    big.write_bytes(bytes(range(256)) * (1 << 16))  # 16 MiB
+    tracemalloc.start()
+    digest = ssp.package_digest(big)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert digest == hashlib.sha256(real(big)).hexdigest() and peak < 1 << 20
+
+
+@pytest.mark.parametrize("where", ["absolute", "up"])
+def test_a_component_outside_the_package_is_refused_unless_allowed(packages, pipeline_fmus, tmp_path, capsys, where):
+    plant = pipeline_fmus["TiltloadPlant"]
+    source = str(plant) if where == "absolute" else "../" * 12 + str(plant).lstrip("/")
+    bad = _rewrite(packages["fsi", "ordered"], tmp_path / "outside.ssp", "SystemStructure.ssd",
+                   lambda d: d.replace(b'source="resources/TiltloadPlant.fmu"', f'source="{source}"'.encode()))
+    args = ["run", "--system", str(bad), "--stop-time", "0.12", "--quiet", "--no-plots", "--out", str(tmp_path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "component plant: its FMU" in err[0] and "lies outside the package" in err[0], err
+    assert "--allow-external-fmus" in err[0]
+    assert main([*args, "--allow-external-fmus"]) == 0

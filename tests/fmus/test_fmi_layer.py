@@ -296,7 +296,13 @@ def test_libcosim_runs_plant_sensors_and_scenario_without_numpy(native, libcosim
     ("TiltloadSensors", {"imu_att_pdf": "cauchy"}, {}, "imu_att_pdf must be one of"),
     ("TiltloadController", {"controller": "pid"}, {}, "unknown controller 'pid'"),
     ("TiltloadController", {"estimator": "ekf"}, {}, "unknown estimator 'ekf'"),
-    ("TiltloadScenario", {"trajectory": 4}, {}, "trajectory must be 0, 1, 2 or 3"),
+    ("TiltloadScenario", {"trajectory": 9}, {}, "trajectory must be 0 to 8"),
+    ("TiltloadScenario", {"trajectory": 4, "wp_count": 1}, {}, "wp_count must be 2 to 64"),
+    ("TiltloadScenario", {"trajectory": 4, "wp_count": 2}, {}, "wp_t_1 = 0 is not after wp_t_0 = 0"),
+    ("TiltloadScenario", {"trajectory": 5}, {"shape_period": 0.0}, "shape_period must be > 0"),
+    ("TiltloadScenario", {"dryden": 2}, {"dryden_altitude": 1000.0}, "dryden_altitude must be 3.048 to 304.8 m"),
+    ("TiltloadScenario", {"dryden": 4}, {}, "dryden must be 0 (none), 1 light, 2 moderate or 3 severe"),
+    ("TiltloadScenario", {"wind_profile_count": 2}, {}, "wind_profile_t_1 is not after wind_profile_t_0"),
 ])
 def test_bad_parameters_fail_initialization_naming_them(pipeline_fmus, opened, fmu, typed, reals, needle):
     s = opened(pipeline_fmus[fmu], "bad")

@@ -114,3 +114,14 @@ def wrap_misbehaving(folder, acts: dict[str, str], at: float) -> dict:
         out[mode] = folder / f"bad_{name}.fmu"
         assert main(["wrap", str(src), "--out", str(out[mode])]) == 0
     return out
+
+
+def foreign_copy(fmu, dest, drop=("resources/build_info.json",)):
+    """A copy of one of our FMUs without its build record: the master treats it as foreign (runs it isolated)."""
+    import zipfile
+
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
+        for item in src.infolist():
+            if not any(item.filename.startswith(d) for d in drop):
+                out.writestr(item, src.read(item.filename))
+    return dest

@@ -9,6 +9,8 @@
    and the estimator propagates with the command that drove the plant over the interval it was measured in.
    The clocked FMI 3.0 variant (TL_N_CLOCK > 0) runs the same tick in the Event Mode of each control_clock tick
    (tl_model_event); its steps only advance time. */
+#include "tl_platform.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -21,16 +23,17 @@
 #define NX TL_NX
 #define NNU TL_NNU
 
-_Static_assert(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
-_Static_assert(TL_MAX_DELAY == TL_LAW_MAX_DELAY, "the law shifts as many commands in flight as the state keeps");
-_Static_assert(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
-_Static_assert(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
-_Static_assert(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
-_Static_assert(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact state inputs are contiguous");
+TL_STATIC_ASSERT(TL_REAL_tau_L - TL_REAL_f_R == 3, "the four commands are contiguous");
+TL_STATIC_ASSERT(TL_MAX_DELAY == TL_LAW_MAX_DELAY, "the law shifts as many commands in flight as the state keeps");
+TL_STATIC_ASSERT(NNU == NX + 3, "the estimate is the state and three disturbance forces");
+TL_STATIC_ASSERT(TL_REAL_est_d_z - TL_REAL_est_x == NNU - 1, "the estimate is contiguous");
+TL_STATIC_ASSERT(TL_REAL_est_d_z_lo - TL_REAL_est_x_lo == NNU - 1 && TL_REAL_est_d_z_hi - TL_REAL_est_x_hi == NNU - 1, "bounds");
+TL_STATIC_ASSERT(TL_REAL_psi_dot_ref - TL_REAL_x_ref == 10, "the 11 references are contiguous");
+TL_STATIC_ASSERT(TL_REAL_exact_alpha_L_dot - TL_REAL_exact_x == NX - 1, "the exact state inputs are contiguous");
 #if TL_HAS_LKF
-_Static_assert(TL_REAL_lkf_alpha_L - TL_REAL_lkf_x == TL_NY_LKF - 1, "the LKF's q inputs are contiguous");
+TL_STATIC_ASSERT(TL_REAL_lkf_alpha_L - TL_REAL_lkf_x == TL_NY_LKF - 1, "the LKF's q inputs are contiguous");
 #endif
-_Static_assert(TL_LAST_MEAS - TL_FIRST_MEAS == TL_NY_ZSE - 1, "the ZSE's measurements are contiguous, in pi order");
+TL_STATIC_ASSERT(TL_LAST_MEAS - TL_FIRST_MEAS == TL_NY_ZSE - 1, "the ZSE's measurements are contiguous, in pi order");
 
 static const char* const controllers[] = {"dlqr", "mixed"};
 static const char* const estimators[] = {"none", "lkf", "zse"};
@@ -57,12 +60,14 @@ static int choose(const char* value, const char* const* names, int n) {
 static void publish_estimate(TlInstance* c, const double* half) {
   TlModelState* m = &c->s.model;
   double* r = c->s.real;
+  double centre[NNU];
   int i;
+  memcpy(centre, m->estimate, sizeof m->estimate); /* not a ternary per entry: gcc -O3 warns it reads past estimate */
+  memcpy(centre + NX, m->disturbance, sizeof m->disturbance);
   for (i = 0; i < NNU; ++i) {
-    const double centre = i < NX ? m->estimate[i] : m->disturbance[i - NX];
-    r[TL_REAL_est_x + i] = centre;
-    r[TL_REAL_est_x_lo + i] = centre - (half ? half[i] : 0.0);
-    r[TL_REAL_est_x_hi + i] = centre + (half ? half[i] : 0.0);
+    r[TL_REAL_est_x + i] = centre[i];
+    r[TL_REAL_est_x_lo + i] = centre[i] - (half ? half[i] : 0.0);
+    r[TL_REAL_est_x_hi + i] = centre[i] + (half ? half[i] : 0.0);
   }
 }
 

@@ -1,3 +1,4 @@
+#include "tl_platform.h"
 #include "tl_law.h"
 
 #include <string.h>

@@ -5,6 +5,8 @@
 #ifndef TL_LAW_H
 #define TL_LAW_H
 
+#include "tl_platform.h"
+
 #define TL_LAW_MAX_NX 20   /* the load's 20 states; the UAV alone has 16 */
 #define TL_LAW_MAX_DELAY 2 /* commands in flight a delay-aware gain acts on */
 
@@ -24,7 +26,7 @@ typedef struct {
 /* ref: the 11 references x y z, vx vy vz, ax ay az, psi, psi_dot. estimate: nx. integral (4) advances;
    du_sent[i] (4 each) are the deviations of the commands of i + 1 ticks ago (newest first) and shift in the new
    one. u (4): the saturated command. 0 ok, -1 the feedforward failed. */
-int tl_law_step(const TlLaw* law, const double* ref, const double* estimate, double* integral,
+TL_INTERNAL int tl_law_step(const TlLaw* law, const double* ref, const double* estimate, double* integral,
                 double du_sent[][4], double* u);
 
 #endif

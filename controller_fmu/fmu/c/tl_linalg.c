@@ -1,4 +1,5 @@
 /* Small dense linear algebra (see tl_linalg.h). */
+#include "tl_platform.h"
 #include "tl_linalg.h"
 
 #include <math.h>
@@ -6,16 +7,42 @@
 
 #if defined(__GNUC__)
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
+typedef double v2d __attribute__((vector_size(16), aligned(8)));
 
-/* Rows of up to 24 columns: B padded to 24 columns once, each row of C accumulated in six four-wide
-   registers over k (a store per row, not per multiply-add). */
-TL_DISPATCH static void matmul_narrow(int n, int k, int m, const double* A, const double* B, double* C) {
-  double Bp[TL_LINALG_MAX][24];
-  int i, j, l;
+/* Rows of up to 24 columns: B padded to 24 columns once, each row of C accumulated in registers over l (a
+   store per row, not per multiply-add): twelve two-wide ones (SSE2, NEON), or with AVX2 six four-wide ones.
+   Every entry is the same sum in the same order at either width. */
+static void pad24(int k, int m, const double* B, double (*Bp)[24]) {
+  int j, l;
   for (l = 0; l < k; ++l) {
     for (j = 0; j < m; ++j) Bp[l][j] = B[l * m + j];
     for (; j < 24; ++j) Bp[l][j] = 0.0;
   }
+}
+
+static void matmul_narrow_base(int n, int k, int m, const double* A, const double* B, double* C) {
+  double Bp[TL_LINALG_MAX][24];
+  int i, j, l;
+  pad24(k, m, B, Bp);
+  for (i = 0; i < n; ++i) {
+    v2d c[12];
+    double row[24];
+    for (j = 0; j < 12; ++j) c[j] = (v2d){0.0, 0.0};
+    for (l = 0; l < k; ++l) {
+      const double a = A[i * k + l];
+      const v2d* b = (const v2d*)Bp[l];
+      for (j = 0; j < 12; ++j) c[j] += a * b[j];
+    }
+    for (j = 0; j < 12; ++j) ((v2d*)row)[j] = c[j];
+    for (j = 0; j < m; ++j) C[i * m + j] = row[j];
+  }
+}
+
+#if TL_HAVE_WIDE
+TL_WIDE static void matmul_narrow_wide(int n, int k, int m, const double* A, const double* B, double* C) {
+  double Bp[TL_LINALG_MAX][24];
+  int i, j, l;
+  pad24(k, m, B, Bp);
   for (i = 0; i < n; ++i) {
     const v4d zero = {0.0, 0.0, 0.0, 0.0};
     v4d c0 = zero, c1 = zero, c2 = zero, c3 = zero, c4 = zero, c5 = zero;
@@ -31,15 +58,11 @@ TL_DISPATCH static void matmul_narrow(int n, int k, int m, const double* A, cons
   }
 }
 #endif
-
-TL_DISPATCH void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C) {
-  int i, j, l;
-#if defined(__GNUC__)
-  if (m <= 24 && k <= TL_LINALG_MAX) {
-    matmul_narrow(n, k, m, A, B, C);
-    return;
-  }
 #endif
+
+/* Any width: an axpy per row of A. */
+static void matmul_wide(int n, int k, int m, const double* A, const double* B, double* C) {
+  int i, j, l;
   for (i = 0; i < n; ++i) {
     double* c = C + (long)i * m;
     for (j = 0; j < m; ++j) c[j] = 0.0;
@@ -49,6 +72,22 @@ TL_DISPATCH void tl_matmul(int n, int k, int m, const double* A, const double* B
       for (j = 0; j < m; ++j) c[j] += a * b[j];
     }
   }
+}
+
+void tl_matmul(int n, int k, int m, const double* A, const double* B, double* C) {
+#if defined(__GNUC__)
+  if (m <= 24 && k <= TL_LINALG_MAX) {
+#if TL_HAVE_WIDE
+    if (tl_wide()) {
+      matmul_narrow_wide(n, k, m, A, B, C);
+      return;
+    }
+#endif
+    matmul_narrow_base(n, k, m, A, B, C);
+    return;
+  }
+#endif
+  matmul_wide(n, k, m, A, B, C);
 }
 
 /* As a transpose and tl_matmul: its axpy inner loop vectorizes, a dot-product loop would not

@@ -1,4 +1,5 @@
 /* Linearized Kalman filter: see tl_lkf.h. */
+#include "tl_platform.h"
 #include "tl_lkf.h"
 
 #include <math.h>

@@ -3,6 +3,8 @@
 #ifndef TL_LKF_H
 #define TL_LKF_H
 
+#include "tl_platform.h"
+
 #include "controller_dims.h"
 
 typedef struct {
@@ -15,11 +17,11 @@ typedef struct {
   double P[TL_NNU * TL_NNU];
 } TlLkf;
 
-void tl_lkf_initialize(TlLkf* f, const double* nu0, const double* P0);
+TL_INTERNAL void tl_lkf_initialize(TlLkf* f, const double* nu0, const double* P0);
 /* Predict with du, correct with the finite, available entries of dy; the skipped entries are
    returned in skipped (n_skipped of them). 0 ok, -1 the innovation covariance is singular. */
-int tl_lkf_step(TlLkf* f, const TlLkfModel* m, const double* du, const double* dy, const int* available, int* skipped,
+TL_INTERNAL int tl_lkf_step(TlLkf* f, const TlLkfModel* m, const double* du, const double* dy, const int* available, int* skipped,
                 int* n_skipped);
-unsigned long tl_lkf_size(void);
+TL_INTERNAL unsigned long tl_lkf_size(void);
 
 #endif

@@ -1,5 +1,6 @@
 /* Multirate zonotopic state estimator: see tl_zse.h. Each step mirrors controller_fmu/zse.py
    operation for operation, so the two agree to rounding; tests check it. */
+#include "tl_platform.h"
 #include "tl_zse.h"
 
 #include <math.h>
@@ -13,17 +14,39 @@
 #define RESYNC_EVERY 64
 
 /* The one heavy product: dst rows = src rows times Mt (LD x LD, rows of M^T padded with zeros), i.e.
-   dst_i = M g_i: 1725 x 23 x 24 multiply-adds a step with the load. Two rows at a time with their
-   2 x (LD / 4) four-wide accumulators in registers (GCC/Clang vector extensions, so the same source compiles to SSE2 or
-   AVX2); TL_DISPATCH (tl_linalg.h) adds an x86-64-v3 copy picked at run time. */
+   dst_i = M g_i: 1725 x 23 x 24 multiply-adds a step with the load. Each output entry is the sum over k in
+   order, whatever the vector width, so every copy below gives the same results to the bit. The accumulators
+   must stay in registers (GCC/Clang vector extensions): with 128-bit registers (SSE2, NEON) one row at a time
+   in LD / 2 two-wide accumulators; with AVX2 (TL_WIDE, picked at run time) two rows at a time in 2 x LD / 4
+   four-wide ones. (Four-wide accumulators on SSE2 spill to the stack: 4.5x slower, docs/platforms.md.) */
 #if defined(__GNUC__)
 typedef double v4d __attribute__((vector_size(32), aligned(8)));
+typedef double v2d __attribute__((vector_size(16), aligned(8)));
 #define TL_VECTORS (LD / 4)
-_Static_assert(TL_VECTORS >= 1 && TL_VECTORS <= 8, "a row pair's accumulators fit the vector registers");
+TL_STATIC_ASSERT(LD / 2 <= 14, "a row's two-wide accumulators fit the 16 SSE2 registers");
 
-/* One row pair: the 2 x TL_VECTORS accumulators stay in registers across the N multiply-adds (the
-   constant-trip inner loops unroll at -O3). */
-TL_DISPATCH static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+static void transform_rows_base(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+  int i, j, k;
+  const v2d zero = {0.0, 0.0};
+  for (i = 0; i < rows; ++i) {
+    v2d a[LD / 2];
+    for (j = 0; j < LD / 2; ++j) a[j] = zero;
+    for (k = 0; k < N; ++k) {
+      const double g = src[i][k];
+      const v2d* m = (const v2d*)(Mt + k * LD);
+      for (j = 0; j < LD / 2; ++j) a[j] += g * m[j];
+    }
+    {
+      v2d* d = (v2d*)dst[i];
+      for (j = 0; j < LD / 2; ++j) d[j] = a[j];
+    }
+  }
+}
+
+#if TL_HAVE_WIDE
+/* One row pair: the 2 x TL_VECTORS accumulators stay in the 16 AVX registers across the N multiply-adds
+   (the constant-trip inner loops unroll at -O3). */
+TL_WIDE static void transform_rows_wide(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
   int i, j, k;
   const v4d zero = {0.0, 0.0, 0.0, 0.0};
   for (i = 0; i < rows; i += 2) {
@@ -49,6 +72,17 @@ TL_DISPATCH static void transform_rows(int rows, double (*src)[LD], const double
     }
   }
 }
+#endif
+
+static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+#if TL_HAVE_WIDE
+  if (tl_wide()) {
+    transform_rows_wide(rows, src, Mt, dst);
+    return;
+  }
+#endif
+  transform_rows_base(rows, src, Mt, dst);
+}
 #else
 static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
   int i, j, k;
@@ -69,8 +103,9 @@ typedef long long v4i __attribute__((vector_size(32), aligned(8)));
 #define TL_MAGNITUDE ((v4i){0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL})
 #define vabs(x) ((v4d)((v4i)(x) & TL_MAGNITUDE))
 
-/* hull = column sums of |G| (rs(G), Thm 4.1). */
-TL_DISPATCH static void row_abs_sums(int rows, double (*G)[LD], double* hull) {
+/* hull = column sums of |G| (rs(G), Thm 4.1) and the squared 2-norm of every row (the Combastel and PCA
+   scores): one body, inlined into a baseline and an AVX2 copy (these accumulators fit either register file). */
+static inline __attribute__((always_inline)) void row_abs_sums_body(int rows, double (*G)[LD], double* hull) {
   v4d acc[TL_VECTORS];
   int i, j;
   for (j = 0; j < TL_VECTORS; ++j) acc[j] = (v4d){0.0, 0.0, 0.0, 0.0};
@@ -81,8 +116,7 @@ TL_DISPATCH static void row_abs_sums(int rows, double (*G)[LD], double* hull) {
   for (j = 0; j < N; ++j) hull[j] = acc[j / 4][j % 4];
 }
 
-/* Squared 2-norm of every row (the Combastel and PCA scores). */
-TL_DISPATCH static void row_norms2(int rows, double (*G)[LD], double* out) {
+static inline __attribute__((always_inline)) void row_norms2_body(int rows, double (*G)[LD], double* out) {
   int i, j;
   for (i = 0; i < rows; ++i) {
     const v4d* g = (const v4d*)G[i];
@@ -92,8 +126,51 @@ TL_DISPATCH static void row_norms2(int rows, double (*G)[LD], double* out) {
   }
 }
 
-/* S (N x N) += sign * R^T R over the rows of R. */
-TL_DISPATCH static void add_gram(int rows, double (*R)[LD], double sign, double* S) {
+#if TL_HAVE_WIDE
+TL_WIDE static void row_abs_sums_wide(int rows, double (*G)[LD], double* hull) { row_abs_sums_body(rows, G, hull); }
+TL_WIDE static void row_norms2_wide(int rows, double (*G)[LD], double* out) { row_norms2_body(rows, G, out); }
+#endif
+
+static void row_abs_sums(int rows, double (*G)[LD], double* hull) {
+#if TL_HAVE_WIDE
+  if (tl_wide()) {
+    row_abs_sums_wide(rows, G, hull);
+    return;
+  }
+#endif
+  row_abs_sums_body(rows, G, hull);
+}
+
+static void row_norms2(int rows, double (*G)[LD], double* out) {
+#if TL_HAVE_WIDE
+  if (tl_wide()) {
+    row_norms2_wide(rows, G, out);
+    return;
+  }
+#endif
+  row_norms2_body(rows, G, out);
+}
+
+/* S (N x N) += sign * R^T R over the rows of R: per entry the same sum in row order at either width. */
+static void add_gram_base(int rows, double (*R)[LD], double sign, double* S) {
+  v2d D[N][LD / 2];
+  int i, j, k;
+  for (j = 0; j < N; ++j)
+    for (k = 0; k < LD / 2; ++k) D[j][k] = (v2d){0.0, 0.0};
+  for (i = 0; i < rows; ++i) {
+    const v2d* r = (const v2d*)R[i];
+    for (j = 0; j < N; ++j) {
+      const double rj = R[i][j];
+      if (rj == 0.0) continue;
+      for (k = 0; k < LD / 2; ++k) D[j][k] += rj * r[k];
+    }
+  }
+  for (j = 0; j < N; ++j)
+    for (k = 0; k < N; ++k) S[j * N + k] += sign * D[j][k / 2][k % 2];
+}
+
+#if TL_HAVE_WIDE
+TL_WIDE static void add_gram_wide(int rows, double (*R)[LD], double sign, double* S) {
   v4d D[N][TL_VECTORS];
   int i, j, k;
   for (j = 0; j < N; ++j)
@@ -108,6 +185,17 @@ TL_DISPATCH static void add_gram(int rows, double (*R)[LD], double sign, double*
   }
   for (j = 0; j < N; ++j)
     for (k = 0; k < N; ++k) S[j * N + k] += sign * D[j][k / 4][k % 4];
+}
+#endif
+
+static void add_gram(int rows, double (*R)[LD], double sign, double* S) {
+#if TL_HAVE_WIDE
+  if (tl_wide()) {
+    add_gram_wide(rows, R, sign, S);
+    return;
+  }
+#endif
+  add_gram_base(rows, R, sign, S);
 }
 #else
 static void row_abs_sums(int rows, double (*G)[LD], double* hull) {

@@ -8,6 +8,8 @@
 #ifndef TL_ZSE_H
 #define TL_ZSE_H
 
+#include "tl_platform.h"
+
 #include "controller_dims.h"
 
 #define TL_ZSE_N TL_NNU
@@ -47,15 +49,15 @@ typedef struct {
 } TlZseReport;
 
 /* Set X0 (r0 generators as rows of n) and apply the initial update with y0 if given (NULL: none). */
-int tl_zse_initialize(TlZse* z, const TlZseModel* m, const double* c0, const double* G0, int r0, const double* y0,
+TL_INTERNAL int tl_zse_initialize(TlZse* z, const TlZseModel* m, const double* c0, const double* G0, int r0, const double* y0,
                       const int* available, TlZseReport* report);
 /* One period: predict with du (the previous input's deviation), update with the available entries of y. */
-int tl_zse_step(TlZse* z, const TlZseModel* m, const double* du, const double* y, const int* available, TlZseReport* report);
+TL_INTERNAL int tl_zse_step(TlZse* z, const TlZseModel* m, const double* du, const double* y, const int* available, TlZseReport* report);
 /* Frobenius norm of G, sqrt(trace S). */
-double tl_zse_frobenius(const TlZse* z);
+TL_INTERNAL double tl_zse_frobenius(const TlZse* z);
 /* Generator row i of the current set (n entries, stride TL_ZSE_LD). */
-const double* tl_zse_generator(const TlZse* z, int i);
+TL_INTERNAL const double* tl_zse_generator(const TlZse* z, int i);
 /* sizeof(TlZse), for hosts that allocate it (tests through ctypes). */
-unsigned long tl_zse_size(void);
+TL_INTERNAL unsigned long tl_zse_size(void);
 
 #endif

@@ -2,25 +2,43 @@
 
 Each worker process keeps one execution (one set of FMU instances) per system structure and
 starts every run on it with fmi2Reset (Execution.restart): cheaper than instantiating four FMUs
-per run (benchmarks/campaign.py measures both). A run that fails is a row with its error line.
+per run (benchmarks/campaign.py measures both).
+
+What a run produced is its outcome, a row: completed, or failed with its one line (the engine's DescriptionError or
+ExecutionError: an FMU refused a value, the loop diverged, an FMU reported an error). Anything else (an FMU file this
+worker cannot see, an import error, memory, a bug) is a failure of the environment, not of the run: it comes back as
+such, with the worker's address, for the campaign to try again elsewhere; it is never a row.
 """
 
 from __future__ import annotations
 
 import math
+import socket
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
+from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
 from ...engine.observers import Metrics
+from ..feasibility import check_system
 from ..fmus import is_foreign
 from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop, default_system
 from ..scene import scene_channels
+from .spec import Flight
 
 _EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: reused across runs
+RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
+
+
+_CHECKED: dict[tuple, str | None] = {}  # per worker process: the feasibility verdict per reference and plant parameters
+
+
+class MissingFmu(FileNotFoundError):
+    """An FMU file of the run is not on this worker (or not a whole FMU): its environment, not the run."""
 
 
 class CampaignMetrics(Metrics):
@@ -49,24 +67,37 @@ class CampaignMetrics(Metrics):
         self._hi = np.array([ctrl_names[f"est_{n}_hi"] for n in names]) if has_bounds else None
         self._state = plant.values["Real"][self._state_index]
 
-    def on_step(self, instance, t) -> None:
-        if instance is self._a:
-            if t >= self.settle:
-                e = self._x[:3] - self._r.values["Real"][self._ri[:3]]
-                self.max_error = max(self.max_error, float(np.sqrt(e @ e)))
-            u = self._a.values["Real"][self._ui]
+    def on_batch(self, execution, batch) -> None:
+        at, e, u = self._sampled(batch)
+        if len(at):
+            late = batch.time[at] >= self.settle
+            if late.any():
+                position = e[late, :3]
+                self.max_error = max(self.max_error, float(np.sqrt((position * position).sum(axis=1)).max()))
             lo, hi, tau = self.limits
             eps = 1e-9
-            if u[0] <= lo + eps or u[1] <= lo + eps or u[0] >= hi - eps or u[1] >= hi - eps or abs(u[2]) >= tau - eps \
-                    or abs(u[3]) >= tau - eps:
-                self.saturated += 1
+            self.saturated += int(np.count_nonzero((u[:, 0] <= lo + eps) | (u[:, 1] <= lo + eps) | (u[:, 0] >= hi - eps)
+                                                   | (u[:, 1] >= hi - eps) | (np.abs(u[:, 2]) >= tau - eps)
+                                                   | (np.abs(u[:, 3]) >= tau - eps)))
             if self._lo is not None:
-                v = self._a.values["Real"]
-                self.contained += bool(np.all((v[self._lo] <= self._state) & (self._state <= v[self._hi])))
-            self.controller_steps += 1
-        super().on_step(instance, t)
-        if instance is self._p:
-            self._state = self._p.values["Real"][self._state_index]
+                state = self._carried(batch, self.plant, self._state_index, self._state, at)
+                v = batch.rows[self.actuators]["Real"][batch.row[at]]
+                self.contained += int(np.count_nonzero(np.all((v[:, self._lo] <= state) & (state <= v[:, self._hi]), axis=1)))
+            self.controller_steps += len(at)
+        plant_rows = batch.rows[self.plant]["Real"]
+        if len(plant_rows):
+            self._state = plant_rows[-1, self._state_index]
+        self._accumulate(batch, at, e, u)
+
+    def snapshot_state(self) -> dict:
+        return {**super().snapshot_state(), "max_error": self.max_error, "saturated": self.saturated,
+                "contained": self.contained, "controller_steps": self.controller_steps, "state": self._state.tolist()}
+
+    def restore_state(self, state: dict) -> None:
+        super().restore_state(state)
+        self.max_error, self.saturated = state["max_error"], state["saturated"]
+        self.contained, self.controller_steps = state["contained"], state["controller_steps"]
+        self._state = np.array(state["state"])
 
     def row(self, keep: tuple[str, ...]) -> dict[str, float]:
         out = {}
@@ -89,8 +120,9 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     from ...engine.manipulators import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
-    system = default_system(fmu_dir, base["scenario"], base["trajectory"], "mixed" if is_fmu else controller, seed,
-                            Path(controller) if is_fmu else None, gusts=base["gusts"])
+    flight = _flight(base)
+    system = default_system(fmu_dir, base["scenario"], flight.trajectory, "mixed" if is_fmu else controller, seed,
+                            Path(controller) if is_fmu else None, gusts=base["gusts"], wind=dict(flight.wind))
     faults = copy.deepcopy(base.get("faults", []))
     for key, value in parameters.items():
         if key.startswith("faults."):
@@ -103,6 +135,42 @@ def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: d
     return system
 
 
+def ready() -> bool:
+    """Nothing: run on each worker of a new local cluster, so that importing this module (seconds: the controller's
+    design tools come with it) is part of the cluster's start, not of the first run."""
+    return True
+
+
+def _worker_address() -> str | None:
+    """The address of the Dask worker running this (None outside a worker: called directly)."""
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return None
+
+
+def _flight(base: dict) -> Flight:
+    """base["trajectory"]: the spec's Flight, or a thesis trajectory's number."""
+    flight = base["trajectory"]
+    if isinstance(flight, Flight):
+        return flight
+    from ....scenario_fmu.choice import as_trajectory
+
+    return Flight(as_trajectory(flight))
+
+
+def infeasible(system, stop: float, flight: Flight) -> str | None:
+    """The feasibility check's first problem for this case (None: it may run), once per reference and plant."""
+    key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance(PLANT).parameters.items())), stop)
+    if key not in _CHECKED:
+        report = check_system(system, stop, flight.max_tilt)
+        _CHECKED[key] = report.problems[0] if report is not None and report.problems else None
+    problem = _CHECKED[key]
+    return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
+
+
 def error_row(case: dict, error: str) -> dict:
     """The row of a run that produced no metrics."""
     controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
@@ -111,17 +179,39 @@ def error_row(case: dict, error: str) -> dict:
 
 
 def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
-    """Run one case; returns its row (the varied values, the metrics, the error line) and its timings. Never raises."""
+    """Run one case. Its outcome: {"row", "wall", "setup", "sim_time"}, the row holding the metrics or the run's error
+    line; or, when its environment failed, {"environment": the line, "worker": the worker's address}. Never raises."""
     try:
         return _run_case(base, case, fmu_dir, log_dir)
-    except Exception as err:  # anything the run itself did not turn into its error line
-        return {"row": error_row(case, f"{type(err).__name__}: {err}"), "wall": 0.0, "setup": 0.0, "sim_time": 0.0}
+    except Exception as err:  # not the run's outcome: retried, never stored
+        address = _worker_address()
+        where = f"worker {address} on {socket.gethostname()}" if address else f"{socket.gethostname()}"
+        if isinstance(err, MissingFmu):
+            line = f"{err} (the workers must see the FMU folder at the same path)"
+        else:
+            text = str(err).strip().splitlines()
+            line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
+        return {"environment": f"{where}: {line}", "worker": address}
+
+
+def _check_fmus(system) -> None:
+    for spec in system.instances:
+        if not Path(spec.fmu).is_file():
+            raise MissingFmu(f"no FMU at {spec.fmu}")
+        if not zipfile.is_zipfile(spec.fmu):
+            raise MissingFmu(f"{spec.fmu} is not a whole FMU (not a zip archive)")
 
 
 def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
     started = time.perf_counter()
+    if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
+        raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
-    stop = base["stop_time"] or default_stop(base["trajectory"])
+    _check_fmus(system)
+    stop = base["stop_time"] or default_stop(_flight(base).trajectory)
+    refused = infeasible(system, stop, _flight(base))
+    if refused:  # before the first step, as tiltload run refuses it
+        return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
     observers = [metrics]
     if log_dir:
@@ -130,6 +220,7 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     key = (base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir)
     execution = _EXECUTIONS.pop(key, None)
     error = None
+    healthy = False
     try:
         if execution is None:
             execution = Execution(system, observers, isolate=is_foreign)
@@ -138,9 +229,11 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
             execution.restart({i.name: i.parameters for i in system.instances}, observers, system.faults)
         setup = time.perf_counter() - started
         execution.run(stop)
-    except Exception as err:  # the run's one line; the row keeps it
+        healthy = True
+    except RUN_FAILURES as err:  # the run's one line; the row keeps it
         setup = time.perf_counter() - started
         error = str(err)
+        healthy = True
     finally:
         if execution is not None:
             for obs in execution.observers:
@@ -149,8 +242,8 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
                 except Exception:
                     pass
             execution.observers = []
-            if any(i.fatal for i in execution.instances.values()):
-                execution.close()  # an instance after fmi2Fatal cannot be reset: the next run starts afresh
+            if not healthy or any(i.fatal for i in execution.instances.values()):
+                execution.close()  # after fmi2Fatal or a failure outside the run: the next run starts afresh
             else:
                 _EXECUTIONS[key] = execution
     sim_time = execution.time if execution is not None else 0.0

@@ -1,12 +1,15 @@
-"""Campaigns on Dask: every case of a spec runs as a task; each finished run is saved at once, so a rerun skips it.
+"""Campaigns on Dask: every case of a spec runs as a task; each outcome is saved at once, so a rerun skips it.
 
 Results: <out>/results.parquet, one row per run (run id, controller, seed, the varied values, the
 metrics, completed / diverged / when / error line), ordered as the spec lists the runs, and
 <out>/timings.parquet (wall and set-up time of each run, which differ between machines). Each
-finished run is first written to <out>/parts/<run id>.parquet; `results.parquet` is assembled
-from the parts, so a campaign killed half-way and started again runs only what is missing.
-Runs execute on a LocalCluster sized to the machine, or on an existing Dask scheduler. Workers
-must see the FMU folder (and the log folder, with logs kept) at the same paths.
+outcome is first written to <out>/parts/<run id>.parquet; `results.parquet` is assembled from the
+parts, so a campaign stopped half-way (killed, or its scheduler gone) and started again runs only
+what is missing. Only outcomes are parts: a run whose environment failed, or whose future was
+cancelled, is not (dispatch.py). Runs execute on a LocalCluster on the loopback interface, sized to
+the machine, or on an existing Dask scheduler, checked before anything is built or written
+(cluster.py). Workers must see the FMU folder (and the log folder, with logs kept) at the same
+paths. Dask's log goes to <out>/campaign.log (logs.py).
 """
 
 from __future__ import annotations
@@ -14,15 +17,31 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
-from .spec import Campaign, load
+from .errors import CampaignIncomplete
+from .logs import LOG, LOGGER, campaign_log
+from .spec import Campaign, Case, load
 
 RESULTS, TIMINGS = "results.parquet", "timings.parquet"
 
 
-def _write_part(folder: Path, result: dict) -> None:
+@dataclass
+class Options:
+    """How a campaign runs: where, how patiently, what again."""
+
+    scheduler: str | None = None  # an existing scheduler's address; None: a local cluster
+    workers: int | None = None  # the local cluster's size; with a scheduler: how many workers to wait for
+    connect_timeout: float = 5.0  # s for the scheduler to answer
+    worker_timeout: float = 30.0  # s to wait for workers (before the runs, and when all are gone)
+    retries: int = 2  # further tries of a run whose environment failed
+    retry_failed: bool = False  # run again the stored runs that failed
+    verbose: bool = False  # Dask's log on the terminal too
+
+
+def write_part(folder: Path, result: dict) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -31,6 +50,17 @@ def _write_part(folder: Path, result: dict) -> None:
     tmp = folder / f".{row['run_id']}.tmp"
     pq.write_table(pa.Table.from_pylist([row]), tmp)
     tmp.replace(folder / f"{row['run_id']}.parquet")  # a part exists only once complete
+
+
+def _stored(parts: Path, cases: list[Case], failed_too: bool) -> set[str]:
+    """The run ids whose outcome is stored; with failed_too, only those that completed (the failed ones run again)."""
+    import pyarrow.parquet as pq
+
+    done = {p.stem for p in parts.glob("*.parquet")} if parts.is_dir() else set()
+    if failed_too:
+        done = {c.run_id for c in cases if c.run_id in done
+                and pq.read_table(parts / f"{c.run_id}.parquet", columns=["completed"])["completed"][0].as_py()}
+    return done
 
 
 def assemble(campaign: Campaign, out: Path) -> Path:
@@ -52,64 +82,95 @@ def assemble(campaign: Campaign, out: Path) -> Path:
     return out / RESULTS
 
 
-def _client(scheduler: str | None, workers: int | None):
-    from dask.distributed import Client, LocalCluster
+def held(results: Path) -> dict[str, int]:
+    """What a results file holds: rows (stored), completed, failed (diverged among them)."""
+    import pyarrow.parquet as pq
 
-    if scheduler:
-        return Client(scheduler, timeout="20s"), None
-    n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=40)
-    return Client(cluster), cluster
+    table = pq.read_table(results)
+    completed = table["completed"].to_pylist() if "completed" in table.column_names else []
+    diverged = table["diverged"].to_pylist() if completed else []
+    return {"stored": len(completed), "completed": sum(completed), "failed": len(completed) - sum(completed),
+            "diverged": sum(bool(d) for d in diverged)}
 
 
-def run(spec: Path, out: Path | None = None, scheduler: str | None = None, workers: int | None = None, fmus: Path = Path("fmus"),
-        progress=None) -> tuple[Path, dict]:
-    """Run what is missing of a campaign; returns results.parquet and counts (total, skipped, ran, failed)."""
-    from dask.distributed import as_completed
+def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress=None, **options) -> tuple[Path, dict]:
+    """Run what is missing of a campaign (options: the fields of Options); returns results.parquet and counts: total
+    (the spec's runs), what the results hold (stored, completed, failed, diverged), skipped (stored before), ran
+    (stored now), retried, seconds. CampaignIncomplete (with .counts) when runs are still missing at the end (the
+    results hold the others); ClusterError, before anything is built or written, when the cluster cannot take it."""
+    from .address import parse
+    from .cluster import connect, local_cluster
+    from .dispatch import Dispatch, Policy
 
-    from ..fmus import build_all
-    from .run_case import error_row, run_case
-
+    opts = Options(**options)
+    scheduler, workers = opts.scheduler, opts.workers
     campaign = load(spec)
     out = Path(out) if out else Path("runs") / "campaigns" / campaign.name
-    (out / "parts").mkdir(parents=True, exist_ok=True)
-    (out / f"spec{Path(spec).suffix}").write_bytes(Path(spec).read_bytes())  # the report's rerun commands read it
-    logs = out / "logs" if campaign.keep_logs else None
-    if logs:
-        logs.mkdir(exist_ok=True)
-    done = {p.stem for p in (out / "parts").glob("*.parquet")}
+    done = _stored(out / "parts", campaign.cases, opts.retry_failed)
     todo = [c for c in campaign.cases if c.run_id not in done]
     say = progress or (lambda text: print(text, file=sys.stderr))
-    say(f"campaign {campaign.name}: {len(campaign.cases)} runs, {len(campaign.cases) - len(todo)} already done, {len(todo)} to run")
-    counts = {"total": len(campaign.cases), "skipped": len(campaign.cases) - len(todo), "ran": 0, "failed": 0}
-    if todo:
-        build_all(fmus, progress=say)
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
-        base = {"scenario": campaign.scenario, "trajectory": campaign.trajectory, "stop_time": campaign.stop_time,
-                "gusts": campaign.gusts, "keep_metrics": list(campaign.keep_metrics), "faults": campaign.faults}
-        client, cluster = _client(scheduler, workers)
+    counts = {"total": len(campaign.cases), "skipped": len(campaign.cases) - len(todo), "ran": 0, "retried": 0}
+    incomplete = None
+    with campaign_log(opts.verbose) as log:
+        client = cluster = None
+        if scheduler is not None:
+            parse(scheduler)  # a malformed address is refused even with nothing to run
+            if todo:
+                client = connect(scheduler, workers or 1, opts.connect_timeout, opts.worker_timeout)
         try:
-            cases = {}  # future -> case: the futures must stay referenced, or Dask forgets their tasks
-            for c in todo:
-                future = client.submit(run_case, base, asdict(c), str(Path(fmus).resolve()), str(logs.resolve()) if logs else None,
-                                       key=f"run-{c.run_id}", pure=False)
-                cases[future] = c
-            started = time.perf_counter()
-            for k, future in enumerate(as_completed(list(cases)), start=1):
+            (out / "parts").mkdir(parents=True, exist_ok=True)
+            log.to_file(out / LOG)
+            LOGGER.info("campaign %s (%s): %d runs, %d stored, %d to run", campaign.name, Path(spec).resolve(),
+                        len(campaign.cases), len(campaign.cases) - len(todo), len(todo))
+            (out / f"spec{Path(spec).suffix}").write_bytes(Path(spec).read_bytes())  # the report's rerun commands read it
+            logs = out / "logs" if campaign.keep_logs else None
+            if logs:
+                logs.mkdir(exist_ok=True)
+            say(f"campaign {campaign.name}: {len(campaign.cases)} runs, {len(campaign.cases) - len(todo)} already done, "
+                f"{len(todo)} to run")
+            if todo:
+                from ..fmus import build_all  # these import the controller's design tools: seconds, so only now
+                from .run_case import run_case
+
+                build_all(fmus, progress=say)
+                os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
+                if client is None:
+                    client, cluster = local_cluster(workers, opts.verbose)
+                where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
+                task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
+                dispatch = Dispatch(client, task, partial(write_part, out / "parts"), where, len(campaign.cases),
+                                    len(campaign.cases) - len(todo),
+                                    Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say)
+                started = time.perf_counter()
                 try:
-                    result = future.result()
-                except Exception as err:  # the worker died (a crashing FMU): the run is a row with that line
-                    result = {"row": error_row(asdict(cases[future]), f"worker lost: {type(err).__name__}: {err}"),
-                              "wall": 0.0, "setup": 0.0, "sim_time": 0.0}
-                _write_part(out / "parts", result)
-                counts["ran"] += 1
-                counts["failed"] += not result["row"]["completed"]
-                elapsed = time.perf_counter() - started
-                eta = elapsed / k * (len(todo) - k)
-                say(f"  {k}/{len(todo)} runs ({counts['failed']} failed), {elapsed:.0f} s, about {eta:.0f} s left")
-            counts["seconds"] = time.perf_counter() - started  # submitting to the last result: no cluster start or stop
+                    dispatch.run(todo)
+                    if dispatch.failures:
+                        incomplete = _not_run(dispatch.failures, len(todo), opts.retries, log.path)
+                except CampaignIncomplete as err:
+                    incomplete = CampaignIncomplete(f"{err}{_see(log.path)}")
+                counts["seconds"] = time.perf_counter() - started  # submitting to the last result: no cluster start or stop
+                counts["ran"], counts["retried"] = dispatch.stored, dispatch.retried
         finally:
-            client.close()
+            if client is not None:
+                client.close()
             if cluster is not None:
                 cluster.close()
-    return assemble(campaign, out), counts
+    results = assemble(campaign, out)
+    counts.update(held(results))
+    if incomplete is not None:
+        incomplete.counts = counts
+        raise incomplete
+    return results, counts
+
+
+def _see(log: Path | None) -> str:
+    return f" (details: {log})" if log is not None else ""
+
+
+def _not_run(failures: dict[str, str], tried: int, retries: int, log: Path | None) -> CampaignIncomplete:
+    lines = list(dict.fromkeys(failures.values()))
+    more = f"; and {len(lines) - 1} other reason{'s' if len(lines) > 2 else ''}" if len(lines) > 1 else ""
+    return CampaignIncomplete(f"{len(failures)} of {tried} runs failed for their environment, not for themselves, "
+                              f"up to {retries + 1} tries each ({lines[0]}{more}); nothing of them is stored: fix it and rerun "
+                              f"the same command to finish{_see(log)}")
+

@@ -3,7 +3,10 @@
     name = "robustness"
     [base]                      # the run every case starts from (tiltload run's options)
     scenario = "zse"            # fsi | lkf | zse
-    trajectory = 1              # 0 hover | 1 circle | 2 Table 5.3
+    trajectory = 1              # 0 hover | 1 circle | 2 Table 5.3 | a shape ("lemniscate") | a waypoint file
+    wind = "gusty.yaml"         # a wind file (docs/test_bench.md), seeded by each case's seed
+    allow_infeasible = false    # true: run a case the feasibility check refuses (its row says so)
+    max_tilt = 30.0             # degrees: the feasibility check's largest trim tilt
     controllers = ["dlqr", "mixed"]   # ours by name, or paths of controller FMUs
     stop_time = 40.0            # s (default: the trajectory's duration)
     gusts = true
@@ -20,6 +23,9 @@
     metrics = ["ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"]
     logs = false                # true: keep every run's MCAP log
 
+Files (trajectory, wind) are relative to the spec. Every case's reference is checked before it runs
+(master/app/feasibility.py, with the case's plant parameters); a case the check refuses is a row with its line.
+
 `base.faults` is a fault schedule (docs/faults.md); a varied parameter's target `faults.N.start`,
 `faults.N.end` or `faults.N.value` varies fault N.
 
@@ -35,6 +41,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ....scenario_fmu.choice import Trajectory
+
 METRICS = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
 
 SCHEMA = {
@@ -43,7 +51,10 @@ SCHEMA = {
         "name": {"type": "string", "pattern": "^[A-Za-z0-9_.-]+$"},
         "base": {"type": "object", "additionalProperties": False, "properties": {
             "scenario": {"enum": ["fsi", "lkf", "zse"]},
-            "trajectory": {"enum": [0, 1, 2]},
+            "trajectory": {"anyOf": [{"enum": [0, 1, 2]}, {"type": "string", "minLength": 1}]},
+            "wind": {"type": "string", "minLength": 1},
+            "allow_infeasible": {"type": "boolean"},
+            "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
             "controllers": {"type": "array", "minItems": 1, "uniqueItems": True, "items": {"type": "string", "minLength": 1}},
             "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
             "gusts": {"type": "boolean"},
@@ -86,11 +97,25 @@ class Case:
     parameters: dict[str, object] = field(default_factory=dict)  # by instance.name, base and varied
 
 
+@dataclass(frozen=True)
+class Flight:
+    """What the scenario FMU flies in every case, and how its feasibility is checked: the spec's base.trajectory,
+    base.wind, base.allow_infeasible and base.max_tilt, resolved (files read) once."""
+
+    trajectory: Trajectory
+    wind: tuple[tuple[str, object], ...] = ()  # the scenario FMU's wind parameters
+    allow_infeasible: bool = False
+    max_tilt: float = 30.0
+
+    def __str__(self) -> str:
+        return self.trajectory.label
+
+
 @dataclass
 class Campaign:
     name: str
     scenario: str
-    trajectory: int
+    trajectory: Flight
     stop_time: float | None
     gusts: bool
     keep_metrics: tuple[str, ...]
@@ -99,6 +124,11 @@ class Campaign:
     varied: list[str]
     cases: list[Case]
     source: Path
+
+    def base(self) -> dict:
+        """What every run shares, as the workers get it (run_case's `base`)."""
+        return {"scenario": self.scenario, "trajectory": self.trajectory, "stop_time": self.stop_time, "gusts": self.gusts,
+                "keep_metrics": list(self.keep_metrics), "faults": self.faults}
 
 
 def read_spec_file(path: Path) -> dict:
@@ -169,6 +199,20 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
     return [dict(zip(names, map(float, row))) for row in scaled]
 
 
+def _flight(base: dict, path: Path) -> Flight:
+    """base.trajectory and base.wind read (relative to the spec), with the feasibility policy."""
+    from ....scenario_fmu.choice import as_trajectory
+    from ....scenario_fmu.files import ScenarioFileError
+    from ....scenario_fmu.wind import read_wind
+
+    try:
+        trajectory = as_trajectory(base.get("trajectory", 1), path.parent)
+        wind = tuple(read_wind(path.parent / base["wind"]).items()) if "wind" in base else ()
+    except ScenarioFileError as err:
+        raise SpecError(f"{path}: base: {err}") from None
+    return Flight(trajectory, wind, base.get("allow_infeasible", False), base.get("max_tilt", 30.0))
+
+
 def run_id(controller: str, seed: int, parameters: dict) -> str:
     key = json.dumps({"controller": controller, "seed": seed, "parameters": parameters}, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:16]
@@ -210,6 +254,6 @@ def load(path: Path) -> Campaign:
     ids = [c.run_id for c in cases]
     if len(set(ids)) != len(ids):
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
-    return Campaign(data["name"], base.get("scenario", "zse"), base.get("trajectory", 1), base.get("stop_time"),
+    return Campaign(data["name"], base.get("scenario", "zse"), _flight(base, path), base.get("stop_time"),
                     base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
                     list(targets), cases, path)

@@ -1,11 +1,26 @@
-"""`tiltload build`: every FMU into fmus/ (only what is missing or stale); `--fmi 3`: the FMI 3.0 set into fmus/fmi3/."""
+"""`tiltload build`: every FMU into fmus/ (only what is missing or stale), with a binary per platform; `--fmi 3`: the
+FMI 3.0 set into fmus/fmi3/ (the same platforms, under FMI 3.0's platform tuples)."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from ..arguments import DEFAULT_FMU_DIR
+
+
+def platform_list(text: str) -> list[str]:
+    """--platforms linux64,win64: known names only (a missing compiler is checked when building)."""
+    from ....native_fmu.compile import BuildError, toolchain
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("must name at least one platform, e.g. linux64,win64")
+    try:
+        return [toolchain(n).folder for n in names]
+    except BuildError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def add_parser(sub) -> None:
@@ -15,17 +30,22 @@ def add_parser(sub) -> None:
     b.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version: 2 (default) into OUT/; 3: FMI 3.0 co-simulation into OUT/fmi3/, the plain FMUs and "
                         "the sensors' and controllers' variants with clocks (*Clocked.fmu; docs/fmi3.md)")
+    b.add_argument("--platforms", type=platform_list, metavar="LIST",
+                   help="comma-separated binaries to build: linux64, win64, aarch64-linux (default: each whose "
+                        "compiler is installed; docs/platforms.md)")
     b.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ....native_fmu.build import build
-    from ..fmus import clocked_recipes, fmu_folder, formation_recipes, loop_recipes
+    from ....native_fmu.compile import choose
+    from ..fmus import build_many, clocked_recipes, fmu_folder, formation_recipes, loop_recipes
 
+    toolchains, missing = choose(args.platforms)
+    if missing:
+        print(f"tiltload build: {missing}", file=sys.stderr)
     every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if args.fmi == 3 else ())]
     recipes = {r.fmu_name: r for r in every}  # the UAV's plant once
     out = fmu_folder(args.out, args.fmi)
-    for recipe in recipes.values():
-        result = build(recipe, out, args.force, fmi_version=args.fmi)
-        print(f"{result.path}: {'built' if result.rebuilt else 'up to date'} ({result.seconds:.1f} s)")
+    for result in build_many(list(recipes.values()), out, args.force, toolchains=toolchains, fmi_version=args.fmi):
+        print(f"{result.path}: {'built' if result.rebuilt else 'up to date'}" + (f" ({result.seconds:.1f} s)" if result.rebuilt else ""))
     return 0

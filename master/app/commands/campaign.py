@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from .. import arguments
 from ..errors import UserError
+
+seconds = arguments.positive_time
 
 
 def add_parser(sub) -> None:
@@ -14,8 +17,18 @@ def add_parser(sub) -> None:
     ca.add_argument("what", help="the campaign spec, or 'report'")
     ca.add_argument("results", nargs="?", type=Path, default=None, help="with report: the results.parquet")
     ca.add_argument("--out", type=Path, default=None, help="results folder (default runs/campaigns/<name>)")
-    ca.add_argument("--scheduler", default=None, help="an existing Dask scheduler, tcp://HOST:PORT (default: a local cluster)")
-    ca.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
+    ca.add_argument("--scheduler", default=None,
+                    help="an existing Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (default: a local cluster on 127.0.0.1)")
+    ca.add_argument("--workers", type=arguments.whole_number, default=None,
+                    help="local cluster size (default: one per core); with --scheduler: wait for this many workers (default 1)")
+    ca.add_argument("--connect-timeout", type=seconds, default=5.0, metavar="S",
+                    help="s for the scheduler to answer (default 5)")
+    ca.add_argument("--worker-timeout", type=seconds, default=30.0, metavar="S",
+                    help="s to wait for workers, before the runs and whenever none is left (default 30)")
+    ca.add_argument("--retries", type=arguments.integer(0, 100), default=2,
+                    help="further tries of a run whose environment failed (a worker without the FMUs...), default 2")
+    ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")
+    ca.add_argument("--verbose", action="store_true", help="Dask's log on the terminal too (it is always in <out>/campaign.log)")
     ca.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     ca.add_argument("--spec", type=Path, default=None, help="with report: the spec, for the rerun commands")
     ca.add_argument("--x", default=None, help="with report: the varied parameter on the maps' x axis")
@@ -31,11 +44,28 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("campaign report: name the results file (e.g. runs/campaigns/NAME/results.parquet)")
         print(f"report: {report(args.results, args.spec, args.x, args.y)}")
         return 0
+    from ..campaign.errors import CampaignIncomplete, ClusterError
     from ..campaign.runner import run as run_campaign
 
     if args.results is not None:
         raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign report RESULTS)")
-    results, counts = run_campaign(Path(args.what), args.out, args.scheduler, args.workers, args.fmus)
-    print(f"{counts['total']} runs: {counts['skipped']} were done, {counts['ran']} ran, {counts['failed']} failed")
+    try:
+        results, counts = run_campaign(Path(args.what), args.out, args.fmus, scheduler=args.scheduler,
+                                       workers=args.workers, connect_timeout=args.connect_timeout,
+                                       worker_timeout=args.worker_timeout, retries=args.retries,
+                                       retry_failed=args.retry_failed, verbose=args.verbose)
+    except ClusterError as err:
+        raise UserError(str(err)) from None
+    except CampaignIncomplete as err:
+        print(f"tiltload: error: {err}", file=sys.stderr)
+        return 1
+    print(summary(counts))
     print(f"results: {results}")
     return 0
+
+
+def summary(counts: dict) -> str:
+    """What the results hold, then what this campaign did."""
+    return (f"{counts['total']} runs: {counts['stored']} in the results, {counts['completed']} completed, "
+            f"{counts['failed']} failed ({counts['diverged']} diverged); {counts['skipped']} were done before, "
+            f"{counts['ran']} ran now")

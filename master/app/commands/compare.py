@@ -12,8 +12,12 @@ def add_parser(sub) -> None:
     cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
     cp.add_argument("run", type=Path)
     cp.add_argument("baseline", type=Path)
-    cp.add_argument("--rtol", type=arguments.tolerance, default=1e-6, help="relative tolerance (default 1e-6)")
-    cp.add_argument("--atol", type=arguments.tolerance, default=1e-12, help="absolute tolerance (default 1e-12)")
+    cp.add_argument("--rtol", type=arguments.tolerance, default=None,
+                    help="relative tolerance for every metric, in place of the baseline's own (default: the baseline "
+                         "file's per-metric tolerances, else 1e-6)")
+    cp.add_argument("--atol", type=arguments.tolerance, default=None,
+                    help="absolute tolerance for every metric, in place of the baseline's own (default: the baseline "
+                         "file's, else 1e-12)")
     cp.set_defaults(func=run)
 
 
@@ -25,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
     base, tol = cmp.load_metrics(args.baseline, notes)
     for note in notes:
         print(f"note: {note}")
-    ok, rows = cmp.compare(run_metrics, base, args.rtol, args.atol, tol)
+    ok, rows = cmp.compare(run_metrics, base, cmp.DEFAULT_RTOL, cmp.DEFAULT_ATOL, cmp.overridden(tol, args.rtol, args.atol))
     print(cmp.format_rows(rows))
     print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
     return 0 if ok else 1

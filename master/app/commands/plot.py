@@ -16,20 +16,24 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...engine.log_reader import is_truncated
-    from ..plot import plot_run
+    import sys
+
+    from ..plot import plot_intact
 
     if not args.log.is_file():
         raise UserError(f"{args.log} does not exist")
     with open(args.log, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise UserError(f"{args.log} is not an MCAP log (no MCAP magic at its start)")
-    if is_truncated(args.log):
-        print(f"note: {args.log} is truncated (no footer: a killed run); plotting what it holds")
     try:
-        files = plot_run(args.log, args.out)
-    except ValueError as err:  # a log of another system: no /plant channel
+        files, state = plot_intact(args.log, args.out)
+    except ValueError as err:  # a log of another system: no /plant channel (or nothing intact)
         raise UserError(str(err)) from None
     for f in files:
         print(f)
+    if state.damage is not None:  # the figures are of the intact part only: say so, and do not exit 0
+        print(f"tiltload: error: {state.describe(args.log)}; the figures show that part only", file=sys.stderr)
+        return 1
+    if state.torn:
+        print(f"note: {state.describe(args.log)}; the figures show what it holds")
     return 0

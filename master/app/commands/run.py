@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from .. import arguments
+from ..errors import UserError
 
 
 def add_parser(sub) -> None:
@@ -26,6 +27,14 @@ def add_parser(sub) -> None:
     r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
                    help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--snapshot-at", nargs=2, metavar=("T", "FILE"), default=None,
+                   help="at t = T s write every FMU's state and the master's to FILE (the run goes on)")
+    r.add_argument("--from-snapshot", type=Path, default=None, metavar="FILE",
+                   help="continue the run a snapshot was taken of (with --faults, --set of tunable parameters, --stop-time)")
+    r.add_argument("--realtime", type=arguments.positive_number, nargs="?", const=1.0, default=None, metavar="FACTOR",
+                   help="pace the ticks against the monotonic clock, FACTOR x real time (default 1); overruns are reported")
+    r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
+                   help="with --realtime: stop the run once more than N ticks missed their deadline")
     r.set_defaults(func=run)
 
 
@@ -35,9 +44,71 @@ def _announce(execution) -> None:
         print(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
 
 
+# the options that say which loop runs: a run continued from a snapshot takes them from the snapshot
+# (their argparse defaults: None or False, so a given option is one that is neither)
+_LOOP_DEFINING = ("vehicle", "scenario", "trajectory", "controller", "seed", "delay", "no_gusts", "system", "schedule",
+                  "allow_unknown_inputs", "wind")
+
+
+def _branch(args: argparse.Namespace):
+    """(snapshot, the loop options it was taken with, this run's faults and stop time instead of its own)."""
+    from ...engine import snapshot
+    from ..options import LoopOptions
+
+    given = [f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING if getattr(args, k, None) not in (None, False)]
+    if given:
+        raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says which "
+                        "loop it is; --faults, --set of tunable parameters and --stop-time can)")
+    if args.snapshot_at is not None:
+        raise UserError("--from-snapshot and --snapshot-at together: continue first, then take a new snapshot in a later run")
+    snap = snapshot.read(args.from_snapshot)
+    if "options" not in snap.application:
+        raise UserError(f"{args.from_snapshot} was not taken by `tiltload run` (it names no loop options)")
+    import dataclasses
+
+    opts = LoopOptions.from_dict(snap.application["options"])
+    opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus or opts.fmus,
+                               stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time)
+    branch: dict[str, dict] = {}
+    for key, value in args.set:
+        instance, _, name = key.partition(".")
+        branch.setdefault(instance, {})[name] = value
+    snap.settings = branch
+    return snap, opts
+
+
+def _snapshot_at(args: argparse.Namespace):
+    if args.snapshot_at is None:
+        return None
+    at, path = args.snapshot_at
+    try:
+        return arguments.positive_time(at), Path(path)
+    except argparse.ArgumentTypeError as err:
+        raise UserError(f"--snapshot-at {at}: {err}") from None
+
+
+def _metadata(opts, stop: float) -> dict:
+    """The log's "run" record: what this run was, as it ran (a system file's own settings are in the file)."""
+    if opts.system is not None:
+        meta = {"system": str(opts.system)}
+    else:
+        meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory,
+                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts,
+                "fmi": opts.fmi, "clocks": opts.clocks}
+        if opts.settings:
+            meta["set"] = " ".join(f"{k}={v}" for k, v in opts.settings)
+    if opts.faults is not None:
+        meta["faults"] = str(opts.faults)
+    return {**meta, "stop_time": stop}
+
+
 def run(args: argparse.Namespace) -> int:
+    if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
+        print("tiltload run: preparing " + (f"the system {args.system}" if args.system else
+                                            f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
+              + " ...", flush=True)
     from ....controller_fmu.design.cache import cache_root
-    from ...engine import jacobi
+    from ...engine import jacobi, snapshot
     from ...engine.model_description import read_fmu
     from ...engine.run import run_system
     from ..errors import run_failed
@@ -47,31 +118,59 @@ def run(args: argparse.Namespace) -> int:
     from ..plot import plot_run
     from ..scene import scene_channels
 
-    opts = resolve_loop(args)
+    pacer = None
+    if args.realtime is not None:
+        from ...engine.realtime import Pacer
+
+        pacer = Pacer(args.realtime, args.max_overruns)
+    elif args.max_overruns is not None:
+        raise UserError("--max-overruns needs --realtime")
+    snap = None
+    if args.from_snapshot is not None:
+        snap, opts = _branch(args)
+    else:
+        opts = resolve_loop(args)
+    checkpoint = _snapshot_at(args)
     loop = loop_system(opts, cache_root() / "ssp")
     system, stop = loop.system, loop.stop
-    schedule = args.schedule or loop.schedule
+    schedule = (snap.application.get("schedule") if snap else None) or args.schedule or loop.schedule
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
         print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
-    label = args.name or (opts.system.stem if opts.system is not None else
-                          f"{'uav_' if opts.vehicle == 'uav' else ''}{opts.scenario}_traj{opts.trajectory}_"
-                          f"{opts.controller_label}_seed{opts.seed}"
-                          f"{'' if opts.fmi == 2 else '_fmi3' + ('_clocks' if opts.clocks else '')}")
+    label = args.name or (opts.run_name(loop.natural_stop) + (f"_from{snap.time:g}s" if snap else ""))
     log = None if args.no_log else args.out / f"{label}.mcap"
+    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
+        print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
     metrics = loop_metrics() if is_loop(system) else None
-    meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory, "controller": opts.controller,
-            "seed": opts.seed, "stop_time": stop, "delay": opts.delay, "fmi": opts.fmi, "clocks": opts.clocks}
+    meta = _metadata(opts, stop)
+    checkpoints = []
+    if checkpoint is not None:
+        at, path = checkpoint
+        if not 0 < at < stop:
+            raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
+        application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
+
+        def save(execution) -> None:
+            print(f"snapshot at t = {execution.time:.3f} s: {snapshot.write(snapshot.take(execution, application), path)}")
+        checkpoints.append((at, save))
+    if snap is not None:
+        meta["from_snapshot"] = f"{args.from_snapshot} (t = {snap.time:.3f} s)"
+        print(f"continuing from {args.from_snapshot}: t = {snap.time:.3f} s")
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
-    print(f"running {label}: {stop:g} s of simulated time")
+    print(f"running {label}: {stop:g} s of simulated time" + (f", paced at {args.realtime:g}x real time" if pacer else ""))
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
                         channels=scene_channels(scene) if scene else (), isolate=None if args.trust_fmus else is_foreign,
-                        step_timeout=args.step_timeout, announce=_announce)
-    print(f"{result.sim_time:.2f} s simulated in {result.wall:.1f} s ({result.sim_time / max(result.wall, 1e-9):.0f}x real time)")
+                        step_timeout=args.step_timeout, announce=_announce, realtime=pacer, resume=snap,
+                        checkpoints=checkpoints)
+    simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
+    print(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
+          + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
         print(f"{'metric':>14} {'value':>12}")
         for k, v in result.metrics.items():
             print(f"{k:>14} {v:>12.6g}")
+    if pacer is not None:
+        print(pacer.summary())
     if log is None or log.is_file():
         print(f"log: {log}" if log else "log: none (--no-log)")
     if result.error:

@@ -1,7 +1,8 @@
 """`tiltload compare`: a run's metrics against a baseline (another log, or a committed metrics file).
 
-A metric passes if |run - base| <= atol + rtol * |base| (numpy.isclose semantics). Tolerances:
-command-line defaults, overridden by the baseline file's "tolerances" (global or per metric).
+A metric passes if |run - base| <= atol + rtol * |base| (numpy.isclose semantics). Tolerances: an rtol or atol
+given on the command line, for every metric; else the baseline file's "tolerances" (per metric, or global); else
+DEFAULT_RTOL, DEFAULT_ATOL.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import math
 from pathlib import Path
 
 from ...engine.errors import DescriptionError
-from ...engine.log_reader import read_log, read_metadata
+from ...engine.log_reader import DamagedLog, check, read_log, read_metadata
 
 
 def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
@@ -43,6 +44,9 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
+    state = check(path)
+    if state.damage is not None:  # its metrics record may read, but a damaged log is no run to compare
+        raise DamagedLog(state.describe(path))
     meta = read_metadata(path)
     if "metrics" not in meta:
         from .log_metrics import metrics_from_messages
@@ -71,6 +75,16 @@ def _check_tolerances(tolerances, path: Path) -> None:
         elif key in ("rtol", "atol"):
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= 0):
                 raise DescriptionError(f"{path}: tolerance {key} = {value!r} must be a finite number >= 0")
+
+
+DEFAULT_RTOL, DEFAULT_ATOL = 1e-6, 1e-12
+
+
+def overridden(tolerances: dict, rtol: float | None, atol: float | None) -> dict:
+    """A baseline's tolerances with the given rtol / atol in place of its own, globally and in every metric."""
+    given = {k: v for k, v in (("rtol", rtol), ("atol", atol)) if v is not None}
+    out = {k: ({**v, **given} if isinstance(v, dict) else v) for k, v in tolerances.items() if k not in given}
+    return {**out, **given}
 
 
 def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[tuple]]:

@@ -114,7 +114,7 @@ def write_results_doc(results: list[dict], tables_md: str, path: Path, out: Path
              "  trajectory (docs/controller.md, docs/ports.md). A different gust timing moves every ISE and IADU.",
              "- **IADU** is the discrete Σ|Δu| at 12 ms. With noisy estimates it is dominated by noise and scales",
              "  with the noise realization and the bandwidth of the loop, not only the controller.",
-             "- **The mixed design** comes from Clarabel with a strictness margin, not SDPT3 (H2 bound 8.31 here",
+             "- **The mixed design** comes from SDPA with a strictness margin, not SDPT3 (H2 bound 8.44 here",
              "  vs √33.11 = 5.75), so the mixed-to-DLQR ratios differ even where the trends agree.",
              "- **Integration.** The plant runs RK4 at 4 ms on compiled CasADi code. The thesis used Simulink;",
              "  its solver is not stated. Our sensors hold samples (zero-order hold) exactly on the tick grid.",
@@ -123,7 +123,7 @@ def write_results_doc(results: list[dict], tables_md: str, path: Path, out: Path
              "  the ZSE scenario, where ψ comes from the IMU through the linearized π(x). The thesis's LKF ISE(ψ) is",
              "  higher, which suggests its simulation did not measure ψ exactly.",
              "- **Servo IADU.** Our mixed design has the larger servo IADU. Its gain differs from the thesis's (H2",
-             "  bound 8.31 vs 5.75), and it moves the servos more to reject the gusts.",
+             "  bound 8.44 vs 5.75), and it moves the servos more to reject the gusts.",
              "- **ISE(z) on trajectory 2.** It is small in the thesis's FSI case (1e-3). There it is set by how",
              "  the take-off spiral and the landing are started, which is sensitive to the initial transient.",
              "", "## Figures", ""]

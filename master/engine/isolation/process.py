@@ -128,6 +128,8 @@ class IsolatedFmu(slave.Slave):
         if reply[0] == "ok":
             _, outputs, log = reply
             self.log.extend(log)
+            if isinstance(outputs, bytes):  # a serialized state
+                return outputs
             if outputs is not None:
                 for t, v in outputs.items():
                     self.values[t][:] = v
@@ -144,6 +146,16 @@ class IsolatedFmu(slave.Slave):
     def reset(self) -> None:
         self._pending.clear()
         self._exchange(("reset",), "reset")
+
+    def set_values(self, values: dict) -> None:
+        self._exchange(("set", dict(values)), "setting values")
+
+    def get_state(self) -> bytes:
+        return self._exchange(("get_state",), "getting its state")
+
+    def set_state(self, state: bytes) -> None:
+        self._pending.clear()
+        self._exchange(("set_state", state), "restoring its state")
 
     def do_step(self, t: float, h: float) -> None:
         sets, self._pending = self._pending, []

@@ -5,6 +5,9 @@ other message is pickled, after a b"P". Requests:
   step                          apply sets [(type, vrs, values)], doStep(t, h); reply: the outputs
   P ("init", parameters)        initialization; reply: the outputs at t = 0
   P ("reset",)                  fmi2Reset
+  P ("set", {name: value})      set parameters or inputs
+  P ("get_state",)              the serialized FMU state; reply: P ("ok", state bytes, log)
+  P ("set_state", state)        restore it; reply: the outputs
   P ("close",)                  terminate, free, exit
 Replies: the outputs as raw bytes (plus new log lines, pickled, when there are any), or
          P ("ok", outputs {type: ndarray} or None, new log lines) or

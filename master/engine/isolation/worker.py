@@ -77,6 +77,14 @@ def serve(fmu: str, name: str, requests: int, replies: int) -> int:
             elif op == "init":
                 inst.initialize(request[1])
                 wire.send(replies, ("ok", outputs(), new_log()))
+            elif op == "set":
+                inst.set_parameters(request[1])
+                wire.send(replies, ("ok", None, new_log()))
+            elif op == "get_state":
+                wire.send(replies, ("ok", inst.get_state(), new_log()))
+            elif op == "set_state":
+                inst.set_state(request[1])
+                wire.send(replies, ("ok", outputs(), new_log()))
             elif op == "reset":
                 inst.reset()
                 wire.send(replies, ("ok", None, new_log()))

@@ -74,7 +74,7 @@ def main(folder, stop, with_controller):
             values = getter(i, [v.reference for v in outs])
             result.update({f"{name}.{v.name.decode()}": (bool(x) if kind == CosimVariableType.BOOLEAN else x)
                            for v, x in zip(outs, values)})
-    print("RESULT " + json.dumps(result))  # libcosim may log on stdout too
+    print("RESULT " + json.dumps(result), flush=True)  # whole now: libcosim logs on stdout too, at exit
 
 
 if __name__ == "__main__":

@@ -1,0 +1,196 @@
+"""The times a user meets, measured by running the commands the README names, on this machine.
+
+The figures go to docs/timings.json (with the machine, the date and the load average), docs/timings.md is made from
+it, and with --write every figure between <!-- timing:KEY --> and <!-- /timing --> in README.md and docs/*.md is
+replaced by the measured one: no timing in the docs is typed by hand.
+
+  first_run        a fresh clone of HEAD, `pip install -e` into a new virtual environment, an empty cache:
+                   `tiltload run`, timed to its metrics table (three runs, the median; each run also to its first
+                   line of output and to its end)
+  build            `tiltload build` into an empty fmus/ with an empty cache (nine FMUs)
+  design_dlqr, design_hinf, design_mixed       `tiltload design --controller KIND --fresh`
+  design_mixed_d1, design_mixed_d2             the mixed design for a loop delay of 1, 2 ticks, synthesized afresh
+  reproduce        `tiltload reproduce` (FMUs built beforehand)
+  campaign         `tiltload campaign docs/campaigns/robustness.toml` (240 runs, FMUs built beforehand)
+  spread_variant   one variant of `python benchmarks/baseline_spread.py` (`--only reference`)
+
+Run: python benchmarks/user_timings.py [--only KEY ...] [--write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMINGS = ROOT / "docs" / "timings.json"
+PAGE = ROOT / "docs" / "timings.md"
+MARKER = re.compile(r"<!-- timing:(\w+) -->(.*?)<!-- /timing -->")
+KEYS = ("first_run", "build", "design_dlqr", "design_hinf", "design_mixed", "design_mixed_d1", "design_mixed_d2",
+        "reproduce", "campaign", "spread_variant")
+WHAT = {
+    "first_run": "first `tiltload run` of a fresh clone, empty cache, to the metrics table (median of 3)",
+    "build": "`tiltload build`, empty fmus/ and cache (nine FMUs)",
+    "design_dlqr": "`tiltload design --controller dlqr --fresh`",
+    "design_hinf": "`tiltload design --controller hinf --fresh`",
+    "design_mixed": "`tiltload design --controller mixed --fresh`",
+    "design_mixed_d1": "mixed design for a 1-tick loop delay, synthesized afresh",
+    "design_mixed_d2": "mixed design for a 2-tick loop delay, synthesized afresh",
+    "reproduce": "`tiltload reproduce` (12 cases, FMUs built)",
+    "campaign": "`tiltload campaign docs/campaigns/robustness.toml` (240 runs, FMUs built)",
+    "spread_variant": "one variant of `python benchmarks/baseline_spread.py` (everything rebuilt and synthesized)",
+}
+
+
+def machine() -> str:
+    cpu = platform.machine()
+    try:
+        cpu = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                   if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}, Python {platform.python_version()}"
+
+
+def load() -> float:
+    return os.getloadavg()[0]
+
+
+def timed(argv: list[str], cwd: Path, env: dict | None = None, marks: tuple[str, ...] = ()) -> dict:
+    """Run argv; the wall time to its end, to its first line of output, and to the first line containing each mark."""
+    started = time.perf_counter()
+    proc = subprocess.Popen(argv, cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+    seen: dict[str, float] = {}
+    for line in proc.stdout:
+        now = time.perf_counter() - started
+        seen.setdefault("first_output", now)
+        for mark in marks:
+            if mark in line:
+                seen.setdefault(mark, now)
+    if proc.wait() != 0:
+        raise SystemExit(f"{' '.join(argv)} failed (exit {proc.returncode})")
+    return {"seconds": time.perf_counter() - started, **seen}
+
+
+def first_run(tmp: Path) -> dict:
+    runs = []
+    for k in range(3):
+        clone = tmp / f"clone{k}"
+        subprocess.run(["git", "clone", "--quiet", str(ROOT), str(clone)], check=True)
+        venv = tmp / f"venv{k}"
+        subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+        subprocess.run([str(venv / "bin" / "pip"), "install", "--quiet", "--no-deps", "-e", str(clone)], check=True)
+        env = dict(os.environ, TILTLOAD_CACHE=str(tmp / f"cache{k}"))
+        r = timed([str(venv / "bin" / "tiltload"), "run"], clone, env, marks=("ISE(x)",))
+        runs.append({"to_metrics": r["ISE(x)"], "first_output": r["first_output"], "total": r["seconds"]})
+        print(f"  first run {k + 1}: first line {r['first_output']:.1f} s, metrics table {r['ISE(x)']:.1f} s, "
+              f"end {r['seconds']:.1f} s", flush=True)
+    return {"seconds": statistics.median(r["to_metrics"] for r in runs), "runs": runs}
+
+
+def with_fmus(tmp: Path) -> Path:
+    fmus = tmp / "fmus"
+    subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", "build", "--out", str(fmus)], check=True,
+                   stdout=subprocess.DEVNULL)
+    return fmus
+
+
+def measure(key: str, tmp: Path) -> dict:
+    cli = [sys.executable, "-m", "tiltload.master.app.cli"]
+    env = dict(os.environ, TILTLOAD_CACHE=str(tmp / "cache"))
+    if key == "first_run":
+        return first_run(tmp)
+    if key == "build":
+        return timed([*cli, "build", "--out", str(tmp / "fmus-empty")], tmp, env)
+    if key.startswith("design_"):
+        kind, _, delay = key[len("design_"):].partition("_d")
+        if not delay:
+            return timed([*cli, "design", "--controller", kind, "--fresh", "--out", str(tmp / "designs")], tmp, env)
+        code = f"from tiltload.controller_fmu.design.synthesize import design; design('{kind}', loop_delay={delay})"
+        return timed([sys.executable, "-c", code], tmp, env)
+    if key == "reproduce":
+        fmus = with_fmus(tmp)
+        return timed([*cli, "reproduce", "--fmus", str(fmus), "--out", str(tmp / "reproduce")], ROOT, env)
+    if key == "campaign":
+        fmus = with_fmus(tmp)
+        return timed([*cli, "campaign", str(ROOT / "docs" / "campaigns" / "robustness.toml"), "--fmus", str(fmus),
+                      "--out", str(tmp / "campaign")], ROOT, env)
+    if key == "spread_variant":
+        return timed([sys.executable, str(ROOT / "benchmarks" / "baseline_spread.py"), "--only", "reference"], ROOT, env)
+    raise SystemExit(f"unknown key {key}")
+
+
+def shown(seconds: float) -> str:
+    """A figure as the docs print it."""
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.1f} min"
+
+
+def render(data: dict) -> str:
+    lines = ["# Timings", "",
+             "Generated by `python benchmarks/user_timings.py --write` (do not edit by hand): each figure is the wall",
+             "time of the command as a user runs it, measured on the machine named with it. The README and the other",
+             "pages quote these figures (between `<!-- timing:KEY -->` markers the script rewrites). Absolute times",
+             "differ by 2-3x between machines, and with the load of other work on the same one (the load average is",
+             "given: on 2 cores, 2 means busy).", "",
+             "| what | time | measured on | date | load average |", "|---|---|---|---|---|"]
+    for key in KEYS:
+        if key in data:
+            d = data[key]
+            lines.append(f"| {WHAT[key]} | {shown(d['seconds'])} | {d['machine']} | {d['date']} | {d['load']:.1f} |")
+    if "first_run" in data:
+        lines += ["", "The three first runs (fresh clone, empty cache): to the first line of output, to the metrics "
+                  "table, to the end (figures written):", ""]
+        for k, r in enumerate(data["first_run"]["runs"], 1):
+            lines.append(f"- run {k}: {r['first_output']:.1f} s, {r['to_metrics']:.1f} s, {r['total']:.1f} s")
+    return "\n".join(lines) + "\n"
+
+
+def rewrite_markers(data: dict) -> list[Path]:
+    changed = []
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        text = page.read_text()
+        new = MARKER.sub(lambda m: f"<!-- timing:{m[1]} -->{shown(data[m[1]]['seconds']) if m[1] in data else m[2]}"
+                                   "<!-- /timing -->", text)
+        if new != text:
+            page.write_text(new)
+            changed.append(page)
+    return changed
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="*", default=list(KEYS), choices=KEYS)
+    ap.add_argument("--write", action="store_true", help="store in docs/timings.json, regenerate docs/timings.md and the markers")
+    args = ap.parse_args()
+    data = json.loads(TIMINGS.read_text()) if TIMINGS.exists() else {}
+    for key in args.only:
+        with tempfile.TemporaryDirectory(prefix="tiltload_timing_") as tmp:
+            before = load()
+            result = measure(key, Path(tmp))
+        result.update(machine=machine(), date=datetime.date.today().isoformat(), load=max(before, load()))
+        print(f"{key}: {shown(result['seconds'])} (load average {result['load']:.1f})", flush=True)
+        data[key] = result
+        if args.write:  # after each figure: a long run cut short keeps what it measured
+            TIMINGS.write_text(json.dumps(data, indent=1) + "\n")
+            PAGE.write_text(render(data))
+            for page in rewrite_markers(data):
+                print(f"updated {page.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

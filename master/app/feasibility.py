@@ -1,0 +1,324 @@
+"""Can the vehicle fly this reference? Checked before the first step, along the reference the scenario FMU will output.
+
+Two questions at every sample the controller takes (the 12 ms tick):
+- the feedforward (3.18) the controller computes, u_tr = L_in^+ (M qdd_tr + (C + L_fr) qd_tr + g) at the reference
+  state (the load on the path, the other coordinates at the hover trim of the nominal model, as in
+  control_law.StateFeedback), against the actuator limits of Table 5.2 (0 <= f <= 30 N, |tau| <= 2 N m);
+- the trim the path needs: the attitude and inputs that carry the load along with the reference's velocity and
+  acceleration with every joint at rest (M(q) qdd + C(q, qd) qd + L_fr qd + g(q) = L_in(q) u, the hover trim's
+  equations plus the path's motion, solved for phi, theta, gamma_1, gamma_2, alpha_R, alpha_L and u by Newton's
+  method, on the plant's own parameters), every 0.12 s: its thrusts against the same limits and its tilt angles
+  against max_tilt (30 degrees by default: the controllers are linearized at the hover trim).
+A problem names the quantity, the time and the margin: "f_R would need 31.4 N at t = 12.30 s; the limit is 30 N".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cache
+
+import numpy as np
+
+from ...plant_fmu import parameters as P
+from ...plant_fmu.vehicles import VEHICLES
+from ...scenario_fmu import reference
+
+INPUT_NAMES = ("f_R", "f_L", "tau_R", "tau_L")
+TRIM_EVERY = 10  # ticks between trim solves (0.12 s)
+
+
+@dataclass(frozen=True)
+class Limits:
+    f_min: float = 0.0  # N, Table 5.2
+    f_max: float = 30.0
+    tau_max: float = 2.0  # N m
+    max_tilt: float = 30.0  # degrees, any trim angle (load roll/pitch, UAV tilt to the rod, thruster tilts)
+
+
+@dataclass
+class Report:
+    problems: list[str] = field(default_factory=list)  # each one line; any refuses the run
+    notes: list[str] = field(default_factory=list)  # worth saying, not refusing (a jump the feedforward cannot see)
+    summary: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+@cache
+def _model(vehicle: str):
+    """The vehicle's terms and the feedforward as CasADi functions, and the trim residual with its Jacobian."""
+    import casadi as ca
+
+    from ...plant_fmu.codegen import feedforward_function
+    from ...plant_fmu.model import model
+
+    m = model(vehicle)
+    nq = m.nq
+    tracked = (0, 1, 2, 5)  # x, y, z, psi
+    unknown = [i for i in range(nq) if i not in tracked]
+    z, ref = ca.SX.sym("z", nq), ca.SX.sym("ref", 11)  # unknown angles and inputs; position, psi, velocity, psi_dot, acc
+    q, qd, qdd = [None] * nq, [0] * nq, [0] * nq
+    for k, i in enumerate(tracked):
+        q[i], qd[i] = ref[k], ref[4 + k]
+    for k, i in enumerate(unknown):
+        q[i] = z[k]
+    for k in range(3):
+        qdd[k] = ref[8 + k]
+    M, Cqd, g, L_in, L_fr, _ = m.f_terms(ca.vertcat(*q, *qd), m.p)
+    r = M @ ca.vertcat(*qdd) + Cqd + L_fr @ ca.vertcat(*qd) + g - L_in @ z[len(unknown):]
+    residual = ca.Function("trim_along_path", [z, ref, m.p], [r, ca.jacobian(r, z)])
+    return feedforward_function(vehicle), residual, unknown
+
+
+def _newton(residual, z, ref, p, iterations: int = 20):
+    for _ in range(iterations):
+        r, J = (np.array(a) for a in residual(z, ref, p))
+        r = r.ravel()
+        if not np.all(np.isfinite(r)):
+            return None
+        if np.max(np.abs(r)) < 1e-9:
+            return z
+        try:
+            z = z - np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            return None
+    return None
+
+
+def _trim(residual, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
+    """The trim at ref by Newton from the trim at ref_prev, by halving the way when Newton strays (a solution far
+    from the previous one is another branch: the vehicle upside down)."""
+    z = _newton(residual, z_prev, ref, p)
+    if z is not None and np.max(np.abs(z[:n_angles] - z_prev[:n_angles])) < 0.3:
+        return z
+    if depth >= 8:
+        return None
+    middle = 0.5 * (ref_prev + ref)
+    z_mid = _trim(residual, z_prev, ref_prev, middle, p, n_angles, depth + 1)
+    return None if z_mid is None else _trim(residual, z_mid, middle, ref, p, n_angles, depth + 1)
+
+
+def _vector(vehicle: str, overrides: dict) -> np.ndarray:
+    """The vehicle's parameter vector with the plant instance's overrides (m_L, ...)."""
+    v = VEHICLES[vehicle]
+    p = v.default_parameters()
+    for k, s in enumerate(v.parameter_specs):
+        if s.name in overrides:
+            p[k] = float(overrides[s.name])
+    return p
+
+
+@cache
+def _closed_loop_radius(kind: str, vehicle: str, delay: int, psi: float) -> float:
+    """Spectral radius of the loop of design `kind` (made at psi = 0) around the hover trim at yaw psi."""
+    from ...controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
+    from ...controller_fmu.design.synthesize import design
+
+    K = design(kind, use_cache=True, vehicle=vehicle, loop_delay=delay).K
+    e = with_loop_delay(error_dynamics(0.012, psi=psi, vehicle=vehicle), delay)
+    return float(np.abs(np.linalg.eigvals(e.A - e.B @ K)).max())
+
+
+def yaw_margin(kind: str, vehicle: str = "load", delay: int = 0) -> float:
+    """The largest |psi| (rad, to 0.01) at which the design's loop stays stable (bisection on the spectral radius)."""
+    lo, hi = 0.0, math.pi
+    if _closed_loop_radius(kind, vehicle, delay, hi) < 1:
+        return hi
+    while hi - lo > 0.01:
+        mid = round(0.5 * (lo + hi), 4)
+        lo, hi = (mid, hi) if _closed_loop_radius(kind, vehicle, delay, mid) < 1 else (lo, mid)
+    return lo
+
+
+def _check_yaw(report: Report, s, design: tuple[str, int] | None, vehicle: str) -> None:
+    k = int(np.argmax(np.abs(s.psi)))
+    if design is None or abs(s.psi[k]) < 0.05:  # not our controller, or near the design point
+        return
+    kind, delay = design
+    radius = _closed_loop_radius(kind, vehicle, delay, round(abs(float(s.psi[k])), 4))
+    if radius >= 1:
+        report.problems.append(f"psi_ref reaches {s.psi[k]:.3g} rad at t = {s.t[k]:.2f} s; the {kind} design keeps the loop "
+                               f"stable for |psi| <= {yaw_margin(kind, vehicle, delay):.2f} rad (it is linearized at psi = 0; "
+                               f"spectral radius {radius:.4f} there)")
+
+
+def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
+                    limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None) -> Report:
+    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop]; with
+    design = (dlqr or mixed, loop delay), the yaw that design holds."""
+    from ...plant_fmu.trim import TrimError, hover_trim
+
+    ff, residual, unknown = _model(vehicle)
+    nq = VEHICLES[vehicle].nq
+    names = VEHICLES[vehicle].coordinates
+    nominal = VEHICLES[vehicle].default_parameters()
+    actual = _vector(vehicle, plant or {})
+    report = Report()
+    try:
+        hover = hover_trim(nominal, vehicle=vehicle)
+        hover_actual = hover_trim(actual, vehicle=vehicle)
+    except (TrimError, ValueError) as err:
+        report.problems.append(f"the plant has no hover trim with these parameters ({err})")
+        return report
+    t = np.arange(int(math.floor(stop / tick + 1e-9)) + 1) * tick
+    s = reference.evaluate(scenario, t)
+    x = np.tile(hover.x, (t.size, 1))
+    x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
+    x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
+    qdd = np.zeros((t.size, nq))
+    qdd[:, 0:3] = s.a
+    u_ff = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+    _limit_inputs(report, "", u_ff, t, limits)
+
+    refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
+    n_angles = len(unknown)
+    z = np.r_[hover_actual.x[unknown], hover_actual.u]
+    previous = np.zeros(11)
+    previous[0:3], previous[3] = s.p[0], s.psi[0]  # hover at the start point: the trim there is the hover trim
+    trims, times = [], []
+    for k in range(0, t.size, TRIM_EVERY):
+        found = _trim(residual, z, previous, refs[k], actual, n_angles)
+        if found is None:
+            report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} m/s2 "
+                                   f"at t = {t[k]:.2f} s")
+            break
+        z, previous = found, refs[k]
+        trims.append(z)
+        times.append(t[k])
+    if trims:
+        trims, times = np.array(trims), np.array(times)
+        _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
+        angles = np.degrees(trims[:, :n_angles])
+        worst = np.argmax(np.abs(angles), axis=0)
+        for j, i in enumerate(unknown):
+            value, when = angles[worst[j], j], times[worst[j]]
+            if abs(value) > limits.max_tilt:
+                report.problems.append(f"{names[i]} would need {value:.1f} degrees at t = {when:.2f} s; the limit is "
+                                       f"{limits.max_tilt:g} degrees (--max-tilt)")
+        tilt = np.abs(angles).max()
+        k_tilt = np.unravel_index(np.argmax(np.abs(angles)), angles.shape)
+    else:
+        tilt, k_tilt = math.nan, (0, 0)
+    _jumps(report, s, tick)
+    _check_yaw(report, s, design, vehicle)
+    forces = ", ".join(f"{n} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, n in enumerate(INPUT_NAMES[:2]))
+    torque = np.abs(u_ff[:, 2:]).max()
+    where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
+    report.summary = (f"feasibility over {t[-1]:.2f} s: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "
+                      f"{limits.f_min:g}..{limits.f_max:g} N, {limits.tau_max:g} N m); trim tilt up to {tilt:.1f} degrees{where}, "
+                      f"limit {limits.max_tilt:g}")
+    return report
+
+
+def _limit_inputs(report: Report, what: str, u: np.ndarray, t: np.ndarray, limits: Limits) -> None:
+    """One line per input beyond its limit, at its worst sample."""
+    for i, name in enumerate(INPUT_NAMES):
+        if i < 2:
+            over, under = u[:, i] - limits.f_max, limits.f_min - u[:, i]
+            k_over, k_under = int(np.argmax(over)), int(np.argmin(u[:, i]))
+            if over[k_over] > 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k_over, i]:.3g} N at t = {t[k_over]:.2f} s; the limit is "
+                                       f"{limits.f_max:g} N")
+            if under[k_under] > 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k_under, i]:.3g} N at t = {t[k_under]:.2f} s; the limit is "
+                                       f"{limits.f_min:g} N")
+        else:
+            k = int(np.argmax(np.abs(u[:, i])))
+            if abs(u[k, i]) > limits.tau_max + 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k, i]:.3g} N m at t = {t[k]:.2f} s; the limit is "
+                                       f"+-{limits.tau_max:g} N m")
+
+
+def _jumps(report: Report, s, tick: float) -> None:
+    """A reference that jumps (a step) has no feedforward for the jump: say so, the feedback alone takes it. A jump is
+    a position change over a tick beyond what the reference's own velocity covers (with a centimetre to spare)."""
+    step = np.linalg.norm(np.diff(s.p, axis=0), axis=1)
+    speed = np.maximum(np.linalg.norm(s.v[:-1], axis=1), np.linalg.norm(s.v[1:], axis=1))
+    gap = step - 1.5 * tick * speed
+    k = int(np.argmax(gap)) if gap.size else 0
+    if gap.size and gap[k] > 0.01:
+        report.notes.append(f"the reference jumps by {step[k]:.3g} m at t = {s.t[k + 1]:.2f} s: no feedforward can "
+                            "anticipate it, the feedback alone takes it")
+
+
+def limits_of(system) -> Limits:
+    """Table 5.2's limits, or the controller's f_min, f_max, tau_max where the system sets them."""
+    given = {}
+    for name in ("plant", "controller"):  # the controller's word wins: it saturates its commands
+        try:
+            given.update({k: float(v) for k, v in system.instance(name).parameters.items() if k in ("f_min", "f_max", "tau_max")})
+        except Exception:
+            pass
+    return Limits(**given)
+
+
+def vehicle_of(system) -> str | None:
+    """load or uav from the plant instance's FMU (TiltloadPlant or TiltrotorUAV), None for another plant."""
+    from ..engine.model_description import read_fmu
+
+    try:
+        plant = system.instance("plant")
+        md = read_fmu(plant.fmu, "plant")
+    except Exception:
+        return None
+    return {"TiltloadPlant": "load", "TiltrotorUAV": "uav"}.get(md.coSimulation.modelIdentifier if md.coSimulation else "")
+
+
+def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Report | None:
+    """The check of a loop system (our scenario and plant FMUs), or None when it is not one this check knows."""
+    from ..engine.model_description import read_fmu
+
+    vehicle = vehicle_of(system)
+    try:
+        md = read_fmu(system.instance("scenario").fmu, "scenario")
+    except Exception:
+        return None
+    if vehicle is None or md.coSimulation is None or md.coSimulation.modelIdentifier != "TiltloadScenario":
+        return None
+    scenario = system.instance("scenario").parameters
+    plant = {k: v for k, v in system.instance("plant").parameters.items() if k in P.PARAMETER_NAMES}
+    limits = limits_of(system)
+    return check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt),
+                           design=_our_design(system))
+
+
+def _our_design(system) -> tuple[str, int] | None:
+    """(dlqr or mixed, loop delay) of our controller FMU in the system; None for a third party's."""
+    from ..engine.model_description import read_fmu
+
+    try:
+        ctrl = system.instance("controller")
+        md = read_fmu(ctrl.fmu, "controller")
+    except Exception:
+        return None
+    if md.coSimulation is None or md.coSimulation.modelIdentifier not in ("TiltloadController", "TiltrotorController"):
+        return None
+    kind = str(ctrl.parameters.get("controller", "dlqr" if md.coSimulation.modelIdentifier == "TiltrotorController" else "mixed"))
+    return (kind, int(ctrl.parameters.get("loop_delay_ticks", 0))) if kind in ("dlqr", "mixed") else None
+
+
+class InfeasibleReference(ValueError):
+    """The vehicle cannot fly the reference within its limits; the message is one line naming the first problem."""
+
+
+def enforce(system, stop: float, allow: bool = False, max_tilt: float = Limits.max_tilt, say=print) -> Report | None:
+    """Check a loop system before its first step: say the summary and notes; refuse the first problem (one line),
+    or, when allowed, say every problem as a warning."""
+    report = check_system(system, stop, max_tilt)
+    if report is None:
+        return None
+    say(report.summary)
+    for note in report.notes:
+        say(f"note: {note}")
+    if report.problems and allow:
+        for problem in report.problems:
+            say(f"warning: infeasible: {problem}")
+    elif report.problems:
+        more = len(report.problems) - 1
+        raise InfeasibleReference(f"the reference is infeasible: {report.problems[0]}"
+                                  + (f" ({more} more problem{'s' * (more > 1)})" if more else "")
+                                  + "; --allow-infeasible runs it anyway")
+    return report

@@ -1,0 +1,118 @@
+"""The tick loop's C kernel (tl_loop.c): compiled once with the system C compiler, loaded with ctypes.
+
+The library is built into $TILTLOAD_CACHE/kernels/<digest of source, compiler and flags>/ (else
+$XDG_CACHE_HOME/tiltload or ~/.cache/tiltload; a temporary folder if none is writable), so a
+second process loads it in microseconds. The structures below mirror tl_loop.h field by field.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from functools import cache
+from pathlib import Path
+
+HERE = Path(__file__).parent
+SOURCES = (HERE / "tl_loop.c", HERE / "tl_loop.h")
+# No floating-point arithmetic depends on these flags but t_k = k * tick (one product, exact in IEEE double).
+CFLAGS = ("-std=c11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-Wall", "-Wextra")
+TYPES = 3
+
+STEP_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_double)
+HOOK_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_double)
+
+
+class KernelError(RuntimeError):
+    """The C compiler is missing or failed on the kernel: the engine falls back to stepping in Python."""
+
+
+class Group(ctypes.Structure):
+    _fields_ = [("source", ctypes.c_int), ("type", ctypes.c_int), ("delay", ctypes.c_int), ("n", ctypes.c_int),
+                ("src_index", ctypes.c_void_p), ("dst_vrs", ctypes.c_void_p), ("values", ctypes.c_void_p)]
+
+
+class Fault(ctypes.Structure):
+    _fields_ = [("instance", ctypes.c_int), ("side", ctypes.c_int), ("action", ctypes.c_int), ("type", ctypes.c_int),
+                ("array", ctypes.c_void_p), ("index", ctypes.c_int), ("value", ctypes.c_double), ("high", ctypes.c_double),
+                ("start", ctypes.c_double), ("end", ctypes.c_double), ("fault", ctypes.c_int), ("reports", ctypes.c_int),
+                ("holding", ctypes.c_int), ("held", ctypes.c_double)]
+
+
+FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # tl_loop.h's enum, in order
+
+
+class Instance(ctypes.Structure):
+    _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
+                ("get", ctypes.c_void_p * TYPES), ("every", ctypes.c_int), ("continuous", ctypes.c_int),
+                ("by_callback", ctypes.c_int), ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
+                ("n_out", ctypes.c_int * TYPES), ("out_vrs", ctypes.c_void_p * TYPES), ("out", ctypes.c_void_p * TYPES),
+                ("history", ctypes.c_void_p * TYPES), ("n_groups", ctypes.c_int), ("groups", ctypes.POINTER(Group)),
+                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double)]
+
+
+class Plan(ctypes.Structure):
+    _fields_ = [("n_instances", ctypes.c_int), ("instances", ctypes.POINTER(Instance)), ("tick", ctypes.c_double),
+                ("ticks_done", ctypes.c_int64), ("slots", ctypes.c_int), ("step_callback", STEP_CALLBACK),
+                ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("record_capacity", ctypes.c_int64),
+                ("records", ctypes.c_int64), ("record_instance", ctypes.c_void_p), ("record_tick", ctypes.c_void_p),
+                ("record_time", ctypes.c_void_p),
+                ("record_row", ctypes.c_void_p), ("rows", ctypes.c_void_p), ("error_kind", ctypes.c_int),
+                ("error_instance", ctypes.c_int), ("error_status", ctypes.c_int), ("error_group", ctypes.c_int),
+                ("error_type", ctypes.c_int), ("error_time", ctypes.c_double), ("realtime_factor", ctypes.c_double),
+                ("realtime_start_ns", ctypes.c_int64), ("realtime_first_tick", ctypes.c_int64),
+                ("n_faults", ctypes.c_int), ("faults", ctypes.POINTER(Fault)), ("fault_on", ctypes.c_void_p),
+                ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
+                ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
+                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
+
+
+def _cache_root() -> Path:
+    root = os.environ.get("TILTLOAD_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tiltload"
+    return Path(root)
+
+
+def _compiler() -> str:
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        raise KernelError("no C compiler (cc or gcc) on PATH")
+    return cc
+
+
+def _build(cc: str, folder: Path) -> Path:
+    target = folder / "tl_loop.so"
+    if target.is_file():
+        return target
+    folder.mkdir(parents=True, exist_ok=True)
+    partial = folder / f"tl_loop.{os.getpid()}.partial.so"
+    proc = subprocess.run([cc, *CFLAGS, str(SOURCES[0]), "-o", str(partial)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise KernelError(f"compiling the tick loop with {cc} failed: {proc.stderr.strip().splitlines()[:1]}")
+    partial.replace(target)  # atomic: a parallel process finds either nothing or the whole library
+    return target
+
+
+@cache
+def library() -> ctypes.CDLL:
+    """The compiled kernel, with its functions' signatures set."""
+    cc = _compiler()
+    h = hashlib.sha256()
+    for f in SOURCES:
+        h.update(f.read_bytes())
+    h.update(" ".join((cc, *CFLAGS)).encode())
+    digest = h.hexdigest()[:16]
+    try:
+        path = _build(cc, _cache_root() / "kernels" / digest)
+    except OSError:  # no writable cache: a private folder for this process
+        path = _build(cc, Path(tempfile.mkdtemp(prefix="tiltload_kernel_")))
+    lib = ctypes.CDLL(str(path))
+    lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
+    lib.tl_run.restype = ctypes.c_int64
+    lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
+    lib.tl_store_history.restype = None
+    lib.tl_monotonic_ns.argtypes = []
+    lib.tl_monotonic_ns.restype = ctypes.c_int64
+    return lib

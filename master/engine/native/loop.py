@@ -1,0 +1,241 @@
+"""The execution's plan for the C tick loop (tl_loop.c), and the runs of it.
+
+The plan points at the arrays the engine already has: each slave's output arrays (which fmi2Get
+fills), each connection group's value-reference and value arrays, the delay line; so Python and C
+read and write the same memory, and a manipulator (a fault) that the kernel calls back acts on the
+same values it did when Python stepped. Slaves the kernel cannot call directly (an FMU in a worker
+process, an FMI 3.0 FMU) are stepped through a callback. After each call the kernel's records of
+every step are handed to the observers as one Batch.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from ..fmu import InProcessFmu
+from ..observers import Batch
+from ..slave import TYPES
+from . import kernel
+
+CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
+REALTIME_BATCH = 0.25  # s of wall time between two batches of a paced run
+_DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
+
+
+class _EventQueue:
+    """Stands for the observers while the kernel runs: fault events wait, with their place among the steps."""
+
+    def __init__(self, plan) -> None:
+        self.plan, self.events = plan, []
+
+    def on_fault(self, t, fault, what) -> None:
+        self.events.append((int(self.plan.records), t, fault, what))
+
+
+def _address(array) -> int:
+    return ctypes.cast(array, ctypes.c_void_p).value if not isinstance(array, np.ndarray) else array.ctypes.data
+
+
+class NativeLoop:
+    """The plan of one execution (rebuilt when it restarts) and its runs."""
+
+    def __init__(self, execution, chunk: int = CHUNK) -> None:
+        self.lib = kernel.library()
+        self.ex = execution
+        self.chunk = chunk
+        specs = execution.system.instances
+        self.names = [s.name for s in specs]
+        self.slaves = [execution.instances[n] for n in self.names]
+        index = {n: i for i, n in enumerate(self.names)}
+        n = len(specs)
+        self._keep = []  # everything the plan points into lives as long as the plan
+        self.instances = (kernel.Instance * n)()
+        self.slots = execution.max_delay + 1 if execution.max_delay else 0
+        self.history: list[dict[str, np.ndarray]] = []
+        self.records: list[dict[str, np.ndarray]] = []
+        manipulator = execution.manipulator
+        for i, spec in enumerate(specs):
+            slave, c = self.slaves[i], self.instances[i]
+            c.every = execution.every[spec.name]
+            c.continuous = spec.timing == "continuous"
+            c.by_callback = not isinstance(slave, InProcessFmu)
+            if not c.by_callback:
+                c.component = slave.component
+                c.do_step = slave.function_pointer("fmi2DoStep")
+
+            history, record = {}, {}
+            for t, typ in enumerate(TYPES):
+                values = slave.values[typ]
+                c.n_out[t] = values.size
+                c.out[t] = values.ctypes.data
+                vrs = (ctypes.c_uint * max(values.size, 1))(*slave.out_vrs[typ])
+                self._keep.append(vrs)
+                c.out_vrs[t] = _address(vrs)
+                if not c.by_callback:
+                    c.set[t] = slave.function_pointer(f"fmi2Set{typ}")
+                    c.get[t] = slave.function_pointer(f"fmi2Get{typ}")
+                if self.slots:
+                    history[typ] = np.zeros((self.slots, values.size), dtype=_DTYPE[typ])
+                    c.history[t] = history[typ].ctypes.data
+                record[typ] = np.zeros((chunk, values.size), dtype=_DTYPE[typ])
+                c.record[t] = record[typ].ctypes.data
+            self.history.append(history)
+            self.records.append(record)
+            groups = execution.groups.get(spec.name, [])
+            c_groups = (kernel.Group * max(len(groups), 1))()
+            for g, group in zip(c_groups, groups):
+                src_index = np.ascontiguousarray(group.src_index, dtype=np.int64)
+                self._keep.append(src_index)
+                g.source, g.type, g.delay, g.n = index[group.source], TYPES.index(group.type), group.delay, len(group.view)
+                g.src_index, g.dst_vrs, g.values = src_index.ctypes.data, _address(group.dst_vrs), _address(group.values)
+            self._keep.append(c_groups)
+            c.n_groups, c.groups = len(groups), c_groups
+        self.record_instance = np.zeros(chunk * n, dtype=np.int32)
+        self.record_tick = np.zeros(chunk * n, dtype=np.int64)
+        self.record_time = np.zeros(chunk * n, dtype=np.float64)
+        self.record_row = np.zeros(chunk * n, dtype=np.int64)
+        self.rows = np.zeros(n, dtype=np.int64)
+        self.lateness = np.zeros(chunk, dtype=np.float64)
+        self.overrun = np.zeros(chunk, dtype=np.int8)
+        self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
+                                ticks_done=execution.ticks_done, slots=self.slots, profile=1, record_capacity=chunk)
+        self._native_faults(manipulator, index)
+        for spec, c in zip(specs, self.instances):  # the faults Python applies: a callback at that instance's side
+            c.hook_inputs = bool(manipulator and manipulator.python_entries(spec.name, "input"))
+            c.hook_outputs = bool(manipulator and manipulator.python_entries(spec.name, "output"))
+        for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
+            setattr(self.plan, name, getattr(self, name).ctypes.data)
+        self._pending: BaseException | None = None
+        self._queue = _EventQueue(self.plan)
+        self.plan.step_callback = kernel.STEP_CALLBACK(self._step)
+        self.plan.hook_callback = kernel.HOOK_CALLBACK(self._hook)
+        self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
+
+    def _native_faults(self, manipulator, index: dict[str, int]) -> None:
+        """The value faults the kernel applies itself (override, bias, scale, ramp, clamp, hold), one entry per target."""
+        ops, self._fault_targets = [], []
+        if manipulator is not None:
+            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k)}
+            for k in sorted(manipulator.native):
+                f = manipulator.faults[k]
+                for j, target in enumerate(f.targets):
+                    side, array, i, typ = manipulator.target(target)
+                    value = f.value if f.action != "clamp" else f.value[0]
+                    ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=0 if side == "input" else 1,
+                                            action=kernel.FAULT_ACTIONS.index(f.action), type=TYPES.index(typ),
+                                            array=array.ctypes.data, index=i,
+                                            value=float(value) if value is not None else 0.0,
+                                            high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
+                                            end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0))
+                    self._fault_targets.append((k, target))
+        self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
+        self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
+        capacity = self.chunk * 2 * max(len(ops), 1)
+        self.event_record = np.zeros(capacity, dtype=np.int64)
+        self.event_fault = np.zeros(capacity, dtype=np.int32)
+        self.event_start = np.zeros(capacity, dtype=np.int8)
+        self.event_time = np.zeros(capacity, dtype=np.float64)
+        p = self.plan
+        p.n_faults, p.faults, p.fault_on, p.event_capacity = len(ops), self.faults, self.fault_on.ctypes.data, capacity
+        p.event_record, p.event_fault = self.event_record.ctypes.data, self.event_fault.ctypes.data
+        p.event_start, p.event_time = self.event_start.ctypes.data, self.event_time.ctypes.data
+
+    def sync_faults(self) -> None:
+        """The kernel's fault state into the manipulator (on/off, held values), for a snapshot."""
+        m = self.ex.manipulator
+        for op, (k, target) in zip(self.faults, self._fault_targets):
+            m.set_state_of(k, bool(self.fault_on[k]), target, op.held if op.holding else None)
+
+    def push_faults(self) -> None:
+        """The manipulator's fault state into the kernel (a run continued from a snapshot)."""
+        m = self.ex.manipulator
+        for op, (k, target) in zip(self.faults, self._fault_targets):
+            on, held = m.state_of(k, target)
+            self.fault_on[k] = on
+            if held is not None:
+                op.holding, op.held = 1, held
+
+    # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
+    def _step(self, i: int, t: float, h: float) -> int:
+        """A slave the kernel cannot call: set its inputs (gathered by the kernel), step it, read its outputs."""
+        try:
+            slave, name = self.slaves[i], self.names[i]
+            self.ex.set_gathered_inputs(name, t)
+            slave.do_step(t, h)
+            slave.read_outputs()
+            return 0
+        except BaseException as err:  # a failure, or Ctrl-C arriving while Python runs: the kernel stops, we re-raise
+            self._pending = err
+            return 1
+
+    def _hook(self, i: int, side: int, t: float) -> int:
+        try:
+            self.ex.manipulator.apply(self.names[i], "input" if side == 0 else "output", t, [self._queue])
+            return 0
+        except BaseException as err:
+            self._pending = err
+            return 1
+
+    # --- runs ---------------------------------------------------------------------------------------------------------
+    def restart(self) -> None:
+        """After the execution's instances were reset and initialized: tick 0, the delay line at its start."""
+        self.plan.ticks_done = self.ex.ticks_done
+        self.lib.tl_store_history(ctypes.byref(self.plan), 0)
+
+    def run(self, ticks: int, realtime=None) -> None:
+        """Run the given number of ticks, handing every call's steps to the observers; raise a run's failure."""
+        # an observer of the per-step kind gets every tick as it happens (a batch of one), as it would from a Python loop
+        chunk = 1 if self.ex.stepwise_observers() else self.chunk
+        if realtime is not None:  # paced: the observers hear from the loop about four times a (wall) second
+            chunk = min(chunk, max(1, round(REALTIME_BATCH * realtime.factor / self.ex.system.tick)))
+        while ticks > 0:
+            n = min(ticks, chunk)
+            first = int(self.plan.ticks_done)
+            if realtime is not None:
+                realtime.prepare(self.plan, first, self.lateness, self.overrun)
+            self._queue.events = []
+            done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
+            for slave, c in zip(self.slaves, self.instances):
+                slave.fmi_seconds += c.seconds
+                c.seconds = 0.0
+            self.ex.ticks_done = int(self.plan.ticks_done)
+            self.ex.time = self.ex.ticks_done * self.ex.system.tick
+            self.ex.deliver(self._batch(first, done))
+            if self.plan.error_kind:
+                raise self._error()
+            if realtime is not None:
+                realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
+            ticks -= done
+
+    def _batch(self, first: int, done: int) -> Batch:
+        r = int(self.plan.records)
+        rows = {name: {typ: rec[typ][:int(self.rows[i])] for typ in TYPES} for i, (name, rec) in enumerate(zip(self.names, self.records))}
+        events = list(self._queue.events)
+        m = self.ex.manipulator
+        for e in range(int(self.plan.events)):  # the kernel's fault events, merged in their places
+            k = int(self.event_fault[e])
+            events.append((int(self.event_record[e]), float(self.event_time[e]), m.faults[k],
+                           "start" if self.event_start[e] else "end"))
+        if self.plan.events:
+            events.sort(key=lambda ev: (ev[0], m.faults.index(ev[2])))
+        return Batch(first, done, self.names, self.record_instance[:r], self.record_tick[:r], self.record_time[:r],
+                     self.record_row[:r], rows, events)
+
+    def _error(self) -> BaseException:
+        p = self.plan
+        if p.error_kind in (4, 5):
+            err, self._pending = self._pending, None
+            return err if err is not None else RuntimeError("a callback of the tick loop failed")
+        slave, t = self.slaves[p.error_instance], p.error_time
+        if p.error_kind == 1:
+            return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
+        if p.error_kind == 2:
+            group = self.ex.groups[self.names[p.error_instance]][p.error_group]
+            return slave.failed(f"set{group.type} from {group.source} at t={t:.6g} s", p.error_status)
+        return slave.failed(f"get{TYPES[p.error_type]}", p.error_status)
+
+    def delay_line(self) -> list[dict[str, np.ndarray]]:
+        """The delay line's slots per instance and type (a snapshot saves them)."""
+        return self.history

@@ -1,0 +1,218 @@
+/* The engine's tick loop: see tl_loop.h. The arithmetic is copies only; no floating-point result depends on it
+   except the times t_k = k * tick, computed as the Python engine computes them. */
+#if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
+#define _POSIX_C_SOURCE 200809L
+#endif
+#include "tl_loop.h"
+
+#include <string.h>
+#include <time.h>
+
+#if defined(__GNUC__)
+#define TL_EXPORT __attribute__((visibility("default")))
+#else
+#define TL_EXPORT
+#endif
+
+static size_t width(int type) { return type == 0 ? sizeof(double) : sizeof(int); }
+
+TL_EXPORT int64_t tl_monotonic_ns(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static void sleep_until(int64_t ns) {
+#if defined(CLOCK_MONOTONIC) && !defined(__APPLE__) && !defined(_WIN32)
+    struct timespec ts;
+    ts.tv_sec = (time_t)(ns / 1000000000);
+    ts.tv_nsec = (long)(ns % 1000000000);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL) != 0) {
+    }
+#else
+    while (tl_monotonic_ns() < ns) {
+    }
+#endif
+}
+
+TL_EXPORT void tl_store_history(tl_plan *plan, int64_t j) {
+    if (plan->slots <= 0) return;
+    int64_t slot = j % plan->slots;
+    for (int i = 0; i < plan->n_instances; i++) {
+        tl_instance *in = &plan->instances[i];
+        for (int t = 0; t < TL_TYPES; t++) {
+            if (in->n_out[t] == 0) continue;
+            size_t bytes = (size_t)in->n_out[t] * width(t);
+            memcpy((char *)in->history[t] + (size_t)slot * bytes, in->out[t], bytes);
+        }
+    }
+}
+
+/* The source values a group reads: its source's current outputs, or the delay line d ticks back. */
+static const void *group_source(const tl_plan *plan, const tl_group *g, int64_t k) {
+    const tl_instance *src = &plan->instances[g->source];
+    if (g->delay == 0) return src->out[g->type];
+    int64_t j = k + 1 - g->delay; /* the entry holding the values after tick k - d */
+    if (j < 0) j = 0;
+    size_t bytes = (size_t)src->n_out[g->type] * width(g->type);
+    return (const char *)src->history[g->type] + (size_t)(j % plan->slots) * bytes;
+}
+
+static void gather(const tl_group *g, const void *src) {
+    if (g->type == 0) {
+        const double *s = (const double *)src;
+        double *d = (double *)g->values;
+        for (int i = 0; i < g->n; i++) d[i] = s[g->src_index[i]];
+    } else {
+        const int *s = (const int *)src;
+        int *d = (int *)g->values;
+        for (int i = 0; i < g->n; i++) d[i] = s[g->src_index[i]];
+    }
+}
+
+static void fail(tl_plan *plan, int kind, int instance, int status, int group, int type, double t) {
+    plan->error_kind = kind;
+    plan->error_instance = instance;
+    plan->error_status = status;
+    plan->error_group = group;
+    plan->error_type = type;
+    plan->error_time = t;
+}
+
+static void record(tl_plan *plan, int i, int64_t k, double when) {
+    tl_instance *in = &plan->instances[i];
+    int64_t row = plan->rows[i]++;
+    int64_t r = plan->records++;
+    plan->record_instance[r] = i;
+    plan->record_tick[r] = k;
+    plan->record_time[r] = when;
+    plan->record_row[r] = row;
+    for (int t = 0; t < TL_TYPES; t++) {
+        if (in->n_out[t] == 0 || in->record[t] == NULL) continue;
+        size_t bytes = (size_t)in->n_out[t] * width(t);
+        memcpy((char *)in->record[t] + (size_t)row * bytes, in->out[t], bytes);
+    }
+}
+
+static void apply_faults(tl_plan *plan, int i, int side, double t) {
+    for (int f = 0; f < plan->n_faults; f++) {
+        tl_fault *q = &plan->faults[f];
+        if (q->instance != i || q->side != side) continue;
+        int on = q->start <= t + 1e-9 && t + 1e-9 < q->end; /* as manipulators.Fault.active */
+        if (q->reports && on != plan->fault_on[q->fault]) {
+            plan->fault_on[q->fault] = (int8_t)on;
+            if (plan->events < plan->event_capacity) {
+                int64_t e = plan->events++;
+                plan->event_record[e] = plan->records;
+                plan->event_fault[e] = q->fault;
+                plan->event_start[e] = (int8_t)on;
+                plan->event_time[e] = t;
+            }
+        }
+        if (!on) continue;
+        if (q->type != 0) { /* Integer and Boolean targets take an override only (checked before the run) */
+            ((int *)q->array)[q->index] = (int)q->value;
+            continue;
+        }
+        double *x = &((double *)q->array)[q->index];
+        switch (q->action) {
+        case TL_OVERRIDE: *x = q->value; break;
+        case TL_BIAS: *x = *x + q->value; break;
+        case TL_SCALE: *x = *x * q->value; break;
+        case TL_RAMP: *x = *x + q->value * (t - q->start); break;
+        case TL_CLAMP: { /* min(max(x, lo), hi) as Python's max and min pick */
+            double m = q->value > *x ? q->value : *x;
+            *x = q->high < m ? q->high : m;
+            break;
+        }
+        case TL_HOLD:
+            if (!q->holding) {
+                q->holding = 1;
+                q->held = *x;
+            }
+            *x = q->held;
+            break;
+        default: break;
+        }
+    }
+}
+
+/* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
+static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
+    tl_instance *in = &plan->instances[i];
+    double h = in->every * plan->tick;
+    for (int g = 0; g < in->n_groups; g++) gather(&in->groups[g], group_source(plan, &in->groups[g], k));
+    if (plan->n_faults) apply_faults(plan, i, 0, t);
+    if (in->hook_inputs && plan->hook_callback(i, 0, t) != 0) {
+        fail(plan, 5, i, 0, -1, -1, t);
+        return 1;
+    }
+    if (in->by_callback) {
+        if (plan->step_callback(i, t, h) != 0) {
+            fail(plan, 4, i, 0, -1, -1, t);
+            return 1;
+        }
+    } else {
+        int64_t started = plan->profile ? tl_monotonic_ns() : 0;
+        for (int g = 0; g < in->n_groups; g++) {
+            tl_group *gr = &in->groups[g];
+            int status = in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
+            if (status > 1) {
+                fail(plan, 2, i, status, g, gr->type, t);
+                return 1;
+            }
+        }
+        int status = in->do_step(in->component, t, h, 1);
+        if (status > 1) {
+            fail(plan, 1, i, status, -1, -1, t);
+            return 1;
+        }
+        for (int ty = 0; ty < TL_TYPES; ty++) {
+            if (in->n_out[ty] == 0) continue;
+            status = in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
+            if (status > 1) {
+                fail(plan, 3, i, status, -1, ty, t);
+                return 1;
+            }
+        }
+        if (plan->profile) in->seconds += (double)(tl_monotonic_ns() - started) * 1e-9;
+    }
+    if (plan->n_faults) apply_faults(plan, i, 1, t);
+    if (in->hook_outputs && plan->hook_callback(i, 1, t) != 0) {
+        fail(plan, 5, i, 0, -1, -1, t);
+        return 1;
+    }
+    if (plan->record_capacity > 0) record(plan, i, k, in->continuous ? t + h : t);
+    return 0;
+}
+
+TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
+    plan->error_kind = 0;
+    plan->records = 0;
+    plan->events = 0;
+    for (int i = 0; i < plan->n_instances; i++) plan->rows[i] = 0;
+    int64_t done = 0;
+    for (; done < n; done++) {
+        int64_t k = plan->ticks_done;
+        double t = (double)k * plan->tick;
+        if (plan->realtime_factor > 0) {
+            int64_t deadline = plan->realtime_start_ns +
+                (int64_t)((double)(k - plan->realtime_first_tick) * plan->tick / plan->realtime_factor * 1e9);
+            int64_t now = tl_monotonic_ns();
+            int late = now >= deadline;
+            if (!late) {
+                sleep_until(deadline);
+                now = tl_monotonic_ns();
+            }
+            if (plan->lateness != NULL) plan->lateness[done] = (double)(now - deadline) * 1e-9;
+            if (plan->overrun != NULL) plan->overrun[done] = (int8_t)late;
+        }
+        for (int i = 0; i < plan->n_instances; i++) {
+            if (k % plan->instances[i].every) continue;
+            if (step_instance(plan, i, k, t) != 0) return done;
+        }
+        tl_store_history(plan, k + 1);
+        plan->ticks_done = k + 1;
+    }
+    return done;
+}

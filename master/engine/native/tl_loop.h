@@ -1,0 +1,117 @@
+/* The engine's tick loop in C: the plan the Python engine builds, run N ticks per call.
+
+   The semantics are those of master/engine/execution.py (docs/master.md, "Semantics"): at tick k an
+   instance of period n steps when k % n == 0, in the plan's order; before it steps, every group of its
+   connected inputs is gathered from the source's latest outputs (or from d ticks back through the delay
+   line) and set with the FMU's own fmi2Set<type>; then fmi2DoStep(t_k, n T) and fmi2Get<type> of its
+   outputs. At the end of a tick every instance's outputs enter its delay line. Instances the kernel
+   cannot call directly (an FMU in a worker process, an FMI 3.0 slave) are stepped by a callback into
+   Python; manipulators (faults) are callbacks too, before the inputs are set and after the outputs
+   are read. Every step can be recorded (its outputs copied into the instance's record rows) for the
+   observers, which read the records after the call. The caller owns every array; the kernel keeps no
+   state of its own beyond the plan. */
+#ifndef TL_LOOP_H
+#define TL_LOOP_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define TL_TYPES 3 /* Real (double), Integer (int), Boolean (int, as fmi2Boolean) */
+
+typedef int (*tl_do_step_fn)(void *component, double t, double h, int no_set_prior);
+typedef int (*tl_set_fn)(void *component, const unsigned int *vrs, size_t n, const void *values);
+typedef int (*tl_get_fn)(void *component, const unsigned int *vrs, size_t n, void *values);
+/* Python callbacks: return 0 when done; any other value stops the run (the Python side keeps the reason). */
+typedef int (*tl_step_callback)(int instance, double t, double h);
+typedef int (*tl_hook_callback)(int instance, int side, double t); /* side 0: inputs about to be set, 1: outputs read */
+
+typedef struct {
+    int source;                 /* instance index */
+    int type;                   /* 0 Real, 1 Integer, 2 Boolean */
+    int delay;                  /* ticks */
+    int n;
+    const int64_t *src_index;   /* n indices into the source's outputs of this type */
+    const unsigned int *dst_vrs;
+    void *values;               /* n values the set reads (double or int) */
+} tl_group;
+
+/* A value fault the loop applies itself (override, bias, scale, ramp, clamp, hold: functions of time and value),
+   at its instance's inputs (side 0, after the gather) or outputs (side 1, after the gets). */
+enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD };
+
+typedef struct {
+    int instance, side, action, type;
+    void *array;                /* the group's values or the instance's outputs */
+    int index;
+    double value, high;         /* the fault's value; clamp: [value, high] */
+    double start, end;          /* end: +inf without an end */
+    int fault;                  /* the fault's place in the schedule */
+    int reports;                /* this target's transitions are the fault's start and end events */
+    int holding;                /* hold: the value taken at the fault's first active tick */
+    double held;
+} tl_fault;
+
+typedef struct {
+    void *component;
+    tl_do_step_fn do_step;
+    tl_set_fn set[TL_TYPES];
+    tl_get_fn get[TL_TYPES];
+    int every;                  /* period in ticks */
+    int continuous;             /* outputs of doStep(t, h) hold the value at t + h */
+    int by_callback;            /* stepped by the Python step callback (it sets inputs, steps, reads outputs) */
+    int hook_inputs, hook_outputs; /* call the hook callback before the sets / after the gets */
+    int n_out[TL_TYPES];
+    const unsigned int *out_vrs[TL_TYPES];
+    void *out[TL_TYPES];        /* the outputs, as the slave's value arrays */
+    void *history[TL_TYPES];    /* delay line: slots x n_out values per type (NULL without delays) */
+    int n_groups;
+    tl_group *groups;
+    void *record[TL_TYPES];     /* rows x n_out values per type, one row per recorded step */
+    double seconds;             /* wall time in this instance's FMI calls (with profile on) */
+} tl_instance;
+
+typedef struct {
+    int n_instances;
+    tl_instance *instances;
+    double tick;
+    int64_t ticks_done;         /* the next tick to run is ticks_done */
+    int slots;                  /* delay-line length: max delay + 1 (0: no delay line) */
+    tl_step_callback step_callback;
+    tl_hook_callback hook_callback;
+    int profile;                /* time every FMI call into tl_instance.seconds */
+    /* records of the last call: which instance stepped, the time its outputs hold, its row */
+    int64_t record_capacity;    /* rows available per instance, and entries in the arrays below */
+    int64_t records;            /* steps recorded in this call */
+    int32_t *record_instance;
+    int64_t *record_tick;
+    double *record_time;
+    int64_t *record_row;
+    int64_t *rows;              /* per instance: rows recorded in this call */
+    /* why the last call stopped early */
+    int error_kind;             /* 0 none, 1 doStep, 2 set, 3 get, 4 step callback, 5 hook callback */
+    int error_instance, error_status, error_group, error_type;
+    double error_time;
+    /* real-time pacing: every tick starts at start + k * tick / factor on CLOCK_MONOTONIC (factor <= 0: off) */
+    double realtime_factor;
+    int64_t realtime_start_ns;  /* the monotonic time of tick 0 (set by the caller) */
+    int64_t realtime_first_tick;
+    /* value faults applied in the loop; their start and end events of the last call */
+    int n_faults;
+    tl_fault *faults;
+    int8_t *fault_on;           /* per fault of the schedule: active at the last tick it was looked at */
+    int64_t event_capacity, events;
+    int64_t *event_record;      /* the event came before this record */
+    int32_t *event_fault;
+    int8_t *event_start;        /* 1 start, 0 end */
+    double *event_time;
+    double *lateness;           /* per tick run in this call: how late it started, s (NULL: not kept) */
+    int8_t *overrun;            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
+} tl_plan;
+
+/* Run up to n ticks; stop early after an error (error_kind != 0). Returns the ticks run. */
+int64_t tl_run(tl_plan *plan, int64_t n);
+/* Copy every instance's outputs into its delay-line slot for the entry j (the values after tick j - 1). */
+void tl_store_history(tl_plan *plan, int64_t j);
+int64_t tl_monotonic_ns(void);
+
+#endif

@@ -1,0 +1,167 @@
+"""Which reference a run flies: a thesis trajectory (0-3), a built-in shape, or a file; as scenario FMU parameters.
+
+    1                          the thesis's trajectory 1 (0 hover, 2 Table 5.3, 3 Appendix A's circle)
+    lemniscate                 a built-in shape with its defaults (also figure-eight, lissajous,
+    step-z:size=0.5,onset=2    step-x/-y/-z, ramp-x/-y/-z), or with NAME:KEY=VALUE,... overrides
+    mission.csv                time-stamped waypoints (t,x,y,z[,psi][,vx,...,apsi]), a minimum-jerk reference
+    mission.yaml / .json       waypoints: [{t, x, y, z, ...}, ...], or a shape: {shape: lissajous, size: [2, 2, 0.5], ...}
+
+A shape's keys are the scenario FMU's shape_* parameters without the prefix (size_x, period, onset, ...), and
+size for a step or ramp along its axis; in a file, center, size, ratio and phase may be [x, y, z] lists.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import reference, shapes, trajectories, waypoints
+from .files import ScenarioFileError, read_rows, read_structured
+
+THESIS = (0, 1, 2, 3)
+VECTORS = ("center", "size", "ratio", "phase")
+# the built-ins and their own defaults (beyond shapes.SHAPE_PARAMETERS')
+BUILT_IN = {
+    "lemniscate": ("lemniscate", {}),
+    "figure-eight": ("lemniscate", {}),
+    "lissajous": ("lissajous", {"size_x": 2.0, "size_y": 2.0, "size_z": 0.5, "period": 40.0}),
+    **{f"step-{a}": ("step", {"size_x": 0.0, "size_y": 0.0, "size_z": 0.0, f"size_{a}": 1.0, "duration": 20.0}) for a in "xyz"},
+    **{f"ramp-{a}": ("ramp", {"size_x": 0.0, "size_y": 0.0, "size_z": 0.0, f"size_{a}": 2.0, "period": 10.0, "duration": 25.0})
+       for a in "xyz"},
+}
+SHAPE_SCHEMA = {
+    "type": "object", "additionalProperties": False, "required": ["shape"],
+    "properties": {
+        "shape": {"enum": ["lemniscate", "figure-eight", "lissajous", "step", "ramp"]},
+        **{k: {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3} for k in VECTORS},
+        **{n: {"type": "number"} for n in shapes.SHAPE_NAMES},
+    },
+}
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A reference for the scenario FMU: its trajectory code and other parameters, the load's start, the duration."""
+
+    label: str  # in file names and messages: "1", "lemniscate", the file's stem
+    code: int
+    settings: tuple[tuple[str, float | int], ...]  # scenario FMU parameters besides `trajectory`
+    start: tuple[float, float, float]
+    duration: float
+    source: str = ""  # the file it came from, if any
+
+    @property
+    def parameters(self) -> dict[str, float | int]:
+        return {"trajectory": self.code, **dict(self.settings)}
+
+    def __str__(self) -> str:
+        return self.label
+
+
+def thesis(code: int) -> Trajectory:
+    """Trajectory 0-3: the FMU's own tables (the load starts 30 cm off trajectories 1 and 2, Sec. 5.1.2)."""
+    return Trajectory(str(code), code, (), trajectories.START.get(code, (0.0, 0.0, 0.0)), trajectories.DURATION.get(code, 20.0))
+
+
+def _from_parameters(label: str, code: int, settings: dict, source: str = "") -> Trajectory:
+    values = {"trajectory": code, **settings}
+    start = reference.evaluate(values, [0.0]).p[0]
+    return Trajectory(label, code, tuple(settings.items()), tuple(float(x) for x in start), reference.duration(values), source)
+
+
+def _shape(label: str, name: str, given: dict, where: str) -> Trajectory:
+    kind, defaults = BUILT_IN.get(name, (name, {}))
+    values = {p.name: p.default for p in shapes.SHAPE_PARAMETERS} | defaults
+    for key, value in given.items():
+        if key == "size" and name in BUILT_IN and kind in ("step", "ramp"):
+            key = f"size_{name[-1]}"
+        if key not in values:
+            raise ScenarioFileError(f"{where}: {kind} has no parameter {key!r} (it has {', '.join(shapes.SHAPE_NAMES)}"
+                                    + (", size" if name in BUILT_IN and kind in ("step", "ramp") else "") + ")")
+        if not (isinstance(value, (int, float)) and math.isfinite(value)):
+            raise ScenarioFileError(f"{where}: {key} = {value} is not a finite number")
+        values[key] = float(value)
+    for key in ("period", "duration"):
+        if not values[key] > 0:
+            raise ScenarioFileError(f"{where}: {key} must be positive, got {values[key]:g}")
+    for key in ("rise", "onset"):
+        if not values[key] >= 0:
+            raise ScenarioFileError(f"{where}: {key} must be >= 0, got {values[key]:g}")
+    code = {v: k for k, v in shapes.SHAPES.items()}[kind]
+    return _from_parameters(label, code, {f"shape_{k}": v for k, v in values.items()})
+
+
+def _overrides(text: str, where: str) -> dict:
+    out = {}
+    for item in filter(None, text.split(",")):
+        key, sep, value = item.partition("=")
+        try:
+            out[key.strip()] = float(value)
+        except ValueError:
+            raise ScenarioFileError(f"{where}: {item!r} must be KEY=NUMBER") from None
+        if not sep:
+            raise ScenarioFileError(f"{where}: {item!r} must be KEY=NUMBER")
+    return out
+
+
+def _waypoint_file(path: Path, rows: list, where: list[str]) -> Trajectory:
+    waypoints.check(rows, where, str(path))
+    ref = waypoints.minimum_jerk(rows)
+    return Trajectory(path.stem, reference.WAYPOINTS, tuple(ref.parameters().items()), ref.start, ref.duration, str(path))
+
+
+def read_file(path: Path) -> Trajectory:
+    """A trajectory file: CSV waypoints, or a JSON/YAML document of waypoints or of a shape."""
+    if path.suffix.lower() == ".csv":
+        return _waypoint_file(path, *read_rows(path, waypoints.FIELDS, waypoints.REQUIRED))
+    data = read_structured(path)
+    if isinstance(data, dict) and "shape" in data:
+        import jsonschema
+
+        errors = sorted(jsonschema.Draft202012Validator(SHAPE_SCHEMA).iter_errors(data), key=lambda e: list(e.path))
+        if errors:
+            at = ".".join(str(p) for p in errors[0].absolute_path) or "(top level)"
+            raise ScenarioFileError(f"{path}: {at}: {errors[0].message}")
+        given = {k: v for k, v in data.items() if k != "shape" and k not in VECTORS}
+        for k in VECTORS:
+            given.update({f"{k}_{a}": v for a, v in zip("xyz", data.get(k, ()))})
+        return _shape(path.stem, data["shape"], given, str(path))
+    if not (isinstance(data, dict) and set(data) == {"waypoints"} and isinstance(data["waypoints"], list)):
+        raise ScenarioFileError(f"{path}: a trajectory file is a mapping with `waypoints: [...]` (or `shape: ...`)")
+    rows = data["waypoints"]
+    where = [f"waypoints.{i}" for i in range(len(rows))]
+    for row, at in zip(rows, where):
+        if not isinstance(row, dict):
+            raise ScenarioFileError(f"{path}: {at}: a waypoint is a mapping of t, x, y, z[, psi, vx, ...], got {row!r}")
+    return _waypoint_file(path, rows, where)
+
+
+def resolve(text: str, base: Path | None = None) -> Trajectory:
+    """A trajectory from its command-line or spec text (module docstring); relative files are under base."""
+    text = str(text).strip()
+    if text.isdigit():
+        code = int(text)
+        if code not in THESIS:
+            raise ScenarioFileError(f"trajectory {code}: the thesis's are 0 (hover), 1, 2 and 3")
+        return thesis(code)
+    name, _, rest = text.partition(":")
+    if name in BUILT_IN:
+        given = _overrides(rest, f"trajectory {text}")
+        label = "_".join([name, *(f"{k}{v:g}" for k, v in given.items())])  # a file name's stem
+        return _shape(label, name, given, f"trajectory {text}")
+    path = Path(text) if base is None or Path(text).is_absolute() else Path(base) / text
+    if not path.is_file() and path.suffix.lower() not in (".csv", ".json", ".yaml", ".yml"):
+        raise ScenarioFileError(f"trajectory {text!r}: neither 0-3, a built-in ({', '.join(BUILT_IN)}) nor a trajectory file")
+    return read_file(path)
+
+
+def as_trajectory(value, base: Path | None = None) -> Trajectory:
+    """A Trajectory, an int (thesis) or a text (resolve)."""
+    if isinstance(value, Trajectory):
+        return value
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return resolve(str(int(value)))
+    return resolve(str(value), base)

@@ -1,0 +1,203 @@
+"""Time-stamped waypoints turned into a minimum-jerk reference: piecewise quintics with continuous position,
+velocity and acceleration (the feedforward (3.18) reads the acceleration).
+
+Why minimum jerk (and quintics): the controller's feedforward uses the load's position, velocity and
+acceleration only (control_law.StateFeedback: the other coordinates at their trim), so the reference needs
+continuous acceleration and no more. The quintic is the lowest degree that can meet a position, a velocity
+and an acceleration at both ends of a segment, so the user's velocity and acceleration constraints are honoured
+exactly; among the C2 piecewise quintics through the waypoints, the one of least integral squared jerk has, at
+every waypoint left free, continuous jerk and snap as well (its optimality conditions). Minimum snap would need
+degree 7, overshoots more between waypoints and buys derivatives the loop does not use.
+
+The optimum is closed form: the cost is a quadratic in the free velocities and accelerations at the waypoints
+(each segment's is dᵀHd/T⁵ in its scaled Hermite data d), so one symmetric positive definite linear solve gives
+them; no iterative solver. The result is carried by the scenario FMU as data (its wp_* parameters: time,
+position, velocity and acceleration at each waypoint, for x, y, z and psi) and evaluated there in C, segment
+by segment as a quintic Hermite polynomial (scenario_model.c); evaluate() below is the same arithmetic in numpy.
+
+Boundary conditions: a velocity or acceleration left out at the first or last waypoint is 0 (the path starts
+and ends at rest); left out at an interior waypoint it is free. Before the first time and after the last the
+reference holds the end waypoint at rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .files import ScenarioFileError
+
+AXES = ("x", "y", "z", "psi")
+FIELDS = ("t", *AXES, *(f"v{a}" for a in AXES), *(f"a{a}" for a in AXES))  # a waypoint's columns
+REQUIRED = ("t", "x", "y", "z")
+MAX_WAYPOINTS = 64  # the scenario FMU's capacity (its wp_* parameters)
+
+_NUMBER = {"type": "number"}
+SCHEMA = {  # one waypoint (a CSV row, or an item of a JSON/YAML file's `waypoints`)
+    "type": "object", "required": list(REQUIRED), "additionalProperties": False,
+    "properties": {f: _NUMBER for f in FIELDS},
+}
+
+
+def parameter_name(field: str, i: int) -> str:
+    """The scenario FMU's parameter of one field of waypoint i (wp_t_0, wp_x_0, ..., wp_apsi_63)."""
+    return f"wp_{field}_{i}"
+
+
+def check(rows: list[dict], where: list[str], source: str) -> None:
+    """The waypoints' shape and values, the first problem as one line: `source: where: problem`.
+
+    rows are mappings of FIELDS to numbers; where[i] names row i for the user ("line 4", "waypoints.3")."""
+    import jsonschema
+
+    if len(rows) < 2:
+        raise ScenarioFileError(f"{source}: a trajectory needs at least 2 waypoints, got {len(rows)}")
+    if len(rows) > MAX_WAYPOINTS:
+        raise ScenarioFileError(f"{source}: at most {MAX_WAYPOINTS} waypoints fit the scenario FMU, got {len(rows)}")
+    validator = jsonschema.Draft202012Validator(SCHEMA)
+    for row, at in zip(rows, where):
+        for err in sorted(validator.iter_errors(row), key=lambda e: list(e.path)):
+            field = ".".join(str(p) for p in err.absolute_path)
+            if err.validator == "additionalProperties":
+                extra = sorted(set(row) - set(FIELDS))
+                raise ScenarioFileError(f"{source}: {at}: unknown field {', '.join(extra)} (a waypoint has {', '.join(FIELDS)})")
+            raise ScenarioFileError(f"{source}: {at}{': ' + field if field else ''}: {err.message}")
+        for field, value in row.items():
+            if not np.isfinite(value):
+                raise ScenarioFileError(f"{source}: {at}: {field} is {value}, not a finite number")
+    if len({("psi" in r) for r in rows}) > 1:
+        raise ScenarioFileError(f"{source}: psi is given at some waypoints but not all")
+    if any(("vpsi" in r or "apsi" in r) and "psi" not in r for r in rows):
+        raise ScenarioFileError(f"{source}: a psi rate or acceleration without psi")
+    if rows[0]["t"] < 0:
+        raise ScenarioFileError(f"{source}: {where[0]}: t = {rows[0]['t']:g} s is before the run starts (t = 0)")
+    for k in range(1, len(rows)):
+        if not rows[k]["t"] > rows[k - 1]["t"]:
+            raise ScenarioFileError(f"{source}: {where[k]}: t = {rows[k]['t']:g} s is not after the previous waypoint's "
+                                  f"t = {rows[k - 1]['t']:g} s (times must increase)")
+
+
+def _hermite_to_monomial() -> np.ndarray:
+    """B: monomial coefficients of P(s) on [0, 1] from d = [p0, T v0, T^2 a0, p1, T v1, T^2 a1]."""
+    return np.array([
+        [1, 0, 0, 0, 0, 0],
+        [0, 1, 0, 0, 0, 0],
+        [0, 0, 0.5, 0, 0, 0],
+        [-10, -6, -1.5, 10, -4, 0.5],
+        [15, 8, 1.5, -15, 7, -1],
+        [-6, -3, -0.5, 6, -3, 0.5],
+    ])
+
+
+def _jerk_gram() -> np.ndarray:
+    """H with integral_0^1 P'''(s)^2 ds = d' H d."""
+    B = _hermite_to_monomial()
+    a = np.array([6.0, 24.0, 60.0])  # P''' = 6 c3 + 24 c4 s + 60 c5 s^2
+    M = np.array([[a[j] * a[k] / (j + k + 1) for k in range(3)] for j in range(3)])
+    return B[3:].T @ M @ B[3:]
+
+
+B_HERMITE = _hermite_to_monomial()
+H_JERK = _jerk_gram()
+
+
+def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum-jerk velocities and accelerations at the knots of one axis; None entries of v, a are free."""
+    n = t.size
+    G = np.zeros((3 * n, 3 * n))  # cost w' G w, w = [p0, v0, a0, p1, v1, a1, ...]
+    for i in range(n - 1):
+        T = t[i + 1] - t[i]
+        S = np.diag([1, T, T * T, 1, T, T * T])
+        idx = np.r_[3 * i:3 * i + 6]
+        G[np.ix_(idx, idx)] += S @ H_JERK @ S / T**5
+    w = np.full(3 * n, np.nan)
+    w[0::3] = p
+    for i in range(n):
+        if v[i] is not None:
+            w[3 * i + 1] = v[i]
+        if a[i] is not None:
+            w[3 * i + 2] = a[i]
+    free = np.isnan(w)
+    if free.any():
+        known = ~free
+        A, b = G[np.ix_(free, free)], -G[np.ix_(free, known)] @ w[known]
+        scale = 1 / np.sqrt(np.diag(A))  # the entries span powers of the segment times: equilibrate first
+        import scipy.linalg
+
+        w[free] = scale * scipy.linalg.solve(A * np.outer(scale, scale), b * scale, assume_a="pos")
+    return w[1::3].copy(), w[2::3].copy()
+
+
+@dataclass(frozen=True)
+class MinimumJerk:
+    """The reference: at each knot its time and the position, velocity, acceleration of x, y, z, psi ((n, 4) each)."""
+
+    t: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    @property
+    def start(self) -> tuple[float, float, float]:
+        return tuple(float(x) for x in self.p[0, :3])
+
+    def evaluate(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity, acceleration ((len(times), 4)) at the times; the end waypoints held at rest outside.
+        The arithmetic of scenario_waypoints.c, operation for operation (the two agree to the last bit)."""
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        n = self.t.size
+        lo = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, n - 2)
+        hi = lo + 1
+        T = (self.t[hi] - self.t[lo])[:, None]
+        s = (times[:, None] - self.t[lo][:, None]) / T
+        dp = self.p[hi] - self.p[lo]
+        m0, m1, a0, a1 = T * self.v[lo], T * self.v[hi], T * T * self.a[lo], T * T * self.a[hi]
+        c0, c1, c2 = self.p[lo], m0, 0.5 * a0
+        c3 = 10.0 * dp - 6.0 * m0 - 4.0 * m1 - 1.5 * a0 + 0.5 * a1
+        c4 = -15.0 * dp + 8.0 * m0 + 7.0 * m1 + 1.5 * a0 - a1
+        c5 = 6.0 * dp - 3.0 * m0 - 3.0 * m1 - 0.5 * a0 + 0.5 * a1
+        pos = c0 + s * (c1 + s * (c2 + s * (c3 + s * (c4 + s * c5))))
+        vel = (c1 + s * (2.0 * c2 + s * (3.0 * c3 + s * (4.0 * c4 + s * 5.0 * c5)))) / T
+        acc = (2.0 * c2 + s * (6.0 * c3 + s * (12.0 * c4 + s * 20.0 * c5))) / (T * T)
+        before, after = times < self.t[0], times >= self.t[-1]
+        pos[before], pos[after] = self.p[0], self.p[-1]
+        vel[before | after] = 0.0
+        acc[before | after] = 0.0
+        return pos, vel, acc
+
+    def parameters(self) -> dict[str, float | int]:
+        """The scenario FMU's wp_* parameters that carry this reference."""
+        out: dict[str, float | int] = {"wp_count": int(self.t.size)}
+        for i in range(self.t.size):
+            out[parameter_name("t", i)] = float(self.t[i])
+            for k, axis in enumerate(AXES):
+                out[parameter_name(axis, i)] = float(self.p[i, k])
+                out[parameter_name(f"v{axis}", i)] = float(self.v[i, k])
+                out[parameter_name(f"a{axis}", i)] = float(self.a[i, k])
+        return out
+
+
+def minimum_jerk(rows: list[dict]) -> MinimumJerk:
+    """The minimum-jerk reference through checked waypoints (check())."""
+    t = np.array([r["t"] for r in rows], dtype=float)
+    n = t.size
+    p, v, a = np.zeros((n, 4)), np.zeros((n, 4)), np.zeros((n, 4))
+    for k, axis in enumerate(AXES):
+        p[:, k] = [r.get(axis, 0.0) for r in rows]
+        ends = (0, n - 1)
+        vk = [r.get(f"v{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
+        ak = [r.get(f"a{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
+        v[:, k], a[:, k] = _solve_axis(t, p[:, k], vk, ak)
+    return MinimumJerk(t, p, v, a)
+
+
+def from_parameters(values: dict) -> MinimumJerk:
+    """The reference the scenario FMU's wp_* parameters describe (the inverse of MinimumJerk.parameters)."""
+    n = int(values["wp_count"])
+    get = lambda f: np.array([float(values[parameter_name(f, i)]) for i in range(n)])  # noqa: E731
+    return MinimumJerk(get("t"), *(np.stack([get(f"{q}{a}") for a in AXES], axis=1) for q in ("", "v", "a")))
