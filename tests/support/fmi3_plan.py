@@ -12,9 +12,11 @@ from tiltload.master.engine import connections
 from tiltload.master.engine.model_description import read_fmu
 
 
-def host_plan(system, folder: Path, ticks: int, record: list[tuple[str, str]], platform: str = "x86_64-linux") -> Path:
-    """Write folder/plan.txt: the system's FMUs (their binaries for platform), ticks ticks, the (instance, variable)
-    outputs to print after every tick."""
+def host_plan(system, folder: Path, ticks: int, record: list[tuple[str, str]], platform: str = "x86_64-linux",
+              native_path=str) -> Path:
+    """Write folder/plan.txt: the system's FMUs (their binaries for platform, an FMI 3.0 platform tuple), ticks ticks,
+    the (instance, variable) outputs to print after every tick; native_path: a path as the host sees it (wine: Z:\\)."""
+    suffix = ".dll" if platform.endswith("-windows") else ".so"
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     lines, vrs = [], {}
     tick = Fraction(repr(system.tick))
@@ -24,7 +26,8 @@ def host_plan(system, folder: Path, ticks: int, record: list[tuple[str, str]], p
             z.extractall(unpacked)
         root = ET.parse(unpacked / "modelDescription.xml").getroot()
         model = root.find("CoSimulation").get("modelIdentifier")
-        lines.append(f"F {inst.name} {unpacked / 'binaries' / platform / (model + '.so')} {root.get('instantiationToken')}")
+        lines.append(f"F {inst.name} {native_path(unpacked / 'binaries' / platform / (model + suffix))} "
+                     f"{root.get('instantiationToken')}")
         elements = {e.get("name"): e for e in root.find("ModelVariables")}
         vrs[inst.name] = {n: e.get("valueReference") for n, e in elements.items()}
         for e in elements.values():

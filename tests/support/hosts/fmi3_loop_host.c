@@ -20,8 +20,20 @@
      T tick ticks                  the tick (s) and how many to run
      O name vr                     a Float64 output printed after every tick ("k name vr value", C99 hex float); a
                                    clocked one as read at its clock's last tick
-   Exit 0 when every call succeeded. */
+   Exit 0 when every call succeeded. Portable: dlopen on POSIX, LoadLibrary on Windows (run under wine here). */
+#if defined(_WIN32)
+#include <windows.h>
+#define LIB_OPEN(path) ((void*)LoadLibraryA(path))
+#define LIB_SYMBOL(lib, name) ((void*)GetProcAddress((HMODULE)(lib), name))
+#define LIB_CLOSE(lib) FreeLibrary((HMODULE)(lib))
+#define LIB_ERROR() "LoadLibrary failed"
+#else
 #include <dlfcn.h>
+#define LIB_OPEN(path) dlopen(path, RTLD_NOW | RTLD_LOCAL)
+#define LIB_SYMBOL(lib, name) dlsym(lib, name)
+#define LIB_CLOSE(lib) dlclose(lib)
+#define LIB_ERROR() dlerror()
+#endif
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -140,12 +152,12 @@ static int set_inputs(Fmu* fmus, int fi, Link* links, int n_links, int which, co
   return failed;
 }
 
-#define SYM(f, field, name) ((f)->field = (void*)dlsym((f)->lib, name)) == NULL
+#define SYM(f, field, name) ((f)->field = (void*)LIB_SYMBOL((f)->lib, name)) == NULL
 
 static int load(Fmu* f, const char* binary) {
-  f->lib = dlopen(binary, RTLD_NOW | RTLD_LOCAL);
+  f->lib = LIB_OPEN(binary);
   if (f->lib == NULL) {
-    fprintf(stderr, "dlopen %s: %s\n", binary, dlerror());
+    fprintf(stderr, "loading %s: %s\n", binary, LIB_ERROR());
     return 1;
   }
   if (SYM(f, instantiate, "fmi3InstantiateCoSimulation") || SYM(f, enter_init, "fmi3EnterInitializationMode") ||
@@ -322,7 +334,7 @@ int main(int argc, char** argv) {
   for (i = 0; i < n_fmus; ++i) {
     fmus[i].terminate(fmus[i].c);
     fmus[i].free_instance(fmus[i].c);
-    dlclose(fmus[i].lib);
+    LIB_CLOSE(fmus[i].lib);
   }
   printf("ticks %ld failed %d\n", k, failed);
   return failed ? 1 : 0;
