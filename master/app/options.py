@@ -138,12 +138,6 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     if controller in ("dlqr", "mixed") and controller not in loop.controllers:
         raise UserError(f"--controller {controller}: the {vehicle} vehicle has {', '.join(loop.controllers)} "
                         "(or your own FMU)")
-    fmi, clocks = getattr(args, "fmi", 2), getattr(args, "clocks", False)
-    if clocks and fmi != 3:
-        raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
-    if args.system is not None and (fmi != 2 or clocks):
-        raise UserError("--fmi and --clocks choose the loop's FMUs; a --system file names its own (and may give each "
-                        "instance's FMI version, \"fmi\": 3)")
     controller_fmu = None
     if controller not in ("dlqr", "mixed"):
         controller_fmu = Path(controller)

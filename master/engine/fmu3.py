@@ -72,6 +72,8 @@ class Fmu3State:
             (n,) = struct.unpack_from("<I", data, 8)
             header = json.loads(data[12:12 + n])
             at = 12 + n
+            if len(data) != at + header["fmu"] + sum(np.dtype(d).itemsize * size for d, size in header["held"]):
+                raise ValueError("its length does not match its header")
             fmu = data[at:at + header["fmu"]]
             at += header["fmu"]
             held = []
@@ -79,8 +81,6 @@ class Fmu3State:
                 dt = np.dtype(dtype)
                 held.append(np.frombuffer(data, dtype=dt, count=size, offset=at).astype(dt.newbyteorder("="), copy=True))
                 at += dt.itemsize * size
-            if len(fmu) != header["fmu"] or at != len(data):
-                raise ValueError("its length does not match its header")
             return cls(fmu, {}, held, bool(header["event_asked"]), header["next_event"])
         except (ValueError, KeyError, TypeError, struct.error, json.JSONDecodeError, UnicodeDecodeError) as err:
             raise ExecutionError(f"{name}: cannot restore its state: {err}") from None

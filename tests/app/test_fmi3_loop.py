@@ -55,16 +55,31 @@ def test_run_fmi3_with_clocks_reports_its_metrics_and_log(fmi3_set, tmp_path, ca
     args = ["run", "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"]
     assert main([*args, "--fmi", "3", "--clocks"]) == 0
     clocked = capsys.readouterr().out
-    assert f"log: {tmp_path / 'zse_traj1_mixed_seed1_fmi3_clocks.mcap'}" in clocked
+    assert f"log: {tmp_path / 'zse_traj1_mixed_seed1_fmi3_clocks_t2s.mcap'}" in clocked
     assert main(args) == 0  # the same run on the FMI 2.0 FMUs: the same metrics
     fmi2 = capsys.readouterr().out
     table = lambda out: [ln for ln in out.splitlines() if ln.strip().startswith(("ISE", "IADU"))]  # noqa: E731
     assert table(clocked) == table(fmi2) and len(table(fmi2)) == 8
 
 
+def test_a_clocked_fmi3_run_continued_from_its_snapshot_ends_as_the_whole_run(fmi3_set, tmp_path, capsys):
+    """tiltload run --fmi 3 --clocks --snapshot-at 2, then --from-snapshot (which takes --fmi 3 --clocks from the
+    snapshot): the metrics of 4 s, as the uninterrupted run prints them."""
+    fmus = fmi3_set.parent
+    common = ["--fmus", str(fmus), "--quiet", "--no-plots", "--no-log"]
+    snap = tmp_path / "at2.snapshot"
+    assert main(["run", "--fmi", "3", "--clocks", "--stop-time", "4", "--snapshot-at", "2", str(snap), *common]) == 0
+    whole = capsys.readouterr().out
+    assert main(["run", "--from-snapshot", str(snap), "--stop-time", "4", *common]) == 0
+    continued = capsys.readouterr().out
+    table = lambda out: [ln for ln in out.splitlines() if ln.strip().startswith(("ISE", "IADU"))]  # noqa: E731
+    assert "continuing from" in continued and len(table(whole)) == 8 and table(continued) == table(whole)
+
+
 @pytest.mark.parametrize("args, needle", [
     (["run", "--clocks"], "--clocks: clocks are FMI 3.0's; add --fmi 3"),
-    (["run", "--fmi", "3", "--system", "loop.json"], "--fmi and --clocks choose the loop's FMUs"),
+    (["run", "--fmi", "3", "--system", "loop.json"], "--fmi applies to the thesis's loop only"),
+    (["run", "--from-snapshot", "s.snapshot", "--fmi", "3"], "--from-snapshot: --fmi cannot change in a continued run"),
     (["reproduce", "--clocks"], "--clocks: clocks are FMI 3.0's; add --fmi 3"),
 ])
 def test_fmi_options_refuse_what_does_not_fit_in_one_line(tmp_path, capsys, args, needle):

@@ -18,7 +18,7 @@ from support.fmu3_session import Session3
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import connections
 from tiltload.master.engine import system as sysdesc
-from tiltload.master.engine.errors import DescriptionError
+from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.log_reader import read
 from tiltload.master.engine.mcap_log import McapLogger
@@ -195,37 +195,50 @@ def test_a_json_system_names_an_instance_fmi_version(fmi3_set, tmp_path):
 
 
 # ---- a snapshot ------------------------------------------------------------------------------------------------------
-def test_state_saved_at_20_s_continues_bit_for_bit_in_new_instances(fmi3_set):
-    """Every FMU's serialized state (fmi3SerializeFMUState) and the slaves' held outputs at 20 s, restored into a new
-    set of instances, continue the clocked loop exactly as the uninterrupted run does."""
+def test_state_saved_at_20_s_continues_bit_for_bit_in_new_instances(fmi3_set, tmp_path):
+    """A snapshot at 20 s (every FMU's fmi3SerializeFMUState, the slaves' held clocked outputs, the master's state),
+    written to a file, read back and restored into a new set of instances, continues the clocked loop through the C
+    tick loop exactly as the uninterrupted run does."""
+    from tiltload.master.engine import snapshot
+
     system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
     at, end = round(20.0 / T), round(22.0 / T)
     whole = Record()
     ex = Execution(system, [whole])
     try:
         ex.instantiate()
-        while ex.ticks_done < at:
-            ex.step_tick()
-        saved = {name: inst.save_state() for name, inst in ex.instances.items()}
+        ex.run(at * T)
+        path = snapshot.write(snapshot.take(ex), tmp_path / "at20.snapshot")
         mark = {name: len(rows) for name, rows in whole.rows.items()}
-        while ex.ticks_done < end:
-            ex.step_tick()
+        ex.run(end * T)
     finally:
         ex.close()
     again = Record()
-    ex = Execution(default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True), [])
+    ex = Execution(default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True), [again])
     try:
-        ex.instantiate()  # new instances, initialized at t = 0, then the saved states
-        for name, inst in ex.instances.items():
-            inst.restore_state(saved[name])
-        ex.ticks_done, ex.observers = at, [again]
-        while ex.ticks_done < end:
-            ex.step_tick()
+        ex.instantiate(resume=snapshot.read(path))  # new instances, initialized at t = 0, then the saved states
+        assert ex.ticks_done == at
+        ex.run(end * T)
     finally:
         ex.close()
     for name, rows in again.rows.items():
         assert np.array_equal(np.array(rows), np.array(whole.rows[name][mark[name]:])), name
     assert len(again.rows["plant"]) == end - at and np.ptp(np.array(again.rows["plant"])[:, 0]) > 0.01
+
+
+def test_a_damaged_fmi3_state_is_refused_in_one_line(fmi3_set):
+    system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
+    ex = Execution(system, [])
+    try:
+        ex.instantiate()
+        sensors = ex.instances["sensors"]
+        good = sensors.get_state()
+        for bad, why in ((b"x" * len(good), "not an FMI 3.0 slave's state"), (good[:-3], "does not match its header")):
+            with pytest.raises(ExecutionError, match=f"sensors: cannot restore its state: .*{why}"):
+                sensors.set_state(bad)
+        sensors.set_state(good)
+    finally:
+        ex.close()
 
 
 # ---- other importers ---------------------------------------------------------------------------------------------------

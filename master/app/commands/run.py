@@ -47,7 +47,7 @@ def _announce(execution) -> None:
 # the options that say which loop runs: a run continued from a snapshot takes them from the snapshot
 # (their argparse defaults: None or False, so a given option is one that is neither)
 _LOOP_DEFINING = ("vehicle", "scenario", "trajectory", "controller", "seed", "delay", "no_gusts", "system", "schedule",
-                  "allow_unknown_inputs", "wind")
+                  "allow_unknown_inputs", "wind", "fmi", "clocks")
 
 
 def _branch(args: argparse.Namespace):
