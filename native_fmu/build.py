@@ -24,7 +24,7 @@ from .variables import FmuDefinition
 HERE = Path(__file__).parent
 # the toolkit's own files: a change in any of them rebuilds every FMU
 TOOLKIT_FILES = (*LAYER_FILES, HERE / "build.py", HERE / "compile.py", HERE / "package.py", HERE / "describe.py",
-                 HERE / "variables.py")
+                 HERE / "describe3.py", HERE / "variables.py", HERE / "units.py")
 BuildError = cc.BuildError
 NativeSources = cc.NativeSources
 
@@ -64,12 +64,14 @@ class BuildResult:
     warnings: list[str] = field(default_factory=list)  # the compiler's warnings on our own sources (the tests want none)
 
 
-def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...]) -> str:
-    """Identity of a build: its input files, the toolkit, the platforms with their compilers and flags, the versions."""
+def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...], fmi_version: int = 2) -> str:
+    """Identity of a build: its input files, the toolkit, the platforms with their compilers and flags, the versions
+    (FMI's too)."""
     h = hashlib.sha256()
     for f in sorted({*recipe.inputs, *TOOLKIT_FILES}, key=str):
         h.update(f.name.encode() + b"\0" + f.read_bytes())
-    for e in (*cc.identity(toolchains), tiltload_version(), *recipe.identity):
+    fmi = [f"FMI {fmi_version}"] if fmi_version != 2 else []  # FMI 2.0 builds keep the identity they had
+    for e in (*cc.identity(toolchains), tiltload_version(), *recipe.identity, *fmi):
         h.update(e.encode() + b"\0")
     return h.hexdigest()
 
@@ -80,22 +82,23 @@ def is_current(fmu: Path, source_digest: str) -> bool:
 
 
 def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[str], None] = print,
-          toolchains: tuple[cc.Toolchain, ...] = ()) -> BuildResult:
-    """Write dest/<recipe.fmu_name> with a binary for each of toolchains (default: every platform whose compiler
-    is here, compile.choose) unless an FMU of the same inputs and platforms is already there (or force)."""
+          toolchains: tuple[cc.Toolchain, ...] = (), fmi_version: int = 2) -> BuildResult:
+    """Write dest/<recipe.fmu_name> as an FMI 2.0 or 3.0 FMU with a binary for each of toolchains (default: every
+    platform whose compiler is here, compile.choose) unless an FMU of the same inputs and platforms is already there
+    (or force)."""
     started = time.perf_counter()
     target = Path(dest) / recipe.fmu_name
     toolchains = toolchains or cc.choose()[0]
-    source_digest = digest(recipe, toolchains)
+    source_digest = digest(recipe, toolchains, fmi_version)
     if not force and is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
     with tempfile.TemporaryDirectory(prefix="tiltload_prepare_") as tmp:
         prepared = recipe.prepare(Path(tmp), progress)
         info = {"version": tiltload_version(), **prepared.info}
-        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains)
+        warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains, fmi_version)
     return BuildResult(target, True, time.perf_counter() - started, warnings)
 
 
 def build_all(recipes: list[Recipe], dest: Path, force: bool = False, progress: Callable[[str], None] = print,
-              toolchains: tuple[cc.Toolchain, ...] = ()) -> list[BuildResult]:
-    return [build(r, dest, force, progress, toolchains) for r in recipes]
+              toolchains: tuple[cc.Toolchain, ...] = (), fmi_version: int = 2) -> list[BuildResult]:
+    return [build(r, dest, force, progress, toolchains, fmi_version) for r in recipes]

@@ -3,7 +3,8 @@
 A platform is a row of TOOLCHAINS: where its binary goes, which compiler builds it, its flags. The
 sources need nothing platform-specific (tl_platform.h pins the arithmetic and hides the internals), so
 every platform compiles the same files with the same portable flags (no -march=native: the binary
-ships), every warning on, only the FMI API exported.
+ships), every warning on, only the FMI API exported (fmi2* or fmi3*). FMI 2.0 and FMI 3.0 builds use the same
+toolchains; the FMI version only chooses the binaries/ folder (Toolchain.binary_folder).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ class NativeSources:
 @dataclass(frozen=True)
 class Toolchain:
     """How one platform's binary is built. The FMI 2.0 layout puts it in binaries/<folder>/<id><suffix>;
-    name is the platform as FMI 3.0's tuples say it, so an FMI 3.0 build can use it as its folder."""
+    name is the platform as FMI 3.0's tuples say it, the folder of an FMI 3.0 build."""
 
     name: str  # <machine>-<system>: x86_64-linux, x86_64-windows, aarch64-linux
     folder: str  # FMI 2.0's binaries/ folder (linux64, win64; aarch64-linux as FMI 2.0.4 advises for the rest)
@@ -53,6 +54,10 @@ class Toolchain:
     ldflags: tuple[str, ...]
     suffix: str
     export_map: bool  # ELF: a version script exports only the API (a DLL exports only what it marks dllexport)
+
+    def binary_folder(self, fmi_version: int) -> str:
+        """binaries/<this>/: FMI 3.0's platform tuple, or FMI 2.0's folder."""
+        return self.name if fmi_version == 3 else self.folder
 
 
 TOOLCHAINS = (
@@ -151,22 +156,26 @@ def _compile(cc: str, source: Path, obj: Path, extra: tuple[str, ...]) -> str:
     return proc.stderr.strip()
 
 
-def compile_shared(sources: NativeSources, folder: Path, output: Path, t: Toolchain, jobs: int | None = None) -> list[str]:
+def compile_shared(sources: NativeSources, folder: Path, output: Path, t: Toolchain, jobs: int | None = None,
+                   api: str = "fmi2", include: tuple[Path, ...] = ()) -> list[str]:
     """Compile the C files of folder (layer + model + generated) into the shared library output for platform t,
-    `jobs` files at a time (default: one per core); return the compiler's warnings (the sources have none)."""
+    `jobs` files at a time (default: one per core), exporting only the api's functions (fmi2*, fmi3*); include:
+    header folders besides folder (FMI 3.0's headers, which its sources/ does not carry). Return the compiler's
+    warnings (the sources have none)."""
     cc = compiler(t)
+    includes = tuple(f"-I{Path(d).resolve()}" for d in include)
     files = sorted(folder.glob("*.c"))
     with tempfile.TemporaryDirectory(prefix="tiltload_objects_") as tmp:
         objects = [Path(tmp) / (f.stem + ".o") for f in files]
         with ThreadPoolExecutor(max_workers=jobs or os.cpu_count() or 1) as pool:
-            said = list(pool.map(lambda f, o: _compile(cc, f, o, (*t.cflags, *(
+            said = list(pool.map(lambda f, o: _compile(cc, f, o, (*t.cflags, *includes, *(
                 HOT_CFLAGS if f.name in sources.hot else ()))), files, objects))
         # linked where it goes, under its bare name: MinGW's ld derives a DLL's image base from the output name as
         # given, so a path (a temporary one) would make every build differ
         link = [cc, "-shared", "-o", output.name, *map(str, objects), *t.ldflags]
-        if t.export_map:  # only fmi2*, whatever the sources say (they hide the rest themselves)
+        if t.export_map:  # only the API, whatever the sources say (they hide the rest themselves)
             exports = Path(tmp) / "exports.map"  # outside the sources: it is not one of them
-            exports.write_text("{ global: fmi2*; local: *; };\n")
+            exports.write_text(f"{{ global: {api}*; local: *; }};\n")
             link.append(f"-Wl,--version-script={exports}")
         proc = subprocess.run(link, capture_output=True, text=True, cwd=output.parent)
     if proc.returncode != 0:

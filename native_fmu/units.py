@@ -42,3 +42,13 @@ def base_exponents(unit: str) -> dict[str, int]:
     _factors(num, 1, total)
     _factors(den, -1, total)
     return {b: total[b] for b in BASE if total[b]}
+
+
+# Display units the FMI 3.0 descriptions declare (name, factor from the unit): angles read in degrees.
+DISPLAY_UNITS = {"rad": (("deg", 57.29577951308232),), "rad/s": (("deg/s", 57.29577951308232),),
+                 "rad/s2": (("deg/s2", 57.29577951308232),)}
+
+
+def display_units(unit: str) -> tuple[tuple[str, float], ...]:
+    """The display units of a unit, the first one the variables show by default (none for most units)."""
+    return DISPLAY_UNITS.get(unit, ())

@@ -15,6 +15,16 @@ class DefinitionError(ValueError):
 
 
 @dataclass(frozen=True)
+class Clock:
+    """An FMI 3.0 periodic time-based input clock: the importer activates it at 0, interval, 2 interval, ...
+    (intervalVariability constant, no shift). Variables that belong to it name it in Variable.clock."""
+
+    name: str
+    interval: float  # s
+    description: str = ""
+
+
+@dataclass(frozen=True)
 class Variable:
     """One scalar variable. Parameters are fixed unless declared tunable (settable between steps: a run continued
     from a snapshot may change them); outputs are calculated at initialization."""
@@ -29,12 +39,13 @@ class Variable:
     minimum: float | None = None  # declared range (min/max in the model description), Real and Integer
     maximum: float | None = None
     tunable: bool = False  # parameters only: the model reads it afresh at every step
+    clock: str = ""  # FMI 3.0: the clock this input or output belongs to (then it is discrete)
 
     @property
     def variability(self) -> str:
         if self.causality == "parameter":
             return "tunable" if self.tunable else "fixed"
-        return "continuous" if self.type == "Real" and not self.discrete else "discrete"
+        return "continuous" if self.type == "Real" and not self.discrete and not self.clock else "discrete"
 
     @property
     def has_start(self) -> bool:
@@ -52,6 +63,7 @@ class FmuDefinition:
     default_experiment: tuple[float, float, float]  # start, stop, step (s)
     variable_step: bool = True  # canHandleVariableCommunicationStepSize
     version: str = "0"
+    clocks: tuple[Clock, ...] = ()  # FMI 3.0 input clocks (a clocked FMU is FMI 3.0 only)
     value_references: dict[str, int] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -72,6 +84,27 @@ class FmuDefinition:
             seen.add(v.name)
             self.value_references[v.name] = counters[v.type]
             counters[v.type] += 1
+        self._check_clocks(seen)
+
+    def _check_clocks(self, names: set[str]) -> None:
+        clocks = {}
+        for k in self.clocks:
+            if not _IDENTIFIER.match(k.name) or k.name in names or k.name in clocks:
+                raise DefinitionError(f"{self.model_identifier}: clock name {k.name!r} is not a new C identifier")
+            if not (isinstance(k.interval, float) and k.interval > 0 and k.interval < float("inf")):
+                raise DefinitionError(f"{self.model_identifier}.{k.name}: interval must be a positive time, got {k.interval!r}")
+            clocks[k.name] = k
+        for v in self.variables:
+            if not v.clock:
+                continue
+            if v.clock not in clocks:
+                raise DefinitionError(f"{self.model_identifier}.{v.name}: no clock {v.clock!r}")
+            if v.causality == "parameter" or v.type == "String":
+                raise DefinitionError(f"{self.model_identifier}.{v.name}: only inputs and outputs of type Real, Integer "
+                                      "or Boolean can be clocked")
+
+    def clock_index(self, name: str) -> int:
+        return next(i for i, k in enumerate(self.clocks) if k.name == name)
 
     def of_type(self, type_: str) -> list[Variable]:
         return [v for v in self.variables if v.type == type_]

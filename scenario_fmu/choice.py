@@ -57,6 +57,12 @@ class Trajectory:
     def parameters(self) -> dict[str, float | int]:
         return {"trajectory": self.code, **dict(self.settings)}
 
+    @classmethod
+    def from_dict(cls, d: dict) -> Trajectory:
+        """From its dataclasses.asdict form (as a snapshot keeps it: JSON lists for the tuples)."""
+        return cls(d["label"], d["code"], tuple(tuple(x) for x in d["settings"]), tuple(d["start"]), d["duration"],
+                   d.get("source", ""))
+
     def __str__(self) -> str:
         return self.label
 

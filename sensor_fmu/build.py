@@ -19,6 +19,7 @@ from .suite import SUITES
 
 HERE = Path(__file__).parent
 FMU_NAMES = {"load": "TiltloadSensors.fmu", "uav": "TiltrotorSensors.fmu"}
+CLOCKED_FMU_NAMES = {"load": "TiltloadSensorsClocked.fmu", "uav": "TiltrotorSensorsClocked.fmu"}  # FMI 3.0 only
 FMU_NAME = FMU_NAMES["load"]
 MODEL_C = [HERE / "c" / "sensor_model.c", HERE / "c" / "sensor_model.h"]
 PLANT = HERE.parent / "plant_fmu"
@@ -26,16 +27,20 @@ MODEL_PY = [*sorted(HERE.glob("*.py")), PLANT / "kinematics.py", PLANT / "parame
             PLANT / "trim.py", PLANT / "model.py"]
 
 
-def recipe(vehicle: str = "load") -> Recipe:
-    return Recipe(FMU_NAMES[vehicle], (*MODEL_PY, *MODEL_C), (ca.__version__, vehicle), partial(_prepare, vehicle))
+def recipe(vehicle: str = "load", clocked: bool = False) -> Recipe:
+    """The sensor FMU; clocked: its FMI 3.0 variant with one periodic input clock per sensor group."""
+    name = (CLOCKED_FMU_NAMES if clocked else FMU_NAMES)[vehicle]
+    return Recipe(name, (*MODEL_PY, *MODEL_C), (ca.__version__, vehicle, *(("clocked",) if clocked else ())),
+                  partial(_prepare, vehicle, clocked))
 
 
-def _prepare(vehicle: str, folder: Path, progress) -> Prepared:
+def _prepare(vehicle: str, clocked: bool, folder: Path, progress) -> Prepared:
     suite, v = SUITES[vehicle], VEHICLES[vehicle]
     p = v.default_parameters()
     trim = hover_trim(p, vehicle=vehicle)
     l_index = P.index("l") if "l" in v.parameters else None
-    definition = fmu_variables.definition(trim.x, p[l_index] if l_index is not None else None, tiltload_version(), suite)
+    definition = fmu_variables.definition(trim.x, p[l_index] if l_index is not None else None, tiltload_version(), suite,
+                                          clocked)
     pi = measurement.pi_codegen_function(vehicle)
     generated = casadi_c.generate([pi], folder, "tl_pi_gen")
     table = folder / "sensor_groups.h"

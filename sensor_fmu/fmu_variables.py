@@ -8,7 +8,7 @@ vehicles' suites (suite.SUITES).
 
 from __future__ import annotations
 
-from ..native_fmu.variables import FmuDefinition, Variable
+from ..native_fmu.variables import Clock, FmuDefinition, Variable
 from ..plant_fmu.vehicles import VEHICLES
 from .suite import LOAD_SUITE, Suite
 
@@ -39,16 +39,24 @@ def bound_names(group, suite: Suite = LOAD_SUITE) -> list[str]:
     return [f"{group.name}_bound_{_state_names(suite)[i] if group.source == 'q' else suite.pi_names[i]}" for i in group.indices]
 
 
-def definition(trim_x, rod_length: float | None, version: str, suite: Suite = LOAD_SUITE) -> FmuDefinition:
+def clock_name(group) -> str:
+    return f"{group.name}_clock"
+
+
+def definition(trim_x, rod_length: float | None, version: str, suite: Suite = LOAD_SUITE, clocked: bool = False) -> FmuDefinition:
+    """The variable table; clocked: the FMI 3.0 variant with a periodic input clock per group (its interval the
+    group's period, so no period parameters), each group's held samples clocked by it."""
     names, units, groups = _state_names(suite), _state_units(suite), suite.groups
     v = [Variable(n, "Real", "input", float(trim_x[i]), f"true state {n} (from the plant)", units[i])
          for i, n in enumerate(names)]
     v += [Variable(f"exact_{n}", "Real", "output", 0.0, f"{n}: exact state channel", units[i])
           for i, n in enumerate(names)]
     for g in groups:
-        v += [Variable(n, "Real", "output", 0.0, f"{n}: {g.name} sample (held)", u, discrete=True)
+        v += [Variable(n, "Real", "output", 0.0, f"{n}: {g.name} sample (held)", u, discrete=True,
+                       clock=clock_name(g) if clocked else "")
               for n, u in zip(channel_names(g, suite), channel_units(g, suite))]
-    v += [Variable(f"{g.name}_period", "Real", "parameter", g.period, f"{g.name} sampling period", "s") for g in groups]
+    if not clocked:
+        v += [Variable(f"{g.name}_period", "Real", "parameter", g.period, f"{g.name} sampling period", "s") for g in groups]
     for g in groups:
         gu = channel_units(g, suite)
         v += [Variable(n, "Real", "parameter", b, f"{g.name} noise bound (3 sigma if gaussian, half-width if uniform)", gu[i])
@@ -62,18 +70,22 @@ def definition(trim_x, rod_length: float | None, version: str, suite: Suite = LO
     v += [Variable(f"{g.name}_pdf", "String", "parameter", g.pdf, f"{g.name} noise distribution: gaussian or uniform")
           for g in groups]
     v += [Variable(f"{g.name}_new", "Boolean", "output", False, f"{g.name} took a new sample this step") for g in groups]
+    clocks = tuple(Clock(clock_name(g), float(g.period), f"{g.name} sampling (Table 5.8)") for g in groups) if clocked else ()
     return FmuDefinition(suite.model_identifier, suite.description, v, "sensor_model.h", (0.0, 1.2, TICK),
-                         variable_step=False, version=version)
+                         variable_step=False, version=version, clocks=clocks)
 
 
 def group_table(definition: FmuDefinition, params, l_index: int | None, suite: Suite = LOAD_SUITE) -> str:
     """sensor_groups.h: each group's channels and variables by value reference, and the model's parameters."""
     vr = definition.vr
+    clocks = [k.name for k in definition.clocks]
     rows = []
     for g in suite.groups:
         idx = ", ".join(map(str, g.indices))
+        period = vr(f"{g.name}_period") if not clocks else -1
+        clock = clocks.index(clock_name(g)) if clocks else -1
         rows.append(f'  {{"{g.name}", {int(g.source == "pi")}, {len(g.indices)}, {{{idx}}}, {vr(channel_names(g, suite)[0])}, '
-                    f'{vr(f"{g.name}_period")}, {vr(bound_names(g, suite)[0])}, {len(g.bounds)}, {vr(f"{g.name}_pdf")}, '
+                    f'{period}, {clock}, {vr(bound_names(g, suite)[0])}, {len(g.bounds)}, {vr(f"{g.name}_pdf")}, '
                     f'{vr(f"{g.name}_new")}}}')
     p = ", ".join(repr(float(x)) for x in params)
     return "\n".join([
@@ -88,7 +100,8 @@ def group_table(definition: FmuDefinition, params, l_index: int | None, suite: S
         "  int n;         /* channels */",
         "  int index[16]; /* entries of pi(x) or q */",
         "  int out;       /* value reference of the first held sample (the rest follow) */",
-        "  int period;    /* value reference of the period parameter */",
+        "  int period;    /* value reference of the period parameter (-1: the clocked variant, whose clock is the period) */",
+        "  int clock;     /* index of the group's clock (-1: the plain variant) */",
         "  int bound;     /* value reference of the first bound */",
         "  int n_bounds;  /* 1: one bound for all channels, else one each */",
         "  int pdf;       /* String value reference of the distribution */",

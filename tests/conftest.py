@@ -38,6 +38,15 @@ def pipeline_fmus() -> dict[str, Path]:
 
 
 @pytest.fixture(scope="session")
+def fmi3_fmus() -> dict[str, Path]:
+    """The loop's FMUs as FMI 3.0 co-simulation FMUs (fmus/fmi3/), by file stem."""
+    from tiltload.master.app.fmus import build_all, fmu_folder
+
+    results = build_all(fmu_folder(ROOT / "fmus", 3), progress=lambda *_: None, fmi_version=3)
+    return {r.path.stem: r.path for r in results}
+
+
+@pytest.fixture(scope="session")
 def fmus(pipeline_fmus) -> Path:
     """The folder of the loop's FMUs."""
     return pipeline_fmus["TiltloadPlant"].parent

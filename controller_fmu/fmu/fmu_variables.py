@@ -7,10 +7,12 @@ matrix as a constant array, the ZSE sensor groups and their flags' value referen
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ...native_fmu.describe import c_array
-from ...native_fmu.variables import FmuDefinition, Variable
+from ...native_fmu.variables import Clock, FmuDefinition, Variable
 from ...plant_fmu.vehicles import VEHICLES
 from ...sensor_fmu.fmu_variables import channel_names, channel_units
 from ...sensor_fmu.suite import SUITES
@@ -43,7 +45,12 @@ def extended(vehicle: str = "load") -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(s[0] for s in states) + ("d_x", "d_y", "d_z"), tuple(s[1] for s in states) + ("N",) * 3
 
 
-def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load") -> FmuDefinition:
+CONTROL_CLOCK = "control_clock"
+
+
+def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load", clocked: bool = False) -> FmuDefinition:
+    """The variable table; clocked: the FMI 3.0 variant with one periodic input clock of interval T_c that every
+    input and output belongs to (the law runs at its ticks)."""
     names, units = extended(vehicle)
     state_names, state_units = names[:-3], units[:-3]
     suite = SUITES[vehicle]
@@ -82,8 +89,12 @@ def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load") ->
                    "dlqr or mixed (H2/Hinf with pole regions)" if len(controllers) > 1 else "dlqr (Sec. A.3)"),
           Variable("estimator", "String", "parameter", "zse", " or ".join(estimators) + " (none: the exact state)"),
           Variable("zse_reduction", "String", "parameter", "combastel", "ZSE order reduction: combastel (thesis), girard or pca")]
+    clocks = ()
+    if clocked:
+        v = [replace(x, clock=CONTROL_CLOCK) if x.causality in ("input", "output") else x for x in v]
+        clocks = (Clock(CONTROL_CLOCK, float(Tc), "the controller's period T_c: estimate and law at each tick"),)
     return FmuDefinition(MODEL_IDENTIFIER[vehicle], DESCRIPTION[vehicle], v, "controller_model.h", (0.0, 1.2, Tc),
-                         variable_step=False, version=version)
+                         variable_step=False, version=version, clocks=clocks)
 
 
 def estimator_arrays(b: dict) -> dict[str, np.ndarray]:

@@ -132,6 +132,11 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--allow-external-fmus", action="store_true",
                    help="--system: let a component's FMU lie outside the package or the system file's folder")
     p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus)")
+    p.add_argument("--fmi", type=int, choices=(2, 3), default=None,
+                   help="the loop's FMUs as FMI 2.0 (default; in FMUS/) or FMI 3.0 co-simulation FMUs (in FMUS/fmi3/)")
+    p.add_argument("--clocks", action="store_true",
+                   help="with --fmi 3: the sensors and the controller with FMI 3.0 clocks, which replace their periods "
+                        "(default: the plain FMI 3.0 FMUs, which every FMI 3.0 importer runs; docs/fmi3.md)")
     p.add_argument("--allow-unknown-inputs", action="store_true",
                    help="accept a controller FMU whose inputs include names the port contract does not have")
     p.add_argument("--remote", type=remote, action="append", default=[], metavar="INSTANCE=HOST:PORT",

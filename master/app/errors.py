@@ -8,12 +8,8 @@ from ..engine.errors import DescriptionError
 from .campaign.report import ReportError
 from .campaign.spec import SpecError
 from .feasibility import InfeasibleReference
+from .user_error import UserError
 from .wrap.wrap import WrapError
-
-
-class UserError(Exception):
-    """A problem the user can fix; reported as one line, exit code 2."""
-
 
 # every error whose message is a complete line for the user: a bad option, file, description, spec or design, a trajectory
 # or wind file, a reference the vehicle cannot fly

@@ -17,15 +17,28 @@ from ...plant_fmu import build as plant
 from ...scenario_fmu import build as scenario
 from ...sensor_fmu import build as sensors
 
+FMI3_FOLDER = "fmi3"  # the FMI 3.0 set lives beside the FMI 2.0 one: fmus/fmi3/ (the same file names)
 
-def loop_recipes(vehicles=("load",)) -> list[Recipe]:
-    """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav")."""
+
+def fmu_folder(base: Path, fmi_version: int = 2) -> Path:
+    """Where a set of FMUs lives: the FMI 2.0 set in base (fmus/), the FMI 3.0 set in base/fmi3/."""
+    return Path(base) if fmi_version == 2 else Path(base) / FMI3_FOLDER
+
+
+def loop_recipes(vehicles=("load",), clocked: bool = False) -> list[Recipe]:
+    """Plant, sensors, scenario, controller (in that order) of each vehicle ("load", "uav"); clocked: the sensors'
+    and the controller's FMI 3.0 variants with clocks (the plant and the scenario have none)."""
     out = []
     for v in vehicles:
-        out += [plant.recipe(v), sensors.recipe(v)]
+        out += [plant.recipe(v), sensors.recipe(v, clocked)]
     out.append(scenario.recipe())
-    out += [controller.recipe(v) for v in vehicles]
+    out += [controller.recipe(v, clocked) for v in vehicles]
     return out
+
+
+def clocked_recipes(vehicles=("load", "uav")) -> list[Recipe]:
+    """The FMI 3.0 variants with clocks: the sensors (a clock per group) and the controller (T_c) of each vehicle."""
+    return [r for v in vehicles for r in (sensors.recipe(v, True), controller.recipe(v, True))]
 
 
 def formation_recipes() -> list[Recipe]:
@@ -33,22 +46,24 @@ def formation_recipes() -> list[Recipe]:
     return [plant.recipe("uav"), *formation.recipes()]
 
 
-def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",)) -> list[BuildResult]:
-    """The loop's FMUs of each vehicle into dest; each is rebuilt only if stale."""
-    return build_many(loop_recipes(vehicles), dest, force, progress)
+def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2,
+              clocked: bool = False) -> list[BuildResult]:
+    """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0, with clocks or not); each rebuilt only if stale."""
+    return build_many(loop_recipes(vehicles, clocked), dest, force, progress, fmi_version=fmi_version)
 
 
 def build_formation(dest: Path, force: bool = False, progress=print) -> list[BuildResult]:
     return build_many(formation_recipes(), dest, force, progress)
 
 
-def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=print, toolchains=()) -> list[BuildResult]:
-    """Every stale FMU of recipes rebuilt into dest, in the order given. The C compiler runs for several FMUs side by
+def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=print, toolchains=(),
+               fmi_version: int = 2) -> list[BuildResult]:
+    """Every stale FMU of recipes rebuilt into dest (as FMI 2.0 or 3.0), in the order given. The C compiler runs for several FMUs side by
     side (a first build is mostly compiling: ~20 s in a row on 2 cores, ~11 s side by side); their Python preparation
     (CasADi code generation, the designs) runs one at a time, as CasADi is not known to be thread-safe."""
     dest = Path(dest)
     toolchains = toolchains or choose()[0]
-    stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains))]
+    stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:
         return [BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
     progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side) ...")
@@ -62,7 +77,8 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
 
     def one(recipe: Recipe) -> BuildResult:
         started = time.perf_counter()
-        result = build(dataclasses.replace(recipe, prepare=alone(recipe.prepare)), dest, force, progress, toolchains)
+        result = build(dataclasses.replace(recipe, prepare=alone(recipe.prepare)), dest, force, progress, toolchains,
+                       fmi_version)
         if result.rebuilt:
             progress(f"  built {recipe.fmu_name} ({time.perf_counter() - started:.1f} s)")
         return result

@@ -50,22 +50,30 @@ LOOPS = {
 }
 
 
+def clocked_name(fmu_name: str) -> str:
+    """The FMI 3.0 variant with clocks of a sensor or controller FMU: TiltloadSensors.fmu -> TiltloadSensorsClocked.fmu."""
+    return fmu_name.removesuffix(".fmu") + "Clocked.fmu"
+
+
 def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Trajectory | None = None, controller: str | None = None,
                    seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True,
-                   vehicle: str = "load", wind: dict | None = None) -> System:
+                   vehicle: str = "load", wind: dict | None = None, fmi: int | None = None, clocked: bool = False) -> System:
     """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md).
     trajectory: 0-3 or any Trajectory (scenario_fmu.choice: shapes, waypoint files); wind: the scenario FMU's wind
-    parameters (scenario_fmu.wind.read_wind), seeded like the sensors."""
+    parameters (scenario_fmu.wind.read_wind), seeded like the sensors. fmi: the FMI version of the FMUs in fmu_dir
+    (checked when they load; None: any); clocked: the sensors' and the controller's FMI 3.0 variants with clocks, which
+    replace their periods (docs/fmi3.md)."""
     loop = LOOPS[vehicle]
     fmu_dir = Path(fmu_dir)
+    named = clocked_name if clocked else (lambda name: name)
     trajectory = as_trajectory(loop.default_trajectory if trajectory is None else trajectory)
     controller = loop.default_controller if controller is None else controller
     start = trajectory.start
     plant_start = {"x_0": start[0], "y_0": start[1], "z_0": start[2]}
     if controller_fmu is None:
         known = {**plant_start} if vehicle == "load" else {}  # the load's LKF knows the start (Sec. 5.3)
-        ctrl = Instance(CONTROLLER, fmu_dir / loop.controller,
-                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **known})
+        ctrl = Instance(CONTROLLER, fmu_dir / named(loop.controller),
+                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **known}, fmi=fmi)
     else:
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
@@ -75,10 +83,10 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
     if wind:
         scenario_parameters.update({"seed": seed, **wind})
     return System(TICK, [
-        Instance(SCENARIO, fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters),
-        Instance(SENSORS, fmu_dir / loop.sensors, parameters={"seed": seed}),
+        Instance(SCENARIO, fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters, fmi=fmi),
+        Instance(SENSORS, fmu_dir / named(loop.sensors), parameters={"seed": seed}, fmi=fmi),
         ctrl,
-        Instance(PLANT, fmu_dir / loop.plant, parameters=plant_start, timing="continuous"),
+        Instance(PLANT, fmu_dir / loop.plant, parameters=plant_start, timing="continuous", fmi=fmi),
     ], conns)
 
 

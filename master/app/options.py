@@ -9,15 +9,16 @@ from pathlib import Path
 
 from ...scenario_fmu.choice import THESIS, Trajectory, as_trajectory
 from .arguments import DEFAULT_FMU_DIR
-from .errors import UserError
 from .loop import CONTROLLER, LOOPS, default_stop, default_system, set_parameters
+from .user_error import UserError
 
 DEFAULT_SEED = 1
 DEFAULT_SCENARIO = "zse"
 # the options that describe the thesis's loop, which a system file describes itself: given with --system, an error
 LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
              ("controller", "--controller"), ("seed", "--seed"), ("delay", "--delay"), ("no_gusts", "--no-gusts"),
-             ("set", "--set"), ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"))
+             ("set", "--set"), ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
+             ("clocks", "--clocks"))
 
 
 @dataclass(frozen=True)
@@ -36,7 +37,7 @@ class LoopOptions:
     faults: Path | None
     settings: tuple[tuple[str, object], ...]  # --set INSTANCE.NAME=VALUE, in order
     system: Path | None  # a system file instead of the loop
-    fmus: Path
+    fmus: Path  # the FMU folder of the FMI 2.0 set (the FMI 3.0 set is in fmus/fmi3/)
     allow_unknown_inputs: bool
     reference: Trajectory | None = None  # what the scenario FMU flies (None: the thesis's trajectory)
     wind: Path | None = None  # a wind file (scenario_fmu.wind)
@@ -44,6 +45,8 @@ class LoopOptions:
     max_tilt: float = 30.0  # degrees, the feasibility check's
     allow_external_fmus: bool = False  # a system file's FMUs may lie outside its package or folder
     remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order (where, not which loop)
+    fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
+    clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
 
     @property
     def controller_label(self) -> str:
@@ -67,8 +70,7 @@ class LoopOptions:
         d["settings"] = tuple(tuple(s) for s in d["settings"])
         d["remotes"] = tuple(tuple(r) for r in d.get("remotes", ()))
         r = d["reference"]
-        d["reference"] = None if r is None else Trajectory(r["label"], r["code"], tuple(tuple(x) for x in r["settings"]),
-                                                             tuple(r["start"]), r["duration"], r["source"])
+        d["reference"] = None if r is None else Trajectory.from_dict(r)
         return cls(**d)
 
     def run_name(self, default_stop_time: float | None = None) -> str:
@@ -81,6 +83,7 @@ class LoopOptions:
             parts = [f"{'uav_' if self.vehicle == 'uav' else ''}{self.scenario}_traj{self.trajectory}_"
                      f"{self.controller_label}_seed{self.seed}"]
             parts += ["delay"] * self.delay + ["calm"] * (not self.gusts)
+            parts += ["fmi3" + "_clocks" * self.clocks] * (self.fmi == 3)
         if self.faults is not None:
             parts.append(f"faults-{self.faults.stem}")
         if self.settings:
@@ -107,6 +110,9 @@ def _file_safe(name: str) -> str:
 def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     """The loop options of a command line, checked against the vehicle's choices. With --system, the loop's own
     options are refused (one line naming them): the system file describes its run itself."""
+    fmi, clocks = getattr(args, "fmi", None) or 2, getattr(args, "clocks", False)
+    if clocks and fmi != 3:
+        raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
     if args.system is not None:
         given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [])]
         if given:
@@ -144,7 +150,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     return LoopOptions(vehicle, scenario, trajectory, controller, controller_fmu, seed, args.stop_time,
                        args.delay, not args.no_gusts, args.faults, tuple(args.set), None, args.fmus or DEFAULT_FMU_DIR,
                        args.allow_unknown_inputs, reference=reference, wind=args.wind, allow_infeasible=args.allow_infeasible,
-                       max_tilt=args.max_tilt, remotes=tuple(getattr(args, "remote", ())))
+                       max_tilt=args.max_tilt, remotes=tuple(getattr(args, "remote", ())), fmi=fmi, clocks=clocks)
 
 
 @dataclass
@@ -162,18 +168,21 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) ->
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
     prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot)."""
     from ..engine.manipulators import load as load_faults
-    from .fmus import build_all
+    from .fmus import build_all, fmu_folder
 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
+        folder = fmu_folder(opts.fmus, opts.fmi)
         if not prepared:
-            build_all(opts.fmus, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,))  # says what it builds
+            build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,),  # says what it builds
+                      fmi_version=opts.fmi, clocked=opts.clocks)
         from ...scenario_fmu.wind import read_wind
 
-        system = default_system(opts.fmus, opts.scenario, opts.reference or opts.trajectory,
+        system = default_system(folder, opts.scenario, opts.reference or opts.trajectory,
                                 opts.controller if opts.controller_fmu is None else None, opts.seed, opts.controller_fmu,
-                                opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None)
+                                opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None,
+                                opts.fmi, opts.clocks)
         set_parameters(system, dict(opts.settings))
         if opts.controller_fmu is not None and not prepared:
             from ..engine.model_description import read_fmu

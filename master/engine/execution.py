@@ -25,7 +25,7 @@ import numpy as np
 
 from . import connections
 from .errors import DescriptionError
-from .model_description import checked_value, read_fmu
+from .model_description import checked_value, read_fmu, steps_every
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, replay
 from .slave import C_TYPES, Slave
@@ -79,7 +79,7 @@ class Execution:
         self.links = connections.resolve(system, mds)
         _check_parameters(system, mds, self.links)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
-        self.every = {i.name: (1 if i.period is None else round(i.period / system.tick)) for i in system.instances}
+        self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
         groups: dict[tuple, list] = {}
         for link in self.links:
             groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
@@ -107,7 +107,7 @@ class Execution:
         from .isolation.hosting import slave_for
 
         for spec in self.system.instances:  # on a tiltload serve, in a worker process or in this one (hosting.py)
-            self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout)
+            self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout, self.system.tick)
         for (src, dst, typ, delay), links in self._raw_groups.items():
             idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
             buf = (C_TYPES[typ] * len(links))()

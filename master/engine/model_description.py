@@ -1,18 +1,57 @@
-"""What the engine reads of an FMU before loading it: its model description, and values checked against it."""
+"""What the engine reads of an FMU before loading it: its model description, and values checked against it.
+
+FMI 2.0 and FMI 3.0 co-simulation FMUs are read into one view, the one the engine works with: FMPy's model
+description; for an FMI 3.0 FMU, a view of it (Fmi3Description) where the Float64 and Int32 variables take the
+engine's type names Real and Integer (the FMI 3.0 names stay in `fmi3_types`), and the Clock variables are not
+variables to connect but the FMU's schedule, `clocks` (read here from the XML: FMPy does not parse intervals).
+"""
 
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from fmpy import read_model_description
 
 from .errors import DescriptionError
 
+ENGINE_TYPE = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
+FMI3_TYPE = {engine: fmi3 for fmi3, engine in ENGINE_TYPE.items()}
+PERIODIC = ("constant", "fixed", "tunable")  # time-based clocks whose interval the model description gives
+
+
+@dataclass(frozen=True)
+class Clock:
+    """A periodic input clock of an FMI 3.0 FMU: the importer activates it at shift, shift + interval, ..."""
+
+    name: str
+    value_reference: int
+    interval: float  # s
+    shift: float  # s
+    variables: tuple[str, ...]  # the variables it clocks
+
+
+class Fmi3Description:
+    """FMPy's description of an FMI 3.0 FMU in the engine's terms; every other attribute is FMPy's."""
+
+    def __init__(self, md, clocks: tuple[Clock, ...], fmi3_types: dict[str, str]) -> None:
+        self._md = md
+        self.clocks = clocks
+        self.fmi3_types = fmi3_types  # variable name -> its FMI 3.0 type (Float64, Int32, Boolean, String, ...)
+
+    def __getattr__(self, name):
+        return getattr(self._md, name)
+
+
+def fmi_version(md) -> int:
+    return 3 if str(md.fmiVersion).startswith("3") else 2
+
 
 def read_fmu(path: Path, instance: str):
-    """Model description of a co-simulation FMU, or a DescriptionError saying what the file is not."""
+    """Model description of a co-simulation FMU (FMI 2.0 or 3.0), or a DescriptionError saying what the file is not."""
     path = Path(path)
     if not path.is_file():
         raise DescriptionError(f"{instance}: FMU file {path} does not exist")
@@ -22,11 +61,75 @@ def read_fmu(path: Path, instance: str):
         md = read_model_description(str(path), validate=False)
     except Exception as err:  # fmpy raises various types for a broken modelDescription.xml
         raise DescriptionError(f"{instance}: {path} is not a valid FMU ({err})") from None
-    if md.fmiVersion != "2.0":
-        raise DescriptionError(f"{instance}: {path} is FMI {md.fmiVersion}; only FMI 2.0 co-simulation is supported")
+    if md.fmiVersion != "2.0" and fmi_version(md) != 3:
+        raise DescriptionError(f"{instance}: {path} is FMI {md.fmiVersion}; FMI 2.0 and 3.0 co-simulation are supported")
     if md.coSimulation is None:
-        raise DescriptionError(f"{instance}: {path} is a model-exchange-only FMU; a co-simulation FMU is needed")
-    return md
+        kind = "scheduled-execution" if fmi_version(md) == 3 and md.scheduledExecution is not None else "model-exchange"
+        raise DescriptionError(f"{instance}: {path} is a {kind}-only FMU; a co-simulation FMU is needed")
+    return _engine_view(md, path, instance) if fmi_version(md) == 3 else md
+
+
+def _engine_view(md, path: Path, instance: str) -> Fmi3Description:
+    """An FMI 3.0 description in the engine's terms: type names, clocks apart from the variables."""
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    declared = {e.get("name"): e for e in root.iter("Clock")}
+    clocked: dict[str, list[str]] = {}
+    for v in md.modelVariables:
+        for k in v.clocks or ():
+            clocked.setdefault(k.name, []).append(v.name)
+    clocks = []
+    for v in md.modelVariables:
+        if v.type != "Clock":
+            continue
+        e = declared[v.name]
+        kind = e.get("intervalVariability")
+        if v.causality != "input" or kind not in PERIODIC or e.get("intervalDecimal") is None:
+            raise DescriptionError(f"{instance}: clock {v.name} is a{'n' if v.causality[0] in 'aeiou' else ''} "
+                                   f"{v.causality} clock with intervalVariability {kind!r}; only periodic input clocks "
+                                   "(constant, fixed or tunable, with an intervalDecimal) are supported")
+        clocks.append(Clock(v.name, v.valueReference, float(e.get("intervalDecimal")), float(e.get("shiftDecimal", "0")),
+                            tuple(clocked.get(v.name, ()))))
+    if clocks and not md.coSimulation.hasEventMode:
+        raise DescriptionError(f"{instance}: {path} has clocks but hasEventMode is false")
+    md.modelVariables = [v for v in md.modelVariables if v.type != "Clock"]
+    fmi3_types = {v.name: v.type for v in md.modelVariables}
+    for v in md.modelVariables:
+        v.type = ENGINE_TYPE.get(v.type, v.type)
+    return Fmi3Description(md, tuple(clocks), fmi3_types)
+
+
+def clocks_of(md) -> tuple[Clock, ...]:
+    return getattr(md, "clocks", ())
+
+
+def clock_ticks(md, tick: float, instance: str) -> dict[str, tuple[int, int]]:
+    """{clock: (interval, shift) in ticks}, or a DescriptionError for a clock off the tick grid."""
+    out = {}
+    for k in clocks_of(md):
+        n, s = round(k.interval / tick), round(k.shift / tick)
+        if n < 1 or abs(n * tick - k.interval) > 1e-9 * k.interval or abs(s * tick - k.shift) > 1e-9 * max(k.interval, tick):
+            raise DescriptionError(f"{instance}: clock {k.name} (interval {k.interval:g} s, shift {k.shift:g} s) is not on "
+                                   f"the {tick:g} s tick: its interval and shift must be whole numbers of ticks")
+        out[k.name] = (n, s)
+    return out
+
+
+def steps_every(spec, md, tick: float) -> int:
+    """Ticks between an instance's steps: its period, or for an FMU with clocks (which replace the period) the
+    greatest common divisor of the clocks' intervals and shifts, so it steps at every tick one of them is due.
+    Checks the FMI version the system description names, if it names one."""
+    version = fmi_version(md)
+    if getattr(spec, "fmi", None) not in (None, version):
+        raise DescriptionError(f"{spec.name}: the system description says FMI {spec.fmi}, but {Path(spec.fmu).name} is "
+                               f"FMI {version}.0")
+    ticks = clock_ticks(md, tick, spec.name)
+    if not ticks:
+        return 1 if spec.period is None else round(spec.period / tick)
+    if spec.period is not None:
+        raise DescriptionError(f"{spec.name}: {Path(spec.fmu).name} has clocks ({', '.join(ticks)}), which replace "
+                               "period: remove the period")
+    return math.gcd(*(n for n, _ in ticks.values()), *(s for _, s in ticks.values()))
 
 
 def checked_value(instance: str, v, key: str, value):
@@ -57,4 +160,6 @@ def checked_value(instance: str, v, key: str, value):
         if isinstance(value, bool) or value in (0, 1):
             return bool(value)
         raise DescriptionError(f"{where}: must be true or false")
+    if v.type != "String":
+        raise DescriptionError(f"{where}: {v.type} variables cannot be set by the engine")
     return str(value)

@@ -1,4 +1,5 @@
-"""SSP 1.0 packages of a system: the exchange format other masters (libcosim, Ecos) read, and ours.
+"""SSP 1.0 packages of a system: the exchange format other masters (libcosim, Ecos) read, and ours. (A system with
+FMI 3.0 FMUs is exported as SSP 2.0 by ssp2.py; load reads both.)
 
 An export is one zip: SystemStructure.ssd (every component with its input, output and parameter
 connectors, typed and with units; every connection written out; the default experiment) and, under
@@ -44,11 +45,13 @@ def _schema(kind: str):  # building one takes 0.5 s
     import xmlschema
     from pyssp_standard.standard import ModelicaStandard
 
-    return xmlschema.XMLSchema10(str(ModelicaStandard.schemas[kind]))
+    version = xmlschema.XMLSchema11 if kind.endswith("_11") else xmlschema.XMLSchema10
+    return version(str(ModelicaStandard.schemas[kind]))
 
 
 def schema_errors(xml: bytes, kind: str = "ssd") -> list[str]:
-    """The SSP 1.0 schema's complaints about a document (kind ssd or ssv); empty if it validates."""
+    """The SSP schema's complaints about a document (kind ssd or ssv: SSP 1.0; ssd2, ssv2: SSP 2.0, ssd2_11 its XSD 1.1
+    form, pyssp-standard's names); empty if it validates."""
     schema = _schema(kind)
     try:
         return [f"{e.path}: {e.reason}" for e in schema.iter_errors(io.BytesIO(xml))]
@@ -113,7 +116,7 @@ def _units(mds: dict):
     return units
 
 
-def _master_annotation(system: System, schedule: str, delays: list[Connection]):
+def master_annotation(system: System, schedule: str, delays: list[Connection]):
     from pyssp_standard.common_content_ssc import Annotation
 
     note = Annotation(ANNOTATION)
@@ -125,6 +128,8 @@ def _master_annotation(system: System, schedule: str, delays: list[Connection]):
             attrs["period"] = repr(inst.period)
         if inst.remote is not None:
             attrs["remote"] = inst.remote  # HOST:PORT of the tiltload serve it runs on (its secret comes with the run)
+        if inst.fmi is not None:
+            attrs["fmi"] = str(inst.fmi)
         etree.SubElement(master, f"{{{TL_NS}}}Instance", **attrs)
     for c in delays:
         etree.SubElement(master, f"{{{TL_NS}}}Delay", source=c.source, target=c.target, ticks=str(c.delay))
@@ -136,7 +141,7 @@ def _master_annotation(system: System, schedule: str, delays: list[Connection]):
     return note
 
 
-def _osp_annotation(tick: float):
+def osp_annotation(tick: float):
     from pyssp_standard.common_content_ssc import Annotation
 
     note = Annotation(OSP_ANNOTATION)
@@ -170,11 +175,11 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
     for c in system.connections:
         (se, sc), (ee, ec) = c.source.split(".", 1), c.target.split(".", 1)
         top.connections.append(SspConnection(start_element=se, start_connector=sc, end_element=ee, end_connector=ec))
-    top.annotations.add_annotation(_master_annotation(system, schedule, [c for c in system.connections if c.delay]))
+    top.annotations.add_annotation(master_annotation(system, schedule, [c for c in system.connections if c.delay]))
     ssd.system = top
     experiment = DefaultExperiment()
     experiment.start_time, experiment.stop_time = 0.0, float(stop)
-    experiment.annotations.add_annotation(_osp_annotation(system.tick))
+    experiment.annotations.add_annotation(osp_annotation(system.tick))
     ssd.default_experiment = experiment
     ssd.units = _units(mds)
     ssd.__write__()
@@ -191,17 +196,22 @@ def _fmu_member(inst: Instance) -> str:
     return Path(inst.fmu).name
 
 
+def check_members(system: System) -> None:
+    """Two different FMU files of one name would collide in resources/."""
+    for inst in system.instances:
+        same = [i for i in system.instances if _fmu_member(i) == _fmu_member(inst) and Path(i.fmu).resolve() != Path(inst.fmu).resolve()]
+        if same:
+            raise DescriptionError(f"{inst.name} and {same[0].name} use different FMU files both called {_fmu_member(inst)}")
+
+
 def export(system: System, out: Path, stop: float, schedule: str = "ordered") -> Path:
-    """Write the system as an SSP archive at out; it validates against the SSP 1.0 schemas or nothing is written."""
+    """Write the system as an SSP archive at out; it validates against the SSP 1.0 schemas or nothing is written.
+    (Systems with FMI 3.0 FMUs are SSP 2.0 packages: ssp2.export.)"""
     from . import jacobi
     from .model_description import read_fmu
 
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
-    names = [_fmu_member(i) for i in system.instances]
-    for inst in system.instances:  # two different FMU files of one name would collide in resources/
-        same = [i for i in system.instances if _fmu_member(i) == _fmu_member(inst) and Path(i.fmu).resolve() != Path(inst.fmu).resolve()]
-        if same:
-            raise DescriptionError(f"{inst.name} and {same[0].name} use different FMU files both called {_fmu_member(inst)}")
+    check_members(system)
     system = jacobi.explicit(system, mds)
     ssd = ssd_document(system, mds, stop, schedule)
     members = {SSD_NAME: ssd}
@@ -212,6 +222,13 @@ def export(system: System, out: Path, stop: float, schedule: str = "ordered") ->
         errors = schema_errors(data, "ssv" if member.endswith(".ssv") else "ssd")
         if errors:
             raise DescriptionError(f"{member} does not validate against the SSP 1.0 schema: {errors[0]}")
+    return write_package(system, out, members)
+
+
+def write_package(system: System, out: Path, members: dict[str, bytes]) -> Path:
+    """The archive: the documents given and every instance's FMU under resources/, written whole or not at all; the
+    same package twice is the same bytes."""
+    names = [_fmu_member(i) for i in system.instances]
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     partial = out.with_name(out.name + ".partial")
@@ -353,9 +370,11 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
             data = ssv_path.read_bytes()
         except OSError:
             raise DescriptionError(f"{where}: parameter set {binding.get('source')} is not in the package") from None
-        errors = schema_errors(data, "ssv")
+        version = "2.0" if b'version="2.0"' in data[:400] else "1.0"
+        errors = schema_errors(data, "ssv2" if version == "2.0" else "ssv")
         if errors:
-            raise DescriptionError(f"{where}: {binding.get('source')} does not validate against the SSP 1.0 schema: {errors[0]}")
+            raise DescriptionError(f"{where}: {binding.get('source')} does not validate against the SSP {version} schema: "
+                                   f"{errors[0]}")
         root = etree.fromstring(data)
     else:
         root = binding.find("ssd:ParameterValues/ssv:ParameterSet", _SSD_NS)
@@ -365,7 +384,8 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
     for p in root.iterfind("ssv:Parameters/ssv:Parameter", _SSD_NS):
         typed = p[0]
         kind, text = etree.QName(typed).localname, typed.get("value")
-        convert = {"Real": float, "Integer": int, "Boolean": lambda s: s.strip() in ("true", "1"), "String": str}.get(kind)
+        convert = {"Real": float, "Float64": float, "Integer": int, "Int32": int, "Boolean": lambda s: s.strip() in ("true", "1"),
+                   "String": str}.get(kind)
         if convert is None:
             raise DescriptionError(f"{where}: parameter {p.get('name')} has the unsupported type {kind}")
         try:
@@ -396,9 +416,13 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
         data = ssd_path.read_bytes()
     except OSError as err:
         raise DescriptionError(f"cannot read {ssd_path}: {err.strerror or err}") from None
-    errors = schema_errors(data, "ssd")
+    try:
+        version = etree.fromstring(data).get("version", "1.0")
+    except etree.XMLSyntaxError:
+        version = "1.0"  # the schema check says what is wrong
+    errors = schema_errors(data, "ssd2" if version == "2.0" else "ssd")
     if errors:
-        raise DescriptionError(f"{path}: the system structure does not validate against the SSP 1.0 schema: {errors[0]}")
+        raise DescriptionError(f"{path}: the system structure does not validate against the SSP {version} schema: {errors[0]}")
     root = etree.fromstring(data)
     top = root.find("ssd:System", _SSD_NS)
     master = top.find("ssd:Annotations/ssc:Annotation[@type='" + ANNOTATION + "']/tl:Master", _SSD_NS)
@@ -418,9 +442,12 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
             params.update(_parameters(folder, binding, f"{path}: component {name}", allow_external))
         extra = timing.get(name)
         period = float(extra.get("period")) if extra is not None and extra.get("period") else None
+        fmi = extra.get("fmi") if extra is not None else None
+        if fmi not in (None, "2", "3"):
+            raise DescriptionError(f"{path}: component {name}: the FMI version must be 2 or 3, got {fmi!r}")
         instances.append(Instance(name, fmu, period, params,
                                   extra.get("timing", "sample") if extra is not None else "sample",
-                                  extra.get("remote") if extra is not None else None))
+                                  remote=extra.get("remote") if extra is not None else None, fmi=int(fmi) if fmi else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
     delays = {}

@@ -23,6 +23,7 @@ class Instance:
     timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
     remote: str | None = None  # "HOST:PORT": the FMU runs on the `tiltload serve` there (fmu is the local copy it must match)
     token_file: Path | None = None  # the shared secret for remote: the run's, never written into a description
+    fmi: int | None = None  # the FMI version the description names (2 or 3; checked against the FMU), None: any
 
 
 @dataclass
@@ -88,6 +89,8 @@ def validate(system: System) -> System:
                 parse_address(inst.remote)
             except ValueError as err:
                 raise DescriptionError(f"{inst.name}: remote {err}") from None
+        if inst.fmi not in (None, 2, 3):
+            raise DescriptionError(f"{inst.name}: fmi must be 2 or 3 (the FMI version), got {inst.fmi!r}")
     for c in system.connections:
         for ref, what in ((c.source, "source"), (c.target, "target")):
             inst, _ = _split(ref, what)
@@ -113,7 +116,8 @@ SCHEMA = {
                 "parameters": {"type": "object", "propertyNames": {"pattern": "^[^\\s]+$"},
                                "additionalProperties": {"type": ["number", "string", "boolean"]}},
                 "timing": {"enum": ["sample", "continuous"]},
-                "remote": {"type": "string", "minLength": 3, "maxLength": 300}}}},
+                "remote": {"type": "string", "minLength": 3, "maxLength": 300},
+                "fmi": {"enum": [2, 3]}}}},
         "connections": {"type": "array", "items": {
             "type": "object", "additionalProperties": False, "required": ["source", "target"],
             "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
@@ -146,7 +150,7 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "sample"), i.get("remote")) for i in data["instances"]]
+                              i.get("timing", "sample"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
         if "faults" in data:
@@ -163,7 +167,8 @@ def load(path: Path) -> System:
 def save(system: System, path: Path) -> Path:
     data = {"tick": system.tick, "auto_connect": system.auto_connect,
             "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
-                           **({"remote": i.remote} if i.remote else {})} for i in system.instances],
+                           **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {})}
+                          for i in system.instances],
             "connections": [{"source": c.source, "target": c.target, "delay": c.delay} for c in system.connections]}
     Path(path).write_text(json.dumps(data, indent=1))
     return Path(path)

@@ -12,23 +12,10 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "tl_core.h"
 #include "tl_fmu.h"
 
-/* The serialized form: magic, format version, GUID of the build, then the TlState bytes. */
-#define TL_STATE_MAGIC "TLSTATE1"
-#define TL_GUID_LEN 40
-#define TL_SERIAL_SIZE (8 + TL_GUID_LEN + sizeof(TlState))
-
-static const char* phase_name(int phase) {
-  switch (phase) {
-    case TL_INSTANTIATED: return "instantiated";
-    case TL_INITIALIZATION: return "initialization mode";
-    case TL_STEPPING: return "step mode";
-    case TL_TERMINATED: return "terminated";
-    case TL_BROKEN: return "fatal error";
-    default: return "error";
-  }
-}
+#define TL_SERIAL_SIZE tl_serial_size()
 
 /* Format, escape '%' (hosts may treat the message as a printf format) and hand to the host's logger. */
 static void log_to(const fmi2CallbackFunctions* host, const char* name, fmi2Boolean logging_on, fmi2Status status,
@@ -76,7 +63,7 @@ static fmi2Status settle(TlInstance* c, fmi2Status status) {
 }
 
 static fmi2Status refuse(TlInstance* c, const char* call) {
-  tl_log(c, fmi2Error, "%s is not allowed in %s", call, phase_name(c->s.phase));
+  tl_log(c, fmi2Error, "%s is not allowed in %s", call, tl_phase_name(c->s.phase));
   return c->s.phase == TL_BROKEN ? fmi2Error : settle(c, fmi2Error);
 }
 
@@ -87,22 +74,6 @@ static fmi2Status refuse(TlInstance* c, const char* call) {
   } while (0)
 #define IN(p) ((unsigned)1 << (p))
 #define ANY_BUT_FATAL (IN(TL_INSTANTIATED) | IN(TL_INITIALIZATION) | IN(TL_STEPPING) | IN(TL_TERMINATED) | IN(TL_ERRORED))
-
-static void load_start_values(TlInstance* c) {
-  int i;
-  for (i = 0; i < TL_N_REAL; ++i) c->s.real[i] = tl_real_start[i];
-  for (i = 0; i < TL_N_INTEGER; ++i) c->s.integer[i] = tl_integer_start[i];
-  for (i = 0; i < TL_N_BOOLEAN; ++i) c->s.boolean[i] = tl_boolean_start[i] ? fmi2True : fmi2False;
-#if TL_N_STRING > 0 /* GCC at -O0 warns about the copy into the placeholder array of an FMU without Strings */
-  for (i = 0; i < TL_N_STRING; ++i) {
-    strncpy(c->s.string[i], tl_string_start[i], TL_STRING_LEN - 1);
-    c->s.string[i][TL_STRING_LEN - 1] = '\0';
-  }
-#endif
-  c->s.time = c->s.start_time = 0.0;
-  c->s.phase = TL_INSTANTIATED;
-  tl_model_reset(c);
-}
 
 /* The fmuResourceLocation URI as a path the C library opens: file:///C:/a%20b/resources (RFC 8089),
    file:/C:/..., file://localhost/..., file://C:/... (a common slip), a UNC host on Windows, or a bare
@@ -240,7 +211,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     tl_log(c, fmi2Warning, "fmi2Instantiate: the resource location %s is not a file this platform opens; ignored", resources);
   else
     tl_log(c, fmi2OK, "fmi2Instantiate: resources in %s", c->resources ? c->resources : "(none given)");
-  load_start_values(c);
+  tl_load_start_values(c);
   return c;
 }
 
@@ -293,7 +264,7 @@ fmi2Status fmi2Terminate(fmi2Component instance) {
 fmi2Status fmi2Reset(fmi2Component instance) {
   TlInstance* c = (TlInstance*)instance;
   ALLOWED("fmi2Reset", ANY_BUT_FATAL);
-  load_start_values(c);
+  tl_load_start_values(c);
   return fmi2OK;
 }
 
@@ -302,14 +273,6 @@ static int bad_reference(TlInstance* c, const char* call, fmi2ValueReference vr,
   if (count > 0 && vr < (fmi2ValueReference)count) return 0;
   tl_log(c, fmi2Error, "%s: value reference %u does not exist (%d variables of this type)", call, vr, count);
   return 1;
-}
-
-/* May the variable be set now? Logs why not. */
-static int may_set(TlInstance* c, const char* call, unsigned char settable, const char* name) {
-  if (settable == 2 || (settable == 1 && (c->s.phase == TL_INSTANTIATED || c->s.phase == TL_INITIALIZATION))) return 1;
-  tl_log(c, fmi2Error, "%s: cannot set %s: it is %s", call, name,
-         settable == 1 ? "a parameter, fixed after initialization" : "an output");
-  return 0;
 }
 
 static fmi2Status outputs_for_get(TlInstance* c) {
@@ -377,12 +340,8 @@ fmi2Status fmi2SetReal(fmi2Component instance, const fmi2ValueReference vr[], si
   if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
   for (i = 0; i < n; ++i) { /* check all first: a refused call changes nothing */
     if (bad_reference(c, "fmi2SetReal", vr[i], TL_N_REAL)) return settle(c, fmi2Error);
-    if (!may_set(c, "fmi2SetReal", tl_real_settable[vr[i]], tl_real_name[vr[i]])) return settle(c, fmi2Error);
-    if (!isfinite(value[i])) {
-      tl_log(c, fmi2Error, "non-finite %s %s = %g at t=%.6g s; value refused",
-             tl_real_settable[vr[i]] == 2 ? "input" : "parameter", tl_real_name[vr[i]], value[i], c->s.time);
-      return settle(c, fmi2Error);
-    }
+    if (!tl_may_set(c, "fmi2SetReal", tl_real_settable[vr[i]], tl_real_name[vr[i]])) return settle(c, fmi2Error);
+    if (tl_real_refused(c, (int)vr[i], value[i])) return settle(c, fmi2Error);
   }
   for (i = 0; i < n; ++i) c->s.real[vr[i]] = value[i];
   return fmi2OK;
@@ -395,7 +354,7 @@ fmi2Status fmi2SetInteger(fmi2Component instance, const fmi2ValueReference vr[],
   if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
   for (i = 0; i < n; ++i) {
     if (bad_reference(c, "fmi2SetInteger", vr[i], TL_N_INTEGER)) return settle(c, fmi2Error);
-    if (!may_set(c, "fmi2SetInteger", tl_integer_settable[vr[i]], tl_integer_name[vr[i]])) return settle(c, fmi2Error);
+    if (!tl_may_set(c, "fmi2SetInteger", tl_integer_settable[vr[i]], tl_integer_name[vr[i]])) return settle(c, fmi2Error);
   }
   for (i = 0; i < n; ++i) c->s.integer[vr[i]] = value[i];
   return fmi2OK;
@@ -408,7 +367,7 @@ fmi2Status fmi2SetBoolean(fmi2Component instance, const fmi2ValueReference vr[],
   if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
   for (i = 0; i < n; ++i) {
     if (bad_reference(c, "fmi2SetBoolean", vr[i], TL_N_BOOLEAN)) return settle(c, fmi2Error);
-    if (!may_set(c, "fmi2SetBoolean", tl_boolean_settable[vr[i]], tl_boolean_name[vr[i]])) return settle(c, fmi2Error);
+    if (!tl_may_set(c, "fmi2SetBoolean", tl_boolean_settable[vr[i]], tl_boolean_name[vr[i]])) return settle(c, fmi2Error);
   }
   for (i = 0; i < n; ++i) c->s.boolean[vr[i]] = value[i] ? fmi2True : fmi2False;
   return fmi2OK;
@@ -421,12 +380,8 @@ fmi2Status fmi2SetString(fmi2Component instance, const fmi2ValueReference vr[], 
   if (n && (vr == NULL || value == NULL)) return settle(c, fmi2Error);
   for (i = 0; i < n; ++i) {
     if (bad_reference(c, "fmi2SetString", vr[i], TL_N_STRING)) return settle(c, fmi2Error);
-    if (!may_set(c, "fmi2SetString", tl_string_settable[vr[i]], tl_string_name[vr[i]])) return settle(c, fmi2Error);
-    if (value[i] == NULL || strlen(value[i]) >= TL_STRING_LEN) {
-      tl_log(c, fmi2Error, "fmi2SetString: %s must be a string of at most %d characters", tl_string_name[vr[i]],
-             TL_STRING_LEN - 1);
-      return settle(c, fmi2Error);
-    }
+    if (!tl_may_set(c, "fmi2SetString", tl_string_settable[vr[i]], tl_string_name[vr[i]])) return settle(c, fmi2Error);
+    if (tl_string_refused(c, "fmi2SetString", (int)vr[i], value[i])) return settle(c, fmi2Error);
   }
   for (i = 0; i < n; ++i) {
     memset(c->s.string[vr[i]], 0, TL_STRING_LEN);
@@ -575,26 +530,19 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component instance, fmi2FMUstate state, fmi
     tl_log(c, fmi2Error, "fmi2SerializeFMUstate: needs a state and %lu bytes", (unsigned long)TL_SERIAL_SIZE);
     return fmi2Error;
   }
-  memset(bytes, 0, TL_SERIAL_SIZE);
-  memcpy(bytes, TL_STATE_MAGIC, 8);
-  memcpy(bytes + 8, TL_GUID, strlen(TL_GUID) < TL_GUID_LEN ? strlen(TL_GUID) : TL_GUID_LEN);
-  memcpy(bytes + 8 + TL_GUID_LEN, state, sizeof(TlState));
+  tl_serialize((const TlState*)state, (unsigned char*)bytes);
   return fmi2OK;
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component instance, const fmi2Byte bytes[], size_t size, fmi2FMUstate* state) {
   TlInstance* c = (TlInstance*)instance;
-  char guid[TL_GUID_LEN];
   ALLOWED("fmi2DeSerializeFMUstate", ANY_BUT_FATAL);
-  memset(guid, 0, sizeof guid);
-  memcpy(guid, TL_GUID, strlen(TL_GUID) < TL_GUID_LEN ? strlen(TL_GUID) : TL_GUID_LEN);
-  if (bytes == NULL || state == NULL || size != TL_SERIAL_SIZE || memcmp(bytes, TL_STATE_MAGIC, 8) != 0 ||
-      memcmp(bytes + 8, guid, TL_GUID_LEN) != 0) {
+  if (state == NULL || !tl_is_serial_of_this_build((const unsigned char*)bytes, size)) {
     tl_log(c, fmi2Error, "fmi2DeSerializeFMUstate: the bytes are not a state of this %s build", TL_MODEL_IDENTIFIER);
     return fmi2Error;
   }
   if (*state == NULL) *state = c->host.allocateMemory(1, sizeof(TlState));
   if (*state == NULL) return fmi2Error;
-  memcpy(*state, bytes + 8 + TL_GUID_LEN, sizeof(TlState));
+  tl_deserialize((const unsigned char*)bytes, (TlState*)*state);
   return fmi2OK;
 }

@@ -1,6 +1,8 @@
 /* The sensor FMU's hooks: the measurement model pi(x) (4.22, or (A.3) for the UAV alone;
    CasADi-generated) and q sampled on each group's period with counter-based noise (tl_noise.h). A sample taken in doStep(t_k) uses
-   the state set before the call and is held until the group's next sample (docs/ports.md, Timing). */
+   the state set before the call and is held until the group's next sample (docs/ports.md, Timing).
+   The clocked FMI 3.0 variant (TL_N_CLOCK > 0, one clock per group) takes the same sample in the Event Mode at t_k
+   when the group's clock is active (tl_model_event), and its steps only move the exact channel. */
 #include "tl_platform.h"
 
 #include <math.h>
@@ -33,8 +35,8 @@ static int evaluate_pi(TlInstance* c, double y[TL_SENSOR_NY]) {
   return tl_pi(arg, res, iw, w, 0);
 }
 
-/* Each group's held samples from the current state, with noise for sample k when noisy. */
-static fmi2Status sample(TlInstance* c, long k, int noisy) {
+/* Each group's held samples from the current state, with noise for sample k when noisy; a group samples when due. */
+static fmi2Status sample(TlInstance* c, long k, int noisy, const int due[TL_N_GROUPS]) {
   double y[TL_SENSOR_NY];
   int g, j;
   if (evaluate_pi(c, y)) {
@@ -44,7 +46,7 @@ static fmi2Status sample(TlInstance* c, long k, int noisy) {
   memcpy(EXACT(c), STATE(c), NX * sizeof(double));
   for (g = 0; g < TL_N_GROUPS; ++g) {
     const TlSensorGroup* grp = &tl_sensor_groups[g];
-    int fresh = !noisy || k % c->s.model.ticks[g] == 0;
+    int fresh = !noisy || due[g];
     c->s.boolean[grp->flag] = noisy && fresh ? fmi2True : fmi2False;
     if (!fresh) continue;
     for (j = 0; j < grp->n; ++j) {
@@ -73,8 +75,13 @@ static int check_parameters(TlInstance* c, char* why, size_t n) {
 #endif
   for (g = 0; g < TL_N_GROUPS; ++g) {
     const TlSensorGroup* grp = &tl_sensor_groups[g];
-    double period = c->s.real[grp->period], ticks;
+    double period, ticks;
     const char* pdf = c->s.string[grp->pdf];
+#if TL_N_CLOCK > 0
+    period = tl_clock_interval[grp->clock];
+#else
+    period = c->s.real[grp->period];
+#endif
     if (!(period > 0.0)) return snprintf(why, n, "%s_period must be positive and finite, got %g", grp->name, period);
     ticks = floor(period / step + 0.5);
     if (ticks < 1.0 || fabs(ticks * step - period) > 1e-9 * (period > step ? period : step))
@@ -100,10 +107,12 @@ void tl_model_reset(TlInstance* c) {
 
 /* Before the first sample every channel holds its noise-free value and no flag is raised. */
 fmi2Status tl_model_outputs(TlInstance* c) {
+  int due[TL_N_GROUPS];
 #if TL_HAS_ROD
   c->s.model.params[TL_L_INDEX] = c->s.real[TL_REAL_l];
 #endif
-  return sample(c, 0, 0);
+  memset(due, 0, sizeof due);
+  return sample(c, 0, 0, due);
 }
 
 fmi2Status tl_model_initialize(TlInstance* c) {
@@ -115,8 +124,34 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   return tl_model_outputs(c);
 }
 
+#if TL_N_CLOCK > 0
+/* The step moves the exact channel only: the groups sample at their clocks' ticks (tl_model_event). */
+fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+  (void)t; (void)h;
+  memcpy(EXACT(c), STATE(c), NX * sizeof(double));
+  return fmi2OK;
+}
+
+/* Event Mode at t: the groups whose clocks are active sample (the same sample k as the plain variant's doStep(t));
+   every flag says whether its group sampled now. A raised flag is lowered in the next tick's Event Mode, which the
+   FMU asks for (a time event one step later) in case no clock ticks there. */
+fmi2Status tl_model_event(TlInstance* c, double t) {
+  const double step = c->s.real[TL_REAL_step];
+  int due[TL_N_GROUPS], g, any = 0;
+  fmi2Status status;
+  for (g = 0; g < TL_N_GROUPS; ++g) {
+    due[g] = c->s.clock_active[tl_sensor_groups[g].clock];
+    any |= due[g];
+  }
+  status = sample(c, lround(t / step), 1, due);
+  c->s.next_event_time = any ? t + step : -1.0;
+  return status;
+}
+#else
 fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   const double step = c->s.real[TL_REAL_step];
+  int due[TL_N_GROUPS], g;
+  long k;
   if (fabs(h - step) > 1e-9 * step) {
     tl_log(c, fmi2Error, "communication step %.9g s differs from the suite's step %.9g s; step refused", h, step);
     return fmi2Error;
@@ -125,5 +160,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
     tl_log(c, fmi2Error, "seed must be between 0 and 2147483647, got %d; step refused", c->s.integer[TL_INTEGER_seed]);
     return fmi2Error;
   }
-  return sample(c, lround(t / step), 1);
+  k = lround(t / step);
+  for (g = 0; g < TL_N_GROUPS; ++g) due[g] = k % c->s.model.ticks[g] == 0;
+  return sample(c, k, 1, due);
 }
+#endif

@@ -12,6 +12,7 @@ import subprocess
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fmpy import supported_platforms
 from fmpy.validation import validate_fmu
@@ -266,3 +267,84 @@ def test_fmpy_compile_on_an_aarch64_board_gives_the_shipped_aarch64_binary(unpac
     shipped = host.run(single_plan(unpacked[name], AARCH64, tmp_path))
     rebuilt = host.run(single_plan(unpacked[name], AARCH64, tmp_path, library=fmpy_built, tag="fmpy"))
     assert rebuilt.values == shipped.values
+
+
+# ---- FMI 3.0: the same toolchains, binaries under FMI 3.0's platform tuples --------------------------------------
+FMI3_LOOP = ("TiltloadPlant", "TiltloadSensors", "TiltloadScenario", "TiltloadController", "TiltloadSensorsClocked",
+             "TiltloadControllerClocked")
+
+
+@pytest.fixture(scope="module")
+def fmi3_fmus() -> dict[str, Path]:
+    """The loop's FMI 3.0 FMUs (plain and clocked) in fmus/fmi3/, with every platform whose compiler is here."""
+    from tiltload.master.app.fmus import build_many, clocked_recipes, fmu_folder, loop_recipes
+
+    results = build_many([*loop_recipes(("load",)), *clocked_recipes(("load",))], fmu_folder(ROOT / "fmus", 3),
+                         progress=lambda *_: None, fmi_version=3)
+    return {r.path.stem: r.path for r in results}
+
+
+@pytest.mark.parametrize("name", FMI3_LOOP)
+def test_fmi3_fmus_ship_every_platforms_binary_under_its_tuple_exporting_fmi3_only(fmi3_fmus, tmp_path, name):
+    built = [t for t in cc.TOOLCHAINS if cc.find_compiler(t)]
+    model = name.removesuffix("Clocked")
+    with zipfile.ZipFile(fmi3_fmus[name]) as z:
+        binaries = sorted(n for n in z.namelist() if n.startswith("binaries/"))
+        info = json.loads(z.read("resources/build_info.json"))
+        z.extractall(tmp_path)
+    assert binaries == sorted(f"binaries/{t.name}/{model}{t.suffix}" for t in built)  # x86_64-linux, x86_64-windows, ...
+    assert info["platforms"] == [t.name for t in built] and info["warnings"] == [] and info["fmi_version"] == 3
+    assert validate_fmu(str(fmi3_fmus[name])) == []
+    linux = _exports(need("nm", "binutils"), tmp_path / "binaries" / "x86_64-linux" / f"{model}.so")
+    assert len(linux) > 70 and all(e.startswith("fmi3") for e in linux)  # every fmi3 function, stubs included
+    for t in built:
+        path = tmp_path / "binaries" / t.name / f"{model}{t.suffix}"
+        if t.suffix == ".dll":
+            text = subprocess.run([need("x86_64-w64-mingw32-objdump", "binutils-mingw-w64-x86-64"), "-p", str(path)],
+                                  capture_output=True, text=True, check=True).stdout
+            exported = re.findall(r"\]\s+(\S+)", text.split("[Ordinal/Name Pointer] Table", 1)[1].split("\n\n", 1)[0])
+            assert {m.lower() for m in re.findall(r"DLL Name:\s+(\S+)", text)} <= WINDOWS_DLLS
+        else:
+            exported = _exports(need(f"{t.compiler.removesuffix('gcc')}nm" if t.name != "x86_64-linux" else "nm", "binutils"), path)
+        assert sorted(exported) == sorted(linux), t.name
+
+
+def test_fmi3_clocked_sensors_and_scenario_on_aarch64_and_win64_equal_x86_64(fmi3_fmus, tmp_path):
+    """The FMI 3.0 C host (hosts/fmi3_loop_host.c, written from the standard's call sequences) built for each platform
+    runs the scenario and the clocked sensors (Event Mode at each group's clock ticks) for 1.2 s: the aarch64 binaries
+    under qemu-user give x86_64's every value to the bit (contraction off in the sources), the win64 DLLs under wine
+    within 1e-12 (Windows' libm)."""
+    from support.fmi3_plan import host_plan
+    from support.portable import AARCH64, WIN64, native_path
+    from tiltload.master.engine.system import Instance, System
+    from tiltload.native_fmu.package import fmi_header_dir
+    from tiltload.sensor_fmu.fmu_variables import channel_names
+    from tiltload.sensor_fmu.suite import GROUPS
+
+    system = System(0.012, [Instance("scenario", fmi3_fmus["TiltloadScenario"], parameters={"trajectory": 2}),
+                            Instance("sensors", fmi3_fmus["TiltloadSensorsClocked"], parameters={"seed": 5})],
+                    auto_connect=False)
+    record = [("scenario", "x_ref"), ("scenario", "z_ref")] + [("sensors", n) for g in GROUPS for n in channel_names(g)]
+    ticks = round(1.2 / system.tick)
+    prefix = tmp_path / "wineprefix"
+    runs = {}
+    for platform, p in (("x86_64-linux", LINUX64), ("aarch64-linux", AARCH64), ("x86_64-windows", WIN64)):
+        need_platform(p)
+        folder = tmp_path / platform
+        folder.mkdir()
+        plan = host_plan(system, folder, ticks, record, platform, native_path=lambda q, p=p: native_path(q, p))
+        host = folder / ("host.exe" if p is WIN64 else "host")
+        subprocess.run([p.compiler, "-std=c11", "-Wall", "-Wextra", "-Werror", f"-I{fmi_header_dir(3)}",
+                        str(ROOT / "tests" / "support" / "hosts" / "fmi3_loop_host.c"), "-o", str(host), *p.host_flags],
+                       check=True)
+        proc = subprocess.run([*p.runner, str(host), native_path(plan, p)], capture_output=True, text=True, timeout=600,
+                              env=wine_environment(prefix) if p is WIN64 else None)
+        assert proc.returncode == 0, proc.stdout[-1000:] + proc.stderr[-2000:]
+        runs[platform] = np.array([float.fromhex(line.split()[3]) for line in proc.stdout.splitlines()
+                                   if line.split()[0].isdigit()])
+    if shutil.which("wineserver"):
+        subprocess.run(["wineserver", "-k"], env=wine_environment(prefix), capture_output=True, timeout=60)
+    x86 = runs["x86_64-linux"]
+    assert len(x86) == ticks * len(record) and np.isfinite(x86).all() and np.ptp(x86) > 0.1
+    assert runs["aarch64-linux"].tobytes() == x86.tobytes()
+    np.testing.assert_allclose(runs["x86_64-windows"], x86, rtol=SAME, atol=SAME)

@@ -6,7 +6,9 @@
    whether this build has the LKF and the mixed design (the UAV alone has neither).
    Delay-aware designs (loop_delay_ticks d): the command computed now reaches the plant d ticks later (a Jacobi
    master adds one tick per connection, docs/ports.md); the gain then also acts on the d commands still on their way,
-   and the estimator propagates with the command that drove the plant over the interval it was measured in. */
+   and the estimator propagates with the command that drove the plant over the interval it was measured in.
+   The clocked FMI 3.0 variant (TL_N_CLOCK > 0) runs the same tick in the Event Mode of each control_clock tick
+   (tl_model_event); its steps only advance time. */
 #include "tl_platform.h"
 
 #include <math.h>
@@ -207,14 +209,11 @@ static int control(TlInstance* c, double* u) {
   return tl_law_step(&law, c->s.real + TL_REAL_x_ref, m->estimate, m->integral, m->du_sent, u);
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+/* One controller tick at t: estimate from the inputs of t, the law, the command held until the next tick. */
+static fmi2Status control_tick(TlInstance* c, double t) {
   TlModelState* m = &c->s.model;
   double half[NNU], u[4];
   int skipped, i;
-  if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
-    tl_log(c, fmi2Error, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
-    return fmi2Error;
-  }
   if (m->k == 0) memcpy(m->reference_start, c->s.real + TL_REAL_x_ref, sizeof m->reference_start);
   if (estimate(c, half, &skipped) || control(c, u)) {
     tl_log(c, fmi2Error, "the %s estimator or the control law failed numerically at t=%.6g s", estimators[m->estimator], t);
@@ -235,3 +234,22 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   m->k += 1;
   return fmi2OK;
 }
+
+#if TL_N_CLOCK > 0
+fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+  (void)c; (void)t; (void)h;
+  return fmi2OK; /* the law runs at the control clock's ticks; the commands hold in between */
+}
+
+fmi2Status tl_model_event(TlInstance* c, double t) {
+  return c->s.clock_active[TL_CLOCK_control_clock] ? control_tick(c, t) : fmi2OK;
+}
+#else
+fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+  if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
+    tl_log(c, fmi2Error, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
+    return fmi2Error;
+  }
+  return control_tick(c, t);
+}
+#endif

@@ -318,10 +318,10 @@ def _faults(base: dict, vary: dict, path: Path) -> list:
 
 def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     """The cases of a campaign from a snapshot: its loop, each case's faults, tunable parameters and seed."""
-    from ..options import LoopOptions
+    from ....scenario_fmu.choice import Trajectory, as_trajectory
 
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
-    options = LoopOptions.from_dict(branching.options)
+    options = branching.options  # the snapshot's LoopOptions.to_dict()
     stop = base.get("stop_time") or branching.stop
     if stop is None or stop <= branching.time:
         raise SpecError(f"{path}: base.stop_time: {stop} s is not after the snapshot's time ({branching.time:g} s)")
@@ -330,11 +330,11 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     for name, these in targets.items():
         if TUNED_SEED in these and "seeds" in vary:
             raise SpecError(f"{path}: vary.parameters.{name}: {TUNED_SEED} is what vary.seeds sets")
-    controller = str(options.controller_fmu) if options.controller_fmu else options.controller
+    controller = options["controller_fmu"] or options["controller"]
     seeds = vary.get("seeds")
     cases = []
     for point in _points(vary, path):
-        for seed in seeds or [options.seed]:
+        for seed in seeds or [options["seed"]]:
             parameters = dict(base.get("parameters", {}))
             for name, value in point.items():
                 for target in targets[name]:
@@ -345,8 +345,7 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     ids = [c.run_id for c in cases]
     if len(set(ids)) != len(ids):
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
-    from ....scenario_fmu.choice import as_trajectory
-
-    return Campaign(data["name"], options.scenario, Flight(options.reference or as_trajectory(options.trajectory)),
-                    stop, options.gusts, tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
-                    list(targets), cases, path, branching.path, branching.time)
+    reference = options.get("reference")
+    flight = Flight(Trajectory.from_dict(reference) if reference else as_trajectory(options["trajectory"]))
+    return Campaign(data["name"], options["scenario"], flight, stop, options["gusts"], tuple(keep.get("metrics", METRICS)),
+                    keep.get("logs", False), faults, list(targets), cases, path, branching.path, branching.time)

@@ -1,4 +1,5 @@
-"""`tiltload build`: every FMU into fmus/ (only what is missing or stale), with a binary per platform."""
+"""`tiltload build`: every FMU into fmus/ (only what is missing or stale), with a binary per platform; `--fmi 3`: the
+FMI 3.0 set into fmus/fmi3/ (the same platforms, under FMI 3.0's platform tuples)."""
 
 from __future__ import annotations
 
@@ -26,6 +27,9 @@ def add_parser(sub) -> None:
     b = sub.add_parser("build", help="build the FMUs into fmus/ (only what is missing or stale)")
     b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
     b.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    b.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                   help="FMI version: 2 (default) into OUT/; 3: FMI 3.0 co-simulation into OUT/fmi3/, the plain FMUs and "
+                        "the sensors' and controllers' variants with clocks (*Clocked.fmu; docs/fmi3.md)")
     b.add_argument("--platforms", type=platform_list, metavar="LIST",
                    help="comma-separated binaries to build: linux64, win64, aarch64-linux (default: each whose "
                         "compiler is installed; docs/platforms.md)")
@@ -34,12 +38,14 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ....native_fmu.compile import choose
-    from ..fmus import build_many, formation_recipes, loop_recipes
+    from ..fmus import build_many, clocked_recipes, fmu_folder, formation_recipes, loop_recipes
 
     toolchains, missing = choose(args.platforms)
     if missing:
         print(f"tiltload build: {missing}", file=sys.stderr)
-    recipes = {r.fmu_name: r for r in [*loop_recipes(("load", "uav")), *formation_recipes()]}  # the UAV's plant once
-    for result in build_many(list(recipes.values()), args.out, args.force, toolchains=toolchains):
+    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if args.fmi == 3 else ())]
+    recipes = {r.fmu_name: r for r in every}  # the UAV's plant once
+    out = fmu_folder(args.out, args.fmi)
+    for result in build_many(list(recipes.values()), out, args.force, toolchains=toolchains, fmi_version=args.fmi):
         print(f"{result.path}: {'built' if result.rebuilt else 'up to date'}" + (f" ({result.seconds:.1f} s)" if result.rebuilt else ""))
     return 0

@@ -18,12 +18,20 @@ def add_parser(sub) -> None:
     rp.add_argument("--write-baselines", action="store_true", help="store the metrics as the new baselines")
     rp.add_argument("--check", action="store_true", help="compare every case with its baseline; exit 1 on a difference")
     rp.add_argument("--workers", type=arguments.whole_number, default=None, help="processes (default: one per core)")
+    rp.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="run the FMI 2.0 FMUs (default) or the FMI 3.0 ones "
+                    "(FMUS/fmi3/): the metrics are the same, bit for bit (docs/fmi3.md)")
+    rp.add_argument("--clocks", action="store_true", help="with --fmi 3: the sensors and the controller with clocks")
     rp.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fmus import build_all
+    from ..errors import UserError
+    from ..fmus import build_all, fmu_folder
     from ..regression.reproduce import main
 
-    build_all(args.fmus, progress=lambda m: print(m, file=sys.stderr))
-    return main(args.fmus, args.out, args.docs, args.baselines, args.write_baselines, args.check, args.workers)
+    if args.clocks and args.fmi != 3:
+        raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
+    folder = fmu_folder(args.fmus, args.fmi)
+    build_all(folder, progress=lambda m: print(m, file=sys.stderr), fmi_version=args.fmi, clocked=args.clocks)
+    return main(folder, args.out, args.docs, args.baselines, args.write_baselines, args.check, args.workers, args.fmi,
+                args.clocks)

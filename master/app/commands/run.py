@@ -67,7 +67,7 @@ def _with_token(system, token_file: Path | None) -> None:
 # the options that say which loop runs: a run continued from a snapshot takes them from the snapshot
 # (their argparse defaults: None or False, so a given option is one that is neither)
 _LOOP_DEFINING = ("vehicle", "scenario", "trajectory", "controller", "seed", "delay", "no_gusts", "system", "schedule",
-                  "allow_unknown_inputs", "wind")
+                  "allow_unknown_inputs", "wind", "fmi", "clocks")
 
 
 def _branch(args: argparse.Namespace):
@@ -127,7 +127,8 @@ def _metadata(opts, stop: float) -> dict:
         meta = {"system": str(opts.system)}
     else:
         meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory,
-                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts}
+                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts,
+                "fmi": opts.fmi, "clocks": opts.clocks}
         if opts.settings:
             meta["set"] = " ".join(f"{k}={v}" for k, v in opts.settings)
     if opts.faults is not None:

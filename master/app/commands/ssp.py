@@ -1,4 +1,5 @@
-"""`tiltload ssp export`: the loop as an SSP 1.0 package that libcosim, Ecos and tiltload run."""
+"""`tiltload ssp export`: the loop as an SSP 1.0 package that libcosim, Ecos and tiltload run; with FMI 3.0 FMUs
+(--fmi 3, --clocks) an SSP 2.0 package (FMI 3.0 types and clocks) that tiltload runs."""
 
 from __future__ import annotations
 
@@ -10,31 +11,35 @@ from ..errors import UserError
 
 
 def add_parser(sub) -> None:
-    x = sub.add_parser("ssp", help="export the loop as an SSP 1.0 package that libcosim, Ecos and tiltload run (docs/ports.md)")
+    x = sub.add_parser("ssp", help="export the loop as an SSP package: SSP 1.0 (libcosim, Ecos, tiltload; docs/ports.md), or "
+                                   "SSP 2.0 with --fmi 3 (docs/fmi3.md)")
     x.add_argument("action", choices=("export",), help="export: write the package")
     x.add_argument("out", type=Path, help="the package to write, e.g. loop.ssp")
     arguments.add_loop_options(x)
-    x.add_argument("--schedule", choices=("jacobi", "ordered"), default="jacobi",
-                   help="the master the package is for: jacobi (libcosim, Ecos; default) selects the designs made for the "
-                        "2-tick loop delay it adds; ordered (tiltload) selects 0")
+    x.add_argument("--schedule", choices=("jacobi", "ordered"), default=None,
+                   help="the master the package is for: jacobi (libcosim, Ecos; the default for SSP 1.0) selects the designs "
+                        "made for the 2-tick loop delay it adds; ordered (tiltload; the default for SSP 2.0) selects 0")
     x.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from ....controller_fmu.design.cache import cache_root
-    from ...engine import ssp
+    from ...engine import ssp, ssp2
+    from ...engine.model_description import read_fmu
     from ..loop import select_loop_delay
     from ..options import loop_system, resolve_loop
 
     loop = loop_system(resolve_loop(args), cache_root() / "ssp")  # the one action, export (argparse checked it)
     system, stop = loop.system, loop.stop
-    delay = select_loop_delay(system, args.schedule)
+    version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
+    schedule = args.schedule or ("ordered" if version2 else "jacobi")
+    delay = select_loop_delay(system, schedule)
     try:
-        path = ssp.export(system, args.out, stop, args.schedule)
+        path = (ssp2 if version2 else ssp).export(system, args.out, stop, schedule)
     except OSError as err:
         raise UserError(f"cannot write {args.out}: {err.strerror or err}") from None
-    print(f"{path}: SSP 1.0 package, {len(system.instances)} FMUs, {stop:g} s, prepared for a {args.schedule} master"
-          + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
-    print(f"  run it: tiltload run --system {path}   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set="
-          f"'{ssp.PARAMETER_SET}'))")
+    print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {len(system.instances)} FMUs, {stop:g} s, prepared for a "
+          f"{schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
+    others = ("" if version2 else f"   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set='{ssp.PARAMETER_SET}'))")
+    print(f"  run it: tiltload run --system {path}{others}")
     return 0

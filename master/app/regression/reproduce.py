@@ -31,8 +31,9 @@ def case_name(scenario: str, trajectory: int, controller: str) -> str:
     return f"{scenario}_traj{trajectory}_{controller}"
 
 
-def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: str, stop: float | None) -> dict:
-    """Worker: one case, its log and its figures."""
+def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: str, stop: float | None, fmi: int = 2,
+             clocked: bool = False) -> dict:
+    """Worker: one case, its log and its figures (fmi, clocked: the FMU set of fmus, docs/fmi3.md)."""
     from ...engine.run import run_system
     from ..loop import default_stop, default_system, loop_metrics
     from ..plot import plot_run
@@ -41,7 +42,7 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
     name = case_name(scenario, trajectory, controller)
     stop = default_stop(trajectory) if stop is None else stop
     log = Path(out) / f"{name}.mcap"
-    res = run_system(default_system(Path(fmus), scenario, trajectory, controller, SEED), stop, log,
+    res = run_system(default_system(Path(fmus), scenario, trajectory, controller, SEED, fmi=fmi, clocked=clocked), stop, log,
                      loop_metrics(), progress=False, channels=scene_channels("plant"),
                      metadata={"scenario": scenario, "trajectory": trajectory, "controller": controller, "seed": SEED})
     figures = [str(f) for f in plot_run(log, Path(out) / "figures")] if res.error is None else []
@@ -49,7 +50,8 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
             "error": res.error, "wall": res.wall, "log": str(log), "figures": figures, "stop": stop}
 
 
-def run_all(fmus: Path, out: Path, workers: int | None = None, stop: float | None = None, cases=None, echo=print) -> list[dict]:
+def run_all(fmus: Path, out: Path, workers: int | None = None, stop: float | None = None, cases=None, echo=print, fmi: int = 2,
+            clocked: bool = False) -> list[dict]:
     cases = CASES if cases is None else cases
     out.mkdir(parents=True, exist_ok=True)
     workers = workers or os.cpu_count() or 1
@@ -57,7 +59,7 @@ def run_all(fmus: Path, out: Path, workers: int | None = None, stop: float | Non
     results = []
     started = time.perf_counter()
     with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-        futures = [pool.submit(run_case, str(fmus), str(out), s, t, c, stop) for s, t, c in cases]
+        futures = [pool.submit(run_case, str(fmus), str(out), s, t, c, stop, fmi, clocked) for s, t, c in cases]
         for fut in as_completed(futures):
             r = fut.result()
             results.append(r)
@@ -128,10 +130,12 @@ def tables(results: list[dict]) -> str:
     return "\n".join(md)
 
 
-def main(fmus: Path, out: Path, docs: Path | None, baselines: Path, write: bool, check: bool, workers: int | None) -> int:
+def main(fmus: Path, out: Path, docs: Path | None, baselines: Path, write: bool, check: bool, workers: int | None,
+         fmi: int = 2, clocked: bool = False) -> int:
     started = time.perf_counter()
-    print(f"reproducing {len(CASES)} cases on {workers or os.cpu_count()} processes (logs and figures in {out}/)")
-    results = run_all(fmus, out, workers)
+    kind = "" if fmi == 2 else f" on the FMI 3.0 FMUs{' with clocks' if clocked else ''}"
+    print(f"reproducing {len(CASES)} cases{kind} on {workers or os.cpu_count()} processes (logs and figures in {out}/)")
+    results = run_all(fmus, out, workers, fmi=fmi, clocked=clocked)
     failed = [r for r in results if r["error"] is not None]
     body = tables(results)
     (out / "results.md").write_text(body + "\n")

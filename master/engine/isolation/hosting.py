@@ -23,10 +23,20 @@ def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = S
     return IsolatedFmu(name, path, md, timeout, host=RemoteHost(address, handshake.read_token(token_file), name, md))
 
 
-def slave_for(spec, md, isolate=None, step_timeout: float | None = None) -> Slave:
+def slave_for(spec, md, isolate=None, step_timeout: float | None = None, tick: float | None = None) -> Slave:
     """The slave of instance spec (system.Instance) with model description md: remote if spec.remote names a server,
-    isolated if isolate(fmu, md) says so (None: never), else in this process."""
+    isolated if isolate(fmu, md) says so (None: never), else in this process. An FMI 3.0 FMU runs in this process
+    (the worker and the server speak FMI 2.0), stepped on the system's tick."""
+    from ..model_description import fmi_version
+
     timeout = step_timeout or STEP_TIMEOUT
+    if fmi_version(md) == 3:
+        if spec.remote is not None:
+            raise ExecutionError(f"{spec.name}: an FMI 3.0 FMU runs in the master's process; tiltload serve hosts FMI 2.0 "
+                                 "FMUs (use the FMI 2.0 build for --remote)")
+        from ..fmu3 import Fmu3Slave
+
+        return Fmu3Slave(spec.name, spec.fmu, md, tick)
     if spec.remote is not None:
         return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout)
     if isolate is not None and isolate(spec.fmu, md):

@@ -1,0 +1,420 @@
+"""An FMI 3.0 co-simulation FMU loaded into this process, with or without clocks, behind the Slave interface.
+
+Without clocks it steps as an FMI 2.0 FMU does: the inputs set, fmi3DoStep(t, h), the outputs read. With
+periodic input clocks (which replace the instance's period) it runs the standard's co-simulation sequence
+with Event Mode at every step where a clock is due (or the FMU asked for an event):
+
+    fmi3EnterEventMode -> set the inputs -> fmi3SetClock(the due clocks) -> set their clocked inputs
+    -> get their clocked outputs -> fmi3UpdateDiscreteStates until no further update -> fmi3EnterStepMode
+    -> fmi3DoStep(t, h) -> get the outputs that are not clocked
+
+The clocked outputs are read before fmi3UpdateDiscreteStates, which deactivates the clocks (a clocked variable
+is accessible only while its clock is active), and hold their values until the clock's next tick. A clock of
+interval n ticks and shift s ticks is due at tick k when k >= s and (k - s) % n == 0; the first tick (shift 0)
+is the Event Mode that follows fmi3ExitInitializationMode. The setters the execution calls stage the values:
+they reach the FMU in the Step Mode before the step (continuous inputs) or in the Event Mode (discrete and
+clocked ones; a discrete input that changed makes the step an event). `activations` records every clock tick.
+
+The C tick loop (native/tl_loop.c) steps it through its Python callback, as it does a slave in a worker process:
+the kernel gathers the inputs (faults applied), the callback sets them here, steps and reads the outputs into
+`values`, where the kernel's output faults and records find them. A snapshot's bytes (get_state) carry the FMU's
+own serialized state and what this slave holds besides: the clocked outputs as read at their last ticks and a
+pending event.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import struct
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave
+
+from .errors import ExecutionError
+from .extraction import Unpacked
+from .model_description import checked_value, clock_ticks, clocks_of
+from .slave import TYPES, Slave
+
+FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
+FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+MAX_EVENT_ITERATIONS = 100
+STATE_MAGIC = b"TLFMU3S1"  # get_state's bytes: magic, header length (u32 LE), JSON header, the FMU's state, held outputs
+
+
+@dataclass
+class Fmu3State:
+    """A slave between two steps: the FMU's serialized state and what the slave holds (held outputs, a pending event)."""
+
+    fmu: bytes
+    values: dict[str, np.ndarray]
+    held: list[np.ndarray]  # the clocked outputs as read at their clocks' last ticks
+    event_asked: bool
+    next_event: float | None
+
+    def to_bytes(self) -> bytes:
+        """Plain bytes (no pickle): a JSON header with the flags and the held arrays' layout, then the raw data."""
+        header = json.dumps({"fmu": len(self.fmu), "held": [[a.dtype.str, a.size] for a in self.held],
+                             "event_asked": self.event_asked, "next_event": self.next_event}).encode()
+        return b"".join([STATE_MAGIC, struct.pack("<I", len(header)), header, self.fmu,
+                         *(a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes() for a in self.held)])
+
+    @classmethod
+    def from_bytes(cls, data: bytes, name: str) -> Fmu3State:
+        """The state to_bytes wrote (values are the snapshot's business: empty here); a one-line error otherwise."""
+        try:
+            if data[:8] != STATE_MAGIC:
+                raise ValueError("not an FMI 3.0 slave's state")
+            (n,) = struct.unpack_from("<I", data, 8)
+            header = json.loads(data[12:12 + n])
+            at = 12 + n
+            if len(data) != at + header["fmu"] + sum(np.dtype(d).itemsize * size for d, size in header["held"]):
+                raise ValueError("its length does not match its header")
+            fmu = data[at:at + header["fmu"]]
+            at += header["fmu"]
+            held = []
+            for dtype, size in header["held"]:
+                dt = np.dtype(dtype)
+                held.append(np.frombuffer(data, dtype=dt, count=size, offset=at).astype(dt.newbyteorder("="), copy=True))
+                at += dt.itemsize * size
+            return cls(fmu, {}, held, bool(header["event_asked"]), header["next_event"])
+        except (ValueError, KeyError, TypeError, struct.error, json.JSONDecodeError, UnicodeDecodeError) as err:
+            raise ExecutionError(f"{name}: cannot restore its state: {err}") from None
+
+
+class _Inputs:
+    """One setter call site of the execution (its value-reference array): the values staged in FMI 3.0 buffers, split
+    by when they may be set (continuous, discrete, or clocked by clock j)."""
+
+    def __init__(self, slave: Fmu3Slave, t: str, vrs, n: int) -> None:
+        self.type, self.n = t, n
+        kinds: dict[object, list[int]] = {}
+        for i in range(n):
+            kinds.setdefault(slave.input_kind.get((t, vrs[i]), "continuous"), []).append(i)
+        self.buffer = (FMI3_C[t] * n)()
+        self.staged = np.ctypeslib.as_array(self.buffer)
+        self.sources: dict[int, np.ndarray] = {}  # address of a values buffer the execution sets from -> its view
+        self.parts = []  # (kind, vrs, n, buffer, its view, indices into staged; None: the whole buffer)
+        for kind, idx in kinds.items():
+            part_vrs = (ctypes.c_uint * len(idx))(*[vrs[i] for i in idx])
+            if len(kinds) == 1:
+                self.parts.append((kind, part_vrs, n, self.buffer, self.staged, None))
+            else:
+                buf = (FMI3_C[t] * len(idx))()
+                self.parts.append((kind, part_vrs, len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx)))
+        self.discrete = [p for p in self.parts if p[0] == "discrete"]
+        self.applied: dict[int, np.ndarray] = {}  # discrete part -> the values last set
+
+    def stage(self, values) -> None:
+        view = self.sources.get(ctypes.addressof(values))
+        if view is None:
+            view = self.sources[ctypes.addressof(values)] = np.ctypeslib.as_array(values)[:self.n]
+        self.staged[:] = view
+
+    def changed_discrete(self) -> bool:
+        return any(not np.array_equal(self.staged if idx is None else self.staged[idx], self.applied.get(id(vrs)))
+                   for _, vrs, _, _, _, idx in self.discrete)
+
+
+class Fmu3Slave(Slave):
+    """One instantiated FMI 3.0 co-simulation FMU in this process; tick: the execution's, to place the clock ticks."""
+
+    def __init__(self, name: str, path: Path, md, tick: float | None = None) -> None:
+        super().__init__(name, path, md)
+        self._closed = False
+        self.clocks = clocks_of(md)
+        self.clocked = bool(self.clocks)
+        self.tick = tick
+        if self.clocked and tick is None:
+            raise ExecutionError(f"{name}: an FMU with clocks needs the execution's tick")
+        ticks = clock_ticks(md, tick, name) if self.clocked else {}
+        self.schedule = [(j, k, *ticks[k.name]) for j, k in enumerate(self.clocks)]  # (index, clock, n, s)
+        self.activations: dict[str, list[int]] = {k.name: [] for k in self.clocks}  # clock -> the ticks it was activated
+        self.input_kind = {}
+        self._clocked_outputs: dict[int, list] = {}
+        by_name = {k.name: j for j, k in enumerate(self.clocks)}
+        for v in md.modelVariables:
+            clock = next((by_name[c.name] for c in (v.clocks or ()) if c.name in by_name), None)
+            if v.causality == "input" and v.type in TYPES:
+                kind = clock if clock is not None else ("discrete" if v.variability == "discrete" else "continuous")
+                self.input_kind[(v.type, v.valueReference)] = kind
+        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self.dir = self._unpacked.folder
+
+        def log_message(env, status, category, message):
+            self.log.append(message.decode("utf-8", "replace"))
+        self._log_message = log_message
+        try:
+            self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
+                                 instanceName=name)
+            self.call("instantiate", lambda: self.fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked,
+                                                                  logMessage=self._log_message))
+        except BaseException:
+            self._unpacked.release()  # nothing of a failed instantiation stays behind
+            raise
+        self._bind()
+
+    # ---- set-up ---------------------------------------------------------------------------------------------
+    def _bind(self) -> None:
+        dll = self.fmu.dll
+        self.component = self.fmu.component
+        self._raw = {}
+        for t in TYPES:
+            for kind in ("Get", "Set"):
+                fn = getattr(dll, f"fmi3{kind}{FMI3_NAME[t]}")
+                fn.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(FMI3_C[t]),
+                               ctypes.c_size_t]
+                fn.restype = ctypes.c_int
+                self._raw[kind, t] = fn
+        self._do_step = dll.fmi3DoStep
+        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
+                                  *([ctypes.POINTER(ctypes.c_bool)] * 3), ctypes.POINTER(ctypes.c_double)]
+        self._do_step.restype = ctypes.c_int
+        self._step_out = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool(), ctypes.c_double())
+        self._step_refs = tuple(ctypes.byref(x) for x in self._step_out)
+        for fn in ("fmi3EnterEventMode", "fmi3EnterStepMode"):
+            getattr(dll, fn).argtypes = [ctypes.c_void_p]
+            getattr(dll, fn).restype = ctypes.c_int
+        dll.fmi3SetClock.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(ctypes.c_bool)]
+        dll.fmi3SetClock.restype = ctypes.c_int
+        dll.fmi3UpdateDiscreteStates.argtypes = [ctypes.c_void_p, *([ctypes.POINTER(ctypes.c_bool)] * 5),
+                                                 ctypes.POINTER(ctypes.c_double)]
+        dll.fmi3UpdateDiscreteStates.restype = ctypes.c_int
+        self._update_out = (*(ctypes.c_bool() for _ in range(5)), ctypes.c_double())
+        self._update_refs = tuple(ctypes.byref(x) for x in self._update_out)
+        # outputs: values[type] in model-description order; the clocked ones read in Event Mode, the rest after a step
+        clock_of = {}
+        by_name = {k.name: j for j, k in enumerate(self.clocks)}
+        for t in TYPES:
+            for v in self.outputs[t]:
+                clock_of[t, v.valueReference] = next((by_name[c.name] for c in (v.clocks or ()) if c.name in by_name), None)
+        self._reads, self._clocked_outputs = [], {}
+        for t in TYPES:
+            n = len(self.out_vrs[t])
+            self.values[t] = np.zeros(n, dtype=np.float64 if t == "Real" else np.int32)
+            self.setters[t] = self._setter(t)
+            groups: dict[object, list[int]] = {}
+            for i, vr in enumerate(self.out_vrs[t]):
+                groups.setdefault(clock_of[t, vr], []).append(i)
+            for clock, idx in groups.items():
+                buf = (FMI3_C[t] * len(idx))()
+                entry = (self._raw["Get", t], self.values[t], (ctypes.c_uint * len(idx))(*[self.out_vrs[t][i] for i in idx]),
+                         len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx) if len(idx) < n else slice(None))
+                if clock is None:
+                    self._reads.append(entry)
+                else:
+                    self._clocked_outputs.setdefault(clock, []).append(entry)
+        self._held = [e for entries in self._clocked_outputs.values() for e in entries]
+        self._staged: dict[int, _Inputs] = {}
+        self._discrete_inputs: list[_Inputs] = []
+        self._clock_calls: dict[tuple[int, ...], tuple] = {}  # due clocks -> the arrays of their fmi3SetClock
+        self._in_event = False  # the Event Mode right after initialization is the first tick's
+        self._event_asked = False  # the FMU asked for an event at the next step (a time event it reached)
+        self._next_event: float | None = None
+
+    def _setter(self, t: str):
+        """The execution's setter for type t (fmi2Set<type> signature): stages the values for the next step."""
+        def stage(component, vrs, n, values) -> int:
+            entry = self._staged.get(ctypes.addressof(vrs))
+            if entry is None:
+                entry = self._staged[ctypes.addressof(vrs)] = _Inputs(self, t, vrs, n)
+                self._discrete_inputs = [e for e in self._staged.values() if e.discrete]
+            entry.stage(values)
+            return 0
+        return stage
+
+    # ---- calls -----------------------------------------------------------------------------------------------
+    def call(self, what: str, fn):
+        started = time.perf_counter()
+        try:
+            return fn()
+        except FMICallException as err:
+            raise self.failed(what, err.status) from None
+        except OSError as err:
+            raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
+        finally:
+            self.fmi_seconds += time.perf_counter() - started
+
+    def _check(self, status: int, what: str, t: float) -> None:
+        if status > 1:
+            raise self.failed(f"{what} at t={t:.6g} s", status)
+
+    def initialize(self, parameters: dict) -> None:
+        self.call("enterInitializationMode", lambda: self.fmu.enterInitializationMode(startTime=0.0))
+        self.set_parameters(parameters)
+        if self.clocked:  # clocked outputs are accessible at initialization, not in Event Mode before their clock ticks
+            self._read(self._reads + [e for es in self._clocked_outputs.values() for e in es], "get at initialization")
+        self.call("exitInitializationMode", self.fmu.exitInitializationMode)
+        self._in_event = self.clocked
+        self._event_asked, self._next_event = False, None
+        for a in self.activations.values():
+            a.clear()
+        if not self.clocked:
+            self.read_outputs()
+
+    def reset(self) -> None:
+        self.call("reset", self.fmu.reset)
+        self._staged.clear()
+        self._discrete_inputs = []
+
+    def set_values(self, values: dict) -> None:
+        self.set_parameters(values)
+
+    def set_parameters(self, params: dict) -> None:
+        setters = {"Real": self.fmu.setFloat64, "Integer": self.fmu.setInt32, "Boolean": self.fmu.setBoolean,
+                   "String": self.fmu.setString}
+        for key, value in params.items():
+            v = self.vars.get(key)
+            value = checked_value(self.name, v, key, value)
+            self.call(f"setting {key}", lambda s=setters[v.type], vr=v.valueReference, x=value: s([vr], [x]))
+
+    def _set(self, kinds, t: float) -> None:
+        """Set the staged inputs whose kind is in kinds (a set of "continuous", "discrete", clock indices)."""
+        started = time.perf_counter()
+        for entry in self._staged.values():
+            setter = self._raw["Set", entry.type]
+            for kind, vrs, n, buf, view, idx in entry.parts:
+                if kind not in kinds:
+                    continue
+                if idx is not None:
+                    view[:] = entry.staged[idx]
+                status = setter(self.component, vrs, n, buf, n)
+                if status > 1:
+                    self.fmi_seconds += time.perf_counter() - started
+                    raise self.failed(f"set{FMI3_NAME[entry.type]} at t={t:.6g} s", status)
+                if kind == "discrete":
+                    entry.applied[id(vrs)] = view.copy()
+        self.fmi_seconds += time.perf_counter() - started
+
+    def _read(self, entries, what: str, t: float | None = None) -> None:
+        started = time.perf_counter()
+        component = self.component
+        for get, out, vrs, n, buf, view, idx in entries:
+            status = get(component, vrs, n, buf, n)
+            if status > 1:
+                self.fmi_seconds += time.perf_counter() - started
+                raise self.failed(what if t is None else f"{what} at t={t:.6g} s", status)
+            out[idx] = view
+        self.fmi_seconds += time.perf_counter() - started
+
+    # ---- a step -------------------------------------------------------------------------------------------------
+    def _due(self, k: int) -> list[int]:
+        return [j for j, _, n, s in self.schedule if k >= s and (k - s) % n == 0]
+
+    def _event(self, t: float, k: int, due: list[int]) -> None:
+        dll = self.fmu.dll
+        if not self._in_event:
+            self._check(dll.fmi3EnterEventMode(self.component), "enterEventMode", t)
+        self._set({"continuous", "discrete"}, t)
+        if due:
+            key = tuple(due)
+            call = self._clock_calls.get(key)
+            if call is None:
+                n = len(due)
+                call = self._clock_calls[key] = ((ctypes.c_uint * n)(*[self.clocks[j].value_reference for j in due]), n,
+                                                 (ctypes.c_bool * n)(*([True] * n)), set(due),
+                                                 [e for j in due for e in self._clocked_outputs.get(j, ())])
+            vrs, n, on, kinds, outputs = call
+            self._check(dll.fmi3SetClock(self.component, vrs, n, on), "setClock", t)
+            self._set(kinds, t)
+            for j in due:
+                self.activations[self.clocks[j].name].append(k)
+            self._read(outputs, "get clocked outputs", t)
+        need, terminate, _, _, next_defined, next_time = self._update_out
+        for _ in range(MAX_EVENT_ITERATIONS):
+            self._check(dll.fmi3UpdateDiscreteStates(self.component, *self._update_refs), "updateDiscreteStates", t)
+            if terminate.value:
+                raise ExecutionError(f"{self.name}: the FMU asked to terminate the simulation at t={t:.6g} s")
+            if not need.value:
+                break
+        else:
+            raise ExecutionError(f"{self.name}: its discrete states still needed an update after {MAX_EVENT_ITERATIONS} "
+                                 f"iterations at t={t:.6g} s")
+        self._next_event = next_time.value if next_defined.value else None
+        self._check(dll.fmi3EnterStepMode(self.component), "enterStepMode", t)
+        self._in_event = False
+
+    def do_step(self, t: float, h: float) -> None:
+        if self.clocked:
+            k = round(t / self.tick)
+            due = self._due(k)
+            reached = self._next_event is not None and t >= self._next_event - 1e-9 * h
+            if self._in_event or due or self._event_asked or reached or any(e.changed_discrete() for e in self._discrete_inputs):
+                self._event_asked = False
+                self._event(t, k, due)
+            else:
+                self._set({"continuous"}, t)
+        else:
+            self._set({"continuous", "discrete"}, t)
+        started = time.perf_counter()
+        status = self._do_step(self.component, t, h, True, *self._step_refs)
+        self.fmi_seconds += time.perf_counter() - started
+        if status > 1:
+            raise self.failed(f"doStep at t={t:.6g} s", status)
+        event_needed, terminate, _, _ = self._step_out
+        if terminate.value:
+            raise ExecutionError(f"{self.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
+        self._event_asked = bool(event_needed.value)
+
+    def read_outputs(self) -> None:
+        """The outputs after a step: those not clocked from the FMU, the clocked ones as read at their clock's last
+        tick (again each step: what an observer or a fault did to values since is not the FMU's)."""
+        self._read(self._reads, "get")
+        for _, out, _, _, _, view, idx in self._held:
+            out[idx] = view
+
+    def save_state(self) -> Fmu3State:
+        """Between two steps: everything a new instance of this FMU needs to continue (restore_state)."""
+        state = self.call("getFMUState", self.fmu.getFMUState)
+        try:
+            blob = self.call("serializeFMUState", lambda: self.fmu.serializeFMUState(state))
+        finally:
+            self.call("freeFMUState", lambda: self.fmu.freeFMUState(state))
+        return Fmu3State(blob, {t: v.copy() for t, v in self.values.items()}, [e[5].copy() for e in self._held],
+                         self._event_asked, self._next_event)
+
+    def restore_state(self, saved: Fmu3State) -> None:
+        """Continue from a state save_state took (of this FMU, in any instance), in place of initialize."""
+        state = self.call("deserializeFMUState", lambda: self.fmu.deserializeFMUState(saved.fmu))
+        try:
+            self.call("setFMUState", lambda: self.fmu.setFMUState(state))
+        finally:
+            self.call("freeFMUState", lambda: self.fmu.freeFMUState(state))
+        for t, v in saved.values.items():
+            self.values[t][:] = v
+        for entry, held in zip(self._held, saved.held):
+            entry[5][:] = held
+        self._in_event, self._event_asked, self._next_event = False, saved.event_asked, saved.next_event
+
+    def get_state(self) -> bytes:
+        """save_state as bytes, for a snapshot (which keeps values itself)."""
+        return self.save_state().to_bytes()
+
+    def set_state(self, state: bytes) -> None:
+        """Restore what get_state gave (of this FMU): the FMU's state, the held clocked outputs, a pending event;
+        the outputs follow (the held ones as held, the others read from the FMU)."""
+        saved = Fmu3State.from_bytes(state, self.name)
+        if len(saved.held) != len(self._held) or any(h.size != e[5].size for h, e in zip(saved.held, self._held)):
+            raise ExecutionError(f"{self.name}: cannot restore its state: it holds other clocked outputs than this FMU")
+        self.restore_state(saved)
+        self.read_outputs()
+
+    def close(self) -> None:
+        """Terminate and free the instance, then remove its extracted copy; safe to call twice."""
+        if self._closed:
+            return
+        self._closed = True
+        if not self.fatal:  # after fmi3Fatal no call is allowed
+            try:
+                self.fmu.terminate()
+            except Exception:
+                pass
+            try:
+                self.fmu.freeInstance()
+            except Exception:
+                pass
+        self._unpacked.release()
