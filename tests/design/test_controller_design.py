@@ -112,10 +112,17 @@ def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
     """Checked on K itself, not on the solver's status: regions, H-infinity bound, stability."""
     poles = np.linalg.eigvals(mixed.A - mixed.B @ mixed.K)
     assert poles.real.min() > 0.55 and np.abs(poles).max() < 0.99402
+    from tiltload.controller_fmu.design.lmi_check import measured_norms
+    from tiltload.controller_fmu.design.problems import problem
+
     r = mixed.report
-    assert r["hinf_norm"] < 24.0  # the prescribed bound gamma~ = 24^2 of Sec. 5.2
+    # measured here on the closed loop of K (a shipped design's report leaves them to be measured on demand)
+    hinf_norm, h2_norm = measured_norms(*problem("mixed", mixed.Tc), mixed.K)
+    assert hinf_norm < 24.0  # the prescribed bound gamma~ = 24^2 of Sec. 5.2
     assert all(v > 0 for v in r["lmi_min_eig"].values())  # every LMI holds at the returned point
-    assert r["h2_norm"] <= r["h2_bound"] * (1 + 1e-9)
+    assert h2_norm <= r["h2_bound"] * (1 + 1e-9)
+    if r["hinf_norm"] is not None:  # synthesized here: the report's own figures are these
+        assert r["hinf_norm"] == pytest.approx(hinf_norm, rel=1e-9) and r["h2_norm"] == pytest.approx(h2_norm, rel=1e-9)
 
 
 def test_mixed_design_on_the_nonlinear_plant(mixed):
