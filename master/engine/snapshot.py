@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DescriptionError
+from .model_description import checked_value
 
 FORMAT = "tiltload-snapshot/1"
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
@@ -100,6 +101,7 @@ def check(execution, snap: Snapshot) -> None:
             if v.causality == "parameter" and v.variability != "tunable":
                 raise SnapshotError(f"{name}.{key} is a {v.variability} parameter: only tunable parameters can change in a "
                                     "run continued from a snapshot")
+            values[key] = checked_value(name, v, key, values[key])  # a number that fits it, finite, in its range
 
 
 def restore(execution, snap: Snapshot) -> None:
