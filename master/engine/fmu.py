@@ -29,6 +29,19 @@ from .pythonfmu_guard import pin
 from .slave import C_TYPES, TYPES, Slave
 
 
+def fmpy_call(slave: Slave, what: str, fn):
+    """fn() through FMPy, timed into the slave's fmi_seconds; a refused call becomes the slave's one-line error."""
+    started = time.perf_counter()
+    try:
+        return fn()
+    except FMICallException as err:
+        raise slave.failed(what, err.status) from None
+    except OSError as err:
+        raise ExecutionError(f"{slave.name}: {what} failed: {err}") from None
+    finally:
+        slave.fmi_seconds += time.perf_counter() - started
+
+
 class InProcessFmu(Slave):
     """One instantiated FMU in this process: typed output tables, captured log, fatal-aware teardown."""
 
@@ -81,15 +94,7 @@ class InProcessFmu(Slave):
         return ctypes.cast(getattr(self.slave.dll, name), ctypes.c_void_p).value
 
     def call(self, what: str, fn):
-        started = time.perf_counter()
-        try:
-            return fn()
-        except FMICallException as err:
-            raise self.failed(what, err.status) from None
-        except OSError as err:
-            raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
-        finally:
-            self.fmi_seconds += time.perf_counter() - started
+        return fmpy_call(self, what, fn)
 
     def initialize(self, parameters: dict) -> None:
         self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))

@@ -32,11 +32,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave
 
 from .errors import ExecutionError
 from .extraction import Unpacked
+from .fmu import fmpy_call
 from .model_description import checked_value, clock_ticks, clocks_of
 from .slave import TYPES, Slave
 
@@ -229,15 +229,7 @@ class Fmu3Slave(Slave):
 
     # ---- calls -----------------------------------------------------------------------------------------------
     def call(self, what: str, fn):
-        started = time.perf_counter()
-        try:
-            return fn()
-        except FMICallException as err:
-            raise self.failed(what, err.status) from None
-        except OSError as err:
-            raise ExecutionError(f"{self.name}: {what} failed: {err}") from None
-        finally:
-            self.fmi_seconds += time.perf_counter() - started
+        return fmpy_call(self, what, fn)
 
     def _check(self, status: int, what: str, t: float) -> None:
         if status > 1:
