@@ -7,9 +7,14 @@ Table 5.1; sizes are only for display.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import re
+from functools import cache
+from pathlib import Path
+
+import numpy as np
 
 from ...plant_fmu.parameters import MODEL_PARAMETERS
 from ..engine.mcap_log import DerivedChannel
@@ -48,7 +53,7 @@ def _rotate(q: dict, v: tuple) -> tuple:
     return (vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx)
 
 
-_KEYS = ("x", "y", "z", "x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B")
+POSE_KEYS = ("x", "y", "z", "x_B", "y_B", "z_B", "phi_B", "theta_B", "psi_B")
 
 
 def _vec(v) -> dict:
@@ -87,7 +92,8 @@ def _numbers(plant: dict, ns: int):
 
 
 class SceneEncoder:
-    """The same message as JSON text from a template built once: one %-format a message, ~6x faster than json.dumps."""
+    """The same message as JSON text from a template built once: one %-format a message, ~6x faster than json.dumps;
+    and the messages of many steps in one call of scene.c (encode_rows), byte for byte the same."""
 
     def __init__(self, with_load: bool = True, entity: str = "tiltload") -> None:
         self.with_load = with_load
@@ -98,17 +104,74 @@ class SceneEncoder:
         q = {"x": mark(), "y": mark(), "z": mark(), "w": mark()}
         thrusters = [(mark(), mark(), mark()) for _ in THRUSTERS]
         load = (mark(), mark(), mark())
-        text = json.dumps(_entity(stamp, body, q, thrusters, load if with_load else None, entity)).replace("%", "%%")
-        self._order = [int(m) for m in re.findall(r'"\\u0000(\d+)\\u0000"', text)]
-        self._template = re.sub(r'"\\u0000(\d+)\\u0000"', lambda m: "%d" if int(m.group(1)) < 2 else "%.17g", text)
+        text = json.dumps(_entity(stamp, body, q, thrusters, load if with_load else None, entity))
+        parts = re.split(_SLOT, text)  # literal, slot, literal, ..., literal
+        self._pieces, self._order = parts[0::2], [int(m) for m in parts[1::2]]
+        self._template = "%s".join(piece.replace("%", "%%") for piece in self._pieces) % tuple(
+            "%d" if k < 2 else "%.17g" for k in self._order)
+        self._native = None
 
     def encode(self, plant: dict, ns: int) -> str | None:
         """The message for the plant's outputs by name (None for a non-finite pose: nothing sensible to draw)."""
-        if any(plant.get(k) is None or not math.isfinite(plant[k]) for k in _KEYS):
+        if any(plant.get(k) is None or not math.isfinite(plant[k]) for k in POSE_KEYS):
             return None
         stamp, body, q, thrusters, load = _numbers(plant, ns)
         flat = [*stamp, *body, q["x"], q["y"], q["z"], q["w"], *(c for t in thrusters for c in t), *(load if self.with_load else ())]
         return self._template % tuple(flat[i] for i in self._order)
+
+    def encode_rows(self, values: np.ndarray, index: list[int], ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The messages of many steps: values (one row of the plant's Real outputs per step; its pose at index, in the
+        order of POSE_KEYS), log times ns. Returns (data, ends): message j is data[ends[j - 1]:ends[j]], as encode() writes
+        it; empty where encode() gives None."""
+        if self._native is None:
+            self._native = _NativeScene(self)
+        return self._native.encode(values, index, ns)
+
+
+_SLOT = r'"\\u0000(\d+)\\u0000"'  # a number's place in the JSON text of the structure
+
+
+class _NativeScene:
+    """SceneEncoder's template handed to scene.c once; then each call encodes a whole batch."""
+
+    def __init__(self, scene: SceneEncoder) -> None:
+        self.lib = scene_library()
+        text = "".join(scene._pieces).encode()
+        self.text = ctypes.create_string_buffer(text, len(text))
+        self.piece_ends = np.cumsum([len(p.encode()) for p in scene._pieces]).astype(np.int64)
+        self.order = np.array(scene._order, dtype=np.int32)
+        self.thrusters = np.array(THRUSTERS, dtype=np.float64).reshape(-1)
+        self.with_load = int(scene.with_load)
+        self.room = len(text) + 32 * len(self.order)  # bytes a message can take at most
+
+    def encode(self, values: np.ndarray, index: list[int], ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        values = np.ascontiguousarray(values, dtype=np.float64)
+        ns = np.ascontiguousarray(ns, dtype=np.uint64)
+        n = len(ns)
+        keys = np.array(index, dtype=np.int32)
+        out = np.empty(max(n * self.room, 1), dtype=np.uint8)
+        ends = np.zeros(n, dtype=np.int64)
+        status = self.lib.tl_scene_encode(n, values.ctypes.data, values.shape[1] if values.ndim == 2 else 0, keys.ctypes.data,
+                                          ns.ctypes.data, len(THRUSTERS), self.thrusters.ctypes.data, self.with_load,
+                                          self.text, self.piece_ends.ctypes.data, len(self.order), self.order.ctypes.data,
+                                          out.ctypes.data, len(out), ends.ctypes.data)
+        if status != 0:
+            raise RuntimeError("scene.c: a message did not fit its room")
+        return out[:int(ends[-1]) if n else 0], ends
+
+
+@cache
+def scene_library():
+    """scene.c, compiled like the engine's kernel (libm's sin and cos, not the compiler's: the Python encoder's)."""
+    from ..engine.native.kernel import CFLAGS, compiled
+
+    lib = compiled("tl_scene", (Path(__file__).with_name("scene.c"),), (*CFLAGS, "-fno-builtin-sin", "-fno-builtin-cos"), ("m",))
+    p, n, i = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int
+    lib.tl_scene_encode.argtypes = [n, p, n, p, p, i, p, i, ctypes.c_char_p, p, i, p, p, n, p]
+    lib.tl_scene_encode.restype = i
+    lib.tl_scene_g17.argtypes = [ctypes.c_double, ctypes.c_char_p]
+    lib.tl_scene_g17.restype = i
+    return lib
 
 
 SCENE_EVERY = 4  # a scene on every 4th logged step of the plant: 21 Hz at the 12 ms tick
@@ -121,14 +184,17 @@ def scene_channels(sources: str | tuple[str, ...] = "plant") -> list[DerivedChan
 
     def encoder(names: list[str], entity: str):
         scene = SceneEncoder(with_load="gamma_1" in names, entity=entity)
-        index = [names.index(k) for k in _KEYS]
+        index = [names.index(k) for k in POSE_KEYS]
 
         def encode(values, ns: int) -> str | None:  # values: the plant's Real outputs
-            return scene.encode(dict(zip(_KEYS, values[index].tolist())), ns)
-        return encode
+            return scene.encode(dict(zip(POSE_KEYS, values[index].tolist())), ns)
+
+        def encode_rows(values: np.ndarray, ns: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # many steps at once
+            return scene.encode_rows(values, index, ns)
+        return encode, encode_rows
 
     def channel(source: str) -> DerivedChannel:
         entity = source if len(sources) > 1 else "tiltload"
         return DerivedChannel("/scene" if len(sources) == 1 else f"/scene/{source}", source, "foxglove.SceneUpdate", SCHEMA,
-                              lambda names: encoder(names, entity), SCENE_EVERY)
+                              lambda names: encoder(names, entity)[0], SCENE_EVERY, lambda names: encoder(names, entity)[1])
     return [channel(s) for s in sources]

@@ -47,6 +47,7 @@ class FixedMessage:
         self.n = {kind: sum(1 for _, k in self.fields if k == kind) for kind in _SIZE}
         self._views = {kind: self._view(self._buf, kind, starts.get(kind, 0)) for kind in _SIZE}
         self._starts = starts
+        self._blank = self._buf.copy()  # the tags; encode_rows starts from it (it may run in another thread than encode)
 
     def _view(self, buf, kind: str, start: int) -> np.ndarray:
         dtype = {"double": "<f8", "sfixed32": "<i4", "bool": "u1"}[kind]
@@ -65,7 +66,7 @@ class FixedMessage:
     def encode_rows(self, times: np.ndarray, reals: np.ndarray, integers: np.ndarray, booleans: np.ndarray) -> np.ndarray:
         """The messages of many steps at once: row i of the result is encode(times[i], reals[i], ...)."""
         n = len(times)
-        buf = np.tile(self._buf, (n, 1))
+        buf = np.tile(self._blank, (n, 1))
         flat = buf.reshape(-1)
         d = self._rows(flat, n, "double")
         d[:, 0] = times

@@ -1,9 +1,10 @@
 """An MCAP writer for many messages at once: the loop's logs, written at the speed the tick loop runs.
 
-Every record but Message is built by the mcap library's own record classes (header, schemas,
-channels, metadata, chunks, indexes, statistics, summary, footer). Messages come in batches (one
-call of the tick loop: hundreds of steps) and their records are laid out with numpy, the payloads
-of a fixed-layout channel copied as one matrix. Chunks of about `chunk_size` bytes are compressed
+Every record but Message and MessageIndex is built by the mcap library's own record classes (header,
+schemas, channels, metadata, chunks, chunk indexes, statistics, summary, footer). Messages come in
+batches (one call of the tick loop: hundreds of steps); their records, and each chunk's message
+indexes, are laid out by the engine's C kernel (native/tl_mcap.c) in one call, byte for byte what the
+library's classes would write (tests/engine/test_log.py checks them against each other). Chunks of about `chunk_size` bytes are compressed
 (zstd, level 1) and written by a background thread, so compression runs beside the tick loop (the
 kernel and zstd both release the GIL). A chunk is written whole or not at all: a killed run leaves
 a file readable up to its last written chunk.
@@ -14,9 +15,11 @@ about 4 times the tiltload loop's own tick on a 2-core machine (benchmarks/cosim
 
 from __future__ import annotations
 
+import ctypes
 import queue
 import threading
 import zlib
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +32,6 @@ from mcap.records import (
     DataEnd,
     Footer,
     Header,
-    MessageIndex,
     Metadata,
     MetadataIndex,
     Schema,
@@ -39,29 +41,54 @@ from mcap.records import (
 
 MAGIC = b"\x89MCAP0\r\n"
 MESSAGE_OPCODE = 0x05
-_MESSAGE_HEADER = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"), ("sequence", "<u4"),
-                            ("log_time", "<u8"), ("publish_time", "<u8")])  # 31 bytes, packed (MCAP Message record)
+_MESSAGE_HEADER_SIZE = 31  # opcode, length, channel, sequence, log time, publish time (MCAP Message record)
+_INDEX_HEADER_SIZE = 15  # opcode, length, channel, records length (MCAP MessageIndex record)
 CHUNK_SIZE = 32 * 1024
 
 
 class MessageBatch:
     """Messages to write, each with an order key (written in key order; equal keys in the order added): single
-    messages with their own payload, and runs of fixed-size messages whose payloads are the rows of one matrix."""
+    messages with their own payload, and runs of messages on one channel whose payloads lie in one buffer (the rows
+    of a matrix, or texts packed one after the other)."""
 
     def __init__(self) -> None:
         self.singles: list[tuple[int, int, int, bytes]] = []  # (key, channel, log time, payload)
-        self.runs: list[tuple[np.ndarray, int, np.ndarray, np.ndarray]] = []  # (keys, channel, log times, payload rows)
+        # (keys, channels, log times, buffer, starts, lengths): message j is buffer[starts[j]:starts[j] + lengths[j]]
+        self.runs: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
 
     def add(self, channel: int, log_time: int, payload: bytes, key: int = 0) -> None:
         self.singles.append((key, channel, log_time, payload))
 
     def add_rows(self, channel: int, log_times: np.ndarray, payloads: np.ndarray, keys: np.ndarray) -> None:
         """len(keys) messages on one channel; payloads: a uint8 matrix, one message per row."""
+        n, width = payloads.shape
+        starts = np.arange(n, dtype=np.int64) * width
+        self._run(keys, channel, log_times, np.ascontiguousarray(payloads).reshape(-1), starts, np.full(n, width, dtype=np.int64))
+
+    def add_packed(self, channel: int, log_times: np.ndarray, data: np.ndarray, ends: np.ndarray, keys: np.ndarray) -> None:
+        """Messages on one channel packed in data: message j is data[ends[j - 1]:ends[j]]; an empty one is left out."""
+        ends = np.asarray(ends, dtype=np.int64)
+        starts = np.concatenate(([0], ends[:-1]))
+        keep = ends > starts
+        self._run(np.asarray(keys)[keep], channel, np.asarray(log_times)[keep], data, starts[keep], (ends - starts)[keep])
+
+    def _run(self, keys, channel: int, log_times, data: np.ndarray, starts: np.ndarray, lengths: np.ndarray) -> None:
         if len(keys):
-            self.runs.append((np.asarray(keys, dtype=np.int64), channel, np.asarray(log_times, dtype=np.uint64), payloads))
+            self.runs.append((np.asarray(keys, dtype=np.int64), np.full(len(keys), channel, dtype=np.uint16),
+                              np.asarray(log_times, dtype=np.uint64), data, starts, lengths))
 
     def __len__(self) -> int:
         return len(self.singles) + sum(len(r[0]) for r in self.runs)
+
+    def all_runs(self) -> list:
+        """The runs, the single messages first as one run of their own (their payloads joined in one buffer)."""
+        if not self.singles:
+            return self.runs
+        lengths = np.array([len(s[3]) for s in self.singles], dtype=np.int64)
+        single = (np.array([s[0] for s in self.singles], dtype=np.int64), np.array([s[1] for s in self.singles], dtype=np.uint16),
+                  np.array([s[2] for s in self.singles], dtype=np.uint64),
+                  np.frombuffer(b"".join(s[3] for s in self.singles), dtype=np.uint8), np.cumsum(lengths) - lengths, lengths)
+        return [single, *self.runs]
 
 
 class McapWriter:
@@ -77,14 +104,12 @@ class McapWriter:
         self._sequence: dict[int, int] = {}
         self._messages = 0
         self._start = self._end = None
-        self._pending = bytearray()  # message records of the chunk being filled
-        self._pending_index: dict[int, list[tuple[int, int]]] = {}
-        self._pending_times: list[tuple[int, int]] = []  # (first, last) log time of each part of the chunk
+        self._chunk = _FillingChunk(chunk_size)  # message records of the chunk being filled, and their index
         self._compressor = zstandard.ZstdCompressor(level=1)
         self._queue: queue.Queue = queue.Queue(maxsize=64)
-        # message bytes handed to the writing thread and not yet in a written chunk: held under one chunk before more
-        # are handed over, so a killed run loses at most the chunk being filled and the last batch (not a backlog)
-        self._unwritten = 0
+        # batches handed to the writing thread and not yet in the chunks: one at most, so a killed run loses at most the
+        # chunk being filled and the last batch (not a backlog)
+        self._in_flight = 0
         self._room = threading.Condition()
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._drain, name="mcap-writer", daemon=True)
@@ -143,79 +168,63 @@ class McapWriter:
             self._file.write(raw)
         self._put(write)
 
-    def add_messages(self, batch: MessageBatch) -> None:
-        """Append the messages to the chunks (in key order), sealing each chunk as it reaches the chunk size."""
-        n = len(batch)
-        if not n:
+    def add_messages(self, batch: MessageBatch, fill=()) -> None:
+        """Append the messages to the chunks (in key order), sealing each chunk as it reaches the chunk size. fill:
+        callables the writing thread runs first, each adding messages to the batch (encoding them beside the tick loop
+        from copies of its values). Waits until the previous call's messages are in the chunks: the writer is at most
+        one batch behind."""
+        if not len(batch) and not fill:
             return
-        singles = batch.singles
-        keys = np.concatenate([np.array([s[0] for s in singles], dtype=np.int64), *(r[0] for r in batch.runs)])
-        channels = np.concatenate([np.array([s[1] for s in singles], dtype=np.uint16),
-                                   *(np.full(len(r[0]), r[1], dtype=np.uint16) for r in batch.runs)])
-        times = np.concatenate([np.array([s[2] for s in singles], dtype=np.uint64), *(r[2] for r in batch.runs)])
-        lengths = np.concatenate([np.array([len(s[3]) for s in singles], dtype=np.int64),
-                                  *(np.full(len(r[0]), r[3].shape[1], dtype=np.int64) for r in batch.runs)])
-        order = np.argsort(keys, kind="stable")
-        where = np.empty(n, dtype=np.int64)  # message (as added) -> its place in the file
-        where[order] = np.arange(n)
-        channels, times, lengths = channels[order], times[order], lengths[order]
-        sequences = np.empty(n, dtype=np.uint32)
-        for c in np.unique(channels):  # a counter per channel, as a publisher numbers its messages
-            mine = channels == c
-            count = int(np.count_nonzero(mine))
-            start = self._sequence[int(c)]
-            sequences[mine] = np.arange(start, start + count, dtype=np.uint32)
-            self._sequence[int(c)] = start + count
-            self._counts[int(c)] += count
-        header = np.zeros(n, dtype=_MESSAGE_HEADER)
-        header["opcode"] = MESSAGE_OPCODE
-        header["length"] = 22 + lengths
-        header["channel"], header["sequence"], header["log_time"], header["publish_time"] = channels, sequences, times, times
-        width = _MESSAGE_HEADER.itemsize
-        ends = np.cumsum(width + lengths)
-        starts = ends - width - lengths
-        blob = np.empty(int(ends[-1]), dtype=np.uint8)
-        blob[(starts[:, None] + np.arange(width)).ravel()] = header.view(np.uint8)
-        for i, (_, _, _, payload) in enumerate(singles):
-            s = int(starts[where[i]]) + width
-            blob[s:s + len(payload)] = np.frombuffer(payload, dtype=np.uint8)
-        at = len(singles)
-        for run_keys, _, _, rows in batch.runs:
-            places = where[at:at + len(run_keys)]
-            blob[(starts[places][:, None] + width + np.arange(rows.shape[1])).ravel()] = rows.ravel()
-            at += len(run_keys)
-        self._messages += n
-        first, last = int(times.min()), int(times.max())
-        self._start = first if self._start is None else min(self._start, first)
-        self._end = last if self._end is None else max(self._end, last)
         self._wait_for_room()
         with self._room:
-            self._unwritten += len(blob)
-        self._put(lambda: self._append(blob, starts, ends, channels, times))  # chunking and indexes in the writing thread
+            self._in_flight += 1
+        self._put(lambda: self._lay_out(batch, fill))
 
     def _wait_for_room(self) -> None:
         with self._room:
-            while self._unwritten >= self.chunk_size and self._error is None and self._thread.is_alive():
+            while self._in_flight and self._error is None and self._thread.is_alive():
                 self._room.wait(0.1)
 
-    def _append(self, blob: np.ndarray, starts: np.ndarray, ends: np.ndarray, channels: np.ndarray, times: np.ndarray) -> None:
-        """Message records (laid out in blob) into the chunk being filled, split at record boundaries (the writing
-        thread only)."""
-        n, at = len(starts), 0
+    def _lay_out(self, batch: MessageBatch, fill) -> None:
+        """The batch's Message records in key order, into the chunks (the writing thread only)."""
+        for f in fill:
+            f(batch)
+        runs = batch.all_runs()
+        if runs:
+            keys, channels, times = (np.concatenate([r[i] for r in runs]) for i in range(3))
+            lengths = np.concatenate([r[5] for r in runs])
+            sources = np.concatenate([r[4] + (r[3].ctypes.data if len(r[3]) else 0) for r in runs])  # payload addresses
+            order = np.argsort(keys, kind="stable")
+            channels, times, lengths, sources = channels[order], times[order], lengths[order], sources[order]
+            n = len(order)
+            sequences = np.empty(n, dtype=np.uint32)
+            for c in np.unique(channels):  # a counter per channel, as a publisher numbers its messages
+                mine = channels == c
+                count = int(np.count_nonzero(mine))
+                start = self._sequence[int(c)]
+                sequences[mine] = np.arange(start, start + count, dtype=np.uint32)
+                self._sequence[int(c)] = start + count
+                self._counts[int(c)] += count
+            ends = np.cumsum(_MESSAGE_HEADER_SIZE + lengths)
+            blob = np.empty(int(ends[-1]), dtype=np.uint8)
+            _layout().tl_mcap_messages(n, _ptr(channels), _ptr(sequences), _ptr(times), _ptr(lengths), _ptr(sources), _ptr(blob))
+            self._messages += n
+            first, last = int(times.min()), int(times.max())
+            self._start = first if self._start is None else min(self._start, first)
+            self._end = last if self._end is None else max(self._end, last)
+            self._append(blob, ends, channels, times)
+        with self._room:
+            self._in_flight -= 1
+            self._room.notify_all()
+
+    def _append(self, blob: np.ndarray, ends: np.ndarray, channels: np.ndarray, times: np.ndarray) -> None:
+        """Message records (laid out in blob) into the chunk being filled, split at record boundaries, each chunk
+        written as it reaches the chunk size (the writing thread only)."""
+        at, n = 0, len(ends)
+        batch = (n, _ptr(blob), _ptr(ends), _ptr(channels), _ptr(times))
         while at < n:
-            room = self.chunk_size - len(self._pending)
-            base = int(starts[at])
-            stop = min(max(int(np.searchsorted(ends, base + max(room, 1), side="left")) + 1, at + 1), n)
-            offset0 = len(self._pending)
-            self._pending += blob[base:int(ends[stop - 1])].tobytes()
-            part_channels, part_times = channels[at:stop], times[at:stop]
-            part_offsets = starts[at:stop] - base + offset0
-            for c in np.unique(part_channels):
-                mine = part_channels == c
-                self._pending_index.setdefault(int(c), []).extend(zip(part_times[mine].tolist(), part_offsets[mine].tolist()))
-            self._pending_times.append((int(part_times.min()), int(part_times.max())))
-            at = stop
-            if len(self._pending) >= self.chunk_size:
+            at = self._chunk.fill(batch, ends, at)
+            if self._chunk.size >= self.chunk_size:
                 self._write_chunk()
 
     def _seal(self) -> None:
@@ -224,13 +233,11 @@ class McapWriter:
 
     def _write_chunk(self) -> None:
         """The chunk being filled, compressed, written with its message indexes (the writing thread only)."""
-        if not self._pending:
+        if not self._chunk.size:
             return
-        data, index, times = bytes(self._pending), self._pending_index, self._pending_times
-        self._pending, self._pending_index, self._pending_times = bytearray(), {}, []
+        data, indexes, starts, first, last = self._chunk.take()
         compressed = self._compressor.compress(data)
-        chunk = Chunk(compression="zstd", data=compressed, message_start_time=min(t[0] for t in times),
-                      message_end_time=max(t[1] for t in times),
+        chunk = Chunk(compression="zstd", data=compressed, message_start_time=first, message_end_time=last,
                       uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data))
         b = RecordBuilder()
         chunk.write(b)
@@ -240,18 +247,12 @@ class McapWriter:
                            chunk_start_offset=start, chunk_length=len(raw), message_index_offsets={},
                            message_index_length=0, compression="zstd", compressed_size=len(compressed),
                            uncompressed_size=len(data))
-        b = RecordBuilder()
-        for channel, records in index.items():
-            entry.message_index_offsets[channel] = start + len(raw) + b.count
-            MessageIndex(channel_id=channel, records=records).write(b)
-        indexes = b.end()
+        for channel, at in starts.items():
+            entry.message_index_offsets[channel] = start + len(raw) + at
         entry.message_index_length = len(indexes)
         self._file.write(raw + indexes)
         self._file.flush()  # in the kernel's hands: a killed process loses nothing of it
         self._chunk_indexes.append(entry)
-        with self._room:
-            self._unwritten -= len(data)
-            self._room.notify_all()
 
     def flush(self) -> None:
         """Seal the chunk being filled and wait until everything so far is on disk."""
@@ -305,3 +306,85 @@ class McapWriter:
             g.write(rb)
         Footer(summary_start=summary_start, summary_offset_start=offsets_start, summary_crc=0).write(rb)
         f.write(rb.end() + MAGIC)
+
+
+class _FillingChunk:
+    """The chunk being filled: its message records, and (channel, log time, offset) of each in the parts the writer
+    appended, in arrays the kernel fills and reads in place (their addresses taken once: numpy's .ctypes costs
+    microseconds a call)."""
+
+    def __init__(self, chunk_size: int) -> None:
+        self.chunk_size = chunk_size
+        self.state = np.zeros(3, dtype=np.int64)  # bytes, messages, parts
+        self.sizes = np.zeros(3, dtype=np.uint64)  # index bytes, first and last log time
+        self._allocate(2 * chunk_size, chunk_size // _MESSAGE_HEADER_SIZE + 2)
+
+    @property
+    def size(self) -> int:
+        return int(self.state[0])
+
+    def _allocate(self, capacity: int, messages: int) -> None:
+        """Room for capacity bytes and as many messages (and parts), what the chunk holds kept."""
+        size, count, parts = (int(x) for x in self.state)
+
+        def grown(name: str, dtype, length: int, keep: int):
+            new = np.empty(length, dtype=dtype)
+            old = getattr(self, name, None)
+            if old is not None:
+                new[:keep] = old[:keep]
+            return new
+        self.data = grown("data", np.uint8, capacity, size)
+        self.channel = grown("channel", np.uint16, messages, count)
+        self.time = grown("time", np.uint64, messages, count)
+        self.offset = grown("offset", np.uint64, messages, count)
+        self.part_ends = grown("part_ends", np.int64, messages, parts)
+        self.order, self.at = np.empty(messages, dtype=np.uint16), np.empty(messages, dtype=np.int64)
+        self.out = np.empty((_INDEX_HEADER_SIZE + 16) * messages, dtype=np.uint8)
+        self._ptrs = [_ptr(a) for a in (self.data, self.state, self.channel, self.time, self.offset, self.part_ends, self.order,
+                                        self.at, self.out, self.sizes)]
+
+    def fill(self, batch: tuple, ends: np.ndarray, at: int) -> int:
+        """Records at, at + 1, ... of a batch's records into the chunk until it reaches the chunk size; the next record to
+        take. batch: (records, and the addresses of their bytes, ends, channels, log times)."""
+        n, blob, batch_ends, channels, times = batch
+        data, state, c, t, o, e = self._ptrs[:6]
+        lib = _layout()
+        while True:
+            next_at = lib.tl_mcap_fill(n, at, blob, batch_ends, channels, times, self.chunk_size, data, len(self.data), state,
+                                       c, t, o, e, len(self.channel))
+            if next_at >= 0:
+                return next_at
+            record = int(ends[at] - (ends[at - 1] if at else 0))  # no room: a large record, or many small ones
+            self._allocate(max(2 * len(self.data), self.size + record + self.chunk_size), 2 * len(self.channel))
+            data, state, c, t, o, e = self._ptrs[:6]
+
+    def take(self) -> tuple[bytes, bytes, dict[int, int], int, int]:
+        """The chunk's message records, its MessageIndex records, where each channel's starts in them, its first and
+        last log time; then the chunk is empty."""
+        _, _, c, t, o, e, order, at, out, sizes = self._ptrs
+        size, count, parts = (int(x) for x in self.state)
+        channels = _layout().tl_mcap_message_indexes(count, c, t, o, parts, e, order, at, out, sizes)
+        index_size, first, last = (int(x) for x in self.sizes)
+        self.state[:] = 0
+        return (self.data[:size].tobytes(), self.out[:index_size].tobytes(),
+                dict(zip(self.order[:channels].tolist(), self.at[:channels].tolist())), first, last)
+
+
+def _ptr(array: np.ndarray) -> int:
+    return array.ctypes.data
+
+
+@cache
+def _layout():
+    """The kernel's record layout functions (native/tl_mcap.c), with their signatures."""
+    from .native.kernel import library
+
+    lib = library()
+    p, n = ctypes.c_void_p, ctypes.c_int64
+    lib.tl_mcap_messages.argtypes = [n, p, p, p, p, p, p]
+    lib.tl_mcap_messages.restype = None
+    lib.tl_mcap_message_indexes.argtypes = [n, p, p, p, n, p, p, p, p, p]
+    lib.tl_mcap_message_indexes.restype = n
+    lib.tl_mcap_fill.argtypes = [n, n, p, p, p, p, n, p, n, p, p, p, p, p, n]
+    lib.tl_mcap_fill.restype = n
+    return lib

@@ -56,6 +56,8 @@ class Batch:
 
 
 class Observer:
+    threaded = False  # it hands each batch to a thread of its own (the MCAP logger): it is given the batch last
+
     def start(self, execution) -> None: ...
 
     def on_batch(self, execution, batch: Batch) -> None:

@@ -1,8 +1,10 @@
-"""The tick loop's C kernel (tl_loop.c): compiled once with the system C compiler, loaded with ctypes.
+"""The engine's C kernel: the tick loop (tl_loop.c) and the log's record layout (tl_mcap.c), compiled once with
+the system C compiler, loaded with ctypes.
 
-The library is built into $TILTLOAD_CACHE/kernels/<digest of source, compiler and flags>/ (else
+A library is built into $TILTLOAD_CACHE/kernels/<digest of sources, compiler and flags>/ (else
 $XDG_CACHE_HOME/tiltload or ~/.cache/tiltload; a temporary folder if none is writable), so a
-second process loads it in microseconds. The structures below mirror tl_loop.h field by field.
+second process loads it in microseconds. compiled() builds any such library (the application's
+scene encoder is one). The structures below mirror tl_loop.h field by field.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from functools import cache
 from pathlib import Path
 
 HERE = Path(__file__).parent
-SOURCES = (HERE / "tl_loop.c", HERE / "tl_loop.h")
+SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h")
 # No floating-point arithmetic depends on these flags but t_k = k * tick (one product, exact in IEEE double).
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-Wall", "-Wextra")
 TYPES = 3
@@ -27,7 +29,7 @@ HOOK_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int, ctype
 
 
 class KernelError(RuntimeError):
-    """The C compiler is missing or failed on the kernel: the engine falls back to stepping in Python."""
+    """The C compiler is missing or failed on a kernel (a C compiler is required, as for the FMUs)."""
 
 
 class Group(ctypes.Structure):
@@ -82,33 +84,40 @@ def _compiler() -> str:
     return cc
 
 
-def _build(cc: str, folder: Path) -> Path:
-    target = folder / "tl_loop.so"
+def _build(cc: str, command: list[str], folder: Path, name: str) -> Path:
+    target = folder / f"{name}.so"
     if target.is_file():
         return target
     folder.mkdir(parents=True, exist_ok=True)
-    partial = folder / f"tl_loop.{os.getpid()}.partial.so"
-    proc = subprocess.run([cc, *CFLAGS, str(SOURCES[0]), "-o", str(partial)], capture_output=True, text=True)
+    partial = folder / f"{name}.{os.getpid()}.partial.so"
+    proc = subprocess.run([cc, *command, "-o", str(partial)], capture_output=True, text=True)
     if proc.returncode != 0:
-        raise KernelError(f"compiling the tick loop with {cc} failed: {proc.stderr.strip().splitlines()[:1]}")
+        raise KernelError(f"compiling {name} with {cc} failed: {proc.stderr.strip().splitlines()[:1]}")
     partial.replace(target)  # atomic: a parallel process finds either nothing or the whole library
     return target
+
+
+def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) -> ctypes.CDLL:
+    """The shared library of these C sources (the .c files compiled, headers only in the digest), built on first use
+    into the cache and loaded. KernelError: no compiler, or it failed."""
+    cc = _compiler()
+    h = hashlib.sha256()
+    for f in sources:
+        h.update(Path(f).read_bytes())
+    command = [*flags, *(str(f) for f in sources if str(f).endswith(".c")), *(f"-l{lib}" for lib in libraries)]
+    h.update(" ".join((cc, *command[:len(flags)], *libraries)).encode())
+    digest = h.hexdigest()[:16]
+    try:
+        path = _build(cc, command, _cache_root() / "kernels" / digest, name)
+    except OSError:  # no writable cache: a private folder for this process
+        path = _build(cc, command, Path(tempfile.mkdtemp(prefix="tiltload_kernel_")), name)
+    return ctypes.CDLL(str(path))
 
 
 @cache
 def library() -> ctypes.CDLL:
     """The compiled kernel, with its functions' signatures set."""
-    cc = _compiler()
-    h = hashlib.sha256()
-    for f in SOURCES:
-        h.update(f.read_bytes())
-    h.update(" ".join((cc, *CFLAGS)).encode())
-    digest = h.hexdigest()[:16]
-    try:
-        path = _build(cc, _cache_root() / "kernels" / digest)
-    except OSError:  # no writable cache: a private folder for this process
-        path = _build(cc, Path(tempfile.mkdtemp(prefix="tiltload_kernel_")))
-    lib = ctypes.CDLL(str(path))
+    lib = compiled("tl_loop", SOURCES)
     lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_run.restype = ctypes.c_int64
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
