@@ -14,9 +14,9 @@ from tiltload.master.engine.execution import Execution
 
 @dataclass
 class Timed:
-    """One run: wall seconds of ex.run(stop), {instance: seconds in its FMI calls}, ticks run, the Real outputs
-    every instance held at the end, and the process's CPU seconds over ex.run (all threads: the log's compressor too;
-    what other work on a shared machine does not inflate)."""
+    """One run: wall seconds of ex.run(stop) and ex.close() (a log's last chunks and summary written), {instance: seconds
+    in its FMI calls}, ticks run, the Real outputs every instance held at the end, and the process's CPU seconds over
+    the same span (all threads: the log's writer too; what other work on a shared machine does not inflate)."""
 
     wall: float
     fmi: dict[str, float]
@@ -33,20 +33,27 @@ class Timed:
 
 
 def timed(system, stop: float, observers=()) -> Timed:
-    """Run the system to stop; instantiation is not timed. fmi_seconds is what the C tick loop measured around each
-    instance's set, doStep and get calls (its profile is always on)."""
+    """Run the system to stop and close it (the log finished: its last chunks written, its summary); instantiation is
+    not timed. fmi_seconds is what the C tick loop measured around each instance's set, doStep and get calls (its
+    profile is always on)."""
     ex = Execution(system, list(observers))
+    closed = False
     try:
         ex.instantiate()
         for inst in ex.instances.values():
             inst.fmi_seconds = 0.0
         c0, t0 = time.process_time(), time.perf_counter()
         ex.run(stop)
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        return Timed(wall, {n: i.fmi_seconds for n, i in ex.instances.items()}, ex.ticks_done,
-                     {n: i.values["Real"].copy() for n, i in ex.instances.items()}, cpu)
-    finally:
+        fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
+        outputs = {n: i.values["Real"].copy() for n, i in ex.instances.items()}
+        ticks = ex.ticks_done
         ex.close()
+        closed = True
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        return Timed(wall, fmi, ticks, outputs, cpu)
+    finally:
+        if not closed:
+            ex.close()
 
 
 def best(runs: list):

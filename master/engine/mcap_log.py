@@ -25,7 +25,12 @@ from .log_encoding import LAYOUT, FixedMessage, fits
 from .mcap_writer import McapWriter, MessageBatch
 from .observers import Observer
 
-CHUNK = 128 * 1024  # a killed run loses at most this chunk (about 50 ticks of the loop, 0.6 s) and the batch in the writer
+# Chunks of a run in batches: a killed run loses at most the chunk being filled (128 KiB: about 50 ticks of the loop,
+# 0.6 s) and the batch in the writer's hands (256 ticks), and the writer's cost per chunk is spread over 50 ticks.
+CHUNK = 128 * 1024
+# Chunks of a run tick by tick (a per-step observer, or paced on the real-time clock): the batch is a tick (or 0.25 s),
+# so the chunk bounds the loss, 32 KiB: about 13 ticks, 0.16 s.
+CHUNK_TICK_BY_TICK = 32 * 1024
 
 
 def _clean(x: float):
@@ -56,7 +61,9 @@ class DerivedChannel:
 class McapLogger(Observer):
     threaded = True  # its writer encodes, compresses and writes beside the loop
 
-    def __init__(self, path: Path, metadata: dict | None = None, log_every: int = 1, derived=()) -> None:
+    def __init__(self, path: Path, metadata: dict | None = None, log_every: int = 1, derived=(), chunk_size: int | None = None) -> None:
+        """chunk_size: bytes of the log's chunks; by default CHUNK, or CHUNK_TICK_BY_TICK when a per-step observer makes
+        the loop run tick by tick."""
         if not (isinstance(log_every, int) and log_every >= 1):
             raise ValueError(f"log_every must be a whole number of steps >= 1, got {log_every!r}")
         self.path = Path(path)
@@ -64,6 +71,7 @@ class McapLogger(Observer):
         self.final_metadata: dict[str, dict] = {}  # records written at finish (the run's metrics, for `tiltload compare`)
         self.derived = tuple(derived)
         self.metadata = metadata or {}
+        self.chunk_size = chunk_size
         self._writer: McapWriter | None = None
 
     def start(self, execution) -> None:
@@ -71,7 +79,8 @@ class McapLogger(Observer):
         # written under a temporary name: an earlier log of the same name is replaced only when this one is closed
         # (complete, or partial after an error or an interrupt); a killed run leaves <name>.partial beside it
         self.partial = self.path.with_name(self.path.name + ".partial")
-        self._writer = w = McapWriter(self.partial, CHUNK)
+        chunk = self.chunk_size or (CHUNK_TICK_BY_TICK if execution.stepwise_observers() else CHUNK)
+        self._writer = w = McapWriter(self.partial, chunk)
         w.add_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
         self._channels, self._encoders, self._steps = {}, {}, {}
         self._outputs = {name: inst.outputs for name, inst in execution.instances.items()}

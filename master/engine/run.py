@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .execution import Execution, IsolationPolicy
-from .mcap_log import McapLogger
+from .mcap_log import CHUNK_TICK_BY_TICK, McapLogger
 from .observers import Metrics, Progress
 from .system import System
 
@@ -37,7 +37,8 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
     system is checked, before any FMU is loaded. realtime (realtime.Pacer) paces the ticks; its statistics go into
     the log's "realtime" record. resume (snapshot.Snapshot) continues a run from where it was taken; checkpoints
     [(t, fn)] call fn(execution) when the run reaches t (a snapshot, say)."""
-    logger = McapLogger(log, metadata=metadata, log_every=log_every, derived=channels) if log is not None else None
+    logger = McapLogger(log, metadata=metadata, log_every=log_every, derived=channels,
+                        chunk_size=CHUNK_TICK_BY_TICK if realtime is not None else None) if log is not None else None
     observers = [*([logger] if logger else []), *observers_extra]
     if metrics is not None:
         observers.append(metrics)

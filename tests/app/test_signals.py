@@ -65,7 +65,7 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
     assert earlier.read_bytes() == b"an earlier log"
     torn = tmp_path / "run.mcap.partial"
     data, truncated = log_reader.read_log(torn)
-    # lost: the chunk being filled (32 KiB: 13 ticks, 0.156 s of this loop) and the few ticks in hand, never a backlog
+    # lost: the chunk being filled (32 KiB, the loop running tick by tick: 13 ticks, 0.156 s) and the tick in hand
     assert truncated and killed_at - data["/plant"][-1]["t"] <= 0.25, (killed_at, data["/plant"][-1]["t"])
     assert main(["plot", str(torn), "--out", str(tmp_path / "plots")]) == 0
     assert "is truncated" in capsys.readouterr().out and len(list((tmp_path / "plots").glob("*.png"))) == 7
