@@ -14,7 +14,7 @@ from tiltload.master.engine.execution import Execution
 
 @dataclass
 class Timed:
-    """One run: wall seconds of ex.run(stop) and ex.close() (a log's last chunks and summary written), {instance: seconds
+    """One run: wall seconds of ex.run(stop) and ex.finish() (a log's last chunks and summary written), {instance: seconds
     in its FMI calls}, ticks run, the Real outputs every instance held at the end, and the process's CPU seconds over
     the same span (all threads: the log's writer too; what other work on a shared machine does not inflate)."""
 
@@ -33,11 +33,10 @@ class Timed:
 
 
 def timed(system, stop: float, observers=()) -> Timed:
-    """Run the system to stop and close it (the log finished: its last chunks written, its summary); instantiation is
-    not timed. fmi_seconds is what the C tick loop measured around each instance's set, doStep and get calls (its
+    """Run the system to stop and finish its observers (a log's last chunks and summary written); instantiation and
+    freeing the instances are not timed. fmi_seconds is what the C tick loop measured around each instance's set, doStep and get calls (its
     profile is always on)."""
     ex = Execution(system, list(observers))
-    closed = False
     try:
         ex.instantiate()
         for inst in ex.instances.values():
@@ -47,13 +46,11 @@ def timed(system, stop: float, observers=()) -> Timed:
         fmi = {n: i.fmi_seconds for n, i in ex.instances.items()}
         outputs = {n: i.values["Real"].copy() for n, i in ex.instances.items()}
         ticks = ex.ticks_done
-        ex.close()
-        closed = True
+        ex.finish()
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         return Timed(wall, fmi, ticks, outputs, cpu)
     finally:
-        if not closed:
-            ex.close()
+        ex.close()
 
 
 def best(runs: list):

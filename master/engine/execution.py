@@ -208,14 +208,18 @@ class Execution:
         if self.ticks_done < n:
             self.loop.run(n - self.ticks_done, realtime)
 
-    def close(self, error: str | None = None) -> None:
-        """Finish the observers (the log first), then free the instances; safe to call twice."""
+    def finish(self, error: str | None = None) -> None:
+        """Finish the observers (the log first: its last chunks and summary written); safe to call twice."""
         observers, self.observers = self.observers, []
         for obs in observers:
             try:
                 obs.finish(self, error)
             except Exception:
                 pass
+
+    def close(self, error: str | None = None) -> None:
+        """Finish the observers, then free the instances; safe to call twice."""
+        self.finish(error)
         instances, self.instances = self.instances, {}
         for inst in instances.values():
             inst.close()

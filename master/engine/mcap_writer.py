@@ -15,11 +15,9 @@ about 4 times the tiltload loop's own tick on a 2-core machine (benchmarks/cosim
 
 from __future__ import annotations
 
-import ctypes
 import queue
 import threading
 import zlib
-from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +36,8 @@ from mcap.records import (
     Statistics,
     SummaryOffset,
 )
+
+from .native.kernel import library
 
 MAGIC = b"\x89MCAP0\r\n"
 MESSAGE_OPCODE = 0x05
@@ -207,7 +207,7 @@ class McapWriter:
                 self._counts[int(c)] += count
             ends = np.cumsum(_MESSAGE_HEADER_SIZE + lengths)
             blob = np.empty(int(ends[-1]), dtype=np.uint8)
-            _layout().tl_mcap_messages(n, _ptr(channels), _ptr(sequences), _ptr(times), _ptr(lengths), _ptr(sources), _ptr(blob))
+            library().tl_mcap_messages(n, _ptr(channels), _ptr(sequences), _ptr(times), _ptr(lengths), _ptr(sources), _ptr(blob))
             self._messages += n
             first, last = int(times.min()), int(times.max())
             self._start = first if self._start is None else min(self._start, first)
@@ -348,7 +348,7 @@ class _FillingChunk:
         take. batch: (records, and the addresses of their bytes, ends, channels, log times)."""
         n, blob, batch_ends, channels, times = batch
         data, state, c, t, o, e = self._ptrs[:6]
-        lib = _layout()
+        lib = library()
         while True:
             next_at = lib.tl_mcap_fill(n, at, blob, batch_ends, channels, times, self.chunk_size, data, len(self.data), state,
                                        c, t, o, e, len(self.channel))
@@ -363,7 +363,7 @@ class _FillingChunk:
         last log time; then the chunk is empty."""
         _, _, c, t, o, e, order, at, out, sizes = self._ptrs
         size, count, parts = (int(x) for x in self.state)
-        channels = _layout().tl_mcap_message_indexes(count, c, t, o, parts, e, order, at, out, sizes)
+        channels = library().tl_mcap_message_indexes(count, c, t, o, parts, e, order, at, out, sizes)
         index_size, first, last = (int(x) for x in self.sizes)
         self.state[:] = 0
         return (self.data[:size].tobytes(), self.out[:index_size].tobytes(),
@@ -372,19 +372,3 @@ class _FillingChunk:
 
 def _ptr(array: np.ndarray) -> int:
     return array.ctypes.data
-
-
-@cache
-def _layout():
-    """The kernel's record layout functions (native/tl_mcap.c), with their signatures."""
-    from .native.kernel import library
-
-    lib = library()
-    p, n = ctypes.c_void_p, ctypes.c_int64
-    lib.tl_mcap_messages.argtypes = [n, p, p, p, p, p, p]
-    lib.tl_mcap_messages.restype = None
-    lib.tl_mcap_message_indexes.argtypes = [n, p, p, p, n, p, p, p, p, p]
-    lib.tl_mcap_message_indexes.restype = n
-    lib.tl_mcap_fill.argtypes = [n, n, p, p, p, p, n, p, n, p, p, p, p, p, n]
-    lib.tl_mcap_fill.restype = n
-    return lib

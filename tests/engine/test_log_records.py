@@ -12,6 +12,7 @@ from mcap.data_stream import RecordBuilder
 from mcap.reader import make_reader
 from mcap.records import Chunk, ChunkIndex, Message, MessageIndex, Statistics
 from mcap.stream_reader import StreamReader
+from tiltload.master.engine.log_encoding import FixedMessage
 from tiltload.master.engine.mcap_writer import McapWriter, MessageBatch
 
 
@@ -96,3 +97,20 @@ def test_the_writer_s_records_are_what_the_mcap_library_reads_and_writes(tmp_pat
             assert raw[offset:offset + len(library_bytes)] == library_bytes
         assert chunk.message_start_time == min(t for v in inside.values() for t, _ in v)
         assert chunk.message_end_time == max(t for v in inside.values() for t, _ in v)
+
+
+def test_fixed_layout_rows_of_a_batch_are_the_single_step_encoding():
+    rng = np.random.default_rng(5)
+    enc = FixedMessage("sensors", [f"r{i}" for i in range(30)], ["count", "mode"], ["valid", "stale", "held"])
+    n = 500
+    times = rng.random(n) * 40
+    reals = rng.standard_normal((n, 30)) * 10.0 ** rng.integers(-300, 300, (n, 30))
+    reals[rng.random((n, 30)) < 0.05] = np.nan
+    reals[rng.random((n, 30)) < 0.02] = -np.inf
+    integers = rng.integers(-2**31, 2**31, (n, 2)).astype(np.int32)
+    booleans = rng.integers(0, 3, (n, 3)).astype(np.int32)  # any non-zero fmi2Boolean is true
+    rows = enc.encode_rows(times, reals, integers, booleans)
+    for i in range(n):
+        assert rows[i].tobytes() == enc.encode(times[i], reals[i], integers[i], booleans[i])
+    empty = np.zeros((3, 0))
+    assert FixedMessage("none", [], [], []).encode_rows(times[:3], empty, empty, empty).shape == (3, 10)  # t: tag, double

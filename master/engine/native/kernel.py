@@ -124,4 +124,10 @@ def library() -> ctypes.CDLL:
     lib.tl_store_history.restype = None
     lib.tl_monotonic_ns.argtypes = []
     lib.tl_monotonic_ns.restype = ctypes.c_int64
+    p, n = ctypes.c_void_p, ctypes.c_int64  # tl_mcap.c: arrays by address
+    for name, args, result in (("tl_mcap_messages", [n, p, p, p, p, p, p], None),
+                               ("tl_mcap_message_indexes", [n, p, p, p, n, p, p, p, p, p], n),
+                               ("tl_mcap_fill", [n, n, p, p, p, p, n, p, n, p, p, p, p, p, n], n)):
+        getattr(lib, name).argtypes, getattr(lib, name).restype = args, result
     return lib
+
