@@ -24,7 +24,7 @@ from tiltload.master.engine.execution import Execution
 
 def timed(system, stop: float) -> tuple[float, float, dict]:
     metrics = loop_metrics()
-    ex = Execution(system, [metrics])
+    ex = Execution(system, [metrics], profile=True)
     ex.instantiate()
     for inst in ex.instances.values():
         inst.fmi_seconds = 0.0

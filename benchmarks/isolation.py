@@ -34,7 +34,7 @@ def foreign_copy(fmu: Path, dest: Path) -> Path:
 
 
 def timed(system, stop: float, trust: bool) -> tuple[float, float, float, dict]:
-    ex = Execution(system, [loop_metrics()], isolate=None if trust else is_foreign)
+    ex = Execution(system, [loop_metrics()], isolate=None if trust else is_foreign, profile=True)
     t0 = time.perf_counter()
     ex.instantiate()
     start_up = time.perf_counter() - t0

@@ -36,7 +36,7 @@ def timed(fmus: Path, scenario: str, stop: float, isolate=None, remote: str | No
     system = default_system(fmus, scenario, 1, "mixed")
     ctrl = system.instance("controller")
     ctrl.remote, ctrl.token_file = remote, token
-    ex = Execution(system, [loop_metrics()], isolate=isolate)
+    ex = Execution(system, [loop_metrics()], isolate=isolate, profile=True)
     ex.instantiate()
     for inst in ex.instances.values():
         inst.fmi_seconds = 0.0

@@ -32,11 +32,11 @@ class Timed:
         return sum(self.fmi.values())
 
 
-def timed(system, stop: float, observers=()) -> Timed:
+def timed(system, stop: float, observers=(), profile: bool = True) -> Timed:
     """Run the system to stop and finish its observers (a log's last chunks and summary written); instantiation and
-    freeing the instances are not timed. fmi_seconds is what the C tick loop measured around each instance's set, doStep and get calls (its
-    profile is always on)."""
-    ex = Execution(system, list(observers))
+    freeing the instances are not timed. fmi_seconds is what the C tick loop measured around each instance's set, doStep and get calls
+    (profile; without it, as a user's run, the loop reads no clock and fmi_seconds stay 0)."""
+    ex = Execution(system, list(observers), profile=profile)
     try:
         ex.instantiate()
         for inst in ex.instances.values():

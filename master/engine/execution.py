@@ -66,10 +66,13 @@ class _Group:
 
 class Execution:
     def __init__(self, system: System, observers=(), isolate: IsolationPolicy | None = None,
-                 step_timeout: float | None = None) -> None:
+                 step_timeout: float | None = None, profile: bool = False) -> None:
         """isolate(fmu, md): True for an FMU to run in a worker process of its own, every call watched for
-        step_timeout seconds (isolation/process.py); None: every FMU runs in this process."""
+        step_timeout seconds (isolation/process.py); None: every FMU runs in this process. profile: the C loop
+        times each FMU's set, doStep and get calls into its fmi_seconds (two clock reads a step; the benchmarks'
+        C cost), which a run otherwise does not pay for."""
         self.system = validate(system)
+        self.profile = profile
         self.isolate, self.step_timeout = isolate, step_timeout
         self.observers = list(observers)
         self.instances: dict[str, Slave] = {}

@@ -100,7 +100,8 @@ class NativeLoop:
         self.lateness = np.zeros(chunk, dtype=np.float64)
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
-                                ticks_done=execution.ticks_done, slots=self.slots, profile=1, record_capacity=chunk)
+                                ticks_done=execution.ticks_done, slots=self.slots, profile=int(execution.profile),
+                                record_capacity=chunk)
         self._native_faults(manipulator, index)
         for spec, c in zip(specs, self.instances):  # the faults Python applies: a callback at that instance's side
             c.hook_inputs = bool(manipulator and manipulator.python_entries(spec.name, "input"))
