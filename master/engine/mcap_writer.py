@@ -40,7 +40,6 @@ from mcap.records import (
 from .native.kernel import library
 
 MAGIC = b"\x89MCAP0\r\n"
-MESSAGE_OPCODE = 0x05
 _MESSAGE_HEADER_SIZE = 31  # opcode, length, channel, sequence, log time, publish time (MCAP Message record)
 _INDEX_HEADER_SIZE = 15  # opcode, length, channel, records length (MCAP MessageIndex record)
 CHUNK_SIZE = 32 * 1024
@@ -187,6 +186,14 @@ class McapWriter:
 
     def _lay_out(self, batch: MessageBatch, fill) -> None:
         """The batch's Message records in key order, into the chunks (the writing thread only)."""
+        try:
+            self._lay_out_records(batch, fill)
+        finally:
+            with self._room:
+                self._in_flight -= 1
+                self._room.notify_all()
+
+    def _lay_out_records(self, batch: MessageBatch, fill) -> None:
         for f in fill:
             f(batch)
         runs = batch.all_runs()
@@ -213,9 +220,6 @@ class McapWriter:
             self._start = first if self._start is None else min(self._start, first)
             self._end = last if self._end is None else max(self._end, last)
             self._append(blob, ends, channels, times)
-        with self._room:
-            self._in_flight -= 1
-            self._room.notify_all()
 
     def _append(self, blob: np.ndarray, ends: np.ndarray, channels: np.ndarray, times: np.ndarray) -> None:
         """Message records (laid out in blob) into the chunk being filled, split at record boundaries, each chunk

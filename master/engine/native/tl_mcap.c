@@ -30,7 +30,7 @@ TL_EXPORT void tl_mcap_messages(int64_t n, const uint16_t *channel, const uint32
         out = put(out, sequence[i], 4);
         out = put(out, log_time[i], 8);
         out = put(out, log_time[i], 8);
-        memcpy(out, (const void *)(intptr_t)source[i], (size_t)length[i]);
+        if (length[i]) memcpy(out, (const void *)(intptr_t)source[i], (size_t)length[i]);
         out += length[i];
     }
 }
