@@ -1,0 +1,63 @@
+"""What a fault costs the tick loop: us per tick of the FSI loop (the cheapest, where a cost shows most) with one fault
+active the whole run, against the same loop without faults.
+
+Value faults (override, bias, scale, ramp, clamp, hold) run inside the C tick loop; noise, dropout, delay, stale and
+jitter are applied in Python through the loop's hook at that one instance's side (its other connections, and the
+other instances, stay in C). Each fault acts on the three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the
+GPS pair with its flag, as docs/faults/gps_dropout.json), from t = 0. Trajectory 1, mixed design, no log, the loop's
+metrics, best of --repeat runs taken in turn; the FMU calls are not timed (as a user's run).
+
+Run: python benchmarks/fault_cost.py [--stop 20] [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+from pathlib import Path
+
+from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.engine.manipulators import parse
+from timing import best, machine, timed
+
+CAMERA = ["sensors.meas_d_BL_x", "sensors.meas_d_BL_y", "sensors.meas_d_BL_z"]
+FAULTS = {
+    "bias (C)": {"action": "bias", "targets": CAMERA, "value": 0.01},
+    "scale (C)": {"action": "scale", "targets": ["plant.f_R"], "value": 0.7},
+    "hold (C)": {"action": "hold", "targets": CAMERA},
+    "noise (Python)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
+    "stale (Python)": {"action": "stale", "targets": CAMERA, "value": 3},
+    "delay (Python)": {"action": "delay", "targets": CAMERA, "value": 2},
+    "jitter (Python)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
+    "dropout (Python)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
+}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--stop", type=float, default=20.0, help="s of trajectory 1 per run (default 20)")
+    p.add_argument("--repeat", type=int, default=5, help="runs of each case, the best kept (default 5)")
+    args = p.parse_args()
+    fmus = Path(__file__).parent / "fmus"
+    build_all(fmus)
+    base = default_system(fmus, "fsi", 1, "mixed")
+    cases = {"no fault": base}
+    for name, fault in FAULTS.items():
+        cases[name] = dataclasses.replace(base, faults=parse([{"name": name, "start": 0.0, **fault}]))
+    print(machine())
+    print(f"FSI loop, {args.stop:g} s of trajectory 1, no log, best of {args.repeat}")
+    runs: dict[str, list] = {name: [] for name in cases}
+    for _ in range(args.repeat):
+        for name, system in cases.items():
+            runs[name].append(timed(system, args.stop, [loop_metrics()], profile=False))
+    reference = best(runs["no fault"]).us_per_tick()
+    for name in cases:
+        us = best(runs[name]).us_per_tick()
+        print(f"  {name:<17} {us:6.1f} us/tick  ({us - reference:+5.1f} us, x{us / reference:.2f})")
+    print("load average at the end: " + ", ".join(f"{x:.1f}" for x in os.getloadavg()))
+
+
+if __name__ == "__main__":
+    main()
