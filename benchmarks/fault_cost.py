@@ -5,7 +5,7 @@ Value faults (override, bias, scale, ramp, clamp, hold) run inside the C tick lo
 jitter are applied in Python through the loop's hook at that one instance's side (its other connections, and the
 other instances, stay in C). Each fault acts on the three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the
 GPS pair with its flag, as docs/faults/gps_dropout.json), from t = 0. Trajectory 1, mixed design, no log, the loop's
-metrics, best of --repeat runs taken in turn; the FMU calls are not timed (as a user's run).
+metrics, best of --repeat runs taken in turn (each round starting one case later); the FMU calls are not timed (as a user's run).
 
 Run: python benchmarks/fault_cost.py [--stop 20] [--repeat 5]
 """
@@ -49,9 +49,10 @@ def main() -> None:
     print(machine())
     print(f"FSI loop, {args.stop:g} s of trajectory 1, no log, best of {args.repeat}")
     runs: dict[str, list] = {name: [] for name in cases}
-    for _ in range(args.repeat):
-        for name, system in cases.items():
-            runs[name].append(timed(system, args.stop, [loop_metrics()], profile=False))
+    names = list(cases)
+    for r in range(args.repeat):  # in turn, each round starting one case later: no case always runs first
+        for name in names[r % len(names):] + names[:r % len(names)]:
+            runs[name].append(timed(cases[name], args.stop, [loop_metrics()], profile=False))
     reference = best(runs["no fault"]).us_per_tick()
     for name in cases:
         us = best(runs[name]).us_per_tick()
