@@ -77,7 +77,17 @@ def campaign(spec: Path, out: Path, fmus: Path, workers: int, alone_runs: int) -
     rate = counts["ran"] / counts["seconds"]
     return {"workers": workers, "runs": counts["ran"], "seconds": counts["seconds"], "total": total, "rate": rate,
             "alone": alone, "before": before, "after": after, "efficiency": rate / workers * alone,
-            "in_worker": sum(t["wall_s"] for t in timings) / len(timings)}
+            "in_worker": sum(t["wall_s"] for t in timings) / len(timings),
+            # a worker's first run loads and instantiates the FMUs (its setup: about a second); the others restart them
+            "warm": _mean([t["wall_s"] for t in timings if t["setup_s"] < COLD_SETUP]),
+            "cold": _mean([t["wall_s"] for t in timings if t["setup_s"] >= COLD_SETUP])}
+
+
+COLD_SETUP = 0.1  # s of setup above which a run is a worker's first (FMUs loaded), not a restart (a few ms)
+
+
+def _mean(values: list[float]) -> float:
+    return sum(values) / len(values) if values else float("nan")
 
 
 def main() -> None:
@@ -104,7 +114,8 @@ def main() -> None:
                 print(f"{scenario.upper()}, {workers} worker(s): {r['runs']} runs in {r['seconds']:.2f} s = {r['rate']:.2f} runs/s, "
                       f"{r['rate'] / workers:.2f} per worker; one run alone {r['alone']:.3f} s ({r['before']:.3f} before, "
                       f"{r['after']:.3f} after) = {1 / r['alone']:.2f} runs/s; parallel efficiency {r['efficiency']:.2f}; "
-                      f"a run inside a worker {r['in_worker']:.3f} s; with the cluster's start and stop {r['total']:.1f} s",
+                      f"a run inside a worker {r['in_worker']:.3f} s (a worker's first, loading the FMUs, {r['cold']:.3f} s; "
+                      f"the others {r['warm']:.3f} s); with the cluster's start and stop {r['total']:.1f} s",
                       flush=True)
     print(f"\nload average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
 
