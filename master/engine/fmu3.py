@@ -15,9 +15,10 @@ is the Event Mode that follows fmi3ExitInitializationMode. The setters the execu
 they reach the FMU in the Step Mode before the step (continuous inputs) or in the Event Mode (discrete and
 clocked ones; a discrete input that changed makes the step an event). `activations` records every clock tick.
 
-The C tick loop (native/tl_loop.c) steps it through its Python callback, as it does a slave in a worker process:
-the kernel gathers the inputs (faults applied), the callback sets them here, steps and reads the outputs into
-`values`, where the kernel's output faults and records find them. A snapshot's bytes (get_state) carry the FMU's
+Without clocks the C tick loop (native/tl_loop.c) calls its fmi3 functions itself (set, fmi3DoStep, get), as it
+calls an FMI 2.0 FMU's fmi2 ones, into `values`. A clocked one it steps through its Python callback, as it does a
+slave in a worker process: the kernel gathers the inputs (faults applied), the callback sets them here, steps and
+reads the outputs into `values`, where the kernel's output faults and records find them. A snapshot's bytes (get_state) carry the FMU's
 own serialized state and what this slave holds besides: the clocked outputs as read at their last ticks and a
 pending event.
 """
@@ -217,7 +218,21 @@ class Fmu3Slave(Slave):
         self._next_event: float | None = None
 
     def _setter(self, t: str):
-        """The execution's setter for type t (fmi2Set<type> signature): stages the values for the next step."""
+        """The execution's setter for type t (fmi2Set<type> signature). Without clocks it sets the values at once (in
+        Step Mode, as the C loop's own calls do); with clocks it stages them for the next step, which sets each kind
+        when the standard allows (Event Mode for the discrete and clocked ones)."""
+        if not self.clocked:
+            raw = self._raw["Set", t]
+
+            def set_now(component, vrs, n, values) -> int:
+                started = time.perf_counter()
+                if t == "Boolean":  # fmi3Boolean is a C bool, the execution's Booleans are int
+                    values = (ctypes.c_bool * n)(*[bool(x) for x in values[:n]])
+                status = raw(component, vrs, n, values, n)
+                self.fmi_seconds += time.perf_counter() - started
+                return status
+            return set_now
+
         def stage(component, vrs, n, values) -> int:
             entry = self._staged.get(ctypes.addressof(vrs))
             if entry is None:

@@ -107,6 +107,42 @@ def test_faults_act_on_the_clocked_loop_as_on_the_fmi2_loop(fmus, fmi3_set, faul
     assert _metrics(clocked, stop) == _metrics(fmi2, stop) != _metrics(free, stop)  # the fault acts, alike
 
 
+class RecordAll(Observer):
+    """Every output of every instance after each of its steps, as bytes."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[str, float, bytes]] = []
+
+    def on_step(self, instance, t) -> None:
+        self.rows.append((instance.name, t, b"".join(instance.values[typ].tobytes() for typ in ("Real", "Integer", "Boolean"))))
+
+
+@pytest.mark.parametrize("fault, stop", [("gps_dropout", 17.0), ("thrust_loss", 21.0), ("servo_stuck", 11.0)])
+def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set, fault, stop, monkeypatch):
+    """FMI 3.0 FMUs without clocks: the C loop calls their fmi3 functions; forced through the Python callback instead,
+    every logged value is the same, faults (on outputs, on a connection, on an unconnected Boolean input) included."""
+    from support import ROOT
+    from tiltload.master.engine.manipulators import load as load_faults
+    from tiltload.master.engine.native import loop as native_loop
+
+    runs = {}
+    for path in ("kernel", "python"):
+        if path == "python":
+            monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
+        system = default_system(fmi3_set, "zse", 1, "mixed", seed=2, fmi=3)
+        system.faults = load_faults(ROOT / "docs" / "faults" / f"{fault}.json")
+        rec = RecordAll()
+        ex = Execution(system, [rec])
+        ex.instantiate()
+        try:
+            assert [bool(c.fmi3) for c in ex.loop.instances] == [path == "kernel"] * len(system.instances)
+            ex.run(stop)
+        finally:
+            ex.close()
+        runs[path] = rec.rows
+    assert runs["kernel"] == runs["python"] and len(runs["kernel"]) > 3000
+
+
 def test_restart_on_the_same_instances_repeats_the_run(fmi3_set):
     """Campaigns run many runs on one set of instances: fmi3Reset, then initialization again."""
     system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)

@@ -49,8 +49,10 @@ FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # tl_loo
 
 class Instance(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
-                ("get", ctypes.c_void_p * TYPES), ("every", ctypes.c_int), ("continuous", ctypes.c_int),
-                ("by_callback", ctypes.c_int), ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
+                ("get", ctypes.c_void_p * TYPES), ("do_step3", ctypes.c_void_p), ("set3", ctypes.c_void_p * TYPES),
+                ("get3", ctypes.c_void_p * TYPES), ("every", ctypes.c_int), ("continuous", ctypes.c_int),
+                ("by_callback", ctypes.c_int), ("fmi3", ctypes.c_int), ("booleans", ctypes.c_void_p),
+                ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
                 ("n_out", ctypes.c_int * TYPES), ("out_vrs", ctypes.c_void_p * TYPES), ("out", ctypes.c_void_p * TYPES),
                 ("history", ctypes.c_void_p * TYPES), ("n_groups", ctypes.c_int), ("groups", ctypes.POINTER(Group)),
                 ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double)]

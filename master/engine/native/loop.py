@@ -4,7 +4,8 @@ The plan points at the arrays the engine already has: each slave's output arrays
 fills), each connection group's value-reference and value arrays, the delay line; so Python and C
 read and write the same memory, and a manipulator (a fault) that the kernel calls back acts on the
 same values it did when Python stepped. Slaves the kernel cannot call directly (an FMU in a worker
-process, an FMI 3.0 FMU) are stepped through a callback. After each call the kernel's records of
+process, a clocked FMI 3.0 FMU) are stepped through a callback; an FMI 3.0 FMU without clocks the kernel calls
+through its fmi3 functions, as an FMI 2.0 one through its fmi2 functions. After each call the kernel's records of
 every step are handed to the observers as one Batch.
 """
 
@@ -14,7 +15,9 @@ import ctypes
 
 import numpy as np
 
+from ..errors import ExecutionError
 from ..fmu import InProcessFmu
+from ..fmu3 import FMI3_NAME, Fmu3Slave
 from ..observers import Batch
 from ..slave import TYPES
 from . import kernel
@@ -32,6 +35,16 @@ class _EventQueue:
 
     def on_fault(self, t, fault, what) -> None:
         self.events.append((int(self.plan.records), t, fault, what))
+
+
+def _native_fmi3(slave) -> bool:
+    """An FMI 3.0 FMU in this process without clocks: the kernel calls its fmi3 functions itself. A clocked one (Event
+    Mode, clocks, the staging of inputs by kind) is stepped through the callback."""
+    return isinstance(slave, Fmu3Slave) and not slave.clocked
+
+
+def _fmi3_function(slave, name: str) -> int:
+    return ctypes.cast(getattr(slave.fmu.dll, name), ctypes.c_void_p).value
 
 
 def _address(array) -> int:
@@ -60,10 +73,15 @@ class NativeLoop:
             slave, c = self.slaves[i], self.instances[i]
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
-            c.by_callback = not isinstance(slave, InProcessFmu)
-            if not c.by_callback:
+            fmi3 = _native_fmi3(slave)
+            c.by_callback = not (isinstance(slave, InProcessFmu) or fmi3)
+            c.fmi3 = fmi3
+            if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
+            elif fmi3:
+                c.component = slave.component
+                c.do_step3 = _fmi3_function(slave, "fmi3DoStep")
 
             history, record = {}, {}
             for t, typ in enumerate(TYPES):
@@ -73,9 +91,12 @@ class NativeLoop:
                 vrs = (ctypes.c_uint * max(values.size, 1))(*slave.out_vrs[typ])
                 self._keep.append(vrs)
                 c.out_vrs[t] = _address(vrs)
-                if not c.by_callback:
+                if isinstance(slave, InProcessFmu):
                     c.set[t] = slave.function_pointer(f"fmi2Set{typ}")
                     c.get[t] = slave.function_pointer(f"fmi2Get{typ}")
+                elif fmi3:
+                    c.set3[t] = _fmi3_function(slave, f"fmi3Set{FMI3_NAME[typ]}")
+                    c.get3[t] = _fmi3_function(slave, f"fmi3Get{FMI3_NAME[typ]}")
                 if self.slots:
                     history[typ] = np.zeros((self.slots, values.size), dtype=_DTYPE[typ])
                     c.history[t] = history[typ].ctypes.data
@@ -92,6 +113,11 @@ class NativeLoop:
                 g.src_index, g.dst_vrs, g.values = src_index.ctypes.data, _address(group.dst_vrs), _address(group.values)
             self._keep.append(c_groups)
             c.n_groups, c.groups = len(groups), c_groups
+            if fmi3:  # fmi3Boolean is a C bool: the kernel converts through this buffer
+                room = max([slave.values["Boolean"].size, *(len(g.view) for g in groups if g.type == "Boolean"), 1])
+                booleans = (ctypes.c_bool * room)()
+                self._keep.append(booleans)
+                c.booleans = _address(booleans)
         self.record_instance = np.zeros(chunk * n, dtype=np.int32)
         self.record_tick = np.zeros(chunk * n, dtype=np.int64)
         self.record_time = np.zeros(chunk * n, dtype=np.float64)
@@ -230,12 +256,16 @@ class NativeLoop:
             err, self._pending = self._pending, None
             return err if err is not None else RuntimeError("a callback of the tick loop failed")
         slave, t = self.slaves[p.error_instance], p.error_time
+        name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
         if p.error_kind == 1:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
         if p.error_kind == 2:
             group = self.ex.groups[self.names[p.error_instance]][p.error_group]
-            return slave.failed(f"set{group.type} from {group.source} at t={t:.6g} s", p.error_status)
-        return slave.failed(f"get{TYPES[p.error_type]}", p.error_status)
+            return slave.failed(f"set{name(group.type)} from {group.source} at t={t:.6g} s", p.error_status)
+        if p.error_kind == 6:
+            h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
+            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
+        return slave.failed(f"get{name(TYPES[p.error_type])}", p.error_status)
 
     def delay_line(self) -> list[dict[str, np.ndarray]]:
         """The delay line's slots per instance and type (a snapshot saves them)."""

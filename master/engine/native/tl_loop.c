@@ -137,6 +137,22 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
     }
 }
 
+/* FMI 3.0 sets and gets: the values' length passed; Booleans through the instance's bool buffer (int in the arrays). */
+static int set3(tl_instance *in, int type, const unsigned int *vrs, int n, const void *values) {
+    if (type != 2) return in->set3[type](in->component, vrs, (size_t)n, values, (size_t)n);
+    const int *ints = values;
+    for (int j = 0; j < n; j++) in->booleans[j] = ints[j] != 0;
+    return in->set3[type](in->component, vrs, (size_t)n, in->booleans, (size_t)n);
+}
+
+static int get3(tl_instance *in, int type, const unsigned int *vrs, int n, void *values) {
+    if (type != 2) return in->get3[type](in->component, vrs, (size_t)n, values, (size_t)n);
+    int status = in->get3[type](in->component, vrs, (size_t)n, in->booleans, (size_t)n);
+    int *ints = values;
+    for (int j = 0; j < n; j++) ints[j] = in->booleans[j] ? 1 : 0;
+    return status;
+}
+
 /* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
@@ -156,20 +172,33 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         int64_t started = plan->profile ? tl_monotonic_ns() : 0;
         for (int g = 0; g < in->n_groups; g++) {
             tl_group *gr = &in->groups[g];
-            int status = in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
+            int status = in->fmi3 ? set3(in, gr->type, gr->dst_vrs, gr->n, gr->values)
+                                  : in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
             if (status > 1) {
                 fail(plan, 2, i, status, g, gr->type, t);
                 return 1;
             }
         }
-        int status = in->do_step(in->component, t, h, 1);
+        int status;
+        if (in->fmi3) {
+            bool event_needed = false, terminate = false, early_return = false;
+            double last_time = t;
+            status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
+            if (status <= 1 && terminate) {
+                fail(plan, 6, i, status, -1, -1, t);
+                return 1;
+            }
+        } else {
+            status = in->do_step(in->component, t, h, 1);
+        }
         if (status > 1) {
             fail(plan, 1, i, status, -1, -1, t);
             return 1;
         }
         for (int ty = 0; ty < TL_TYPES; ty++) {
             if (in->n_out[ty] == 0) continue;
-            status = in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
+            status = in->fmi3 ? get3(in, ty, in->out_vrs[ty], in->n_out[ty], in->out[ty])
+                              : in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
             if (status > 1) {
                 fail(plan, 3, i, status, -1, ty, t);
                 return 1;

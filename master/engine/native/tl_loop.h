@@ -13,6 +13,7 @@
 #ifndef TL_LOOP_H
 #define TL_LOOP_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -21,6 +22,11 @@
 typedef int (*tl_do_step_fn)(void *component, double t, double h, int no_set_prior);
 typedef int (*tl_set_fn)(void *component, const unsigned int *vrs, size_t n, const void *values);
 typedef int (*tl_get_fn)(void *component, const unsigned int *vrs, size_t n, void *values);
+/* FMI 3.0 (an FMU without clocks): the value arrays' length is passed too; fmi3Boolean is a C bool */
+typedef int (*tl_do_step3_fn)(void *instance, double t, double h, bool no_set_prior, bool *event_needed,
+                              bool *terminate, bool *early_return, double *last_time);
+typedef int (*tl_set3_fn)(void *instance, const unsigned int *vrs, size_t n, const void *values, size_t n_values);
+typedef int (*tl_get3_fn)(void *instance, const unsigned int *vrs, size_t n, void *values, size_t n_values);
 /* Python callbacks: return 0 when done; any other value stops the run (the Python side keeps the reason). */
 typedef int (*tl_step_callback)(int instance, double t, double h);
 typedef int (*tl_hook_callback)(int instance, int side, double t); /* side 0: inputs about to be set, 1: outputs read */
@@ -56,9 +62,14 @@ typedef struct {
     tl_do_step_fn do_step;
     tl_set_fn set[TL_TYPES];
     tl_get_fn get[TL_TYPES];
+    tl_do_step3_fn do_step3;    /* fmi3: the FMI 3.0 functions instead (do_step, set and get unused) */
+    tl_set3_fn set3[TL_TYPES];
+    tl_get3_fn get3[TL_TYPES];
     int every;                  /* period in ticks */
     int continuous;             /* outputs of doStep(t, h) hold the value at t + h */
     int by_callback;            /* stepped by the Python step callback (it sets inputs, steps, reads outputs) */
+    int fmi3;                   /* an FMI 3.0 FMU without clocks: called through do_step3, set3 and get3 */
+    bool *booleans;             /* fmi3: room for its most Boolean values in one call (they are int in the arrays) */
     int hook_inputs, hook_outputs; /* call the hook callback before the sets / after the gets */
     int n_out[TL_TYPES];
     const unsigned int *out_vrs[TL_TYPES];
