@@ -15,6 +15,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+import threading
 from functools import cache
 from pathlib import Path
 
@@ -86,12 +87,16 @@ def _compiler() -> str:
     return cc
 
 
+_BUILDING = threading.RLock()  # one build at a time in this process; other processes are kept apart by the rename
+
+
 def _build(cc: str, command: list[str], folder: Path, name: str) -> Path:
     target = folder / f"{name}.so"
     if target.is_file():
         return target
     folder.mkdir(parents=True, exist_ok=True)
-    partial = folder / f"{name}.{os.getpid()}.partial.so"
+    # unique per process and thread: two builders never write the same file, and the rename below publishes one
+    partial = folder / f"{name}.{os.getpid()}.{threading.get_ident()}.partial.so"
     proc = subprocess.run([cc, *command, "-o", str(partial)], capture_output=True, text=True)
     if proc.returncode != 0:
         raise KernelError(f"compiling {name} with {cc} failed: {proc.stderr.strip().splitlines()[:1]}")
@@ -109,11 +114,12 @@ def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) 
     command = [*flags, *(str(f) for f in sources if str(f).endswith(".c")), *(f"-l{lib}" for lib in libraries)]
     h.update(" ".join((cc, *command[:len(flags)], *libraries)).encode())
     digest = h.hexdigest()[:16]
-    try:
-        path = _build(cc, command, _cache_root() / "kernels" / digest, name)
-    except OSError:  # no writable cache: a private folder for this process
-        path = _build(cc, command, Path(tempfile.mkdtemp(prefix="tiltload_kernel_")), name)
-    return ctypes.CDLL(str(path))
+    with _BUILDING:  # the loop and the log writer's thread may ask for the same library at once
+        try:
+            path = _build(cc, command, _cache_root() / "kernels" / digest, name)
+        except OSError:  # no writable cache: a private folder for this process
+            path = _build(cc, command, Path(tempfile.mkdtemp(prefix="tiltload_kernel_")), name)
+        return ctypes.CDLL(str(path))
 
 
 @cache

@@ -1,0 +1,39 @@
+"""The kernel's libraries are built on first use into the cache; threads and processes that ask at once all get a
+whole library (the CI once loaded a half-written tl_loop.so from the log writer's thread)."""
+import ctypes
+import threading
+
+from tiltload.master.engine.native import kernel
+
+SOURCE = '__attribute__((visibility("default"))) int tl_answer(void) { return 42; }\n'
+
+
+def test_threads_asking_for_one_new_library_at_once_all_load_it(tmp_path, monkeypatch):
+    c = tmp_path / "answer.c"
+    c.write_text(SOURCE)
+    for attempt in range(6):  # the race, when there is one, is met in about one attempt in five
+        cache = tmp_path / f"cache{attempt}"
+        monkeypatch.setenv("TILTLOAD_CACHE", str(cache))
+        _all_threads_load_it(c, cache)
+
+
+def _all_threads_load_it(c, cache):
+    start, results, errors = threading.Barrier(8), [], []
+
+    def ask():
+        start.wait()
+        try:
+            lib = kernel.compiled("answer", (c,))
+            lib.tl_answer.restype = ctypes.c_int
+            results.append(lib.tl_answer())
+        except Exception as e:  # noqa: BLE001 - the test reports what any thread met
+            errors.append(repr(e))
+
+    threads = [threading.Thread(target=ask) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == [] and results == [42] * 8
+    built = list((cache / "kernels").rglob("*"))
+    assert [p.name for p in built if p.is_file()] == ["answer.so"]  # no partial file left behind
