@@ -12,8 +12,10 @@ layer differs (c/tl_fmi2.c or c/tl_fmi3.c, sharing c/tl_core.c).
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import tempfile
+import threading
 import zipfile
 from pathlib import Path
 
@@ -105,7 +107,8 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
         (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, "fmi_version": fmi_version,
                                                     **(info or {}), "platforms": [t.binary_folder(fmi_version) for t in toolchains],
                                                     "warnings": warnings}, indent=1))
-        partial = target.with_name(target.name + ".partial")
+        # one name per process and thread: two builds of the same FMU at once never write the same file
+        partial = target.with_name(f"{target.name}.{os.getpid()}.{threading.get_ident()}.partial")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(stage.rglob("*")):
                 if f.is_file():

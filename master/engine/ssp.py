@@ -21,6 +21,7 @@ import hashlib
 import io
 import json
 import os
+import threading
 import zipfile
 from pathlib import Path
 
@@ -276,7 +277,7 @@ def _unpack(path: Path, into: Path) -> Path:
     folder = Path(into) / package_digest(path)[:20]
     if (folder / ".complete").exists():
         return folder
-    partial = folder.with_name(f"{folder.name}.{os.getpid()}.partial")
+    partial = folder.with_name(f"{folder.name}.{os.getpid()}.{threading.get_ident()}.partial")  # one per unpacker
     shutil.rmtree(partial, ignore_errors=True)
     try:
         with zipfile.ZipFile(path) as z:
