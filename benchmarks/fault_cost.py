@@ -1,9 +1,11 @@
 """What a fault costs the tick loop: us per tick of the FSI loop (the cheapest, where a cost shows most) with one fault
 active the whole run, against the same loop without faults.
 
-Value faults (override, bias, scale, ramp, clamp, hold) run inside the C tick loop; noise, dropout, delay, stale and
-jitter are applied in Python through the loop's hook at that one instance's side (its other connections, and the
-other instances, stay in C). Each fault acts on the three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the
+Value faults (override, bias, scale, ramp, clamp, hold) and noise run inside the C tick loop; dropout, delay, stale
+and jitter are applied in Python through the loop's hook at that one instance's side (its other connections, and the
+other instances, stay in C). Noise and jitter draw from default_rng([seed, fault, tick]); the kernel's C makes those
+draws (tl_draw.c); the "numpy draws" cases make them with numpy in Python instead, as before the kernel could, side
+by side. Each fault acts on the three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the
 GPS pair with its flag, as docs/faults/gps_dropout.json), from t = 0. Trajectory 1, mixed design, no log, the loop's
 metrics, best of --repeat runs taken in turn (each round starting one case later); the FMU calls are not timed (as a user's run).
 
@@ -13,6 +15,7 @@ Run: python benchmarks/fault_cost.py [--stop 20] [--repeat 5]
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 from pathlib import Path
@@ -20,6 +23,7 @@ from pathlib import Path
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine.manipulators import parse
+from tiltload.master.engine.native import kernel
 from timing import best, machine, timed
 
 CAMERA = ["sensors.meas_d_BL_x", "sensors.meas_d_BL_y", "sensors.meas_d_BL_z"]
@@ -27,12 +31,25 @@ FAULTS = {
     "bias (C)": {"action": "bias", "targets": CAMERA, "value": 0.01},
     "scale (C)": {"action": "scale", "targets": ["plant.f_R"], "value": 0.7},
     "hold (C)": {"action": "hold", "targets": CAMERA},
-    "noise (Python)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
+    "noise (C)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
+    "noise (numpy draws)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
     "stale (Python)": {"action": "stale", "targets": CAMERA, "value": 3},
     "delay (Python)": {"action": "delay", "targets": CAMERA, "value": 2},
     "jitter (Python)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
+    "jitter (numpy draws)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
     "dropout (Python)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
 }
+
+
+@contextlib.contextmanager
+def numpy_draws():
+    """Noise and jitter drawn by numpy's Generator in Python (the reference the C draws are tested against)."""
+    saved = kernel.draws_in_c
+    kernel.draws_in_c = lambda: False
+    try:
+        yield
+    finally:
+        kernel.draws_in_c = saved
 
 
 def main() -> None:
@@ -52,11 +69,12 @@ def main() -> None:
     names = list(cases)
     for r in range(args.repeat):  # in turn, each round starting one case later: no case always runs first
         for name in names[r % len(names):] + names[:r % len(names)]:
-            runs[name].append(timed(cases[name], args.stop, [loop_metrics()], profile=False))
+            with numpy_draws() if "numpy" in name else contextlib.nullcontext():
+                runs[name].append(timed(cases[name], args.stop, [loop_metrics()], profile=False))
     reference = best(runs["no fault"]).us_per_tick()
     for name in cases:
         us = best(runs[name]).us_per_tick()
-        print(f"  {name:<17} {us:6.1f} us/tick  ({us - reference:+5.1f} us, x{us / reference:.2f})")
+        print(f"  {name:<21} {us:6.1f} us/tick  ({us - reference:+5.1f} us, x{us / reference:.2f})")
     print("load average at the end: " + ", ".join(f"{x:.1f}" for x in os.getloadavg()))
 
 

@@ -66,6 +66,19 @@ def test_noise_and_jitter_are_seeded_and_bounded(fmus, tmp_path):
         assert x[i] == pytest.approx(truth(t[i] - n * T), abs=1e-12)
 
 
+def test_jitter_and_noise_drawn_in_c_are_numpy_s_draws(fmus, tmp_path, monkeypatch):
+    """The manipulator's jitter (Python, its history) and the kernel's noise draw in C; with numpy drawing both
+    instead (the reference), every logged value is the same."""
+    from tiltload.master.engine.native import kernel
+
+    faults = [{"action": "jitter", "value": 4, "seed": 9}, {"action": "noise", "value": 0.1, "seed": 2**63 + 5}]
+    in_c = [scenario_run(fmus, tmp_path, f) for f in faults]
+    monkeypatch.setattr(kernel, "draws_in_c", lambda: False)
+    by_numpy = [scenario_run(fmus, tmp_path, f) for f in faults]
+    for (t, x, _), (t2, x2, _) in zip(in_c, by_numpy):
+        assert np.array_equal(t, t2) and np.array_equal(x, x2) and not np.array_equal(x, truth(t))
+
+
 def test_dropout_holds_the_last_sample_and_keeps_the_flag_down(fmus, tmp_path):
     system = System(T, [Instance("sensors", fmus / "TiltloadSensors.fmu")])
     system.faults = parse([{"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new",
@@ -198,12 +211,26 @@ VALUE_FAULTS = [{"action": "override", "target": "sensors.meas_z_B", "value": 1.
                 {"action": "scale", "targets": ["plant.f_L", "plant.tau_R"], "value": 0.8, "start": 0.25, "end": 0.9},
                 {"action": "ramp", "target": "sensors.meas_x_B", "value": 0.05, "start": 0.1, "end": 1.0},
                 {"action": "clamp", "target": "controller.tau_L", "value": [-0.01, 0.01], "start": 0.4},
-                {"action": "hold", "target": "scenario.x_ref", "start": 0.5, "end": 0.8}]
+                {"action": "hold", "target": "scenario.x_ref", "start": 0.5, "end": 0.8},
+                {"action": "noise", "targets": ["sensors.meas_y_B", "plant.tau_L"], "value": 0.02, "start": 0.15,
+                 "end": 0.7, "seed": 2**40 + 11}]
 
 
 def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmus, tmp_path, monkeypatch):
-    """The six value faults, applied by the C tick loop, against the same faults applied by the Python manipulator."""
+    """The six value faults and noise, applied by the C tick loop, against the same faults applied by the Python
+    manipulator (noise: drawn by numpy there, by tl_draw.c in the loop)."""
+    from tiltload.master.engine.execution import Execution
     from tiltload.master.engine.manipulators import Manipulator
+    from tiltload.master.engine.native import kernel
+
+    system = default_system(fmus, "zse", 1, "mixed")
+    system.faults = parse(VALUE_FAULTS)
+    ex = Execution(system, [])
+    try:
+        ex.instantiate()
+        assert ex.manipulator.native == set(range(len(VALUE_FAULTS)))  # all seven in C: the comparison means something
+    finally:
+        ex.close()
 
     def run(name):
         system = default_system(fmus, "zse", 1, "mixed")
@@ -212,7 +239,8 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
         assert res.error is None
         return res.metrics, log_reader.read(tmp_path / f"{name}.mcap")
     native = run("native")
-    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k: False)
+    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k, noise=False: False)
+    monkeypatch.setattr(kernel, "draws_in_c", lambda: False)  # and the noise drawn by numpy: the reference
     python = run("python")
     assert native[0] == python[0] and native[1] == python[1]
-    assert len(native[1]["/faults"]) == 10  # six starts, four ends within 1.2 s
+    assert len(native[1]["/faults"]) == 12  # seven starts, five ends within 1.2 s

@@ -1,5 +1,5 @@
-"""The engine's C kernel: the tick loop (tl_loop.c) and the log's record layout (tl_mcap.c), compiled once with
-the system C compiler, loaded with ctypes.
+"""The engine's C kernel: the tick loop (tl_loop.c), the log's record layout (tl_mcap.c) and the noise fault's draws
+(tl_draw.c, linked with numpy's own C random library), compiled once with the system C compiler, loaded with ctypes.
 
 A library is built into $TILTLOAD_CACHE/kernels/<digest of sources, compiler and flags>/ (else
 $XDG_CACHE_HOME/tiltload or ~/.cache/tiltload; a temporary folder if none is writable), so a
@@ -20,7 +20,9 @@ from functools import cache
 from pathlib import Path
 
 HERE = Path(__file__).parent
-SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h")
+SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h", HERE / "tl_draw.h")
+DRAWS = (HERE / "tl_draw.c",)
+ENTROPY_WORDS = 16  # tl_draw.h's TL_ENTROPY_WORDS
 # No floating-point arithmetic depends on these flags but t_k = k * tick (one product, exact in IEEE double).
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-Wall", "-Wextra")
 TYPES = 3
@@ -42,10 +44,11 @@ class Fault(ctypes.Structure):
     _fields_ = [("instance", ctypes.c_int), ("side", ctypes.c_int), ("action", ctypes.c_int), ("type", ctypes.c_int),
                 ("array", ctypes.c_void_p), ("index", ctypes.c_int), ("value", ctypes.c_double), ("high", ctypes.c_double),
                 ("start", ctypes.c_double), ("end", ctypes.c_double), ("fault", ctypes.c_int), ("reports", ctypes.c_int),
-                ("holding", ctypes.c_int), ("held", ctypes.c_double)]
+                ("holding", ctypes.c_int), ("held", ctypes.c_double), ("n_entropy", ctypes.c_int),
+                ("entropy", ctypes.c_uint32 * ENTROPY_WORDS)]
 
 
-FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # tl_loop.h's enum, in order
+FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise")  # tl_loop.h's enum, in order
 
 
 class Instance(ctypes.Structure):
@@ -105,13 +108,13 @@ def _build(cc: str, command: list[str], folder: Path, name: str) -> Path:
 
 
 def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) -> ctypes.CDLL:
-    """The shared library of these C sources (the .c files compiled, headers only in the digest), built on first use
-    into the cache and loaded. KernelError: no compiler, or it failed."""
+    """The shared library of these C sources (the .c files compiled, .a archives linked, headers only in the digest),
+    built on first use into the cache and loaded. KernelError: no compiler, or it failed."""
     cc = _compiler()
     h = hashlib.sha256()
     for f in sources:
         h.update(Path(f).read_bytes())
-    command = [*flags, *(str(f) for f in sources if str(f).endswith(".c")), *(f"-l{lib}" for lib in libraries)]
+    command = [*flags, *(str(f) for f in sources if str(f).endswith((".c", ".a"))), *(f"-l{lib}" for lib in libraries)]
     h.update(" ".join((cc, *command[:len(flags)], *libraries)).encode())
     digest = h.hexdigest()[:16]
     with _BUILDING:  # the loop and the log writer's thread may ask for the same library at once
@@ -125,7 +128,17 @@ def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) 
 @cache
 def library() -> ctypes.CDLL:
     """The compiled kernel, with its functions' signatures set."""
-    lib = compiled("tl_loop", SOURCES)
+    numpy_random = _numpy_random()
+    if numpy_random is None:  # the noise fault is then drawn in Python (draws_in_c() is False)
+        lib = compiled("tl_loop", SOURCES, libraries=("m",))
+    else:
+        archive, include = numpy_random
+        lib = compiled("tl_loop", (*SOURCES, *DRAWS, archive), (*CFLAGS, "-DTL_DRAWS", f"-I{include}"), ("m",))
+        words = ctypes.POINTER(ctypes.c_uint32)
+        lib.tl_draw_normal.argtypes = [words, ctypes.c_int, ctypes.c_uint64]
+        lib.tl_draw_normal.restype = ctypes.c_double
+        lib.tl_draw_bounded.argtypes = [words, ctypes.c_int, ctypes.c_uint64, ctypes.c_uint64]
+        lib.tl_draw_bounded.restype = ctypes.c_uint64
     lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_run.restype = ctypes.c_int64
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
@@ -138,4 +151,27 @@ def library() -> ctypes.CDLL:
                                ("tl_mcap_fill", [n, n, p, p, p, p, n, p, n, p, p, p, p, p, n], n)):
         getattr(lib, name).argtypes, getattr(lib, name).restype = args, result
     return lib
+
+
+def _numpy_random() -> tuple[Path, Path] | None:
+    """numpy's C random library (libnpyrandom.a, shipped for C consumers) and its bitgen.h folder, if this numpy has
+    them: the kernel draws the noise fault's normals with numpy's own ziggurat, so C and Python draw the same."""
+    import numpy
+
+    archive = Path(numpy.__file__).parent / "random" / "lib" / "libnpyrandom.a"
+    include = Path(numpy.get_include())
+    return (archive, include) if archive.is_file() and (include / "numpy" / "random" / "bitgen.h").is_file() else None
+
+
+def draws_in_c() -> bool:
+    """The kernel applies the noise fault itself (this numpy ships its C random library)."""
+    return hasattr(library(), "tl_draw_normal")
+
+
+def entropy_words(*values: int) -> list[int]:
+    """numpy's SeedSequence words of these non-negative integers (each little-endian in 32-bit words, 0 as [0])."""
+    out = []
+    for v in values:
+        out.extend([v & 0xFFFFFFFF] if v == 0 else [(v >> s) & 0xFFFFFFFF for s in range(0, v.bit_length(), 32)])
+    return out
 

@@ -47,6 +47,15 @@ def _fmi3_function(slave, name: str) -> int:
     return ctypes.cast(getattr(slave.fmu.dll, name), ctypes.c_void_p).value
 
 
+def _entropy(fault, k: int) -> dict:
+    """The noise fault's seed words: [seed, k] as numpy's SeedSequence reads them (manipulators.py draws from
+    default_rng([seed, k, tick]))."""
+    if fault.action != "noise":
+        return {}
+    words = kernel.entropy_words(fault.seed, k)
+    return {"n_entropy": len(words), "entropy": (ctypes.c_uint32 * kernel.ENTROPY_WORDS)(*words)}
+
+
 def _address(array) -> int:
     return ctypes.cast(array, ctypes.c_void_p).value if not isinstance(array, np.ndarray) else array.ctypes.data
 
@@ -141,10 +150,12 @@ class NativeLoop:
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
 
     def _native_faults(self, manipulator, index: dict[str, int]) -> None:
-        """The value faults the kernel applies itself (override, bias, scale, ramp, clamp, hold), one entry per target."""
+        """The value faults the kernel applies itself (override, bias, scale, ramp, clamp, hold; noise when it has
+        numpy's draws), one entry per target."""
         ops, self._fault_targets = [], []
         if manipulator is not None:
-            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k)}
+            noise = kernel.draws_in_c()
+            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k, noise)}
             for k in sorted(manipulator.native):
                 f = manipulator.faults[k]
                 for j, target in enumerate(f.targets):
@@ -155,7 +166,8 @@ class NativeLoop:
                                             array=array.ctypes.data, index=i,
                                             value=float(value) if value is not None else 0.0,
                                             high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
-                                            end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0))
+                                            end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0,
+                                            **_entropy(f, k)))
                     self._fault_targets.append((k, target))
         self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
         self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)

@@ -5,6 +5,8 @@
 #endif
 #include "tl_loop.h"
 
+#include <math.h>
+
 #include <string.h>
 #include <time.h>
 
@@ -132,6 +134,11 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             }
             *x = q->held;
             break;
+#ifdef TL_DRAWS
+        case TL_NOISE: /* x + sigma N(0, 1) of default_rng([seed, fault, tick]), as manipulators.py draws it */
+            *x = *x + q->value * tl_draw_normal(q->entropy, q->n_entropy, (uint64_t)nearbyint(t / plan->tick));
+            break;
+#endif
         default: break;
         }
     }

@@ -17,6 +17,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "tl_draw.h"
+
 #define TL_TYPES 3 /* Real (double), Integer (int), Boolean (int, as fmi2Boolean) */
 
 typedef int (*tl_do_step_fn)(void *component, double t, double h, int no_set_prior);
@@ -41,9 +43,10 @@ typedef struct {
     void *values;               /* n values the set reads (double or int) */
 } tl_group;
 
-/* A value fault the loop applies itself (override, bias, scale, ramp, clamp, hold: functions of time and value),
-   at its instance's inputs (side 0, after the gather) or outputs (side 1, after the gets). */
-enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD };
+/* A value fault the loop applies itself (override, bias, scale, ramp, clamp, hold: functions of time and value;
+   noise: of time, value and seed), at its instance's inputs (side 0, after the gather) or outputs (side 1, after the
+   gets). */
+enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD, TL_NOISE };
 
 typedef struct {
     int instance, side, action, type;
@@ -55,6 +58,8 @@ typedef struct {
     int reports;                /* this target's transitions are the fault's start and end events */
     int holding;                /* hold: the value taken at the fault's first active tick */
     double held;
+    int n_entropy;              /* noise: numpy's uint32 words of [seed, fault], the tick's added per draw */
+    uint32_t entropy[TL_ENTROPY_WORDS];
 } tl_fault;
 
 typedef struct {
