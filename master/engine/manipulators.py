@@ -243,6 +243,11 @@ class Manipulator:
                         self._where[target] = ("direct", _Direct(inst, v), v.type, 0)
                     self.inputs.setdefault(instance, []).append((k, target))
         self._history: dict[str, list] = {t: [] for t in self._where}
+        lags: dict[str, int] = {}  # the most ticks back any fault reads a target's history
+        for f in self.faults:
+            for target in f.targets:
+                lags[target] = max(lags.get(target, 0), int(f.value) if f.action in _TICKS else 1)
+        self._keep = {t: max(256, lags.get(t, 0) + 2) for t in self._where}
         self._tick = execution.system.tick
         self._draws = _Draws(self.faults)
 
@@ -300,11 +305,12 @@ class Manipulator:
         entries = [e for e in (self.outputs if side == "output" else self.inputs).get(instance, ()) if e[0] not in self.native]
         if not entries:
             return
-        for _, target in entries:  # remember the true values first: delays read them
+        for target in dict.fromkeys(target for _, target in entries):  # the true values first, once a tick: delays read them
             arr, i = self._array(target)
-            self._history[target].append(float(arr[i]))
-            if len(self._history[target]) > 512:
-                del self._history[target][:256]
+            hist = self._history[target]
+            hist.append(float(arr[i]))
+            if len(hist) > self._keep[target] + 256:  # trimmed in steps, never below what the longest lag reads
+                del hist[:-self._keep[target]]
         for k, target in entries:
             f = self.faults[k]
             on = f.active(t)

@@ -52,6 +52,25 @@ def test_each_manipulator_changes_the_signal_exactly_and_only_while_active(fmus,
     assert [(e["event"], round(e["t"], 6)) for e in events] == [("start", 0.36), ("end", 0.72)]
 
 
+def test_a_delay_longer_than_the_history_s_trim_reads_its_own_lag(fmus, tmp_path):
+    """300 ticks (3.6 s) back, past 8 s: the manipulator trims each target's history, never below the longest lag."""
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "delay", "value": 300, "start": 0.0, "end": 100.0}, stop=8.0)
+    late = t >= 300 * T
+    assert t[-1] > 7.9 and np.allclose(x[late], truth(t[late] - 300 * T), rtol=0, atol=1e-12)
+    assert np.array_equal(x[~late], np.full((~late).sum(), truth(0.0)))  # before 3.6 s: the oldest value there is
+
+
+def test_two_python_faults_on_one_target_keep_one_history_sample_a_tick(fmus, tmp_path):
+    """A delay and a second fault on the same target: the delay still reads n ticks back, not n / 2."""
+    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
+    system.faults = parse([{"target": "scenario.x_ref", "action": "delay", "value": 4, "start": 0.36, "end": 0.72},
+                           {"target": "scenario.x_ref", "action": "bias", "value": 0.5, "start": 0.36, "end": 0.72}])
+    res = run_system(system, 1.2, tmp_path / "two.mcap", progress=False)
+    msgs = log_reader.read(res.log)["/scenario"][1:]
+    t, x = np.array([m["t"] for m in msgs]), np.array([m["x_ref"] for m in msgs])
+    np.testing.assert_allclose(x, np.where(ACTIVE(t), truth(t - 4 * T) + 0.5, truth(t)), rtol=0, atol=1e-12)
+
+
 def test_noise_and_jitter_are_seeded_and_bounded(fmus, tmp_path):
     t, x, _ = scenario_run(fmus, tmp_path, {"action": "noise", "value": 0.1, "seed": 3})
     _, again, _ = scenario_run(fmus, tmp_path, {"action": "noise", "value": 0.1, "seed": 3})
