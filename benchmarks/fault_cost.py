@@ -1,12 +1,13 @@
 """What a fault costs the tick loop: us per tick of the FSI loop (the cheapest, where a cost shows most) with one fault
 active the whole run, against the same loop without faults.
 
-Value faults (override, bias, scale, ramp, clamp, hold) and noise run inside the C tick loop; dropout, delay, stale
-and jitter are applied in Python through the loop's hook at that one instance's side (its other connections, and the
-other instances, stay in C). Noise and jitter draw from default_rng([seed, fault, tick]); the kernel's C makes those
-draws (tl_draw.c); the "numpy draws" cases make them with numpy in Python instead, as before the kernel could, side
-by side. Each fault acts on the three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the
-GPS pair with its flag, as docs/faults/gps_dropout.json), from t = 0. Trajectory 1, mixed design, no log, the loop's
+Value faults (override, bias, scale, ramp, clamp, hold), noise, delay, stale and jitter run inside the C tick loop;
+dropout (it holds a group's flag) is applied in Python through the loop's hook at that one instance's side (its other
+connections, and the other instances, stay in C). Noise and jitter draw from default_rng([seed, fault, tick]); the
+kernel's C makes those draws (tl_draw.c); the "numpy draws" cases apply them in Python with numpy's Generator
+instead, and "delay (in Python)" the delay, as before the kernel could, side by side. Each fault acts on the three
+camera measurements (sensors.meas_d_BL_x/y/z; dropout on the GPS pair with its flag, as docs/faults/gps_dropout.json),
+from t = 0. Trajectory 1, mixed design, no log, the loop's
 metrics, best of --repeat runs taken in turn (each round starting one case later); the FMU calls are not timed (as a user's run).
 
 Run: python benchmarks/fault_cost.py [--stop 20] [--repeat 5]
@@ -22,7 +23,7 @@ from pathlib import Path
 
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine.manipulators import parse
+from tiltload.master.engine.manipulators import Manipulator, parse
 from tiltload.master.engine.native import kernel
 from timing import best, machine, timed
 
@@ -33,12 +34,24 @@ FAULTS = {
     "hold (C)": {"action": "hold", "targets": CAMERA},
     "noise (C)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
     "noise (numpy draws)": {"action": "noise", "targets": CAMERA, "value": 0.01, "seed": 1},
-    "stale (Python)": {"action": "stale", "targets": CAMERA, "value": 3},
-    "delay (Python)": {"action": "delay", "targets": CAMERA, "value": 2},
-    "jitter (Python)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
+    "stale (C)": {"action": "stale", "targets": CAMERA, "value": 3},
+    "delay (C)": {"action": "delay", "targets": CAMERA, "value": 2},
+    "delay (in Python)": {"action": "delay", "targets": CAMERA, "value": 2},
+    "jitter (C)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
     "jitter (numpy draws)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
     "dropout (Python)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
 }
+
+
+@contextlib.contextmanager
+def in_python():
+    """The fault applied by the Python manipulator through the loop's hook, as before the kernel could."""
+    saved = Manipulator.native_capable
+    Manipulator.native_capable = lambda self, k, draws=False: False
+    try:
+        yield
+    finally:
+        Manipulator.native_capable = saved
 
 
 @contextlib.contextmanager
@@ -69,7 +82,8 @@ def main() -> None:
     names = list(cases)
     for r in range(args.repeat):  # in turn, each round starting one case later: no case always runs first
         for name in names[r % len(names):] + names[:r % len(names)]:
-            with numpy_draws() if "numpy" in name else contextlib.nullcontext():
+            forced = numpy_draws() if "numpy" in name else in_python() if "in Python" in name else contextlib.nullcontext()
+            with forced:
                 runs[name].append(timed(cases[name], args.stop, [loop_metrics()], profile=False))
     reference = best(runs["no fault"]).us_per_tick()
     for name in cases:

@@ -243,11 +243,11 @@ class Manipulator:
                         self._where[target] = ("direct", _Direct(inst, v), v.type, 0)
                     self.inputs.setdefault(instance, []).append((k, target))
         self._history: dict[str, list] = {t: [] for t in self._where}
-        lags: dict[str, int] = {}  # the most ticks back any fault reads a target's history
+        self._lags: dict[str, int] = {}  # the most ticks back any fault reads a target's history (dropout: 1)
         for f in self.faults:
             for target in f.targets:
-                lags[target] = max(lags.get(target, 0), int(f.value) if f.action in _TICKS else 1)
-        self._keep = {t: max(256, lags.get(t, 0) + 2) for t in self._where}
+                self._lags[target] = max(self._lags.get(target, 0), int(f.value) if f.action in _TICKS else 1)
+        self._keep = {t: max(256, self._lags.get(t, 0) + 2) for t in self._where}
         self._tick = execution.system.tick
         self._draws = _Draws(self.faults)
 
@@ -255,16 +255,34 @@ class Manipulator:
         """Are there faults on this instance's side ("input" or "output") that Python applies?"""
         return any(k not in self.native for k, _ in (self.outputs if side == "output" else self.inputs).get(instance, ()))
 
-    def native_capable(self, k: int, noise: bool = False) -> bool:
-        """A value fault on connected inputs or outputs only, sharing no target with a fault Python applies: the C
-        loop can apply it (override, bias, scale, ramp, clamp, hold are functions of time and value; noise, of time,
-        value and seed, when the kernel draws as numpy does: noise=True)."""
-        actions = (*VALUE_ACTIONS, "noise") if noise else VALUE_ACTIONS
+    def native_capable(self, k: int, draws: bool = False) -> bool:
+        """A fault on connected inputs or outputs only, sharing no target with a fault Python applies: the C loop can
+        apply it. Override, bias, scale, ramp, clamp and hold are functions of time and value; delay and stale read
+        the target's history (Real targets: not a group's flag); noise and jitter also draw, when the kernel draws
+        as numpy does (draws=True). Dropout and faults on unconnected inputs stay here."""
+        actions = (*VALUE_ACTIONS, "delay", "stale", *(("noise", "jitter") if draws else ()))
         f = self.faults[k]
         if f.action not in actions or f.flag:
             return False
-        others = {t for j, g in enumerate(self.faults) if j != k and g.action not in actions for t in g.targets}
+        if f.action in _TICKS and any(self._where[t][2] != "Real" for t in f.targets):
+            return False
+        others = {t for j, g in enumerate(self.faults) if j != k and not self._native_kind(g, actions) for t in g.targets}
         return all(self._where[t][0] in ("input", "output") and t not in others for t in f.targets)
+
+    def _native_kind(self, f: Fault, actions) -> bool:
+        return f.action in actions and not f.flag and not (f.action in _TICKS and any(self._where[t][2] != "Real"
+                                                                                       for t in f.targets))
+
+    def lag(self, target: str) -> int:
+        """The most ticks back a fault reads this target's history."""
+        return self._lags.get(target, 0)
+
+    def history_of(self, target: str) -> list[float]:
+        """The target's true values, oldest first (what delays read)."""
+        return self._history[target]
+
+    def set_history_of(self, target: str, values) -> None:
+        self._history[target] = [float(v) for v in values]
 
     def target(self, target: str):
         """(side, array the value is in, its index, type) of a bound target."""

@@ -232,12 +232,16 @@ VALUE_FAULTS = [{"action": "override", "target": "sensors.meas_z_B", "value": 1.
                 {"action": "clamp", "target": "controller.tau_L", "value": [-0.01, 0.01], "start": 0.4},
                 {"action": "hold", "target": "scenario.x_ref", "start": 0.5, "end": 0.8},
                 {"action": "noise", "targets": ["sensors.meas_y_B", "plant.tau_L"], "value": 0.02, "start": 0.15,
-                 "end": 0.7, "seed": 2**40 + 11}]
+                 "end": 0.7, "seed": 2**40 + 11},
+                {"action": "delay", "target": "sensors.meas_d_BL_x", "value": 3, "start": 0.2, "end": 0.9},
+                {"action": "stale", "target": "sensors.meas_d_BL_y", "value": 40, "start": 0.3},
+                {"action": "jitter", "targets": ["sensors.meas_d_BL_z", "plant.f_L"], "value": 4, "start": 0.1,
+                 "end": 1.1, "seed": 5}]
 
 
 def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmus, tmp_path, monkeypatch):
-    """The six value faults and noise, applied by the C tick loop, against the same faults applied by the Python
-    manipulator (noise: drawn by numpy there, by tl_draw.c in the loop)."""
+    """The six value faults, noise, delay, stale and jitter, applied by the C tick loop, against the same faults
+    applied by the Python manipulator (noise and jitter: drawn by numpy there, by tl_draw.c in the loop)."""
     from tiltload.master.engine.execution import Execution
     from tiltload.master.engine.manipulators import Manipulator
     from tiltload.master.engine.native import kernel
@@ -247,7 +251,7 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
     ex = Execution(system, [])
     try:
         ex.instantiate()
-        assert ex.manipulator.native == set(range(len(VALUE_FAULTS)))  # all seven in C: the comparison means something
+        assert ex.manipulator.native == set(range(len(VALUE_FAULTS)))  # all ten in C: the comparison means something
     finally:
         ex.close()
 
@@ -262,4 +266,4 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
     monkeypatch.setattr(kernel, "draws_in_c", lambda: False)  # and the noise drawn by numpy: the reference
     python = run("python")
     assert native[0] == python[0] and native[1] == python[1]
-    assert len(native[1]["/faults"]) == 12  # seven starts, five ends within 1.2 s
+    assert len(native[1]["/faults"]) == 17  # ten starts, seven ends within 1.2 s

@@ -22,7 +22,10 @@ STOP, AT = 6.0, 3.0
 # active across the snapshot: the manipulator's held samples and flags must survive it
 DROPOUT = [{"name": "GPS lost", "action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"],
             "flag": "sensors.gps_new", "start": 2.0, "end": 4.5},
-           {"action": "bias", "target": "plant.f_R", "value": -0.5, "start": 2.5}]
+           {"action": "bias", "target": "plant.f_R", "value": -0.5, "start": 2.5},
+           # in the C loop: the histories they read (its rings) must survive it too
+           {"action": "delay", "target": "sensors.meas_d_BL_y", "value": 7, "start": 2.9, "end": 3.5},
+           {"action": "jitter", "target": "sensors.meas_d_BL_x", "value": 5, "start": 1.0, "end": 5.0, "seed": 3}]
 
 
 def messages(path: Path) -> dict[str, list]:

@@ -45,10 +45,13 @@ class Fault(ctypes.Structure):
                 ("array", ctypes.c_void_p), ("index", ctypes.c_int), ("value", ctypes.c_double), ("high", ctypes.c_double),
                 ("start", ctypes.c_double), ("end", ctypes.c_double), ("fault", ctypes.c_int), ("reports", ctypes.c_int),
                 ("holding", ctypes.c_int), ("held", ctypes.c_double), ("n_entropy", ctypes.c_int),
-                ("entropy", ctypes.c_uint32 * ENTROPY_WORDS)]
+                ("entropy", ctypes.c_uint32 * ENTROPY_WORDS), ("history", ctypes.c_void_p),
+                ("history_capacity", ctypes.c_int64), ("history_count", ctypes.c_int64), ("history_next", ctypes.c_int64)]
 
 
-FAULT_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise")  # tl_loop.h's enum, in order
+# the faults the loop can apply, by their code in tl_loop.h's enum (delay and stale read the history alike)
+FAULT_ACTIONS = {"override": 0, "bias": 1, "scale": 2, "ramp": 3, "clamp": 4, "hold": 5, "noise": 6, "delay": 7,
+                 "stale": 7, "jitter": 8}
 
 
 class Instance(ctypes.Structure):

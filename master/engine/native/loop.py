@@ -48,9 +48,9 @@ def _fmi3_function(slave, name: str) -> int:
 
 
 def _entropy(fault, k: int) -> dict:
-    """The noise fault's seed words: [seed, k] as numpy's SeedSequence reads them (manipulators.py draws from
-    default_rng([seed, k, tick]))."""
-    if fault.action != "noise":
+    """The noise or jitter fault's seed words: [seed, k] as numpy's SeedSequence reads them (manipulators.py draws
+    from default_rng([seed, k, tick]))."""
+    if fault.action not in ("noise", "jitter"):
         return {}
     words = kernel.entropy_words(fault.seed, k)
     return {"n_entropy": len(words), "entropy": (ctypes.c_uint32 * kernel.ENTROPY_WORDS)(*words)}
@@ -154,20 +154,20 @@ class NativeLoop:
         numpy's draws), one entry per target."""
         ops, self._fault_targets = [], []
         if manipulator is not None:
-            noise = kernel.draws_in_c()
-            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k, noise)}
+            draws = kernel.draws_in_c()
+            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k, draws)}
             for k in sorted(manipulator.native):
                 f = manipulator.faults[k]
                 for j, target in enumerate(f.targets):
                     side, array, i, typ = manipulator.target(target)
                     value = f.value if f.action != "clamp" else f.value[0]
                     ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=0 if side == "input" else 1,
-                                            action=kernel.FAULT_ACTIONS.index(f.action), type=TYPES.index(typ),
+                                            action=kernel.FAULT_ACTIONS[f.action], type=TYPES.index(typ),
                                             array=array.ctypes.data, index=i,
                                             value=float(value) if value is not None else 0.0,
                                             high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
                                             end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0,
-                                            **_entropy(f, k)))
+                                            **_entropy(f, k), **self._history(f, manipulator.lag(target))))
                     self._fault_targets.append((k, target))
         self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
         self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
@@ -181,11 +181,23 @@ class NativeLoop:
         p.event_record, p.event_fault = self.event_record.ctypes.data, self.event_fault.ctypes.data
         p.event_start, p.event_time = self.event_start.ctypes.data, self.event_time.ctypes.data
 
+    def _history(self, fault, lag: int) -> dict:
+        """delay, stale, jitter: a ring of the target's true values, as deep as its longest lag"""
+        if fault.action not in ("delay", "stale", "jitter"):
+            return {}
+        ring = np.zeros(lag + 1, dtype=np.float64)
+        self._keep.append(ring)
+        return {"history": ring.ctypes.data, "history_capacity": ring.size}
+
     def sync_faults(self) -> None:
-        """The kernel's fault state into the manipulator (on/off, held values), for a snapshot."""
+        """The kernel's fault state into the manipulator (on/off, held values, the histories delays read), for a
+        snapshot."""
         m = self.ex.manipulator
         for op, (k, target) in zip(self.faults, self._fault_targets):
             m.set_state_of(k, bool(self.fault_on[k]), target, op.held if op.holding else None)
+            if op.history:
+                ring = np.ctypeslib.as_array((ctypes.c_double * op.history_capacity).from_address(op.history))
+                m.set_history_of(target, np.roll(ring, -op.history_next)[op.history_capacity - op.history_count:])
 
     def push_faults(self) -> None:
         """The manipulator's fault state into the kernel (a run continued from a snapshot)."""
@@ -195,6 +207,11 @@ class NativeLoop:
             self.fault_on[k] = on
             if held is not None:
                 op.holding, op.held = 1, held
+            if op.history:
+                values = m.history_of(target)[-op.history_capacity:]
+                ring = np.ctypeslib.as_array((ctypes.c_double * op.history_capacity).from_address(op.history))
+                ring[:len(values)] = values
+                op.history_count, op.history_next = len(values), len(values) % op.history_capacity
 
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:

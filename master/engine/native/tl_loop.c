@@ -96,7 +96,21 @@ static void record(tl_plan *plan, int i, int64_t k, double when) {
     }
 }
 
+/* The value lag ticks before (the oldest recorded if there are fewer), as manipulators.py reads its history. */
+static double history_back(const tl_fault *q, int64_t lag) {
+    if (lag > q->history_count - 1) lag = q->history_count - 1;
+    int64_t slot = (q->history_next - 1 - lag) % q->history_capacity;
+    return q->history[slot < 0 ? slot + q->history_capacity : slot];
+}
+
 static void apply_faults(tl_plan *plan, int i, int side, double t) {
+    for (int f = 0; f < plan->n_faults; f++) { /* the true values first: a delay reads them, not another fault's */
+        tl_fault *q = &plan->faults[f];
+        if (q->instance != i || q->side != side || q->history == NULL) continue;
+        q->history[q->history_next] = ((double *)q->array)[q->index];
+        q->history_next = (q->history_next + 1) % q->history_capacity;
+        if (q->history_count < q->history_capacity) q->history_count++;
+    }
     for (int f = 0; f < plan->n_faults; f++) {
         tl_fault *q = &plan->faults[f];
         if (q->instance != i || q->side != side) continue;
@@ -134,9 +148,14 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             }
             *x = q->held;
             break;
+        case TL_DELAY: *x = history_back(q, (int64_t)q->value); break;
 #ifdef TL_DRAWS
         case TL_NOISE: /* x + sigma N(0, 1) of default_rng([seed, fault, tick]), as manipulators.py draws it */
             *x = *x + q->value * tl_draw_normal(q->entropy, q->n_entropy, (uint64_t)nearbyint(t / plan->tick));
+            break;
+        case TL_JITTER: /* 0..n ticks back, n drawn from default_rng([seed, fault, tick]).integers(0, n + 1) */
+            *x = history_back(q, (int64_t)tl_draw_bounded(q->entropy, q->n_entropy, (uint64_t)nearbyint(t / plan->tick),
+                                                          (uint64_t)q->value));
             break;
 #endif
         default: break;

@@ -43,10 +43,10 @@ typedef struct {
     void *values;               /* n values the set reads (double or int) */
 } tl_group;
 
-/* A value fault the loop applies itself (override, bias, scale, ramp, clamp, hold: functions of time and value;
-   noise: of time, value and seed), at its instance's inputs (side 0, after the gather) or outputs (side 1, after the
-   gets). */
-enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD, TL_NOISE };
+/* A fault the loop applies itself, at its instance's inputs (side 0, after the gather) or outputs (side 1, after the
+   gets): override, bias, scale, ramp, clamp, hold (functions of time and value), noise (of time, value and seed),
+   delay and stale (the value n ticks before), jitter (0..n ticks before, drawn). */
+enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD, TL_NOISE, TL_DELAY, TL_JITTER };
 
 typedef struct {
     int instance, side, action, type;
@@ -58,8 +58,13 @@ typedef struct {
     int reports;                /* this target's transitions are the fault's start and end events */
     int holding;                /* hold: the value taken at the fault's first active tick */
     double held;
-    int n_entropy;              /* noise: numpy's uint32 words of [seed, fault], the tick's added per draw */
+    int n_entropy;              /* noise, jitter: numpy's uint32 words of [seed, fault], the tick's added per draw */
     uint32_t entropy[TL_ENTROPY_WORDS];
+    /* delay, jitter: the target's true values, one per application (fault active or not), in a ring */
+    double *history;
+    int64_t history_capacity;   /* the longest lag + 1 */
+    int64_t history_count;      /* values recorded, at most the capacity */
+    int64_t history_next;       /* the slot the next value goes to */
 } tl_fault;
 
 typedef struct {
