@@ -1,14 +1,14 @@
 """What a fault costs the tick loop: us per tick of the FSI loop (the cheapest, where a cost shows most) with one fault
 active the whole run, against the same loop without faults.
 
-Value faults (override, bias, scale, ramp, clamp, hold), noise, delay, stale and jitter run inside the C tick loop;
-dropout (it holds a group's flag) is applied in Python through the loop's hook at that one instance's side (its other
-connections, and the other instances, stay in C). Noise and jitter draw from default_rng([seed, fault, tick]); the
-kernel's C makes those draws (tl_draw.c); the "numpy draws" cases apply them in Python with numpy's Generator
-instead, and "delay (in Python)" the delay, as before the kernel could, side by side. Each fault acts on the three
-camera measurements (sensors.meas_d_BL_x/y/z; dropout on the GPS pair with its flag, as docs/faults/gps_dropout.json),
-from t = 0. Trajectory 1, mixed design, no log, the loop's
-metrics, best of --repeat runs taken in turn (each round starting one case later); the FMU calls are not timed (as a user's run).
+Every fault here runs inside the C tick loop (value faults, noise, delay, stale, jitter, dropout). The "in Python"
+cases force the fault into the Python manipulator, through the loop's hook at that one instance's side (its other
+connections, and the other instances, stay in C), as the loop applies faults on unconnected inputs. Noise and jitter
+draw from default_rng([seed, fault, tick]); the kernel's C makes those draws (tl_draw.c); the "numpy draws" cases
+apply them in Python with numpy's Generator instead, as before the kernel could, side by side. Each fault acts on the
+three camera measurements (sensors.meas_d_BL_x/y/z; dropout on the GPS pair with its flag, as
+docs/faults/gps_dropout.json), from t = 0. Trajectory 1, mixed design, no log, the loop's metrics, best of --repeat
+runs taken in turn (each round starting one case later); the FMU calls are not timed (as a user's run).
 
 Run: python benchmarks/fault_cost.py [--stop 20] [--repeat 5]
 """
@@ -39,7 +39,8 @@ FAULTS = {
     "delay (in Python)": {"action": "delay", "targets": CAMERA, "value": 2},
     "jitter (C)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
     "jitter (numpy draws)": {"action": "jitter", "targets": CAMERA, "value": 3, "seed": 1},
-    "dropout (Python)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
+    "dropout (C)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
+    "dropout (in Python)": {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new"},
 }
 
 

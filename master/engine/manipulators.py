@@ -256,22 +256,27 @@ class Manipulator:
         return any(k not in self.native for k, _ in (self.outputs if side == "output" else self.inputs).get(instance, ()))
 
     def native_capable(self, k: int, draws: bool = False) -> bool:
-        """A fault on connected inputs or outputs only, sharing no target with a fault Python applies: the C loop can
-        apply it. Override, bias, scale, ramp, clamp and hold are functions of time and value; delay and stale read
-        the target's history (Real targets: not a group's flag); noise and jitter also draw, when the kernel draws
-        as numpy does (draws=True). Dropout and faults on unconnected inputs stay here."""
-        actions = (*VALUE_ACTIONS, "delay", "stale", *(("noise", "jitter") if draws else ()))
+        """Can the C loop apply this fault, on its own terms? Its targets are connected inputs or outputs. Override,
+        bias, scale, ramp, clamp and hold are functions of time and value; delay, stale and dropout read the
+        target's history (Real targets; dropout's flag is set to false); noise and jitter also draw, when the
+        kernel draws as numpy does (draws=True). Faults on unconnected inputs stay here."""
         f = self.faults[k]
-        if f.action not in actions or f.flag:
+        if f.action not in (*VALUE_ACTIONS, "delay", "stale", "dropout", *(("noise", "jitter") if draws else ())):
             return False
-        if f.action in _TICKS and any(self._where[t][2] != "Real" for t in f.targets):
+        if f.action in (*_TICKS, "dropout") and any(self._where[t][2] != "Real" for t in f.targets):
             return False
-        others = {t for j, g in enumerate(self.faults) if j != k and not self._native_kind(g, actions) for t in g.targets}
-        return all(self._where[t][0] in ("input", "output") and t not in others for t in f.targets)
+        return all(self._where[t][0] in ("input", "output") for t in _touched(f))
 
-    def _native_kind(self, f: Fault, actions) -> bool:
-        return f.action in actions and not f.flag and not (f.action in _TICKS and any(self._where[t][2] != "Real"
-                                                                                       for t in f.targets))
+    def native_faults(self, draws: bool = False) -> set[int]:
+        """The faults the C loop applies: those it can, less any that shares a target with one left to Python (the
+        order of two faults on one target is then kept by applying both here)."""
+        chosen = {k for k in range(len(self.faults)) if self.native_capable(k, draws)}
+        while True:
+            python_targets = {t for j, f in enumerate(self.faults) if j not in chosen for t in _touched(f)}
+            kept = {k for k in chosen if python_targets.isdisjoint(_touched(self.faults[k]))}
+            if kept == chosen:
+                return chosen
+            chosen = kept
 
     def lag(self, target: str) -> int:
         """The most ticks back a fault reads this target's history."""
@@ -372,6 +377,11 @@ class Manipulator:
             if a == "jitter":
                 n = self._draws.bounded(k, int(round(t / self._tick)), n)
             arr[i] = hist[max(len(hist) - 1 - n, 0)]
+
+
+def _touched(f: Fault) -> list[str]:
+    """The variables a fault writes: its targets and its flag."""
+    return f.targets + ([f.flag] if f.flag else [])
 
 
 class _Draws:

@@ -236,12 +236,14 @@ VALUE_FAULTS = [{"action": "override", "target": "sensors.meas_z_B", "value": 1.
                 {"action": "delay", "target": "sensors.meas_d_BL_x", "value": 3, "start": 0.2, "end": 0.9},
                 {"action": "stale", "target": "sensors.meas_d_BL_y", "value": 40, "start": 0.3},
                 {"action": "jitter", "targets": ["sensors.meas_d_BL_z", "plant.f_L"], "value": 4, "start": 0.1,
-                 "end": 1.1, "seed": 5}]
+                 "end": 1.1, "seed": 5},
+                {"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_z_B"], "flag": "sensors.gps_new",
+                 "start": 0.35, "end": 0.8}]
 
 
 def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmus, tmp_path, monkeypatch):
-    """The six value faults, noise, delay, stale and jitter, applied by the C tick loop, against the same faults
-    applied by the Python manipulator (noise and jitter: drawn by numpy there, by tl_draw.c in the loop)."""
+    """The six value faults, noise, delay, stale, jitter and dropout, applied by the C tick loop, against the same
+    faults applied by the Python manipulator (noise and jitter: drawn by numpy there, by tl_draw.c in the loop)."""
     from tiltload.master.engine.execution import Execution
     from tiltload.master.engine.manipulators import Manipulator
     from tiltload.master.engine.native import kernel
@@ -251,7 +253,7 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
     ex = Execution(system, [])
     try:
         ex.instantiate()
-        assert ex.manipulator.native == set(range(len(VALUE_FAULTS)))  # all ten in C: the comparison means something
+        assert ex.manipulator.native == set(range(len(VALUE_FAULTS)))  # all eleven in C: the comparison means something
     finally:
         ex.close()
 
@@ -262,8 +264,25 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
         assert res.error is None
         return res.metrics, log_reader.read(tmp_path / f"{name}.mcap")
     native = run("native")
-    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k, noise=False: False)
+    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k, draws=False: False)
     monkeypatch.setattr(kernel, "draws_in_c", lambda: False)  # and the noise drawn by numpy: the reference
     python = run("python")
     assert native[0] == python[0] and native[1] == python[1]
-    assert len(native[1]["/faults"]) == 17  # ten starts, seven ends within 1.2 s
+    assert len(native[1]["/faults"]) == 19  # eleven starts, eight ends within 1.2 s
+
+
+def test_a_fault_sharing_a_target_with_one_python_applies_is_applied_there_too(fmus):
+    """The override reaches an unconnected input, so Python applies it; the scale shares plant.f_R with it, so Python
+    applies the scale too, after it, as the schedule orders them. The delay on a connection of its own stays in C."""
+    from tiltload.master.engine.execution import Execution
+
+    system = default_system(fmus, "zse", 1, "mixed")
+    system.faults = parse([{"action": "override", "targets": ["plant.servo_R_stuck", "plant.f_R"], "value": 1, "start": 0.2},
+                           {"action": "scale", "target": "plant.f_R", "value": 0.5, "start": 0.1},
+                           {"action": "delay", "target": "sensors.meas_d_BL_x", "value": 2, "start": 0.1}])
+    ex = Execution(system, [])
+    try:
+        ex.instantiate()
+        assert ex.manipulator.native == {2}
+    finally:
+        ex.close()

@@ -51,7 +51,7 @@ class Fault(ctypes.Structure):
 
 # the faults the loop can apply, by their code in tl_loop.h's enum (delay and stale read the history alike)
 FAULT_ACTIONS = {"override": 0, "bias": 1, "scale": 2, "ramp": 3, "clamp": 4, "hold": 5, "noise": 6, "delay": 7,
-                 "stale": 7, "jitter": 8}
+                 "stale": 7, "jitter": 8, "dropout": 9}
 
 
 class Instance(ctypes.Structure):

@@ -150,24 +150,24 @@ class NativeLoop:
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
 
     def _native_faults(self, manipulator, index: dict[str, int]) -> None:
-        """The value faults the kernel applies itself (override, bias, scale, ramp, clamp, hold; noise when it has
-        numpy's draws), one entry per target."""
+        """The faults the kernel applies itself (manipulator.native_faults), one entry per target and flag."""
         ops, self._fault_targets = [], []
         if manipulator is not None:
-            draws = kernel.draws_in_c()
-            manipulator.native = {k for k in range(len(manipulator.faults)) if manipulator.native_capable(k, draws)}
+            manipulator.native = manipulator.native_faults(kernel.draws_in_c())
             for k in sorted(manipulator.native):
                 f = manipulator.faults[k]
-                for j, target in enumerate(f.targets):
+                for j, target in enumerate(f.targets + ([f.flag] if f.flag else [])):
                     side, array, i, typ = manipulator.target(target)
-                    value = f.value if f.action != "clamp" else f.value[0]
+                    action = "override" if target == f.flag else f.action  # dropout: its flag held false
+                    value = 0.0 if target == f.flag else f.value if f.action != "clamp" else f.value[0]
                     ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=0 if side == "input" else 1,
-                                            action=kernel.FAULT_ACTIONS[f.action], type=TYPES.index(typ),
+                                            action=kernel.FAULT_ACTIONS[action], type=TYPES.index(typ),
                                             array=array.ctypes.data, index=i,
                                             value=float(value) if value is not None else 0.0,
                                             high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
                                             end=f.end if f.end is not None else float("inf"), fault=k, reports=j == 0,
-                                            **_entropy(f, k), **self._history(f, manipulator.lag(target))))
+                                            **_entropy(f, k),
+                                            **self._history(f, manipulator.lag(target)) if target != f.flag else {}))
                     self._fault_targets.append((k, target))
         self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
         self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
@@ -182,8 +182,8 @@ class NativeLoop:
         p.event_start, p.event_time = self.event_start.ctypes.data, self.event_time.ctypes.data
 
     def _history(self, fault, lag: int) -> dict:
-        """delay, stale, jitter: a ring of the target's true values, as deep as its longest lag"""
-        if fault.action not in ("delay", "stale", "jitter"):
+        """delay, stale, jitter, dropout: a ring of the target's true values, as deep as its longest lag"""
+        if fault.action not in ("delay", "stale", "jitter", "dropout"):
             return {}
         ring = np.zeros(lag + 1, dtype=np.float64)
         self._keep.append(ring)

@@ -149,6 +149,13 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             *x = q->held;
             break;
         case TL_DELAY: *x = history_back(q, (int64_t)q->value); break;
+        case TL_DROPOUT: /* the sample the consumer had before the fault's first tick, as manipulators.py keeps it */
+            if (!q->holding) {
+                q->holding = 1;
+                q->held = q->history_count > 1 ? history_back(q, 1) : *x;
+            }
+            *x = q->held;
+            break;
 #ifdef TL_DRAWS
         case TL_NOISE: /* x + sigma N(0, 1) of default_rng([seed, fault, tick]), as manipulators.py draws it */
             *x = *x + q->value * tl_draw_normal(q->entropy, q->n_entropy, (uint64_t)nearbyint(t / plan->tick));

@@ -45,8 +45,9 @@ typedef struct {
 
 /* A fault the loop applies itself, at its instance's inputs (side 0, after the gather) or outputs (side 1, after the
    gets): override, bias, scale, ramp, clamp, hold (functions of time and value), noise (of time, value and seed),
-   delay and stale (the value n ticks before), jitter (0..n ticks before, drawn). */
-enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD, TL_NOISE, TL_DELAY, TL_JITTER };
+   delay and stale (the value n ticks before), jitter (0..n ticks before, drawn), dropout (the sample before the
+   fault, held; its flag is an override to false). */
+enum { TL_OVERRIDE, TL_BIAS, TL_SCALE, TL_RAMP, TL_CLAMP, TL_HOLD, TL_NOISE, TL_DELAY, TL_JITTER, TL_DROPOUT };
 
 typedef struct {
     int instance, side, action, type;
@@ -56,11 +57,11 @@ typedef struct {
     double start, end;          /* end: +inf without an end */
     int fault;                  /* the fault's place in the schedule */
     int reports;                /* this target's transitions are the fault's start and end events */
-    int holding;                /* hold: the value taken at the fault's first active tick */
+    int holding;                /* hold, dropout: the value taken at the fault's first active tick */
     double held;
     int n_entropy;              /* noise, jitter: numpy's uint32 words of [seed, fault], the tick's added per draw */
     uint32_t entropy[TL_ENTROPY_WORDS];
-    /* delay, jitter: the target's true values, one per application (fault active or not), in a ring */
+    /* delay, jitter, dropout: the target's true values, one per application (fault active or not), in a ring */
     double *history;
     int64_t history_capacity;   /* the longest lag + 1 */
     int64_t history_count;      /* values recorded, at most the capacity */
