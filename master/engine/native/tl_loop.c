@@ -1,12 +1,12 @@
-/* The engine's tick loop: see tl_loop.h. The arithmetic is copies only; no floating-point result depends on it
-   except the times t_k = k * tick, computed as the Python engine computes them. */
+/* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = k * tick, computed as
+   the Python engine computes them, and the faults', operation for operation those of manipulators.py (with
+   -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
 #endif
 #include "tl_loop.h"
 
 #include <math.h>
-
 #include <string.h>
 #include <time.h>
 
