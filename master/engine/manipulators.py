@@ -40,6 +40,7 @@ from .errors import DescriptionError
 
 ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise", "dropout", "delay", "stale", "jitter")
 VALUE_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # functions of time and value only
+NATIVE_LAG_LIMIT = 2**20  # ticks back the C loop's ring holds (8 MiB a target); a longer lag's history grows here
 _NEEDS_VALUE = {"override", "bias", "scale", "ramp", "clamp", "noise", "delay", "stale", "jitter"}
 _TICKS = {"delay", "stale", "jitter"}
 
@@ -265,6 +266,8 @@ class Manipulator:
             return False
         if f.action in (*_TICKS, "dropout") and any(self._where[t][2] != "Real" for t in f.targets):
             return False
+        if f.action in _TICKS and int(f.value) > NATIVE_LAG_LIMIT or f.action in ("noise", "jitter") and f.seed >= 2**64:
+            return False  # the ring is allocated whole; the kernel takes seeds of the schema's range
         return all(self._where[t][0] in ("input", "output") for t in _touched(f))
 
     def native_faults(self, draws: bool = False) -> set[int]:
@@ -317,10 +320,10 @@ class Manipulator:
             owner = self._where[target][1]
             owner.view[0], owner.changed = value, changed
 
-    def _array(self, target: str) -> tuple[np.ndarray, int]:
+    def _array(self, target: str, fresh: bool = False) -> tuple[np.ndarray, int]:
         kind, owner, typ, index = self._where[target]
-        if kind == "direct":
-            owner.view[0] = owner.start  # the value the FMU has when no fault acts
+        if kind == "direct" and fresh:
+            owner.view[0] = owner.start  # the value the FMU has when no fault acts, once a tick: faults stack on it
         return (owner.values[typ] if kind == "output" else owner.view), index
 
     def apply(self, instance: str, side: str, t: float, observers) -> None:
@@ -329,11 +332,12 @@ class Manipulator:
         if not entries:
             return
         for target in dict.fromkeys(target for _, target in entries):  # the true values first, once a tick: delays read them
-            arr, i = self._array(target)
+            arr, i = self._array(target, fresh=True)
             hist = self._history[target]
             hist.append(float(arr[i]))
             if len(hist) > self._keep[target] + 256:  # trimmed in steps, never below what the longest lag reads
                 del hist[:-self._keep[target]]
+        direct: dict[str, bool] = {}  # unconnected inputs: is any fault on it acting?
         for k, target in entries:
             f = self.faults[k]
             on = f.active(t)
@@ -343,8 +347,11 @@ class Manipulator:
                     obs.on_fault(t, f, "start" if on else "end")
             if on:
                 self._apply_one(k, f, target, t)
-            kind, owner, _, _ = self._where[target]
-            if kind == "direct" and (on or owner.changed):  # set it while the fault acts, and once more to restore it
+            if self._where[target][0] == "direct":
+                direct[target] = direct.get(target, False) or on
+        for target, on in direct.items():  # set once, after every fault on it: while one acts, and once more to restore
+            owner = self._where[target][1]
+            if on or owner.changed:
                 owner.write(on)
 
     def _apply_one(self, k: int, f: Fault, target: str, t: float) -> None:
@@ -393,7 +400,7 @@ class _Draws:
         from .native import kernel
 
         self.seeds = [f.seed for f in faults]
-        self.lib = kernel.library() if kernel.draws_in_c() else None
+        self.lib = kernel.library() if kernel.draws_in_c() and all(f.seed < 2**64 for f in faults) else None
         if self.lib is not None:
             self.words = []
             for k, f in enumerate(faults):

@@ -292,11 +292,14 @@ def _unpack(path: Path, into: Path) -> Path:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 written += _copy_member(path, z, info, target, MAX_UNPACKED - written)
         (partial / ".complete").write_text("")
-        if (folder / ".complete").exists():  # another process unpacked the same package meanwhile
-            shutil.rmtree(partial, ignore_errors=True)
-        else:
-            shutil.rmtree(folder, ignore_errors=True)
-            partial.replace(folder)
+        try:
+            partial.rename(folder)  # fails if the folder is there: published by another unpacker, or a crash's leftover
+        except OSError:
+            if (folder / ".complete").exists():  # another process or thread unpacked the same package meanwhile
+                shutil.rmtree(partial, ignore_errors=True)
+            else:  # a folder without its mark is left from an unpacker that died; nobody else uses it
+                shutil.rmtree(folder, ignore_errors=True)
+                partial.rename(folder)
     except BaseException as err:
         shutil.rmtree(partial, ignore_errors=True)
         if isinstance(err, zipfile.BadZipFile):

@@ -60,6 +60,15 @@ def test_a_delay_longer_than_the_history_s_trim_reads_its_own_lag(fmus, tmp_path
     assert np.array_equal(x[~late], np.full((~late).sum(), truth(0.0)))  # before 3.6 s: the oldest value there is
 
 
+def test_a_stale_for_ever_holds_the_first_value(fmus, tmp_path):
+    """10^12 ticks back: longer than the C loop's ring (manipulators.NATIVE_LAG_LIMIT), so the manipulator applies
+    it; every sample reads the oldest value there is."""
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "stale", "value": 10**12})
+    on = ACTIVE(t)
+    assert on.sum() == 30 and np.all(x[on] == truth(0.0))  # the first sample, t = 0
+    np.testing.assert_allclose(x[~on], truth(t[~on]), rtol=0, atol=1e-12)
+
+
 def test_two_python_faults_on_one_target_keep_one_history_sample_a_tick(fmus, tmp_path):
     """A delay and a second fault on the same target: the delay still reads n ticks back, not n / 2."""
     system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
@@ -271,6 +280,28 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
     assert len(native[1]["/faults"]) == 19  # eleven starts, eight ends within 1.2 s
 
 
+def test_fault_events_come_in_the_manipulator_s_order_from_the_c_loop_too(fmus, tmp_path, monkeypatch):
+    """Two faults of one instance start at one tick, the output's listed first: the input's acts first (before the
+    step), so its start is logged first, by the C loop as by the manipulator; a third, forced into Python, between."""
+    from tiltload.master.engine.manipulators import Manipulator
+
+    faults = [{"action": "bias", "target": "plant.x", "value": 0.01, "start": 0.3, "end": 0.6},
+              {"action": "override", "target": "plant.servo_R_stuck", "value": False, "start": 0.3, "end": 0.6},
+              {"action": "delay", "target": "plant.f_L", "value": 2, "start": 0.3, "end": 0.6}]
+
+    def events(name):
+        system = default_system(fmus, "zse", 1, "mixed")
+        system.faults = parse(faults)
+        res = run_system(system, 0.8, tmp_path / f"{name}.mcap", progress=False)
+        assert res.error is None
+        return [(e["event"], e["name"]) for e in log_reader.read(res.log)["/faults"]]
+    in_c = events("c")
+    monkeypatch.setattr(Manipulator, "native_capable", lambda self, k, draws=False: False)
+    in_python = events("python")
+    assert in_c == in_python and len(in_c) == 6
+    assert "plant.x" in in_c[2][1]  # the output's start after both inputs'
+
+
 def test_a_fault_sharing_a_target_with_one_python_applies_is_applied_there_too(fmus):
     """The override reaches an unconnected input, so Python applies it; the scale shares plant.f_R with it, so Python
     applies the scale too, after it, as the schedule orders them. The delay on a connection of its own stays in C."""
@@ -286,3 +317,28 @@ def test_a_fault_sharing_a_target_with_one_python_applies_is_applied_there_too(f
         assert ex.manipulator.native == {2}
     finally:
         ex.close()
+
+
+def test_two_faults_on_one_unconnected_input_stack_as_on_a_connected_one(fmus):
+    """servo_R_stuck, an input no connection drives: held true from 0.3 s to 0.6 s, overridden to false by a second
+    fault from 0.4 to 0.5 s. The FMU's own input holds what the schedule says at each time (read back by fmi2Get)."""
+    import ctypes
+
+    from tiltload.master.engine.execution import Execution
+
+    system = default_system(fmus, "fsi", 1, "mixed")
+    system.faults = parse([{"action": "override", "target": "plant.servo_R_stuck", "value": True, "start": 0.3, "end": 0.6},
+                           {"action": "override", "target": "plant.servo_R_stuck", "value": False, "start": 0.4, "end": 0.5}])
+    ex = Execution(system, [])
+    seen = []
+    try:
+        ex.instantiate()
+        plant = ex.instances["plant"]
+        vr, value = (ctypes.c_uint * 1)(plant.vars["servo_R_stuck"].valueReference), (ctypes.c_int * 1)()
+        for stop in (0.2, 0.36, 0.46, 0.56, 0.7):
+            ex.run(stop)
+            assert plant.getters["Boolean"](plant.component, vr, 1, value) == 0
+            seen.append(value[0])
+    finally:
+        ex.close()
+    assert seen == [0, 1, 0, 1, 0]

@@ -37,3 +37,16 @@ def _all_threads_load_it(c, cache):
     assert errors == [] and results == [42] * 8
     built = list((cache / "kernels").rglob("*"))
     assert [p.name for p in built if p.is_file()] == ["answer.so"]  # no partial file left behind
+
+
+def test_a_numpy_random_library_that_does_not_link_leaves_the_draws_to_numpy(tmp_path, monkeypatch):
+    """An archive the linker refuses: the kernel is built without the C draws (noise and jitter then drawn by numpy
+    in Python), not lost."""
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    broken = tmp_path / "libnpyrandom.a"
+    broken.write_bytes(b"!<arch>\nnot an archive member")
+    include = kernel._numpy_random()[1] if kernel._numpy_random() else tmp_path
+    monkeypatch.setattr(kernel, "_numpy_random", lambda: (broken, include))
+    assert kernel._with_draws() is None
+    lib = kernel.compiled("tl_loop", kernel.SOURCES, libraries=("m",))  # what library() builds instead
+    assert hasattr(lib, "tl_run") and not hasattr(lib, "tl_draw_normal")

@@ -326,3 +326,32 @@ def test_a_component_outside_the_package_is_refused_unless_allowed(packages, pip
     assert len(err) == 1 and "component plant: its FMU" in err[0] and "lies outside the package" in err[0], err
     assert "--allow-external-fmus" in err[0]
     assert main([*args, "--allow-external-fmus"]) == 0
+
+
+def test_unpackers_of_one_package_at_once_share_one_whole_folder(tmp_path):
+    """Eight threads unpack the same package into an empty folder at once (a leftover of a dead unpacker there
+    too): each gets the one published folder, whole, and nothing else is left."""
+    import threading
+
+    package = _zip(tmp_path / "p.ssp", [(f"resources/f{i}.bin", bytes(range(256)) * 64, zipfile.ZIP_DEFLATED)
+                                        for i in range(40)])
+    into = tmp_path / "unpack"
+    (into / ssp.package_digest(package)[:20]).mkdir(parents=True)  # no .complete: left by a crash
+    start, got, errors = threading.Barrier(8), [], []
+
+    def unpack():
+        start.wait()
+        try:
+            got.append(ssp._unpack(package, into))
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(repr(e))
+
+    threads = [threading.Thread(target=unpack) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == [] and len(set(got)) == 1
+    folder = got[0]
+    assert (folder / ".complete").exists() and len(list((folder / "resources").iterdir())) == 40
+    assert [p.name for p in into.iterdir()] == [folder.name]

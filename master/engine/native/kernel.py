@@ -131,12 +131,10 @@ def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) 
 @cache
 def library() -> ctypes.CDLL:
     """The compiled kernel, with its functions' signatures set."""
-    numpy_random = _numpy_random()
-    if numpy_random is None:  # the noise fault is then drawn in Python (draws_in_c() is False)
+    lib = _with_draws()
+    if lib is None:  # noise and jitter are then drawn by numpy in Python (draws_in_c() is False)
         lib = compiled("tl_loop", SOURCES, libraries=("m",))
     else:
-        archive, include = numpy_random
-        lib = compiled("tl_loop", (*SOURCES, *DRAWS, archive), (*CFLAGS, "-DTL_DRAWS", f"-I{include}"), ("m",))
         words = ctypes.POINTER(ctypes.c_uint32)
         lib.tl_draw_normal.argtypes = [words, ctypes.c_int, ctypes.c_uint64]
         lib.tl_draw_normal.restype = ctypes.c_double
@@ -154,6 +152,19 @@ def library() -> ctypes.CDLL:
                                ("tl_mcap_fill", [n, n, p, p, p, p, n, p, n, p, p, p, p, p, n], n)):
         getattr(lib, name).argtypes, getattr(lib, name).restype = args, result
     return lib
+
+
+def _with_draws() -> ctypes.CDLL | None:
+    """The kernel linked with numpy's C random library, or None if this numpy has none or it does not link here
+    (an archive built for another toolchain, a compiler without 128-bit integers)."""
+    numpy_random = _numpy_random()
+    if numpy_random is None:
+        return None
+    archive, include = numpy_random
+    try:
+        return compiled("tl_loop", (*SOURCES, *DRAWS, archive), (*CFLAGS, "-DTL_DRAWS", f"-I{include}"), ("m",))
+    except (KernelError, OSError):
+        return None
 
 
 def _numpy_random() -> tuple[Path, Path] | None:

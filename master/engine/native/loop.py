@@ -28,13 +28,14 @@ _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
 
 
 class _EventQueue:
-    """Stands for the observers while the kernel runs: fault events wait, with their place among the steps."""
+    """Stands for the observers while the kernel runs: fault events wait, with their place among the steps (the
+    record they precede, and the side of the step: 0 inputs, 1 outputs)."""
 
     def __init__(self, plan) -> None:
-        self.plan, self.events = plan, []
+        self.plan, self.events, self.side = plan, [], 0
 
     def on_fault(self, t, fault, what) -> None:
-        self.events.append((int(self.plan.records), t, fault, what))
+        self.events.append((int(self.plan.records), self.side, t, fault, what))
 
 
 def _native_fmi3(slave) -> bool:
@@ -151,7 +152,7 @@ class NativeLoop:
 
     def _native_faults(self, manipulator, index: dict[str, int]) -> None:
         """The faults the kernel applies itself (manipulator.native_faults), one entry per target and flag."""
-        ops, self._fault_targets = [], []
+        ops, self._fault_targets, self._report_side = [], [], {}
         if manipulator is not None:
             manipulator.native = manipulator.native_faults(kernel.draws_in_c())
             for k in sorted(manipulator.native):
@@ -169,6 +170,7 @@ class NativeLoop:
                                             **_entropy(f, k),
                                             **self._history(f, manipulator.lag(target)) if target != f.flag else {}))
                     self._fault_targets.append((k, target))
+                    self._report_side.setdefault(k, 0 if side == "input" else 1)
         self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
         self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
         capacity = self.chunk * 2 * max(len(ops), 1)
@@ -228,6 +230,7 @@ class NativeLoop:
 
     def _hook(self, i: int, side: int, t: float) -> int:
         try:
+            self._queue.side = side
             self.ex.manipulator.apply(self.names[i], "input" if side == 0 else "output", t, [self._queue])
             return 0
         except BaseException as err:
@@ -272,12 +275,13 @@ class NativeLoop:
         m = self.ex.manipulator
         for e in range(int(self.plan.events)):  # the kernel's fault events, merged in their places
             k = int(self.event_fault[e])
-            events.append((int(self.event_record[e]), float(self.event_time[e]), m.faults[k],
+            events.append((int(self.event_record[e]), self._report_side[k], float(self.event_time[e]), m.faults[k],
                            "start" if self.event_start[e] else "end"))
-        if self.plan.events:
-            events.sort(key=lambda ev: (ev[0], m.faults.index(ev[2])))
+        if self.plan.events:  # as the manipulator alone would tell them: by step, side, then place in the schedule
+            place = {id(f): k for k, f in enumerate(m.faults)}
+            events.sort(key=lambda ev: (ev[0], ev[1], place[id(ev[3])]))
         return Batch(first, done, self.names, self.record_instance[:r], self.record_tick[:r], self.record_time[:r],
-                     self.record_row[:r], rows, events)
+                     self.record_row[:r], rows, [(record, t, f, what) for record, _, t, f, what in events])
 
     def _error(self) -> BaseException:
         p = self.plan
