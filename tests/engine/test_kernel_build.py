@@ -1,8 +1,8 @@
 """The kernel's libraries are built on first use into the cache; threads and processes that ask at once all get a
 whole library (the CI once loaded a half-written tl_loop.so from the log writer's thread)."""
 import ctypes
-import threading
 
+from support.at_once import at_once
 from tiltload.master.engine.native import kernel
 
 SOURCE = '__attribute__((visibility("default"))) int tl_answer(void) { return 42; }\n'
@@ -18,22 +18,12 @@ def test_threads_asking_for_one_new_library_at_once_all_load_it(tmp_path, monkey
 
 
 def _all_threads_load_it(c, cache):
-    start, results, errors = threading.Barrier(8), [], []
-
     def ask():
-        start.wait()
-        try:
-            lib = kernel.compiled("answer", (c,))
-            lib.tl_answer.restype = ctypes.c_int
-            results.append(lib.tl_answer())
-        except Exception as e:  # noqa: BLE001 - the test reports what any thread met
-            errors.append(repr(e))
+        lib = kernel.compiled("answer", (c,))
+        lib.tl_answer.restype = ctypes.c_int
+        return lib.tl_answer()
 
-    threads = [threading.Thread(target=ask) for _ in range(8)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    results, errors = at_once(ask)
     assert errors == [] and results == [42] * 8
     built = list((cache / "kernels").rglob("*"))
     assert [p.name for p in built if p.is_file()] == ["answer.so"]  # no partial file left behind

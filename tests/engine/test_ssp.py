@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support.at_once import at_once
 from support.system_libraries import needs_library
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
@@ -331,26 +332,11 @@ def test_a_component_outside_the_package_is_refused_unless_allowed(packages, pip
 def test_unpackers_of_one_package_at_once_share_one_whole_folder(tmp_path):
     """Eight threads unpack the same package into an empty folder at once (a leftover of a dead unpacker there
     too): each gets the one published folder, whole, and nothing else is left."""
-    import threading
-
     package = _zip(tmp_path / "p.ssp", [(f"resources/f{i}.bin", bytes(range(256)) * 64, zipfile.ZIP_DEFLATED)
                                         for i in range(40)])
     into = tmp_path / "unpack"
     (into / ssp.package_digest(package)[:20]).mkdir(parents=True)  # no .complete: left by a crash
-    start, got, errors = threading.Barrier(8), [], []
-
-    def unpack():
-        start.wait()
-        try:
-            got.append(ssp._unpack(package, into))
-        except Exception as e:  # noqa: BLE001 - reported below
-            errors.append(repr(e))
-
-    threads = [threading.Thread(target=unpack) for _ in range(8)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
+    got, errors = at_once(lambda: ssp._unpack(package, into))
     assert errors == [] and len(set(got)) == 1
     folder = got[0]
     assert (folder / ".complete").exists() and len(list((folder / "resources").iterdir())) == 40
