@@ -41,6 +41,7 @@ from .errors import DescriptionError
 ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise", "dropout", "delay", "stale", "jitter")
 VALUE_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # functions of time and value only
 NATIVE_LAG_LIMIT = 2**20  # ticks back the C loop's ring holds (8 MiB a target); a longer lag's history grows here
+SEEDS = 2**64  # seeds are 0..SEEDS-1: the words the kernel's draws take (tl_draw.c)
 _NEEDS_VALUE = {"override", "bias", "scale", "ramp", "clamp", "noise", "delay", "stale", "jitter"}
 _TICKS = {"delay", "stale", "jitter"}
 
@@ -56,7 +57,7 @@ SCHEMA = {
             "end": {"type": ["number", "null"], "minimum": 0},
             "value": {"type": ["number", "array", "boolean"]},
             "flag": {"type": "string", "pattern": r"^[A-Za-z_][\w]*\.[A-Za-z_][\w]*$"},
-            "seed": {"type": "integer", "minimum": 0, "maximum": 2**64 - 1}}}}
+            "seed": {"type": "integer", "minimum": 0, "maximum": SEEDS - 1}}}}
 
 
 class FaultError(DescriptionError):
@@ -266,8 +267,8 @@ class Manipulator:
             return False
         if f.action in (*_TICKS, "dropout") and any(self._where[t][2] != "Real" for t in f.targets):
             return False
-        if f.action in _TICKS and int(f.value) > NATIVE_LAG_LIMIT or f.action in ("noise", "jitter") and f.seed >= 2**64:
-            return False  # the ring is allocated whole; the kernel takes seeds of the schema's range
+        if f.action in _TICKS and int(f.value) > NATIVE_LAG_LIMIT or f.action in ("noise", "jitter") and f.seed >= SEEDS:
+            return False  # the ring is allocated whole; a Fault made in code may carry a seed the schema refuses
         return all(self._where[t][0] in ("input", "output") for t in _touched(f))
 
     def native_faults(self, draws: bool = False) -> set[int]:
@@ -400,7 +401,7 @@ class _Draws:
         from .native import kernel
 
         self.seeds = [f.seed for f in faults]
-        self.lib = kernel.library() if kernel.draws_in_c() and all(f.seed < 2**64 for f in faults) else None
+        self.lib = kernel.library() if kernel.draws_in_c() and all(f.seed < SEEDS for f in faults) else None
         if self.lib is not None:
             self.words = []
             for k, f in enumerate(faults):

@@ -23,7 +23,8 @@ HERE = Path(__file__).parent
 SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h", HERE / "tl_draw.h")
 DRAWS = (HERE / "tl_draw.c",)
 ENTROPY_WORDS = 16  # tl_draw.h's TL_ENTROPY_WORDS
-# No floating-point arithmetic depends on these flags but t_k = k * tick (one product, exact in IEEE double).
+# The floating-point results that depend on these flags: t_k = k * tick (one product, exact in IEEE double) and the
+# faults' arithmetic, kept operation for operation as Python's by -ffp-contract=off.
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-Wall", "-Wextra")
 TYPES = 3
 
