@@ -101,8 +101,8 @@ def parse(items: list, where: str = "faults") -> list[Fault]:
             raise FaultError(f"{where}.{i}: {action} needs a value")
         if action == "clamp" and not (isinstance(value, list) and len(value) == 2 and value[0] <= value[1]):
             raise FaultError(f"{where}.{i}: clamp takes value = [low, high]")
-        if action in _TICKS and not (isinstance(value, (int, float)) and value >= 0 and float(value).is_integer()):
-            raise FaultError(f"{where}.{i}: {action} takes a whole number of ticks, got {value!r}")
+        if action in _TICKS and not (isinstance(value, (int, float)) and 0 <= value <= 2**53 and float(value).is_integer()):
+            raise FaultError(f"{where}.{i}: {action} takes a whole number of ticks (0 to 2^53), got {value!r}")
         if action not in _TICKS | {"clamp"} and value is not None and not isinstance(value, (int, float)):
             raise FaultError(f"{where}.{i}: {action} takes a number, got {value!r}")
         if action == "dropout" and not item.get("flag"):

@@ -181,6 +181,7 @@ def test_a_libcosim_scenario_file_runs_unchanged(fmus, tmp_path, capsys):
     ([{"action": "bias", "target": "f_R", "value": 1, "start": 1}], "does not match"),
     ([{"action": "bias", "target": "plant.f_R", "value": 1, "start": 3, "end": 2}], "end 2 must come after start 3"),
     ([{"action": "delay", "target": "plant.f_R", "value": 1.5, "start": 1}], "delay takes a whole number of ticks"),
+    ([{"action": "jitter", "target": "plant.f_R", "value": 1e300, "start": 1}], "jitter takes a whole number of ticks (0 to 2^53)"),
     ([{"action": "dropout", "target": "sensors.meas_x_B", "start": 1}], "dropout needs the group's flag"),
     ([{"action": "clamp", "target": "plant.f_R", "value": [3, 1], "start": 1}], "clamp takes value = [low, high]"),
     ([{"action": "bias", "target": "rotor.f_R", "value": 1, "start": 1}], "no instance 'rotor'"),
