@@ -4,6 +4,8 @@ The figures go to docs/timings.json (with the machine, the date and the load ave
 it, and with --write every figure between <!-- timing:KEY --> and <!-- /timing --> in README.md and docs/*.md is
 replaced by the measured one: no timing in the docs is typed by hand.
 
+  install          `pip install -e .` of a fresh clone into a new virtual environment (no system site-packages,
+                   no pip cache), as the README's first command does; also the environment's size on disk
   first_run        a fresh clone of HEAD, `pip install -e` into a new virtual environment, an empty cache:
                    `tiltload run`, timed to its metrics table (three runs, the median; each run also to its first
                    line of output and to its end)
@@ -36,9 +38,10 @@ ROOT = Path(__file__).resolve().parents[1]
 TIMINGS = ROOT / "docs" / "timings.json"
 PAGE = ROOT / "docs" / "timings.md"
 MARKER = re.compile(r"<!-- timing:(\w+) -->(.*?)<!-- /timing -->")
-KEYS = ("first_run", "build", "design_dlqr", "design_hinf", "design_mixed", "design_mixed_d1", "design_mixed_d2",
+KEYS = ("install", "first_run", "build", "design_dlqr", "design_hinf", "design_mixed", "design_mixed_d1", "design_mixed_d2",
         "reproduce", "campaign", "spread_variant")
 WHAT = {
+    "install": "`pip install -e .` of a fresh clone into a new virtual environment, no pip cache",
     "first_run": "first `tiltload run` of a fresh clone, empty cache, to the metrics table (median of 3)",
     "build": "`tiltload build`, empty fmus/ and cache (nine FMUs)",
     "design_dlqr": "`tiltload design --controller dlqr --fresh`",
@@ -98,6 +101,16 @@ def first_run(tmp: Path) -> dict:
     return {"seconds": statistics.median(r["to_metrics"] for r in runs), "runs": runs}
 
 
+def install(tmp: Path) -> dict:
+    clone, venv = tmp / "clone-install", tmp / "venv-install"
+    subprocess.run(["git", "clone", "--quiet", str(ROOT), str(clone)], check=True)
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    r = timed([str(venv / "bin" / "pip"), "install", "--quiet", "--no-cache-dir", "-e", "."], clone)
+    size = sum(p.stat().st_size for p in venv.rglob("*") if p.is_file() and not p.is_symlink())
+    print(f"  install: {r['seconds']:.0f} s, the environment {size / 1e9:.2f} GB", flush=True)
+    return {"seconds": r["seconds"], "venv_bytes": size}
+
+
 def with_fmus(tmp: Path) -> Path:
     fmus = tmp / "fmus"
     subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", "build", "--out", str(fmus)], check=True,
@@ -108,6 +121,8 @@ def with_fmus(tmp: Path) -> Path:
 def measure(key: str, tmp: Path) -> dict:
     cli = [sys.executable, "-m", "tiltload.master.app.cli"]
     env = dict(os.environ, TILTLOAD_CACHE=str(tmp / "cache"))
+    if key == "install":
+        return install(tmp)
     if key == "first_run":
         return first_run(tmp)
     if key == "build":
@@ -150,7 +165,8 @@ def render(data: dict) -> str:
     for key in KEYS:
         if key in data:
             d = data[key]
-            lines.append(f"| {WHAT[key]} | {shown(d['seconds'])} | {d['machine']} | {d['date']} | {d['load']:.1f} |")
+            what = WHAT[key] + (f" ({d['venv_bytes'] / 1e9:.1f} GB on disk)" if "venv_bytes" in d else "")
+            lines.append(f"| {what} | {shown(d['seconds'])} | {d['machine']} | {d['date']} | {d['load']:.1f} |")
     if "first_run" in data:
         lines += ["", "The three first runs (fresh clone, empty cache): to the first line of output, to the metrics "
                   "table, to the end (figures written):", ""]

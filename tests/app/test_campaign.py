@@ -14,6 +14,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+import psutil
 import pyarrow.parquet as pq
 import pytest
 from tiltload.master.app.campaign import runner as campaign
@@ -446,7 +447,6 @@ def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only
 
 
 def test_nothing_the_campaign_starts_listens_beyond_loopback(fmus, tmp_path):
-    psutil = pytest.importorskip("psutil")
     proc = subprocess.Popen(_cli("campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(fmus),
                                  "--workers", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     listening = set()  # (ip, port, pid) of every listening socket of the campaign's process tree, looked at while it runs

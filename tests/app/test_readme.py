@@ -121,3 +121,28 @@ def test_a_test_needing_a_missing_system_library_skips_with_one_line_naming_it(t
     skipped = [line for line in proc.stdout.splitlines() if line.startswith("SKIPPED")]
     assert len(skipped) == 1 and "needs the system library libtiltload_nothere.so.9 (apt-get install nothere)" in skipped[0]
     assert needs_library("libc.so.6").args[0] is False  # a library that loads runs its tests
+
+
+def test_every_tiltload_command_of_the_readme_parses_as_written():
+    """Each `tiltload ...` line of the README is accepted by the command's own parser (not run: some take minutes)."""
+    import shlex
+
+    from tiltload.master.app.cli import parser
+
+    commands = readme_commands("tiltload")
+    assert len(commands) >= 15
+    for command in commands:
+        for part in command.split("&&"):
+            argv = shlex.split(part.strip())
+            if argv and argv[0] == "tiltload":
+                try:
+                    parser().parse_args(argv[1:])
+                except SystemExit as stop:
+                    raise AssertionError(f"the README's `{part.strip()}` does not parse (exit {stop.code})") from None
+
+
+def test_a_newcomer_finds_the_set_up_in_the_first_30_lines_of_a_short_readme():
+    lines = README.splitlines()
+    setup = [n for n, line in enumerate(lines, 1) if line.startswith('pip install -e ".[test]" && pytest')]
+    assert setup and setup[0] <= 30 and any(line.startswith("pip install -e . && tiltload run") for line in lines[:30])
+    assert len(lines) <= 130

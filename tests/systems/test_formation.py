@@ -16,7 +16,9 @@ RNG = np.random.default_rng(7)
 
 
 def _dqr():
-    return pytest.importorskip("dqrobotics")  # only the tests against it need it
+    import dqrobotics  # the independent reference; a [test] dependency, imported here because it loads slowly
+
+    return dqrobotics
 
 
 def _random_unit(angle: float | None = None):
