@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ...controller_fmu.fmu import build as controller
 from ...formation import build as formation
-from ...native_fmu.build import BuildResult, Recipe, build, digest, is_current
+from ...native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
 from ...native_fmu.compile import choose
 from ...native_fmu.package import read_build_info
 from ...plant_fmu import build as plant
@@ -66,7 +66,8 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:
         return [BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
-    progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side) ...")
+    progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side): "
+             f"{why(stale, dest, force, toolchains, fmi_version)} ...")
     one_at_a_time = threading.Lock()
 
     def alone(prepare):
@@ -87,6 +88,18 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
         futures = {r.fmu_name: pool.submit(one, r) for r in stale}
         results = {name: f.result() for name, f in futures.items()}  # the first failure is raised, after all ended
     return [results.get(r.fmu_name) or BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
+
+
+def why(stale: list[Recipe], dest: Path, force: bool, toolchains, fmi_version: int) -> str:
+    """One line saying why the stale FMUs are built: each distinct reason once, with the FMUs it concerns when they
+    differ (a changed compiler set concerns all; a changed source file, only the FMUs built from it)."""
+    reasons: dict[str, list[str]] = {}
+    for r in stale:
+        said = rebuild_reason(dest / r.fmu_name, inputs_record(r, toolchains, fmi_version), force) or "its inputs changed"
+        reasons.setdefault(said, []).append(r.fmu_name.removesuffix(".fmu"))
+    if len(reasons) == 1:
+        return next(iter(reasons))
+    return "; ".join(f"{', '.join(names)}: {said}" for said, names in reasons.items())
 
 
 def is_ours(fmu: Path, md) -> bool:
