@@ -46,6 +46,18 @@ def formation_recipes() -> list[Recipe]:
     return [plant.recipe("uav"), *formation.recipes()]
 
 
+def every_recipe(fmi_version: int = 2) -> list[Recipe]:
+    """What `tiltload build` builds: both vehicles' loops and the formation; with FMI 3.0, the variants with clocks too."""
+    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if fmi_version == 3 else ())]
+    return list({r.fmu_name: r for r in every}.values())  # the UAV's plant once
+
+
+def build_every(base: Path, fmi_version: int = 2, toolchains=(), force: bool = False, progress=print) -> list[BuildResult]:
+    """Every FMU of every_recipe into its folder under base (fmu_folder), for the platforms of toolchains."""
+    return build_many(every_recipe(fmi_version), fmu_folder(base, fmi_version), force, progress, toolchains=toolchains,
+                      fmi_version=fmi_version)
+
+
 def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2,
               clocked: bool = False) -> list[BuildResult]:
     """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0, with clocks or not); each rebuilt only if stale."""
