@@ -158,7 +158,6 @@ def wrapped(head: str, words: list[str], width: int = 116) -> list[str]:
 
 def readme(descriptions: dict[str, str]) -> str:
     from ...native_fmu.build import tiltload_version
-
     from ...native_fmu.compile import TOOLCHAINS
 
     lines = [f"tiltload {tiltload_version()}: the FMUs of a tilt-rotor UAV carrying a suspended load",
@@ -184,10 +183,10 @@ def ports_text(controller_fmu: Path) -> str:
     import numpy as np
 
     from ...native_fmu.build import tiltload_version
-    from ..engine.connections import resolve
-    from ..engine.model_description import read_fmu
     from ...plant_fmu.vehicles import VEHICLES
     from ...sensor_fmu.suite import SUITES
+    from ..engine.connections import resolve
+    from ..engine.model_description import read_fmu
     from ..engine.system import System
     from .loop import default_system
     from .ports import contract_inputs
