@@ -8,7 +8,6 @@ The FMUs come from the same builds as `tiltload build --platforms linux64,win64,
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import tempfile
@@ -51,6 +50,9 @@ def check_output(out: Path) -> Path:
     if out.exists() or out.is_symlink():
         raise UserError(f"bundle: {out} exists; remove it or name another file (a bundle never replaces one)")
     folder = out.parent if str(out.parent) else Path(".")
+    blocking = next((f for f in (folder, *folder.parents) if f.exists()), None)
+    if blocking is not None and not blocking.is_dir():
+        raise UserError(f"bundle: cannot write {out}: {blocking} is a file, not a folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -73,21 +75,11 @@ def toolchains():
     return chosen
 
 
-def loop_arguments(fmus: Path, fmi_version: int) -> argparse.Namespace:
-    """The options of `tiltload ssp export --fmus FMUS --fmi N`, defaults for the rest."""
-    from . import arguments
-    from .cli import OneLineParser
-
-    p = OneLineParser(prog="tiltload bundle")
-    arguments.add_loop_options(p)
-    return p.parse_args(["--fmus", str(fmus), "--fmi", str(fmi_version)])
-
-
 def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
     """Build what is stale, export the SSP packages, and write the archive at out (whole or not at all); what it holds:
     {member: description}."""
-    from .commands.ssp import export
     from .fmus import build_every
+    from .ssp_export import export, loop_arguments
 
     out = check_output(out)
     chosen = toolchains()

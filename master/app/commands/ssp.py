@@ -7,7 +7,6 @@ import argparse
 from pathlib import Path
 
 from .. import arguments
-from ..errors import UserError
 
 
 def add_parser(sub) -> None:
@@ -23,6 +22,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..ssp_export import export
+
     path, version2, schedule, delay, count, stop = export(args, args.out, args.schedule)
     print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for a "
           f"{schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
@@ -31,24 +32,3 @@ def run(args: argparse.Namespace) -> int:
     others = ("" if version2 else f"   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set='{ssp.PARAMETER_SET}'))")
     print(f"  run it: tiltload run --system {path}{others}")
     return 0
-
-
-def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
-    """The loop the options describe as an SSP package at out (SSP 2.0 when its FMUs are FMI 3.0): (path, SSP 2.0?,
-    the schedule it is prepared for, the controller's loop delay in ticks or None, FMUs, stop time)."""
-    from ....controller_fmu.design.cache import cache_root
-    from ...engine import ssp, ssp2
-    from ...engine.model_description import read_fmu
-    from ..loop import select_loop_delay
-    from ..options import loop_system, resolve_loop
-
-    loop = loop_system(resolve_loop(args), cache_root() / "ssp")
-    system, stop = loop.system, loop.stop
-    version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
-    schedule = schedule or ("ordered" if version2 else "jacobi")
-    delay = select_loop_delay(system, schedule)
-    try:
-        path = (ssp2 if version2 else ssp).export(system, out, stop, schedule)
-    except OSError as err:
-        raise UserError(f"cannot write {out}: {err.strerror or err}") from None
-    return path, version2, schedule, delay, len(system.instances), stop
