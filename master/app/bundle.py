@@ -9,7 +9,6 @@ The FMUs come from the same builds as `tiltload build --platforms linux64,win64,
 from __future__ import annotations
 
 import json
-import os
 import tempfile
 import zipfile
 from pathlib import Path
@@ -57,8 +56,14 @@ def check_output(out: Path) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise UserError(f"bundle: cannot make the folder {folder}: {err.strerror or err}") from None
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UserError(f"bundle: cannot write in {folder}: permission denied")
+    probe = out.with_name(out.name + ".partial")
+    try:  # a file made and removed: the only test a read-only file system or a root user cannot fool
+        probe.open("xb").close()
+        probe.unlink()
+    except FileExistsError:
+        raise UserError(f"bundle: {probe} exists (another bundle being written?); remove it") from None
+    except OSError as err:
+        raise UserError(f"bundle: cannot write in {folder}: {err.strerror or err}") from None
     return out
 
 
