@@ -59,14 +59,15 @@ def case_of(log: Path) -> str:
 
 
 def case_title(run: dict) -> str:
-    """What sets a run apart, as a figure's title says it: 'load, scenario zse, trajectory 1, mixed, seed 1'; a system
-    file's name; the faults file and parameters set, when any."""
+    """What sets a run apart, as a figure's title says it: 'UAV with load, scenario zse, trajectory 1, controller mixed,
+    seed 1'; a system file's name; the faults file and parameters set, when any."""
     if run.get("system"):
         parts = [f"system {Path(run['system']).name}"]
     elif "vehicle" not in run:  # a log from before the run record listed its options: its case's name
         parts = [run.get("case", "")]
     else:
-        parts = [run.get("vehicle", ""), run.get("scenario") and f"scenario {run['scenario']}",
+        parts = [{"load": "UAV with load", "uav": "UAV alone"}.get(run.get("vehicle", ""), run.get("vehicle", "")),
+                 run.get("scenario") and f"scenario {run['scenario']}",
                  run.get("trajectory") and f"trajectory {run['trajectory']}",
                  run.get("controller") and f"controller {Path(run['controller']).name}",
                  run.get("seed") and f"seed {run['seed']}",

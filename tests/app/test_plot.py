@@ -64,7 +64,7 @@ def test_every_figure_is_titled_with_its_case():
 
     case = case_title({"vehicle": "load", "scenario": "zse", "trajectory": "1", "controller": "mixed", "seed": "7",
                        "delay": "True", "gusts": "False", "fmi": "2"})
-    assert case == "load, scenario zse, trajectory 1, controller mixed, seed 7, 1-tick delay, no gusts"
+    assert case == "UAV with load, scenario zse, trajectory 1, controller mixed, seed 7, 1-tick delay, no gusts"
     made = dict(figures(log_reader.read(DATA / "json_log_v0.mcap"), case))
     for name, fig in made.items():
         assert fig._suptitle is not None and case in fig._suptitle.get_text(), name

@@ -44,8 +44,15 @@ def run(args: argparse.Namespace) -> int:
         if args.results is None:
             raise UserError("campaign-report: name the results file (tiltload campaign-report "
                             "runs/campaigns/NAME/results.parquet)")
-        print("note: `tiltload campaign report RESULTS` is now `tiltload campaign-report RESULTS`", file=sys.stderr)
-        return report(args)
+        from ..campaign.report import ReportError
+
+        note = "`tiltload campaign report RESULTS` is now `tiltload campaign-report RESULTS`"
+        try:
+            code = report(args)
+        except ReportError as err:  # still one line: the error, and the new form
+            raise ReportError(f"{err} (note: {note})") from None
+        print(f"note: {note}", file=sys.stderr)
+        return code
     from ..campaign.errors import CampaignIncomplete, ClusterError
     from ..campaign.runner import run as run_campaign
 
