@@ -76,6 +76,63 @@ def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...], fmi_version: in
     return h.hexdigest()
 
 
+def inputs_record(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...], fmi_version: int = 2) -> dict:
+    """What the digest is made of, part by part, kept in the build record: the next build names the part that changed
+    (a source file, the set of platforms, a compiler, the version) instead of rebuilding without a word."""
+    files = {}
+    for f in sorted({*recipe.inputs, *TOOLKIT_FILES}, key=str):
+        files[_short_name(f)] = hashlib.sha256(f.read_bytes()).hexdigest()[:16]
+    return {"files": files, "platforms": [t.folder for t in toolchains],
+            "compilers": {t.folder: cc.compiler_identity(cc.compiler(t)) for t in toolchains},
+            "flags": " ".join(cc.CFLAGS + cc.HOT_CFLAGS + cc.user_cflags()), "machine": cc.identity(())[0],
+            "version": tiltload_version(), "identity": list(recipe.identity), "fmi": fmi_version}
+
+
+def _short_name(f: Path) -> str:
+    """A file as the tree names it (plant_fmu/model.py), not by the machine's absolute path."""
+    try:
+        return Path(f).resolve().relative_to(HERE.parent).as_posix()
+    except ValueError:
+        return Path(f).name
+
+
+def rebuild_reason(fmu: Path, record: dict, force: bool = False) -> str | None:
+    """Why the FMU at fmu must be built (None: it is current for the inputs record describes): which part changed."""
+    if force:
+        return "--force"
+    info = read_build_info(fmu) if Path(fmu).is_file() else None
+    if not Path(fmu).is_file():
+        return "not built yet"
+    if not info:
+        return "the file there is not a tiltload build"
+    old = info.get("inputs")
+    if not isinstance(old, dict):
+        return "built by a tiltload that kept no record of its inputs"
+    return _changes(old, record)
+
+
+def _changes(old: dict, new: dict) -> str | None:
+    said = []
+    if old.get("platforms") != new["platforms"]:
+        said.append(f"the platforms changed ({', '.join(old.get('platforms') or ['none'])} -> {', '.join(new['platforms'])}; "
+                    "the set of compilers found here)")
+    else:
+        moved = [p for p in new["compilers"] if (old.get("compilers") or {}).get(p) != new["compilers"][p]]
+        if moved:
+            said.append(f"the {', '.join(moved)} compiler changed ({new['compilers'][moved[0]]})")
+    files_old, files_new = old.get("files") or {}, new["files"]
+    changed = [f for f in files_new if files_old.get(f) != files_new[f]] + [f for f in files_old if f not in files_new]
+    if changed:
+        shown = ", ".join(changed[:3]) + (f" and {len(changed) - 3} more" if len(changed) > 3 else "")
+        said.append(f"source changed: {shown}")
+    for key, what in (("version", "tiltload's version"), ("flags", "the compiler flags ($TILTLOAD_CFLAGS)"),
+                      ("machine", "the machine"), ("identity", "the model's settings or library versions"),
+                      ("fmi", "the FMI version")):
+        if old.get(key) != new[key]:
+            said.append(f"{what} changed" + (f" ({old.get(key)} -> {new[key]})" if key in ("version", "fmi") else ""))
+    return "; ".join(said) or None
+
+
 def is_current(fmu: Path, source_digest: str) -> bool:
     info = read_build_info(fmu) if Path(fmu).is_file() else None
     return bool(info) and info.get("source_hash") == source_digest
@@ -94,7 +151,7 @@ def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[s
         return BuildResult(target, False, time.perf_counter() - started)
     with tempfile.TemporaryDirectory(prefix="tiltload_prepare_") as tmp:
         prepared = recipe.prepare(Path(tmp), progress)
-        info = {"version": tiltload_version(), **prepared.info}
+        info = {"version": tiltload_version(), **prepared.info, "inputs": inputs_record(recipe, toolchains, fmi_version)}
         warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains, fmi_version)
     return BuildResult(target, True, time.perf_counter() - started, warnings)
 

@@ -6,9 +6,10 @@ import argparse
 import os
 import sys
 
-from .commands import build, campaign, compare, design, formation, layout, plot, reproduce, run, serve, ssp, wrap
+from .commands import build, bundle, campaign, campaign_report, compare, design, formation, layout, plot, reproduce, run, serve, ssp, wrap
 
-COMMANDS = (build, design, wrap, run, serve, ssp, formation, reproduce, compare, campaign, layout, plot)  # in the help's order
+# in the help's order
+COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, campaign, campaign_report, layout, plot)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -18,8 +19,19 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
 
 
+def version() -> str:
+    """The installed package's version (a source tree run without installing says 0+unknown)."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("tiltload")
+    except metadata.PackageNotFoundError:
+        return "0+unknown"
+
+
 def parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
+    p.add_argument("--version", action="version", version=f"tiltload {version()}", help="print tiltload's version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ...controller_fmu.fmu import build as controller
 from ...formation import build as formation
-from ...native_fmu.build import BuildResult, Recipe, build, digest, is_current
+from ...native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
 from ...native_fmu.compile import choose
 from ...native_fmu.package import read_build_info
 from ...plant_fmu import build as plant
@@ -46,6 +46,18 @@ def formation_recipes() -> list[Recipe]:
     return [plant.recipe("uav"), *formation.recipes()]
 
 
+def every_recipe(fmi_version: int = 2) -> list[Recipe]:
+    """What `tiltload build` builds: both vehicles' loops and the formation; with FMI 3.0, the variants with clocks too."""
+    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if fmi_version == 3 else ())]
+    return list({r.fmu_name: r for r in every}.values())  # the UAV's plant once
+
+
+def build_every(base: Path, fmi_version: int = 2, toolchains=(), force: bool = False, progress=print) -> list[BuildResult]:
+    """Every FMU of every_recipe into its folder under base (fmu_folder), for the platforms of toolchains."""
+    return build_many(every_recipe(fmi_version), fmu_folder(base, fmi_version), force, progress, toolchains=toolchains,
+                      fmi_version=fmi_version)
+
+
 def build_all(dest: Path, force: bool = False, progress=print, vehicles=("load",), fmi_version: int = 2,
               clocked: bool = False) -> list[BuildResult]:
     """The loop's FMUs of each vehicle into dest (FMI 2.0 or 3.0, with clocks or not); each rebuilt only if stale."""
@@ -66,7 +78,8 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:
         return [BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
-    progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side) ...")
+    progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side): "
+             f"{why(stale, dest, force, toolchains, fmi_version)} ...")
     one_at_a_time = threading.Lock()
 
     def alone(prepare):
@@ -87,6 +100,18 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
         futures = {r.fmu_name: pool.submit(one, r) for r in stale}
         results = {name: f.result() for name, f in futures.items()}  # the first failure is raised, after all ended
     return [results.get(r.fmu_name) or BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
+
+
+def why(stale: list[Recipe], dest: Path, force: bool, toolchains, fmi_version: int) -> str:
+    """One line saying why the stale FMUs are built: each distinct reason once, with the FMUs it concerns when they
+    differ (a changed compiler set concerns all; a changed source file, only the FMUs built from it)."""
+    reasons: dict[str, list[str]] = {}
+    for r in stale:
+        said = rebuild_reason(dest / r.fmu_name, inputs_record(r, toolchains, fmi_version), force) or "its inputs changed"
+        reasons.setdefault(said, []).append(r.fmu_name.removesuffix(".fmu"))
+    if len(reasons) == 1:
+        return next(iter(reasons))
+    return "; ".join(f"{', '.join(names)}: {said}" for said, names in reasons.items())
 
 
 def is_ours(fmu: Path, md) -> bool:

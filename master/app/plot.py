@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ...plant_fmu import parameters  # noqa: E402
 from ..engine import log_reader  # noqa: E402
 
 
@@ -30,12 +31,15 @@ def fault_intervals(events: list[dict], t_end: float) -> list[tuple[float, float
 
 
 TOPICS = ["/plant", "/scenario", "/controller", "/faults"]
+_LIMIT = {s.name: s.default for s in parameters.ACTUATOR_LIMITS}  # Table 5.2, the plant's defaults
+ACTUATOR_LIMITS = {"f_R": (_LIMIT["f_min"], _LIMIT["f_max"]), "f_L": (_LIMIT["f_min"], _LIMIT["f_max"]),
+                   "tau_R": (-_LIMIT["tau_max"], _LIMIT["tau_max"]), "tau_L": (-_LIMIT["tau_max"], _LIMIT["tau_max"])}
 
 
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
     log_reader.DamagedLog (plot_intact draws the intact part of one)."""
-    return plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out)
+    return plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out, case_of(log))
 
 
 def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:
@@ -43,17 +47,47 @@ def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_rea
     data, state = log_reader.read_checked(log, topics=TOPICS)
     if state.damage is not None and not data.get("/plant"):
         raise log_reader.DamagedLog(state.describe(Path(log)) + ": nothing to draw")
-    return plot_messages(data, Path(log), out), state
+    return plot_messages(data, Path(log), out, case_of(log)), state
 
 
-def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None) -> list[Path]:
-    """Write <log stem>_*.png from the log's messages next to the log (or into out)."""
+def case_of(log: Path) -> str:
+    """The case a log holds, from its "run" record (empty for a log without one)."""
+    try:
+        return case_title(log_reader.read_metadata(Path(log)).get("run", {}))
+    except Exception:  # a record the reader cannot parse: the figures are drawn without their case, not refused
+        return ""
+
+
+def case_title(run: dict) -> str:
+    """What sets a run apart, as a figure's title says it: 'UAV with load, scenario zse, trajectory 1, controller mixed,
+    seed 1'; a system file's name; the faults file and parameters set, when any."""
+    if run.get("system"):
+        parts = [f"system {Path(run['system']).name}"]
+    elif "vehicle" not in run:  # a log from before the run record listed its options: its case's name
+        parts = [run.get("case", "")]
+    else:
+        parts = [{"load": "UAV with load", "uav": "UAV alone"}.get(run.get("vehicle", ""), run.get("vehicle", "")),
+                 run.get("scenario") and f"scenario {run['scenario']}",
+                 run.get("trajectory") and f"trajectory {run['trajectory']}",
+                 run.get("controller") and f"controller {Path(run['controller']).name}",
+                 run.get("seed") and f"seed {run['seed']}",
+                 "1-tick delay" if run.get("delay") == "True" else "", "no gusts" if run.get("gusts") == "False" else "",
+                 "FMI 3.0" + (" clocks" if run.get("clocks") == "True" else "") if run.get("fmi") == "3" else ""]
+    if run.get("set"):
+        parts.append(f"set {run['set']}")
+    if run.get("faults"):
+        parts.append(f"faults {Path(run['faults']).name}")
+    return ", ".join(p for p in parts if p)
+
+
+def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None, case: str = "") -> list[Path]:
+    """Write <log stem>_*.png from the log's messages next to the log (or into out); case titles every figure."""
     out = log.parent if out is None else Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if not data.get("/plant"):
         raise ValueError(f"{log} has no /plant channel: not a tiltload loop log")
     files = []
-    for name, fig in figures(data):
+    for name, fig in figures(data, case):
         path = out / f"{log.stem}_{name}.png"
         fig.savefig(path, dpi=110)
         plt.close(fig)
@@ -72,9 +106,35 @@ def unit(name: str) -> str:
     return ("m" if length else "rad") + ("/s" if rate else "")
 
 
-def figures(data: dict[str, list[dict]]):
+TITLES = {"trajectory3d": "trajectory", "tracking_error": "tracking error (reference - actual)",
+          "disturbances": "disturbance force", "remaining_dof": "the remaining degrees of freedom",
+          "actuators": "actuator inputs (red: the actuator limits, Table 5.2)", "estimation_error": "estimation error",
+          "estimation_error_rest": "estimation error, the other states", "zse_frobenius": "the ZSE's zonotope size"}
+
+
+def limit_view(values: np.ndarray, limits: tuple[float, float], near: float = 0.5) -> tuple[tuple[float, float], list[float],
+                                                                                         list[float]]:
+    """The y range of a trace with actuator limits: (ylim, the limits to draw, the limits left out).
+
+    The axis is scaled to the data (padded 8 %); a limit is drawn when it lies within the data's range widened by
+    `near` of its span, and then the view stretches to show it; a limit farther away would flatten the trace to a line,
+    so the figure names it in a note instead."""
+    finite = values[np.isfinite(values)]
+    if not len(finite):
+        return (limits[0], limits[1]), list(limits), []
+    lo, hi = float(finite.min()), float(finite.max())
+    span = max(hi - lo, 1e-6 * max(abs(lo), abs(hi), 1.0))
+    shown = [b for b in limits if lo - near * span <= b <= hi + near * span]
+    far = [b for b in limits if b not in shown]
+    lo, hi = min([lo, *shown]), max([hi, *shown])
+    pad = 0.08 * max(hi - lo, span)
+    return (lo - pad, hi + pad), shown, far
+
+
+def figures(data: dict[str, list[dict]], case: str = ""):
     """(name, matplotlib figure) of each of the thesis's kinds of figures the messages allow, every axis with its unit;
-    faults shaded on every time axis."""
+    faults shaded on every time axis; each titled with what it shows and the case (a run's scenario, trajectory,
+    controller, seed: case_title)."""
     plant, scen, ctrl = data["/plant"], data.get("/scenario", []), data.get("/controller", [])
     tp = _series(plant, "t")[:, 0]
     intervals = fault_intervals(data.get("/faults", []), float(tp[-1]) if len(tp) else 0.0)
@@ -86,6 +146,8 @@ def figures(data: dict[str, list[dict]]):
                     ax.axvspan(t0, t1, color=f"C{3 + k % 6}", alpha=0.15, lw=0, label=label if ax is fig.axes[0] else None)
         if intervals and fig.axes and fig.axes[0].name != "3d":
             fig.axes[0].legend(fontsize=7, loc="upper right")
+        title = TITLES[name][0].upper() + TITLES[name][1:]
+        fig.suptitle(f"{title}\n{case}" if case else title, fontsize=10)
         fig.tight_layout()
         return name, fig
 
@@ -140,10 +202,16 @@ def figures(data: dict[str, list[dict]]):
     if ctrl and "f_R" in ctrl[0]:
         tc = _series(ctrl, "t")[:, 0]
         fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
-        for ax, n, (lo, hi) in zip(axes, ("f_R", "f_L", "tau_R", "tau_L"), ((0, 30), (0, 30), (-2, 2), (-2, 2))):
-            ax.step(tc, _series(ctrl, n)[:, 0], where="post")
-            ax.axhline(lo, color="r", ls=":")
-            ax.axhline(hi, color="r", ls=":")
+        for ax, n in zip(axes, ("f_R", "f_L", "tau_R", "tau_L")):
+            values = _series(ctrl, n)[:, 0]
+            ax.step(tc, values, where="post")
+            ylim, shown, far = limit_view(values, ACTUATOR_LIMITS[n])
+            for b in shown:
+                ax.axhline(b, color="r", ls=":")
+            ax.set_ylim(*ylim)
+            if far:  # drawn, they would flatten the trace: named instead
+                ax.text(0.99, 0.96, f"limit{'s' if len(far) > 1 else ''} {' and '.join(f'{b:g}' for b in far)} {unit(n)} "
+                        "off the scale", transform=ax.transAxes, ha="right", va="top", fontsize=7, color="r")
             ax.set_ylabel(f"{n} ({unit(n)})")
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel("t (s)")

@@ -241,12 +241,24 @@ class Metrics(Observer):
 
 
 class Progress(Observer):
-    """A one-line progress bar on stderr, refreshed at most twice a second."""
+    """How far a run is and how long it has left, on stderr. On a terminal, one bar redrawn in place (\\r) at most
+    twice a second; otherwise (a file, a pipe, CI's log) a plain line every `every` s of wall time, so that a log
+    holds readable lines and no carriage-return frames."""
 
-    def __init__(self, stop: float, stream=sys.stderr) -> None:
-        self.stop, self.stream = stop, stream
+    def __init__(self, stop: float, stream=None, every: float = 10.0) -> None:
+        self.stop, self.stream = stop, sys.stderr if stream is None else stream
+        isatty = getattr(self.stream, "isatty", None)
+        self.terminal = bool(isatty and isatty())
+        self.interval = 0.5 if self.terminal else every
         self._t0 = time.perf_counter()
         self._last = self._t0  # first refresh after 0.5 s, when the rate means something
+        self._t_first = 0.0  # the simulated time at the start (a resumed run starts past 0)
+        self._drawn = False
+
+    def start(self, execution) -> None:
+        """The clock starts once the FMUs are loaded, so that the rate and the time left are the stepping's own."""
+        self._t0 = self._last = time.perf_counter()
+        self._t_first = execution.resumed_at or 0.0
 
     def on_batch(self, execution, batch: Batch) -> None:
         k = batch.first_tick + batch.ticks
@@ -254,14 +266,43 @@ class Progress(Observer):
 
     def on_tick(self, k, t) -> None:
         now = time.perf_counter()
-        if now - self._last < 0.5 and t < self.stop:
+        if now - self._last < self.interval and (t < self.stop or not self.terminal):
             return
         self._last = now
-        frac = min(t / self.stop, 1.0)
-        bar = "#" * int(30 * frac)
-        self.stream.write(f"\r  [{bar:<30}] {100 * frac:5.1f} %  t = {t:6.2f} s  ({t / max(now - self._t0, 1e-9):.0f}x real time)")
+        self.stream.write(self.frame(t, now - self._t0) if self.terminal else self.line(t, now - self._t0) + "\n")
+        self._drawn = True
         self.stream.flush()
 
+    def remaining(self, t: float, elapsed: float) -> float | None:
+        """Wall-clock seconds left at the rate so far (None before any simulated time has passed)."""
+        done = t - self._t_first
+        if done <= 0 or elapsed <= 0:
+            return None
+        return max(self.stop - t, 0.0) * elapsed / done
+
+    def line(self, t: float, elapsed: float) -> str:
+        frac = min(t / self.stop, 1.0) if self.stop > 0 else 1.0
+        left = self.remaining(t, elapsed)
+        rate = (t - self._t_first) / max(elapsed, 1e-9)
+        return (f"  {100 * frac:5.1f} %  t = {t:6.2f} of {self.stop:g} s  ({rate:.0f}x real time, "
+                f"{'?' if left is None else _duration(left)} left)")
+
+    def frame(self, t: float, elapsed: float) -> str:
+        frac = min(t / self.stop, 1.0) if self.stop > 0 else 1.0
+        bar = "#" * int(30 * frac)
+        return f"\r  [{bar:<30}]" + self.line(t, elapsed) + "   "  # trailing blanks: a shorter frame erases a longer one
+
     def finish(self, execution, error) -> None:
-        self.stream.write("\n")
-        self.stream.flush()
+        if self.terminal and self._drawn:  # end the bar's line; a redirected stream's lines are whole already
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _duration(seconds: float) -> str:
+    """A time left as a person says it: 8 s, 2 min 05 s, 1 h 03 min."""
+    s = round(seconds)
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"

@@ -504,7 +504,7 @@ def test_a_missing_fmu_is_the_environment_s_failure_and_a_refused_value_the_run_
 
 
 def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_results, fmus, tmp_path, capsys):
-    assert main(["campaign", "report", str(local_results)]) == 0
+    assert main(["campaign-report", str(local_results)]) == 0
     text = (local_results.parent / "report.md").read_text()
     assert "## Per controller" in text and "## Worst runs" in text and (local_results.parent / "distributions.png").is_file()
     assert "error: " in text  # the failed runs come first

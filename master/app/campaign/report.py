@@ -1,6 +1,7 @@
 """`tiltload campaign report RESULTS`: distributions per controller, success and ISE maps, the worst runs.
 
-Writes <folder>/report.md with its figures beside it: box plots of the metrics per controller;
+Writes <folder>/report.md with its figures beside it: the metrics per controller (a box per controller, or each run
+as a point when a controller has fewer than STRIP_BELOW; a metric zero in every run is left out);
 over two varied parameters (the first two, or --x/--y), per controller, the share of runs that
 completed without diverging and the mean ISE of the position; the worst runs by the maximum
 tracking error, each with the `tiltload run` command that reruns it alone.
@@ -14,6 +15,85 @@ from pathlib import Path
 import numpy as np
 
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
+DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
+                 "zse_containment")
+STRIP_BELOW = 5  # fewer runs than this in a group: each run drawn as a point, not a box of quartiles it cannot have
+TITLES = {"max_tracking_error": "largest tracking error", "time_saturated": "time saturated",
+          "zse_containment": "truth inside the ZSE's bounds"}
+
+
+def metric_unit(key: str) -> str:
+    """The unit of a campaign metric: ISE of a position in m²·s, of an angle in rad²·s; IADU in its input's unit."""
+    from ..plot import unit
+
+    if key.startswith(("ISE(", "IADU(")):
+        name = key[key.index("(") + 1:-1]
+        base = unit(name)
+        return f"{base}²·s" if key.startswith("ISE(") else base
+    return {"max_tracking_error": "m", "time_saturated": "share of steps",
+            "zse_containment": "share of steps"}[key]
+
+
+def parameter_unit(name: str, spec: dict | None) -> str:
+    """A varied parameter's unit, from the model parameter its first target sets (empty when none is known)."""
+    from ....plant_fmu.parameters import ACTUATOR_LIMITS, MODEL_PARAMETERS
+
+    for p in (spec or {}).get("vary", {}).get("parameters", []):
+        if p.get("name") == name and p.get("targets"):
+            leaf = p["targets"][0].split(".")[-1]
+            found = next((s.unit for s in (*MODEL_PARAMETERS, *ACTUATOR_LIMITS) if s.name == leaf), "")
+            return found.replace(".", " ")
+    return ""
+
+
+def axis_label(name: str, unit: str) -> str:
+    return f"{name} ({unit})" if unit and unit != "1" else name
+
+
+def distribution_panels(rows: list[dict], controllers: list[str], keys=DISTRIBUTIONS) -> list[tuple[str, list[list[float]]]]:
+    """(metric, its values per controller) of each metric to draw: the completed, not diverged runs' finite values;
+    a metric without any, or zero in every run (nothing saturated, say), has no panel."""
+    panels = []
+    for key in keys:
+        if key not in rows[0]:
+            continue
+        data = [[float(r[key]) for r in rows if r["controller"] == c and _ok(r) and r.get(key) is not None
+                 and math.isfinite(r[key])] for c in controllers]
+        if any(v != 0.0 for group in data for v in group):
+            panels.append((key, data))
+    return panels
+
+
+def group_kind(values: list[float]) -> str:
+    """How a group is drawn: 'strip' (each run a point) below STRIP_BELOW runs, else 'box'."""
+    return "strip" if len(values) < STRIP_BELOW else "box"
+
+
+def draw_distribution(ax, key: str, data: list[list[float]], labels: list[str]) -> list[str]:
+    """One metric's panel: a box or a strip per group, plain tick labels, the unit on the axis; the kinds drawn."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    kinds = [group_kind(g) for g in data]
+    boxes = [i for i, k in enumerate(kinds) if k == "box" and data[i]]
+    if boxes:
+        ax.boxplot([data[i] for i in boxes], positions=[i + 1 for i in boxes], widths=0.5, showfliers=True)
+    for i, g in enumerate(data):
+        if kinds[i] == "strip" and g:  # the points side by side, the median as a bar
+            offsets = np.linspace(-0.12, 0.12, len(g)) if len(g) > 1 else np.zeros(1)
+            ax.scatter(i + 1 + offsets, g, s=18, color="C0", zorder=3)
+            ax.hlines(np.median(g), i + 0.75, i + 1.25, color="C1")
+    ax.set_xticks(range(1, len(labels) + 1), [f"{c}\n({len(g)} runs)" for c, g in zip(labels, data)])
+    ax.set_xlim(0.4, len(labels) + 0.6)
+    values = np.array([v for g in data for v in g])
+    positive = values[values > 0]
+    if key.startswith("ISE") and len(positive) == len(values) and positive.max() > 20 * positive.min():
+        ax.set_yscale("log")  # ISE spans decades between good and poor runs; plain numbers on its ticks all the same
+        ax.yaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.set_title(TITLES.get(key, key), fontsize=9)
+    ax.set_ylabel(axis_label(key, metric_unit(key)))
+    ax.grid(alpha=0.3, axis="y")
+    return kinds
 
 
 class ReportError(ValueError):
@@ -90,18 +170,21 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         lines.append(f"| {c} | {len(rs)} | {len(good)} ({100 * len(good) / len(rs):.0f} %) | {med('ISE(x)')} | {med('ISE(z)')} | "
                      f"{med('max_tracking_error')} | {worst:.4g} | {med('time_saturated')} |")
     figures = []
-    keys = [k for k in ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "time_saturated") if k in rows[0]]
-    fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys), 3.6))
-    for ax, key in zip(np.atleast_1d(axes), keys):
-        data = [[r[key] for r in rows if r["controller"] == c and _ok(r) and r.get(key) is not None] for c in controllers]
-        ax.boxplot(data, tick_labels=controllers)
-        ax.set_title(key)
-        ax.set_yscale("log" if key.startswith("ISE") else "linear")
-    fig.tight_layout()
-    fig.savefig(folder / "distributions.png", dpi=110)
-    plt.close(fig)
-    figures.append("distributions.png")
-    lines += ["", "![metric distributions per controller](distributions.png)", ""]
+    panels = distribution_panels(rows, controllers)
+    if panels:
+        columns = 1 if len(panels) == 1 else 2  # a page: two panels a row, as many rows as it takes
+        n_rows = -(-len(panels) // columns)
+        fig, axes = plt.subplots(n_rows, columns, figsize=(4.1 * columns, 2.9 * n_rows + 0.7), squeeze=False)
+        for ax, (key, data) in zip(axes.ravel(), panels):
+            draw_distribution(ax, key, data, controllers)
+        for ax in axes.ravel()[len(panels):]:
+            ax.remove()
+        fig.suptitle(f"Campaign {results.parent.name}: the metrics of the runs completed without diverging", fontsize=10)
+        fig.tight_layout()
+        fig.savefig(folder / "distributions.png", dpi=110)
+        plt.close(fig)
+        figures.append("distributions.png")
+        lines += ["", "![metric distributions per controller](distributions.png)", ""]
     x = x or (varied[0] if len(varied) >= 1 else None)
     y = y or (varied[1] if len(varied) >= 2 else None)
     for name in (x, y):
@@ -111,7 +194,9 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         xs = sorted({r[x] for r in rows})
         ys = sorted({r[y] for r in rows})
         if len(xs) * len(ys) <= 400:  # a grid: maps
-            fig, axes = plt.subplots(2, len(controllers), figsize=(4.2 * len(controllers), 7), squeeze=False)
+            # a page: a row per controller, its success beside its ISE
+            fig, axes = plt.subplots(len(controllers), 2, figsize=(8.4, 3.2 * len(controllers) + 0.7), squeeze=False)
+            x_label, y_label = axis_label(x, parameter_unit(x, spec)), axis_label(y, parameter_unit(y, spec))
             for j, c in enumerate(controllers):
                 success = np.full((len(ys), len(xs)), np.nan)
                 ise = np.full((len(ys), len(xs)), np.nan)
@@ -122,17 +207,22 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
                             success[iy, ix] = np.mean([_ok(r) for r in cell])
                             vals = [sum(r[k] for k in ISE_POSITION) for r in cell if _ok(r)]
                             ise[iy, ix] = np.mean(vals) if vals else np.nan
-                for i, (grid, title, cmap) in enumerate(((success, "share completed, not diverged", "RdYlGn"),
-                                                         (ise, "mean ISE(x)+ISE(y)+ISE(z)", "viridis"))):
-                    ax = axes[i, j]
-                    im = ax.imshow(grid, origin="lower", cmap=cmap, aspect="auto",
-                                   **({"vmin": 0, "vmax": 1} if i == 0 else {}))
+                for i, (grid, title, cmap, unit) in enumerate(((success, "share completed, not diverged", "RdYlGn",
+                                                                "share of runs"),
+                                                               (ise, "mean ISE(x)+ISE(y)+ISE(z)", "viridis", "m²·s"))):
+                    ax = axes[j, i]
                     ax.set_xticks(range(len(xs)), [f"{v:.3g}" for v in xs])
                     ax.set_yticks(range(len(ys)), [f"{v:.3g}" for v in ys])
-                    ax.set_xlabel(x)
-                    ax.set_ylabel(y)
+                    ax.set_xlabel(x_label)
+                    ax.set_ylabel(y_label)
                     ax.set_title(f"{c}: {title}", fontsize=9)
-                    fig.colorbar(im, ax=ax)
+                    if np.isnan(grid).all():  # no run to average: said, not an empty square
+                        ax.text(0.5, 0.5, "no run completed", transform=ax.transAxes, ha="center", va="center")
+                        continue
+                    im = ax.imshow(grid, origin="lower", cmap=cmap, aspect="auto",
+                                   **({"vmin": 0, "vmax": 1} if i == 0 else {}))
+                    fig.colorbar(im, ax=ax, label=unit)
+            fig.suptitle(f"Campaign {results.parent.name}: over {x} and {y}", fontsize=10)
             fig.tight_layout()
             fig.savefig(folder / "maps.png", dpi=110)
             plt.close(fig)

@@ -38,14 +38,11 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ....native_fmu.compile import choose
-    from ..fmus import build_many, clocked_recipes, fmu_folder, formation_recipes, loop_recipes
+    from ..fmus import build_every
 
     toolchains, missing = choose(args.platforms)
     if missing:
         print(f"tiltload build: {missing}", file=sys.stderr)
-    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if args.fmi == 3 else ())]
-    recipes = {r.fmu_name: r for r in every}  # the UAV's plant once
-    out = fmu_folder(args.out, args.fmi)
-    for result in build_many(list(recipes.values()), out, args.force, toolchains=toolchains, fmi_version=args.fmi):
+    for result in build_every(args.out, args.fmi, toolchains, args.force):
         print(f"{result.path}: {'built' if result.rebuilt else 'up to date'}" + (f" ({result.seconds:.1f} s)" if result.rebuilt else ""))
     return 0

@@ -1,4 +1,5 @@
-"""`tiltload campaign SPEC` runs a campaign on Dask; `tiltload campaign report RESULTS` summarizes one."""
+"""`tiltload campaign SPEC` runs a campaign on Dask (`tiltload campaign-report RESULTS` summarizes one; the older
+`tiltload campaign report RESULTS` still works, with a note naming the new form)."""
 
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ seconds = arguments.positive_time
 
 
 def add_parser(sub) -> None:
-    ca = sub.add_parser("campaign", help="run a campaign spec on Dask (TOML/YAML), or 'report RESULTS' to summarize one")
-    ca.add_argument("what", help="the campaign spec, or 'report'")
-    ca.add_argument("results", nargs="?", type=Path, default=None, help="with report: the results.parquet")
+    ca = sub.add_parser("campaign", help="run a campaign spec on Dask (TOML/YAML); tiltload campaign-report summarizes one")
+    ca.add_argument("what", metavar="SPEC", help="the campaign spec to run, a TOML or YAML file (docs/campaigns.md)")
+    ca.add_argument("results", nargs="?", type=Path, default=None, metavar="RESULTS",
+                    help="only in the older form `campaign report RESULTS`, now `tiltload campaign-report RESULTS`")
     ca.add_argument("--out", type=Path, default=None, help="results folder (default runs/campaigns/<name>)")
     ca.add_argument("--scheduler", default=None,
                     help="an existing Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (default: a local cluster on 127.0.0.1)")
@@ -30,25 +32,34 @@ def add_parser(sub) -> None:
     ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")
     ca.add_argument("--verbose", action="store_true", help="Dask's log on the terminal too (it is always in <out>/campaign.log)")
     ca.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
-    ca.add_argument("--spec", type=Path, default=None, help="with report: the spec, for the rerun commands")
-    ca.add_argument("--x", default=None, help="with report: the varied parameter on the maps' x axis")
-    ca.add_argument("--y", default=None, help="with report: the varied parameter on the maps' y axis")
+    for name in ("--spec", "--x", "--y"):  # the older report form's options, hidden: campaign-report lists them
+        ca.add_argument(name, type=Path if name == "--spec" else str, default=None, help=argparse.SUPPRESS)
     ca.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.what == "report":
-        from ..campaign.report import report
+    if args.what == "report":  # the older form: still works, and says what replaced it
+        from .campaign_report import run as report
 
         if args.results is None:
-            raise UserError("campaign report: name the results file (e.g. runs/campaigns/NAME/results.parquet)")
-        print(f"report: {report(args.results, args.spec, args.x, args.y)}")
-        return 0
+            raise UserError("campaign-report: name the results file (tiltload campaign-report "
+                            "runs/campaigns/NAME/results.parquet)")
+        from ..campaign.report import ReportError
+
+        note = "`tiltload campaign report RESULTS` is now `tiltload campaign-report RESULTS`"
+        try:
+            code = report(args)
+        except ReportError as err:  # still one line: the error, and the new form
+            raise ReportError(f"{err} (note: {note})") from None
+        print(f"note: {note}", file=sys.stderr)
+        return code
     from ..campaign.errors import CampaignIncomplete, ClusterError
     from ..campaign.runner import run as run_campaign
 
     if args.results is not None:
-        raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign report RESULTS)")
+        raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign-report RESULTS)")
+    if args.spec is not None or args.x is not None or args.y is not None:
+        raise UserError("campaign: --spec, --x and --y are options of tiltload campaign-report RESULTS")
     try:
         results, counts = run_campaign(Path(args.what), args.out, args.fmus, scheduler=args.scheduler,
                                        workers=args.workers, connect_timeout=args.connect_timeout,

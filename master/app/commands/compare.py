@@ -10,8 +10,9 @@ from .. import arguments
 
 def add_parser(sub) -> None:
     cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
-    cp.add_argument("run", type=Path)
-    cp.add_argument("baseline", type=Path)
+    cp.add_argument("run", type=Path, help="the run: its MCAP log (runs/NAME.mcap) or a metrics file (JSON)")
+    cp.add_argument("baseline", type=Path,
+                    help="what to compare with: another run's MCAP log or a metrics file (JSON, with per-metric tolerances)")
     cp.add_argument("--rtol", type=arguments.tolerance, default=None,
                     help="relative tolerance for every metric, in place of the baseline's own (default: the baseline "
                          "file's per-metric tolerances, else 1e-6)")

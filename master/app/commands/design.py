@@ -13,7 +13,8 @@ from .. import arguments
 
 def add_parser(sub) -> None:
     d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
-    d.add_argument("--controller", default="dlqr", help="dlqr (default), hinf or mixed")
+    d.add_argument("--controller", default=None,
+                   help="dlqr, hinf or mixed (default: the one tiltload run flies, mixed for the load, dlqr for the UAV alone)")
     d.add_argument("--vehicle", choices=("load", "uav"), default="load", help="load (default) or uav: the UAV alone (dlqr only)")
     d.add_argument("--Tc", type=arguments.positive_time, default=0.012, help="controller period in s (default 0.012)")
     d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
@@ -24,8 +25,10 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ....controller_fmu.design import artifact
     from ....controller_fmu.design.synthesize import design
+    from ..loop import LOOPS
 
-    d = design(args.controller, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr),
+    kind = args.controller or LOOPS[args.vehicle].default_controller  # one default with `tiltload run`
+    d = design(kind, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr),
                vehicle=args.vehicle)
     r = d.report
     if "gamma_bound" in r and r.get("hinf_norm") is None:  # a shipped design is checked without measuring its norms

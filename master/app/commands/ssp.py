@@ -7,7 +7,6 @@ import argparse
 from pathlib import Path
 
 from .. import arguments
-from ..errors import UserError
 
 
 def add_parser(sub) -> None:
@@ -23,23 +22,13 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ....controller_fmu.design.cache import cache_root
-    from ...engine import ssp, ssp2
-    from ...engine.model_description import read_fmu
-    from ..loop import select_loop_delay
-    from ..options import loop_system, resolve_loop
+    from ..ssp_export import export
 
-    loop = loop_system(resolve_loop(args), cache_root() / "ssp")  # the one action, export (argparse checked it)
-    system, stop = loop.system, loop.stop
-    version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
-    schedule = args.schedule or ("ordered" if version2 else "jacobi")
-    delay = select_loop_delay(system, schedule)
-    try:
-        path = (ssp2 if version2 else ssp).export(system, args.out, stop, schedule)
-    except OSError as err:
-        raise UserError(f"cannot write {args.out}: {err.strerror or err}") from None
-    print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {len(system.instances)} FMUs, {stop:g} s, prepared for a "
+    path, version2, schedule, delay, count, stop = export(args, args.out, args.schedule)
+    print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for a "
           f"{schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
+    from ...engine import ssp
+
     others = ("" if version2 else f"   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set='{ssp.PARAMETER_SET}'))")
     print(f"  run it: tiltload run --system {path}{others}")
     return 0

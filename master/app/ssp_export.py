@@ -1,0 +1,39 @@
+"""The loop as an SSP package (SSP 1.0 with FMI 2.0 FMUs, SSP 2.0 with FMI 3.0): `tiltload ssp export` and
+`tiltload bundle` both write theirs here."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .user_error import UserError
+
+
+def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
+    """The loop the options describe as an SSP package at out (SSP 2.0 when its FMUs are FMI 3.0): (path, SSP 2.0?,
+    the schedule it is prepared for, the controller's loop delay in ticks or None, FMUs, stop time)."""
+    from ...controller_fmu.design.cache import cache_root
+    from ..engine import ssp, ssp2
+    from ..engine.model_description import read_fmu
+    from .loop import select_loop_delay
+    from .options import loop_system, resolve_loop
+
+    loop = loop_system(resolve_loop(args), cache_root() / "ssp")
+    system, stop = loop.system, loop.stop
+    version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
+    schedule = schedule or ("ordered" if version2 else "jacobi")
+    delay = select_loop_delay(system, schedule)
+    try:
+        path = (ssp2 if version2 else ssp).export(system, out, stop, schedule)
+    except OSError as err:
+        raise UserError(f"cannot write {out}: {err.strerror or err}") from None
+    return path, version2, schedule, delay, len(system.instances), stop
+
+
+def loop_arguments(fmus: Path, fmi_version: int) -> argparse.Namespace:
+    """The options of `tiltload ssp export --fmus FMUS --fmi N`, the defaults for the rest."""
+    from . import arguments
+
+    p = argparse.ArgumentParser(prog="tiltload")
+    arguments.add_loop_options(p)
+    return p.parse_args(["--fmus", str(fmus), "--fmi", str(fmi_version)])
