@@ -9,7 +9,6 @@ import random
 
 import numpy as np
 import pytest
-
 from tiltload.master.engine.stl import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, StlError, Trace, parse, unparse, verdict
 from tiltload.master.engine.stl import syntax as S
 from tiltload.master.engine.stl.windows import sliding_min, sliding_min_deque

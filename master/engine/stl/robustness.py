@@ -20,8 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .syntax import (Always, And, Arith, Compare, Const, Eventually, Implies, Not, Or, Signal, StlError, Until,
-                     bounded_horizon, signals)
+from .syntax import Always, And, Compare, Const, Eventually, Implies, Not, Or, Signal, StlError, Until, bounded_horizon, signals
 from .windows import sliding_min
 
 _SLACK = 1e-9  # of a tick: a time bound this close to a whole number of ticks is that number
