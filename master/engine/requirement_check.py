@@ -1,0 +1,186 @@
+"""Requirements checked on a run: its signals sampled on the master's tick, each requirement's verdict at the start.
+
+The trace: every instance's messages (the values after each of its steps, and at t = 0), held from one message to the
+next, read at each time any of the instances the requirements read has a message (the tick). The same function builds
+it from a log (offline: check_log) and from the steps a run hands its observers (online: requirement_observer.py), so
+the two agree bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .requirements import Requirement, RequirementError, check_signals, load
+from .stl import Evaluator, StlError, Trace, verdict
+
+
+@dataclass(frozen=True)
+class Result:
+    """One requirement's verdict on one run."""
+
+    name: str
+    verdict: str  # PASS, FAIL, INCONCLUSIVE, ZERO (robustness exactly 0)
+    robustness: float | None  # None: not decided (INCONCLUSIVE, or a FAIL decided before the horizon: see bounds)
+    first_violation: float | None  # s, FAIL only
+    values: dict[str, float] = field(default_factory=dict)  # the requirement's signals at the first violation
+    bounds: tuple[float, float] = (-math.inf, math.inf)  # what the robustness can still be
+    why: str = ""  # for INCONCLUSIVE: what is missing
+    formula: str = ""
+    description: str = ""
+    source: str = ""
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        d["bounds"] = [_finite(b) for b in self.bounds]
+        return d
+
+
+def _finite(x: float):
+    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+
+
+def split(name: str) -> tuple[str, str]:
+    """instance.variable -> (instance, variable): the instance is the part before the first dot."""
+    instance, _, variable = name.partition(".")
+    return instance, variable
+
+
+def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], names: list[str]) -> Trace:
+    """The trace of the named signals on the tick. series: instance -> (message times in log order, its variables'
+    values). The tick is the shortest time between two messages of an instance; each message belongs to the tick
+    nearest its time (instances compute their times each their own way: 3 * 0.012 and 0.036 differ in the last bit);
+    a signal holds its last message's value (the latest of those at one tick) until its next."""
+    used = sorted({split(n)[0] for n in names})
+    if not used:
+        raise StlError("no signal")
+    every = np.concatenate([series[i][0] for i in used])
+    gaps = np.concatenate([np.diff(np.sort(series[i][0])) for i in used])
+    gaps = gaps[gaps > 1e-9]
+    if not len(gaps):
+        return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
+    tick = float(gaps.min())
+    first, last = int(np.rint(every.min() / tick)), int(np.rint(every.max() / tick))
+    keys = np.arange(first, last + 1)
+    return Trace.uniform(keys * tick, {n: _held(series, n, keys, tick) for n in names}, tick)
+
+
+def _held(series, name: str, keys: np.ndarray, tick: float) -> np.ndarray:
+    instance, variable = split(name)
+    times, columns = series[instance]
+    own = np.rint(times / tick).astype(np.int64)
+    order = np.argsort(own, kind="stable")  # the last message at a tick is the latest
+    at = np.searchsorted(own[order], keys, side="right") - 1
+    column = np.asarray(columns[variable], dtype=float)[order]
+    return np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
+
+
+def check_trace(reqs: list[Requirement], trace_for, final: bool = True) -> list[Result]:
+    """Each requirement's verdict; trace_for(requirement) -> Trace, or None with why it is missing (INCONCLUSIVE)."""
+    out = []
+    for req in reqs:
+        trace = trace_for(req)
+        if isinstance(trace, str):
+            out.append(Result(req.name, "INCONCLUSIVE", None, None, why=trace, formula=req.text, description=req.description,
+                              source=req.source))
+            continue
+        try:
+            v = verdict(req.formula, trace, final, Evaluator(trace, final))
+        except StlError as err:
+            raise RequirementError(f"requirement '{req.name}': {err}") from None
+        why = ""
+        if v.verdict == "INCONCLUSIVE":
+            why = f"the run covers {trace.times[-1] - trace.times[0]:g} s of the {req.horizon:g} s the requirement looks at"
+        out.append(Result(req.name, v.verdict, v.robustness, v.violation_time, v.violation_values, v.bounds, why, req.text,
+                          req.description, req.source))
+    return out
+
+
+def log_series(messages: dict[str, list[dict]]) -> tuple[dict, dict[str, str]]:
+    """(instance -> (times, {variable: values}), every signal -> "number" or what it is instead) of a log's messages."""
+    series, kinds = {}, {}
+    for topic, msgs in messages.items():
+        if not msgs or not isinstance(msgs[0], dict) or "t" not in msgs[0]:
+            continue
+        instance = topic.lstrip("/")
+        times = np.array([m["t"] for m in msgs], dtype=float)
+        columns = {}
+        for key, first in msgs[0].items():
+            if key == "t":
+                continue
+            name = f"{instance}.{key}"
+            if first is None or isinstance(first, (bool, int, float)):
+                kinds[name] = "number"
+                columns[key] = np.array([np.nan if m.get(key) is None else float(m[key]) for m in msgs])
+            else:
+                kinds[name] = f"a {type(first).__name__}"
+        series[instance] = (times, columns)
+    return series, kinds
+
+
+def as_requirements(requirements) -> list[Requirement]:
+    if isinstance(requirements, (str, Path)):
+        return load(Path(requirements))
+    reqs = list(requirements)
+    if not all(isinstance(r, Requirement) for r in reqs):
+        raise RequirementError("requirements: a requirement file's path or a list of Requirement")
+    return reqs
+
+
+def run_stop_time(metadata: dict[str, dict]) -> float | None:
+    """The stop time the run was started with (its "run" record), if the log says."""
+    try:
+        return float(metadata["run"]["stop_time"])
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
+    """Each requirement's verdict on one MCAP log (requirements: a requirement file's path, or Requirement objects).
+
+    A log cut short (a killed run, no footer) is a trace that could have gone on; a damaged one raises DamagedLog. A
+    signal the log does not have raises RequirementError naming the closest names (missing="inconclusive": that
+    requirement is INCONCLUSIVE instead, for a log of a loop without it)."""
+    from . import log_reader
+
+    reqs = as_requirements(requirements)
+    path = Path(log_path)
+    if not path.is_file():
+        raise RequirementError(f"log {path} does not exist")
+    topics = sorted({f"/{split(n)[0]}" for r in reqs for n in r.signals})
+    messages, state = log_reader.read_checked(path, topics)
+    if state.damage is not None:
+        raise log_reader.DamagedLog(state.describe(path))
+    series, kinds = log_series(messages)
+    missing = [n for r in reqs for n in r.signals if n not in kinds]
+    absent = [n for r in reqs for n in r.signals if n not in kinds]
+    if absent and missing == "inconclusive":
+        def trace_for(r: Requirement):
+            gone = [n for n in r.signals if kinds.get(n) != "number"]
+            return f"{path.name} has no signal {gone[0]}" if gone else _trace(series, r)
+        return check_trace(reqs, trace_for, final=not state.torn)
+    if absent:  # read every channel to name what there is
+        kinds = log_series(log_reader.read_checked(path)[0])[1]
+    check_signals(reqs, kinds, str(path))
+    return check_trace(reqs, lambda r: _trace(series, r), final=not state.torn)
+
+
+def _trace(series, req: Requirement) -> Trace:
+    try:
+        return build_trace(series, req.signals)
+    except StlError as err:
+        raise RequirementError(f"requirement '{req.name}': {err}") from None
+
+
+def log_span(log_path) -> float:
+    """How long the run was meant to last: its stop time, or the last message's time."""
+    from . import log_reader
+
+    stop = run_stop_time(log_reader.read_metadata(Path(log_path)))
+    if stop is not None:
+        return stop
+    state = log_reader.check(Path(log_path))
+    return state.duration if state.duration is not None else (state.intact_until or 0.0)
