@@ -72,6 +72,9 @@ class McapLogger(Observer):
         self.derived = tuple(derived)
         self.metadata = metadata or {}
         self.chunk_size = chunk_size
+        # called as hook(logger, error) when the run ends, before the log closes: an observer that writes what it
+        # concluded (the requirements' channel and verdicts) with add_json_channel and final_metadata
+        self.closing: list[Callable] = []
         self._writer: McapWriter | None = None
 
     def start(self, execution) -> None:
@@ -125,6 +128,14 @@ class McapLogger(Observer):
     def _flush_batch(self, fill=()) -> None:
         batch, self._batch = self._batch, MessageBatch()
         self._writer.add_messages(batch, fill)
+
+    def add_json_channel(self, topic: str, schema: dict, messages: list[tuple[float, bytes]]) -> None:
+        """A JSON channel and its messages [(t, payload)], written at once (from a closing hook)."""
+        channel = self._json_channel(topic, schema, {})
+        batch = MessageBatch()
+        for t, payload in messages:
+            batch.add(channel, int(round(t * 1e9)), payload)
+        self._writer.add_messages(batch)
 
     def on_fault(self, t, fault, what) -> None:
         from .manipulators import describe
@@ -215,6 +226,11 @@ class McapLogger(Observer):
         if self._writer is None:
             return
         self._flush_batch()
+        for hook in self.closing:
+            try:
+                hook(self, error)
+            except Exception as err:  # the log is closed whatever an observer's conclusion does
+                self._writer.add_metadata("closing_error", {"message": f"{type(err).__name__}: {err}"[:300]})
         if error:
             self._writer.add_metadata("error", {"message": error})
         for name, record in self.final_metadata.items():

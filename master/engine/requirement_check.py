@@ -92,8 +92,10 @@ def check_trace(reqs: list[Requirement], trace_for, final: bool = True) -> list[
         except StlError as err:
             raise RequirementError(f"requirement '{req.name}': {err}") from None
         why = ""
+        span = trace.times[-1] - trace.times[0]
         if v.verdict == "INCONCLUSIVE":
-            why = f"the run covers {trace.times[-1] - trace.times[0]:g} s of the {req.horizon:g} s the requirement looks at"
+            why = (f"the run covers {span:g} s of the {req.horizon:g} s the requirement looks at" if span < req.horizon
+                   else f"the run ended early, at {trace.times[-1]:g} s: what holds to the end of the run is open")
         out.append(Result(req.name, v.verdict, v.robustness, v.violation_time, v.violation_values, v.bounds, why, req.text,
                           req.description, req.source))
     return out
@@ -154,6 +156,8 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     messages, state = log_reader.read_checked(path, topics)
     if state.damage is not None:
         raise log_reader.DamagedLog(state.describe(path))
+    # a run killed (no footer) or ended by an error (--stop-on-violation too) could have gone on: not the whole run
+    final = not state.torn and "error" not in log_reader.read_metadata(path)
     series, kinds = log_series(messages)
     missing = [n for r in reqs for n in r.signals if n not in kinds]
     absent = [n for r in reqs for n in r.signals if n not in kinds]
@@ -161,11 +165,11 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
         def trace_for(r: Requirement):
             gone = [n for n in r.signals if kinds.get(n) != "number"]
             return f"{path.name} has no signal {gone[0]}" if gone else _trace(series, r)
-        return check_trace(reqs, trace_for, final=not state.torn)
+        return check_trace(reqs, trace_for, final=final)
     if absent:  # read every channel to name what there is
         kinds = log_series(log_reader.read_checked(path)[0])[1]
     check_signals(reqs, kinds, str(path))
-    return check_trace(reqs, lambda r: _trace(series, r), final=not state.torn)
+    return check_trace(reqs, lambda r: _trace(series, r), final=final)
 
 
 def _trace(series, req: Requirement) -> Trace:

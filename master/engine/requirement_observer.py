@@ -1,0 +1,133 @@
+"""Requirements monitored while a run goes (docs/requirements.md, "Online").
+
+The observer keeps, batch by batch, the columns of the outputs the requirements read (a few numpy copies a call of the
+tick loop, no Python per tick), as the log holds them: the values at t = 0, then after each step. At the end it
+builds the trace with the function the offline check uses (requirement_check.build_trace), so the verdicts online and
+offline agree bit for bit; the log gets a /requirements channel (each requirement's robustness at every tick: the
+robustness of its formula evaluated from that tick on) and a "requirements" metadata record (the verdicts).
+
+stop_on_violation: after each batch (at most every CHECK_EVERY ticks), the robustness's upper bound over every way the
+run could go on (stl.robustness "upper"); once it is below 0 for a requirement, its FAIL cannot change and the run
+stops (StopRun) after every observer has had the batch.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from .observers import Observer, StopRun
+from .requirement_check import Result, build_trace, check_trace, split
+from .requirements import Requirement, check_signals
+from .stl import Evaluator, verdict
+
+CHECK_EVERY = 64  # ticks between two early-stop checks (a run stepped tick by tick would otherwise re-evaluate every tick)
+
+
+class RequirementViolated(StopRun):
+    """A requirement's FAIL is decided: the run stops (--stop-on-violation)."""
+
+
+class RequirementObserver(Observer):
+    def __init__(self, requirements: list[Requirement], stop_on_violation: bool = False) -> None:
+        self.requirements = list(requirements)
+        self.stop_on_violation = stop_on_violation
+        self.results: list[Result] = []
+        self.stopped_by: str | None = None
+        self._names = sorted({n for r in self.requirements for n in r.signals})
+        self._since_check = 0
+
+    def start(self, execution) -> None:
+        available = {f"{name}.{v.name}": "number" for name, inst in execution.instances.items()
+                     for vs in inst.outputs.values() for v in vs}
+        check_signals(self.requirements, available, "this run's outputs")
+        self._columns: dict[str, dict[str, tuple[str, int]]] = {}  # instance -> variable -> (type, index)
+        for name in self._names:
+            instance, variable = split(name)
+            inst = execution.instances[instance]
+            for typ, vs in inst.outputs.items():
+                for i, v in enumerate(vs):
+                    if v.name == variable:
+                        self._columns.setdefault(instance, {})[variable] = (typ, i)
+        self._times: dict[str, list[np.ndarray]] = {i: [] for i in self._columns}
+        self._values: dict[str, dict[str, list[np.ndarray]]] = {i: {v: [] for v in cols} for i, cols in self._columns.items()}
+        if getattr(execution, "resumed_at", None) is None:  # the values at t = 0, as the log has them
+            for instance, cols in self._columns.items():
+                inst = execution.instances[instance]
+                self._times[instance].append(np.zeros(1))
+                for variable, (typ, i) in cols.items():
+                    self._values[instance][variable].append(np.array([inst.values[typ][i]], dtype=float))
+        for logger in execution.observers:
+            if hasattr(logger, "closing"):  # the MCAP logger: the channel and the verdicts go in before it closes
+                logger.closing.append(self._to_log)
+
+    def on_batch(self, execution, batch) -> None:
+        for instance, cols in self._columns.items():
+            mine = batch.positions(instance)
+            if not len(mine):
+                continue
+            self._times[instance].append(batch.time[mine].copy())
+            rows = batch.row[mine]
+            for variable, (typ, i) in cols.items():
+                self._values[instance][variable].append(batch.rows[instance][typ][rows, i].astype(float))
+        self._since_check += batch.ticks
+        if self.stop_on_violation and self._since_check >= CHECK_EVERY:
+            self._since_check = 0
+            self._check_early()
+
+    def _series(self) -> dict:
+        return {i: (np.concatenate(self._times[i]) if self._times[i] else np.zeros(0),
+                    {v: np.concatenate(chunks) if chunks else np.zeros(0) for v, chunks in self._values[i].items()})
+                for i in self._columns}
+
+    def _check_early(self) -> None:
+        series = self._series()
+        for req in self.requirements:
+            trace = build_trace(series, req.signals)
+            v = verdict(req.formula, trace, final=False, evaluator=Evaluator(trace, final=False))
+            if v.verdict == "FAIL":
+                self.stopped_by = req.name
+                raise RequirementViolated(f"requirement '{req.name}' violated at t = {v.violation_time:.3f} s, its FAIL can no "
+                                          "longer change: run stopped (--stop-on-violation)")
+
+    def finish(self, execution, error) -> None:
+        if not self.results:  # no log (its closing hook evaluates them otherwise)
+            self._evaluate(final=error is None)
+
+    def _evaluate(self, final: bool) -> None:
+        series = self._series()
+        if not any(len(t) for t, _ in series.values()):
+            return
+        self._final = final
+        self.results = check_trace(self.requirements, lambda r: build_trace(series, r.signals), final=final)
+        self._traces = {r.name: build_trace(series, r.signals) for r in self.requirements}
+
+    def _to_log(self, logger, error) -> None:
+        """Before the log closes: the verdicts as metadata, each requirement's robustness over time as a channel."""
+        self._evaluate(final=error is None)
+        if not self.results:
+            return
+        logger.final_metadata["requirements"] = {r.name: _summary(r) for r in self.results}
+        rows: dict[int, dict] = {}  # by tick (the requirements' traces may end at different ticks)
+        for req in self.requirements:
+            trace = self._traces[req.name]
+            rho = Evaluator(trace, final=self._final)(req.formula)
+            for t, v in zip(trace.times.tolist(), rho.tolist()):
+                rows.setdefault(round(t / trace.period), {"t": t})[req.name] = _clean(v)
+        props = {"t": {"type": "number"}, **{r.name: {"type": ["number", "null"]} for r in self.requirements}}
+        schema = {"type": "object", "title": "requirements robustness", "properties": props}
+        logger.add_json_channel("/requirements", schema, [(row["t"], json.dumps(row).encode()) for _, row in sorted(rows.items())])
+
+
+def _clean(x: float):
+    return x if math.isfinite(x) else None
+
+
+def _summary(r: Result) -> str:
+    """One metadata value: the verdict, the robustness, the first violation."""
+    text = r.verdict + ("" if r.robustness is None else f" {r.robustness!r}")
+    if r.first_violation is not None:
+        text += f" at {r.first_violation!r}"
+    return text
