@@ -53,7 +53,8 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     """The trace of the named signals on the tick. series: instance -> (message times in log order, its variables'
     values). The tick is the shortest time between two messages of an instance; each message belongs to the tick
     nearest its time (instances compute their times each their own way: 3 * 0.012 and 0.036 differ in the last bit);
-    a signal holds its last message's value (the latest of those at one tick) until its next."""
+    a signal holds its last message's value (the latest of those at one tick) until its next; the trace ends at the
+    last tick every instance has reached."""
     used = sorted({split(n)[0] for n in names})
     if not used:
         raise StlError("no signal")
@@ -63,7 +64,9 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     if not len(gaps):
         return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
     tick = float(gaps.min())
-    first, last = int(np.rint(every.min() / tick)), int(np.rint(every.max() / tick))
+    # from the first message to the last tick every instance has reached (past its last message an instance's value
+    # is not known: the plant's state after the last step has no controller's output of that time)
+    first, last = int(np.rint(every.min() / tick)), int(np.rint(min(series[i][0].max() for i in used) / tick))
     keys = np.arange(first, last + 1)
     return Trace.uniform(keys * tick, {n: _held(series, n, keys, tick) for n in names}, tick)
 
