@@ -129,12 +129,19 @@ class McapLogger(Observer):
         batch, self._batch = self._batch, MessageBatch()
         self._writer.add_messages(batch, fill)
 
-    def add_json_channel(self, topic: str, schema: dict, messages: list[tuple[float, bytes]]) -> None:
-        """A JSON channel and its messages [(t, payload)], written at once (from a closing hook)."""
-        channel = self._json_channel(topic, schema, {})
+    def add_rows_channel(self, topic: str, name: str, columns: list[str], times: np.ndarray, values: np.ndarray,
+                         metadata: dict | None = None) -> None:
+        """A channel of fixed-layout messages (t, then one double a column), one a row of values, written at once (from
+        a closing hook). columns: identifiers."""
+        enc = FixedMessage(name, list(columns), [], [])
+        schema = self._writer.add_schema(enc.full_name, "protobuf", enc.schema())
+        channel = self._writer.add_channel(topic, schema, "protobuf", {**(metadata or {}), "layout": LAYOUT})
+        times = np.asarray(times, dtype=float)
         batch = MessageBatch()
-        for t, payload in messages:
-            batch.add(channel, int(round(t * 1e9)), payload)
+        if len(times):
+            rows = enc.encode_rows(times, np.asarray(values, dtype=float).reshape(len(times), len(columns)),
+                                   np.zeros((len(times), 0), np.int32), np.zeros((len(times), 0), bool))
+            batch.add_rows(channel, np.rint(times * 1e9).astype(np.uint64), rows, np.arange(len(times), dtype=np.int64))
         self._writer.add_messages(batch)
 
     def on_fault(self, t, fault, what) -> None:

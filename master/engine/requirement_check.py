@@ -81,8 +81,9 @@ def _held(series, name: str, keys: np.ndarray, tick: float) -> np.ndarray:
     return np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
 
 
-def check_trace(reqs: list[Requirement], trace_for, final: bool = True) -> list[Result]:
-    """Each requirement's verdict; trace_for(requirement) -> Trace, or None with why it is missing (INCONCLUSIVE)."""
+def check_trace(reqs: list[Requirement], trace_for, final: bool = True, evaluator_for=None) -> list[Result]:
+    """Each requirement's verdict; trace_for(requirement) -> Trace, or why it is missing (text: INCONCLUSIVE).
+    evaluator_for(requirement) -> its trace's Evaluator, for a caller that wants more of it afterwards."""
     out = []
     for req in reqs:
         trace = trace_for(req)
@@ -91,7 +92,7 @@ def check_trace(reqs: list[Requirement], trace_for, final: bool = True) -> list[
                               source=req.source))
             continue
         try:
-            v = verdict(req.formula, trace, final, Evaluator(trace, final))
+            v = verdict(req.formula, trace, final, evaluator_for(req) if evaluator_for else Evaluator(trace, final))
         except StlError as err:
             raise RequirementError(f"requirement '{req.name}': {err}") from None
         why = ""

@@ -4,7 +4,8 @@ The observer keeps, batch by batch, the columns of the outputs the requirements 
 tick loop, no Python per tick), as the log holds them: the values at t = 0, then after each step. At the end it
 builds the trace with the function the offline check uses (requirement_check.build_trace), so the verdicts online and
 offline agree bit for bit; the log gets a /requirements channel (each requirement's robustness at every tick: the
-robustness of its formula evaluated from that tick on) and a "requirements" metadata record (the verdicts).
+robustness of its formula evaluated from that tick on; fixed-layout protobuf, one double a requirement, the names in
+the channel's metadata) and a "requirements" metadata record (the verdicts).
 
 stop_on_violation: after each batch (at most every CHECK_EVERY ticks), the robustness's upper bound over every way the
 run could go on (stl.robustness "upper"); once it is below 0 for a requirement, its FAIL cannot change and the run
@@ -14,7 +15,7 @@ stops (StopRun) after every observer has had the batch.
 from __future__ import annotations
 
 import json
-import math
+import re
 
 import numpy as np
 
@@ -97,32 +98,46 @@ class RequirementObserver(Observer):
             self._evaluate(final=error is None)
 
     def _evaluate(self, final: bool) -> None:
+        """The verdicts, and each requirement's robustness at every tick of its trace (one evaluation serves both)."""
         series = self._series()
         if not any(len(t) for t, _ in series.values()):
             return
-        self._final = final
-        self.results = check_trace(self.requirements, lambda r: build_trace(series, r.signals), final=final)
-        self._traces = {r.name: build_trace(series, r.signals) for r in self.requirements}
+        self._rho = {}
+        traces = {r.name: build_trace(series, r.signals) for r in self.requirements}
+        evaluators = {r.name: Evaluator(traces[r.name], final) for r in self.requirements}
+        self.results = check_trace(self.requirements, lambda r: traces[r.name], final=final,
+                                   evaluator_for=lambda r: evaluators[r.name])
+        for r in self.requirements:
+            self._rho[r.name] = (traces[r.name], evaluators[r.name](r.formula))
 
     def _to_log(self, logger, error) -> None:
-        """Before the log closes: the verdicts as metadata, each requirement's robustness over time as a channel."""
+        """Before the log closes: the verdicts as metadata, each requirement's robustness over time as a channel (one
+        double a requirement, at every tick; NaN where its trace has no sample)."""
         self._evaluate(final=error is None)
         if not self.results:
             return
         logger.final_metadata["requirements"] = {r.name: _summary(r) for r in self.results}
-        rows: dict[int, dict] = {}  # by tick (the requirements' traces may end at different ticks)
-        for req in self.requirements:
-            trace = self._traces[req.name]
-            rho = Evaluator(trace, final=self._final)(req.formula)
-            for t, v in zip(trace.times.tolist(), rho.tolist()):
-                rows.setdefault(round(t / trace.period), {"t": t})[req.name] = _clean(v)
-        props = {"t": {"type": "number"}, **{r.name: {"type": ["number", "null"]} for r in self.requirements}}
-        schema = {"type": "object", "title": "requirements robustness", "properties": props}
-        logger.add_json_channel("/requirements", schema, [(row["t"], json.dumps(row).encode()) for _, row in sorted(rows.items())])
+        longest = max((trace for trace, _ in self._rho.values()), key=len)
+        keys = np.rint(longest.times / longest.period).astype(np.int64)
+        table = np.full((len(keys), len(self._rho)), np.nan)
+        for j, (trace, rho) in enumerate(self._rho.values()):
+            at = np.searchsorted(keys, np.rint(trace.times / longest.period).astype(np.int64))
+            table[at, j] = rho
+        columns = _identifiers(list(self._rho))
+        logger.add_rows_channel("/requirements", "requirements", columns, longest.times, table,
+                                {"requirements": json.dumps(dict(zip(columns, self._rho)))})
 
 
-def _clean(x: float):
-    return x if math.isfinite(x) else None
+def _identifiers(names: list[str]) -> list[str]:
+    """Field names for the channel: a requirement's name with what is not a letter, digit or _ as _, unique."""
+    out: list[str] = []
+    for name in names:
+        field = re.sub(r"\W", "_", name)
+        field = field if re.match(r"[A-Za-z_]", field) else f"r_{field}"
+        while field in out or field == "t":
+            field += "_"
+        out.append(field)
+    return out
 
 
 def _summary(r: Result) -> str:
