@@ -24,7 +24,7 @@ from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.app.scene import scene_channels
 from tiltload.master.engine import log_reader
 from tiltload.master.engine.mcap_log import McapLogger
-from tiltload.master.engine.requirement_check import build_trace, check_trace, log_series
+from tiltload.master.engine.requirement_check import build_trace, check_trace
 from tiltload.master.engine.requirement_observer import RequirementObserver
 from tiltload.master.engine.requirements import load
 from tiltload.master.engine.stl.windows import sliding_min, sliding_min_deque
@@ -58,8 +58,8 @@ def offline(log: Path, reqs, repeat: int) -> None:
     reads, verdicts = [], []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        messages, _ = log_reader.read_checked(log, topics)
-        series, _ = log_series(messages)
+        columns, _ = log_reader.read_columns(log, topics)
+        series = {topic.lstrip("/"): c for topic, c in columns.items()}
         t1 = time.perf_counter()
         check_trace(reqs, lambda r: build_trace(series, r.signals))
         t2 = time.perf_counter()

@@ -157,20 +157,20 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     if not path.is_file():
         raise RequirementError(f"log {path} does not exist")
     topics = sorted({f"/{split(n)[0]}" for r in reqs for n in r.signals})
-    messages, state = log_reader.read_checked(path, topics)
+    columns, state = log_reader.read_columns(path, topics)
     if state.damage is not None:
         raise log_reader.DamagedLog(state.describe(path))
     # a run killed (no footer) or ended by an error (--stop-on-violation too) could have gone on: not the whole run
     final = not state.torn and "error" not in log_reader.read_metadata(path)
-    series, kinds = log_series(messages)
-    missing = [n for r in reqs for n in r.signals if n not in kinds]
+    series = {topic.lstrip("/"): (times, values) for topic, (times, values) in columns.items()}
+    kinds = {f"{instance}.{field}": "number" for instance, (_, values) in series.items() for field in values}
     absent = [n for r in reqs for n in r.signals if n not in kinds]
     if absent and missing == "inconclusive":
         def trace_for(r: Requirement):
             gone = [n for n in r.signals if kinds.get(n) != "number"]
             return f"{path.name} has no signal {gone[0]}" if gone else _trace(series, r)
         return check_trace(reqs, trace_for, final=final)
-    if absent:  # read every channel to name what there is
+    if absent:  # read every channel to name what there is (and what is there but not a number)
         kinds = log_series(log_reader.read_checked(path)[0])[1]
     check_signals(reqs, kinds, str(path))
     return check_trace(reqs, lambda r: _trace(series, r), final=final)

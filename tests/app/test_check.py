@@ -149,3 +149,30 @@ def test_bad_files_and_options(log, tmp_path, capsys):
         assert needle in err and err.count("\n") == 1, (argv, err)
     with pytest.raises(RequirementError, match="did you mean"):
         check_log(log, [from_option("a: always plant.xx > 0")])
+
+
+def test_several_logs_a_signal_one_lacks_is_inconclusive_there(log, tmp_path, capsys):
+    t = np.arange(300) * TICK
+    other = write_log(tmp_path / "no_controller.mcap", {"plant": (t, {"x": 0 * t, "z": -2 + 0 * t})}, stop_time=12.0)
+    assert main(["check", "--json", str(log), str(other), "--formula", "f: always controller.f < 50",
+                 "--formula", "z: always plant.z < 0"]) == 3
+    first, second = json.loads(capsys.readouterr().out)["logs"]
+    assert [r["verdict"] for r in first["results"]] == ["PASS", "PASS"]
+    assert [r["verdict"] for r in second["results"]] == ["INCONCLUSIVE", "PASS"]
+    assert "has no signal controller.f" in second["results"][0]["why"]
+    # a signal in none of the logs is a typo: exit 2, the closest names
+    assert main(["check", str(log), str(other), "--formula", "f: always controller.ff < 50"]) == 2
+    assert "did you mean controller.f" in capsys.readouterr().err
+
+
+def test_read_columns_equals_the_message_reader(tmp_path):
+    """read_columns decodes the fixed layout's doubles as the per-message reader does, bit for bit."""
+    from tiltload.master.engine import log_reader
+
+    t = np.arange(50) * TICK
+    path = write_log(tmp_path / "l.mcap", {"plant": (t, {"x": np.sin(t) * 1e-300, "y": np.cos(t)})})
+    columns, _ = log_reader.read_columns(path, ["/plant"])
+    messages = log_reader.read(path, ["/plant"])["/plant"]
+    times, values = columns["/plant"]
+    assert times.tolist() == [m["t"] for m in messages]
+    assert values["x"].tolist() == [m["x"] for m in messages] and values["y"].tolist() == [m["y"] for m in messages]
