@@ -49,17 +49,17 @@ def split(name: str) -> tuple[str, str]:
     return instance, variable
 
 
-def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], names: list[str]) -> Trace:
+def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], names: list[str], cache: dict | None = None) -> Trace:
     """The trace of the named signals on the tick. series: instance -> (message times in log order, its variables'
     values). The tick is the shortest time between two messages of an instance; each message belongs to the tick
     nearest its time (instances compute their times each their own way: 3 * 0.012 and 0.036 differ in the last bit);
     a signal holds its last message's value (the latest of those at one tick) until its next; the trace ends at the
-    last tick every instance has reached."""
+    last tick every instance has reached. cache: a dict kept across calls on the same series (held signals)."""
     used = sorted({split(n)[0] for n in names})
     if not used:
         raise StlError("no signal")
     every = np.concatenate([series[i][0] for i in used])
-    gaps = np.concatenate([np.diff(np.sort(series[i][0])) for i in used])
+    gaps = np.concatenate([np.diff(_sorted(series[i][0])) for i in used])
     gaps = gaps[gaps > 1e-9]
     if not len(gaps):
         return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
@@ -68,16 +68,29 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     # is not known: the plant's state after the last step has no controller's output of that time)
     first, last = int(np.rint(every.min() / tick)), int(np.rint(min(series[i][0].max() for i in used) / tick))
     keys = np.arange(first, last + 1)
-    return Trace.uniform(keys * tick, {n: _held(series, n, keys, tick) for n in names}, tick)
+    cache = {} if cache is None else cache
+    values = {}
+    for n in names:
+        key = (n, tick, first, last)
+        if key not in cache:
+            cache[key] = _held(series, n, keys, tick)
+        values[n] = cache[key]
+    return Trace.uniform(keys * tick, values, tick)
+
+
+def _sorted(x: np.ndarray) -> np.ndarray:
+    return x if len(x) < 2 or bool(np.all(x[1:] >= x[:-1])) else np.sort(x)
 
 
 def _held(series, name: str, keys: np.ndarray, tick: float) -> np.ndarray:
     instance, variable = split(name)
     times, columns = series[instance]
     own = np.rint(times / tick).astype(np.int64)
-    order = np.argsort(own, kind="stable")  # the last message at a tick is the latest
-    at = np.searchsorted(own[order], keys, side="right") - 1
-    column = np.asarray(columns[variable], dtype=float)[order]
+    column = np.asarray(columns[variable], dtype=float)
+    if len(own) > 1 and not bool(np.all(own[1:] >= own[:-1])):
+        order = np.argsort(own, kind="stable")  # the last message at a tick is the latest
+        own, column = own[order], column[order]
+    at = np.searchsorted(own, keys, side="right") - 1
     return np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
 
 
@@ -173,12 +186,13 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     if absent:  # read every channel to name what there is (and what is there but not a number)
         kinds = log_series(log_reader.read_checked(path)[0])[1]
     check_signals(reqs, kinds, str(path))
-    return check_trace(reqs, lambda r: _trace(series, r), final=final)
+    cache: dict = {}
+    return check_trace(reqs, lambda r: _trace(series, r, cache), final=final)
 
 
-def _trace(series, req: Requirement) -> Trace:
+def _trace(series, req: Requirement, cache: dict | None = None) -> Trace:
     try:
-        return build_trace(series, req.signals)
+        return build_trace(series, req.signals, cache)
     except StlError as err:
         raise RequirementError(f"requirement '{req.name}': {err}") from None
 

@@ -103,7 +103,8 @@ class RequirementObserver(Observer):
         if not any(len(t) for t, _ in series.values()):
             return
         self._rho = {}
-        traces = {r.name: build_trace(series, r.signals) for r in self.requirements}
+        cache: dict = {}
+        traces = {r.name: build_trace(series, r.signals, cache) for r in self.requirements}
         evaluators = {r.name: Evaluator(traces[r.name], final) for r in self.requirements}
         self.results = check_trace(self.requirements, lambda r: traces[r.name], final=final,
                                    evaluator_for=lambda r: evaluators[r.name])
