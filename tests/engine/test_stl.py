@@ -128,3 +128,18 @@ def test_parse_errors_are_one_line_with_the_place(text, why, column):
     assert why in msg and "\n" not in msg
     if column is not None:
         assert f"column {column}:" in msg and "\u2192" in msg
+
+
+def test_the_worked_example_of_the_docs():
+    """docs/requirements.md, "A worked example": the margins by hand."""
+    tr = Trace.uniform(np.arange(6) * 0.5, {"plant.x": [0.30, 0.25, 0.12, 0.05, 0.08, 0.02], "scenario.x_ref": [0.0] * 6}, 0.5)
+    e = "abs(plant.x - scenario.x_ref)"
+    v = verdict(parse(f"always[1:2] {e} < 0.2"), tr)
+    assert v.verdict == PASS and v.robustness == pytest.approx(0.08, abs=1e-15)
+    v = verdict(parse(f"always[0.5:2] {e} < 0.2"), tr)
+    assert (v.verdict, v.violation_time, v.violation_values["plant.x"]) == (FAIL, 0.5, 0.25)
+    v = verdict(parse(f"always[1:3] {e} < 0.2"), tr)
+    assert v.verdict == INCONCLUSIVE and v.bounds[1] == pytest.approx(0.08, abs=1e-15) and v.bounds[0] == -np.inf
+    v = verdict(parse(f"always[0:3] {e} < 0.2"), tr)
+    assert v.verdict == FAIL and v.decided_early and v.bounds[1] == pytest.approx(-0.1, abs=1e-15)
+    assert verdict(parse(f"always[1:2] {e} <= 0.12"), tr).verdict == ZERO
