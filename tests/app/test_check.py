@@ -176,3 +176,13 @@ def test_read_columns_equals_the_message_reader(tmp_path):
     times, values = columns["/plant"]
     assert times.tolist() == [m["t"] for m in messages]
     assert values["x"].tolist() == [m["x"] for m in messages] and values["y"].tolist() == [m["y"] for m in messages]
+
+
+def test_reproduce_verdict_table(log, tmp_path, capsys):
+    from tiltload.master.app.commands.reproduce import verdict_table
+
+    reqs = [from_option("f: always controller.f < 30"), from_option("z: always plant.z < 0")]
+    assert verdict_table(reqs, [log, tmp_path / "never_ran.mcap"]) is True
+    out = capsys.readouterr().out.splitlines()
+    assert out[2].split() == ["f", "F", "-"] and out[3].split() == ["z", "P", "-"]
+    assert out[4].startswith("  FAIL run: f, robustness")
