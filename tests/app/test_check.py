@@ -186,3 +186,17 @@ def test_reproduce_verdict_table(log, tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[2].split() == ["f", "F", "-"] and out[3].split() == ["z", "P", "-"]
     assert out[4].startswith("  FAIL run: f, robustness")
+
+
+def test_compare_verdicts(log, tmp_path):
+    from tiltload.master.app.regression.compare import compare_verdicts
+
+    t = np.arange(N) * TICK
+    calmer = write_log(tmp_path / "calm.mcap", {"plant": (t, {"x": np.sin(t), "z": -2.5 + 0 * t}),
+                                               "controller": (t, {"f": np.full(N, 10.0)})}, stop_time=12.0)
+    reqs = [from_option("f: always controller.f < 30"), from_option("z: always plant.z < 0")]
+    base, run = check_log(log, reqs), check_log(calmer, reqs)
+    ok, rows = compare_verdicts(run, base, 1e-6, 1e-12)
+    assert not ok and [r[-1] for r in rows] == ["VERDICT CHANGED", "DIFFERS"]  # f: FAIL -> PASS; z: 2 -> 2.5
+    assert compare_verdicts(run, base, 0.3, 0)[1][1][-1] == "ok"  # 0.5 within 30 % of 2
+    assert compare_verdicts(base, base, 0, 0)[0]
