@@ -7,7 +7,6 @@ import math
 
 import pyarrow.parquet as pq
 import pytest
-
 from tiltload.master.app.campaign import runner as campaign
 from tiltload.master.app.campaign import spec as campaign_spec
 from tiltload.master.engine.requirement_check import check_log
@@ -28,7 +27,8 @@ requirements = "reqs.yaml"
 """
 REQS = """requirements:
   - {name: thrust, bounds: {signal: controller.f_R, min: 0, max: 30}}
-  - {name: tilt_rates, formula: "always (plant.alpha_R_dot >= controller.est_alpha_R_dot_lo and plant.alpha_R_dot <= controller.est_alpha_R_dot_hi)"}
+  - name: tilt_rates
+    formula: always (plant.alpha_R_dot >= controller.est_alpha_R_dot_lo and plant.alpha_R_dot <= controller.est_alpha_R_dot_hi)
   - {name: later, formula: "eventually[0:5] plant.z > 100"}
 """
 
