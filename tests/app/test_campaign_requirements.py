@@ -48,6 +48,11 @@ def test_requirement_columns_equal_the_offline_check(fmus, tmp_path):
             got = row[f"{r.name}_robustness"]
             assert (math.isnan(got) and r.robustness is None) or got == r.robustness
         assert row["later_verdict"] == "INCONCLUSIVE" and row["thrust_verdict"] == "PASS"
+    from tiltload.master.app.campaign.report import report
+
+    text = report(results).read_text()
+    assert "| thrust | 2 | 0 | 0 | 0 | 100 % |" in text and "| later | 0 | 0 | 2 | 0 | 0 % | nan |" in text
+    assert "### thrust: the least robust runs" in text and "tiltload run" in text
 
 
 @pytest.mark.parametrize("reqs, needle", [
