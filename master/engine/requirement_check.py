@@ -206,3 +206,21 @@ def log_span(log_path) -> float:
         return stop
     state = log_reader.check(Path(log_path))
     return state.duration if state.duration is not None else (state.intact_until or 0.0)
+
+
+def margins(req: Requirement, trace: Trace, final: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """(times, margin) to draw a requirement: for always[a:b] φ (the usual form) the robustness of φ over the window
+    from the run's start, whose negative stretches are the violations; else the formula's robustness from each tick."""
+    from .stl.syntax import Always
+
+    ev = Evaluator(trace, final)
+    if isinstance(req.formula, Always):
+        lo, hi = trace.ticks(req.formula.a), min(len(trace) - 1, trace.ticks_end(req.formula.b))
+        return trace.times[lo:hi + 1], ev(req.formula.arg)[lo:hi + 1]
+    return trace.times, ev(req.formula)
+
+
+def intervals(times: np.ndarray, bad: np.ndarray) -> list[tuple[float, float]]:
+    """The stretches of consecutive samples where bad holds, as (first time, last time)."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], bad.astype(np.int8), [0]])))
+    return [(float(times[a]), float(times[b - 1])) for a, b in zip(edges[::2], edges[1::2])]

@@ -118,6 +118,7 @@ class RequirementObserver(Observer):
         if not self.results:
             return
         logger.final_metadata["requirements"] = {r.name: _summary(r) for r in self.results}
+        logger.final_metadata["requirement_formulas"] = {r.name: r.text for r in self.requirements}  # the figures redraw them
         longest = max((trace for trace, _ in self._rho.values()), key=len)
         keys = np.rint(longest.times / longest.period).astype(np.int64)
         table = np.full((len(keys), len(self._rho)), np.nan)

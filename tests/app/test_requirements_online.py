@@ -89,3 +89,15 @@ def test_unknown_signal_before_the_run(fmus, tmp_path, capsys):
                  "--no-plots", "--requirements", str(reqs)]) == 2
     err = capsys.readouterr().err
     assert "did you mean plant.phi" in err and err.count("\n") == 1
+
+
+def test_the_requirements_figure(online_run, tmp_path):
+    from tiltload.master.app.plot import requirement_figure
+    from tiltload.master.engine.requirement_check import intervals
+
+    _, _, log = online_run
+    (path,) = requirement_figure(log, tmp_path)
+    assert path.name == "zse_requirements.png" and path.stat().st_size > 10_000
+    t = np.arange(8) * 0.5
+    assert intervals(t, np.array([0, 1, 1, 0, 0, 1, 0, 1], bool)) == [(0.5, 1.0), (2.5, 2.5), (3.5, 3.5)]
+    assert intervals(t, np.zeros(8, bool)) == []
