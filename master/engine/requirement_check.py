@@ -73,7 +73,14 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     for n in names:
         key = (n, tick, first, last)
         if key not in cache:
-            cache[key] = _held(series, n, keys, tick)
+            instance, variable = split(n)
+            at_key = (instance, tick, first, last)
+            if at_key not in cache:  # which message each tick holds: once per instance
+                cache[at_key] = _holding(series[instance][0], keys, tick)
+            at, order = cache[at_key]
+            column = np.asarray(series[instance][1][variable], dtype=float)
+            column = column if order is None else column[order]
+            cache[key] = np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
         values[n] = cache[key]
     return Trace.uniform(keys * tick, values, tick)
 
@@ -82,15 +89,21 @@ def _sorted(x: np.ndarray) -> np.ndarray:
     return x if len(x) < 2 or bool(np.all(x[1:] >= x[:-1])) else np.sort(x)
 
 
-def _held(series, name: str, keys: np.ndarray, tick: float) -> np.ndarray:
-    instance, variable = split(name)
-    times, columns = series[instance]
+def _holding(times: np.ndarray, keys: np.ndarray, tick: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """(the message each tick holds, -1 for none yet; the order that sorts the messages by tick, None if they are)."""
     own = np.rint(times / tick).astype(np.int64)
-    column = np.asarray(columns[variable], dtype=float)
+    order = None
     if len(own) > 1 and not bool(np.all(own[1:] >= own[:-1])):
         order = np.argsort(own, kind="stable")  # the last message at a tick is the latest
-        own, column = own[order], column[order]
-    at = np.searchsorted(own, keys, side="right") - 1
+        own = own[order]
+    return np.searchsorted(own, keys, side="right") - 1, order
+
+
+def _held(series, name: str, keys: np.ndarray, tick: float) -> np.ndarray:
+    instance, variable = split(name)
+    at, order = _holding(series[instance][0], keys, tick)
+    column = np.asarray(series[instance][1][variable], dtype=float)
+    column = column if order is None else column[order]
     return np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
 
 
