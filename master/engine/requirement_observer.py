@@ -32,9 +32,11 @@ class RequirementViolated(StopRun):
 
 
 class RequirementObserver(Observer):
-    def __init__(self, requirements: list[Requirement], stop_on_violation: bool = False) -> None:
+    def __init__(self, requirements: list[Requirement], stop_on_violation: bool = False, log_every: int = 1) -> None:
+        """log_every: see every n-th step of each instance, as the log does with log_every (so the two agree)."""
         self.requirements = list(requirements)
         self.stop_on_violation = stop_on_violation
+        self.log_every = log_every
         self.results: list[Result] = []
         self.stopped_by: str | None = None
         self._names = sorted({n for r in self.requirements for n in r.signals})
@@ -54,7 +56,10 @@ class RequirementObserver(Observer):
                         self._columns.setdefault(instance, {})[variable] = (typ, i)
         self._times: dict[str, list[np.ndarray]] = {i: [] for i in self._columns}
         self._values: dict[str, dict[str, list[np.ndarray]]] = {i: {v: [] for v in cols} for i, cols in self._columns.items()}
-        if getattr(execution, "resumed_at", None) is None:  # the values at t = 0, as the log has them
+        self._steps = dict.fromkeys(self._columns, 1)  # the message at t = 0 is step 0, as the logger counts
+        if getattr(execution, "resumed_at", None) is not None:  # the logger's cadence of a continued run
+            self._steps = {i: 1 + -(-execution.ticks_done // execution.every[i]) for i in self._columns}
+        else:  # the values at t = 0, as the log has them
             for instance, cols in self._columns.items():
                 inst = execution.instances[instance]
                 self._times[instance].append(np.zeros(1))
@@ -69,6 +74,10 @@ class RequirementObserver(Observer):
             mine = batch.positions(instance)
             if not len(mine):
                 continue
+            if self.log_every > 1:
+                k = self._steps[instance] + np.arange(len(mine))
+                self._steps[instance] += len(mine)
+                mine = mine[k % self.log_every == 0]
             self._times[instance].append(batch.time[mine].copy())
             rows = batch.row[mine]
             for variable, (typ, i) in cols.items():

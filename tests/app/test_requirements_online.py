@@ -101,3 +101,16 @@ def test_the_requirements_figure(online_run, tmp_path):
     t = np.arange(8) * 0.5
     assert intervals(t, np.array([0, 1, 1, 0, 0, 1, 0, 1], bool)) == [(0.5, 1.0), (2.5, 2.5), (3.5, 3.5)]
     assert intervals(t, np.zeros(8, bool)) == []
+
+
+def test_online_and_offline_agree_with_log_every(fmus, tmp_path):
+    """A log of every 4th step: the observer sees the steps the log holds."""
+    reqs = [from_option(r) for r in REQS]
+    obs = RequirementObserver(reqs, log_every=4)
+    log = tmp_path / "every4.mcap"
+    res = run_system(default_system(fmus, "zse", 1, "mixed", 1), 3.0, log, progress=False, observers_extra=[obs], log_every=4)
+    assert res.error is None
+    offline = check_log(log, reqs)
+    assert [(r.verdict, r.robustness, r.first_violation, r.values) for r in obs.results] == \
+        [(r.verdict, r.robustness, r.first_violation, r.values) for r in offline]
+    assert any(r.robustness is not None for r in offline)

@@ -246,4 +246,4 @@ def _monitor(args: argparse.Namespace, system):
             if v.causality == "output":
                 available[f"{inst.name}.{v.name}"] = "number" if v.type in ("Real", "Integer", "Boolean") else f"a {v.type}"
     check_signals(reqs, available, "the run's outputs")
-    return RequirementObserver(reqs, stop_on_violation=args.stop_on_violation)
+    return RequirementObserver(reqs, stop_on_violation=args.stop_on_violation, log_every=args.log_every)
