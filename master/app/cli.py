@@ -6,10 +6,27 @@ import argparse
 import os
 import sys
 
-from .commands import build, bundle, campaign, campaign_report, compare, design, formation, layout, plot, reproduce, run, serve, ssp, wrap
+from .commands import (
+    build,
+    bundle,
+    campaign,
+    campaign_report,
+    check,
+    compare,
+    design,
+    formation,
+    layout,
+    plot,
+    reproduce,
+    run,
+    serve,
+    ssp,
+    wrap,
+)
 
 # in the help's order
-COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, campaign, campaign_report, layout, plot)
+COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, check, campaign, campaign_report, layout,
+            plot)
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -39,7 +39,45 @@ ACTUATOR_LIMITS = {"f_R": (_LIMIT["f_min"], _LIMIT["f_max"]), "f_L": (_LIMIT["f_
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
     log_reader.DamagedLog (plot_intact draws the intact part of one)."""
-    return plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out, case_of(log))
+    files = plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out, case_of(log))
+    return files + requirement_figure(Path(log), out)
+
+
+def requirement_figure(log: Path, out: Path | None = None) -> list[Path]:
+    """<stem>_requirements.png for a run monitored with --requirements: each requirement's margin over time (for
+    always[a:b] φ, the robustness of φ), its violations shaded, its signals named; none for a log without them."""
+    from ..engine.requirement_check import build_trace, intervals, margins
+    from ..engine.requirements import requirement
+
+    meta = log_reader.read_metadata(log)
+    formulas, verdicts = meta.get("requirement_formulas"), meta.get("requirements", {})
+    if not formulas:
+        return []
+    reqs = [requirement(name, text) for name, text in formulas.items()]
+    columns, state = log_reader.read_columns(log, sorted({f"/{n.split('.')[0]}" for r in reqs for n in r.signals}))
+    series = {topic.lstrip("/"): c for topic, c in columns.items()}
+    fig, axes = plt.subplots(len(reqs), 1, figsize=(8, 1.8 * len(reqs) + 0.6), sharex=True, squeeze=False)
+    cache: dict = {}
+    for ax, req in zip(axes[:, 0], reqs):
+        times, margin = margins(req, build_trace(series, req.signals, cache), final=not state.torn and "error" not in meta)
+        ax.plot(times, margin, lw=1)
+        ax.axhline(0.0, color="k", lw=0.6)
+        for k, (t0, t1) in enumerate(intervals(times, margin < 0)):
+            ax.axvspan(t0, t1, color="C3", alpha=0.25, lw=0, label="violated" if k == 0 else None)
+        ax.set_title(f"{req.name}: {verdicts.get(req.name, '').split(' ')[0]}  ({', '.join(req.signals)})", fontsize=8)
+        ax.set_ylabel("margin", fontsize=8)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel("t (s)")
+    case = case_of(log)
+    fig.suptitle(f"Requirements: margin over time (robustness, in each signal's unit)\n{case}" if case else
+                 "Requirements: margin over time (robustness, in each signal's unit)", fontsize=10)
+    fig.tight_layout()
+    out = log.parent if out is None else Path(out)
+    path = out / f"{log.stem}_requirements.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
 
 
 def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:

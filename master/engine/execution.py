@@ -27,7 +27,7 @@ from . import connections
 from .errors import DescriptionError
 from .model_description import checked_value, read_fmu, steps_every
 from .native.loop import NativeLoop
-from .observers import Batch, Observer, ReplayStopped, replay
+from .observers import Batch, Observer, ReplayStopped, StopRun, replay
 from .slave import C_TYPES, Slave
 from .system import System, validate
 
@@ -198,8 +198,14 @@ class Execution:
             for obs in batchwise:
                 obs.on_batch(self, head)
             raise stop.__cause__ from None
+        stop = None
         for obs in batchwise:
-            obs.on_batch(self, batch)
+            try:
+                obs.on_batch(self, batch)
+            except StopRun as err:  # the others (the log) still take this batch
+                stop = stop or err
+        if stop is not None:
+            raise stop
 
     def step_tick(self) -> None:
         """One tick."""

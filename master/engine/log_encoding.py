@@ -82,6 +82,18 @@ class FixedMessage:
         return np.ndarray((n, self.n[kind]), dtype=dtype, buffer=flat, offset=self._starts.get(kind, 0),
                           strides=(self.size, 2 + _SIZE[kind]))
 
+    def decode_rows(self, data: bytes, n: int) -> dict:
+        """n messages laid end to end: {field: its n values} (float64, int32 or bool arrays, copies)."""
+        flat = np.frombuffer(data, dtype=np.uint8)
+        if len(flat) != n * self.size:
+            raise ValueError(f"{self.name}: {len(flat)} bytes are not {n} messages of {self.size}")
+        values = {kind: self._rows(flat, n, kind) for kind in _SIZE}
+        out, counters = {}, dict.fromkeys(_SIZE, 0)
+        for name, kind in self.fields:
+            out[name] = values[kind][:, counters[kind]].copy()
+            counters[kind] += 1
+        return out
+
     def decode(self, data: bytes) -> dict:
         buf = np.frombuffer(data, dtype=np.uint8)
         out = {}

@@ -51,8 +51,9 @@ class LogState:
         return ""
 
 
-def _decoder(schema, channel):
-    """A function bytes -> dict for one channel: JSON, or the fixed-layout protobuf (rebuilt from its schema)."""
+def _decoder(schema, channel, raw: bool = False):
+    """A function bytes -> dict for one channel: JSON, or the fixed-layout protobuf (rebuilt from its schema). raw: a
+    fixed-layout channel's messages stay bytes (read_columns decodes them all at once), and this returns its layout."""
     if channel.message_encoding == "json":
         return json.loads
     if channel.message_encoding == "protobuf" and channel.metadata.get("layout") == LAYOUT and schema is not None:
@@ -65,7 +66,8 @@ def _decoder(schema, channel):
         by = {"Real": [], "Integer": [], "Boolean": []}
         for f in fields[1:]:  # fields[0] is t
             by[kinds[f.type]].append(f.name)
-        return FixedMessage(channel.topic.lstrip("/"), by["Real"], by["Integer"], by["Boolean"]).decode
+        layout = FixedMessage(channel.topic.lstrip("/"), by["Real"], by["Integer"], by["Boolean"])
+        return layout if raw else layout.decode
     raise ValueError(f"{channel.topic}: cannot decode {channel.message_encoding} messages")
 
 
@@ -74,6 +76,7 @@ class _Scan:
     messages: dict[str, list[dict]]
     metadata: dict[str, dict]
     state: LogState
+    layouts: dict[str, FixedMessage] | None = None  # raw scans: the fixed-layout channels' layouts (their messages: bytes)
 
 
 def _has_footer(f) -> bool:
@@ -87,11 +90,12 @@ def _has_footer(f) -> bool:
     return tail[-len(MAGIC):] == MAGIC and tail[0] == 0x02
 
 
-def _scan(path: Path, topics: list[str] | None, want_messages: bool = True) -> _Scan:
+def _scan(path: Path, topics: list[str] | None, want_messages: bool = True, raw: bool = False) -> _Scan:
     from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Metadata, Schema, Statistics
     from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 
     schemas, channels, decoders = {}, {}, {}
+    layouts: dict[str, FixedMessage] = {}
     messages: dict[str, list[dict]] = {}
     metadata: dict[str, dict] = {}
     last_time = None  # ns
@@ -110,7 +114,10 @@ def _scan(path: Path, topics: list[str] | None, want_messages: bool = True) -> _
                 return
             decode = decoders.get(channel.id)
             if decode is None:
-                decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel)
+                decode = decoders[channel.id] = _decoder(schemas.get(channel.schema_id), channel, raw)
+                if isinstance(decode, FixedMessage):
+                    layouts[channel.topic] = decode
+                    decode = decoders[channel.id] = bytes
             messages.setdefault(channel.topic, []).append(decode(record.data))
 
     with open(path, "rb") as f:
@@ -156,11 +163,12 @@ def _scan(path: Path, topics: list[str] | None, want_messages: bool = True) -> _
         damage = "its end is unreadable"
     if damage is not None and ends_well and duration is None:
         duration = _declared_duration(path)
-    for msgs in messages.values():
-        msgs.sort(key=lambda m: m.get("t", 0.0))
+    for topic, msgs in messages.items():
+        if topic not in layouts:
+            msgs.sort(key=lambda m: m.get("t", 0.0))
     state = LogState(torn=not ends_well, damage=damage, intact_until=None if last_time is None else last_time / 1e9,
                      duration=duration)
-    return _Scan(messages, metadata, state)
+    return _Scan(messages, metadata, state, layouts if raw else None)
 
 
 def _declared_duration(path: Path) -> float | None:
@@ -190,6 +198,30 @@ def read_checked(path: Path, topics: list[str] | None = None) -> tuple[dict[str,
     """(messages per topic up to any damage or torn end, the log's state): for a reader that reports the state."""
     scan = _scan(Path(path), topics)
     return scan.messages, scan.state
+
+
+def read_columns(path: Path, topics: list[str] | None = None) -> tuple[dict[str, tuple], LogState]:
+    """({topic: (times, {field: values})}, the log's state): each channel's messages as columns in log-time order,
+    the fixed-layout ones decoded all at once with numpy (a hundred times faster than a dict a message); JSON
+    channels' numeric fields (null: NaN). A damaged log's columns end where it is intact (the state says)."""
+    import numpy as np
+
+    scan = _scan(Path(path), topics, raw=True)
+    out: dict[str, tuple] = {}
+    for topic, msgs in scan.messages.items():
+        layout = scan.layouts.get(topic)
+        if layout is not None:
+            columns = layout.decode_rows(b"".join(msgs), len(msgs))
+        else:
+            msgs = [m for m in msgs if isinstance(m, dict) and "t" in m]
+            keys = [k for k, v in (msgs[0].items() if msgs else ()) if v is None or isinstance(v, (bool, int, float))]
+            columns = {k: np.array([np.nan if m.get(k) is None else float(m[k]) for m in msgs]) for k in keys}
+        if "t" not in columns:
+            continue
+        order = np.argsort(columns["t"], kind="stable")
+        times = columns.pop("t")[order]
+        out[topic] = (times, {k: v[order] for k, v in columns.items()})
+    return out, scan.state
 
 
 def read(path: Path, topics: list[str] | None = None) -> dict[str, list[dict]]:

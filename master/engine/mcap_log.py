@@ -72,6 +72,9 @@ class McapLogger(Observer):
         self.derived = tuple(derived)
         self.metadata = metadata or {}
         self.chunk_size = chunk_size
+        # called as hook(logger, error) when the run ends, before the log closes: an observer that writes what it
+        # concluded (the requirements' channel and verdicts) with add_json_channel and final_metadata
+        self.closing: list[Callable] = []
         self._writer: McapWriter | None = None
 
     def start(self, execution) -> None:
@@ -125,6 +128,21 @@ class McapLogger(Observer):
     def _flush_batch(self, fill=()) -> None:
         batch, self._batch = self._batch, MessageBatch()
         self._writer.add_messages(batch, fill)
+
+    def add_rows_channel(self, topic: str, name: str, columns: list[str], times: np.ndarray, values: np.ndarray,
+                         metadata: dict | None = None) -> None:
+        """A channel of fixed-layout messages (t, then one double a column), one a row of values, written at once (from
+        a closing hook). columns: identifiers."""
+        enc = FixedMessage(name, list(columns), [], [])
+        schema = self._writer.add_schema(enc.full_name, "protobuf", enc.schema())
+        channel = self._writer.add_channel(topic, schema, "protobuf", {**(metadata or {}), "layout": LAYOUT})
+        times = np.asarray(times, dtype=float)
+        batch = MessageBatch()
+        if len(times):
+            rows = enc.encode_rows(times, np.asarray(values, dtype=float).reshape(len(times), len(columns)),
+                                   np.zeros((len(times), 0), np.int32), np.zeros((len(times), 0), bool))
+            batch.add_rows(channel, np.rint(times * 1e9).astype(np.uint64), rows, np.arange(len(times), dtype=np.int64))
+        self._writer.add_messages(batch)
 
     def on_fault(self, t, fault, what) -> None:
         from .manipulators import describe
@@ -215,6 +233,11 @@ class McapLogger(Observer):
         if self._writer is None:
             return
         self._flush_batch()
+        for hook in self.closing:
+            try:
+                hook(self, error)
+            except Exception as err:  # the log is closed whatever an observer's conclusion does
+                self._writer.add_metadata("closing_error", {"message": f"{type(err).__name__}: {err}"[:300]})
         if error:
             self._writer.add_metadata("error", {"message": error})
         for name, record in self.final_metadata.items():

@@ -80,6 +80,11 @@ class Observer:
     def restore_state(self, state: dict) -> None: ...
 
 
+class StopRun(Exception):
+    """An observer ends the run on purpose (a requirement's FAIL is decided, say): raised from on_batch, it stops the
+    run once every observer has had the batch (the log holds what the observer saw). The message says why."""
+
+
 class ReplayStopped(Exception):
     """An observer raised while a batch was replayed: `cut` records had been delivered (the error is the cause)."""
 

@@ -113,7 +113,9 @@ def _load(results: Path) -> tuple[list[dict], list[str]]:
         raise ReportError(f"{results} has no campaign rows")
     fixed = {"run_id", "controller", "seed", "completed", "diverged", "diverged_at", "error"}
     metrics = {"max_tracking_error", "time_saturated", "zse_containment", *(k for k in rows[0] if k.startswith(("ISE(", "IADU(")))}
-    varied = [k for k in rows[0] if k not in fixed and k not in metrics]
+    judged = {k for k in rows[0] for n in [k.rsplit("_", 1)[0]]  # keep.requirements' columns, in pairs
+              if {f"{n}_verdict", f"{n}_robustness"} <= set(rows[0]) and k in (f"{n}_verdict", f"{n}_robustness")}
+    varied = [k for k in rows[0] if k not in fixed and k not in metrics and k not in judged]
     return rows, varied
 
 
@@ -245,6 +247,35 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied)
         lines += [f"- {r['controller']}, seed {r['seed']}{', ' + values if values else ''}: {what}", "",
                   f"  `{rerun_command(r, spec)}`", ""]
+    lines += requirement_section(rows, varied, spec)
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def requirement_section(rows: list[dict], varied: list[str], spec: dict | None) -> list[str]:
+    """keep.requirements' columns: the pass rate of each requirement, and its worst runs by robustness with their
+    rerun commands (none: no requirement columns)."""
+    names = [k[:-len("_verdict")] for k in (rows[0] if rows else {}) if k.endswith("_verdict") and f"{k[:-8]}_robustness" in rows[0]]
+    if not names:
+        return []
+    lines = ["## Requirements", "", "| requirement | PASS | FAIL | INCONCLUSIVE | ZERO | pass rate | least robustness |",
+             "|---|---|---|---|---|---|---|"]
+    for n in names:
+        verdicts = [r[f"{n}_verdict"] for r in rows]
+        robust = [r[f"{n}_robustness"] for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
+        counts = {v: verdicts.count(v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
+        lines.append(f"| {n} | {counts['PASS']} | {counts['FAIL']} | {counts['INCONCLUSIVE']} | {counts['ZERO']} | "
+                     f"{100 * counts['PASS'] / len(rows):.0f} % | {min(robust, default=math.nan):.4g} |")
+    lines.append("")
+    for n in names:
+        judged = [r for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
+        worst = sorted(judged, key=lambda r: r[f"{n}_robustness"])[:3]
+        if not worst:
+            continue
+        lines += [f"### {n}: the least robust runs", ""]
+        for r in worst:
+            values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied)
+            lines += [f"- {r['controller']}, seed {r['seed']}{', ' + values if values else ''}: {r[f'{n}_verdict']}, "
+                      f"robustness {r[f'{n}_robustness']:.4g}", "", f"  `{rerun_command(r, spec)}`", ""]
+    return lines

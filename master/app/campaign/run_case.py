@@ -26,6 +26,7 @@ from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
 from ...engine.observers import Metrics
+from ...engine.requirement_observer import RequirementObserver
 from ..feasibility import check_system
 from ..fmus import is_foreign
 from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED, default_stop, default_system
@@ -245,13 +246,22 @@ def _run_branch(base: dict, case: dict, fmu_dir: str, log_dir: str | None, data:
     system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"])
     _check_fmus(system)
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=snap.time)  # the branch's own: from the snapshot
-    observers = [metrics]
+    observers = [metrics, *_monitor(base)]
     if log_dir:
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
                                        metadata={"run_id": case["run_id"], "from_snapshot": f"t = {snap.time:.3f} s",
                                                  **{k: str(v) for k, v in case["parameters"].items()}}))
     return _execute(("branch", digest, fmu_dir), system, observers, metrics, base, case, started,
                     lambda ex: ex.restart(None, observers, system.faults, resume=snap), snap)
+
+
+def _monitor(base: dict) -> list:
+    """The requirements' observer of keep.requirements (a fresh one a run), or none."""
+    if not base.get("requirements"):
+        return []
+    from ...engine.requirements import requirement
+
+    return [RequirementObserver([requirement(name, text) for name, text in base["requirements"]])]
 
 
 def _check_fmus(system) -> None:
@@ -273,7 +283,7 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     if refused:  # before the first step, as tiltload run refuses it
         return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
-    observers = [metrics]
+    observers = [metrics, *_monitor(base)]
     if log_dir:
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
                                        metadata={"run_id": case["run_id"], **case["parameters"]}))
@@ -319,4 +329,11 @@ def _execute(key, system, observers, metrics, base, case, started, restart, resu
            else case["controller"], "seed": case["seed"], **case["values"],
            **metrics.row(tuple(base["keep_metrics"])), "completed": error is None, "diverged": diverged,
            "diverged_at": sim_time if diverged else math.nan, "error": error or ""}
+    for obs in observers:
+        if isinstance(obs, RequirementObserver):  # NAME_verdict, NAME_robustness (NaN: undecided)
+            results = {r.name: r for r in obs.results}
+            for name, _ in base.get("requirements", ()):
+                r = results.get(name)
+                row[f"{name}_verdict"] = r.verdict if r is not None else "INCONCLUSIVE"
+                row[f"{name}_robustness"] = r.robustness if r is not None and r.robustness is not None else math.nan
     return {"row": row, "wall": time.perf_counter() - started, "setup": setup, "sim_time": sim_time}

@@ -22,6 +22,7 @@
     [keep]
     metrics = ["ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"]
     logs = false                # true: keep every run's MCAP log
+    requirements = "reqs.yaml"  # judge every run (docs/requirements.md): columns NAME_verdict, NAME_robustness
 
 Files (trajectory, wind) are relative to the spec. Every case's reference is checked before it runs
 (master/app/feasibility.py, with the case's plant parameters); a case the check refuses is a row with its line.
@@ -42,9 +43,11 @@ A JSON Schema declares the format; a file that breaks it is refused with the pat
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import json
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,7 +89,8 @@ SCHEMA = {
                     "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}}}}}}},
         "keep": {"type": "object", "additionalProperties": False, "properties": {
             "metrics": {"type": "array", "items": {"enum": list(METRICS)}},
-            "logs": {"type": "boolean"}}},
+            "logs": {"type": "boolean"},
+            "requirements": {"type": "string"}}},
     },
 }
 
@@ -135,11 +139,13 @@ class Campaign:
     source: Path
     snapshot: Path | None = None  # the cases branch from this snapshot (base.snapshot)
     branch_start: float = 0.0  # the snapshot's time (s)
+    requirements: tuple = ()  # keep.requirements: (name, STL) of each, judged on every run (columns NAME_verdict, NAME_robustness)
 
     def base(self) -> dict:
         """What every run shares, as the workers get it (run_case's `base`)."""
         return {"scenario": self.scenario, "trajectory": self.trajectory, "stop_time": self.stop_time, "gusts": self.gusts,
-                "keep_metrics": list(self.keep_metrics), "faults": self.faults, "branch": self.snapshot is not None}
+                "keep_metrics": list(self.keep_metrics), "faults": self.faults, "branch": self.snapshot is not None,
+                "requirements": [list(r) for r in self.requirements]}
 
 
 def read_spec_file(path: Path) -> dict:
@@ -275,7 +281,7 @@ def load(path: Path) -> Campaign:
     _validate(data, path)
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     if "snapshot" in base:
-        return _load_branches(data, path, _branching(base, path))
+        return dataclasses.replace(_load_branches(data, path, _branching(base, path)), requirements=_requirements(keep, path))
     controllers = base.get("controllers", ["mixed"])
     for c in controllers:
         if c not in ("dlqr", "mixed") and not (path.parent / c).is_file():
@@ -298,7 +304,24 @@ def load(path: Path) -> Campaign:
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
     return Campaign(data["name"], base.get("scenario", "zse"), _flight(base, path), base.get("stop_time"),
                     base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
-                    list(targets), cases, path)
+                    list(targets), cases, path, requirements=_requirements(keep, path))
+
+
+def _requirements(keep: dict, path: Path) -> tuple:
+    """keep.requirements: a requirement file (relative to the spec): each (name, STL), its columns' names checked."""
+    if "requirements" not in keep:
+        return ()
+    from ...engine.requirements import RequirementError
+    from ...engine.requirements import load as load_requirements
+
+    try:
+        reqs = load_requirements(path.parent / keep["requirements"])
+    except RequirementError as err:
+        raise SpecError(f"{path}: keep.requirements: {err}") from None
+    for r in reqs:
+        if not re.match(r"^[A-Za-z_]\w*$", r.name):
+            raise SpecError(f"{path}: keep.requirements: requirement '{r.name}' names a column: letters, digits and _ only")
+    return tuple((r.name, r.text) for r in reqs)
 
 
 def _faults(base: dict, vary: dict, path: Path) -> list:

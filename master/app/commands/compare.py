@@ -19,6 +19,9 @@ def add_parser(sub) -> None:
     cp.add_argument("--atol", type=arguments.tolerance, default=None,
                     help="absolute tolerance for every metric, in place of the baseline's own (default: the baseline "
                          "file's, else 1e-12)")
+    cp.add_argument("--requirements", type=Path, default=None, metavar="REQS",
+                    help="also judge both logs against these requirements: a verdict that changes is a difference, "
+                         "robustness is compared with the tolerances")
     cp.set_defaults(func=run)
 
 
@@ -32,5 +35,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {note}")
     ok, rows = cmp.compare(run_metrics, base, cmp.DEFAULT_RTOL, cmp.DEFAULT_ATOL, cmp.overridden(tol, args.rtol, args.atol))
     print(cmp.format_rows(rows))
-    print("same within tolerance" if ok else "DIFFERENT: at least one metric is out of tolerance")
+    if args.requirements is not None:
+        from ...engine.requirement_check import check_log
+        from ...engine.requirements import load
+        from ..errors import UserError
+
+        if args.baseline.suffix == ".json" or args.run.suffix == ".json":
+            raise UserError("--requirements compares two logs' verdicts: give the baseline as an MCAP log")
+        reqs = load(args.requirements)
+        rtol = args.rtol if args.rtol is not None else cmp.DEFAULT_RTOL
+        atol = args.atol if args.atol is not None else cmp.DEFAULT_ATOL
+        same, vrows = cmp.compare_verdicts(check_log(args.run, reqs, missing="inconclusive"),
+                                           check_log(args.baseline, reqs, missing="inconclusive"), rtol, atol)
+        print(cmp.format_verdict_rows(vrows))
+        ok &= same
+    print("same within tolerance" if ok else "DIFFERENT: at least one metric or verdict is out of tolerance")
     return 0 if ok else 1

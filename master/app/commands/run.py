@@ -29,6 +29,11 @@ def add_parser(sub) -> None:
     r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
                    help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--requirements", type=Path, default=None, metavar="REQS",
+                   help="monitor these requirements (STL, YAML: docs/requirements.md) while the run goes: verdicts in the "
+                        "table and the log")
+    r.add_argument("--stop-on-violation", action="store_true",
+                   help="with --requirements: end the run once a requirement's FAIL can no longer change")
     r.add_argument("--snapshot-at", nargs=2, metavar=("T", "FILE"), default=None,
                    help="at t = T s write every FMU's state and the master's to FILE (the run goes on)")
     r.add_argument("--from-snapshot", type=Path, default=None, metavar="FILE",
@@ -191,12 +196,13 @@ def run(args: argparse.Namespace) -> int:
     if snap is not None:
         meta["from_snapshot"] = f"{args.from_snapshot} (t = {snap.time:.3f} s)"
         print(f"continuing from {args.from_snapshot}: t = {snap.time:.3f} s")
+    monitor = _monitor(args, system)
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     print(f"running {label}: {stop:g} s of simulated time" + (f", paced at {args.realtime:g}x real time" if pacer else ""))
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
                         channels=scene_channels(scene) if scene else (), isolate=None if args.trust_fmus else is_foreign,
                         step_timeout=args.step_timeout, announce=_announce, realtime=pacer, resume=snap,
-                        checkpoints=checkpoints)
+                        checkpoints=checkpoints, observers_extra=[monitor] if monitor else ())
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
     print(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
           + (f", from t = {snap.time:.3f} s" if snap else ""))
@@ -204,6 +210,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"{'metric':>14} {'value':>12}")
         for k, v in result.metrics.items():
             print(f"{k:>14} {v:>12.6g}")
+    if monitor is not None and monitor.results:
+        from .check import table
+
+        print("requirements:")
+        print("\n".join(table(monitor.results)))
     if pacer is not None:
         print(pacer.summary())
     if log is None or log.is_file():
@@ -213,4 +224,26 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_plots and log is not None:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
+    if monitor is not None and any(r.verdict == "FAIL" for r in monitor.results):
+        return 1
     return 0
+
+
+def _monitor(args: argparse.Namespace, system):
+    """The requirements' observer, its signals checked against the FMUs' outputs before anything runs."""
+    if args.requirements is None:
+        if args.stop_on_violation:
+            raise UserError("--stop-on-violation needs --requirements")
+        return None
+    from ...engine.model_description import read_fmu
+    from ...engine.requirement_observer import RequirementObserver
+    from ...engine.requirements import check_signals, load
+
+    reqs = load(args.requirements)
+    available = {}
+    for inst in system.instances:
+        for v in read_fmu(inst.fmu, inst.name).modelVariables:
+            if v.causality == "output":
+                available[f"{inst.name}.{v.name}"] = "number" if v.type in ("Real", "Integer", "Boolean") else f"a {v.type}"
+    check_signals(reqs, available, "the run's outputs")
+    return RequirementObserver(reqs, stop_on_violation=args.stop_on_violation, log_every=args.log_every)

@@ -109,3 +109,37 @@ def format_rows(rows) -> str:
     for name, r, b, d, rel, rt, status in rows:
         lines.append(f"{name:>12} {r:>14.8g} {b:>14.8g} {d:>10.3g} {rel:>10.3g} {rt:>8.1g}  {status}")
     return "\n".join(lines)
+
+
+def compare_verdicts(run: list, base: list, rtol: float, atol: float) -> tuple[bool, list[tuple]]:
+    """Requirements' results (requirement_check.Result) of a run against a baseline's: a verdict that changes is a
+    difference; robustness (when both have one) passes if |run - base| <= atol + rtol * |base|."""
+    rows, ok = [], True
+    by_name = {r.name: r for r in run}
+    for b in base:
+        r = by_name.get(b.name)
+        if r is None:
+            rows.append((b.name, "-", b.verdict, math.nan, math.nan, "MISSING"))
+            ok = False
+            continue
+        status = "ok"
+        if r.verdict != b.verdict:
+            status = "VERDICT CHANGED"
+        elif r.robustness is not None and b.robustness is not None and not (
+                abs(r.robustness - b.robustness) <= atol + rtol * abs(b.robustness)):
+            status = "DIFFERS"
+        ok &= status == "ok"
+        rows.append((b.name, r.verdict, b.verdict, _or_nan(r.robustness), _or_nan(b.robustness), status))
+    return ok, rows
+
+
+def _or_nan(x):
+    return math.nan if x is None else x
+
+
+def format_verdict_rows(rows) -> str:
+    width = max([11] + [len(r[0]) for r in rows])
+    lines = [f"{'requirement':>{width}} {'run':>12} {'baseline':>12} {'robustness':>14} {'baseline':>14}  status"]
+    for name, rv, bv, rr, br, status in rows:
+        lines.append(f"{name:>{width}} {rv:>12} {bv:>12} {rr:>14.8g} {br:>14.8g}  {status}")
+    return "\n".join(lines)

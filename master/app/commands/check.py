@@ -1,0 +1,110 @@
+"""`tiltload check REQS LOG...`: requirements (STL) judged on MCAP logs: verdict, robustness, first violation."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from ..errors import UserError
+
+MAGIC = b"\x89MCAP0\r\n"
+PASSED, FAILED, UNDECIDED = 0, 1, 3  # exit codes (2: bad input, as every command)
+
+
+def add_parser(sub) -> None:
+    c = sub.add_parser("check", help="judge runs against requirements (STL): PASS / FAIL / INCONCLUSIVE with robustness "
+                                     "and the first violation; exit 0 all pass, 1 a FAIL, 3 none failed but not all passed")
+    c.add_argument("files", nargs="*", type=Path, metavar="REQS LOG",
+                   help="a requirement file (YAML: docs/requirements.md), then one or more MCAP logs; with --formula "
+                        "the file may be left out")
+    c.add_argument("--formula", action="append", default=[], metavar="'NAME: STL'",
+                   help="a requirement without a file, e.g. 'alt: always[0:40] plant.z < 0' (repeatable)")
+    c.add_argument("--explain", action="store_true", help="show each requirement's STL (the sugar expanded) and stop")
+    c.add_argument("--json", action="store_true", help="the results as JSON on stdout")
+    c.set_defaults(func=run)
+
+
+def _is_log(path: Path) -> bool:
+    try:
+        with open(path, "rb") as f:
+            return f.read(8) == MAGIC
+    except OSError:
+        return False
+
+
+def gather(files: list[Path], formulas: list[str]):
+    """(requirements, logs) from the command line."""
+    from ...engine.requirements import from_option, load
+
+    files = list(files)
+    reqs = []
+    if files and not _is_log(files[0]) and files[0].suffix != ".mcap":
+        reqs = load(files.pop(0))
+    reqs += [from_option(f) for f in formulas]
+    if not reqs:
+        raise UserError("no requirements: give a requirement file first, or --formula 'NAME: STL'")
+    names = [r.name for r in reqs]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise UserError(f"requirement '{twice[0]}' is given twice (a file's and a --formula's names must differ)")
+    for log in files:
+        if not log.is_file():
+            raise UserError(f"log {log} does not exist")
+        if not _is_log(log):
+            raise UserError(f"{log} is not an MCAP log (no MCAP magic at its start)")
+    return reqs, files
+
+
+def _fmt(x: float | None) -> str:
+    if x is None:
+        return "-"
+    return f"{x:.6g}" if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+
+
+def table(results) -> list[str]:
+    width = max([11] + [len(r.name) for r in results])
+    lines = [f"  {'requirement':<{width}}  {'verdict':<12} {'robustness':>12}  {'first violation':<16} values there"]
+    for r in results:
+        rob = _fmt(r.robustness) if r.robustness is not None else (f"<= {_fmt(r.bounds[1])}" if r.verdict == "FAIL" else "-")
+        at = f"t = {r.first_violation:.3f} s" if r.first_violation is not None else ""
+        there = ", ".join(f"{k} = {v:.6g}" for k, v in r.values.items()) or r.why
+        lines.append(f"  {r.name:<{width}}  {r.verdict:<12} {rob:>12}  {at:<16} {there}".rstrip())
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    from ...engine.requirement_check import check_log, log_span
+
+    reqs, logs = gather(args.files, args.formula)
+    if args.explain:
+        for r in reqs:
+            origin = f" (from {r.sugar})" if r.sugar else ""
+            print(f"{r.name}{origin}: {r.explain()}")
+            print(f"  horizon {r.horizon:g} s; signals {', '.join(r.signals)}")
+        return 0
+    if not logs:
+        raise UserError("no log to check: give one or more MCAP logs after the requirements")
+    spans = {log: log_span(log) for log in logs}
+    longest = max(spans, key=spans.get)
+    for r in reqs:
+        if r.horizon > spans[longest] + 1e-9:
+            raise UserError(f"requirement '{r.name}' looks {r.horizon:g} s ahead, longer than any run given (the longest, "
+                            f"{longest}, is {spans[longest]:g} s): no log can decide it")
+    per_log = {log: check_log(log, reqs, missing="inconclusive" if len(logs) > 1 else "error") for log in logs}
+    everything = [r for results in per_log.values() for r in results]
+    for r in reqs:  # a signal in none of the logs is a typo, not a loop without it
+        if len(logs) > 1 and all(x.verdict == "INCONCLUSIVE" and "has no signal" in x.why for x in everything if x.name == r.name):
+            check_log(logs[0], [r])  # raises, naming the closest signals
+    report = [{"log": str(log), "results": [r.to_json() for r in results]} for log, results in per_log.items()]
+    if not args.json:
+        for log, results in per_log.items():
+            print(f"{log}:")
+            print("\n".join(table(results)))
+    if args.json:
+        print(json.dumps({"logs": report}, indent=1))
+    verdicts = {r.verdict for r in everything}
+    if "FAIL" in verdicts:
+        return FAILED
+    return PASSED if verdicts == {"PASS"} else UNDECIDED
