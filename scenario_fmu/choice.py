@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import reference, shapes, trajectories, waypoints
-from .files import ScenarioFileError, read_rows, read_structured
+from .files import Reader, ScenarioFileError, read_rows, read_structured
 
 THESIS = (0, 1, 2, 3)
 VECTORS = ("center", "size", "ratio", "phase")
@@ -90,9 +90,16 @@ def _shape(label: str, name: str, given: dict, where: str) -> Trajectory:
         if not (isinstance(value, (int, float)) and math.isfinite(value)):
             raise ScenarioFileError(f"{where}: {key} = {value} is not a finite number")
         values[key] = float(value)
+    for key, value in values.items():
+        if abs(value) > 1e5:
+            raise ScenarioFileError(f"{where}: {key} = {value:.6g} is beyond the +-1e5 a shape's parameters may take")
     for key in ("period", "duration"):
         if not values[key] > 0:
             raise ScenarioFileError(f"{where}: {key} must be positive, got {values[key]:g}")
+    for key in ("duration", "onset", "rise"):
+        if values[key] > waypoints.MAX_TIME:
+            raise ScenarioFileError(f"{where}: {key} = {values[key]:g} s is beyond {waypoints.MAX_TIME:g} s (a run's length is bounded: "
+                                    "docs/test_bench.md)")
     for key in ("rise", "onset"):
         if not values[key] >= 0:
             raise ScenarioFileError(f"{where}: {key} must be >= 0, got {values[key]:g}")
@@ -119,11 +126,11 @@ def _waypoint_file(path: Path, rows: list, where: list[str]) -> Trajectory:
     return Trajectory(path.stem, reference.WAYPOINTS, tuple(ref.parameters().items()), ref.start, ref.duration, str(path))
 
 
-def read_file(path: Path) -> Trajectory:
+def read_file(path: Path, read: Reader) -> Trajectory:
     """A trajectory file: CSV waypoints, or a JSON/YAML document of waypoints or of a shape."""
     if path.suffix.lower() == ".csv":
-        return _waypoint_file(path, *read_rows(path, waypoints.FIELDS, waypoints.REQUIRED))
-    data = read_structured(path)
+        return _waypoint_file(path, *read_rows(path, waypoints.FIELDS, waypoints.REQUIRED, read))
+    data = read_structured(path, read)
     if isinstance(data, dict) and "shape" in data:
         import jsonschema
 
@@ -145,8 +152,9 @@ def read_file(path: Path) -> Trajectory:
     return _waypoint_file(path, rows, where)
 
 
-def resolve(text: str, base: Path | None = None) -> Trajectory:
-    """A trajectory from its command-line or spec text (module docstring); relative files are under base."""
+def resolve(text: str, base: Path | None = None, read: Reader | None = None) -> Trajectory:
+    """A trajectory from its command-line or spec text (module docstring); relative files are under base, read by
+    `read` (master.app.inputs.READER: a text naming a file without one is an error)."""
     text = str(text).strip()
     if text.isdigit():
         code = int(text)
@@ -161,13 +169,15 @@ def resolve(text: str, base: Path | None = None) -> Trajectory:
     path = Path(text) if base is None or Path(text).is_absolute() else Path(base) / text
     if not path.is_file() and path.suffix.lower() not in (".csv", ".json", ".yaml", ".yml"):
         raise ScenarioFileError(f"trajectory {text!r}: neither 0-3, a built-in ({', '.join(BUILT_IN)}) nor a trajectory file")
-    return read_file(path)
+    if read is None:
+        raise ScenarioFileError(f"trajectory {text!r}: a trajectory file is read through the master's input layer (no reader given)")
+    return read_file(path, read)
 
 
-def as_trajectory(value, base: Path | None = None) -> Trajectory:
+def as_trajectory(value, base: Path | None = None, read: Reader | None = None) -> Trajectory:
     """A Trajectory, an int (thesis) or a text (resolve)."""
     if isinstance(value, Trajectory):
         return value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
         return resolve(str(int(value)))
-    return resolve(str(value), base)
+    return resolve(str(value), base, read)

@@ -11,12 +11,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...controller_fmu.design.error_dynamics import LOOP_DELAYS
-from ...scenario_fmu.choice import Trajectory, as_trajectory
+from ...scenario_fmu.choice import Trajectory
 from ..engine import jacobi
 from ..engine.errors import DescriptionError
 from ..engine.model_description import read_fmu
 from ..engine.observers import Metrics
 from ..engine.system import Connection, Instance, System
+from .inputs import trajectory as as_trajectory
 
 TICK = 0.012
 SCENARIOS = {"fsi": "none", "lkf": "lkf", "zse": "zse"}  # thesis scenario -> controller FMU's estimator

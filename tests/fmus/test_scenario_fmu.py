@@ -13,6 +13,7 @@ from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
 from support import reference_trajectories as ref_traj
 from support.fmu_session import session
+from tiltload.master.app.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
 from tiltload.plant_fmu.trim import hover_trim
 from tiltload.scenario_fmu import choice, reference, waypoints, wind
@@ -118,7 +119,7 @@ def _sample(s, names, steps: int, h: float) -> np.ndarray:
 
 
 def test_the_waypoint_reference_in_c_is_its_python_twin_to_the_bit(native, opened):
-    mission = choice.resolve(str(MISSION))
+    mission = choice.resolve(str(MISSION), read=READER)
     s = _configured(opened, native["TiltloadScenario"], mission.parameters)
     steps = int((mission.duration + 2) / T)
     got = _sample(s, REF_NAMES, steps, T)
@@ -175,7 +176,7 @@ def test_the_references_velocity_and_acceleration_are_its_derivatives_to_second_
     """Central differences of the FMU's own samples (a 3 ms step) at spacings 24 and 12 ms: their error against the
     reference's velocity and acceleration falls by 4 when the spacing halves (second order: the reference is smooth
     through every waypoint), and the acceleration never jumps."""
-    mission = choice.resolve(str(MISSION))
+    mission = choice.resolve(str(MISSION), read=READER)
     fine = 0.003
     s = _configured(opened, native["TiltloadScenario"], mission.parameters)
     r = _sample(s, REF_NAMES, int(35.9 / fine), fine)
@@ -210,7 +211,7 @@ def _shape_formula(name: str, p: dict, t: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("text", ["lemniscate", "lissajous:size_z=1,ratio_z=3", "step-z:rise=2,size=0.5", "ramp-x"])
 def test_shapes_are_their_formulas_with_their_derivatives(native, opened, text):
-    shape = choice.resolve(text)
+    shape = choice.resolve(text, read=READER)
     p = dict(shape.parameters)
     name = {5: "lemniscate", 6: "lissajous", 7: "step", 8: "ramp"}[p["trajectory"]]
     s = _configured(opened, native["TiltloadScenario"], p, name)

@@ -8,6 +8,7 @@ import pytest
 from support import ROOT
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
+from tiltload.master.app.inputs import READER
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import log_reader, ssp
 from tiltload.master.engine.run import run_system
@@ -25,8 +26,8 @@ def test_the_mission_is_flown_by_both_designs(fmus, tmp_path, scenario, controll
     """36 s: climb, a rectangle through a waypoint passed at speed, a 0.2 rad yaw turn, descent, with the thesis's gusts
     and a light Dryden turbulence on a 2 m/s wind (docs/examples/gusty_wind.yaml). Stable, on the path throughout,
     ISE printed (docs/test_bench.md has the table)."""
-    mission = choice.resolve(str(MISSION))
-    wind = read_wind(ROOT / "docs" / "examples" / "gusty_wind.yaml")
+    mission = choice.resolve(str(MISSION), read=READER)
+    wind = read_wind(ROOT / "docs" / "examples" / "gusty_wind.yaml", READER)
     system = default_system(fmus, scenario, mission, controller, seed=3, wind=wind)
     res = run_system(system, mission.duration, tmp_path / "mission.mcap", loop_metrics(), progress=False)
     assert res.error is None and res.ticks == 3000

@@ -45,7 +45,6 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -143,26 +142,19 @@ class Campaign:
 
 
 def read_spec_file(path: Path) -> dict:
-    if not path.is_file():
-        raise SpecError(f"campaign spec {path} does not exist")
-    text = path.read_text()
-    try:
-        if path.suffix == ".toml":
-            return tomllib.loads(text)
-        if path.suffix in (".yaml", ".yml"):
-            import yaml
+    from ...engine.user_files import UserFileError, read_toml, read_yaml
 
-            data = yaml.safe_load(text)
-            if not isinstance(data, dict):
-                raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
-            return data
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise SpecError(f"{path}: not valid TOML: {err}") from None
-    except Exception as err:  # yaml's errors
-        if isinstance(err, SpecError):
-            raise
-        raise SpecError(f"{path}: not valid YAML: {str(err).splitlines()[0]}") from None
-    raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
+    if not path.exists():
+        raise SpecError(f"campaign spec {path} does not exist")
+    if path.suffix not in (".toml", ".yaml", ".yml"):
+        raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
+    try:
+        data = read_toml(path) if path.suffix == ".toml" else read_yaml(path)
+    except UserFileError as err:
+        raise SpecError(str(err)) from None
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
+    return data
 
 
 def _validate(data: dict, path: Path) -> None:
@@ -212,14 +204,15 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
 
 def _flight(base: dict, path: Path) -> Flight:
     """base.trajectory and base.wind read (relative to the spec), with the feasibility policy."""
-    from ....scenario_fmu.choice import as_trajectory
     from ....scenario_fmu.files import ScenarioFileError
-    from ....scenario_fmu.wind import read_wind
+    from ...engine.user_files import UserFileError
+    from ..inputs import read_wind
+    from ..inputs import trajectory as as_trajectory
 
     try:
         trajectory = as_trajectory(base.get("trajectory", 1), path.parent)
         wind = tuple(read_wind(path.parent / base["wind"]).items()) if "wind" in base else ()
-    except ScenarioFileError as err:
+    except (ScenarioFileError, UserFileError) as err:
         raise SpecError(f"{path}: base: {err}") from None
     return Flight(trajectory, wind, base.get("allow_infeasible", False), base.get("max_tilt", 30.0))
 
@@ -318,7 +311,8 @@ def _faults(base: dict, vary: dict, path: Path) -> list:
 
 def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     """The cases of a campaign from a snapshot: its loop, each case's faults, tunable parameters and seed."""
-    from ....scenario_fmu.choice import Trajectory, as_trajectory
+    from ....scenario_fmu.choice import Trajectory
+    from ..inputs import trajectory as as_trajectory
 
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     options = branching.options  # the snapshot's LoopOptions.to_dict()
