@@ -45,12 +45,14 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ....scenario_fmu.choice import Trajectory
 
 METRICS = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
+MAX_RUNS = 100_000  # runs in one campaign: as many as vary.samples may ask for; each run is a row, and the grid is counted first
 
 SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["name", "base", "vary"],
@@ -167,7 +169,9 @@ def _validate(data: dict, path: Path) -> None:
         raise SpecError(f"{path}: {where}: {err.message}")
 
 
-def _points(vary: dict, path: Path) -> list[dict[str, float]]:
+def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]]:
+    """The varied parameters' points; refused before any is built when, with per_point runs each (controllers times
+    seeds), they would be more than MAX_RUNS."""
     params = vary.get("parameters", [])
     method = vary.get("method", "grid")
     names = [p["name"] for p in params]
@@ -179,6 +183,11 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
         for p in params:
             if "values" not in p or "range" in p:
                 raise SpecError(f"{path}: vary.parameters.{p['name']}: a grid takes values = [...]")
+        runs = math.prod(len(p["values"]) for p in params) * per_point
+        if runs > MAX_RUNS:
+            raise SpecError(f"{path}: vary: the grid makes {runs} runs "
+                            f"({' x '.join(str(len(p['values'])) for p in params)} points x {per_point} controllers and seeds); "
+                            f"a campaign has at most {MAX_RUNS}")
         return [dict(zip(names, combo)) for combo in itertools.product(*(p["values"] for p in params))]
     for p in params:
         if "range" not in p or "values" in p:
@@ -190,6 +199,9 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
     n = vary.get("samples")
     if n is None:
         raise SpecError(f"{path}: vary.samples: {method} sampling needs the number of samples")
+    if n * per_point > MAX_RUNS:
+        raise SpecError(f"{path}: vary: {n} samples x {per_point} controllers and seeds make {n * per_point} runs; "
+                        f"a campaign has at most {MAX_RUNS}")
     seed = vary.get("sample_seed", 0)
     if method == "lhs":
         unit = qmc.LatinHypercube(d=len(params), seed=seed).random(n)
@@ -278,7 +290,7 @@ def load(path: Path) -> Campaign:
     faults = _faults(base, vary, path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     cases = []
-    for point in _points(vary, path):
+    for point in _points(vary, path, len(controllers) * len(seeds)):
         for controller in controllers:
             for seed in seeds:
                 parameters = dict(base.get("parameters", {}))
@@ -327,7 +339,7 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     controller = options["controller_fmu"] or options["controller"]
     seeds = vary.get("seeds")
     cases = []
-    for point in _points(vary, path):
+    for point in _points(vary, path, len(seeds or [options["seed"]])):
         for seed in seeds or [options["seed"]]:
             parameters = dict(base.get("parameters", {}))
             for name, value in point.items():
