@@ -52,6 +52,26 @@ class Trajectory:
     start: tuple[float, float, float]
     duration: float
     source: str = ""  # the file it came from, if any
+    knots: tuple[tuple[float, ...], ...] = ()  # a waypoint mission's knot table (waypoints.KNOT_COLUMNS), written for the FMU
+
+    def fmu_parameters(self, folder: Path) -> dict[str, float | int | str]:
+        """The scenario FMU's parameters; a mission's knot file written into folder first (named by its content, so
+        the same mission is one file however often it runs), and named by waypoints_file."""
+        if not self.knots:
+            return self.parameters
+        import hashlib
+        import os
+
+        text = waypoints.knot_text(np.array(self.knots))
+        path = Path(folder).resolve() / f"mission-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
+        if not (path.is_file() and path.read_text() == text):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
+            partial.write_text(text)
+            os.replace(partial, path)  # whole or not at all, for a reader in another process
+        if len(str(path)) > waypoints.PATH_LENGTH:
+            raise ScenarioFileError(f"the knot file's path {str(path)[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
+        return {**self.parameters, "waypoints_file": str(path)}
 
     @property
     def parameters(self) -> dict[str, float | int]:
@@ -61,7 +81,7 @@ class Trajectory:
     def from_dict(cls, d: dict) -> Trajectory:
         """From its dataclasses.asdict form (as a snapshot keeps it: JSON lists for the tuples)."""
         return cls(d["label"], d["code"], tuple(tuple(x) for x in d["settings"]), tuple(d["start"]), d["duration"],
-                   d.get("source", ""))
+                   d.get("source", ""), tuple(tuple(float(v) for v in k) for k in d.get("knots", ())))
 
     def __str__(self) -> str:
         return self.label
@@ -123,7 +143,8 @@ def _overrides(text: str, where: str) -> dict:
 def _waypoint_file(path: Path, rows: list, where: list[str]) -> Trajectory:
     waypoints.check(rows, where, str(path))
     ref = waypoints.minimum_jerk(rows)
-    return Trajectory(path.stem, reference.WAYPOINTS, tuple(ref.parameters().items()), ref.start, ref.duration, str(path))
+    return Trajectory(path.stem, reference.WAYPOINTS, (), ref.start, ref.duration, str(path),
+                      tuple(tuple(float(v) for v in k) for k in ref.knots()))
 
 
 def read_file(path: Path, read: Reader) -> Trajectory:

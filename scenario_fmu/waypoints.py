@@ -11,9 +11,9 @@ degree 7, overshoots more between waypoints and buys derivatives the loop does n
 
 The optimum is closed form: the cost is a quadratic in the free velocities and accelerations at the waypoints
 (each segment's is dᵀHd/T⁵ in its scaled Hermite data d), so one symmetric positive definite linear solve gives
-them; no iterative solver. The result is carried by the scenario FMU as data (its wp_* parameters: time,
+them; no iterative solver. The result is carried into the scenario FMU as data (a knot file its waypoints_file parameter names: time,
 position, velocity and acceleration at each waypoint, for x, y, z and psi) and evaluated there in C, segment
-by segment as a quintic Hermite polynomial (scenario_model.c); evaluate() below is the same arithmetic in numpy.
+by segment as a quintic Hermite polynomial (scenario_waypoints.c); evaluate() below is the same arithmetic in numpy.
 
 Boundary conditions: a velocity or acceleration left out at the first or last waypoint is 0 (the path starts
 and ends at rest); left out at an interior waypoint it is free. Before the first time and after the last the
@@ -23,6 +23,7 @@ reference holds the end waypoint at rest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -33,7 +34,12 @@ FIELDS = ("t", *AXES, *(f"v{a}" for a in AXES), *(f"a{a}" for a in AXES))  # a w
 REQUIRED = ("t", "x", "y", "z")
 UNITS = {"t": "s", "x": "m", "y": "m", "z": "m", "psi": "rad"}
 UNITS |= {f"v{a}": f"{UNITS[a]}/s" for a in AXES} | {f"a{a}": f"{UNITS[a]}/s2" for a in AXES}
-MAX_WAYPOINTS = 64  # the scenario FMU's capacity (its wp_* parameters)
+MAX_WAYPOINTS = 10_000  # the scenario FMU's capacity: its state holds the knots (13 doubles each, 1 MB in all)
+# The knot file that carries a reference into the scenario FMU (its waypoints_file parameter): a header naming these
+# columns, then one line per knot, numbers in %.17g (exact both ways).
+KNOT_COLUMNS = ("t", *(f"{q}{a}" for a in AXES for q in ("", "v", "a")))
+KNOT_LINE = 512  # characters in a knot line at most (13 numbers of at most 24 characters and their commas: 324)
+PATH_LENGTH = 1023  # characters in waypoints_file at most (the FMU keeps it in its state)
 # Time spans are bounded by what a run can be: a mission ends within MAX_TIME (3 h, beyond the endurance of a battery
 # multirotor carrying a load; 900,000 ticks of 12 ms, the schedule's and the feasibility check's samples), and
 # consecutive waypoints are MIN_GAP apart at least (the jerk cost scales as T^-5: at 1 ms it is 1e15, which the
@@ -48,11 +54,6 @@ SCHEMA = {  # one waypoint (a CSV row, or an item of a JSON/YAML file's `waypoin
     "type": "object", "required": list(REQUIRED), "additionalProperties": False,
     "properties": {f: {"type": "number", "minimum": RANGES[f][0], "maximum": RANGES[f][1]} for f in FIELDS},
 }
-
-
-def parameter_name(field: str, i: int) -> str:
-    """The scenario FMU's parameter of one field of waypoint i (wp_t_0, wp_x_0, ..., wp_apsi_63)."""
-    return f"wp_{field}_{i}"
 
 
 def check(rows: list[dict], where: list[str], source: str) -> None:
@@ -209,16 +210,56 @@ class MinimumJerk:
         acc[before | after] = 0.0
         return pos, vel, acc
 
-    def parameters(self) -> dict[str, float | int]:
-        """The scenario FMU's wp_* parameters that carry this reference."""
-        out: dict[str, float | int] = {"wp_count": int(self.t.size)}
-        for i in range(self.t.size):
-            out[parameter_name("t", i)] = float(self.t[i])
-            for k, axis in enumerate(AXES):
-                out[parameter_name(axis, i)] = float(self.p[i, k])
-                out[parameter_name(f"v{axis}", i)] = float(self.v[i, k])
-                out[parameter_name(f"a{axis}", i)] = float(self.a[i, k])
+    def knots(self) -> np.ndarray:
+        """The knot table, (n, 13) in the order of KNOT_COLUMNS."""
+        out = np.empty((self.t.size, len(KNOT_COLUMNS)))
+        out[:, 0] = self.t
+        for k in range(len(AXES)):
+            out[:, 1 + 3 * k], out[:, 2 + 3 * k], out[:, 3 + 3 * k] = self.p[:, k], self.v[:, k], self.a[:, k]
         return out
+
+    @classmethod
+    def from_knots(cls, knots: np.ndarray) -> MinimumJerk:
+        knots = np.asarray(knots, dtype=float)
+        axis = lambda q: np.stack([knots[:, 1 + 3 * k + q] for k in range(len(AXES))], axis=1)  # noqa: E731
+        return cls(knots[:, 0].copy(), axis(0), axis(1), axis(2))
+
+
+def knot_text(knots: np.ndarray) -> str:
+    """The knot file's text (what the scenario FMU reads from waypoints_file)."""
+    return ",".join(KNOT_COLUMNS) + "\n" + "".join(",".join(f"{x:.17g}" for x in row) + "\n" for row in knots)
+
+
+def read_knots(path: Path) -> MinimumJerk:
+    """The reference a knot file describes, read as the scenario FMU reads it: a regular file of at most MAX_WAYPOINTS
+    knots (its size checked before it is read), the header, 13 finite numbers a line, times increasing."""
+    import os
+    import stat
+
+    path = Path(path)
+    try:
+        info = path.stat()
+    except OSError as err:
+        raise ScenarioFileError(f"waypoints_file {path}: {err.strerror or err}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ScenarioFileError(f"waypoints_file {path}: not a regular file")
+    if info.st_size > (MAX_WAYPOINTS + 1) * (KNOT_LINE + 2):
+        raise ScenarioFileError(f"waypoints_file {path}: {info.st_size} bytes, more than {MAX_WAYPOINTS} knots take")
+    with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
+        lines = f.read().decode("ascii", errors="replace").splitlines()
+    if not lines or lines[0] != ",".join(KNOT_COLUMNS):
+        raise ScenarioFileError(f"waypoints_file {path}: line 1 must be the header {','.join(KNOT_COLUMNS)}")
+    knots = np.empty((len(lines) - 1, len(KNOT_COLUMNS)))
+    for i, line in enumerate(lines[1:]):
+        try:
+            knots[i] = [float(x) for x in line.split(",")]
+        except ValueError:
+            raise ScenarioFileError(f"waypoints_file {path}: line {i + 2}: not {len(KNOT_COLUMNS)} numbers") from None
+    if not 2 <= knots.shape[0] <= MAX_WAYPOINTS:
+        raise ScenarioFileError(f"waypoints_file {path}: {knots.shape[0]} knots; a mission has 2 to {MAX_WAYPOINTS}")
+    if not np.all(np.isfinite(knots)) or not np.all(np.diff(knots[:, 0]) > 0):
+        raise ScenarioFileError(f"waypoints_file {path}: a value that is not finite, or times that do not increase")
+    return MinimumJerk.from_knots(knots)
 
 
 def minimum_jerk(rows: list[dict]) -> MinimumJerk:
@@ -236,7 +277,9 @@ def minimum_jerk(rows: list[dict]) -> MinimumJerk:
 
 
 def from_parameters(values: dict) -> MinimumJerk:
-    """The reference the scenario FMU's wp_* parameters describe (the inverse of MinimumJerk.parameters)."""
-    n = int(values["wp_count"])
-    get = lambda f: np.array([float(values[parameter_name(f, i)]) for i in range(n)])  # noqa: E731
-    return MinimumJerk(get("t"), *(np.stack([get(f"{q}{a}") for a in AXES], axis=1) for q in ("", "v", "a")))
+    """The reference the scenario FMU's waypoints_file parameter names (relative paths are not resolved: the FMU's
+    resources folder is the FMU's)."""
+    name = str(values.get("waypoints_file", ""))
+    if not name:
+        raise ScenarioFileError("trajectory 4 needs waypoints_file: the knot file of the mission")
+    return read_knots(Path(name))

@@ -78,7 +78,9 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
     else:
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
-    scenario_parameters = {**trajectory.parameters, "gusts": gusts}
+    from ...controller_fmu.design.cache import cache_root
+
+    scenario_parameters = {**trajectory.fmu_parameters(cache_root() / "missions"), "gusts": gusts}
     if vehicle != "load":
         scenario_parameters["gust_magnitude"] = loop.gust_magnitude
     if wind:

@@ -24,8 +24,10 @@ BAD_FILES = [  # (file name, content, what the line must say)
     ("backwards.csv", "t,x,y,z\n0,0,0,1\n5,1,0,1\n3,2,0,1\n", "line 4: t = 3 s is not after the previous waypoint's t = 5 s"),
     ("same_time.csv", "t,x,y,z\n0,0,0,1\n0,1,0,1\n", "line 3: t = 0 s is not after"),
     ("nan.csv", "t,x,y,z\n0,0,0,1\n5,nan,0,1\n", "line 3: x is nan, not a finite number"),
-    ("inf.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n  - {t: 5, x: .inf, y: 0, z: 1}\n", "waypoints.1.x: inf is not a finite number"),
-    ("nan.json", '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": 5, "x": NaN, "y": 0, "z": 1}]}', "waypoints.1.x: NaN is not a finite number"),
+    ("inf.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n  - {t: 5, x: .inf, y: 0, z: 1}\n",
+     "waypoints.1.x: inf is not a finite number"),
+    ("nan.json", '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": 5, "x": NaN, "y": 0, "z": 1}]}',
+     "waypoints.1.x: NaN is not a finite number"),
     ("one.csv", "t,x,y,z\n0,0,0,1\n", "a trajectory needs at least 2 waypoints, got 1"),
     ("one.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n", "a trajectory needs at least 2 waypoints, got 1"),
     ("columns.csv", "t,x,y,q\n0,0,0,1\n5,1,0,1\n", "unknown column 'q'"),
@@ -148,7 +150,7 @@ def test_the_trim_check_sees_what_the_feedforward_cannot(tmp_path):
     path = tmp_path / "dash.csv"
     path.write_text("t,x,y,z\n0,0,0,3\n2.5,10,0,3\n5,10,0,3\n")
     trajectory = choice.resolve(str(path), read=READER)
-    report = feasibility.check_reference(trajectory.parameters, trajectory.duration)
+    report = feasibility.check_reference(trajectory.fmu_parameters(tmp_path), trajectory.duration)
     assert any(re.match(r"theta would need 3\d\.\d degrees at t = ", p) for p in report.problems), report.problems
     assert not any(p.startswith("f_") for p in report.problems)
 
