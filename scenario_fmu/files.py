@@ -7,6 +7,7 @@ Every problem is a ScenarioFileError whose message is one line naming the file a
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Protocol
 
@@ -66,6 +67,9 @@ def read_rows(path: Path, fields: tuple[str, ...], required: tuple[str, ...], re
                 row[name] = float(cell)
             except ValueError:
                 raise ScenarioFileError(f"{path}: line {number}: {name} = {cell[:40]!r} is not a number") from None
+            if math.isinf(row[name]) and "inf" not in cell.lower():
+                raise ScenarioFileError(f"{path}: line {number}: {name} = {cell[:24]}... ({len(cell)} characters) is beyond a "
+                                        "double's range")
         rows.append(row)
         where.append(f"line {number}")
     return rows, where

@@ -170,7 +170,7 @@ def check_values(data, source: str) -> None:
     while stack:
         value, where, depth = stack.pop()
         at = f"{source}: {where}: " if where else f"{source}: "
-        if depth > MAX_DEPTH:
+        if depth >= MAX_DEPTH and isinstance(value, (dict, list)):  # the root's container is level 1
             raise UserFileError(f"{at}nested deeper than {MAX_DEPTH} levels")
         if isinstance(value, bool) or value is None or isinstance(value, str):
             continue

@@ -186,7 +186,7 @@ def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]
         runs = math.prod(len(p["values"]) for p in params) * per_point
         if runs > MAX_RUNS:
             raise SpecError(f"{path}: vary: the grid makes {runs} runs "
-                            f"({' x '.join(str(len(p['values'])) for p in params)} points x {per_point} controllers and seeds); "
+                            f"({' x '.join(str(len(p['values'])) for p in params)} points, {per_point} runs each: controllers x seeds); "
                             f"a campaign has at most {MAX_RUNS}")
         return [dict(zip(names, combo)) for combo in itertools.product(*(p["values"] for p in params))]
     for p in params:
@@ -200,7 +200,7 @@ def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]
     if n is None:
         raise SpecError(f"{path}: vary.samples: {method} sampling needs the number of samples")
     if n * per_point > MAX_RUNS:
-        raise SpecError(f"{path}: vary: {n} samples x {per_point} controllers and seeds make {n * per_point} runs; "
+        raise SpecError(f"{path}: vary: {n} samples, {per_point} runs each (controllers x seeds), make {n * per_point} runs; "
                         f"a campaign has at most {MAX_RUNS}")
     seed = vary.get("sample_seed", 0)
     if method == "lhs":
