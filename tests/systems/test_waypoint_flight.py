@@ -3,6 +3,8 @@ giving the same reference in libcosim and Ecos as in our master."""
 
 from __future__ import annotations
 
+import zipfile
+
 import numpy as np
 import pytest
 from support import ROOT
@@ -53,7 +55,7 @@ def mission_package(pipeline_fmus, tmp_path_factory):
     return out
 
 
-def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(mission_package):
+def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(mission_package, tmp_path):
     """The package carries the reference as the scenario FMU's parameters; libcosim and Ecos step it with the rest of
     the loop: every tick's reference equals the Python twin of the C (which our master's FMU equals to the bit:
     tests/fmus/test_scenario_fmu.py) at that master's own clock, to the bit. (The clocks differ in the last bit:
@@ -65,6 +67,9 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
 
     system, _, _ = ssp.load(mission_package, cache_root() / "ssp")
     parameters = system.instance("scenario").parameters
+    with zipfile.ZipFile(system.instance("scenario").fmu) as z:  # the mission travels in the scenario FMU's resources
+        (tmp_path / "knots.csv").write_bytes(z.read(f"resources/{parameters['waypoints_file']}"))
+    parameters = {**parameters, "waypoints_file": str(tmp_path / "knots.csv")}
 
     def ours(times):
         twin = reference.evaluate(parameters, np.array(times))
