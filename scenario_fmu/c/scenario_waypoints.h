@@ -5,6 +5,8 @@
 
 #include "tl_platform.h"
 
+#include <stddef.h>
+
 #include "scenario_capacity.h"
 
 /* One axis of the reference at t: the quintic Hermite polynomial of the segment holding t, from the n knots'
