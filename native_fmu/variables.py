@@ -64,6 +64,7 @@ class FmuDefinition:
     variable_step: bool = True  # canHandleVariableCommunicationStepSize
     version: str = "0"
     clocks: tuple[Clock, ...] = ()  # FMI 3.0 input clocks (a clocked FMU is FMI 3.0 only)
+    string_length: int = 64  # the longest String value + 1 (TL_STRING_LEN: each String's room in the state)
     value_references: dict[str, int] = field(init=False)
 
     def __post_init__(self) -> None:

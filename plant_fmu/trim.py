@@ -3,12 +3,14 @@
 At rest (q_dot = 0) the equations of motion reduce to L_in(q) u = g(q): ten equations in
 phi, theta, gamma_1, gamma_2, alpha_R, alpha_L and the four inputs, for given x, y, z, psi
 (the UAV alone: eight, without the gammas). Newton's method with the exact CasADi Jacobian
-converges to machine precision.
+converges to machine precision. The same residual with the tracked coordinates moving (their rates and the load's
+acceleration given, the others at rest) is the trim along a path the feasibility check solves (newton).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import casadi as ca
 import numpy as np
@@ -32,26 +34,57 @@ class TrimError(RuntimeError):
     """Newton's method did not reach an equilibrium."""
 
 
-def _unknown_coordinates(vehicle: str) -> list[int]:
-    """Every coordinate but x, y, z, psi (indices 0, 1, 2, 5 in both vehicles)."""
-    return [i for i in range(model(vehicle).nq) if i not in (0, 1, 2, 5)]
+TRACKED = (0, 1, 2, 5)  # x, y, z, psi: the coordinates a reference gives (in both vehicles)
+
+
+def unknown_coordinates(vehicle: str) -> list[int]:
+    """Every coordinate but x, y, z, psi: what a trim solves for, besides the inputs."""
+    return [i for i in range(model(vehicle).nq) if i not in TRACKED]
 
 
 def _residual_function(vehicle: str) -> ca.Function:
+    """The residual L_in u - (M qdd + C qd + L_fr qd + g) and its Jacobian in z (the unknown coordinates, then the four
+    inputs), at the tracked coordinates of ref = [x, y, z, psi, their rates, the load's acceleration x, y, z] with
+    every other coordinate at rest: the hover trim (ref's rates and acceleration 0) or the trim along a path."""
     m = model(vehicle)
-    unknown = _unknown_coordinates(vehicle)
-    z = ca.SX.sym("z", m.nq)  # the unknown coordinates, then the four inputs
-    pos = ca.SX.sym("pos", 4)  # x, y, z, psi
-    q = [None] * m.nq
-    for k, i in enumerate((0, 1, 2, 5)):
-        q[i] = pos[k]
+    unknown = unknown_coordinates(vehicle)
+    z = ca.SX.sym("z", m.nq)
+    ref = ca.SX.sym("ref", 11)
+    q, qd, qdd = [None] * m.nq, [0] * m.nq, [0] * m.nq
+    for k, i in enumerate(TRACKED):
+        q[i], qd[i] = ref[k], ref[4 + k]
     for k, i in enumerate(unknown):
         q[i] = z[k]
-    u = z[len(unknown):]
-    x = ca.vertcat(*q, ca.DM.zeros(m.nq))
-    _, _, g, L_in, _, _ = m.f_terms(x, m.p)
-    r = L_in @ u - g
-    return ca.Function("trim_residual", [z, pos, m.p], [r, ca.jacobian(r, z)])
+    for k in range(3):
+        qdd[k] = ref[8 + k]
+    M, Cqd, g, L_in, L_fr, _ = m.f_terms(ca.vertcat(*q, *qd), m.p)
+    r = L_in @ z[len(unknown):] - (M @ ca.vertcat(*qdd) + Cqd + L_fr @ ca.vertcat(*qd) + g)
+    return ca.Function("trim_residual", [z, ref, m.p], [r, ca.jacobian(r, z)])
+
+
+@cache
+def residual_function(vehicle: str) -> ca.Function:
+    """The trim residual of _residual_function, built once per vehicle."""
+    return _residual_function(vehicle)
+
+
+def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int):
+    """Newton's method on the trim residual from z: (z, residual, iterations), or None when it does not reach tol
+    within max_iter (or meets a singular Jacobian or a value that is not finite)."""
+    f = residual_function(vehicle)
+    for it in range(1, max_iter + 1):
+        r, J = (np.array(a) for a in f(z, ref, p))
+        r = r.ravel()
+        if not np.all(np.isfinite(r)):
+            return None
+        res = float(np.max(np.abs(r)))
+        if res <= tol:
+            return z, res, it
+        try:
+            z = z - np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            return None
+    return None
 
 
 def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0, 0.0),
@@ -62,24 +95,17 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
     p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
     full = np.array(ca.DM(v.full_parameters(ca.DM(p)))).ravel()
     P.validate(full)
-    f = _residual_function(vehicle)
     pos = np.array([*position, psi], dtype=float)
     masses = ("m_L", "m_1", "m_2", "m_3") if vehicle == "load" else ("m_1", "m_2", "m_3")
     weight = sum(full[P.index(k)] for k in masses) * full[P.index("g")]
-    unknown = _unknown_coordinates(vehicle)
+    unknown = unknown_coordinates(vehicle)
     z = np.zeros(v.nq)
     z[len(unknown):len(unknown) + 2] = weight / 2
-    res = np.inf
-    for it in range(1, max_iter + 1):  # noqa: B007 (it is reported after the loop)
-        r, J = (np.array(v) for v in f(z, pos, p))
-        r = r.ravel()
-        res = float(np.max(np.abs(r)))
-        if res <= tol:
-            break
-        z = z - np.linalg.solve(J, r)
-    else:
-        raise TrimError(f"hover trim did not converge in {max_iter} iterations (residual {res:.3g})")
+    found = newton(vehicle, z, np.r_[pos, np.zeros(7)], p, tol, max_iter)
+    if found is None:
+        raise TrimError(f"hover trim did not converge in {max_iter} iterations")
+    z, res, it = found
     x = np.zeros(v.nx)
-    x[[0, 1, 2, 5]] = pos
+    x[list(TRACKED)] = pos
     x[unknown] = z[:len(unknown)]
     return Trim(x=x, u=z[len(unknown):].copy(), residual=res, iterations=it)

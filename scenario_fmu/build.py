@@ -27,4 +27,6 @@ def _prepare(folder: Path, progress) -> Prepared:
     generated = casadi_c.generate(functions, folder, "tl_scenario_gen")
     table = folder / "scenario_table.h"
     table.write_text(fmu_variables.trajectory_table(max(max(f.sz_w() for f in functions), 1)))
-    return Prepared(definition, NativeSources(MODEL_C, [*generated, table]))
+    capacity = folder / "scenario_capacity.h"
+    capacity.write_text(fmu_variables.capacity_header())
+    return Prepared(definition, NativeSources(MODEL_C, [*generated, table, capacity]))

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from . import reference, shapes, trajectories, waypoints
-from .files import ScenarioFileError, read_rows, read_structured
+from .files import Reader, ScenarioFileError, read_rows, read_structured
 
 THESIS = (0, 1, 2, 3)
 VECTORS = ("center", "size", "ratio", "phase")
@@ -52,6 +52,26 @@ class Trajectory:
     start: tuple[float, float, float]
     duration: float
     source: str = ""  # the file it came from, if any
+    knots: tuple[tuple[float, ...], ...] = ()  # a waypoint mission's knot table (waypoints.KNOT_COLUMNS), written for the FMU
+
+    def fmu_parameters(self, folder: Path) -> dict[str, float | int | str]:
+        """The scenario FMU's parameters; a mission's knot file written into folder first (named by its content, so
+        the same mission is one file however often it runs), and named by waypoints_file."""
+        if not self.knots:
+            return self.parameters
+        import hashlib
+        import os
+
+        text = waypoints.knot_text(np.array(self.knots))
+        path = Path(folder).resolve() / f"mission-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
+        if not (path.is_file() and path.read_text() == text):
+            path.parent.mkdir(parents=True, exist_ok=True)
+            partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
+            partial.write_text(text)
+            os.replace(partial, path)  # whole or not at all, for a reader in another process
+        if len(str(path)) > waypoints.PATH_LENGTH:
+            raise ScenarioFileError(f"the knot file's path {str(path)[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
+        return {**self.parameters, "waypoints_file": str(path)}
 
     @property
     def parameters(self) -> dict[str, float | int]:
@@ -61,7 +81,7 @@ class Trajectory:
     def from_dict(cls, d: dict) -> Trajectory:
         """From its dataclasses.asdict form (as a snapshot keeps it: JSON lists for the tuples)."""
         return cls(d["label"], d["code"], tuple(tuple(x) for x in d["settings"]), tuple(d["start"]), d["duration"],
-                   d.get("source", ""))
+                   d.get("source", ""), tuple(tuple(float(v) for v in k) for k in d.get("knots", ())))
 
     def __str__(self) -> str:
         return self.label
@@ -90,9 +110,16 @@ def _shape(label: str, name: str, given: dict, where: str) -> Trajectory:
         if not (isinstance(value, (int, float)) and math.isfinite(value)):
             raise ScenarioFileError(f"{where}: {key} = {value} is not a finite number")
         values[key] = float(value)
+    for key, value in values.items():
+        if abs(value) > 1e5:
+            raise ScenarioFileError(f"{where}: {key} = {value:.6g} is beyond the +-1e5 a shape's parameters may take")
     for key in ("period", "duration"):
         if not values[key] > 0:
             raise ScenarioFileError(f"{where}: {key} must be positive, got {values[key]:g}")
+    for key in ("duration", "onset", "rise"):
+        if values[key] > waypoints.MAX_TIME:
+            raise ScenarioFileError(f"{where}: {key} = {values[key]:g} s is beyond {waypoints.MAX_TIME:g} s (a run's length is bounded: "
+                                    "docs/test_bench.md)")
     for key in ("rise", "onset"):
         if not values[key] >= 0:
             raise ScenarioFileError(f"{where}: {key} must be >= 0, got {values[key]:g}")
@@ -116,14 +143,15 @@ def _overrides(text: str, where: str) -> dict:
 def _waypoint_file(path: Path, rows: list, where: list[str]) -> Trajectory:
     waypoints.check(rows, where, str(path))
     ref = waypoints.minimum_jerk(rows)
-    return Trajectory(path.stem, reference.WAYPOINTS, tuple(ref.parameters().items()), ref.start, ref.duration, str(path))
+    return Trajectory(path.stem, reference.WAYPOINTS, (), ref.start, ref.duration, str(path),
+                      tuple(tuple(float(v) for v in k) for k in ref.knots()))
 
 
-def read_file(path: Path) -> Trajectory:
+def read_file(path: Path, read: Reader) -> Trajectory:
     """A trajectory file: CSV waypoints, or a JSON/YAML document of waypoints or of a shape."""
     if path.suffix.lower() == ".csv":
-        return _waypoint_file(path, *read_rows(path, waypoints.FIELDS, waypoints.REQUIRED))
-    data = read_structured(path)
+        return _waypoint_file(path, *read_rows(path, waypoints.FIELDS, waypoints.REQUIRED, read))
+    data = read_structured(path, read)
     if isinstance(data, dict) and "shape" in data:
         import jsonschema
 
@@ -145,8 +173,9 @@ def read_file(path: Path) -> Trajectory:
     return _waypoint_file(path, rows, where)
 
 
-def resolve(text: str, base: Path | None = None) -> Trajectory:
-    """A trajectory from its command-line or spec text (module docstring); relative files are under base."""
+def resolve(text: str, base: Path | None = None, read: Reader | None = None) -> Trajectory:
+    """A trajectory from its command-line or spec text (module docstring); relative files are under base, read by
+    `read` (master.app.inputs.READER: a text naming a file without one is an error)."""
     text = str(text).strip()
     if text.isdigit():
         code = int(text)
@@ -161,13 +190,15 @@ def resolve(text: str, base: Path | None = None) -> Trajectory:
     path = Path(text) if base is None or Path(text).is_absolute() else Path(base) / text
     if not path.is_file() and path.suffix.lower() not in (".csv", ".json", ".yaml", ".yml"):
         raise ScenarioFileError(f"trajectory {text!r}: neither 0-3, a built-in ({', '.join(BUILT_IN)}) nor a trajectory file")
-    return read_file(path)
+    if read is None:
+        raise ScenarioFileError(f"trajectory {text!r}: a trajectory file is read through the master's input layer (no reader given)")
+    return read_file(path, read)
 
 
-def as_trajectory(value, base: Path | None = None) -> Trajectory:
+def as_trajectory(value, base: Path | None = None, read: Reader | None = None) -> Trajectory:
     """A Trajectory, an int (thesis) or a text (resolve)."""
     if isinstance(value, Trajectory):
         return value
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
         return resolve(str(int(value)))
-    return resolve(str(value), base)
+    return resolve(str(value), base, read)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..native_fmu.variables import FmuDefinition, Variable
 from .shapes import SHAPE_PARAMETERS, SHAPES
 from .trajectories import DURATION, START
-from .waypoints import AXES, MAX_WAYPOINTS, parameter_name
+from .waypoints import KNOT_COLUMNS, KNOT_LINE, MAX_WAYPOINTS, PATH_LENGTH
 from .wind import ALTITUDE_RANGE, MAX_PROFILE, PROFILE_FIELDS
 
 DESCRIPTION = ("Scenarios of Rego (UFMG 2016) Sec. 5.1: trajectory 1 (circle) or 2 (Table 5.3) for the load, "
@@ -17,21 +17,8 @@ REF = ("x_ref", "y_ref", "z_ref", "vx_ref", "vy_ref", "vz_ref", "ax_ref", "ay_re
 REF_UNITS = ("m",) * 3 + ("m/s",) * 3 + ("m/s2",) * 3
 TRAJECTORIES = (0, 1, 2, 3)  # the thesis's (0 hover at the origin); 4 waypoints, 5-8 the shapes
 TRAJECTORY_HELP = ("0 hover at the origin, 1 circle (40 s), 2 Table 5.3 (50 s), 3 Appendix A's circle for the UAV alone "
-                   "(80 s), 4 the minimum-jerk reference of the wp_* parameters, "
+                   "(80 s), 4 the minimum-jerk reference of the knot file waypoints_file, "
                    + ", ".join(f"{k} {v} (shape_*)" for k, v in SHAPES.items()))
-WAYPOINT_UNITS = {"t": "s", "x": "m", "y": "m", "z": "m", "psi": "rad"}
-
-
-def _waypoint_variables() -> list[Variable]:
-    """wp_count and, per quantity, a contiguous block of MAX_WAYPOINTS parameters (the C indexes them by offset)."""
-    v = []
-    blocks = [("t", "s", "time")]
-    for axis in AXES:
-        unit = WAYPOINT_UNITS[axis]
-        blocks += [(axis, unit, f"{axis}"), (f"v{axis}", f"{unit}/s", f"{axis} rate"), (f"a{axis}", f"{unit}/s2", f"{axis} acceleration")]
-    for field, unit, what in blocks:
-        v += [Variable(parameter_name(field, i), "Real", "parameter", 0.0, f"waypoint {i}: {what}", unit) for i in range(MAX_WAYPOINTS)]
-    return v
 
 
 def _wind_variables() -> list[Variable]:
@@ -70,18 +57,27 @@ def definition(version: str) -> FmuDefinition:
     v += [Variable(f"gust_{a}_at", "Real", "parameter", f, f"onset of the {a} gust as a fraction of the duration (reconstructed)",
                    "1") for a, f in zip("xyz", (0.25, 0.5, 0.75))]
     v += [Variable(f"shape_{p.name}", "Real", "parameter", p.default, p.description, p.unit) for p in SHAPE_PARAMETERS]
-    v += _waypoint_variables()
+    v.append(Variable("waypoints_file", "String", "parameter", "", "trajectory 4: the knot file of the minimum-jerk reference "
+                      f"(CSV, header {','.join(KNOT_COLUMNS)}; 2 to {MAX_WAYPOINTS} knots); a relative path is in the FMU's "
+                      "resources folder (docs/test_bench.md)"))
     v += _wind_variables()
     v.append(Variable("trajectory", "Integer", "parameter", 1, TRAJECTORY_HELP, minimum=0, maximum=max(SHAPES)))
-    v.append(Variable("wp_count", "Integer", "parameter", 0, f"waypoints in the wp_* parameters (2 to {MAX_WAYPOINTS})",
-                      minimum=0, maximum=MAX_WAYPOINTS))
     v.append(Variable("dryden", "Integer", "parameter", 0, "Dryden turbulence: 0 none, 1 light, 2 moderate, 3 severe",
                       minimum=0, maximum=3))
     v.append(Variable("seed", "Integer", "parameter", 1, "seed of the turbulence's noise (Philox, docs/test_bench.md)", minimum=0))
     v.append(Variable("wind_profile_count", "Integer", "parameter", 0, f"rows of the wind profile (0: none, up to {MAX_PROFILE})",
                       minimum=0, maximum=MAX_PROFILE))
     v.append(Variable("gusts", "Boolean", "parameter", True, "apply the wind gusts"))
-    return FmuDefinition("TiltloadScenario", DESCRIPTION, v, "scenario_model.h", (0.0, 40.0, 0.012), version=version)
+    return FmuDefinition("TiltloadScenario", DESCRIPTION, v, "scenario_model.h", (0.0, 40.0, 0.012), version=version,
+                         string_length=PATH_LENGTH + 1)
+
+
+def capacity_header() -> str:
+    """scenario_capacity.h: the knot file's shape and the tables' capacities (the model state is sized by them)."""
+    return "\n".join(["/* Generated from tiltload.scenario_fmu: do not edit. */", "#ifndef SCENARIO_CAPACITY_H",
+                      "#define SCENARIO_CAPACITY_H", f"#define TL_MAX_WAYPOINTS {MAX_WAYPOINTS}", f"#define TL_MAX_PROFILE {MAX_PROFILE}",
+                      f"#define TL_KNOT_COLUMNS {len(KNOT_COLUMNS)}", f'#define TL_KNOT_HEADER "{",".join(KNOT_COLUMNS)}"',
+                      f"#define TL_KNOT_LINE {KNOT_LINE + 2}", "#endif", ""])
 
 
 def trajectory_table(max_w: int) -> str:
@@ -91,7 +87,7 @@ def trajectory_table(max_w: int) -> str:
     return "\n".join(["/* Generated from tiltload.scenario_fmu: do not edit. */",
                       "#ifndef SCENARIO_TABLE_H", "#define SCENARIO_TABLE_H",
                       f"#define TL_N_TRAJECTORIES {len(TRAJECTORIES)}", f"#define TL_SCENARIO_MAX_W {max_w}",
-                      f"#define TL_MAX_WAYPOINTS {MAX_WAYPOINTS}", f"#define TL_MAX_PROFILE {MAX_PROFILE}",
+                      '#include "scenario_capacity.h"',
                       f"#define TL_N_SHAPE_PARAMETERS {len(SHAPE_PARAMETERS)}",
                       f"#define TL_DRYDEN_MIN_ALTITUDE {ALTITUDE_RANGE[0]!r}", f"#define TL_DRYDEN_MAX_ALTITUDE {ALTITUDE_RANGE[1]!r}",
                       f"static const double tl_duration[TL_N_TRAJECTORIES] = {{{durations}}};",

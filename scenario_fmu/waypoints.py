@@ -11,9 +11,9 @@ degree 7, overshoots more between waypoints and buys derivatives the loop does n
 
 The optimum is closed form: the cost is a quadratic in the free velocities and accelerations at the waypoints
 (each segment's is dᵀHd/T⁵ in its scaled Hermite data d), so one symmetric positive definite linear solve gives
-them; no iterative solver. The result is carried by the scenario FMU as data (its wp_* parameters: time,
+them; no iterative solver. The result is carried into the scenario FMU as data (a knot file its waypoints_file parameter names: time,
 position, velocity and acceleration at each waypoint, for x, y, z and psi) and evaluated there in C, segment
-by segment as a quintic Hermite polynomial (scenario_model.c); evaluate() below is the same arithmetic in numpy.
+by segment as a quintic Hermite polynomial (scenario_waypoints.c); evaluate() below is the same arithmetic in numpy.
 
 Boundary conditions: a velocity or acceleration left out at the first or last waypoint is 0 (the path starts
 and ends at rest); left out at an interior waypoint it is free. Before the first time and after the last the
@@ -23,6 +23,7 @@ reference holds the end waypoint at rest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -31,18 +32,28 @@ from .files import ScenarioFileError
 AXES = ("x", "y", "z", "psi")
 FIELDS = ("t", *AXES, *(f"v{a}" for a in AXES), *(f"a{a}" for a in AXES))  # a waypoint's columns
 REQUIRED = ("t", "x", "y", "z")
-MAX_WAYPOINTS = 64  # the scenario FMU's capacity (its wp_* parameters)
+UNITS = {"t": "s", "x": "m", "y": "m", "z": "m", "psi": "rad"}
+UNITS |= {f"v{a}": f"{UNITS[a]}/s" for a in AXES} | {f"a{a}": f"{UNITS[a]}/s2" for a in AXES}
+MAX_WAYPOINTS = 10_000  # the scenario FMU's capacity: its state holds the knots (13 doubles each, 1 MB in all)
+# The knot file that carries a reference into the scenario FMU (its waypoints_file parameter): a header naming these
+# columns, then one line per knot, numbers in %.17g (exact both ways).
+KNOT_COLUMNS = ("t", *(f"{q}{a}" for a in AXES for q in ("", "v", "a")))
+KNOT_LINE = 512  # characters in a knot line at most (13 numbers of at most 24 characters and their commas: 324)
+PATH_LENGTH = 1023  # characters in waypoints_file at most (the FMU keeps it in its state)
+# Time spans are bounded by what a run can be: a mission ends within MAX_TIME (3 h, beyond the endurance of a battery
+# multirotor carrying a load; 900,000 ticks of 12 ms, the schedule's and the feasibility check's samples), and
+# consecutive waypoints are MIN_GAP apart at least (the jerk cost scales as T^-5: at 1 ms it is 1e15, which the
+# equilibrated solve takes; at 1e-300 s it overflows, and a 12 ms tick cannot see a finer waypoint anyway).
+MAX_TIME = 10_800.0  # s
+MIN_GAP = 1e-3  # s
+# Values bounded so that every product the quintics form stays far from overflow (T^2 a with T <= MAX_TIME).
+RANGES = {"t": (0.0, MAX_TIME), "x": (-1e5, 1e5), "y": (-1e5, 1e5), "z": (-1e5, 1e5), "psi": (-1e3, 1e3)}
+RANGES |= {f"v{a}": (-1e3, 1e3) for a in AXES} | {f"a{a}": (-1e4, 1e4) for a in AXES}
 
-_NUMBER = {"type": "number"}
 SCHEMA = {  # one waypoint (a CSV row, or an item of a JSON/YAML file's `waypoints`)
     "type": "object", "required": list(REQUIRED), "additionalProperties": False,
-    "properties": {f: _NUMBER for f in FIELDS},
+    "properties": {f: {"type": "number", "minimum": RANGES[f][0], "maximum": RANGES[f][1]} for f in FIELDS},
 }
-
-
-def parameter_name(field: str, i: int) -> str:
-    """The scenario FMU's parameter of one field of waypoint i (wp_t_0, wp_x_0, ..., wp_apsi_63)."""
-    return f"wp_{field}_{i}"
 
 
 def check(rows: list[dict], where: list[str], source: str) -> None:
@@ -53,19 +64,29 @@ def check(rows: list[dict], where: list[str], source: str) -> None:
 
     if len(rows) < 2:
         raise ScenarioFileError(f"{source}: a trajectory needs at least 2 waypoints, got {len(rows)}")
+    if not all(isinstance(r, dict) for r in rows):
+        raise ScenarioFileError(f"{source}: a waypoint is a mapping of t, x, y, z[, psi, vx, ...]")
     if len(rows) > MAX_WAYPOINTS:
         raise ScenarioFileError(f"{source}: at most {MAX_WAYPOINTS} waypoints fit the scenario FMU, got {len(rows)}")
-    validator = jsonschema.Draft202012Validator(SCHEMA)
     for row, at in zip(rows, where):
-        for err in sorted(validator.iter_errors(row), key=lambda e: list(e.path)):
-            field = ".".join(str(p) for p in err.absolute_path)
-            if err.validator == "additionalProperties":
-                extra = sorted(set(row) - set(FIELDS))
-                raise ScenarioFileError(f"{source}: {at}: unknown field {', '.join(extra)} (a waypoint has {', '.join(FIELDS)})")
-            raise ScenarioFileError(f"{source}: {at}{': ' + field if field else ''}: {err.message}")
-        for field, value in row.items():
-            if not np.isfinite(value):
+        for field, value in row.items():  # before the schema: its message would print a 400-digit number whole
+            if isinstance(value, (int, float)) and not isinstance(value, bool) and not np.isfinite(float(value)):
                 raise ScenarioFileError(f"{source}: {at}: {field} is {value}, not a finite number")
+            if field == "t" and isinstance(value, (int, float)) and value < 0:
+                raise ScenarioFileError(f"{source}: {at}: t = {value:g} s is before the run starts (t = 0)")
+            if field in RANGES and isinstance(value, (int, float)) and not RANGES[field][0] <= value <= RANGES[field][1]:
+                low, high = RANGES[field]
+                raise ScenarioFileError(f"{source}: {at}: {field} = {float(value):.6g} is outside {low:g} to {high:g} "
+                                        f"{UNITS[field]}" + (" (a mission ends within 3 h)" if field == "t" else ""))
+    validator = jsonschema.Draft202012Validator({"type": "array", "items": SCHEMA})
+    err = next(iter(sorted(validator.iter_errors(rows), key=lambda e: list(e.path))), None)
+    if err is not None:
+        at, field = where[err.absolute_path[0]], ".".join(str(p) for p in list(err.absolute_path)[1:])
+        if err.validator == "additionalProperties":
+            extra = sorted(set(rows[err.absolute_path[0]]) - set(FIELDS))
+            raise ScenarioFileError(f"{source}: {at}: unknown field {', '.join(e[:40] for e in extra[:3])} "
+                                    f"(a waypoint has {', '.join(FIELDS)})")
+        raise ScenarioFileError(f"{source}: {at}{': ' + field if field else ''}: {err.message[:200]}")
     if len({("psi" in r) for r in rows}) > 1:
         raise ScenarioFileError(f"{source}: psi is given at some waypoints but not all")
     if any(("vpsi" in r or "apsi" in r) and "psi" not in r for r in rows):
@@ -75,7 +96,10 @@ def check(rows: list[dict], where: list[str], source: str) -> None:
     for k in range(1, len(rows)):
         if not rows[k]["t"] > rows[k - 1]["t"]:
             raise ScenarioFileError(f"{source}: {where[k]}: t = {rows[k]['t']:g} s is not after the previous waypoint's "
-                                  f"t = {rows[k - 1]['t']:g} s (times must increase)")
+                                    f"t = {rows[k - 1]['t']:g} s (times must increase)")
+        if rows[k]["t"] - rows[k - 1]["t"] < MIN_GAP:
+            raise ScenarioFileError(f"{source}: {where[k]}: t = {rows[k]['t']:.17g} s is {rows[k]['t'] - rows[k - 1]['t']:.3g} s "
+                                    f"after the previous waypoint; waypoints are at least {MIN_GAP:g} s apart")
 
 
 def _hermite_to_monomial() -> np.ndarray:
@@ -103,14 +127,16 @@ H_JERK = _jerk_gram()
 
 
 def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list) -> tuple[np.ndarray, np.ndarray]:
-    """Minimum-jerk velocities and accelerations at the knots of one axis; None entries of v, a are free."""
+    """Minimum-jerk velocities and accelerations at the knots of one axis; None entries of v, a are free.
+
+    The cost couples only the two ends of a segment, so its matrix is banded (half-bandwidth 5 in w = [p0, v0, a0,
+    p1, ...]; at most 3 among the free entries): a banded Cholesky solve, linear in the number of knots."""
+    import scipy.linalg
+
     n = t.size
-    G = np.zeros((3 * n, 3 * n))  # cost w' G w, w = [p0, v0, a0, p1, v1, a1, ...]
-    for i in range(n - 1):
-        T = t[i + 1] - t[i]
-        S = np.diag([1, T, T * T, 1, T, T * T])
-        idx = np.r_[3 * i:3 * i + 6]
-        G[np.ix_(idx, idx)] += S @ H_JERK @ S / T**5
+    T = np.diff(t)
+    S = np.stack([np.ones_like(T), T, T * T, np.ones_like(T), T, T * T], axis=1)  # (n-1, 6)
+    blocks = S[:, :, None] * H_JERK[None] * S[:, None, :] / (T**5)[:, None, None]  # each segment's S H S / T^5
     w = np.full(3 * n, np.nan)
     w[0::3] = p
     for i in range(n):
@@ -119,13 +145,27 @@ def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list) -> tuple[np.ndar
         if a[i] is not None:
             w[3 * i + 2] = a[i]
     free = np.isnan(w)
-    if free.any():
-        known = ~free
-        A, b = G[np.ix_(free, free)], -G[np.ix_(free, known)] @ w[known]
-        scale = 1 / np.sqrt(np.diag(A))  # the entries span powers of the segment times: equilibrate first
-        import scipy.linalg
-
-        w[free] = scale * scipy.linalg.solve(A * np.outer(scale, scale), b * scale, assume_a="pos")
+    if not free.any():
+        return w[1::3].copy(), w[2::3].copy()
+    rows = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, :, None]  # global index of each block entry
+    cols = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, None, :]
+    rows, cols = np.broadcast_to(rows, blocks.shape).ravel(), np.broadcast_to(cols, blocks.shape).ravel()
+    values = blocks.ravel()
+    position = np.cumsum(free) - 1  # index among the free entries
+    known = ~free
+    b = np.zeros(int(free.sum()))
+    into = free[rows] & known[cols]  # b = -G[free, known] w[known]
+    np.add.at(b, position[rows[into]], -values[into] * w[cols[into]])
+    both = free[rows] & free[cols]
+    i, j, g = position[rows[both]], position[cols[both]], values[both]
+    diagonal = np.zeros(b.size)
+    np.add.at(diagonal, i[i == j], g[i == j])
+    scale = 1 / np.sqrt(diagonal)  # the entries span powers of the segment times: equilibrate first
+    upper = i <= j
+    band = int((j - i)[upper].max())
+    ab = np.zeros((band + 1, b.size))  # the upper band, as scipy.linalg.solveh_banded takes it
+    np.add.at(ab, (band + i[upper] - j[upper], j[upper]), g[upper] * scale[i[upper]] * scale[j[upper]])
+    w[free] = scale * scipy.linalg.solveh_banded(ab, b * scale)
     return w[1::3].copy(), w[2::3].copy()
 
 
@@ -170,16 +210,56 @@ class MinimumJerk:
         acc[before | after] = 0.0
         return pos, vel, acc
 
-    def parameters(self) -> dict[str, float | int]:
-        """The scenario FMU's wp_* parameters that carry this reference."""
-        out: dict[str, float | int] = {"wp_count": int(self.t.size)}
-        for i in range(self.t.size):
-            out[parameter_name("t", i)] = float(self.t[i])
-            for k, axis in enumerate(AXES):
-                out[parameter_name(axis, i)] = float(self.p[i, k])
-                out[parameter_name(f"v{axis}", i)] = float(self.v[i, k])
-                out[parameter_name(f"a{axis}", i)] = float(self.a[i, k])
+    def knots(self) -> np.ndarray:
+        """The knot table, (n, 13) in the order of KNOT_COLUMNS."""
+        out = np.empty((self.t.size, len(KNOT_COLUMNS)))
+        out[:, 0] = self.t
+        for k in range(len(AXES)):
+            out[:, 1 + 3 * k], out[:, 2 + 3 * k], out[:, 3 + 3 * k] = self.p[:, k], self.v[:, k], self.a[:, k]
         return out
+
+    @classmethod
+    def from_knots(cls, knots: np.ndarray) -> MinimumJerk:
+        knots = np.asarray(knots, dtype=float)
+        axis = lambda q: np.stack([knots[:, 1 + 3 * k + q] for k in range(len(AXES))], axis=1)  # noqa: E731
+        return cls(knots[:, 0].copy(), axis(0), axis(1), axis(2))
+
+
+def knot_text(knots: np.ndarray) -> str:
+    """The knot file's text (what the scenario FMU reads from waypoints_file)."""
+    return ",".join(KNOT_COLUMNS) + "\n" + "".join(",".join(f"{x:.17g}" for x in row) + "\n" for row in knots)
+
+
+def read_knots(path: Path) -> MinimumJerk:
+    """The reference a knot file describes, read as the scenario FMU reads it: a regular file of at most MAX_WAYPOINTS
+    knots (its size checked before it is read), the header, 13 finite numbers a line, times increasing."""
+    import os
+    import stat
+
+    path = Path(path)
+    try:
+        info = path.stat()
+    except OSError as err:
+        raise ScenarioFileError(f"waypoints_file {path}: {err.strerror or err}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ScenarioFileError(f"waypoints_file {path}: not a regular file")
+    if info.st_size > (MAX_WAYPOINTS + 1) * (KNOT_LINE + 2):
+        raise ScenarioFileError(f"waypoints_file {path}: {info.st_size} bytes, more than {MAX_WAYPOINTS} knots take")
+    with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
+        lines = f.read().decode("ascii", errors="replace").splitlines()
+    if not lines or lines[0] != ",".join(KNOT_COLUMNS):
+        raise ScenarioFileError(f"waypoints_file {path}: line 1 must be the header {','.join(KNOT_COLUMNS)}")
+    knots = np.empty((len(lines) - 1, len(KNOT_COLUMNS)))
+    for i, line in enumerate(lines[1:]):
+        try:
+            knots[i] = [float(x) for x in line.split(",")]
+        except ValueError:
+            raise ScenarioFileError(f"waypoints_file {path}: line {i + 2}: not {len(KNOT_COLUMNS)} numbers") from None
+    if not 2 <= knots.shape[0] <= MAX_WAYPOINTS:
+        raise ScenarioFileError(f"waypoints_file {path}: {knots.shape[0]} knots; a mission has 2 to {MAX_WAYPOINTS}")
+    if not np.all(np.isfinite(knots)) or not np.all(np.diff(knots[:, 0]) > 0):
+        raise ScenarioFileError(f"waypoints_file {path}: a value that is not finite, or times that do not increase")
+    return MinimumJerk.from_knots(knots)
 
 
 def minimum_jerk(rows: list[dict]) -> MinimumJerk:
@@ -197,7 +277,9 @@ def minimum_jerk(rows: list[dict]) -> MinimumJerk:
 
 
 def from_parameters(values: dict) -> MinimumJerk:
-    """The reference the scenario FMU's wp_* parameters describe (the inverse of MinimumJerk.parameters)."""
-    n = int(values["wp_count"])
-    get = lambda f: np.array([float(values[parameter_name(f, i)]) for i in range(n)])  # noqa: E731
-    return MinimumJerk(get("t"), *(np.stack([get(f"{q}{a}") for a in AXES], axis=1) for q in ("", "v", "a")))
+    """The reference the scenario FMU's waypoints_file parameter names (relative paths are not resolved: the FMU's
+    resources folder is the FMU's)."""
+    name = str(values.get("waypoints_file", ""))
+    if not name:
+        raise ScenarioFileError("trajectory 4 needs waypoints_file: the knot file of the mission")
+    return read_knots(Path(name))

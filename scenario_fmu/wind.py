@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .files import ScenarioFileError, read_rows, read_structured
+from .files import Reader, ScenarioFileError, read_rows, read_structured
+from .waypoints import MAX_TIME
 
 FT = 0.3048  # m
 KNOT = 0.514444  # m/s
@@ -34,6 +35,10 @@ W20 = {1: 15 * KNOT, 2: 30 * KNOT, 3: 45 * KNOT}  # m/s, MIL-F-8785C low-altitud
 ALTITUDE_RANGE = (10 * FT, 1000 * FT)  # the low-altitude model's validity
 MAX_PROFILE = 64  # rows of a wind profile the scenario FMU carries
 PROFILE_FIELDS = ("t", "x", "y", "z")
+MAX_WIND = 100.0  # m/s, any component: three times hurricane force (33 m/s); beyond it the drag model means nothing
+MAX_AIRSPEED = 1000.0  # m/s
+MAX_DRAG_AREA = 100.0  # m2
+PROFILE_RANGES = {"t": (0.0, MAX_TIME), **{f: (-MAX_WIND, MAX_WIND) for f in "xyz"}}
 
 
 @dataclass(frozen=True)
@@ -81,14 +86,15 @@ def correlation_time(component: int) -> float:
 WIND_SCHEMA = {
     "type": "object", "additionalProperties": False,
     "properties": {
-        "steady": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
+        "steady": {"type": "array", "items": {"type": "number", "minimum": -MAX_WIND, "maximum": MAX_WIND}, "minItems": 3, "maxItems": 3},
         "dryden": {"type": "object", "additionalProperties": False, "required": ["severity"], "properties": {
             "severity": {"enum": list(SEVERITIES)},
             "altitude": {"type": "number", "minimum": ALTITUDE_RANGE[0], "maximum": ALTITUDE_RANGE[1]},
-            "airspeed": {"type": "number", "minimum": 0}}},
+            "airspeed": {"type": "number", "minimum": 0, "maximum": MAX_AIRSPEED}}},
         "profile": {"type": "array", "items": {"type": "object", "additionalProperties": False, "required": list(PROFILE_FIELDS),
-                                               "properties": {f: {"type": "number"} for f in PROFILE_FIELDS}}},
-        "drag_area": {"type": "number", "minimum": 0},
+                                               "properties": {f: {"type": "number", "minimum": PROFILE_RANGES[f][0],
+                                                                  "maximum": PROFILE_RANGES[f][1]} for f in PROFILE_FIELDS}}},
+        "drag_area": {"type": "number", "minimum": 0, "maximum": MAX_DRAG_AREA},
         "gusts": {"type": "boolean"},
     },
 }
@@ -104,6 +110,9 @@ def _profile_parameters(rows: list[dict], where: list[str], source: str) -> dict
         for f in PROFILE_FIELDS:
             if not math.isfinite(row[f]):
                 raise ScenarioFileError(f"{source}: {at}: {f} is {row[f]}, not a finite number")
+            low, high = PROFILE_RANGES[f]
+            if not low <= row[f] <= high:
+                raise ScenarioFileError(f"{source}: {at}: {f} = {row[f]:.6g} is outside {low:g} to {high:g} {'s' if f == 't' else 'm/s'}")
         if i and not row["t"] > rows[i - 1]["t"]:
             raise ScenarioFileError(f"{source}: {at}: t = {row['t']:g} s is not after the previous row's t = {rows[i - 1]['t']:g} s")
         for f in PROFILE_FIELDS:
@@ -111,7 +120,7 @@ def _profile_parameters(rows: list[dict], where: list[str], source: str) -> dict
     return out
 
 
-def read_wind(path: Path) -> dict:
+def read_wind(path: Path, read: Reader) -> dict:
     """The scenario FMU's wind parameters from a wind file: YAML/JSON (steady, dryden, profile, drag_area, gusts) or
     a CSV profile with the header t,x,y,z (wind velocity in m/s, linear between rows, held outside)."""
     import jsonschema
@@ -119,13 +128,13 @@ def read_wind(path: Path) -> dict:
     path = Path(path)
     source = str(path)
     if path.suffix.lower() == ".csv":
-        rows, where = read_rows(path, PROFILE_FIELDS, PROFILE_FIELDS)
+        rows, where = read_rows(path, PROFILE_FIELDS, PROFILE_FIELDS, read)
         return _profile_parameters(rows, where, source)
-    data = read_structured(path)
+    data = read_structured(path, read)
     errors = sorted(jsonschema.Draft202012Validator(WIND_SCHEMA).iter_errors(data), key=lambda e: list(e.path))
     if errors:
         where = ".".join(str(p) for p in errors[0].absolute_path) or "(top level)"
-        raise ScenarioFileError(f"{source}: {where}: {errors[0].message}")
+        raise ScenarioFileError(f"{source}: {where}: {errors[0].message[:200]}")
     out: dict = {}
     for k, v in enumerate(data.get("steady", ())):
         if not math.isfinite(v):

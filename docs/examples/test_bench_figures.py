@@ -27,21 +27,22 @@ TICK = 0.012
 
 def mission(fmus: Path) -> None:
     from tiltload.master.app.feasibility import check_reference
+    from tiltload.master.app.inputs import READER
     from tiltload.master.app.loop import default_system, loop_metrics
     from tiltload.master.engine import log_reader
     from tiltload.master.engine.run import run_system
     from tiltload.scenario_fmu import choice, reference
     from tiltload.scenario_fmu.wind import read_wind
 
-    m = choice.resolve(str(EXAMPLES / "mission.csv"))
+    m = choice.resolve(str(EXAMPLES / "mission.csv"), read=READER)
     t = np.arange(0, m.duration + 2, 0.003)
-    s = reference.evaluate(m.parameters, t)
+    s = reference.evaluate(m.fmu_parameters(Path(tempfile.mkdtemp())), t)
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     for ax, values, label in zip(axes, (s.p, s.v, s.a), ("position (m)", "velocity (m/s)", "acceleration (m/s2)")):
         for k, a in enumerate("xyz"):
             ax.plot(t, values[:, k], label=a)
         ax.set_ylabel(label)
-        for knot in m.parameters["wp_t_0"], *(m.parameters[f"wp_t_{i}"] for i in range(1, m.parameters["wp_count"])):
+        for knot in (k[0] for k in m.knots):
             ax.axvline(knot, color="0.85", lw=0.8, zorder=0)
     axes[0].legend(ncol=3)
     axes[-1].set_xlabel("t (s)")
@@ -50,7 +51,7 @@ def mission(fmus: Path) -> None:
     fig.savefig(FIGURES / "test_bench_mission_reference.png", dpi=110)
     plt.close(fig)
 
-    wind = read_wind(EXAMPLES / "gusty_wind.yaml")
+    wind = read_wind(EXAMPLES / "gusty_wind.yaml", READER)
     fig = plt.figure(figsize=(9, 4.5))
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     ax2 = fig.add_subplot(1, 2, 2)
@@ -81,11 +82,11 @@ def mission(fmus: Path) -> None:
     for scenario, controller, error, metrics in rows:
         print(f"  {scenario:8} {controller:6} " + " ".join(f"{metrics[k]:10.4g}" for k in ("ISE(x)", "ISE(y)", "ISE(z)", "ISE(psi)"))
               + (f"  ERROR {error}" if error else ""))
-    sprint = choice.resolve(str(EXAMPLES / "sprint.csv"))
-    report = check_reference(sprint.parameters, sprint.duration)
+    sprint = choice.resolve(str(EXAMPLES / "sprint.csv"), read=READER)
+    report = check_reference(sprint.fmu_parameters(Path(tempfile.mkdtemp())), sprint.duration)
     print("sprint.csv:", report.problems[0] if report.problems else "feasible")
     for text in ("1", "2"):
-        th = choice.resolve(text)
+        th = choice.resolve(text, read=READER)
         print(f"trajectory {text}:", check_reference(th.parameters, th.duration, design=("mixed", 0)).summary)
 
 

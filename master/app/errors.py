@@ -5,6 +5,7 @@ from __future__ import annotations
 from ...controller_fmu.design.error_dynamics import DesignError
 from ...scenario_fmu.files import ScenarioFileError
 from ..engine.errors import DescriptionError
+from ..engine.user_files import UserFileError
 from .campaign.report import ReportError
 from .campaign.spec import SpecError
 from .feasibility import InfeasibleReference
@@ -12,9 +13,9 @@ from .user_error import UserError
 from .wrap.wrap import WrapError
 
 # every error whose message is a complete line for the user: a bad option, file, description, spec or design, a trajectory
-# or wind file, a reference the vehicle cannot fly
+# or wind file (or any file the input layer refused), a reference the vehicle cannot fly
 USER_ERRORS = (UserError, DescriptionError, SpecError, ReportError, WrapError, DesignError, ScenarioFileError,
-               InfeasibleReference)
+               InfeasibleReference, UserFileError)
 
 
 def run_failed(error: str, signal: int | None, log, sim_time: float) -> int:

@@ -23,9 +23,12 @@ import numpy as np
 from ...plant_fmu import parameters as P
 from ...plant_fmu.vehicles import VEHICLES
 from ...scenario_fmu import reference
+from ...scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
 
 INPUT_NAMES = ("f_R", "f_L", "tau_R", "tau_L")
 TRIM_EVERY = 10  # ticks between trim solves (0.12 s)
+MAX_SPAN = WAYPOINT_MAX_TIME  # s checked at most: the longest reference a file can describe (a longer --stop-time holds it)
+CHUNK = 2**14  # ticks sampled at once: the check's memory is bounded whatever the span
 
 
 @dataclass(frozen=True)
@@ -48,57 +51,26 @@ class Report:
 
 
 @cache
-def _model(vehicle: str):
-    """The vehicle's terms and the feedforward as CasADi functions, and the trim residual with its Jacobian."""
-    import casadi as ca
-
+def _feedforward(vehicle: str):
+    """The controller's feedforward (3.18) as a CasADi function."""
     from ...plant_fmu.codegen import feedforward_function
-    from ...plant_fmu.model import model
 
-    m = model(vehicle)
-    nq = m.nq
-    tracked = (0, 1, 2, 5)  # x, y, z, psi
-    unknown = [i for i in range(nq) if i not in tracked]
-    z, ref = ca.SX.sym("z", nq), ca.SX.sym("ref", 11)  # unknown angles and inputs; position, psi, velocity, psi_dot, acc
-    q, qd, qdd = [None] * nq, [0] * nq, [0] * nq
-    for k, i in enumerate(tracked):
-        q[i], qd[i] = ref[k], ref[4 + k]
-    for k, i in enumerate(unknown):
-        q[i] = z[k]
-    for k in range(3):
-        qdd[k] = ref[8 + k]
-    M, Cqd, g, L_in, L_fr, _ = m.f_terms(ca.vertcat(*q, *qd), m.p)
-    r = M @ ca.vertcat(*qdd) + Cqd + L_fr @ ca.vertcat(*qd) + g - L_in @ z[len(unknown):]
-    residual = ca.Function("trim_along_path", [z, ref, m.p], [r, ca.jacobian(r, z)])
-    return feedforward_function(vehicle), residual, unknown
+    return feedforward_function(vehicle)
 
 
-def _newton(residual, z, ref, p, iterations: int = 20):
-    for _ in range(iterations):
-        r, J = (np.array(a) for a in residual(z, ref, p))
-        r = r.ravel()
-        if not np.all(np.isfinite(r)):
-            return None
-        if np.max(np.abs(r)) < 1e-9:
-            return z
-        try:
-            z = z - np.linalg.solve(J, r)
-        except np.linalg.LinAlgError:
-            return None
-    return None
+def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
+    """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
+    strays (a solution far from the previous one is another branch: the vehicle upside down)."""
+    from ...plant_fmu.trim import newton
 
-
-def _trim(residual, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
-    """The trim at ref by Newton from the trim at ref_prev, by halving the way when Newton strays (a solution far
-    from the previous one is another branch: the vehicle upside down)."""
-    z = _newton(residual, z_prev, ref, p)
-    if z is not None and np.max(np.abs(z[:n_angles] - z_prev[:n_angles])) < 0.3:
-        return z
+    found = newton(vehicle, z_prev, ref, p, 1e-9, 20)
+    if found is not None and np.max(np.abs(found[0][:n_angles] - z_prev[:n_angles])) < 0.3:
+        return found[0]
     if depth >= 8:
         return None
     middle = 0.5 * (ref_prev + ref)
-    z_mid = _trim(residual, z_prev, ref_prev, middle, p, n_angles, depth + 1)
-    return None if z_mid is None else _trim(residual, z_mid, middle, ref, p, n_angles, depth + 1)
+    z_mid = _trim(vehicle, z_prev, ref_prev, middle, p, n_angles, depth + 1)
+    return None if z_mid is None else _trim(vehicle, z_mid, middle, ref, p, n_angles, depth + 1)
 
 
 def _vector(vehicle: str, overrides: dict) -> np.ndarray:
@@ -133,25 +105,28 @@ def yaw_margin(kind: str, vehicle: str = "load", delay: int = 0) -> float:
     return lo
 
 
-def _check_yaw(report: Report, s, design: tuple[str, int] | None, vehicle: str) -> None:
-    k = int(np.argmax(np.abs(s.psi)))
-    if design is None or abs(s.psi[k]) < 0.05:  # not our controller, or near the design point
+def _check_yaw(report: Report, worst: tuple[float, float], design: tuple[str, int] | None, vehicle: str) -> None:
+    """worst: the largest |psi_ref| (signed) and its time."""
+    psi, when = worst
+    if design is None or abs(psi) < 0.05:  # not our controller, or near the design point
         return
     kind, delay = design
-    radius = _closed_loop_radius(kind, vehicle, delay, round(abs(float(s.psi[k])), 4))
+    radius = _closed_loop_radius(kind, vehicle, delay, round(abs(psi), 4))
     if radius >= 1:
-        report.problems.append(f"psi_ref reaches {s.psi[k]:.3g} rad at t = {s.t[k]:.2f} s; the {kind} design keeps the loop "
+        report.problems.append(f"psi_ref reaches {psi:.3g} rad at t = {when:.2f} s; the {kind} design keeps the loop "
                                f"stable for |psi| <= {yaw_margin(kind, vehicle, delay):.2f} rad (it is linearized at psi = 0; "
                                f"spectral radius {radius:.4f} there)")
 
 
 def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
                     limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None) -> Report:
-    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop]; with
-    design = (dlqr or mixed, loop delay), the yaw that design holds."""
-    from ...plant_fmu.trim import TrimError, hover_trim
+    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
+    MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
+    stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
+    from ...plant_fmu.trim import TrimError, hover_trim, unknown_coordinates
 
-    ff, residual, unknown = _model(vehicle)
+    ff = _feedforward(vehicle)
+    unknown = unknown_coordinates(vehicle)
     nq = VEHICLES[vehicle].nq
     names = VEHICLES[vehicle].coordinates
     nominal = VEHICLES[vehicle].default_parameters()
@@ -163,31 +138,44 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     except (TrimError, ValueError) as err:
         report.problems.append(f"the plant has no hover trim with these parameters ({err})")
         return report
-    t = np.arange(int(math.floor(stop / tick + 1e-9)) + 1) * tick
-    s = reference.evaluate(scenario, t)
-    x = np.tile(hover.x, (t.size, 1))
-    x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
-    x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
-    qdd = np.zeros((t.size, nq))
-    qdd[:, 0:3] = s.a
-    u_ff = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
-    _limit_inputs(report, "", u_ff, t, limits)
-
-    refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
+    span = min(stop, MAX_SPAN)
+    n = int(math.floor(span / tick + 1e-9)) + 1
     n_angles = len(unknown)
+    u_ff = np.empty((n, 4))
     z = np.r_[hover_actual.x[unknown], hover_actual.u]
+    first = reference.evaluate(scenario, [0.0])
     previous = np.zeros(11)
-    previous[0:3], previous[3] = s.p[0], s.psi[0]  # hover at the start point: the trim there is the hover trim
-    trims, times = [], []
-    for k in range(0, t.size, TRIM_EVERY):
-        found = _trim(residual, z, previous, refs[k], actual, n_angles)
-        if found is None:
-            report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} m/s2 "
-                                   f"at t = {t[k]:.2f} s")
-            break
-        z, previous = found, refs[k]
-        trims.append(z)
-        times.append(t[k])
+    previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
+    trims, times, failed = [], [], False
+    jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
+    for lo in range(0, n, CHUNK):
+        t = np.arange(lo, min(lo + CHUNK, n)) * tick
+        s = reference.evaluate(scenario, t)
+        x = np.tile(hover.x, (t.size, 1))
+        x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
+        x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
+        qdd = np.zeros((t.size, nq))
+        qdd[:, 0:3] = s.a
+        u_ff[lo:lo + t.size] = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+        refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
+        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY):
+            if failed:
+                break
+            found = _trim(vehicle, z, previous, refs[k], actual, n_angles)
+            if found is None:
+                report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} "
+                                       f"m/s2 at t = {t[k]:.2f} s")
+                failed = True
+                break
+            z, previous = found, refs[k]
+            trims.append(z)
+            times.append(t[k])
+        jump = max(jump, _largest_jump(s, last, tick))
+        k = int(np.argmax(np.abs(s.psi)))
+        psi_worst = max(psi_worst, (abs(float(s.psi[k])), float(s.psi[k]), float(t[k])))
+        last = (s.t[-1], s.p[-1], s.v[-1])
+    t_all = np.arange(n) * tick
+    _limit_inputs(report, "", u_ff, t_all, limits)
     if trims:
         trims, times = np.array(trims), np.array(times)
         _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
@@ -202,12 +190,15 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
         k_tilt = np.unravel_index(np.argmax(np.abs(angles)), angles.shape)
     else:
         tilt, k_tilt = math.nan, (0, 0)
-    _jumps(report, s, tick)
-    _check_yaw(report, s, design, vehicle)
-    forces = ", ".join(f"{n} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, n in enumerate(INPUT_NAMES[:2]))
+    if jump[0] > 0.01:
+        report.notes.append(f"the reference jumps by {jump[1]:.3g} m at t = {jump[2]:.2f} s: no feedforward can "
+                            "anticipate it, the feedback alone takes it")
+    _check_yaw(report, psi_worst[1:], design, vehicle)
+    forces = ", ".join(f"{name} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, name in enumerate(INPUT_NAMES[:2]))
     torque = np.abs(u_ff[:, 2:]).max()
     where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
-    report.summary = (f"feasibility over {t[-1]:.2f} s: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "
+    part = f" (the first {span:g} s of {stop:g} s)" if span < stop else ""
+    report.summary = (f"feasibility over {t_all[-1]:.2f} s{part}: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "
                       f"{limits.f_min:g}..{limits.f_max:g} N, {limits.tau_max:g} N m); trim tilt up to {tilt:.1f} degrees{where}, "
                       f"limit {limits.max_tilt:g}")
     return report
@@ -232,16 +223,20 @@ def _limit_inputs(report: Report, what: str, u: np.ndarray, t: np.ndarray, limit
                                        f"+-{limits.tau_max:g} N m")
 
 
-def _jumps(report: Report, s, tick: float) -> None:
-    """A reference that jumps (a step) has no feedforward for the jump: say so, the feedback alone takes it. A jump is
-    a position change over a tick beyond what the reference's own velocity covers (with a centimetre to spare)."""
-    step = np.linalg.norm(np.diff(s.p, axis=0), axis=1)
-    speed = np.maximum(np.linalg.norm(s.v[:-1], axis=1), np.linalg.norm(s.v[1:], axis=1))
+def _largest_jump(s, before, tick: float) -> tuple[float, float, float]:
+    """(gap, step, time) of the largest jump in these samples (and from the chunk before's last sample): a position change
+    over a tick beyond what the reference's own velocity covers (1.5 ticks of it). A reference that jumps (a step) has no
+    feedforward for the jump: the feedback alone takes it."""
+    p, v, t = s.p, s.v, s.t
+    if before is not None:
+        p, v, t = np.r_[before[1][None], p], np.r_[before[2][None], v], np.r_[before[0], t]
+    step = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    speed = np.maximum(np.linalg.norm(v[:-1], axis=1), np.linalg.norm(v[1:], axis=1))
     gap = step - 1.5 * tick * speed
-    k = int(np.argmax(gap)) if gap.size else 0
-    if gap.size and gap[k] > 0.01:
-        report.notes.append(f"the reference jumps by {step[k]:.3g} m at t = {s.t[k + 1]:.2f} s: no feedforward can "
-                            "anticipate it, the feedback alone takes it")
+    if not gap.size:
+        return (0.0, 0.0, 0.0)
+    k = int(np.argmax(gap))
+    return (float(gap[k]), float(step[k]), float(t[k + 1]))
 
 
 def limits_of(system) -> Limits:

@@ -11,12 +11,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ...controller_fmu.design.error_dynamics import LOOP_DELAYS
-from ...scenario_fmu.choice import Trajectory, as_trajectory
+from ...scenario_fmu.choice import Trajectory
 from ..engine import jacobi
 from ..engine.errors import DescriptionError
 from ..engine.model_description import read_fmu
 from ..engine.observers import Metrics
 from ..engine.system import Connection, Instance, System
+from .inputs import trajectory as as_trajectory
 
 TICK = 0.012
 SCENARIOS = {"fsi": "none", "lkf": "lkf", "zse": "zse"}  # thesis scenario -> controller FMU's estimator
@@ -77,7 +78,9 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
     else:
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
-    scenario_parameters = {**trajectory.parameters, "gusts": gusts}
+    from ...controller_fmu.design.cache import cache_root
+
+    scenario_parameters = {**trajectory.fmu_parameters(cache_root() / "missions"), "gusts": gusts}
     if vehicle != "load":
         scenario_parameters["gust_magnitude"] = loop.gust_magnitude
     if wind:

@@ -7,8 +7,9 @@ import sys
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from ...scenario_fmu.choice import THESIS, Trajectory, as_trajectory
+from ...scenario_fmu.choice import THESIS, Trajectory
 from .arguments import DEFAULT_FMU_DIR
+from .inputs import trajectory as as_trajectory
 from .loop import CONTROLLER, LOOPS, default_stop, default_system, set_parameters
 from .user_error import UserError
 
@@ -177,7 +178,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) ->
         if not prepared:
             build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,),  # says what it builds
                       fmi_version=opts.fmi, clocked=opts.clocks)
-        from ...scenario_fmu.wind import read_wind
+        from .inputs import read_wind
 
         system = default_system(folder, opts.scenario, opts.reference or opts.trajectory,
                                 opts.controller if opts.controller_fmu is None else None, opts.seed, opts.controller_fmu,

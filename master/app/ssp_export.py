@@ -20,6 +20,7 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
 
     loop = loop_system(resolve_loop(args), cache_root() / "ssp")
     system, stop = loop.system, loop.stop
+    _mission_inside(system, cache_root() / "ssp" / "missions")
     version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
     schedule = schedule or ("ordered" if version2 else "jacobi")
     delay = select_loop_delay(system, schedule)
@@ -37,3 +38,29 @@ def loop_arguments(fmus: Path, fmi_version: int) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="tiltload")
     arguments.add_loop_options(p)
     return p.parse_args(["--fmus", str(fmus), "--fmi", str(fmi_version)])
+
+
+def _mission_inside(system, folder: Path) -> None:
+    """A waypoint mission travels in the package: its knot file goes into a copy of the scenario FMU's resources/ folder
+    and waypoints_file names it there (relative: the FMU reads it from its own resources), so another machine's libcosim
+    or Ecos finds it (docs/test_bench.md, Missions in another FMI tool)."""
+    import hashlib
+    import zipfile
+
+    scenario = next((i for i in system.instances if i.name == "scenario"), None)
+    name = str(scenario.parameters.get("waypoints_file", "")) if scenario is not None else ""
+    if not name or not Path(name).is_absolute():
+        return
+    knots = Path(name).read_bytes()
+    member = f"mission-{hashlib.sha256(knots).hexdigest()[:20]}.csv"
+    fmu = folder / member.removesuffix(".csv") / Path(scenario.fmu).name
+    if not fmu.is_file():
+        fmu.parent.mkdir(parents=True, exist_ok=True)
+        partial = fmu.with_name(fmu.name + ".partial")
+        with zipfile.ZipFile(scenario.fmu) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as out:
+            for item in src.infolist():
+                out.writestr(item, src.read(item.filename))
+            out.writestr(zipfile.ZipInfo(f"resources/{member}", (1980, 1, 1, 0, 0, 0)), knots, zipfile.ZIP_DEFLATED)
+        partial.replace(fmu)
+    scenario.fmu = fmu
+    scenario.parameters["waypoints_file"] = member

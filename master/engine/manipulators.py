@@ -29,7 +29,6 @@ are read too. Every fault's start and end is an observer event; the logger write
 from __future__ import annotations
 
 import ctypes
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -151,18 +150,15 @@ def from_libcosim(scenario: dict, where: str) -> list[Fault]:
 
 def load(path: Path) -> list[Fault]:
     """A fault file: JSON or YAML, a list of faults, {"faults": [...]}, or a libcosim scenario."""
+    from .user_files import UserFileError, read_json, read_yaml
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FaultError(f"fault file {path} does not exist")
     try:
-        if path.suffix in (".yaml", ".yml"):
-            import yaml
-
-            data = yaml.safe_load(path.read_text())
-        else:
-            data = json.loads(path.read_text())
-    except Exception as err:
-        raise FaultError(f"{path}: cannot read it: {str(err).splitlines()[0]}") from None
+        data = read_yaml(path) if path.suffix.lower() in (".yaml", ".yml") else read_json(path)
+    except UserFileError as err:
+        raise FaultError(str(err)) from None
     if isinstance(data, dict) and "events" in data:
         return from_libcosim(data, str(path))
     if isinstance(data, dict) and "faults" in data:

@@ -140,13 +140,15 @@ def _check_schema(data, path: Path) -> None:
 
 def load(path: Path) -> System:
     """Read a system description (JSON), checked against SCHEMA; FMU paths are relative to the file."""
+    from .user_files import UserFileError, read_json
+
     path = Path(path)
+    if not path.exists():
+        raise DescriptionError(f"system description {path} does not exist")
     try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise DescriptionError(f"system description {path} does not exist") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise DescriptionError(f"cannot read system description {path}: {err}") from None
+        data = read_json(path)
+    except UserFileError as err:
+        raise DescriptionError(f"system description {err}") from None
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),

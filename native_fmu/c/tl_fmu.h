@@ -35,7 +35,9 @@ typedef struct {
 typedef fmi2CallbackFunctions TlHost;
 #endif
 
+#ifndef TL_STRING_LEN /* the model may set it (FmuDefinition.string_length, in tl_model.h) */
 #define TL_STRING_LEN 64 /* longest String value + 1 */
+#endif
 
 /* Co-simulation states. FMI 2.0: TL_ERRORED follows fmi2Error, TL_BROKEN follows fmi2Fatal. FMI 3.0: TL_EVENT is
    Event Mode, TL_STEPPING Step Mode; fmi3Error leads to TL_TERMINATED, fmi3Fatal to TL_BROKEN. */

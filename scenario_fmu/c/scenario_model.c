@@ -18,7 +18,6 @@
 #define WAYPOINTS 4 /* trajectory codes: 0-3 the thesis's, 4 waypoints, 5-8 the shapes */
 #define FIRST_SHAPE 5
 #define LAST_SHAPE 8
-#define N_WP_BLOCKS 13 /* t, then x, vx, ax, y, ..., psi, vpsi, apsi */
 
 TL_STATIC_ASSERT(TL_REAL_az_ref - TL_REAL_x_ref == 8, "position, velocity, acceleration references are contiguous");
 TL_STATIC_ASSERT(TL_REAL_psi_dot_ref - TL_REAL_psi_ref == 1, "yaw and its rate");
@@ -30,7 +29,6 @@ TL_STATIC_ASSERT(TL_REAL_steady_wind_z - TL_REAL_steady_wind_x == 2 && TL_REAL_w
 TL_STATIC_ASSERT(TL_REAL_dryden_sigma_w - TL_REAL_dryden_sigma_u == 2 && TL_REAL_dryden_L_w - TL_REAL_dryden_L_u == 2,
                "Dryden intensities and scale lengths");
 TL_STATIC_ASSERT(TL_REAL_shape_duration - TL_REAL_shape_center_x == TL_N_SHAPE_PARAMETERS - 1, "shape parameters are one vector");
-TL_STATIC_ASSERT(TL_REAL_wp_apsi_0 - TL_REAL_wp_t_0 == (N_WP_BLOCKS - 1) * TL_MAX_WAYPOINTS, "waypoint blocks are contiguous");
 TL_STATIC_ASSERT(TL_REAL_wind_profile_z_0 - TL_REAL_wind_profile_t_0 == 3 * TL_MAX_PROFILE, "profile blocks are contiguous");
 TL_STATIC_ASSERT(TL_TRAJECTORY_1_SZ_IW <= 8 && TL_TRAJECTORY_2_SZ_IW <= 8 && TL_TRAJECTORY_3_SZ_IW <= 8 && TL_GUST_SZ_IW <= 8 &&
                    TL_SHAPE_LEMNISCATE_SZ_IW <= 8 && TL_SHAPE_LISSAJOUS_SZ_IW <= 8 && TL_SHAPE_STEP_SZ_IW <= 8 &&
@@ -52,9 +50,7 @@ static int call(Generated f, const double* const* in, int n_in, double* out) {
   return f(arg, res, iw, w, 0);
 }
 
-static const double* wp_block(const TlInstance* c, int block) {
-  return &c->s.real[TL_REAL_wp_t_0 + block * TL_MAX_WAYPOINTS];
-}
+static const double* wp_block(const TlInstance* c, int block) { return c->s.model.knot[block]; }
 
 static const double* profile_block(const TlInstance* c, int block) {
   return &c->s.real[TL_REAL_wind_profile_t_0 + block * TL_MAX_PROFILE];
@@ -64,7 +60,7 @@ static const double* profile_block(const TlInstance* c, int block) {
 static int reference(const TlInstance* c, double t, double out[11]) {
   static const Generated thesis[] = {tl_trajectory_1, tl_trajectory_2, tl_trajectory_3};
   static const Generated shape[] = {tl_shape_lemniscate, tl_shape_lissajous, tl_shape_step, tl_shape_ramp};
-  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count], k;
+  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.model.knots, k;
   const double* in[2];
   in[0] = &t;
   in[1] = &c->s.real[TL_REAL_shape_center_x];
@@ -131,7 +127,7 @@ static int known(int trajectory) { return trajectory >= 0 && trajectory <= LAST_
    parameters. */
 static void set_up(TlInstance* c) {
   double* r = c->s.real;
-  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count], i;
+  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.model.knots, i;
   double duration = tl_duration[0], start[11] = {0.0};
   if (trajectory >= 0 && trajectory < TL_N_TRAJECTORIES) {
     duration = tl_duration[trajectory];
@@ -165,7 +161,7 @@ void tl_model_reset(TlInstance* c) {
 }
 
 fmi2Status tl_model_outputs(TlInstance* c) {
-  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count];
+  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.model.knots;
   set_up(c);
   if (!known(trajectory) || (trajectory == WAYPOINTS && (n < 2 || n > TL_MAX_WAYPOINTS))) return fmi2OK; /* refused at initialization */
   if (c->s.integer[TL_INTEGER_wind_profile_count] < 0 || c->s.integer[TL_INTEGER_wind_profile_count] > TL_MAX_PROFILE) return fmi2OK;
@@ -190,15 +186,34 @@ static int bad_table(const double* table, int blocks, int stride, int n, int* ro
   return 0;
 }
 
+/* The knot file named by waypoints_file: as given when absolute, else in the FMU's resources folder. */
+static fmi2Status load_knots(TlInstance* c) {
+  const char* name = c->s.string[TL_STRING_waypoints_file];
+  char path[TL_STRING_LEN + 4096], why[TL_STRING_LEN + 200];
+  int absolute = name[0] == '/' || name[0] == '\\' || (name[0] != '\0' && name[1] == ':');
+  if (name[0] == '\0') REFUSE("trajectory 4 needs waypoints_file: the knot file of the mission (docs/test_bench.md)");
+  if (!absolute && c->resources == NULL) REFUSE("waypoints_file %s is relative and the FMU was given no resources folder", name);
+  if (!absolute && strlen(c->resources) >= sizeof path - TL_STRING_LEN) REFUSE("the resources folder's path is too long");
+  snprintf(path, sizeof path, "%s%s", absolute ? "" : c->resources, name);
+  if (tl_waypoints_load(path, c->s.model.knot, &c->s.model.knots, why, sizeof why)) REFUSE("waypoints_file %s", why);
+  return fmi2OK;
+}
+
 static fmi2Status check_reference(TlInstance* c) {
   const double* r = c->s.real;
-  int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count], i, row;
+  int trajectory = c->s.integer[TL_INTEGER_trajectory], n, i, row;
   if (!known(trajectory)) REFUSE("trajectory must be 0 to %d, got %d", LAST_SHAPE, trajectory);
+  c->s.model.knots = 0;
+  if (trajectory != WAYPOINTS && c->s.string[TL_STRING_waypoints_file][0] != '\0')
+    REFUSE("waypoints_file is trajectory 4's; trajectory is %d", trajectory);
   if (trajectory == WAYPOINTS) {
-    if (n < 2 || n > TL_MAX_WAYPOINTS) REFUSE("wp_count must be 2 to %d for trajectory 4, got %d", TL_MAX_WAYPOINTS, n);
-    switch (bad_table(wp_block(c, 0), N_WP_BLOCKS, TL_MAX_WAYPOINTS, n, &row)) {
-      case 1: REFUSE("waypoint %d has a value that is not finite", row);
-      case 2: REFUSE("wp_t_%d = %g is not after wp_t_%d = %g", row, wp_block(c, 0)[row], row - 1, wp_block(c, 0)[row - 1]);
+    if (load_knots(c) != fmi2OK) return fmi2Error;
+    n = c->s.model.knots;
+    if (n < 2) REFUSE("waypoints_file %s has %d knots; a mission has 2 to %d", c->s.string[TL_STRING_waypoints_file], n, TL_MAX_WAYPOINTS);
+    switch (bad_table(wp_block(c, 0), TL_KNOT_COLUMNS, TL_MAX_WAYPOINTS, n, &row)) {
+      case 1: REFUSE("knot %d of waypoints_file has a value that is not finite", row);
+      case 2: REFUSE("knot %d of waypoints_file: t = %g is not after the previous knot's t = %g", row, wp_block(c, 0)[row],
+                     wp_block(c, 0)[row - 1]);
       default: break;
     }
   }

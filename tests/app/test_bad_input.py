@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 import re
 import zipfile
 from pathlib import Path
@@ -63,9 +64,9 @@ def _set_cases() -> list[tuple[str, list[str]]]:
 
 
 def _spare_row(name: str) -> bool:
-    """A row of the scenario's waypoint and wind-profile tables other than the first and the last: the same check as
-    theirs (hundreds of runs for nothing)."""
-    m = re.fullmatch(r"(wp_[a-z]+|wind_profile_[txyz])_(\d+)", name)
+    """A row of the scenario's wind-profile table other than the first and the last: the same check as theirs (hundreds
+    of runs for nothing)."""
+    m = re.fullmatch(r"(wind_profile_[txyz])_(\d+)", name)
     return m is not None and int(m.group(2)) not in (0, 63)
 
 
@@ -82,8 +83,9 @@ def _parameter_cases(fmus: Path) -> list[tuple[str, list[str]]]:
         md = read_model_description(str(fmus / f"{fmu}.fmu"))
         for v in md.modelVariables:
             if v.causality == "parameter" and not _spare_row(v.name):
+                values = ["bogus", "/dev/null"] if v.name == "waypoints_file" else bad[v.type]  # "" is its default: none
                 cases += [(f"set {instance}.{v.name}={value!r}", [*run, "--set", f"{instance}.{v.name}={value}"])
-                          for value in bad[v.type]]
+                          for value in values]
     return cases
 
 
@@ -254,6 +256,87 @@ def _files(folder: Path, fmus: Path, misbehaving: dict[str, Path]) -> list[tuple
     return cases
 
 
+# ---- issue 37, the input layer: waypoint, wind, fault and campaign files (engine/user_files.py) ----------------------
+
+def _yaml_bomb(levels: int = 9) -> str:
+    lines = ["a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]"]
+    return "\n".join(lines + [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, levels)]) + "\n"
+
+
+def _scenario_file_cases(folder: Path) -> list[tuple[str, list[str]]]:
+    """Every kind of file given to --trajectory, --wind, --faults and `campaign`, broken in the ways that cost (bombs,
+    spans, digits, widths) and the ways that are plain wrong (types, ranges, encodings)."""
+    run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots", "--no-log"]
+    wp = "t,x,y,z\n0,0,0,1\n"
+    common = {  # any file: unreadable as text, or bounded before it is read
+        "binary": bytes(range(256)), "nul": b"t,x,y,z\n0,0,0,1\x00\n", "latin1": "t,x\n0,\xe9\n".encode("latin-1"),
+        "bom only": b"\xef\xbb\xbf", "too large": b"#" * (17 * 2**20),
+    }
+    trajectory = {
+        **{f"csv {k}": v for k, v in common.items()},
+        "csv far end": wp + "1e9,1,0,1\n", "csv close": wp + "1e-300,1,0,1\n", "csv 1e-4 apart": wp + "0.0001,1,0,1\n",
+        "csv wide cell": wp + "5," + "1" * 140_000 + ",0,1\n", "csv 400 digits": wp + "5," + "1" * 400 + ",0,1\n",
+        "csv x 1e300": wp + "5,1e300,0,1\n", "csv psi huge": "t,x,y,z,psi\n0,0,0,1,0\n5,0,0,1,1e6\n",
+        "csv vx huge": "t,x,y,z,vx\n0,0,0,1,0\n5,0,0,1,1e9\n", "csv quote": wp + '5,"1,0,1\n',
+        "csv 10001 waypoints": "t,x,y,z\n" + "".join(f"{k * 0.5},0,0,1\n" for k in range(10_001)),
+        "csv header only": "t,x,y,z\n", "csv t hex": wp + "0x5,1,0,1\n",
+        "yaml bomb": _yaml_bomb(), "yaml alias": "a: &w {t: 0, x: 0, y: 0, z: 1}\nwaypoints: [*w, *w]\n",
+        "yaml 400 digits": "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n  - {t: 5, x: " + "9" * 400 + ", y: 0, z: 1}\n",
+        "yaml date": "waypoints:\n  - {t: 2020-01-01, x: 0, y: 0, z: 1}\n  - {t: 5, x: 1, y: 0, z: 1}\n",
+        "yaml int keys": "waypoints:\n  - {1: 0, x: 0, y: 0, z: 1}\n", "yaml deep": "waypoints: " + "[" * 200 + "]" * 200 + "\n",
+        "yaml shape far": "shape: lissajous\nduration: 1.0e+9\n", "yaml shape huge": "shape: lemniscate\nsize_x: 1.0e+300\n",
+        "json 400 digits": '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": ' + "1" * 400 + ', "x": 1, "y": 0, "z": 1}]}',
+        "json 1e400": '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": 5, "x": 1e400, "y": 0, "z": 1}]}',
+        "json deep": '{"waypoints": ' + "[" * 100_000 + "]" * 100_000 + "}",
+        "json waypoints object": '{"waypoints": {"t": 0}}', "json waypoint list": '{"waypoints": [[0, 0, 0, 1], [5, 1, 0, 1]]}',
+    }
+    wind = {
+        **{f"csv {k}": v for k, v in common.items()},
+        "yaml bomb": _yaml_bomb(), "yaml steady 1e300": "steady: [1.0e+300, 0, 0]\n", "json steady 1e300": '{"steady": [1e300, 0, 0]}',
+        "json 400 digits": '{"steady": [' + "1" * 400 + ", 0, 0]}", "json NaN": '{"steady": [NaN, 0, 0]}',
+        "csv profile far": "t,x,y,z\n0,0,0,0\n1e9,1,0,0\n", "csv profile 1e300": "t,x,y,z\n0,1e300,0,0\n",
+        "csv wide cell": "t,x,y,z\n0," + "1" * 140_000 + ",0,0\n", "yaml airspeed huge": "dryden: {severity: light, airspeed: 1.0e+9}\n",
+        "yaml drag huge": "drag_area: 1.0e+9\n", "json deep": '{"profile": ' + "[" * 100_000 + "]" * 100_000 + "}",
+    }
+    faults = {"yaml bomb": _yaml_bomb(), "json 400 digits": '[{"target": "plant.x", "kind": "bias", "value": ' + "1" * 400 + "}]",
+              "json deep": "[" * 100_000 + "]" * 100_000, "binary": bytes(range(256)), "too large": b" " * (17 * 2**20)}
+    values = ", ".join(str(0.1 + k / 100) for k in range(20))
+    grid = "".join(f'[[vary.parameters]]\nname = "p{i}"\ntargets = ["plant.m_L"]\nvalues = [{values}]\n' for i in range(8))
+    specs = {"yaml bomb": ("yaml", "name: x\n" + _yaml_bomb()), "grid": ("toml", f'name = "g"\n[base]\nscenario = "zse"\n[vary]\n{grid}'),
+             "samples": ("toml", 'name = "g"\n[base]\nscenario = "zse"\ncontrollers = ["dlqr", "mixed"]\n[vary]\nmethod = "lhs"\n'
+                                 'samples = 100000\nseeds = [1, 2]\n[[vary.parameters]]\nname = "m"\ntargets = ["plant.m_L"]\n'
+                                 'range = [0.1, 0.2]\n'),
+             "toml nan": ("toml", 'name = "x"\n[base]\nmax_tilt = nan\n'), "yaml deep": ("yaml", "name: " + "[" * 300 + "]" * 300 + "\n"),
+             "binary": ("toml", bytes(range(256))),
+             "trajectory bomb": ("toml", 'name = "x"\n[base]\ntrajectory = "bomb.yaml"\n[vary]\nseeds = [1]\n'),
+             "wind 1e300": ("toml", 'name = "x"\n[base]\nwind = "wind.json"\n[vary]\nseeds = [1]\n')}
+    folder.mkdir(parents=True, exist_ok=True)
+    cases = []
+    for surface, files in (("trajectory", trajectory), ("wind", wind), ("faults", faults)):
+        for label, content in files.items():
+            suffix = label.split()[0] if label.split()[0] in ("csv", "yaml", "json") else "json"
+            path = folder / f"{surface}_{len(cases)}.{suffix}"
+            path.write_bytes(content if isinstance(content, bytes) else content.encode())
+            cases.append((f"{surface} file: {label}", [*run, f"--{surface}", str(path)]))
+    (folder / "bomb.yaml").write_text(_yaml_bomb())
+    (folder / "wind.json").write_text('{"steady": [1e300, 0, 0]}')
+    for label, (suffix, content) in specs.items():
+        path = folder / f"spec_{len(cases)}.{suffix}"
+        path.write_bytes(content if isinstance(content, bytes) else content.encode())
+        cases.append((f"campaign spec: {label}", ["campaign", str(path), "--out", str(folder / "camp")]))
+    if hasattr(os, "mkfifo"):
+        for flag, name in (("--trajectory", "fifo.csv"), ("--wind", "fifo.yaml"), ("--faults", "fifo.json")):
+            os.mkfifo(folder / name)
+            cases.append((f"{flag} a FIFO", [*run, flag, str(folder / name)]))
+        cases.append(("campaign spec a FIFO", ["campaign", str(folder / "fifo.yaml")]))
+    for flag in ("--trajectory", "--wind", "--faults"):
+        cases.append((f"{flag} /dev/zero", [*run, flag, "/dev/zero"]))
+        cases.append((f"{flag} a folder", [*run, flag, str(folder)]))
+    return cases
+
+# ---- end of issue 37's input-layer block ----------------------------------------------------------------------------
+
+
 @pytest.fixture(scope="module")
 def misbehaving(tmp_path_factory):
     acts = {"segfault": "os.kill(os.getpid(), signal.SIGSEGV)", "abort": "os.abort()", "exit": "os._exit(3)",
@@ -265,6 +348,7 @@ def misbehaving(tmp_path_factory):
 def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbehaving, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # relative outputs (runs/, designs/) land here
     cases = _cli_cases() + _set_cases() + _parameter_cases(fmus) + _files(tmp_path, fmus, misbehaving)
+    cases += _scenario_file_cases(tmp_path / "scenario_files")
     assert len(cases) >= 300, len(cases)
     problems = []
     for label, argv in cases:

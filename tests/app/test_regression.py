@@ -56,8 +56,8 @@ def test_tables_put_the_thesis_side_by_side():
 
 @pytest.mark.parametrize("baseline, needle", [
     ({"metrics": {}}, "holds no metrics"),
-    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"rtol": float("inf")}}, "tolerance rtol = inf must be a finite number"),
-    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"ISE(x)": {"atol": -1}}}, "tolerance atol = -1 must be a finite number"),
+    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"rtol": float("inf")}}, "tolerances.rtol: Infinity is not a finite number"),
+    ({"metrics": {"ISE(x)": 0.1}, "tolerances": {"ISE(x)": {"atol": -1}}}, "tolerances.ISE(x).atol: -1 is less than the minimum of 0"),
     ({"metrics": {"ISE(x)": "abc"}}, "is not a metrics file"),
 ])
 def test_compare_refuses_a_baseline_it_cannot_use(tmp_path, capsys, baseline, needle):

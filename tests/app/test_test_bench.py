@@ -13,6 +13,7 @@ from tiltload.master.app import feasibility
 from tiltload.master.app.campaign import spec as campaign_spec
 from tiltload.master.app.campaign.run_case import run_case
 from tiltload.master.app.cli import main
+from tiltload.master.app.inputs import READER
 from tiltload.scenario_fmu import choice
 
 EXAMPLES = ROOT / "docs" / "examples"
@@ -23,8 +24,10 @@ BAD_FILES = [  # (file name, content, what the line must say)
     ("backwards.csv", "t,x,y,z\n0,0,0,1\n5,1,0,1\n3,2,0,1\n", "line 4: t = 3 s is not after the previous waypoint's t = 5 s"),
     ("same_time.csv", "t,x,y,z\n0,0,0,1\n0,1,0,1\n", "line 3: t = 0 s is not after"),
     ("nan.csv", "t,x,y,z\n0,0,0,1\n5,nan,0,1\n", "line 3: x is nan, not a finite number"),
-    ("inf.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n  - {t: 5, x: .inf, y: 0, z: 1}\n", "waypoints.1: x is inf"),
-    ("nan.json", '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": 5, "x": NaN, "y": 0, "z": 1}]}', "x is nan"),
+    ("inf.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n  - {t: 5, x: .inf, y: 0, z: 1}\n",
+     "waypoints.1.x: inf is not a finite number"),
+    ("nan.json", '{"waypoints": [{"t": 0, "x": 0, "y": 0, "z": 1}, {"t": 5, "x": NaN, "y": 0, "z": 1}]}',
+     "waypoints.1.x: NaN is not a finite number"),
     ("one.csv", "t,x,y,z\n0,0,0,1\n", "a trajectory needs at least 2 waypoints, got 1"),
     ("one.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1}\n", "a trajectory needs at least 2 waypoints, got 1"),
     ("columns.csv", "t,x,y,q\n0,0,0,1\n5,1,0,1\n", "unknown column 'q'"),
@@ -37,7 +40,8 @@ BAD_FILES = [  # (file name, content, what the line must say)
     ("empty.csv", "", "empty: the first line must be a header"),
     ("negative.csv", "t,x,y,z\n-1,0,0,1\n5,1,0,1\n", "t = -1 s is before the run starts"),
     ("psi_some.csv", "t,x,y,z,psi\n0,0,0,1,0\n5,1,0,1,\n", "psi is given at some waypoints but not all"),
-    ("many.csv", "t,x,y,z\n" + "".join(f"{k},0,0,1\n" for k in range(65)), "at most 64 waypoints fit the scenario FMU, got 65"),
+    ("many.csv", "t,x,y,z\n" + "".join(f"{k * 0.5},0,0,1\n" for k in range(10_001)),
+     "at most 10000 waypoints fit the scenario FMU, got 10001"),
     ("extra_key.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0, z: 1, speed: 2}\n  - {t: 5, x: 1, y: 0, z: 1}\n",
      "waypoints.0: unknown field speed"),
     ("no_z.yaml", "waypoints:\n  - {t: 0, x: 0, y: 0}\n  - {t: 5, x: 1, y: 0, z: 1}\n", "waypoints.0: 'z' is a required property"),
@@ -131,7 +135,7 @@ def test_a_yaw_the_design_cannot_hold_is_refused(fmus, tmp_path, capsys):
 @pytest.mark.parametrize("text, vehicle", [("1", "load"), ("2", "load"), ("3", "uav"), ("lemniscate", "load"),
                                            ("lissajous", "load")])
 def test_the_thesis_trajectories_and_the_shapes_pass(text, vehicle):
-    trajectory = choice.resolve(text)
+    trajectory = choice.resolve(text, read=READER)
     kind = "mixed" if vehicle == "load" else "dlqr"
     report = feasibility.check_reference(trajectory.parameters, trajectory.duration, vehicle, design=(kind, 0))
     assert report.ok, report.problems
@@ -146,8 +150,8 @@ def test_the_trim_check_sees_what_the_feedforward_cannot(tmp_path):
     the path shows the load would have to swing beyond 30 degrees."""
     path = tmp_path / "dash.csv"
     path.write_text("t,x,y,z\n0,0,0,3\n2.5,10,0,3\n5,10,0,3\n")
-    trajectory = choice.resolve(str(path))
-    report = feasibility.check_reference(trajectory.parameters, trajectory.duration)
+    trajectory = choice.resolve(str(path), read=READER)
+    report = feasibility.check_reference(trajectory.fmu_parameters(tmp_path), trajectory.duration)
     assert any(re.match(r"theta would need 3\d\.\d degrees at t = ", p) for p in report.problems), report.problems
     assert not any(p.startswith("f_") for p in report.problems)
 
@@ -185,5 +189,5 @@ def test_a_bad_campaign_trajectory_names_the_field(tmp_path, field, value, needl
 
 def test_examples_are_valid():
     for name in ("mission.csv", "sprint.csv"):
-        assert choice.resolve(str(EXAMPLES / name)).code == 4
+        assert choice.resolve(str(EXAMPLES / name), read=READER).code == 4
     assert Path(EXAMPLES / "gusty_wind.yaml").is_file()

@@ -198,7 +198,7 @@ def test_a_bad_fault_schedule_is_refused_in_one_line(fmus, tmp_path, capsys, fau
 
 
 def test_fault_files_that_are_not_schedules_are_named(tmp_path):
-    for text, needle in (("[1, 2", "cannot read it"), ('{"x": 1}', "a fault file is a list of faults"),
+    for text, needle in (("[1, 2", "not valid JSON: Expecting"), ('{"x": 1}', "a fault file is a list of faults"),
                          ('{"events": [{"time": 1}]}', "events.0: no model")):
         path = tmp_path / "f.json"
         path.write_text(text)

@@ -13,6 +13,7 @@ from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
 from support import reference_trajectories as ref_traj
 from support.fmu_session import session
+from tiltload.master.app.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
 from tiltload.plant_fmu.trim import hover_trim
 from tiltload.scenario_fmu import choice, reference, waypoints, wind
@@ -99,7 +100,8 @@ def _configured(opened, fmu, parameters: dict, name: str = "scenario"):
     """A scenario FMU session with these parameters (by their declared types), initialized."""
     s = opened(fmu, name)
     types = {v.name: v.type for v in s.md.modelVariables}
-    typed = {k: (int(v) if types[k] == "Integer" else bool(v)) for k, v in parameters.items() if types[k] != "Real"}
+    typed = {k: (v if types[k] == "String" else int(v) if types[k] == "Integer" else bool(v)) for k, v in parameters.items()
+             if types[k] != "Real"}
     if typed:
         s.set_typed(**typed)
     reals = {k: v for k, v in parameters.items() if types[k] == "Real"}
@@ -117,12 +119,13 @@ def _sample(s, names, steps: int, h: float) -> np.ndarray:
     return np.array(rows)
 
 
-def test_the_waypoint_reference_in_c_is_its_python_twin_to_the_bit(native, opened):
-    mission = choice.resolve(str(MISSION))
-    s = _configured(opened, native["TiltloadScenario"], mission.parameters)
+def test_the_waypoint_reference_in_c_is_its_python_twin_to_the_bit(native, opened, tmp_path):
+    mission = choice.resolve(str(MISSION), read=READER)
+    parameters = mission.fmu_parameters(tmp_path)
+    s = _configured(opened, native["TiltloadScenario"], parameters)
     steps = int((mission.duration + 2) / T)
     got = _sample(s, REF_NAMES, steps, T)
-    twin = reference.evaluate(mission.parameters, np.arange(steps) * T)
+    twin = reference.evaluate(parameters, np.arange(steps) * T)
     np.testing.assert_array_equal(got, np.c_[twin.p, twin.v, twin.a, twin.psi, twin.psi_dot])
     rows = [r for r in csv.DictReader(line for line in MISSION.read_text().splitlines() if not line.startswith("#"))]
     for row in rows:  # through every waypoint, at its time, with the velocity given there
@@ -171,13 +174,13 @@ def test_minimum_jerk_equals_the_qp_that_cvxpy_solves():
     assert ref.v[2, 0] == 0.5 and ref.v[0, 0] == 0 and ref.a[-1, 0] == 0
 
 
-def test_the_references_velocity_and_acceleration_are_its_derivatives_to_second_order(native, opened):
+def test_the_references_velocity_and_acceleration_are_its_derivatives_to_second_order(native, opened, tmp_path):
     """Central differences of the FMU's own samples (a 3 ms step) at spacings 24 and 12 ms: their error against the
     reference's velocity and acceleration falls by 4 when the spacing halves (second order: the reference is smooth
     through every waypoint), and the acceleration never jumps."""
-    mission = choice.resolve(str(MISSION))
+    mission = choice.resolve(str(MISSION), read=READER)
     fine = 0.003
-    s = _configured(opened, native["TiltloadScenario"], mission.parameters)
+    s = _configured(opened, native["TiltloadScenario"], mission.fmu_parameters(tmp_path))
     r = _sample(s, REF_NAMES, int(35.9 / fine), fine)
     errors = {}
     for stride in (8, 4):  # 24 ms and 12 ms
@@ -210,7 +213,7 @@ def _shape_formula(name: str, p: dict, t: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("text", ["lemniscate", "lissajous:size_z=1,ratio_z=3", "step-z:rise=2,size=0.5", "ramp-x"])
 def test_shapes_are_their_formulas_with_their_derivatives(native, opened, text):
-    shape = choice.resolve(text)
+    shape = choice.resolve(text, read=READER)
     p = dict(shape.parameters)
     name = {5: "lemniscate", 6: "lissajous", 7: "step", 8: "ramp"}[p["trajectory"]]
     s = _configured(opened, native["TiltloadScenario"], p, name)

@@ -3,11 +3,14 @@ giving the same reference in libcosim and Ecos as in our master."""
 
 from __future__ import annotations
 
+import zipfile
+
 import numpy as np
 import pytest
 from support import ROOT
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
+from tiltload.master.app.inputs import READER
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import log_reader, ssp
 from tiltload.master.engine.run import run_system
@@ -25,8 +28,8 @@ def test_the_mission_is_flown_by_both_designs(fmus, tmp_path, scenario, controll
     """36 s: climb, a rectangle through a waypoint passed at speed, a 0.2 rad yaw turn, descent, with the thesis's gusts
     and a light Dryden turbulence on a 2 m/s wind (docs/examples/gusty_wind.yaml). Stable, on the path throughout,
     ISE printed (docs/test_bench.md has the table)."""
-    mission = choice.resolve(str(MISSION))
-    wind = read_wind(ROOT / "docs" / "examples" / "gusty_wind.yaml")
+    mission = choice.resolve(str(MISSION), read=READER)
+    wind = read_wind(ROOT / "docs" / "examples" / "gusty_wind.yaml", READER)
     system = default_system(fmus, scenario, mission, controller, seed=3, wind=wind)
     res = run_system(system, mission.duration, tmp_path / "mission.mcap", loop_metrics(), progress=False)
     assert res.error is None and res.ticks == 3000
@@ -52,7 +55,7 @@ def mission_package(pipeline_fmus, tmp_path_factory):
     return out
 
 
-def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(mission_package):
+def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(mission_package, tmp_path):
     """The package carries the reference as the scenario FMU's parameters; libcosim and Ecos step it with the rest of
     the loop: every tick's reference equals the Python twin of the C (which our master's FMU equals to the bit:
     tests/fmus/test_scenario_fmu.py) at that master's own clock, to the bit. (The clocks differ in the last bit:
@@ -64,6 +67,9 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
 
     system, _, _ = ssp.load(mission_package, cache_root() / "ssp")
     parameters = system.instance("scenario").parameters
+    with zipfile.ZipFile(system.instance("scenario").fmu) as z:  # the mission travels in the scenario FMU's resources
+        (tmp_path / "knots.csv").write_bytes(z.read(f"resources/{parameters['waypoints_file']}"))
+    parameters = {**parameters, "waypoints_file": str(tmp_path / "knots.csv")}
 
     def ours(times):
         twin = reference.evaluate(parameters, np.array(times))

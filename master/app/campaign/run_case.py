@@ -159,7 +159,7 @@ def _flight(base: dict) -> Flight:
     flight = base["trajectory"]
     if isinstance(flight, Flight):
         return flight
-    from ....scenario_fmu.choice import as_trajectory
+    from ..inputs import trajectory as as_trajectory
 
     return Flight(as_trajectory(flight))
 

@@ -47,14 +47,15 @@ import dataclasses
 import hashlib
 import itertools
 import json
+import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ....scenario_fmu.choice import Trajectory
 
 METRICS = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
+MAX_RUNS = 100_000  # runs in one campaign: as many as vary.samples may ask for; each run is a row, and the grid is counted first
 
 SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["name", "base", "vary"],
@@ -149,26 +150,19 @@ class Campaign:
 
 
 def read_spec_file(path: Path) -> dict:
-    if not path.is_file():
-        raise SpecError(f"campaign spec {path} does not exist")
-    text = path.read_text()
-    try:
-        if path.suffix == ".toml":
-            return tomllib.loads(text)
-        if path.suffix in (".yaml", ".yml"):
-            import yaml
+    from ...engine.user_files import UserFileError, read_toml, read_yaml
 
-            data = yaml.safe_load(text)
-            if not isinstance(data, dict):
-                raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
-            return data
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise SpecError(f"{path}: not valid TOML: {err}") from None
-    except Exception as err:  # yaml's errors
-        if isinstance(err, SpecError):
-            raise
-        raise SpecError(f"{path}: not valid YAML: {str(err).splitlines()[0]}") from None
-    raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
+    if not path.exists():
+        raise SpecError(f"campaign spec {path} does not exist")
+    if path.suffix not in (".toml", ".yaml", ".yml"):
+        raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
+    try:
+        data = read_toml(path) if path.suffix == ".toml" else read_yaml(path)
+    except UserFileError as err:
+        raise SpecError(str(err)) from None
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
+    return data
 
 
 def _validate(data: dict, path: Path) -> None:
@@ -181,7 +175,9 @@ def _validate(data: dict, path: Path) -> None:
         raise SpecError(f"{path}: {where}: {err.message}")
 
 
-def _points(vary: dict, path: Path) -> list[dict[str, float]]:
+def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]]:
+    """The varied parameters' points; refused before any is built when, with per_point runs each (controllers times
+    seeds), they would be more than MAX_RUNS."""
     params = vary.get("parameters", [])
     method = vary.get("method", "grid")
     names = [p["name"] for p in params]
@@ -193,6 +189,11 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
         for p in params:
             if "values" not in p or "range" in p:
                 raise SpecError(f"{path}: vary.parameters.{p['name']}: a grid takes values = [...]")
+        runs = math.prod(len(p["values"]) for p in params) * per_point
+        if runs > MAX_RUNS:
+            raise SpecError(f"{path}: vary: the grid makes {runs} runs "
+                            f"({' x '.join(str(len(p['values'])) for p in params)} points, {per_point} runs each: controllers x seeds); "
+                            f"a campaign has at most {MAX_RUNS}")
         return [dict(zip(names, combo)) for combo in itertools.product(*(p["values"] for p in params))]
     for p in params:
         if "range" not in p or "values" in p:
@@ -204,6 +205,9 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
     n = vary.get("samples")
     if n is None:
         raise SpecError(f"{path}: vary.samples: {method} sampling needs the number of samples")
+    if n * per_point > MAX_RUNS:
+        raise SpecError(f"{path}: vary: {n} samples, {per_point} runs each (controllers x seeds), make {n * per_point} runs; "
+                        f"a campaign has at most {MAX_RUNS}")
     seed = vary.get("sample_seed", 0)
     if method == "lhs":
         unit = qmc.LatinHypercube(d=len(params), seed=seed).random(n)
@@ -218,14 +222,15 @@ def _points(vary: dict, path: Path) -> list[dict[str, float]]:
 
 def _flight(base: dict, path: Path) -> Flight:
     """base.trajectory and base.wind read (relative to the spec), with the feasibility policy."""
-    from ....scenario_fmu.choice import as_trajectory
     from ....scenario_fmu.files import ScenarioFileError
-    from ....scenario_fmu.wind import read_wind
+    from ...engine.user_files import UserFileError
+    from ..inputs import read_wind
+    from ..inputs import trajectory as as_trajectory
 
     try:
         trajectory = as_trajectory(base.get("trajectory", 1), path.parent)
         wind = tuple(read_wind(path.parent / base["wind"]).items()) if "wind" in base else ()
-    except ScenarioFileError as err:
+    except (ScenarioFileError, UserFileError) as err:
         raise SpecError(f"{path}: base: {err}") from None
     return Flight(trajectory, wind, base.get("allow_infeasible", False), base.get("max_tilt", 30.0))
 
@@ -291,7 +296,7 @@ def load(path: Path) -> Campaign:
     faults = _faults(base, vary, path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     cases = []
-    for point in _points(vary, path):
+    for point in _points(vary, path, len(controllers) * len(seeds)):
         for controller in controllers:
             for seed in seeds:
                 parameters = dict(base.get("parameters", {}))
@@ -341,7 +346,8 @@ def _faults(base: dict, vary: dict, path: Path) -> list:
 
 def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     """The cases of a campaign from a snapshot: its loop, each case's faults, tunable parameters and seed."""
-    from ....scenario_fmu.choice import Trajectory, as_trajectory
+    from ....scenario_fmu.choice import Trajectory
+    from ..inputs import trajectory as as_trajectory
 
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     options = branching.options  # the snapshot's LoopOptions.to_dict()
@@ -356,7 +362,7 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     controller = options["controller_fmu"] or options["controller"]
     seeds = vary.get("seeds")
     cases = []
-    for point in _points(vary, path):
+    for point in _points(vary, path, len(seeds or [options["seed"]])):
         for seed in seeds or [options["seed"]]:
             parameters = dict(base.get("parameters", {}))
             for name, value in point.items():

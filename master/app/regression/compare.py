@@ -7,12 +7,22 @@ DEFAULT_RTOL, DEFAULT_ATOL.
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 from ...engine.errors import DescriptionError
 from ...engine.log_reader import DamagedLog, check, read_log, read_metadata
+
+_TOLERANCE = {"type": "number", "minimum": 0}
+BASELINE_SCHEMA = {  # a baseline .json (regression/reproduce.write_baselines writes them; case, seed, spread are notes)
+    "type": "object", "required": ["metrics"],
+    "properties": {
+        "metrics": {"type": "object", "additionalProperties": {"type": "number"}},
+        "tolerances": {"type": "object", "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE},
+                       "additionalProperties": {"type": "object", "additionalProperties": False,
+                                                "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE}}},
+    },
+}
 
 
 def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
@@ -24,17 +34,19 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     if not path.is_file():
         raise DescriptionError(f"{path} does not exist")
     if path.suffix == ".json":
+        import jsonschema
+
+        from ...engine.user_files import UserFileError, read_json
+
         try:
-            data = json.loads(path.read_text())
-            metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
-        except json.JSONDecodeError as err:
-            raise DescriptionError(f"{path} is not a metrics file: not JSON ({err.msg} at line {err.lineno})") from None
-        except UnicodeDecodeError:
-            raise DescriptionError(f"{path} is not a metrics file: not UTF-8 text") from None
-        except KeyError:
-            raise DescriptionError(f"{path} is not a metrics file: it has no 'metrics' entry") from None
-        except (TypeError, ValueError, AttributeError):
-            raise DescriptionError(f"{path} is not a metrics file: 'metrics' must map names to numbers") from None
+            data = read_json(path)
+        except UserFileError as err:
+            raise DescriptionError(f"{path} is not a metrics file: {str(err).removeprefix(f'{path}: ')}") from None
+        errors = sorted(jsonschema.Draft202012Validator(BASELINE_SCHEMA).iter_errors(data), key=lambda e: list(e.path))
+        if errors:
+            where = ".".join(str(p) for p in errors[0].absolute_path) or "(top level)"
+            raise DescriptionError(f"{path} is not a metrics file: {where}: {errors[0].message[:200]}")
+        metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
         if not metrics:
             raise DescriptionError(f"{path} holds no metrics: nothing to compare")
         if not all(math.isfinite(v) for v in metrics.values()):

@@ -1,0 +1,191 @@
+"""Every file a user hands in (waypoints, wind, faults, campaign specs, system descriptions) is read here, bounded
+before it is read: a regular file under a size limit, UTF-8 text, documents nested at most MAX_DEPTH deep, integers of
+at most MAX_INT_DIGITS digits, every number finite, YAML without aliases, CSV lines of at most MAX_LINE characters.
+
+Why YAML aliases are refused outright rather than counted: an alias bomb is nine levels of ten aliases (90 of them)
+expanding to 10^9 nodes, so a bound on their number bounds nothing; a bound on the expanded size would, but none of
+these files needs to repeat a block (a grid's values, a fault's targets are short lists). Anchors alone are harmless.
+
+Every failure is a UserFileError whose message is one line naming the file and the problem (docs/master.md, Input files).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import stat
+import tomllib
+from pathlib import Path
+
+MAX_BYTES = 16 * 2**20  # a 10,000-waypoint CSV with every column is about 3 MB
+MAX_DEPTH = 32  # nesting of lists and mappings (the deepest file we read, a campaign spec, nests 5)
+MAX_INT_DIGITS = 18  # an integer beyond 10^18 is no count, seed or time any of these files holds (int64 holds 9.2e18)
+MAX_LINE = 4096  # characters in a CSV line (a waypoint row with all 13 columns at 17 digits is ~300)
+
+
+class UserFileError(ValueError):
+    """A file the user gave that cannot be used as it is; the message is one line naming the file and the problem."""
+
+
+class _Refused:
+    """A JSON number refused as it was parsed (never converted): check_values reports it with its place."""
+
+    def __init__(self, why: str) -> None:
+        self.why = why
+
+
+def read_text(path: Path, max_bytes: int = MAX_BYTES) -> str:
+    """The file's text: a regular file (stat first: a FIFO or a device is never opened) of at most max_bytes, UTF-8."""
+    path = Path(path)
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise UserFileError(f"{path}: no such file") from None
+    except OSError as err:
+        raise UserFileError(f"{path}: cannot read it: {err.strerror or err}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise UserFileError(f"{path}: not a regular file")
+    if info.st_size > max_bytes:
+        raise UserFileError(f"{path}: {info.st_size} bytes, more than the {max_bytes} a file given to tiltload may have")
+    try:
+        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
+            data = f.read(max_bytes + 1)  # the file may have grown since stat
+    except OSError as err:
+        raise UserFileError(f"{path}: cannot read it: {err.strerror or err}") from None
+    if len(data) > max_bytes:
+        raise UserFileError(f"{path}: more than the {max_bytes} bytes a file given to tiltload may have")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise UserFileError(f"{path}: not a UTF-8 text file (byte {err.start})") from None
+    if "\x00" in text:
+        raise UserFileError(f"{path}: not a text file (it holds a NUL character)")
+    return text.removeprefix("\ufeff")
+
+
+def read_json(path: Path, max_bytes: int = MAX_BYTES):
+    """A JSON document, its numbers checked as they are parsed (finite, integers of at most MAX_INT_DIGITS digits)."""
+    path = Path(path)
+    text = read_text(path, max_bytes)
+
+    def integer(digits: str):
+        n = len(digits.lstrip("-"))
+        return _Refused(f"an integer of {n} digits (at most {MAX_INT_DIGITS})") if n > MAX_INT_DIGITS else int(digits)
+
+    def real(digits: str):
+        value = float(digits)
+        return value if math.isfinite(value) else _Refused(f"{digits[:24]}{'...' * (len(digits) > 24)} is beyond a double's range")
+
+    def constant(name: str):
+        return _Refused(f"{name} is not a finite number")
+
+    try:
+        data = json.loads(text, parse_int=integer, parse_float=real, parse_constant=constant)
+    except json.JSONDecodeError as err:
+        raise UserFileError(f"{path}: not valid JSON: {err}") from None
+    except RecursionError:
+        raise UserFileError(f"{path}: nested deeper than {MAX_DEPTH} levels") from None
+    check_values(data, str(path))
+    return data
+
+
+def read_yaml(path: Path, max_bytes: int = MAX_BYTES):
+    """A YAML document (safe types only), refused if it uses an alias; numbers finite, integers bounded, keys text."""
+    import yaml
+
+    path = Path(path)
+    text = read_text(path, max_bytes)
+
+    class NoAliases(yaml.SafeLoader):
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                mark = self.peek_event().start_mark
+                raise UserFileError(f"{path}: line {mark.line + 1}: a YAML alias (*{self.peek_event().anchor}): aliases are "
+                                    "not accepted (write the value out)")
+            return super().compose_node(parent, index)
+
+    loader = NoAliases(text)
+    try:
+        data = loader.get_single_data()
+    except UserFileError:
+        raise
+    except RecursionError:
+        raise UserFileError(f"{path}: nested deeper than {MAX_DEPTH} levels") from None
+    except (yaml.YAMLError, ValueError, OverflowError) as err:  # ValueError, OverflowError: an integer or date out of range
+        first = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise UserFileError(f"{path}: not valid YAML: {first[:200]}") from None
+    finally:
+        loader.dispose()
+    check_values(data, str(path))
+    return data
+
+
+def read_toml(path: Path, max_bytes: int = MAX_BYTES):
+    """A TOML document, its values checked as read_json's."""
+    path = Path(path)
+    text = read_text(path, max_bytes)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise UserFileError(f"{path}: not valid TOML: {err}") from None
+    check_values(data, str(path))
+    return data
+
+
+def read_document(path: Path, max_bytes: int = MAX_BYTES):
+    """A JSON (.json), YAML (.yaml, .yml) or TOML (.toml) document, by its suffix."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".json":
+        return read_json(path, max_bytes)
+    if suffix in (".yaml", ".yml"):
+        return read_yaml(path, max_bytes)
+    if suffix == ".toml":
+        return read_toml(path, max_bytes)
+    raise UserFileError(f"{path}: a document is .json, .yaml, .yml or .toml")
+
+
+def read_csv(path: Path, max_bytes: int = MAX_BYTES, max_line: int = MAX_LINE) -> list[tuple[int, list[str]]]:
+    """A CSV file's lines as (line number, cells), blank lines and lines starting with # left out; every line of at
+    most max_line characters (so no cell reaches the csv module's own limit)."""
+    path = Path(path)
+    rows = []
+    for number, line in enumerate(read_text(path, max_bytes).splitlines(), start=1):
+        if len(line) > max_line:
+            raise UserFileError(f"{path}: line {number}: {len(line)} characters, more than {max_line}")
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        try:
+            rows.append((number, next(csv.reader([line]))))
+        except (csv.Error, StopIteration) as err:
+            raise UserFileError(f"{path}: line {number}: not a CSV line: {err}") from None
+    return rows
+
+
+def check_values(data, source: str) -> None:
+    """Every number finite, every integer of at most MAX_INT_DIGITS digits, every mapping key text, nesting at most
+    MAX_DEPTH: the first breach as one line naming where it is (walked without recursion)."""
+    stack = [(data, "", 0)]
+    while stack:
+        value, where, depth = stack.pop()
+        at = f"{source}: {where}: " if where else f"{source}: "
+        if depth >= MAX_DEPTH and isinstance(value, (dict, list)):  # the root's container is level 1
+            raise UserFileError(f"{at}nested deeper than {MAX_DEPTH} levels")
+        if isinstance(value, bool) or value is None or isinstance(value, str):
+            continue
+        if isinstance(value, _Refused):
+            raise UserFileError(f"{at}{value.why}")
+        if isinstance(value, int):
+            if abs(value) >= 10**MAX_INT_DIGITS:
+                raise UserFileError(f"{at}an integer of more than {MAX_INT_DIGITS} digits")
+        elif isinstance(value, float):
+            if not math.isfinite(value):
+                raise UserFileError(f"{at}{value} is not a finite number")
+        elif isinstance(value, dict):
+            for key in value:
+                if not isinstance(key, str):
+                    raise UserFileError(f"{at}the key {str(key)[:40]!r} is not text")
+            stack.extend((item, f"{where}.{key}" if where else key, depth + 1) for key, item in reversed(value.items()))
+        elif isinstance(value, list):  # reversed: the first breach in the file's order is reported
+            stack.extend((value[i], f"{where}.{i}" if where else str(i), depth + 1) for i in reversed(range(len(value))))
