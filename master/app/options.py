@@ -21,6 +21,52 @@ LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory"
              ("clocks", "--clocks"))
 
 
+_PATH = {"type": ["string", "null"], "maxLength": 4096}
+_NUMBER = {"type": "number"}
+# LoopOptions.to_dict() as a snapshot keeps it (application.options): checked before a continued run or a campaign uses it
+OPTIONS_SCHEMA = {
+    "type": "object", "additionalProperties": False,
+    "required": ["vehicle", "scenario", "trajectory", "controller", "controller_fmu", "seed", "stop_time", "delay", "gusts",
+                 "faults", "settings", "system", "fmus", "allow_unknown_inputs", "reference", "wind", "allow_infeasible",
+                 "max_tilt", "allow_external_fmus", "remotes", "fmi", "clocks"],
+    "properties": {
+        "vehicle": {"enum": sorted(LOOPS)}, "scenario": {"enum": ["fsi", "lkf", "zse"]},
+        "trajectory": {"type": ["integer", "string"]}, "controller": {"type": "string", "minLength": 1, "maxLength": 4096},
+        "controller_fmu": _PATH, "seed": {"type": "integer", "minimum": 0, "maximum": 2**31 - 1},
+        "stop_time": {"type": ["number", "null"], "exclusiveMinimum": 0}, "delay": {"type": "boolean"},
+        "gusts": {"type": "boolean"}, "faults": _PATH, "system": _PATH, "fmus": _PATH, "wind": _PATH,
+        "settings": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "prefixItems": [{"type": "string"}]}},
+        "allow_unknown_inputs": {"type": "boolean"}, "allow_infeasible": {"type": "boolean"},
+        "allow_external_fmus": {"type": "boolean"}, "clocks": {"type": "boolean"}, "fmi": {"enum": [2, 3]},
+        "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
+        "remotes": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "string"}}},
+        "reference": {"oneOf": [{"type": "null"}, {
+            "type": "object", "additionalProperties": False, "required": ["label", "code", "settings", "start", "duration"],
+            "properties": {"label": {"type": "string"}, "code": {"type": "integer"}, "source": {"type": "string"},
+                           "settings": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2,
+                                                                   "prefixItems": [{"type": "string"}, _NUMBER]}},
+                           "start": {"type": "array", "minItems": 3, "maxItems": 3, "items": _NUMBER},
+                           "duration": {"type": "number", "exclusiveMinimum": 0}}}]},
+    },
+}
+
+
+def snapshot_options(application: dict, where) -> LoopOptions:
+    """The loop options a snapshot was taken with, checked against OPTIONS_SCHEMA (one line naming the first problem)."""
+    import jsonschema
+
+    options = application.get("options")
+    if options is None:
+        raise UserError(f"{where} was not taken by `tiltload run` (it names no loop options)")
+    errors = sorted(jsonschema.Draft202012Validator(OPTIONS_SCHEMA).iter_errors(options), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        path = ".".join(str(p) for p in err.absolute_path) or "(all)"
+        message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
+        raise UserError(f"{where}: its loop options are not a run's: options.{path}: {message}")
+    return LoopOptions.from_dict(options)
+
+
 @dataclass(frozen=True)
 class LoopOptions:
     """What describes one run of the loop (or of a system file), with every default filled in."""

@@ -179,7 +179,7 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
     snap = snapshot.read(campaign.snapshot)
     for case in campaign.cases[:1]:
         try:
-            system, branch = branch_system(fmus, snap, campaign.faults, case.parameters)
+            system, branch = branch_system(fmus, snap, campaign.faults, case.parameters, case.controller)
             snapshot.check(Execution(system, []), branch)
         except DescriptionError as err:
             raise SpecError(f"{campaign.source}: base.snapshot: {err}") from None
