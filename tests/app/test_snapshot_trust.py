@@ -143,3 +143,80 @@ def test_nothing_is_created_where_a_snapshot_says(polyglot, fmus, tmp_path, capf
     assert main(["run", "--from-snapshot", str(snap), "--controller", str(controller), "--fmus", str(fmus), "--no-log",
                  "--quiet", "--no-plots"]) == 0
     assert not (tmp_path / "gone").exists()
+
+
+@pytest.fixture(scope="module")
+def taken(fmus, tmp_path_factory) -> Path:
+    """A snapshot at 0.5 s of a 1 s ZSE run of the loop."""
+    path = tmp_path_factory.mktemp("taken") / "at.snapshot"
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "0.5", str(path), "--fmus", str(fmus), "--no-log", "--quiet",
+                 "--no-plots"]) == 0
+    return path
+
+
+def _continue(snap: Path, fmus: Path, *extra: str) -> int:
+    return main(["run", "--from-snapshot", str(snap), "--fmus", str(fmus), "--no-log", "--quiet", "--no-plots", *extra])
+
+
+def _edit(path, key, value):
+    def edit(m):
+        target = m
+        for k in key[:-1]:
+            target = target[k]
+        if value is KeyError:
+            del target[key[-1]]
+        else:
+            target[key[-1]] = value
+        return m
+    return edit
+
+
+@pytest.mark.parametrize("key, value, message", [
+    (["values"], [], "its manifest is not a snapshot's: values: [] is not of type 'object'"),
+    (["ticks_done"], -3, "its manifest is not a snapshot's: ticks_done: -3 is less than the minimum of 0"),
+    (["fingerprint", "instances"], {"plant": 1}, "its manifest is not a snapshot's: fingerprint.instances: {'plant': 1} is not "
+                                                 "of type 'array'"),
+    (["bogus"], 1, "its manifest is not a snapshot's: (top level): Additional properties are not allowed ('bogus' was "
+                   "unexpected)"),
+    (["application", "options", "scenario"], KeyError, "its loop options are not a run's: options.(all): 'scenario' is a "
+                                                       "required property"),
+    (["application", "options", "colour"], "red", "its loop options are not a run's: options.(all): Additional properties are "
+                                                  "not allowed ('colour' was unexpected)"),
+    (["application", "options", "seed"], "1", "its loop options are not a run's: options.seed: '1' is not of type 'integer'"),
+])
+def test_a_manifest_of_the_wrong_shape_is_one_line(taken, fmus, tmp_path, capfd, key, value, message):
+    bad = _rewrite(taken, tmp_path / "bad.snapshot", _edit(taken, key, value))
+    code = _continue(bad, fmus)
+    assert (code, _one_error(capfd)) == (2, f"tiltload: error: {bad}: {message}")
+
+
+def test_a_snapshot_edited_to_another_scenario_is_refused(taken, fmus, tmp_path, capfd):
+    bad = _rewrite(taken, tmp_path / "lkf.snapshot", _edit(taken, ["application", "options", "scenario"], "lkf"))
+    assert _continue(bad, fmus) == 2
+    assert _one_error(capfd) == ("tiltload: error: controller: its parameters differ from those the snapshot was taken with "
+                                 "(another scenario, trajectory, seed, wind or --set: the snapshot's options were edited, or "
+                                 "are of another run)")
+
+
+@pytest.mark.parametrize("stop", ["0.5", "0.3"])
+def test_a_continued_run_must_stop_after_the_snapshot(taken, fmus, capfd, stop):
+    assert _continue(taken, fmus, "--stop-time", stop) == 2
+    assert _one_error(capfd) == (f"tiltload: error: --stop-time {stop}: a continued run must stop after the snapshot's "
+                                 "time (0.504 s)")
+
+
+def test_a_zip_bomb_in_a_snapshot_is_refused_unread(taken, fmus, tmp_path, capfd):
+    """300 MB of zeros (300 kB on disk) as the plant's state: refused by its declared size, never decompressed."""
+    bomb = tmp_path / "bomb.snapshot"
+    with zipfile.ZipFile(taken) as z, zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in z.infolist():
+            if item.filename != "fmu/plant.state":
+                out.writestr(item.filename, z.read(item.filename))
+        with out.open("fmu/plant.state", "w", force_zip64=True) as f:
+            zeros = bytes(1 << 20)
+            for _ in range(300):
+                f.write(zeros)
+    assert bomb.stat().st_size < 2 << 20
+    assert _continue(bomb, fmus) == 2
+    assert _one_error(capfd) == (f"tiltload: error: {bomb}: fmu/plant.state declares {300 << 20} bytes, more than a "
+                                 f"snapshot holds ({256 << 20}): refused unread")
