@@ -20,8 +20,9 @@ def add_parser(sub) -> None:
     r.add_argument("--trust-fmus", action="store_true",
                    help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
                         "process, so a crash, exit() or hang in one ends the run with one line)")
-    r.add_argument("--step-timeout", type=arguments.positive_time, default=None, metavar="S",
-                   help="watchdog for an FMU in its own process: the longest a call may take (default 10 s)")
+    r.add_argument("--step-timeout", type=arguments.time_span(arguments.DAY), default=None, metavar="S",
+                   help=f"watchdog for an FMU in its own process: the longest a call may take (default 10 s; at most "
+                        f"{arguments.DAY:g} s)")
     r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
                    help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
@@ -33,8 +34,9 @@ def add_parser(sub) -> None:
                    help="at t = T s write every FMU's state and the master's to FILE (the run goes on)")
     r.add_argument("--from-snapshot", type=Path, default=None, metavar="FILE",
                    help="continue the run a snapshot was taken of (with --faults, --set of tunable parameters, --stop-time)")
-    r.add_argument("--realtime", type=arguments.positive_number, nargs="?", const=1.0, default=None, metavar="FACTOR",
-                   help="pace the ticks against the monotonic clock, FACTOR x real time (default 1); overruns are reported")
+    r.add_argument("--realtime", type=arguments.realtime_factor, nargs="?", const=1.0, default=None, metavar="FACTOR",
+                   help=f"pace the ticks against the monotonic clock, FACTOR x real time (default 1; from "
+                        f"{1 / arguments.MAX_REALTIME_FACTOR:g} to {arguments.MAX_REALTIME_FACTOR:g}); overruns are reported")
     r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
                    help="with --realtime: stop the run once more than N ticks missed their deadline")
     r.set_defaults(func=run)
