@@ -269,7 +269,10 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     started = time.perf_counter()
     if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
-    system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    try:
+        system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    except DescriptionError as err:  # the case's own (its controller file is not an FMU, or not one of a tick's period)
+        return {"row": error_row(case, str(err)), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     _check_fmus(system)
     stop = base["stop_time"] or default_stop(_flight(base).trajectory)
     refused = infeasible(system, stop, _flight(base))

@@ -145,7 +145,12 @@ class Campaign:
 def read_spec_file(path: Path) -> dict:
     if not path.is_file():
         raise SpecError(f"campaign spec {path} does not exist")
-    text = path.read_text()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise SpecError(f"{path}: a campaign spec is UTF-8 text; byte {err.start} is not ({err.reason})") from None
+    except OSError as err:
+        raise SpecError(f"campaign spec {path} cannot be read: {err.strerror or err}") from None
     try:
         if path.suffix == ".toml":
             return tomllib.loads(text)
