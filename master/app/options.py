@@ -64,7 +64,12 @@ def snapshot_options(application: dict, where) -> LoopOptions:
         path = ".".join(str(p) for p in err.absolute_path) or "(all)"
         message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
         raise UserError(f"{where}: its loop options are not a run's: options.{path}: {message}")
-    return LoopOptions.from_dict(options)
+    opts = LoopOptions.from_dict(options)
+    ref = opts.reference
+    if ref is not None and opts.trajectory != (ref.code if ref.code in THESIS else ref.label):
+        raise UserError(f"{where}: its loop options disagree (trajectory {opts.trajectory!r}, reference {ref.label!r}): "
+                        "edited, not taken by tiltload run")
+    return opts
 
 
 @dataclass(frozen=True)
@@ -212,10 +217,11 @@ class LoopSystem:
     natural_stop: float  # the stop time without --stop-time: the trajectory's duration, or the package's
 
 
-def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) -> LoopSystem:
+def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, build: bool = True) -> LoopSystem:
     """The system the options describe: the thesis's loop (FMUs built when stale), with the user's controller FMU,
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
-    prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot)."""
+    prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot). build:
+    build what is stale (a run continued from a snapshot builds nothing: it runs the build the snapshot was taken with)."""
     from ..engine.manipulators import load as load_faults
     from .fmus import build_all, fmu_folder
 
@@ -223,7 +229,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) ->
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
-        if not prepared:
+        if not prepared and build:
             build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,),  # says what it builds
                       fmi_version=opts.fmi, clocked=opts.clocks)
         from ...scenario_fmu.wind import read_wind

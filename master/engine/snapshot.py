@@ -120,6 +120,14 @@ def take(execution, application: dict | None = None) -> Snapshot:
 def check(execution, snap: Snapshot) -> None:
     """Before anything is loaded: the snapshot is of this system and build, and its settings are tunable parameters."""
     check_compatible(snap.fingerprint, fingerprint(execution))
+    for name, md in execution.model_descriptions.items():  # the shapes of what restore() writes, before anything loads
+        if name not in snap.states or name not in snap.values:
+            raise SnapshotError(f"{name}: the snapshot holds no state of it")
+        outputs = {t: sum(1 for v in md.modelVariables if v.causality == "output" and v.type == t) for t in _DTYPE}
+        for t, values in snap.values[name].items():
+            if np.shape(values) != (outputs[t],):
+                raise SnapshotError(f"{name}: the snapshot holds {np.shape(values)[0] if np.ndim(values) == 1 else 'no list of'} "
+                                    f"{t} outputs, its FMU has {outputs[t]}")
     for name, values in snap.settings.items():
         if name not in execution.model_descriptions:
             raise SnapshotError(f"--set {name}.…: the system has no instance '{name}'")

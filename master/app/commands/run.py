@@ -160,7 +160,8 @@ def _metadata(opts, stop: float) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
-        print("tiltload run: preparing " + (f"the system {args.system}" if args.system else
+        print("tiltload run: preparing " + (f"the run continued from {args.from_snapshot}" if args.from_snapshot else
+                                            f"the system {args.system}" if args.system else
                                             f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
               + " ...", flush=True)
     from ....controller_fmu.design.cache import cache_root
@@ -187,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         opts = resolve_loop(args)
     checkpoint = _snapshot_at(args)
-    loop = loop_system(opts, cache_root() / "ssp")
+    loop = loop_system(opts, cache_root() / "ssp", build=snap is None)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
