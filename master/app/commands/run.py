@@ -83,6 +83,13 @@ def _branch(args: argparse.Namespace):
     from ..arguments import DEFAULT_FMU_DIR
     from ..options import snapshot_options
 
+    def refuse(given: list[str]) -> None:
+        if given:
+            raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says "
+                            "which loop it is; --faults, --set of tunable parameters and --stop-time can)")
+
+    refuse([f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING if getattr(args, k, None) not in (None, False)
+            and k not in _NAMED_FILES])  # before the file is read; --controller and --system once it says which it needs
     if args.snapshot_at is not None:
         raise UserError("--from-snapshot and --snapshot-at together: continue first, then take a new snapshot in a later run")
     snap = snapshot.read(args.from_snapshot)
@@ -93,11 +100,7 @@ def _branch(args: argparse.Namespace):
     if schedule not in (None, "ordered", "jacobi"):
         raise UserError(f"{args.from_snapshot}: its schedule {str(schedule)[:40]!r} is neither ordered nor jacobi")
     needed = {flag: getattr(opts, field) for flag, field in _NAMED_FILES.items() if getattr(opts, field) is not None}
-    given = [f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING
-             if getattr(args, k, None) not in (None, False) and k not in needed]
-    if given:
-        raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says which "
-                        "loop it is; --faults, --set of tunable parameters and --stop-time can)")
+    refuse([f"--{k}" for k in _NAMED_FILES if getattr(args, k, None) is not None and k not in needed])
     import dataclasses
 
     for flag, recorded in needed.items():
