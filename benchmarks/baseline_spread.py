@@ -53,7 +53,7 @@ def run_variant(name: str, result: Path) -> None:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--variant", help=argparse.SUPPRESS)  # child mode
     ap.add_argument("--result", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--only", nargs="*", default=list(VARIANTS), help="variants to run (default: all)")

@@ -143,7 +143,7 @@ def error_times(spec: Path, tmp: Path) -> None:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--runs", type=int, default=48, help="campaign size (even: both designs), default 48")
     p.add_argument("--stop-time", type=float, default=40.0, help="s per run, default 40")
     p.add_argument("--skip-errors", action="store_true", help="no timing of the one-line errors")

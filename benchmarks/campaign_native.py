@@ -91,7 +91,7 @@ def _mean(values: list[float]) -> float:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--runs", type=int, default=16, help="runs per campaign (seeds 1..N), default 16")
     p.add_argument("--stop", type=float, default=40.0, help="s per run, default 40")
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts, default 1 2")

@@ -149,7 +149,7 @@ def report(scenario: str, r: dict, stop: float) -> list[str]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--stop", type=float, default=20.0, help="s of trajectory 1 per run (default 20)")
     p.add_argument("--repeat", type=int, default=3, help="runs of each master per scenario, the best kept (default 3)")
     p.add_argument("--quick", action="store_true", help="5 s runs, once each: shows the script works, figures are rough")

@@ -67,7 +67,7 @@ def numpy_draws():
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--stop", type=float, default=20.0, help="s of trajectory 1 per run (default 20)")
     p.add_argument("--repeat", type=int, default=5, help="runs of each case, the best kept (default 5)")
     args = p.parse_args()

@@ -58,7 +58,7 @@ def one(i: int, fmus: Path, out: Path, wrapped: Path) -> tuple[int, int, str]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("n", type=int, nargs="?", default=1000)
     ap.add_argument("--jobs", type=int, default=2)
     args = ap.parse_args()

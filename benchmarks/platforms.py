@@ -57,7 +57,7 @@ def timed(sources: Path, work: Path, ident: str, t: cc.Toolchain, jobs: int, rep
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--repeat", type=int, default=1, help="runs per figure, the best kept (default 1)")
     args = parser.parse_args()
     toolchains, missing = cc.choose()

@@ -31,7 +31,7 @@ BASELINES = Path(__file__).resolve().parent.parent / "baselines"
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--workers", type=int, default=None, help="processes (default: one per core)")
     p.add_argument("--fmus", type=Path, default=Path("fmus"), help="FMU folder (default fmus; built if stale)")
     p.add_argument("--no-build", action="store_true", help="run the FMUs in --fmus as they are (another checkout's)")

@@ -188,7 +188,7 @@ def rewrite_markers(data: dict) -> list[Path]:
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--only", nargs="*", default=list(KEYS), choices=KEYS)
     ap.add_argument("--write", action="store_true", help="store in docs/timings.json, regenerate docs/timings.md and the markers")
     args = ap.parse_args()

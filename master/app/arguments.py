@@ -6,26 +6,18 @@ import argparse
 import math
 from pathlib import Path
 
+from ..engine.argument_types import DAY, integer, positive_number, positive_time, time_span
+
+__all__ = ["DAY", "integer", "positive_number", "positive_time", "time_span"]  # the engine's, shared with tiltload serve
+
 DEFAULT_FMU_DIR = Path("fmus")
+MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
 
 
-def positive_time(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}") from None
-    if not (value > 0 and value < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
-    return value
-
-
-def positive_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
+def realtime_factor(text: str) -> float:
+    value = positive_number(text)
+    if not (1 / MAX_REALTIME_FACTOR <= value <= MAX_REALTIME_FACTOR):
+        raise argparse.ArgumentTypeError(f"must be from {1 / MAX_REALTIME_FACTOR:g} to {MAX_REALTIME_FACTOR:g}, got {text}")
     return value
 
 
@@ -56,21 +48,6 @@ def tilt_limit(text: str) -> float:
     if not (0 < value <= 180):
         raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}")
     return value
-
-
-def integer(low: int, high: int | None = None):
-    """An argparse type: a whole number in [low, high] (no upper bound if high is None)."""
-    what = f"a whole number from {low} to {high}" if high is not None else f"a whole number >= {low}"
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be {what}, got {text}") from None
-        if value < low or (high is not None and value > high):
-            raise argparse.ArgumentTypeError(f"must be {what}, got {text}")
-        return value
-    return parse
 
 
 seed = integer(0, 2**31 - 1)

@@ -30,10 +30,28 @@ COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, 
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """A usage error is one line naming the problem (and where help is), not the usage block."""
+    """A usage error is one line naming the problem (and where help is), not the usage block. No abbreviated long
+    options (--token is not --token-file), and an unrecognized option's values are not echoed (they may be secrets)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs["allow_abbrev"] = False  # every subcommand's parser is of this class too
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+        self.exit(2, f"{self.prog}: error: {_unechoed(message)} (see: {self.prog} --help)\n")
+
+
+def _unechoed(message: str) -> str:
+    """argparse's "unrecognized arguments: --token SECRET" without what followed the unknown options."""
+    head = "unrecognized arguments: "
+    if not message.startswith(head):
+        return message
+    words = message[len(head):].split()
+    options = [w.partition("=")[0] for w in words if w.startswith("-")]
+    if not options:
+        return message  # stray words, no option: show them
+    hidden = len(words) - len(options)
+    return head + " ".join(options) + (f" (and {hidden} value{'s' * (hidden > 1)} not shown)" if hidden else "")
 
 
 def version() -> str:

@@ -22,6 +22,60 @@ LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory"
              ("clocks", "--clocks"))
 
 
+_PATH = {"type": ["string", "null"], "maxLength": 4096}
+_NUMBER = {"type": "number"}
+# LoopOptions.to_dict() as a snapshot keeps it (application.options): checked before a continued run or a campaign uses it
+OPTIONS_SCHEMA = {
+    "type": "object", "additionalProperties": False,
+    "required": ["vehicle", "scenario", "trajectory", "controller", "controller_fmu", "seed", "stop_time", "delay", "gusts",
+                 "faults", "settings", "system", "fmus", "allow_unknown_inputs", "reference", "wind", "allow_infeasible",
+                 "max_tilt", "allow_external_fmus", "remotes", "fmi", "clocks"],
+    "properties": {
+        "vehicle": {"enum": sorted(LOOPS)}, "scenario": {"enum": ["fsi", "lkf", "zse"]},
+        "trajectory": {"type": ["integer", "string"]}, "controller": {"type": "string", "minLength": 1, "maxLength": 4096},
+        "controller_fmu": _PATH, "seed": {"type": "integer", "minimum": 0, "maximum": 2**31 - 1},
+        "stop_time": {"type": ["number", "null"], "exclusiveMinimum": 0}, "delay": {"type": "boolean"},
+        "gusts": {"type": "boolean"}, "faults": _PATH, "system": _PATH, "fmus": _PATH, "wind": _PATH,
+        "settings": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "prefixItems": [{"type": "string"}]}},
+        "allow_unknown_inputs": {"type": "boolean"}, "allow_infeasible": {"type": "boolean"},
+        "allow_external_fmus": {"type": "boolean"}, "clocks": {"type": "boolean"}, "fmi": {"enum": [2, 3]},
+        "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
+        "remotes": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "string"}}},
+        "reference": {"oneOf": [{"type": "null"}, {
+            "type": "object", "additionalProperties": False, "required": ["label", "code", "settings", "start", "duration"],
+            "properties": {"label": {"type": "string"}, "code": {"type": "integer"}, "source": {"type": "string"},
+                           "settings": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2,
+                                                                   "prefixItems": [{"type": "string"}, _NUMBER]}},
+                           "start": {"type": "array", "minItems": 3, "maxItems": 3, "items": _NUMBER},
+                           "duration": {"type": "number", "exclusiveMinimum": 0},
+                           # a waypoint mission's knot table (scenario_fmu.waypoints: KNOT_COLUMNS, MAX_WAYPOINTS)
+                           "knots": {"type": "array", "maxItems": 10_000,
+                                     "items": {"type": "array", "minItems": 13, "maxItems": 13, "items": _NUMBER}}}}]},
+    },
+}
+
+
+def snapshot_options(application: dict, where) -> LoopOptions:
+    """The loop options a snapshot was taken with, checked against OPTIONS_SCHEMA (one line naming the first problem)."""
+    import jsonschema
+
+    options = application.get("options")
+    if options is None:
+        raise UserError(f"{where} was not taken by `tiltload run` (it names no loop options)")
+    errors = sorted(jsonschema.Draft202012Validator(OPTIONS_SCHEMA).iter_errors(options), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        path = ".".join(str(p) for p in err.absolute_path) or "(all)"
+        message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
+        raise UserError(f"{where}: its loop options are not a run's: options.{path}: {message}")
+    opts = LoopOptions.from_dict(options)
+    ref = opts.reference
+    if ref is not None and opts.trajectory != (ref.code if ref.code in THESIS else ref.label):
+        raise UserError(f"{where}: its loop options disagree (trajectory {opts.trajectory!r}, reference {ref.label!r}): "
+                        "edited, not taken by tiltload run")
+    return opts
+
+
 @dataclass(frozen=True)
 class LoopOptions:
     """What describes one run of the loop (or of a system file), with every default filled in."""
@@ -114,6 +168,9 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     fmi, clocks = getattr(args, "fmi", None) or 2, getattr(args, "clocks", False)
     if clocks and fmi != 3:
         raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
+    if fmi == 3 and getattr(args, "remote", None):  # before the build and the feasibility check, not at t = 0
+        raise UserError(f"--remote {args.remote[0][0]}=...: tiltload serve hosts FMI 2.0 FMUs, and the FMI 3.0 loop "
+                        f"(--fmi 3{' --clocks' if clocks else ''}) runs in the master's process: drop --remote, or drop --fmi 3")
     if args.system is not None:
         given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [])]
         if given:
@@ -164,10 +221,11 @@ class LoopSystem:
     natural_stop: float  # the stop time without --stop-time: the trajectory's duration, or the package's
 
 
-def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) -> LoopSystem:
+def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, build: bool = True) -> LoopSystem:
     """The system the options describe: the thesis's loop (FMUs built when stale), with the user's controller FMU,
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
-    prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot)."""
+    prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot). build:
+    build what is stale (a run continued from a snapshot builds nothing: it runs the build the snapshot was taken with)."""
     from ..engine.manipulators import load as load_faults
     from .fmus import build_all, fmu_folder
 
@@ -175,7 +233,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False) ->
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
-        if not prepared:
+        if not prepared and build:
             build_all(folder, progress=lambda m: print(m, file=sys.stderr), vehicles=(opts.vehicle,),  # says what it builds
                       fmi_version=opts.fmi, clocked=opts.clocks)
         from .inputs import read_wind

@@ -63,6 +63,10 @@ def read_fmu(path: Path, instance: str):
         raise DescriptionError(f"{instance}: {path} is not a valid FMU ({err})") from None
     if md.fmiVersion != "2.0" and fmi_version(md) != 3:
         raise DescriptionError(f"{instance}: {path} is FMI {md.fmiVersion}; FMI 2.0 and 3.0 co-simulation are supported")
+    if not isinstance(md.guid, str) or not md.guid.strip():  # the instantiate call passes it back: required by both standards
+        attribute = "instantiationToken" if fmi_version(md) == 3 else "guid"
+        raise DescriptionError(f"{instance}: {path} declares no {attribute} in its modelDescription.xml "
+                               f"(FMI {md.fmiVersion} requires one)")
     if md.coSimulation is None:
         kind = "scheduled-execution" if fmi_version(md) == 3 and md.scheduledExecution is not None else "model-exchange"
         raise DescriptionError(f"{instance}: {path} is a {kind}-only FMU; a co-simulation FMU is needed")

@@ -8,13 +8,19 @@ its log are those of the uninterrupted run from there on, bit for bit.
 
 On disk: one zip archive, manifest.json (the master's state as JSON: floats round-trip exactly) and
 fmu/<instance>.state (the FMUs' bytes). The zip's CRCs catch a truncated or damaged file. A snapshot
-carries a fingerprint of its system (instances, the FMUs' GUIDs, periods, timing, connections): a
-snapshot of another system or another build is refused, naming what differs. No pickle: loading a
-snapshot runs no code from it.
+carries a fingerprint of its system (instances, the FMUs' GUIDs and SHA-256 digests, a digest of each
+instance's parameters, periods, timing, connections): a snapshot of another system, another build or
+another scenario is refused, naming what differs.
+
+A snapshot is data. No pickle; the manifest is checked against SCHEMA before any of it is used; members
+are read only up to bounds checked first (a zip bomb is refused by its declared size and never read
+whole); and it never says where an FMU is: the caller locates the FMUs (the command line's folder) and
+check() compares each file's digest with the one recorded before anything is loaded.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import zipfile
 import zlib
@@ -26,7 +32,13 @@ import numpy as np
 from .errors import DescriptionError
 from .model_description import checked_value
 
-FORMAT = "tiltload-snapshot/1"
+FORMAT = "tiltload-snapshot/2"
+# bounds checked before a member is read (declared sizes) and while it is (actual bytes): a state of the loop's FMUs
+# is a few kB, a manifest tens of kB; these leave room for large third-party FMUs and refuse a zip bomb
+MAX_MANIFEST = 64 << 20
+MAX_STATE = 256 << 20
+MAX_STATES_TOTAL = 1 << 30
+MAX_MEMBERS = 4096
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
 
 
@@ -53,12 +65,30 @@ class Snapshot:
         return self.ticks_done * self.tick
 
 
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file (an FMU), read in blocks."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError as err:
+        raise SnapshotError(f"cannot read {path}: {err.strerror or err}") from None
+    return h.hexdigest()
+
+
+def parameters_digest(parameters: dict) -> str:
+    """SHA-256 of an instance's parameters as the system sets them (the scenario, trajectory, seed, wind, --set)."""
+    return hashlib.sha256(json.dumps(parameters, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def fingerprint(execution) -> dict:
     """What must be the same for a snapshot to continue in this execution."""
     system = execution.system
     return {"tick": system.tick,
             "instances": [{"name": i.name, "guid": execution.model_descriptions[i.name].guid, "every": execution.every[i.name],
-                           "timing": i.timing} for i in system.instances],
+                           "timing": i.timing, "sha256": file_digest(i.fmu), "parameters": parameters_digest(i.parameters)}
+                          for i in system.instances],
             "links": sorted([lk.source, lk.source_vr, lk.target, lk.target_vr, lk.type, lk.delay] for lk in execution.links)}
 
 
@@ -90,6 +120,14 @@ def take(execution, application: dict | None = None) -> Snapshot:
 def check(execution, snap: Snapshot) -> None:
     """Before anything is loaded: the snapshot is of this system and build, and its settings are tunable parameters."""
     check_compatible(snap.fingerprint, fingerprint(execution))
+    for name, md in execution.model_descriptions.items():  # the shapes of what restore() writes, before anything loads
+        if name not in snap.states or name not in snap.values:
+            raise SnapshotError(f"{name}: the snapshot holds no state of it")
+        outputs = {t: sum(1 for v in md.modelVariables if v.causality == "output" and v.type == t) for t in _DTYPE}
+        for t, values in snap.values[name].items():
+            if np.shape(values) != (outputs[t],):
+                raise SnapshotError(f"{name}: the snapshot holds {np.shape(values)[0] if np.ndim(values) == 1 else 'no list of'} "
+                                    f"{t} outputs, its FMU has {outputs[t]}")
     for name, values in snap.settings.items():
         if name not in execution.model_descriptions:
             raise SnapshotError(f"--set {name}.…: the system has no instance '{name}'")
@@ -108,6 +146,11 @@ def restore(execution, snap: Snapshot) -> None:
     """Put an initialized execution (same system) where the snapshot was; called before the observers start."""
     check(execution, snap)
     for name, slave in execution.instances.items():
+        if name not in snap.states or name not in snap.values:
+            raise SnapshotError(f"{name}: the snapshot holds no state of it")
+        for t, values in snap.values[name].items():  # shapes first: a mismatch is the snapshot's, said in one line
+            if t not in slave.values or np.shape(values) != slave.values[t].shape:
+                raise SnapshotError(f"{name}: the snapshot's {t} outputs do not match its FMU's")
         slave.set_state(snap.states[name])
         for t, values in snap.values[name].items():
             slave.values[t][:] = np.asarray(values, dtype=_DTYPE[t])
@@ -123,7 +166,10 @@ def restore_loop(execution, snap: Snapshot) -> None:
     loop = execution.loop
     for name, lines in zip(loop.names, loop.delay_line()):
         for t, array in lines.items():
-            array[:] = np.asarray(snap.delay_lines[name][t], dtype=array.dtype)
+            saved = snap.delay_lines.get(name, {}).get(t)
+            if saved is None or np.shape(saved) != array.shape:
+                raise SnapshotError(f"{name}: the snapshot's {t} delay line does not match this system's")
+            array[:] = np.asarray(saved, dtype=array.dtype)
     loop.plan.ticks_done = snap.ticks_done
     same_faults = [describe(f) for f in execution.system.faults] == snap.faults
     if execution.manipulator is not None and same_faults and snap.manipulator is not None:
@@ -152,6 +198,12 @@ def check_compatible(theirs: dict, mine: dict) -> None:
         for key in ("every", "timing"):
             if a[name][key] != b[name][key]:
                 raise SnapshotError(f"{name}: its {key} differs from the snapshot's ({a[name][key]} there, {b[name][key]} here)")
+        if a[name]["sha256"] != b[name]["sha256"]:
+            raise SnapshotError(f"{name}: its FMU is not the file the snapshot was taken with (SHA-256 {a[name]['sha256'][:12]}… "
+                                f"there, {b[name]['sha256'][:12]}… here): nothing was loaded")
+        if a[name]["parameters"] != b[name]["parameters"]:
+            raise SnapshotError(f"{name}: its parameters differ from those the snapshot was taken with (another scenario, "
+                                "trajectory, seed, wind or --set: the snapshot's options were edited, or are of another run)")
     if theirs["links"] != mine["links"]:
         raise SnapshotError("the snapshot's system is connected differently")
 
@@ -177,8 +229,72 @@ def write(snap: Snapshot, path: Path) -> Path:
     return path
 
 
-_REQUIRED = ("format", "tick", "ticks_done", "fingerprint", "values", "delay_lines", "faults", "manipulator", "observers",
-             "application", "states")
+_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"  # an instance's name (system.SCHEMA's): also the file name of its state
+_NUMBERS = {"type": "array", "items": {"type": ["number", "boolean"]}}
+_BY_TYPE = {"type": "object", "propertyNames": {"enum": list(_DTYPE)}, "additionalProperties": {"type": "array"}}
+SCHEMA = {
+    "type": "object",
+    "required": ["format", "tick", "ticks_done", "fingerprint", "values", "delay_lines", "faults", "manipulator", "observers",
+                 "application", "states"],
+    "additionalProperties": False,
+    "properties": {
+        "format": {"const": FORMAT},
+        "tick": {"type": "number", "exclusiveMinimum": 0},
+        "ticks_done": {"type": "integer", "minimum": 0, "maximum": 2**53},
+        "fingerprint": {
+            "type": "object", "required": ["tick", "instances", "links"], "additionalProperties": False,
+            "properties": {
+                "tick": {"type": "number", "exclusiveMinimum": 0},
+                "instances": {"type": "array", "minItems": 1, "maxItems": MAX_MEMBERS, "items": {
+                    "type": "object", "required": ["name", "guid", "every", "timing", "sha256", "parameters"],
+                    "additionalProperties": False,
+                    "properties": {"name": {"type": "string", "pattern": _NAME}, "guid": {"type": ["string", "null"]},
+                                   "every": {"type": "integer", "minimum": 1}, "timing": {"type": ["string", "null"]},
+                                   "sha256": {"type": "string", "pattern": "^[0-9a-f]{64}$"},
+                                   "parameters": {"type": "string", "pattern": "^[0-9a-f]{64}$"}}}},
+                "links": {"type": "array", "items": {"type": "array"}}}},
+        "values": {"type": "object", "propertyNames": {"pattern": _NAME},
+                   "additionalProperties": {**_BY_TYPE, "additionalProperties": _NUMBERS}},
+        "delay_lines": {"type": "object", "propertyNames": {"pattern": _NAME}, "additionalProperties": _BY_TYPE},
+        "faults": {"type": "array"},
+        "manipulator": {"type": ["object", "null"]},
+        "observers": {"type": "object", "additionalProperties": {"type": "object"}},
+        "application": {"type": "object"},
+        "states": {"type": "array", "maxItems": MAX_MEMBERS, "uniqueItems": True, "items": {"type": "string", "pattern": _NAME}},
+    },
+}
+
+
+def check_manifest(manifest, where) -> None:
+    """The manifest's shape (SCHEMA): the first problem, named by its path, in one line."""
+    import jsonschema
+
+    if isinstance(manifest, dict) and manifest.get("format") != FORMAT:
+        found = manifest.get("format")
+        older = isinstance(found, str) and found.startswith("tiltload-snapshot/")
+        raise SnapshotError(f"{where} is not a tiltload snapshot (format {found!r}, expected {FORMAT})"
+                            + ("; it was taken by another version of tiltload: take it again" if older else ""))
+    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(manifest), key=lambda e: list(e.absolute_path))
+    if errors:
+        err = errors[0]
+        path = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+        message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
+        raise SnapshotError(f"{where}: its manifest is not a snapshot's: {path}: {message}")
+
+
+def _read_member(z: zipfile.ZipFile, name: str, limit: int, where) -> bytes:
+    """A member of the archive, refused by its declared size and never read past limit (a zip bomb stays unread)."""
+    try:
+        info = z.getinfo(name)
+    except KeyError:
+        raise SnapshotError(f"{where} is not a complete snapshot (no {name})") from None
+    if info.file_size > limit:
+        raise SnapshotError(f"{where}: {name} declares {info.file_size} bytes, more than a snapshot holds ({limit}): refused unread")
+    with z.open(info) as f:
+        data = f.read(limit + 1)
+    if len(data) > limit:
+        raise SnapshotError(f"{where}: {name} holds more than {limit} bytes: refused")
+    return data
 
 
 def read(path: Path) -> Snapshot:
@@ -186,27 +302,39 @@ def read(path: Path) -> Snapshot:
     if not path.is_file():
         raise SnapshotError(f"snapshot {path} does not exist")
     try:
-        with zipfile.ZipFile(path) as z:
-            bad = z.testzip()
-            if bad is not None:
-                raise SnapshotError(f"{path} is damaged ({bad} fails its CRC)")
-            manifest = json.loads(z.read("manifest.json"))
-            if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
-                raise SnapshotError(f"{path} is not a tiltload snapshot (format {manifest.get('format')!r}, expected {FORMAT})"
-                                    if isinstance(manifest, dict) else f"{path} is not a tiltload snapshot")
-            missing = [k for k in _REQUIRED if k not in manifest]
-            if missing:
-                raise SnapshotError(f"{path} is not a complete snapshot (no {', '.join(missing)})")
-            states = {name: z.read(f"fmu/{name}.state") for name in manifest["states"]}
+        with open(path, "rb") as f:
+            return _read_open(f, path)
+    except OSError as err:
+        raise SnapshotError(f"{path} cannot be read: {err.strerror or err}") from None
+
+
+def _read_open(f, path: Path) -> Snapshot:
+    try:
+        with zipfile.ZipFile(f) as z:
+            members = z.infolist()
+            if len(members) > MAX_MEMBERS:
+                raise SnapshotError(f"{path} holds {len(members)} files, more than a snapshot does ({MAX_MEMBERS})")
+            manifest = json.loads(_read_member(z, "manifest.json", MAX_MANIFEST, path))
+            if not isinstance(manifest, dict):
+                raise SnapshotError(f"{path} is not a tiltload snapshot")
+            check_manifest(manifest, path)
+            declared = sum(z.getinfo(f"fmu/{name}.state").file_size for name in manifest["states"]
+                           if f"fmu/{name}.state" in z.NameToInfo)
+            if declared > MAX_STATES_TOTAL:
+                raise SnapshotError(f"{path}: its states declare {declared} bytes, more than a snapshot holds "
+                                    f"({MAX_STATES_TOTAL}): refused unread")
+            states = {name: _read_member(z, f"fmu/{name}.state", MAX_STATE, path) for name in manifest["states"]}
     except SnapshotError:
         raise
-    except zipfile.BadZipFile:
+    except zipfile.BadZipFile as err:
+        if "CRC" in str(err):
+            raise SnapshotError(f"{path} is damaged ({err})") from None
         raise SnapshotError(f"{path} is not a snapshot, or it is truncated (not a whole zip archive)") from None
-    except KeyError as err:
-        raise SnapshotError(f"{path} is not a complete snapshot (no {err.args[0]})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise SnapshotError(f"{path}: its manifest is not JSON ({err})") from None
-    except (OSError, EOFError, zlib.error) as err:
+    except RecursionError:
+        raise SnapshotError(f"{path}: its manifest is nested too deeply to be a snapshot's") from None
+    except (OSError, EOFError, zlib.error, NotImplementedError, ValueError) as err:
         raise SnapshotError(f"{path} cannot be read: {err}") from None
     return Snapshot(manifest["tick"], manifest["ticks_done"], manifest["fingerprint"], states, manifest["values"],
                     manifest["delay_lines"], manifest["faults"], manifest["manipulator"], manifest["observers"],
@@ -221,12 +349,10 @@ def to_bytes(snap: Snapshot) -> bytes:
         return write(snap, Path(tmp) / "s.snapshot").read_bytes()
 
 
-def from_bytes(data: bytes) -> Snapshot:
-    import tempfile
+def from_bytes(data: bytes, where: str = "the snapshot") -> Snapshot:
+    """A snapshot file's bytes (as campaign workers receive them), read with the same checks and bounds as read()."""
+    import io
 
-    with tempfile.TemporaryDirectory(prefix="tiltload_snapshot_") as tmp:
-        path = Path(tmp) / "s.snapshot"
-        path.write_bytes(data)
-        return read(path)
+    return _read_open(io.BytesIO(data), where)
 
 

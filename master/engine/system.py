@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -63,8 +64,12 @@ def parse_address(text: str, port_zero: bool = False) -> tuple[str, int]:
         raise ValueError(f"'{text}' is not HOST:PORT (e.g. 127.0.0.1:7390)")
     if host.startswith("[") and host.endswith("]"):
         host = host[1:-1]
+        if not re.fullmatch(r"[0-9A-Fa-f:.]+(%[\w.-]+)?", host):
+            raise ValueError(f"'{text}': {host!r} is not an IPv6 address")
     elif ":" in host:
         raise ValueError(f"'{text}': an IPv6 address goes in brackets ([::1]:7390)")
+    elif not re.fullmatch(r"[A-Za-z0-9]([A-Za-z0-9_.-]{0,252})", host):  # a host name or IPv4 address (RFC 1123's letters)
+        raise ValueError(f"'{text}': {host!r} is not a host name or address")
     return host, int(port)
 
 

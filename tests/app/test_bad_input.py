@@ -6,6 +6,7 @@ import copy
 import json
 import os
 import re
+import shutil
 import zipfile
 from pathlib import Path
 
@@ -368,4 +369,230 @@ def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbeha
             problems.append(f"{label}: {lines[0]}")
         elif "error" not in lines[0]:
             problems.append(f"{label}: not an error line: {lines[0]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 37, trust boundaries (branch trust-snapshot): snapshots, remote options and token files, FMI 3.0 options.
+# Kept apart from the cases above (and from the input-file layer's) so that merges stay simple. Every case here is
+# refused with one line and exit 2: a user's to fix.
+# ====================================================================================================================
+
+SNAPSHOT_KEYS = ("format", "tick", "ticks_done", "fingerprint", "values", "delay_lines", "faults", "manipulator", "observers",
+                 "application", "states")
+OPTION_KEYS = ("vehicle", "scenario", "trajectory", "controller", "controller_fmu", "seed", "stop_time", "delay", "gusts",
+               "faults", "settings", "system", "fmus", "allow_unknown_inputs", "reference", "wind", "allow_infeasible",
+               "max_tilt", "allow_external_fmus", "remotes", "fmi", "clocks")
+
+
+def _snapshot_with(src: Path, dest: Path, manifest=None, members: dict | None = None, drop: tuple = ()) -> Path:
+    """src's archive with its manifest replaced (a function of the parsed one, or raw bytes) and members added or
+    dropped."""
+    with zipfile.ZipFile(src) as z, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in z.infolist():
+            if item.filename in drop:
+                continue
+            data = z.read(item.filename)
+            if item.filename == "manifest.json" and manifest is not None:
+                data = manifest if isinstance(manifest, bytes) else json.dumps(manifest(json.loads(data))).encode()
+            out.writestr(item.filename, data)
+        for name, data in (members or {}).items():
+            out.writestr(name, data)
+    return dest
+
+
+def _at(path: tuple, value):
+    """A manifest edit: set (or with value KeyError, delete) the item at path."""
+    def edit(m):
+        target = m
+        for key in path[:-1]:
+            target = target[key]
+        if value is KeyError:
+            del target[path[-1]]
+        else:
+            target[path[-1]] = value
+        return m
+    return edit
+
+
+def _snapshot_cases(folder: Path, good: Path) -> list[tuple[str, list[str]]]:
+    cases = []
+    edits = [(f"no {key}", (key,), KeyError) for key in SNAPSHOT_KEYS]
+    edits += [(f"{key} a list", (key,), []) for key in SNAPSHOT_KEYS if key not in ("faults", "states")]
+    edits += [("unknown key", ("extra",), 1), ("format 1", ("format",), "tiltload-snapshot/1"), ("format null", ("format",), None),
+              ("ticks_done -1", ("ticks_done",), -1), ("ticks_done 1.5", ("ticks_done",), 1.5),
+              ("ticks_done a string", ("ticks_done",), "1"), ("ticks_done 2^60", ("ticks_done",), 2**60),
+              ("tick 0", ("tick",), 0), ("tick -0.012", ("tick",), -0.012), ("tick true", ("tick",), True),
+              ("no instances", ("fingerprint", "instances"), []), ("instances an object", ("fingerprint", "instances"), {}),
+              ("sha256 not hex", ("fingerprint", "instances", 0, "sha256"), "zz"),
+              ("sha256 of another file", ("fingerprint", "instances", 3, "sha256"), "0" * 64),
+              ("every 0", ("fingerprint", "instances", 0, "every"), 0),
+              ("instance name a path", ("fingerprint", "instances", 0, "name"), "../x"),
+              ("state name a path", ("states",), ["../../etc/passwd"]), ("state names not strings", ("states",), [1]),
+              ("states repeated", ("states",), ["plant", "plant"]), ("values of a path", ("values", "../x"), {}),
+              ("values of an unknown type", ("values", "plant", "Complex"), [1]),
+              ("values not numbers", ("values", "plant", "Real"), ["x"]),
+              ("values the wrong length", ("values", "plant", "Real"), [1.0]),
+              ("observers a list", ("observers",), []), ("application options missing", ("application", "options"), KeyError),
+              ("stop -1", ("application", "stop"), -1), ("stop a string", ("application", "stop"), "x"),
+              ("schedule unknown", ("application", "schedule"), "chaos")]
+    edits += [(f"option {key} missing", ("application", "options", key), KeyError) for key in OPTION_KEYS]
+    edits += [(f"option {key} a list", ("application", "options", key), [[]]) for key in OPTION_KEYS if key not in ("settings", "remotes")]
+    edits += [("option unknown", ("application", "options", "colour"), "red"),
+              ("options of another scenario", ("application", "options", "scenario"), "lkf"),
+              ("options of another seed", ("application", "options", "seed"), 7),
+              ("options of another trajectory", ("application", "options", "trajectory"), 2),
+              ("options without gusts", ("application", "options", "gusts"), False),
+              ("options of the UAV alone", ("application", "options", "vehicle"), "uav"),
+              ("options naming a controller FMU", ("application", "options", "controller_fmu"), str(good)),
+              ("options naming a system", ("application", "options", "system"), str(good)),
+              ("options at FMI 3.0", ("application", "options", "fmi"), 3)]
+    for i, (label, path, value) in enumerate(edits):
+        snap = _snapshot_with(good, folder / f"snap_{i}.snapshot", _at(path, value))
+        cases.append((f"snapshot {label}", ["run", "--from-snapshot", str(snap)]))
+    raw = {"manifest not JSON": b"{", "manifest a list": b"[]", "manifest nested 100000 deep": b"[" * 100_000,
+           "manifest binary": bytes(range(256))}
+    for i, (label, data) in enumerate(raw.items()):
+        cases.append((f"snapshot {label}", ["run", "--from-snapshot", str(_snapshot_with(good, folder / f"raw_{i}.snapshot", data))]))
+    cases.append(("snapshot without its manifest", ["run", "--from-snapshot",
+                                                    str(_snapshot_with(good, folder / "nomanifest.snapshot", drop=("manifest.json",)))]))
+    cases.append(("snapshot without a state", ["run", "--from-snapshot",
+                                               str(_snapshot_with(good, folder / "nostate.snapshot", drop=("fmu/plant.state",)))]))
+    fifo = folder / "snapshot.fifo"
+    os.mkfifo(fifo)
+    for label, path in {"a folder": folder, "a FIFO": fifo, "a device": Path("/dev/zero"), "missing": folder / "nope.snapshot",
+                        "a text file": folder / "raw_yaml.json"}.items():
+        cases.append((f"snapshot {label}", ["run", "--from-snapshot", str(path)]))
+    for stop in ["0.1", "0.5"]:
+        cases.append((f"continued run stopping at {stop} s", ["run", "--from-snapshot", str(good), "--stop-time", stop]))
+    for flag in (["--scenario", "lkf"], ["--controller", "dlqr"], ["--controller", str(good)], ["--system", str(good)],
+                 ["--fmi", "3"], ["--clocks"], ["--wind", str(good)], ["--snapshot-at", "0.7", str(folder / "x.snapshot")]):
+        cases.append((f"continued run with {flag[0]}", ["run", "--from-snapshot", str(good), *flag]))
+    cases.append(("campaign from a damaged snapshot", ["campaign", str(_branch_spec(folder, "snap_0.snapshot"))]))
+    lkf = next(i for i, edit in enumerate(edits) if edit[0] == "options of another scenario")
+    cases.append(("campaign from another scenario's", ["campaign", str(_branch_spec(folder, f"snap_{lkf}.snapshot"))]))
+    return cases
+
+
+def _branch_spec(folder: Path, snapshot: str) -> Path:
+    path = folder / f"branch_{snapshot}.toml"
+    path.write_text(f'name = "b"\n[base]\nsnapshot = "{snapshot}"\nstop_time = 1.0\n[vary]\nseeds = [1, 2]\n')
+    return path
+
+
+def _remote_cases(folder: Path, fmus: Path) -> list[tuple[str, list[str]]]:
+    from support.remote import token_file
+
+    good = token_file(folder, "good_token")
+    kinds = {"missing": folder / "no_token", "a folder": folder, "a device": Path("/dev/zero"), "a FIFO": folder / "token.fifo",
+             "world-readable": folder / "loose_token", "short": folder / "short_token", "large": folder / "large_token",
+             "empty": folder / "empty_token"}
+    os.mkfifo(kinds["a FIFO"], 0o600)
+    kinds["world-readable"].write_text("x" * 40)
+    kinds["world-readable"].chmod(0o644)
+    kinds["short"].write_text("abc\n")
+    kinds["large"].write_bytes(b"x" * 5000)
+    kinds["empty"].write_bytes(b"")
+    for path in (kinds["short"], kinds["large"], kinds["empty"]):
+        path.chmod(0o600)
+    remote = ["run", "--remote", "controller=127.0.0.1:9"]
+    serve = ["serve", "--fmus", str(fmus)]
+    cases = []
+    for label, path in kinds.items():
+        cases.append((f"run token file {label}", [*remote, "--token-file", str(path)]))
+        cases.append((f"serve token file {label}", [*serve, "--token-file", str(path)]))
+    cases.append(("run remote without a token file", remote))
+    for value in ["controller", "controller=", "=127.0.0.1:9", "controller=host", "controller=host:0", "controller=host:99999",
+                  "controller=:9", "controller=127.0.0.1:x", "controller=a b:9", ""]:
+        cases.append((f"remote {value!r}", ["run", "--remote", value, "--token-file", str(good)]))
+    for option in ["--handshake-timeout", "--idle-timeout"]:
+        for value in [*BAD_NUMBERS, "1e12", "86401", "1e300"]:
+            cases.append((f"serve {option}={value!r}", [*serve, "--token-file", str(good), option, value]))
+    for value in ["0", "-1", "x", "1.5", "1e3", "99999", ""]:
+        cases.append((f"serve clients-per-fmu={value!r}", [*serve, "--token-file", str(good), "--clients-per-fmu", value]))
+    for value in ["x", "1.2.3.4:99999", ":", "host:-1", ""]:
+        cases.append((f"serve bind={value!r}", [*serve, "--token-file", str(good), "--bind", value]))
+    cases.append(("serve a missing folder", ["serve", "--fmus", str(folder / "nowhere"), "--token-file", str(good)]))
+    for value in ["1e12", "86401", "1e300"]:
+        cases.append((f"step-timeout={value!r}", ["run", "--step-timeout", value]))
+    for value in ["0", "1e-12", "1e6", "nan", "x"]:
+        cases.append((f"realtime={value!r}", ["run", "--realtime", value]))
+    for value in ["0", "-1", "1e12", "x"]:
+        cases.append((f"campaign connect-timeout={value!r}", ["campaign", "spec.toml", "--connect-timeout", value]))
+        cases.append((f"campaign worker-timeout={value!r}", ["campaign", "spec.toml", "--worker-timeout", value]))
+    for flag in (["--token", "SECRET-0123456789abcdef"], ["--token-f", str(good)], ["--stop", "1"], ["--from", "x"],
+                 ["--snap", "1", "x"], ["--fmu", str(fmus)], ["--step", "1"]):
+        cases.append((f"abbreviation {flag[0]}", ["run", *flag]))
+    cases.append(("serve abbreviation --token", ["serve", "--fmus", str(fmus), "--token", str(good)]))
+    return cases
+
+
+def _fmi3_cases(folder: Path, fmi3: dict[str, Path]) -> list[tuple[str, list[str]]]:
+    from support.remote import token_file
+
+    token = token_file(folder, "fmi3_token")
+    cases = []
+    for value in ["4", "1", "3.0", "x", ""]:
+        cases.append((f"fmi={value!r}", ["run", "--fmi", value]))
+    cases.append(("clocks without fmi 3", ["run", "--clocks"]))
+    cases.append(("clocks with fmi 2", ["run", "--fmi", "2", "--clocks"]))
+    for clocks in ([], ["--clocks"]):
+        cases.append((f"fmi 3{' clocks' * bool(clocks)} remote", ["run", "--fmi", "3", *clocks, "--remote",
+                                                                    "controller=127.0.0.1:9", "--token-file", str(token)]))
+    controller = fmi3["TiltloadController"]
+
+    def edited(label, edit):
+        path = folder / f"fmi3_{len(cases)}.fmu"
+        with zipfile.ZipFile(controller) as src, zipfile.ZipFile(path, "w") as out:
+            for item in src.infolist():
+                data = src.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data = edit(data.decode()).encode()
+                out.writestr(item, data)
+        cases.append((f"FMI 3.0 controller FMU: {label}", ["run", "--controller", str(path)]))
+
+    edited("no instantiationToken", lambda x: re.sub(r'\s+instantiationToken="[^"]*"', "", x))
+    edited("empty instantiationToken", lambda x: re.sub(r'instantiationToken="[^"]*"', 'instantiationToken=""', x))
+    edited("model exchange only", lambda x: x.replace("<CoSimulation", "<ModelExchange").replace("</CoSimulation", "</ModelExchange"))
+    edited("broken XML", lambda x: x[: len(x) // 2])
+    return cases
+
+
+@pytest.fixture(scope="module")
+def taken_snapshot(fmus, tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("bad_snapshots") / "good.snapshot"
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "0.5", str(path), "--fmus", str(fmus), "--no-log", "--quiet",
+                 "--no-plots"]) == 0
+    return path
+
+
+def test_trust_boundary_bad_inputs_each_get_one_line_and_exit_2(fmus, fmi3_fmus, taken_snapshot, tmp_path, capsys,
+                                                                 monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "raw_yaml.json").write_bytes(b"tick: 0.012\n")
+    shutil.copy(taken_snapshot, tmp_path / "good.snapshot")
+    good = tmp_path / "good.snapshot"
+    cases = _snapshot_cases(tmp_path, good) + _remote_cases(tmp_path, fmus) + _fmi3_cases(tmp_path, fmi3_fmus)
+    assert len(cases) >= 230, len(cases)
+    problems = []
+    for label, argv in cases:
+        if argv[:1] == ["run"]:
+            argv = [*argv, "--fmus", str(fmus), "--out", str(tmp_path / "runs"), "--stop-time", "1", "--quiet", "--no-plots",
+                    "--no-log"] if "--stop-time" not in argv else [*argv, "--fmus", str(fmus), "--quiet", "--no-log"]
+        if argv[:1] == ["campaign"]:
+            argv = [*argv, "--fmus", str(fmus), "--out", str(tmp_path / "camp"), "--workers", "1"]
+        try:
+            code = main(argv)
+        except SystemExit as exit_:  # argparse
+            code = exit_.code
+        out, err = capsys.readouterr()
+        lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("campaign ")]
+        if code != 2:
+            problems.append(f"{label}: exit {code}: {lines[-1:] or out.splitlines()[-1:]}")
+        elif len(lines) != 1:
+            problems.append(f"{label}: {len(lines)} lines on stderr: {lines[:3]}")
+        elif "Traceback" in err or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: {lines[0]}")
+        elif "error" not in lines[0] or "SECRET" in err:
+            problems.append(f"{label}: not an error line, or a secret echoed: {lines[0]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)

@@ -386,3 +386,25 @@ def test_a_server_that_is_not_there_is_one_line(fmus, token):
     with pytest.raises(ExecutionError, match=rf"controller: tiltload serve at 127.0.0.1:{port}: cannot connect \(Connection refused\)"):
         remote_fmu("controller", fmus / "TiltloadController.fmu", md, f"127.0.0.1:{port}", token)
     assert time.monotonic() - started < 5
+
+
+def test_deeply_nested_json_after_the_handshake_is_refused_in_one_line_and_no_traceback(fmus, token, server):
+    """Issue 37: 4,000 open brackets in the request for an FMU, and 100,000 in a session's request: each is refused
+    by its nesting before it is parsed (no RecursionError in the admission thread or the worker); the client gets the
+    refusal, the server goes on."""
+    sock = authenticated(server.address, token)
+    channel = Channel.over_socket(sock)
+    channel.send(b"J" + b"[" * 4000)
+    reply = wire.decode_reply(channel.receive(5))
+    assert (reply["error"], reply["message"]) == ("refused", "malformed J message (JSON nested deeper than 16)")
+    refused(server, sock, "malformed J message (JSON nested deeper than 16)")
+    sock.close()
+    md = read_fmu(fmus / "TiltloadController.fmu", "controller")
+    sock, channel = opened(server, token, md)
+    channel.send(b"J" + b"[" * 100_000)
+    reply = wire.decode_reply(channel.receive(5))
+    assert (reply["error"], reply["message"]) == ("protocol", "malformed J message (JSON nested deeper than 16)")
+    assert "session ended" in server.wait_for("malformed J message (JSON nested deeper than 16)")
+    channel.close()
+    served_fine(server, fmus, token)
+    assert not any("Traceback" in line or "RecursionError" in line for line in server.lines), server.lines

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import os
+from pathlib import Path
 
 from .address import DASHBOARD_PORT, SCHEDULER_PORT, SchedulerAddress, check_reachable, parse
 from .errors import ClusterError
@@ -112,14 +113,16 @@ def wait_for_workers(client, address: str, n: int, timeout: float) -> None:
                            f"{timeout:g} s for {n}, --worker-timeout): start them with: dask worker {address}") from None
 
 
-def local_cluster(workers: int | None, verbose: bool = False):
+def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | None = None):
     """A LocalCluster on 127.0.0.1 (its scheduler, dashboard, nannies and workers), one single-threaded worker process
-    per core unless `workers` says, ready to run; and its client."""
+    per core unless `workers` says, ready to run; and its client. scratch: the workers' local directory (the caller's
+    to remove; default: Dask's temporary-directory)."""
     from dask.distributed import Client, LocalCluster
 
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
+                           local_directory=str(scratch) if scratch is not None else None,
                            silence_logs=False if verbose else logging.CRITICAL)  # the workers' own logs: quiet
     client = Client(cluster, set_as_default=False)
     from .run_case import ready

@@ -203,15 +203,18 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot
 _SNAPSHOTS: dict[str, object] = {}  # per worker process: the snapshot of each digest, read once
 
 
-def branch_system(fmu_dir: Path, snap, faults, parameters: dict):
-    """The system a snapshot was taken of (its loop options, the FMUs of fmu_dir), with a case's faults (None: the
-    run's own) and the snapshot's settings for its tunable parameters."""
+def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str):
+    """The system a snapshot was taken of (its loop options, the FMUs of fmu_dir, the controller the spec names: a
+    snapshot never says where a file is), with a case's faults (None: the run's own) and the snapshot's settings for
+    its tunable parameters."""
     import dataclasses
 
     from ...engine.manipulators import parse
-    from ..options import LoopOptions, loop_system
+    from ..options import loop_system, snapshot_options
 
-    opts = dataclasses.replace(LoopOptions.from_dict(snap.application["options"]), fmus=fmu_dir)
+    opts = dataclasses.replace(snapshot_options(snap.application, "base.snapshot"), fmus=fmu_dir)
+    if opts.controller_fmu is not None:
+        opts = dataclasses.replace(opts, controller=controller, controller_fmu=Path(controller))
     if faults is not None:
         opts = dataclasses.replace(opts, faults=None)
     system = loop_system(opts, fmu_dir, prepared=True).system
@@ -236,14 +239,14 @@ def _snapshot(data: bytes):
     digest = hashlib.sha256(data).hexdigest()
     if digest not in _SNAPSHOTS:
         _SNAPSHOTS.clear()  # one campaign at a time per worker
-        _SNAPSHOTS[digest] = snapshot.from_bytes(data)
+        _SNAPSHOTS[digest] = snapshot.from_bytes(data, "base.snapshot")
     return digest, _SNAPSHOTS[digest]
 
 
 def _run_branch(base: dict, case: dict, fmu_dir: str, log_dir: str | None, data: bytes) -> dict:
     started = time.perf_counter()
     digest, snap = _snapshot(data)
-    system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"])
+    system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"], case["controller"])
     _check_fmus(system)
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=snap.time)  # the branch's own: from the snapshot
     observers = [metrics, *_monitor(base)]
@@ -276,7 +279,10 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     started = time.perf_counter()
     if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
-    system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    try:
+        system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+    except DescriptionError as err:  # the case's own (its controller file is not an FMU, or not one of a tick's period)
+        return {"row": error_row(case, str(err)), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     _check_fmus(system)
     stop = base["stop_time"] or default_stop(_flight(base).trajectory)
     refused = infeasible(system, stop, _flight(base))
@@ -301,6 +307,10 @@ def _execute(key, system, observers, metrics, base, case, started, restart, resu
     try:
         if execution is None:
             execution = Execution(system, observers, isolate=is_foreign)
+            if resume is not None:  # the FMUs' digests and the parameters, before anything is loaded
+                from ...engine.snapshot import check
+
+                check(execution, resume)
             execution.instantiate(resume)
         else:
             restart(execution)

@@ -111,7 +111,14 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     say = progress or (lambda text: print(text, file=sys.stderr))
     counts = {"total": len(campaign.cases), "skipped": len(campaign.cases) - len(todo), "ran": 0, "retried": 0}
     incomplete = None
-    with campaign_log(opts.verbose) as log:
+    import tempfile
+
+    import dask
+
+    # Dask's workers keep a scratch folder with lock files (dask-scratch-space/{global,purge}.lock) in its
+    # temporary-directory: a folder this campaign owns and removes, not $TMPDIR
+    with (campaign_log(opts.verbose) as log, tempfile.TemporaryDirectory(prefix="tiltload-campaign-") as scratch,
+          dask.config.set({"temporary-directory": scratch})):
         client = cluster = None
         if scheduler is not None:
             parse(scheduler)  # a malformed address is refused even with nothing to run
@@ -137,7 +144,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                     _check_branches(campaign, Path(fmus).resolve())
                 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
                 if client is None:
-                    client, cluster = local_cluster(workers, opts.verbose)
+                    client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 shared = {}
@@ -179,7 +186,7 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
     snap = snapshot.read(campaign.snapshot)
     for case in campaign.cases[:1]:
         try:
-            system, branch = branch_system(fmus, snap, campaign.faults, case.parameters)
+            system, branch = branch_system(fmus, snap, campaign.faults, case.parameters, case.controller)
             snapshot.check(Execution(system, []), branch)
         except DescriptionError as err:
             raise SpecError(f"{campaign.source}: base.snapshot: {err}") from None

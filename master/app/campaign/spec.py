@@ -243,7 +243,7 @@ def run_id(controller: str, seed: int, parameters: dict, snapshot: str | None = 
 
 
 # what a snapshot fixes: a branching campaign may not give these
-_FIXED_BY_SNAPSHOT = ("scenario", "trajectory", "wind", "controllers", "gusts", "allow_infeasible", "max_tilt")
+_FIXED_BY_SNAPSHOT = ("scenario", "trajectory", "wind", "gusts", "allow_infeasible", "max_tilt")
 TUNED_SEED = "sensors.seed"  # vary.seeds in a branching campaign: the sensors' noise after the snapshot
 
 
@@ -256,10 +256,13 @@ class Branching:
     time: float
     stop: float | None
     options: dict  # LoopOptions.to_dict() of the run it was taken in
+    controller: str  # dlqr, mixed, or the path of the user's controller FMU as the spec names it (never the snapshot)
 
 
 def _branching(base: dict, path: Path) -> Branching:
     from ...engine import snapshot
+    from ..options import snapshot_options
+    from ..user_error import UserError
 
     given = [k for k in _FIXED_BY_SNAPSHOT if k in base]
     if given:
@@ -268,15 +271,29 @@ def _branching(base: dict, path: Path) -> Branching:
     file = (path.parent / base["snapshot"]).resolve()
     try:
         snap = snapshot.read(file)
-    except snapshot.SnapshotError as err:
+        options = snapshot_options(snap.application, file)
+    except (snapshot.SnapshotError, UserError) as err:
         raise SpecError(f"{path}: base.snapshot: {err}") from None
-    options = snap.application.get("options")
-    if options is None:
-        raise SpecError(f"{path}: base.snapshot: {file} was not taken by `tiltload run` (it names no loop options)")
-    if options.get("system") is not None:
+    if options.system is not None:
         raise SpecError(f"{path}: base.snapshot: {file} is of a --system run; campaigns branch from the thesis's loop")
-    return Branching(file, hashlib.sha256(file.read_bytes()).hexdigest()[:16], snap.time, snap.application.get("stop"),
-                     options)
+    controllers = base.get("controllers")
+    if options.controller_fmu is None:
+        if controllers is not None:
+            raise SpecError(f"{path}: base.controllers: a campaign from a snapshot runs the snapshot's loop (its controller "
+                            f"is {options.controller}; drop base.controllers)")
+        controller = options.controller
+    else:  # a snapshot never says where a file is: the spec names the controller FMU, its digest is checked
+        if controllers is None or len(controllers) != 1:
+            raise SpecError(f"{path}: base.controllers: {file} was taken with the controller FMU {options.controller_fmu.name}: "
+                            "name that one file in base.controllers (its digest is checked)")
+        if not (path.parent / controllers[0]).is_file():
+            raise SpecError(f"{path}: base.controllers: {controllers[0]} is not an existing controller FMU")
+        controller = str((path.parent / controllers[0]).resolve())
+    stop = snap.application.get("stop")
+    if not (stop is None or (isinstance(stop, (int, float)) and not isinstance(stop, bool) and stop > 0)):
+        raise SpecError(f"{path}: base.snapshot: its stop time is not a positive number of seconds")
+    return Branching(file, hashlib.sha256(file.read_bytes()).hexdigest()[:16], snap.time, stop,
+                     snap.application["options"], controller)
 
 
 def load(path: Path) -> Campaign:
@@ -359,7 +376,7 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     for name, these in targets.items():
         if TUNED_SEED in these and "seeds" in vary:
             raise SpecError(f"{path}: vary.parameters.{name}: {TUNED_SEED} is what vary.seeds sets")
-    controller = options["controller_fmu"] or options["controller"]
+    controller = branching.controller
     seeds = vary.get("seeds")
     cases = []
     for point in _points(vary, path, len(seeds or [options["seed"]])):

@@ -10,7 +10,7 @@ from pathlib import Path
 from .. import arguments
 from ..errors import UserError
 
-seconds = arguments.positive_time
+HOUR = 3600.0
 
 
 def add_parser(sub) -> None:
@@ -23,10 +23,11 @@ def add_parser(sub) -> None:
                     help="an existing Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (default: a local cluster on 127.0.0.1)")
     ca.add_argument("--workers", type=arguments.whole_number, default=None,
                     help="local cluster size (default: one per core); with --scheduler: wait for this many workers (default 1)")
-    ca.add_argument("--connect-timeout", type=seconds, default=5.0, metavar="S",
-                    help="s for the scheduler to answer (default 5)")
-    ca.add_argument("--worker-timeout", type=seconds, default=30.0, metavar="S",
-                    help="s to wait for workers, before the runs and whenever none is left (default 30)")
+    ca.add_argument("--connect-timeout", type=arguments.time_span(HOUR), default=5.0, metavar="S",
+                    help=f"s for the scheduler to answer (default 5; at most {HOUR:g})")
+    ca.add_argument("--worker-timeout", type=arguments.time_span(arguments.DAY), default=30.0, metavar="S",
+                    help=f"s to wait for workers, before the runs and whenever none is left (default 30; at most "
+                         f"{arguments.DAY:g})")
     ca.add_argument("--retries", type=arguments.integer(0, 100), default=2,
                     help="further tries of a run whose environment failed (a worker without the FMUs...), default 2")
     ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")

@@ -20,8 +20,9 @@ def add_parser(sub) -> None:
     r.add_argument("--trust-fmus", action="store_true",
                    help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
                         "process, so a crash, exit() or hang in one ends the run with one line)")
-    r.add_argument("--step-timeout", type=arguments.positive_time, default=None, metavar="S",
-                   help="watchdog for an FMU in its own process: the longest a call may take (default 10 s)")
+    r.add_argument("--step-timeout", type=arguments.time_span(arguments.DAY), default=None, metavar="S",
+                   help=f"watchdog for an FMU in its own process: the longest a call may take (default 10 s; at most "
+                        f"{arguments.DAY:g} s)")
     r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
                    help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
@@ -38,8 +39,9 @@ def add_parser(sub) -> None:
                    help="at t = T s write every FMU's state and the master's to FILE (the run goes on)")
     r.add_argument("--from-snapshot", type=Path, default=None, metavar="FILE",
                    help="continue the run a snapshot was taken of (with --faults, --set of tunable parameters, --stop-time)")
-    r.add_argument("--realtime", type=arguments.positive_number, nargs="?", const=1.0, default=None, metavar="FACTOR",
-                   help="pace the ticks against the monotonic clock, FACTOR x real time (default 1); overruns are reported")
+    r.add_argument("--realtime", type=arguments.realtime_factor, nargs="?", const=1.0, default=None, metavar="FACTOR",
+                   help=f"pace the ticks against the monotonic clock, FACTOR x real time (default 1; from "
+                        f"{1 / arguments.MAX_REALTIME_FACTOR:g} to {arguments.MAX_REALTIME_FACTOR:g}); overruns are reported")
     r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
                    help="with --realtime: stop the run once more than N ticks missed their deadline")
     r.set_defaults(func=run)
@@ -73,28 +75,51 @@ def _with_token(system, token_file: Path | None) -> None:
 # (their argparse defaults: None or False, so a given option is one that is neither)
 _LOOP_DEFINING = ("vehicle", "scenario", "trajectory", "controller", "seed", "delay", "no_gusts", "system", "schedule",
                   "allow_unknown_inputs", "wind", "fmi", "clocks")
+# files the snapshot names but never locates: the command line gives them again, and their digests are checked
+_NAMED_FILES = {"controller": "controller_fmu", "system": "system"}
 
 
 def _branch(args: argparse.Namespace):
-    """(snapshot, the loop options it was taken with, this run's faults and stop time instead of its own)."""
+    """(snapshot, the loop options it was taken with, this run's faults and stop time instead of its own).
+    A snapshot is data: its FMUs are those of the command line's folder (--fmus, default fmus/), and a controller FMU or
+    system file of the user's is the one the command line names again; snapshot.check compares each with the digests
+    recorded before anything is loaded."""
     from ...engine import snapshot
-    from ..options import LoopOptions
+    from ..arguments import DEFAULT_FMU_DIR
+    from ..options import snapshot_options
 
-    given = [f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING if getattr(args, k, None) not in (None, False)]
-    if given:
-        raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says which "
-                        "loop it is; --faults, --set of tunable parameters and --stop-time can)")
+    def refuse(given: list[str]) -> None:
+        if given:
+            raise UserError(f"--from-snapshot: {', '.join(given)} cannot change in a continued run (the snapshot says "
+                            "which loop it is; --faults, --set of tunable parameters and --stop-time can)")
+
+    refuse([f"--{k.replace('_', '-')}" for k in _LOOP_DEFINING if getattr(args, k, None) not in (None, False)
+            and k not in _NAMED_FILES])  # before the file is read; --controller and --system once it says which it needs
     if args.snapshot_at is not None:
         raise UserError("--from-snapshot and --snapshot-at together: continue first, then take a new snapshot in a later run")
     snap = snapshot.read(args.from_snapshot)
-    if "options" not in snap.application:
-        raise UserError(f"{args.from_snapshot} was not taken by `tiltload run` (it names no loop options)")
+    opts = snapshot_options(snap.application, args.from_snapshot)
+    stop, schedule = snap.application.get("stop"), snap.application.get("schedule")
+    if not (stop is None or (isinstance(stop, (int, float)) and not isinstance(stop, bool) and 0 < stop < float("inf"))):
+        raise UserError(f"{args.from_snapshot}: its stop time is not a positive number of seconds ({stop!r})")
+    if schedule not in (None, "ordered", "jacobi"):
+        raise UserError(f"{args.from_snapshot}: its schedule {str(schedule)[:40]!r} is neither ordered nor jacobi")
+    needed = {flag: getattr(opts, field) for flag, field in _NAMED_FILES.items() if getattr(opts, field) is not None}
+    refuse([f"--{k}" for k in _NAMED_FILES if getattr(args, k, None) is not None and k not in needed])
     import dataclasses
 
-    opts = LoopOptions.from_dict(snap.application["options"])
+    for flag, recorded in needed.items():
+        path = getattr(args, flag)
+        if path is None:
+            raise UserError(f"--from-snapshot {args.from_snapshot}: it was taken with the {flag} file {Path(recorded).name}: "
+                            f"name it again with --{flag} PATH (a snapshot never says where files are; its digest is checked)")
+        if not Path(path).is_file():
+            raise UserError(f"--{flag} {path}: no such file")
+        opts = dataclasses.replace(opts, **({"controller": str(path), "controller_fmu": Path(path)} if flag == "controller"
+                                            else {"system": Path(path)}))
     _same_places(dict(opts.remotes), dict(args.remote), args.from_snapshot)
-    opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults, fmus=args.fmus or opts.fmus,
-                               stop_time=args.stop_time or snap.application.get("stop") or opts.stop_time,
+    opts = dataclasses.replace(opts, faults=args.faults if args.faults is not None else opts.faults,
+                               fmus=args.fmus or DEFAULT_FMU_DIR, stop_time=args.stop_time or stop or opts.stop_time,
                                remotes=tuple(args.remote))  # where an instance runs is this run's, not the snapshot's
     branch: dict[str, dict] = {}
     for key, value in args.set:
@@ -143,7 +168,8 @@ def _metadata(opts, stop: float) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
-        print("tiltload run: preparing " + (f"the system {args.system}" if args.system else
+        print("tiltload run: preparing " + (f"the run continued from {args.from_snapshot}" if args.from_snapshot else
+                                            f"the system {args.system}" if args.system else
                                             f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
               + " ...", flush=True)
     from ....controller_fmu.design.cache import cache_root
@@ -170,8 +196,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         opts = resolve_loop(args)
     checkpoint = _snapshot_at(args)
-    loop = loop_system(opts, cache_root() / "ssp")
+    loop = loop_system(opts, cache_root() / "ssp", build=snap is None)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
+    if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
+        raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
     _with_token(system, args.token_file)
     schedule = (snap.application.get("schedule") if snap else None) or args.schedule or loop.schedule
     if schedule == "jacobi":

@@ -28,6 +28,7 @@ NONCE = 32
 MAC = hashlib.sha256().digest_size
 ACCEPTED, REFUSED = b"\x01", b"\x00"
 MIN_SECRET = 16  # bytes in the token file (after surrounding white space)
+MAX_TOKEN_FILE = 4096  # bytes: a secret is tens of bytes; a larger "token file" is the wrong file
 PROTOCOL = 1  # what the client's request for an FMU, which follows the handshake, says it speaks
 OPEN_LIMIT = 4096  # bytes of that request and of the server's answer
 
@@ -39,15 +40,26 @@ class HandshakeFailed(Exception):
 def read_token(path: Path) -> bytes:
     """The shared secret of a token file, which only its owner may read; a DescriptionError names what is wrong."""
     path = Path(path)
-    try:
-        info = path.stat()
-        data = path.read_bytes().strip()
+    try:  # opened without blocking (a FIFO with no writer), its type and size checked on the open file, then read
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
         raise DescriptionError(f"token file {path}: {err.strerror or err}") from None
-    if not stat.S_ISREG(info.st_mode):
-        raise DescriptionError(f"token file {path} is not a file")
-    if info.st_mode & 0o077:
-        raise DescriptionError(f"token file {path} can be read by other users (chmod 600 {path})")
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise DescriptionError(f"token file {path} is not a regular file")
+        if info.st_mode & 0o077:
+            raise DescriptionError(f"token file {path} can be read by other users (chmod 600 {path})")
+        if info.st_size > MAX_TOKEN_FILE:
+            raise DescriptionError(f"token file {path} holds {info.st_size} bytes; a token file holds at most {MAX_TOKEN_FILE}")
+        data = os.read(fd, MAX_TOKEN_FILE + 1)
+    except OSError as err:
+        raise DescriptionError(f"token file {path}: {err.strerror or err}") from None
+    finally:
+        os.close(fd)
+    if len(data) > MAX_TOKEN_FILE:
+        raise DescriptionError(f"token file {path} grew past {MAX_TOKEN_FILE} bytes while it was read")
+    data = data.strip()
     if len(data) < MIN_SECRET:
         raise DescriptionError(f"token file {path} holds {len(data)} bytes; a secret of at least {MIN_SECRET} is needed "
                                f"(e.g. head -c 32 /dev/urandom | base64 > {path})")

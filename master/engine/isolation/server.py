@@ -33,6 +33,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..argument_types import DAY, integer, time_span
 from ..errors import DescriptionError
 from ..model_description import read_fmu
 from . import handshake, wire
@@ -424,20 +425,8 @@ def _address(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(str(err)) from None
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
-    return value
-
-
-def _count(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text}")
-    return int(text)
+MAX_HANDSHAKE = 3600.0  # s: a client names its FMU in milliseconds; an hour is generous and far from any overflow
+MAX_CLIENTS_PER_FMU = 1024
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -449,11 +438,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--token-file", type=Path, required=True, metavar="FILE",
                    help="the shared secret (at least 16 bytes, readable by you only) a master must prove, as "
                         "tiltload run --token-file")
-    p.add_argument("--clients-per-fmu", type=_count, default=1, metavar="N", help="sessions one FMU serves at a time (default 1)")
-    p.add_argument("--handshake-timeout", type=_positive, default=5.0, metavar="S",
-                   help="the time a client has from connecting to naming its FMU (default 5 s)")
-    p.add_argument("--idle-timeout", type=_positive, default=600.0, metavar="S",
-                   help="a session ends after this long without a request from its master (default 600 s)")
+    p.add_argument("--clients-per-fmu", type=integer(1, MAX_CLIENTS_PER_FMU), default=1, metavar="N",
+                   help=f"sessions one FMU serves at a time (default 1; at most {MAX_CLIENTS_PER_FMU})")
+    p.add_argument("--handshake-timeout", type=time_span(MAX_HANDSHAKE), default=5.0, metavar="S",
+                   help=f"the time a client has from connecting to naming its FMU (default 5 s; at most {MAX_HANDSHAKE:g} s)")
+    p.add_argument("--idle-timeout", type=time_span(DAY), default=600.0, metavar="S",
+                   help=f"a session ends after this long without a request from its master (default 600 s; at most {DAY:g} s)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -490,7 +480,7 @@ def main() -> None:
     def terminated(signum, frame):
         raise _Terminated()
     signal.signal(signal.SIGTERM, terminated)
-    p = argparse.ArgumentParser(prog="python -m tiltload.master.engine.isolation.server",
+    p = argparse.ArgumentParser(prog="python -m tiltload.master.engine.isolation.server", allow_abbrev=False,
                                 description="Serve the FMUs of a folder to tiltload masters elsewhere (docs/remote.md).")
     add_arguments(p)
     try:

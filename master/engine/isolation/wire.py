@@ -58,14 +58,48 @@ def control(message: dict) -> bytes:
     return CONTROL + json.dumps(message, default=_json_default, allow_nan=False).encode()
 
 
+MAX_DEPTH = 16  # nesting of a message's JSON: ours go 3 deep; a deeper one is refused before it is parsed
+
+
+def _nesting(data: bytes) -> int:
+    """How deep JSON's arrays and objects nest in data (brackets inside strings not counted)."""
+    if data.count(b"[") + data.count(b"{") <= MAX_DEPTH:  # the common case: no scan
+        return 0
+    depth = deepest = 0
+    in_string = escaped = False
+    for c in data:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif c == 0x5C:  # backslash
+                escaped = True
+            elif c == 0x22:
+                in_string = False
+        elif c == 0x22:
+            in_string = True
+        elif c in (0x5B, 0x7B):
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in (0x5D, 0x7D):
+            depth -= 1
+    return deepest
+
+
+def loads(data: bytes, what: str):
+    """JSON from a peer, its nesting bounded before it is parsed; a ProtocolError naming what it should have been."""
+    if _nesting(data) > MAX_DEPTH:
+        raise ProtocolError(f"malformed {what} (JSON nested deeper than {MAX_DEPTH})")
+    try:
+        return json.loads(data.decode())
+    except (UnicodeDecodeError, ValueError, RecursionError) as err:
+        raise ProtocolError(f"malformed {what} ({err})") from None
+
+
 def decode_control(body: bytes) -> dict:
     """The JSON object of a b"J" frame, or a ProtocolError."""
     if body[:1] != CONTROL:
         raise ProtocolError(f"expected a J message, got {body[:1]!r}")
-    try:
-        message = json.loads(body[1:].decode())
-    except (UnicodeDecodeError, ValueError) as err:
-        raise ProtocolError(f"malformed J message ({err})") from None
+    message = loads(body[1:], "J message")
     if not isinstance(message, dict):
         raise ProtocolError("malformed J message (not an object)")
     return message
@@ -166,10 +200,7 @@ def decode_outputs(body: bytes, targets: dict) -> list:
         at += n * WIDTH[t]
     if at == len(body):
         return []
-    try:
-        return _decode_log(json.loads(body[at:].decode()))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise ProtocolError(f"malformed log lines ({err})") from None
+    return _decode_log(loads(body[at:], "log lines"))
 
 
 def decode_reply(body: bytes) -> dict:
@@ -201,7 +232,4 @@ def decode_state(body: bytes) -> tuple[bytes, list]:
     state, rest = body[at:at + n], body[at + n:]
     if not rest:
         return state, []
-    try:
-        return state, _decode_log(json.loads(rest.decode()))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise ProtocolError(f"malformed log lines ({err})") from None
+    return state, _decode_log(loads(rest, "log lines"))

@@ -16,6 +16,7 @@ import signal
 import socket
 import sys
 
+from ..argument_types import DAY, time_span
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -150,13 +151,13 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
 def main() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the master's (or the server's) to handle
     _die_with_parent()
-    p = argparse.ArgumentParser(prog="worker")
+    p = argparse.ArgumentParser(prog="worker", allow_abbrev=False)
     p.add_argument("fmu")
     p.add_argument("name")
     link = p.add_mutually_exclusive_group(required=True)
     link.add_argument("--pipes", type=int, nargs=2, metavar=("REQUESTS", "REPLIES"))
     link.add_argument("--socket", type=int, metavar="FD")
-    p.add_argument("--idle-timeout", type=float, default=None)
+    p.add_argument("--idle-timeout", type=time_span(DAY), default=None)
     p.add_argument("--label", default="")
     args = p.parse_args()
     if args.socket is not None:

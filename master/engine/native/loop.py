@@ -261,9 +261,15 @@ class NativeLoop:
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
-            self.ex.deliver(self._batch(first, done))
-            if self.plan.error_kind:
-                raise self._error()
+            failure = self._error() if self.plan.error_kind else None
+            try:
+                self.ex.deliver(self._batch(first, done))
+            except Exception as err:
+                if failure is not None:  # an observer tripping on the failed call's partial batch: the run's failure is the cause
+                    raise failure from err
+                raise
+            if failure is not None:
+                raise failure
             if realtime is not None:
                 realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
             ticks -= done
