@@ -59,6 +59,7 @@ class Kinematics:
     R_B: ca.SX  # UAV geometric-centre frame in I
     o_B: ca.SX  # UAV geometric centre in I
     bodies: list[Body]
+    offsets: list[ca.SX]  # the UAV bodies' centres in B (d_C1, d_C2, d_C3: constant), in the order of bodies[-3:]
 
 
 def param(p: ca.SX, name: str):
@@ -76,6 +77,9 @@ def inertia(p: ca.SX, prefix: str) -> ca.SX:
 
 def vector(p: ca.SX, prefix: str) -> ca.SX:
     return ca.vertcat(*(param(p, f"{prefix}_{a}") for a in "xyz"))
+
+
+UAV_OFFSETS = ("d_C1", "d_C2", "d_C3")  # main body, right and left thruster groups
 
 
 def uav_bodies(p: ca.SX, o_B: ca.SX, R_B: ca.SX, a_R: ca.SX, a_L: ca.SX) -> tuple[list[Body], list[ca.SX]]:
@@ -102,7 +106,7 @@ def build(q: ca.SX, p: ca.SX) -> Kinematics:
     o_B = xi + R_L @ ca.vertcat(0, 0, param(p, "l"))
     uav, R_C_B = uav_bodies(p, o_B, R_B, a_R, a_L)
     load = Body("load", param(p, "m_L"), inertia(p, "I_L"), xi, R_L)
-    return Kinematics(q, p, R_L, R_B_L, R_C_B, R_B, o_B, [load, *uav])
+    return Kinematics(q, p, R_L, R_B_L, R_C_B, R_B, o_B, [load, *uav], [vector(p, d) for d in UAV_OFFSETS])
 
 
 def build_uav(q: ca.SX, p: ca.SX) -> Kinematics:
@@ -112,7 +116,7 @@ def build_uav(q: ca.SX, p: ca.SX) -> Kinematics:
     R_B = rot_z(psi) @ rot_y(theta) @ rot_x(phi)
     o_B = q[0:3]
     uav, R_C_B = uav_bodies(p, o_B, R_B, a_R, a_L)
-    return Kinematics(q, p, None, None, R_C_B, R_B, o_B, uav)
+    return Kinematics(q, p, None, None, R_C_B, R_B, o_B, uav, [vector(p, d) for d in UAV_OFFSETS])
 
 
 def time_derivative(expr: ca.SX, q: ca.SX, qd: ca.SX) -> ca.SX:
@@ -126,8 +130,8 @@ def body_angular_velocity(R: ca.SX, q: ca.SX, qd: ca.SX) -> ca.SX:
     return vex(R.T @ time_derivative(R, q, qd))
 
 
-def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]:
-    """Centre velocities in I and angular velocities in each body's frame, by composition.
+def frame_velocity(k: Kinematics, qd: ca.SX) -> tuple[ca.SX, ca.SX, list[ca.SX]]:
+    """Velocity of o_B in I, angular velocity of B in B, and those of the load's frame before them ([w_L], or []).
 
     omega of a child frame = R_rel^T omega_parent + vex(R_rel^T dR_rel/dt) (thesis 2.5),
     with only the small relative rotations differentiated.
@@ -136,17 +140,17 @@ def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]
     if k.R_L is not None:  # from the load: the UAV's frame moves with the rod
         w_L = body_angular_velocity(k.R_L, q, qd)
         w_B = k.R_B_L.T @ w_L + body_angular_velocity(k.R_B_L, q, qd)
-        v_B = qd[0:3] + k.R_L @ ca.cross(w_L, ca.vertcat(0, 0, param(k.p, "l")))
-        velocities, omegas = [qd[0:3]], [w_L]
-    else:  # the UAV alone: q's first three entries are its geometric centre
-        w_B = body_angular_velocity(k.R_B, q, qd)
-        v_B = qd[0:3]
-        velocities, omegas = [], []
-    w_C = [R.T @ w_B + body_angular_velocity(R, q, qd) for R in k.R_C_B]
-    for b in k.bodies[-3:]:
-        offset = k.R_B.T @ (b.centre - k.o_B)  # d_Ci in B, constant
-        velocities.append(v_B + k.R_B @ ca.cross(w_B, offset))
-    return velocities, [*omegas, w_B, w_C[0], w_C[1]]
+        return qd[0:3] + k.R_L @ ca.cross(w_L, ca.vertcat(0, 0, param(k.p, "l"))), w_B, [w_L]
+    return qd[0:3], body_angular_velocity(k.R_B, q, qd), []  # the UAV alone: q's first three entries are o_B
+
+
+def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]:
+    """Centre velocities in I and angular velocities in each body's frame, by composition from B's (frame_velocity)."""
+    v_B, w_B, w_L = frame_velocity(k, qd)
+    velocities = [qd[0:3]] if w_L else []
+    w_C = [R.T @ w_B + body_angular_velocity(R, k.q, qd) for R in k.R_C_B]
+    velocities += [v_B + k.R_B @ ca.cross(w_B, offset) for offset in k.offsets]
+    return velocities, [*w_L, w_B, w_C[0], w_C[1]]
 
 
 def euler_zyx(R: ca.SX) -> ca.SX:
