@@ -57,15 +57,25 @@ def chain(turns: list[Turn]) -> ca.SX:
     return R
 
 
-def chain_rate(turns: list[Turn], qd: ca.SX) -> ca.SX:
+def chain_rates(turns: list[Turn], qd: ca.SX) -> tuple[ca.SX, ca.SX]:
     """Angular velocity of a chain's last frame in that frame, vex(R^T dR/dt) by composition (thesis 2.5):
-    omega_i = R_i^T omega_(i-1) + a_i theta_dot_i, the rate of one turn about its own axis a_i being exact."""
-    w = ca.SX.zeros(3)
+    omega_i = R_i^T omega_(i-1) + a_i theta_dot_i, the rate of one turn about its own axis a_i being exact;
+    and its rate of change with q_dd = 0 (d omega/dq q_dot, as jtimes would give it):
+    (R_i^T omega_(i-1))' = R_i^T omega_dot_(i-1) + (R_i^T omega_(i-1)) x a_i theta_dot_i."""
+    w, w_dot = ca.SX.zeros(3), ca.SX.zeros(3)
     for t in turns:
-        w = ROTATIONS[t.axis](t.angle).T @ w
+        R = ROTATIONS[t.axis](t.angle)
+        w, w_dot = R.T @ w, R.T @ w_dot
         if t.index is not None:
-            w += AXES[t.axis] * (t.sign * qd[t.index])
-    return w
+            rate = AXES[t.axis] * (t.sign * qd[t.index])
+            w_dot += ca.cross(w, rate)
+            w += rate
+    return w, w_dot
+
+
+def chain_rate(turns: list[Turn], qd: ca.SX) -> ca.SX:
+    """The angular velocity of chain_rates alone."""
+    return chain_rates(turns, qd)[0]
 
 
 @dataclass
@@ -184,6 +194,19 @@ def frame_velocity(k: Kinematics, qd: ca.SX) -> tuple[ca.SX, ca.SX, list[ca.SX]]
         w_L = chain_rate(k.turns_B[:3], qd)
         return qd[0:3] + k.R_L @ ca.cross(w_L, ca.vertcat(0, 0, param(k.p, "l"))), w_B, [w_L]
     return qd[0:3], w_B, []  # the UAV alone: q's first three entries are o_B
+
+
+def frame_accelerations(k: Kinematics, qd: ca.SX) -> tuple[ca.SX, ca.SX, list[ca.SX], list[ca.SX]]:
+    """The rates of change with q_dd = 0 (d/dq of the velocity along q_dot) of frame_velocity's three and of the
+    thrusters' angular velocities: o_B's acceleration in I (o_B = xi + R_L l e_z: R_L (w_L x (w_L x l e_z) +
+    w_L' x l e_z)), B's angular one, [the load's], [right's, left's]."""
+    _, w_B_dot = chain_rates(k.turns_B, qd)
+    w_C_dot = [chain_rates(k.turns_B + turns, qd)[1] for turns in k.turns_C]
+    if k.R_L is None:
+        return ca.SX.zeros(3), w_B_dot, [], w_C_dot
+    w_L, w_L_dot = chain_rates(k.turns_B[:3], qd)
+    rod = ca.vertcat(0, 0, param(k.p, "l"))
+    return k.R_L @ (ca.cross(w_L, ca.cross(w_L, rod)) + ca.cross(w_L_dot, rod)), w_B_dot, [w_L_dot], w_C_dot
 
 
 def body_velocities(k: Kinematics, qd: ca.SX) -> tuple[list[ca.SX], list[ca.SX]]:

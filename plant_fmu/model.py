@@ -80,7 +80,7 @@ class PlantModel:
         so its rotational terms are W_B' R_C I_C R_C' W_B and a row and column for alpha. The sums are written once
         per composite, symmetric products once per entry: the same M and C qd in about a third of the operations.
         """
-        k, q, qd, nq = self.kin, self.q, self.qd, self.nq
+        k, qd, nq = self.kin, self.qd, self.nq
         v_o, w_B, w_L = kin.frame_velocity(k, qd)
         J_o, W_B = ca.jacobian(v_o, qd), ca.jacobian(w_B, qd)
         main, *thrusters = k.bodies[-3:]
@@ -95,14 +95,14 @@ class PlantModel:
         cross = J_o.T @ X
         M = m_U * _symmetric_product(J_o, J_o) - (cross + cross.T) + _symmetric_product(W_B, rot @ W_B)
         # C qd: the qdd-free accelerations a0_o, al0_B of o_B and B; F and N the composite's force and moment in B
-        al0_B = ca.jtimes(w_B, q, qd)
-        ab = k.R_B.T @ ca.jtimes(v_o, q, qd)
+        a0_o, al0_B, al0_L, al0_C = kin.frame_accelerations(k, qd)
+        ab = k.R_B.T @ a0_o
         F = m_U * ab + ca.cross(w_B, ca.cross(w_B, h)) + ca.cross(al0_B, h)
         N = ca.cross(h, ab) + ca.cross(w_B, (D + main.inertia) @ w_B) + (D + main.inertia) @ al0_B
         alpha_terms = ca.SX.zeros(nq)
-        for i, (R, b, w_C) in enumerate(zip(k.R_C_B, thrusters, self.omegas[-2:])):
+        for i, (R, b, w_C, al0) in enumerate(zip(k.R_C_B, thrusters, self.omegas[-2:], al0_C)):
             joint = nq - 2 + i  # alpha_R, alpha_L: the last two coordinates
-            tau = b.inertia @ ca.jtimes(w_C, q, qd) + ca.cross(w_C, b.inertia @ w_C)
+            tau = b.inertia @ al0 + ca.cross(w_C, b.inertia @ w_C)
             N += R @ tau
             alpha_terms[joint] = tau[1]
             row = (R @ b.inertia[:, 1]).T @ W_B  # the alpha row: e_y' I_C W_C, less its own I_yy
@@ -116,7 +116,7 @@ class PlantModel:
             W_L = ca.jacobian(w, qd)
             M += _symmetric_product(W_L, load.inertia @ W_L)
             M[0:3, 0:3] += load.mass * ca.SX.eye(3)
-            coriolis += W_L.T @ (load.inertia @ ca.jtimes(w, q, qd) + ca.cross(w, load.inertia @ w))
+            coriolis += W_L.T @ (load.inertia @ al0_L[0] + ca.cross(w, load.inertia @ w))
         return M, coriolis
 
     def _input_forces(self) -> ca.SX:
