@@ -15,18 +15,19 @@ import casadi as ca
 from . import parameters as P
 
 
-def rot_x(a):
-    c, s = ca.cos(a), ca.sin(a)
+def rot_x(a, c=None, s=None):
+    """Rotation about x by a (or by the angle whose cosine and sine are c and s)."""
+    c, s = (ca.cos(a), ca.sin(a)) if c is None else (c, s)
     return ca.vertcat(ca.horzcat(1, 0, 0), ca.horzcat(0, c, -s), ca.horzcat(0, s, c))
 
 
-def rot_y(a):
-    c, s = ca.cos(a), ca.sin(a)
+def rot_y(a, c=None, s=None):
+    c, s = (ca.cos(a), ca.sin(a)) if c is None else (c, s)
     return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
 
 
-def rot_z(a):
-    c, s = ca.cos(a), ca.sin(a)
+def rot_z(a, c=None, s=None):
+    c, s = (ca.cos(a), ca.sin(a)) if c is None else (c, s)
     return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
 
 
@@ -41,19 +42,23 @@ AXES = {"x": ca.DM([1, 0, 0]), "y": ca.DM([0, 1, 0]), "z": ca.DM([0, 0, 1])}
 
 @dataclass
 class Turn:
-    """One elementary rotation of a chain: about a body axis by sign * q[index] (index None: a constant angle)."""
+    """One elementary rotation of a chain: about a body axis by sign * angle, the angle q[index] (index None: a
+    constant angle). A negative turn is cos(angle) and -sin(angle): one sine and cosine per angle, not two."""
 
     axis: str
     angle: ca.SX
     index: int | None = None
     sign: float = 1.0
 
+    def rotation(self) -> ca.SX:
+        return ROTATIONS[self.axis](None, ca.cos(self.angle), self.sign * ca.sin(self.angle))
+
 
 def chain(turns: list[Turn]) -> ca.SX:
     """The rotation R_1 R_2 ... R_n of a chain of turns."""
-    R = ROTATIONS[turns[0].axis](turns[0].angle)
+    R = turns[0].rotation()
     for t in turns[1:]:
-        R = R @ ROTATIONS[t.axis](t.angle)
+        R = R @ t.rotation()
     return R
 
 
@@ -64,7 +69,7 @@ def chain_rates(turns: list[Turn], qd: ca.SX) -> tuple[ca.SX, ca.SX]:
     (R_i^T omega_(i-1))' = R_i^T omega_dot_(i-1) + (R_i^T omega_(i-1)) x a_i theta_dot_i."""
     w, w_dot = ca.SX.zeros(3), ca.SX.zeros(3)
     for t in turns:
-        R = ROTATIONS[t.axis](t.angle)
+        R = t.rotation()
         w, w_dot = R.T @ w, R.T @ w_dot
         if t.index is not None:
             rate = AXES[t.axis] * (t.sign * qd[t.index])
@@ -142,7 +147,7 @@ def uav_bodies(p: ca.SX, o_B: ca.SX, R_B: ca.SX, a_R: ca.SX, a_L: ca.SX) -> tupl
 def thruster_turns(p: ca.SX, a_R: ca.SX, a_L: ca.SX, n: int = 0) -> list[list[Turn]]:
     """R_C2^B = Rx(-beta) Ry(alpha_R), R_C3^B = Rx(beta) Ry(alpha_L), alpha_R and alpha_L being q[n-2], q[n-1]."""
     beta = param(p, "beta")
-    return [[Turn("x", -beta), Turn("y", a_R, n - 2)], [Turn("x", beta), Turn("y", a_L, n - 1)]]
+    return [[Turn("x", beta, None, -1.0), Turn("y", a_R, n - 2)], [Turn("x", beta), Turn("y", a_L, n - 1)]]
 
 
 def build(q: ca.SX, p: ca.SX) -> Kinematics:
@@ -150,7 +155,7 @@ def build(q: ca.SX, p: ca.SX) -> Kinematics:
     xi = q[0:3]
     phi, theta, psi, g1, g2, a_R, a_L = (q[i] for i in range(3, 10))
     turns_L = [Turn("z", psi, 5), Turn("y", theta, 4), Turn("x", phi, 3)]
-    turns_BL = [Turn("x", -g1, 6, -1.0), Turn("y", -g2, 7, -1.0)]
+    turns_BL = [Turn("x", g1, 6, -1.0), Turn("y", g2, 7, -1.0)]
     R_L, R_B_L = chain(turns_L), chain(turns_BL)
     R_B = R_L @ R_B_L
     o_B = xi + R_L @ ca.vertcat(0, 0, param(p, "l"))

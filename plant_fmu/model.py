@@ -66,8 +66,9 @@ class PlantModel:
             self.L_fr = ca.SX.zeros(self.nq, self.nq)
 
         forces = input_forces - self.L_fr @ qd + self.L_db @ self.d - self.coriolis - self.gravity
-        D, LT, perm = ca.ldl(self.M)  # M is symmetric positive definite
-        self.qdd = ca.ldl_solve(forces, D, LT, perm)
+        # M is symmetric positive definite: L D L' with the xi and alpha pivots first (their rows meet only the
+        # dense eta-gamma block, so nothing fills in)
+        self.qdd = _ldl_solve(self.M, forces, [0, 1, 2, *range(self.nq - 2, self.nq), *range(3, self.nq - 2)])
         self.xdot = ca.vertcat(qd, self.qdd)
 
     def _composite_terms(self) -> tuple[ca.SX, ca.SX]:
@@ -190,6 +191,35 @@ class PlantModel:
 def _skew(v: ca.SX) -> ca.SX:
     """S(v), with S(v) w = v x w."""
     return ca.vertcat(ca.horzcat(0, -v[2], v[1]), ca.horzcat(v[2], 0, -v[0]), ca.horzcat(-v[1], v[0], 0))
+
+
+def _ldl_solve(M: ca.SX, b: ca.SX, order: list[int]) -> ca.SX:
+    """x with M x = b for a symmetric positive definite M, by M = L D L' without pivoting in the given order:
+    one division per pivot (its reciprocal, then products: a division costs several products' time), structural
+    zeros skipped (CasADi drops products with a zero), E = L D kept so each update is one product per term."""
+    n = len(order)
+    A = M[order, order]
+    L = [[ca.SX(0)] * n for _ in range(n)]
+    E = [[ca.SX(0)] * n for _ in range(n)]
+    inv = [ca.SX(0)] * n
+    for j in range(n):
+        d = A[j, j] - sum((L[j][k] * E[j][k] for k in range(j)), ca.SX(0))
+        inv[j] = 2 / (d + d)  # = 1 / d exactly; written so, CasADi keeps t * inv (it turns t * (1 / d) into t / d)
+        for i in range(j + 1, n):
+            t = A[i, j] - sum((L[i][k] * E[j][k] for k in range(j)), ca.SX(0))
+            E[i][j] = t
+            L[i][j] = t * inv[j]
+    y = [ca.SX(0)] * n
+    rhs = b[order]
+    for i in range(n):
+        y[i] = rhs[i] - sum((L[i][k] * y[k] for k in range(i)), ca.SX(0))
+    x = [ca.SX(0)] * n
+    for i in reversed(range(n)):
+        x[i] = y[i] * inv[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), ca.SX(0))
+    out = ca.SX.zeros(n)
+    for k, i in enumerate(order):
+        out[i] = x[k]
+    return out
 
 
 def _symmetric_product(A: ca.SX, B: ca.SX) -> ca.SX:
