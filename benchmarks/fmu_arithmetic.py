@@ -9,8 +9,11 @@ and stepped --steps times per round, the builds taken in turn (A, B, A, B, ...: 
 Beside the times:
 - callgrind's instruction count per step (valgrind, if installed): reproducible where times are not;
 - the plant's floating-point operations per step, counted in CasADi's instruction lists of the generated functions
-  (one right-hand side, one RK4 substep, the outputs), and the limit they set at the machine's scalar rate (--flops-per-ns,
-  default 2 scalar double operations per cycle at the clock of /proc/cpuinfo: no FMA, the arithmetic is pinned).
+  (one right-hand side, one RK4 substep, the outputs), and the limit they set at the machine's scalar rate (--flops-per-cycle,
+  default 4: two multiply and two add pipes, as AMD Zen 3/4 and Intel since Skylake have; no FMA, the arithmetic is
+  pinned) at the clock of /proc/cpuinfo; the libm calls (sin, cos) and divisions, slower than that, counted apart;
+- the ZSE's limit: its one heavy product, (T M) G over the r generators (r x n x ld multiplies, ld = n padded to 4) at
+  two four-wide multiplies per cycle (the AVX2 path: its multiplies and adds go to separate pipes).
 
 Run: python benchmarks/fmu_arithmetic.py [--before b93cc50] [--rounds 9] [--steps 400]
 """
@@ -113,9 +116,11 @@ COUNT_SCRIPT = """
 import casadi as ca
 from tiltload.plant_fmu import codegen
 skip = {ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST, ca.OP_PARAMETER}
+calls = {ca.OP_SIN, ca.OP_COS, ca.OP_TAN, ca.OP_ASIN, ca.OP_ACOS, ca.OP_ATAN, ca.OP_ATAN2, ca.OP_SQRT, ca.OP_EXP, ca.OP_LOG}
 for f in codegen.functions():
     f = f if f.is_a("SXFunction") else f.expand()
-    print(f.name(), sum(1 for k in range(f.n_instructions()) if f.instruction_id(k) not in skip))
+    ops = [f.instruction_id(k) for k in range(f.n_instructions())]
+    print(f.name(), sum(op not in skip for op in ops), sum(op in calls for op in ops), sum(op == ca.OP_DIV for op in ops))
 """
 
 
@@ -123,9 +128,11 @@ def flop_counts(env: dict[str, str]) -> dict[str, int]:
     """Arithmetic operations of a tree's generated plant functions (CasADi's instruction lists, the RK4 substep expanded;
     inputs, outputs and constants are not operations), and of one 12 ms step as the plant FMU runs it."""
     out = subprocess.run([sys.executable, "-c", COUNT_SCRIPT], env=env, check=True, capture_output=True, text=True).stdout
-    named = {line.split()[0]: int(line.split()[1]) for line in out.splitlines()}
-    counts = {"rhs": named["tl_plant_rhs"], "rk4": named["tl_plant_rk4"], "out": named["tl_plant_out"]}
+    named = {line.split()[0]: [int(v) for v in line.split()[1:]] for line in out.splitlines()}
+    counts = {"rhs": named["tl_plant_rhs"][0], "rk4": named["tl_plant_rk4"][0], "out": named["tl_plant_out"][0]}
     counts["step"] = 3 * counts["rk4"] + counts["out"]
+    counts["calls"] = 3 * named["tl_plant_rk4"][1] + named["tl_plant_out"][1]  # libm calls (sin, cos, atan2...)
+    counts["divisions"] = 3 * named["tl_plant_rk4"][2] + named["tl_plant_out"][2]
     return counts
 
 
@@ -139,11 +146,12 @@ def main() -> None:
     p.add_argument("--before", default="b93cc50", help="the commit to compare with (default b93cc50)")
     p.add_argument("--rounds", type=int, default=9, help="timed rounds per build and FMU, taken in turn (default 9)")
     p.add_argument("--steps", type=int, default=400, help="doSteps per round (default 400: 4.8 s simulated)")
-    p.add_argument("--flops-per-ns", type=float, default=None, help="the scalar rate (default 2 per cycle at the clock)")
+    p.add_argument("--flops-per-cycle", type=float, default=4.0, help="the scalar rate (default 4 per cycle)")
     args = p.parse_args()
-    if args.rounds < 1 or args.steps < 1:
-        p.error("--rounds and --steps must be >= 1")
-    rate = args.flops_per_ns or 2.0 * clock_ghz()
+    if args.rounds < 1 or args.steps < 1 or args.flops_per_cycle <= 0:
+        p.error("--rounds and --steps must be >= 1, --flops-per-cycle > 0")
+    ghz = clock_ghz()
+    rate = args.flops_per_cycle * ghz
     print(machine())
     with tempfile.TemporaryDirectory(prefix="fmu_arithmetic_") as tmp:
         tmp = Path(tmp)
@@ -177,10 +185,17 @@ def main() -> None:
                 print(f"{'':>12} " + " ".join(f"{ir[b]:>16,.0f} instr  " for b in builds) + f" {ir['after'] / ir['before']:>9.2f}x")
             print(f"{'':>12} values at the end: before {shown[('before', kind)]}, after {shown[('after', kind)]}")
         print(f"\nplant arithmetic (CasADi operations) and its limit at {rate:.1f} scalar operations per ns "
-              f"(2 per cycle at {rate / 2:.2f} GHz):")
+              f"({args.flops_per_cycle:g} per cycle at {ghz:.2f} GHz):")
         for b, c in counts.items():
             print(f"{b:>12} {c['rhs']:>6} per right-hand side, {c['rk4']:>6} per RK4 substep, {c['out']:>5} for the outputs: "
-                  f"{c['step']:>6} per 12 ms step (3 substeps + outputs) -> limit {c['step'] / rate / 1e3:.2f} us")
+                  f"{c['step']:>6} per 12 ms step (3 substeps + outputs) -> limit {c['step'] / rate / 1e3:.2f} us; "
+                  f"besides, {c['calls']} libm calls and {c['divisions']} divisions per step")
+        n = 23
+        ld = (n + 3) // 4 * 4
+        r = int(shown[("after", "controller")][0])
+        mults = r * n * ld
+        print(f"ZSE (T M) G: {r} generators x {n} x {ld} = {mults:,} multiplies (and as many adds) per step -> limit "
+              f"{mults / 8 / ghz / 1e3:.1f} us at 8 per cycle (two 4-wide multiply pipes) and {ghz:.2f} GHz")
     print(f"load average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
 
 

@@ -42,7 +42,7 @@ class PlantModel:
         with_load = vehicle.name == "load"
         p_full = vehicle.full_parameters(self.p)
         self.kin = (kin.build if with_load else kin.build_uav)(self.q, p_full)
-        q, qd, p = self.q, self.qd, p_full
+        qd, p = self.qd, p_full
 
         self.velocities, self.omegas = kin.body_velocities(self.kin, qd)
         g = kin.param(p, "g")
@@ -53,7 +53,7 @@ class PlantModel:
         self.potential = sum(b.mass * g * b.centre[2] for b in self.kin.bodies)
 
         self.M, self.coriolis = self._composite_terms()
-        self.gravity = ca.gradient(self.potential, q)
+        self.gravity = self._composite_gravity()
 
         input_forces = self._input_forces()
         self.L_in = ca.jacobian(input_forces, self.u)
@@ -90,8 +90,8 @@ class PlantModel:
         h = sum(m * d for m, d in zip(masses, k.offsets))
         D = sum(m * (ca.dot(d, d) * ca.SX.eye(3) - d @ d.T) for m, d in zip(masses, k.offsets))
         rot = D + main.inertia
-        for R, b in zip(k.R_C_B, thrusters):
-            rot += _symmetric_product(R.T, b.inertia @ R.T)  # R I R'
+        for turns, b in zip(k.turns_C, thrusters):
+            rot += _conjugate(turns, b.inertia)  # R_C I_C R_C'
         X = k.R_B @ (_skew(h) @ W_B)
         cross = J_o.T @ X
         M = m_U * _symmetric_product(J_o, J_o) - (cross + cross.T) + _symmetric_product(W_B, rot @ W_B)
@@ -120,6 +120,18 @@ class PlantModel:
             coriolis += W_L.T @ (load.inertia @ al0_L[0] + ca.cross(w, load.inertia @ w))
         return M, coriolis
 
+    def _composite_gravity(self) -> ca.SX:
+        """g = dU/dq by virtual power, as the input forces: the weights m g e_z at the load's centre and at the
+        UAV composite's o_B, with the moment of the UAV's h about o_B, W_B' (h x R_B' e_z) g."""
+        k, qd = self.kin, self.qd
+        g = kin.param(k.p, "g")
+        m_U = sum(b.mass for b in k.bodies[-3:])
+        h = sum(b.mass * d for b, d in zip(k.bodies[-3:], k.offsets))
+        v_o, w_B, w_L = kin.frame_velocity(k, qd)
+        e_z = ca.DM([0, 0, 1])
+        load = ca.jacobian(qd[0:3], qd).T @ (k.bodies[0].mass * g * e_z) if w_L else 0
+        return load + ca.jacobian(v_o, qd).T @ (m_U * g * e_z) + ca.jacobian(w_B, qd).T @ (g * ca.cross(h, k.R_B.T @ e_z))
+
     def _input_forces(self) -> ca.SX:
         """Generalized forces of thrusts, propeller drag and servo torques (Sec. 2.4.1).
 
@@ -142,12 +154,12 @@ class PlantModel:
         return ca.jacobian(v_o, self.qd).T @ (k.R_B @ force) + ca.jacobian(w_B, self.qd).T @ moment + servo
 
     def lagrangian_terms(self) -> ca.Function:
-        """M, C qd, g straight from K and U by the Lagrange equations (reference for tests)."""
+        """M, C qd, g = dU/dq straight from K and U by the Lagrange equations (reference for tests)."""
         q, qd = self.q, self.qd
         momentum = ca.gradient(self.kinetic, qd)
         M = ca.jacobian(momentum, qd)
         cqd = ca.jtimes(momentum, q, qd) - ca.gradient(self.kinetic, q)
-        return ca.Function("tl_plant_lagrange", [self.x, self.p], [M, cqd, self.gravity])
+        return ca.Function("tl_plant_lagrange", [self.x, self.p], [M, cqd, ca.gradient(self.potential, q)])
 
     # --- numeric functions -------------------------------------------------------------
     @cached_property
@@ -220,6 +232,15 @@ def _ldl_solve(M: ca.SX, b: ca.SX, order: list[int]) -> ca.SX:
     for k, i in enumerate(order):
         out[i] = x[k]
     return out
+
+
+def _conjugate(turns: list, S: ca.SX) -> ca.SX:
+    """R S R' for a symmetric S and R the chain of turns: one elementary turn at a time (each mixes two rows and
+    two columns), from the last turn to the first."""
+    for t in reversed(turns):
+        R = t.rotation()
+        S = _symmetric_product(R.T, S @ R.T)
+    return S
 
 
 def _symmetric_product(A: ca.SX, B: ca.SX) -> ca.SX:
