@@ -40,4 +40,4 @@ def _prepare(vehicle: str, folder: Path, progress) -> Prepared:
     layout = folder / "plant_layout.h"
     layout.write_text(fmu_variables.layout_header(v))
     generated = [*codegen.plant_sources(folder, vehicle), layout]
-    return Prepared(definition, NativeSources(MODEL_C, generated), info)
+    return Prepared(definition, NativeSources(MODEL_C, generated, [f"{codegen.PLANT_STEM}.c"]), info)

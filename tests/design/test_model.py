@@ -106,3 +106,38 @@ def test_zoh_matches_the_matrix_exponential_series():
 def test_parameter_validation_names_the_culprit(name, value):
     with pytest.raises(P.ParameterError, match=name.split("_z")[0]):
         P.validate(P.vector_from({name: value}))
+
+
+def test_accelerations_solve_the_equations_of_motion():
+    """q_dd (the model's L D L' in its own pivot order) against numpy's solve of M q_dd = forces, with every input on."""
+    import casadi as ca
+
+    m, p = model(), P.default_vector()
+    f = ca.Function("f", [m.x, m.u, m.d, m.p], [m.xdot, m.M, m.coriolis, m.gravity, m.L_in, m.L_db, m.L_fr])
+    for _ in range(5):
+        x, u, d = random_state(), rng.normal(size=4), rng.normal(size=3)
+        xdot, M, Cqd, g, L_in, L_db, L_fr = (np.array(v) for v in f(x, u, d, p))
+        forces = L_in @ u + L_db @ d - L_fr @ x[10:] - Cqd.ravel() - g.ravel()
+        np.testing.assert_allclose(xdot.ravel()[10:], np.linalg.solve(M, forces), rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(xdot.ravel()[:10], x[10:])
+
+
+def test_composed_angular_velocities_equal_the_differentiated_rotations():
+    """chain_rates (composition over elementary turns) against vex(R' dR/dt) of the whole chain differentiated by
+    CasADi, and its q_dd-free rate against CasADi's directional derivative of that angular velocity along q_dot."""
+    import casadi as ca
+    from tiltload.plant_fmu import kinematics as kin
+
+    m = model()
+    k, q, qd = m.kin, m.q, m.qd
+    chains = [k.turns_B[:3], k.turns_B, *(k.turns_B + t for t in k.turns_C)]
+    composed = [kin.chain_rates(t, qd) for t in chains]
+    differentiated = [kin.body_angular_velocity(kin.chain(t), q, qd) for t in chains]
+    f = ca.Function("f", [m.x, m.p], [*(w for w, _ in composed), *(w_dot for _, w_dot in composed), *differentiated,
+                                      *(ca.jtimes(w, q, qd) for w in differentiated)])
+    for _ in range(5):
+        out = [np.array(v).ravel() for v in f(random_state(1.0), P.default_vector())]
+        n = len(chains)
+        for i in range(n):
+            np.testing.assert_allclose(out[i], out[2 * n + i], atol=1e-13)
+            np.testing.assert_allclose(out[n + i], out[3 * n + i], atol=1e-12)

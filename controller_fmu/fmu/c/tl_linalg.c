@@ -140,13 +140,15 @@ int tl_solve(int n, int m, double* A, double* B) {
       for (j = 0; j < m; ++j) B[i * m + j] -= f * B[col * m + j];
     }
   }
-  for (i = n - 1; i >= 0; --i) {
-    for (j = 0; j < m; ++j) {
-      double s = B[i * m + j];
-      int l;
-      for (l = i + 1; l < n; ++l) s -= A[i * n + l] * B[l * m + j];
-      B[i * m + j] = s / A[i * n + i];
+  for (i = n - 1; i >= 0; --i) { /* row i less A[i][l] times the solved rows l > i, in that order: axpys that vectorize */
+    double* b = B + i * m;
+    int l;
+    for (l = i + 1; l < n; ++l) {
+      const double a = A[i * n + l];
+      const double* x = B + l * m;
+      for (j = 0; j < m; ++j) b[j] -= a * x[j];
     }
+    for (j = 0; j < m; ++j) b[j] /= A[i * n + i];
   }
   return 0;
 }

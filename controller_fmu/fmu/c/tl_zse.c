@@ -151,40 +151,59 @@ static void row_norms2(int rows, double (*G)[LD], double* out) {
   row_norms2_body(rows, G, out);
 }
 
-/* S (N x N) += sign * R^T R over the rows of R: per entry the same sum in row order at either width. */
-static void add_gram_base(int rows, double (*R)[LD], double sign, double* S) {
-  v2d D[N][LD / 2];
-  int i, j, k;
-  for (j = 0; j < N; ++j)
-    for (k = 0; k < LD / 2; ++k) D[j][k] = (v2d){0.0, 0.0};
-  for (i = 0; i < rows; ++i) {
-    const v2d* r = (const v2d*)R[i];
-    for (j = 0; j < N; ++j) {
-      const double rj = R[i][j];
-      if (rj == 0.0) continue;
-      for (k = 0; k < LD / 2; ++k) D[j][k] += rj * r[k];
-    }
+/* S (N x N) += sign * R^T R over the rows of R: per entry the same sum in row order at either width. The upper
+   triangle only, mirrored (R[i][j] R[i][k] and R[i][k] R[i][j] are the same product, summed in the same order):
+   a row j's sums from its diagonal's piece on, held in registers over the rows (one j at a time two-wide, two
+   at a time four-wide); a zero R[i][j] adds zeros, which change no sum. */
+static inline __attribute__((always_inline)) void add_sums(int j, int from, const double* D, double sign, double* S) {
+  int k;
+  for (k = from; k < N; ++k) {
+    S[j * N + k] += sign * D[k];
+    if (k != j) S[k * N + j] += sign * D[k];
   }
-  for (j = 0; j < N; ++j)
-    for (k = 0; k < N; ++k) S[j * N + k] += sign * D[j][k / 2][k % 2];
+}
+
+static void add_gram_base(int rows, double (*R)[LD], double sign, double* S) {
+  int i, j, c;
+  for (j = 0; j < N; ++j) {
+    const int c0 = j / 2;
+    v2d d[LD / 2];
+    double out[LD];
+    for (c = c0; c < LD / 2; ++c) d[c] = (v2d){0.0, 0.0};
+    for (i = 0; i < rows; ++i) {
+      const double rj = R[i][j];
+      const v2d* r = (const v2d*)R[i];
+      for (c = c0; c < LD / 2; ++c) d[c] += rj * r[c];
+    }
+    for (c = c0; c < LD / 2; ++c) ((v2d*)out)[c] = d[c];
+    add_sums(j, j, out, sign, S);
+  }
 }
 
 #if TL_HAVE_WIDE
 TL_WIDE static void add_gram_wide(int rows, double (*R)[LD], double sign, double* S) {
-  v4d D[N][TL_VECTORS];
-  int i, j, k;
-  for (j = 0; j < N; ++j)
-    for (k = 0; k < TL_VECTORS; ++k) D[j][k] = (v4d){0.0, 0.0, 0.0, 0.0};
-  for (i = 0; i < rows; ++i) {
-    const v4d* r = (const v4d*)R[i];
-    for (j = 0; j < N; ++j) {
-      const double rj = R[i][j];
-      if (rj == 0.0) continue;
-      for (k = 0; k < TL_VECTORS; ++k) D[j][k] += rj * r[k];
+  int i, j, c;
+  for (j = 0; j < N; j += 2) {
+    const int c0 = j / 4, pair = j + 1 < N;
+    v4d a[TL_VECTORS], b[TL_VECTORS];
+    double out_a[LD], out_b[LD];
+    for (c = c0; c < TL_VECTORS; ++c) a[c] = b[c] = (v4d){0.0, 0.0, 0.0, 0.0};
+    for (i = 0; i < rows; ++i) {
+      const double ra = R[i][j], rb = pair ? R[i][j + 1] : 0.0;
+      const v4d* r = (const v4d*)R[i];
+      for (c = c0; c < TL_VECTORS; ++c) {
+        const v4d rc = r[c];
+        a[c] += ra * rc;
+        b[c] += rb * rc;
+      }
     }
+    for (c = c0; c < TL_VECTORS; ++c) {
+      ((v4d*)out_a)[c] = a[c];
+      ((v4d*)out_b)[c] = b[c];
+    }
+    add_sums(j, j, out_a, sign, S);
+    if (pair) add_sums(j + 1, j + 1, out_b, sign, S);
   }
-  for (j = 0; j < N; ++j)
-    for (k = 0; k < N; ++k) S[j * N + k] += sign * D[j][k / 4][k % 4];
 }
 #endif
 
@@ -238,32 +257,33 @@ static double girard_score(const double* g) {
   return s - big;
 }
 
-/* Indices of the k smallest scores, ascending by index (ties: the lower index goes first). A max-heap
-   of k (score, index) pairs: one pass over the rows. */
-static void smallest(int r, const double* scores, int k, int* chosen) {
-  int heap[TL_ZSE_CAP], size = 0, i;
+/* Indices of the k smallest scores, ascending by index (ties: the lower index goes first): a max-heap of k
+   (score, index) pairs, one pass over the rows given (rows[0..n_rows), or 0..n_rows if rows is NULL). */
+static void heap_select(const int* rows, int n_rows, const double* scores, int k, int* chosen) {
+  int heap[TL_ZSE_CAP], size = 0, i, t;
 #define LESS(a, b) (scores[a] < scores[b] || (scores[a] == scores[b] && (a) < (b)))
-  for (i = 0; i < r; ++i) {
+  for (t = 0; t < n_rows; ++t) {
+    const int row = rows ? rows[t] : t;
     int pos;
     if (size < k) {
       pos = size++;
-      while (pos > 0 && LESS(heap[(pos - 1) / 2], i)) {
+      while (pos > 0 && LESS(heap[(pos - 1) / 2], row)) {
         heap[pos] = heap[(pos - 1) / 2];
         pos = (pos - 1) / 2;
       }
-      heap[pos] = i;
-    } else if (LESS(i, heap[0])) {
+      heap[pos] = row;
+    } else if (LESS(row, heap[0])) {
       int child;
       pos = 0;
       for (;;) { /* sift the new element down from the root */
         child = 2 * pos + 1;
         if (child >= size) break;
         if (child + 1 < size && LESS(heap[child], heap[child + 1])) ++child;
-        if (!LESS(i, heap[child])) break;
+        if (!LESS(row, heap[child])) break;
         heap[pos] = heap[child];
         pos = child;
       }
-      heap[pos] = i;
+      heap[pos] = row;
     }
   }
 #undef LESS
@@ -278,9 +298,31 @@ static void smallest(int r, const double* scores, int k, int* chosen) {
   }
 }
 
+/* The k smallest of r scores (heap_select's answer over all), looked for first among the scores at most *below,
+   from the previous tick (a set changes little in one tick). The k smallest of all are among those candidates
+   whenever there are k of them, so the answer never depends on *below, only the time does; with fewer (or a NaN
+   score: no candidate, ordered as the heap alone orders it), all r. *below becomes this tick's k-th smallest
+   score times SELECT_MARGIN. */
+#define SELECT_MARGIN 1.25
+static void smallest(int r, const double* scores, int k, int* chosen, double* below) {
+  int candidates[TL_ZSE_CAP], n = 0, nan = 0, i;
+  const double limit = *below;
+  double kth = 0.0;
+  for (i = 0; i < r; ++i) {
+    candidates[n] = i;
+    n += scores[i] <= limit;
+    nan |= scores[i] != scores[i];
+  }
+  if (n >= k && !nan) heap_select(candidates, n, scores, k, chosen);
+  else heap_select(NULL, r, scores, k, chosen);
+  for (i = 0; i < k; ++i)
+    if (scores[chosen[i]] > kth) kth = scores[chosen[i]];
+  *below = SELECT_MARGIN * kth;
+}
+
 /* Reduce buf[:r] to buf[:r_max] keeping the kept rows in place (as zonotope.reduce_in_place does);
    S is updated with the removed and added generators. */
-static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S) {
+static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S, double* below) {
   static const int n = N;
   double scores[TL_ZSE_CAP], removed[2 * N + NY][LD], added[N][LD];
   int drop[2 * N + NY], nbox = r - r_max + n, i, j, k, n_slots = 0, n_movers = 0;
@@ -289,7 +331,7 @@ static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S) {
     for (i = 0; i < r; ++i) scores[i] = girard_score(buf[i]);
   else
     row_norms2(r, buf, scores); /* combastel, pca: the shortest (2-norm) generators go */
-  smallest(r, scores, nbox, drop);
+  smallest(r, scores, nbox, drop, below);
   for (i = 0; i < nbox; ++i) memcpy(removed[i], buf[drop[i]], sizeof(double) * LD);
   memset(added, 0, sizeof added);
   if (method == TL_REDUCE_PCA) { /* a box in the principal axes of the whole set */
@@ -401,7 +443,7 @@ static int update(TlZse* z, const TlZseModel* m, const double* M, const double* 
   }
   z->cur = 1 - z->cur;
   if (r > m->r_max) {
-    reduce(dst, r, m->r_max, m->reduction, z->S);
+    reduce(dst, r, m->r_max, m->reduction, z->S, &z->select_below);
     r = m->r_max;
   }
   z->r = r;

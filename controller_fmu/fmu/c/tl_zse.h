@@ -40,6 +40,7 @@ typedef struct {
   double S[TL_ZSE_N * TL_ZSE_N]; /* G G^T, updated in closed form and resynchronized every 64 steps */
   double hull[TL_ZSE_N];         /* rs(G): half-widths of the interval hull */
   double G[2][TL_ZSE_CAP][TL_ZSE_LD];
+  double select_below; /* the reduction looks for its generators among scores at most this first (0: among all) */
 } TlZse;
 
 typedef struct {
