@@ -98,14 +98,14 @@ static void wind(TlInstance* c, double t, double w[3]) {
   }
 }
 
-static fmi2Status evaluate(TlInstance* c, double t) {
+static TlStatus evaluate(TlInstance* c, double t) {
   double* r = c->s.real;
   double out[11], w[3], speed, drag;
   int i;
   const double* in[4];
   if (reference(c, t, out)) {
-    tl_log(c, fmi2Error, "trajectory %d evaluation failed at t=%.6g s", c->s.integer[TL_INTEGER_trajectory], t);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "trajectory %d evaluation failed at t=%.6g s", c->s.integer[TL_INTEGER_trajectory], t);
+    return TL_ERROR;
   }
   memcpy(r + TL_REAL_x_ref, out, 9 * sizeof(double));
   r[TL_REAL_psi_ref] = out[9];
@@ -119,10 +119,10 @@ static fmi2Status evaluate(TlInstance* c, double t) {
     in[2] = &r[TL_REAL_gust_magnitude];
     in[3] = &r[TL_REAL_gust_tau];
     r[TL_REAL_d_x + i] = 0.0;
-    if (c->s.boolean[TL_BOOLEAN_gusts] && call(tl_gust, in, 4, &r[TL_REAL_d_x + i])) return fmi2Error;
+    if (c->s.boolean[TL_BOOLEAN_gusts] && call(tl_gust, in, 4, &r[TL_REAL_d_x + i])) return TL_ERROR;
     r[TL_REAL_d_x + i] += drag * w[i];
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
 static int known(int trajectory) { return trajectory >= 0 && trajectory <= LAST_SHAPE; }
@@ -164,18 +164,18 @@ void tl_model_reset(TlInstance* c) {
   tl_model_outputs(c);
 }
 
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count];
   set_up(c);
-  if (!known(trajectory) || (trajectory == WAYPOINTS && (n < 2 || n > TL_MAX_WAYPOINTS))) return fmi2OK; /* refused at initialization */
-  if (c->s.integer[TL_INTEGER_wind_profile_count] < 0 || c->s.integer[TL_INTEGER_wind_profile_count] > TL_MAX_PROFILE) return fmi2OK;
+  if (!known(trajectory) || (trajectory == WAYPOINTS && (n < 2 || n > TL_MAX_WAYPOINTS))) return TL_OK; /* refused at initialization */
+  if (c->s.integer[TL_INTEGER_wind_profile_count] < 0 || c->s.integer[TL_INTEGER_wind_profile_count] > TL_MAX_PROFILE) return TL_OK;
   return evaluate(c, c->s.time);
 }
 
 #define REFUSE(...)                                               \
   do {                                                            \
-    tl_log(c, fmi2Error, "invalid scenario parameters: " __VA_ARGS__); \
-    return fmi2Error;                                             \
+    tl_log(c, TL_ERROR, "invalid scenario parameters: " __VA_ARGS__); \
+    return TL_ERROR;                                             \
   } while (0)
 
 /* Times increasing and every value finite in `blocks` consecutive blocks of `stride` entries, n used. */
@@ -190,7 +190,7 @@ static int bad_table(const double* table, int blocks, int stride, int n, int* ro
   return 0;
 }
 
-static fmi2Status check_reference(TlInstance* c) {
+static TlStatus check_reference(TlInstance* c) {
   const double* r = c->s.real;
   int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.integer[TL_INTEGER_wp_count], i, row;
   if (!known(trajectory)) REFUSE("trajectory must be 0 to %d, got %d", LAST_SHAPE, trajectory);
@@ -209,10 +209,10 @@ static fmi2Status check_reference(TlInstance* c) {
     if (!(r[TL_REAL_shape_duration] > 0.0)) REFUSE("shape_duration must be > 0, got %g", r[TL_REAL_shape_duration]);
     if (!(r[TL_REAL_shape_rise] >= 0.0)) REFUSE("shape_rise must be >= 0, got %g", r[TL_REAL_shape_rise]);
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-static fmi2Status check_wind(TlInstance* c) {
+static TlStatus check_wind(TlInstance* c) {
   const double* r = c->s.real;
   int dryden = c->s.integer[TL_INTEGER_dryden], n = c->s.integer[TL_INTEGER_wind_profile_count], i, row;
   for (i = 0; i < 3; ++i)
@@ -233,15 +233,15 @@ static fmi2Status check_wind(TlInstance* c) {
     case 2: REFUSE("wind_profile_t_%d is not after wind_profile_t_%d", row, row - 1);
     default: break;
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   const double* r = c->s.real;
   int i;
   for (i = 0; i < TL_N_REAL; ++i) /* used or not (a table's spare rows), a parameter that is not a number is a mistake */
     if (tl_real_settable[i] == 1 && !isfinite(r[i])) REFUSE("%s = %g is not finite", tl_real_name[i], r[i]);
-  if (check_reference(c) != fmi2OK || check_wind(c) != fmi2OK) return fmi2Error;
+  if (check_reference(c) != TL_OK || check_wind(c) != TL_OK) return TL_ERROR;
   if (!(r[TL_REAL_gust_tau] >= 0.0)) REFUSE("gust_tau must be >= 0, got %g", r[TL_REAL_gust_tau]);
   for (i = 0; i < 3; ++i) {
     if (!(r[TL_REAL_gust_x_at + i] >= 0.0))
@@ -256,9 +256,9 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   return tl_model_outputs(c);
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
-  fmi2Status status = evaluate(c, t); /* the sample at t_k, from the filters' state at t_k */
-  if (status == fmi2OK && c->s.integer[TL_INTEGER_dryden] > 0) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
+  TlStatus status = evaluate(c, t); /* the sample at t_k, from the filters' state at t_k */
+  if (status == TL_OK && c->s.integer[TL_INTEGER_dryden] > 0) {
     c->s.model.sample += 1;
     tl_dryden_step(&c->s.model.dryden, (uint64_t)c->s.integer[TL_INTEGER_seed], c->s.model.sample, h, &c->s.model.step,
                    c->s.model.turbulence);
