@@ -1,6 +1,6 @@
 /* The controller FMU's hooks: each doStep(t_k, T_c) reads the reference and the sensor inputs at
    t_k, runs the estimator (none, LKF or ZSE), then u = sat(u_tr - K chi) with the feedforward
-   (3.18) and the integral states, and holds u over the tick. As controller_fmu/runtime.py, the
+   (3.18) and the integral states, and holds u over the tick. As controller_fmu/reference/runtime.py, the
    Python reference the tests compare it with; the designs are embedded (controller_data.h). One source
    for both vehicles: controller_dims.h gives the state size, the first and last measurement, and
    whether this build has the LKF and the mixed design (the UAV alone has neither).
