@@ -23,7 +23,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 # A path: folders and a name with one of these suffixes, not inside a longer word, a URL, a glob or a dotted name.
-NAMED = re.compile(r"(?<![\w./:@*<>-])((?:[\w.-]+/)*[\w-]+(?:\.[\w-]+)*\.(?:py|c|h|md))(?![\w/-])")
+NAMED = re.compile(r"(?<![\w./:@*<>-])((?:[\w.-]+/)*[\w-]+(?:\.[\w-]+)*\.(?:py|c|h|md))(?![\w/-]|\.\w)")
 
 # Files of other projects: the C library's, numpy's and Python's headers, the FMI standard's headers (FMPy ships
 # them), the Reference-FMUs' files (docs compare the layers with them).
@@ -65,7 +65,7 @@ def prose(path: Path, text: str) -> str | None:
 
 def generated_names() -> set[str]:
     """The C files a build writes: the names in the builders' string constants that no tracked file has, and the three
-    files CasADi writes for each stem (native_fmu/casadi_c.py: STEM.c, STEM.h, STEM_sizes.h)."""
+    files CasADi writes for each stem (native_fmu/casadi_c.py: <stem>.c, <stem>.h, <stem>_sizes.h)."""
     names = set()
     for pattern in BUILDERS:
         for path in ROOT.glob(pattern):
