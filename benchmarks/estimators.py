@@ -4,7 +4,7 @@ controller FMU's doStep per estimator (docs/estimators.md; targets ZSE <= 100 us
 All variants run on the same recorded data: the linearized plant (Sec. 4.3.3) under an LQR on
 the true state, process noise uniform in W_bar, measurement noise uniform in V_bar, the
 multirate schedule of Table 5.8. The C estimators are compiled from the built controller FMU's
-sources/ with its flags (controller_fmu/native_estimators.py). Set OPENBLAS_NUM_THREADS=1: numpy's
+sources/ with its flags (controller_fmu/reference/native_estimators.py). Set OPENBLAS_NUM_THREADS=1: numpy's
 idle BLAS threads otherwise spin on the second core and slow both.
 Run: python benchmarks/estimators.py [steps]
 """

@@ -4,7 +4,7 @@ For each design (DLQR, mixed H2/Hinf) and loop delay d, the closed-loop spectral
 linear model with d ticks of transport delay (error_dynamics.with_loop_delay), and the ISE of the
 nonlinear loop through the FMUs (trajectory 1, 40 s, seed 1, gusts) with the exact state (FSI) and
 with the ZSE. Delay 1 is the actuation delay (`--delay`: controller -> plant one tick late); delay 2
-is what a Jacobi master adds (libcosim, Ecos: master/jacobi.py). "plain" runs the design made for
+is what a Jacobi master adds (libcosim, Ecos: master/engine/jacobi.py). "plain" runs the design made for
 d = 0 (loop_delay_ticks 0), "aware" the one made for d. A run that diverges shows the time it stopped.
 
 Run: python benchmarks/loop_delay.py   (prints the Markdown table of docs/controller.md)

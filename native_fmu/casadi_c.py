@@ -37,7 +37,7 @@ PRELUDE = """/* tiltload (native_fmu/casadi_c.py): arithmetic pinned, symbols in
 
 
 def generate(functions: list[ca.Function], directory: Path, stem: str, defines: dict[str, int] | None = None) -> list[Path]:
-    """Write stem.c, stem.h and stem_sizes.h (with any extra integer defines) into directory; return the three paths."""
+    """Write <stem>.c, <stem>.h and <stem>_sizes.h (with any extra integer defines) into directory; return the three paths."""
     directory.mkdir(parents=True, exist_ok=True)
     cg = ca.CodeGenerator(f"{stem}.c", {"with_header": True, "with_export": False})
     for f in functions:

@@ -114,6 +114,8 @@ def c_header(definition: FmuDefinition, guid_: str, fmi_version: int = 2, extra:
         n = len(d.of_type(t))
         lines.append(f"#define TL_N_{t.upper()} {n}")
         lines.append(f"#define TL_CAP_{t.upper()} {max(n, 1)}")
+    if fmi_version == 2:  # each type numbers its variables from 0 (FMI 3.0's bases come in extra)
+        lines += [f"#define TL_VR_{t.upper()}0 0" for t in ("Real", "Integer", "Boolean", "String")]
     lines.append("")
     for v in d.variables:
         lines.append(f"#define TL_{v.type.upper()}_{v.name} {d.vr(v.name)}")

@@ -179,7 +179,7 @@ def c_header(definition: FmuDefinition, token: str) -> str:
     lines += [f"#define TL_VR_{t.upper()}0 {base[t]}" for t in TYPES]
     lines += [f"#define TL_CLOCK_{k.name} {i}" for i, k in enumerate(d.clocks)]
     lines += ["/* a variable's clock (-1: none) and whether it is discrete, by type and index */"]
-    for t in TYPES[:3]:
+    for t in TYPES:
         lines.append(f"TL_INTERNAL extern const int tl_{t.lower()}_clock[TL_CAP_{t.upper()}];")
         lines.append(f"TL_INTERNAL extern const unsigned char tl_{t.lower()}_discrete[TL_CAP_{t.upper()}];")
     lines += ["TL_INTERNAL extern const char* const tl_clock_name[TL_CAP_CLOCK];",
@@ -192,7 +192,7 @@ def c_header(definition: FmuDefinition, token: str) -> str:
 def c_tables(definition: FmuDefinition) -> str:
     d = definition
     lines = ["/* FMI 3.0 */"]
-    for t in TYPES[:3]:
+    for t in TYPES:
         vs = d.of_type(t)
         cap = f"TL_CAP_{t.upper()}"
         clocks = ", ".join(str(d.clock_index(v.clock) if v.clock else -1) for v in vs) or "-1"

@@ -1,6 +1,6 @@
 """The controller+estimator tick in Python: estimator, then u = sat(u_tr - K chi). The reference for the C.
 
-The controller FMU runs the same tick in C (controller_fmu/c/controller_model.c); this module is
+The controller FMU runs the same tick in C (controller_fmu/fmu/c/controller_model.c); this module is
 the design-time version the tests hold it to, tick by tick (tests/fmus/test_controller_fmu.py),
 and a way to run the controller offline. Everything is computed at build time and passed in as a
 bundle of arrays (gains, linearization, estimator matrices). Timing (docs/ports.md): tick k uses the

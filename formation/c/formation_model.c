@@ -26,24 +26,24 @@ void tl_model_reset(TlInstance* c) {
   tl_model_outputs(c);
 }
 
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   (void)c; /* the references are computed by the first step */
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   TlModelState* m = &c->s.model;
   const char* name = c->s.string[TL_STRING_controller];
   memset(m, 0, sizeof *m);
   m->law = strcmp(name, laws[0]) == 0 ? 0 : strcmp(name, laws[1]) == 0 ? 1 : -1;
   if (m->law < 0) {
-    tl_log(c, fmi2Error, "invalid formation parameters: unknown controller '%s' (available: backstepping, tsid)", name);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "invalid formation parameters: unknown controller '%s' (available: backstepping, tsid)", name);
+    return TL_ERROR;
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   TlModelState* m = &c->s.model;
   double* r = c->s.real;
   double rho[12], rho_dot[12], d_acc[12], rho_ddot[12], e_B[24], e_A[24], law = m->law, norm[3] = {0, 0, 0};
@@ -76,13 +76,13 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   res[1] = e_B;
   res[2] = e_A;
   if (tl_formation(arg, res, iw, w, 0)) {
-    tl_log(c, fmi2Error, "the formation law failed at t=%.6g s", t);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "the formation law failed at t=%.6g s", t);
+    return TL_ERROR;
   }
   for (i = 0; i < 12; ++i)
     if (!isfinite(rho_ddot[i])) {
-      tl_log(c, fmi2Error, "the formation law gave a non-finite acceleration at t=%.6g s (are the UAVs' states finite?)", t);
-      return fmi2Error;
+      tl_log(c, TL_ERROR, "the formation law gave a non-finite acceleration at t=%.6g s (are the UAVs' states finite?)", t);
+      return TL_ERROR;
     }
   for (i = 0; i < 3; ++i) {
     double* out = r + TL_REAL_sigma_x_ref + AGENT_REFS * i;
@@ -104,5 +104,5 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
     m->rho_dot_ref[i] += h * rho_ddot[i];
   }
   for (i = 0; i < 24; ++i) m->e_C[i] += h * e_B[i];
-  return fmi2OK;
+  return TL_OK;
 }

@@ -24,30 +24,30 @@ void tl_model_reset(TlInstance* c) {
   tl_model_outputs(c);
 }
 
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   memcpy(c->s.real + TL_REAL_f_R, tl_trim_u, sizeof(double) * 4);
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   const double* r = c->s.real;
   if (!(r[TL_REAL_f_min] < r[TL_REAL_f_max] && r[TL_REAL_tau_max] > 0.0)) {
-    tl_log(c, fmi2Error, "invalid tracker parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
+    tl_log(c, TL_ERROR, "invalid tracker parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
            r[TL_REAL_f_min], r[TL_REAL_f_max], r[TL_REAL_tau_max]);
-    return fmi2Error;
+    return TL_ERROR;
   }
   memset(&c->s.model, 0, sizeof c->s.model);
   return tl_model_outputs(c);
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   TlModelState* m = &c->s.model;
   TlLaw law;
   double u[4];
   int i;
   if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
-    tl_log(c, fmi2Error, "communication step %.9g s is not the tracker's period %g s; step refused", h, TL_TC);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "communication step %.9g s is not the tracker's period %g s; step refused", h, TL_TC);
+    return TL_ERROR;
   }
   law.nx = TL_NX;
   law.trim_x = tl_trim_x;
@@ -59,14 +59,14 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   law.tau_max = c->s.real[TL_REAL_tau_max];
   law.feedforward = feedforward;
   if (tl_law_step(&law, c->s.real + TL_REAL_x_ref, c->s.real + TL_REAL_x, m->integral, m->du_sent, u)) {
-    tl_log(c, fmi2Error, "the feedforward failed numerically at t=%.6g s", t);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "the feedforward failed numerically at t=%.6g s", t);
+    return TL_ERROR;
   }
   for (i = 0; i < 4; ++i)
     if (!isfinite(u[i])) {
-      tl_log(c, fmi2Error, "the tracker produced a non-finite input at t=%.6g s (is the UAV's state finite?)", t);
-      return fmi2Error;
+      tl_log(c, TL_ERROR, "the tracker produced a non-finite input at t=%.6g s (is the UAV's state finite?)", t);
+      return TL_ERROR;
     }
   memcpy(c->s.real + TL_REAL_f_R, u, sizeof u);
-  return fmi2OK;
+  return TL_OK;
 }

@@ -76,9 +76,9 @@ def snapshot_options(application: dict, where) -> LoopOptions:
     return opts
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LoopOptions:
-    """What describes one run of the loop (or of a system file), with every default filled in."""
+    """What describes one run of the loop (or of a system file), with every default filled in; built by keyword."""
 
     vehicle: str
     scenario: str
@@ -179,9 +179,10 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
                             f"{'applies' if one else 'apply'} to the thesis's loop only (drop {'it' if one else 'them'}, "
                             "or set it in the system file)")
         load = LOOPS["load"]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
-        return LoopOptions("load", DEFAULT_SCENARIO, load.default_trajectory, load.default_controller, None, DEFAULT_SEED,
-                           args.stop_time, False, True, args.faults, (), args.system, DEFAULT_FMU_DIR, False,
-                           allow_external_fmus=getattr(args, "allow_external_fmus", False),
+        return LoopOptions(vehicle="load", scenario=DEFAULT_SCENARIO, trajectory=load.default_trajectory,
+                           controller=load.default_controller, controller_fmu=None, seed=DEFAULT_SEED, stop_time=args.stop_time,
+                           delay=False, gusts=True, faults=args.faults, settings=(), system=args.system, fmus=DEFAULT_FMU_DIR,
+                           allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
                            remotes=tuple(getattr(args, "remote", ())))
     if getattr(args, "allow_external_fmus", False):
         raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
@@ -205,10 +206,12 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
         if not controller_fmu.is_file():
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")
     seed = DEFAULT_SEED if args.seed is None else args.seed
-    return LoopOptions(vehicle, scenario, trajectory, controller, controller_fmu, seed, args.stop_time,
-                       args.delay, not args.no_gusts, args.faults, tuple(args.set), None, args.fmus or DEFAULT_FMU_DIR,
-                       args.allow_unknown_inputs, reference=reference, wind=args.wind, allow_infeasible=args.allow_infeasible,
-                       max_tilt=args.max_tilt, remotes=tuple(getattr(args, "remote", ())), fmi=fmi, clocks=clocks)
+    return LoopOptions(vehicle=vehicle, scenario=scenario, trajectory=trajectory, controller=controller,
+                       controller_fmu=controller_fmu, seed=seed, stop_time=args.stop_time, delay=args.delay, gusts=not args.no_gusts,
+                       faults=args.faults, settings=tuple(args.set), system=None, fmus=args.fmus or DEFAULT_FMU_DIR,
+                       allow_unknown_inputs=args.allow_unknown_inputs, reference=reference, wind=args.wind,
+                       allow_infeasible=args.allow_infeasible, max_tilt=args.max_tilt, remotes=tuple(getattr(args, "remote", ())),
+                       fmi=fmi, clocks=clocks)
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """The controller port contract (docs/ports.md): its names, types and units, checked on a model description.
 
 The contract's inputs are the reference controller's inputs (its variable table,
-controller_fmu/fmu_variables.py, one source), plus the LKF sensor's flag and the plant's states.
+controller_fmu/fmu/fmu_variables.py, one source), plus the LKF sensor's flag and the plant's states.
 """
 
 from __future__ import annotations

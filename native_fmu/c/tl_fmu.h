@@ -1,10 +1,11 @@
-/* The contract between the generic FMI layers (tl_fmi2.c, tl_fmi3.c; shared code in tl_core.c) and one model.
+/* The contract between the generic FMI layers and one model: the hooks a model provides, the state they work on.
 
-   The layer owns the instance: life cycle, status, logging, get/set by value reference with
-   causality checks, state snapshots. A model provides its state struct (TlModelState, in the
-   header named by tl_model.h) and four hooks (five with clocks). Everything a snapshot must restore lives in
-   TlState, a plain struct with no pointers, so fmi2GetFMUstate is one copy. The same hooks compile
-   under either layer: the generated tl_model.h says which (TL_FMI_VERSION). */
+   The core (tl_core.c) owns the instance: life cycle, status, logging, get/set by value reference with causality
+   checks, state snapshots; each FMI version's file (tl_fmi2.c, tl_fmi3.c) maps its standard's functions onto it.
+   A model provides its state struct (TlModelState, in the header named by tl_model.h) and four hooks (five with
+   clocks). Everything a snapshot must restore lives in TlState, a plain struct with no pointers, so getting a
+   state is one copy. The hooks speak TlStatus, which is neither version's: the same hooks compile under either
+   layer, and the generated tl_model.h says which (TL_FMI_VERSION). */
 #ifndef TL_FMU_H
 #define TL_FMU_H
 
@@ -16,16 +17,12 @@
 #define TL_FMI_VERSION 2
 #endif
 
+/* The result of a hook or a call, in the order and with the values of fmi2Status and fmi3Status (each layer checks). */
+typedef enum { TL_OK, TL_WARNING, TL_DISCARD, TL_ERROR, TL_FATAL } TlStatus;
+
+/* The importer's callbacks, as its standard hands them over (only the core and the layers use them). */
 #if TL_FMI_VERSION == 3
 #include "fmi3Functions.h"
-/* The hooks speak the FMI 2.0 status and Boolean names; FMI 3.0 keeps their values (fmi3OK = 0 ... fmi3Fatal = 4),
-   so an FMI 3.0 build defines them here instead of including the FMI 2.0 headers. */
-typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
-typedef double fmi2Real;
-typedef int fmi2Integer;
-typedef int fmi2Boolean;
-#define fmi2True 1
-#define fmi2False 0
 typedef struct {
   fmi3InstanceEnvironment environment;
   fmi3LogMessageCallback log_message;
@@ -39,8 +36,9 @@ typedef fmi2CallbackFunctions TlHost;
 #define TL_STRING_LEN 64 /* longest String value + 1 */
 #endif
 
-/* Co-simulation states. FMI 2.0: TL_ERRORED follows fmi2Error, TL_BROKEN follows fmi2Fatal. FMI 3.0: TL_EVENT is
-   Event Mode, TL_STEPPING Step Mode; fmi3Error leads to TL_TERMINATED, fmi3Fatal to TL_BROKEN. */
+/* Co-simulation phases; each version reaches some of them (its state-mask table in its file says where each call is
+   allowed). FMI 2.0: TL_ERRORED follows an error, TL_BROKEN a fatal error. FMI 3.0: TL_EVENT is Event Mode,
+   TL_STEPPING Step Mode; an error leads to TL_TERMINATED, a fatal error to TL_BROKEN. */
 enum { TL_INSTANTIATED, TL_INITIALIZATION, TL_STEPPING, TL_TERMINATED, TL_BROKEN, TL_ERRORED, TL_EVENT };
 
 typedef struct {
@@ -48,10 +46,10 @@ typedef struct {
   double time;
   double start_time;
   double stop_time;   /* FMI 3.0: a step beyond it is an error (infinite: none given) */
-  int stop_requested; /* set by a model that refuses all further steps: fmi2Terminated reads it */
-  fmi2Real real[TL_CAP_REAL];
-  fmi2Integer integer[TL_CAP_INTEGER];
-  fmi2Boolean boolean[TL_CAP_BOOLEAN];
+  int stop_requested; /* set by a model that refuses all further steps: the importer is told to terminate */
+  double real[TL_CAP_REAL];
+  int integer[TL_CAP_INTEGER];
+  int boolean[TL_CAP_BOOLEAN]; /* 0 or 1 */
   char string[TL_CAP_STRING][TL_STRING_LEN];
   TlModelState model;
   /* FMI 3.0 Event Mode (clocked builds; the FMI 2.0 layer leaves these zero) */
@@ -69,28 +67,28 @@ typedef struct TlInstance {
   TlHost host;
   char* name;
   char* resources; /* the resources folder as a native path ending in a separator, or NULL (no file URI given) */
-  fmi2Boolean logging_on;
+  int logging_on;
   int event_mode_used; /* FMI 3.0: the importer runs Event Mode (clocked FMUs require it) */
 } TlInstance;
 
 /* Log a formatted message through the host's logger (errors and discards always; others when
-   logging is on). The message is formatted here: hosts print it as it is. Each layer implements it. */
-TL_INTERNAL void tl_log(const TlInstance* c, fmi2Status status, const char* format, ...)
+   logging is on). The message is formatted here: hosts print it as it is. */
+TL_INTERNAL void tl_log(const TlInstance* c, TlStatus status, const char* format, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
 
 /* Model hooks. */
-TL_INTERNAL void tl_model_reset(TlInstance* c);                          /* start values are loaded: set the model state */
-TL_INTERNAL fmi2Status tl_model_outputs(TlInstance* c);                  /* outputs from parameters and inputs (initialization mode) */
-TL_INTERNAL fmi2Status tl_model_initialize(TlInstance* c);               /* exitInitializationMode: check parameters, set outputs */
-TL_INTERNAL fmi2Status tl_model_step(TlInstance* c, double t, double h); /* advance [t, t + h); the layer advances the clock on OK */
+TL_INTERNAL void tl_model_reset(TlInstance* c);                        /* start values are loaded: set the model state */
+TL_INTERNAL TlStatus tl_model_outputs(TlInstance* c);                  /* outputs from parameters and inputs (initialization mode) */
+TL_INTERNAL TlStatus tl_model_initialize(TlInstance* c);               /* exitInitializationMode: check parameters, set outputs */
+TL_INTERNAL TlStatus tl_model_step(TlInstance* c, double t, double h); /* advance [t, t + h); the layer advances the clock on OK */
 #if TL_N_CLOCK > 0
 /* Event Mode at time t with the clocks c->s.clock_active (any of them, or none): run their partitions from the
    inputs set, write the clocked outputs and the discrete ones. May run again in the same event, from the model
    state the event began with (the layer restores it), when inputs or clocks change after an output was read. */
-TL_INTERNAL fmi2Status tl_model_event(TlInstance* c, double t);
+TL_INTERNAL TlStatus tl_model_event(TlInstance* c, double t);
 #endif
 
 #endif

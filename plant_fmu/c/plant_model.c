@@ -31,7 +31,7 @@ TL_STATIC_ASSERT(TL_PLANT_LAST_PARAM - TL_PLANT_FIRST_PARAM == TL_PLANT_NP - 1, 
 TL_STATIC_ASSERT(TL_REAL_tau_L_applied - TL_REAL_f_R_applied == 3 && TL_REAL_tau_L - TL_REAL_f_R == 3, "four actuators");
 TL_STATIC_ASSERT(TL_REAL_d_z - TL_REAL_d_x == 2, "three disturbance components");
 
-static fmi2Status evaluate_outputs(TlInstance* c) {
+static TlStatus evaluate_outputs(TlInstance* c) {
   const double* arg[TL_PLANT_OUT_SZ_ARG + 1];
   double* res[TL_PLANT_OUT_SZ_RES + 1];
   casadi_int iw[TL_PLANT_OUT_SZ_IW];
@@ -39,7 +39,7 @@ static fmi2Status evaluate_outputs(TlInstance* c) {
   arg[0] = STATE(c);
   arg[1] = PARAMS(c);
   res[0] = OUTPUTS(c);
-  return tl_plant_out(arg, res, iw, w, 0) ? fmi2Error : fmi2OK;
+  return tl_plant_out(arg, res, iw, w, 0) ? TL_ERROR : TL_OK;
 }
 
 static double clamp(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
@@ -118,26 +118,26 @@ void tl_model_reset(TlInstance* c) {
   tl_model_outputs(c);
 }
 
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   memcpy(STATE(c), STATE0(c), NX * sizeof(double));
   saturate(c);
   return evaluate_outputs(c);
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   char why[256];
   if (check_parameters(c, why, sizeof why)) {
-    tl_log(c, fmi2Error, "invalid plant parameters: %s", why);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "invalid plant parameters: %s", why);
+    return TL_ERROR;
   }
-  if (tl_model_outputs(c) != fmi2OK) {
-    tl_log(c, fmi2Error, "plant output evaluation failed at the initial state");
-    return fmi2Error;
+  if (tl_model_outputs(c) != TL_OK) {
+    tl_log(c, TL_ERROR, "plant output evaluation failed at the initial state");
+    return TL_ERROR;
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   TlModelState* m = &c->s.model;
   double step = c->s.real[TL_REAL_integrator_step], sub, cur[NX], next[NX], stuck[2];
   const double* arg[TL_PLANT_RK4_STUCK_SZ_ARG + 1];
@@ -148,8 +148,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   long n, k;
   int i;
   if (m->stopped) {
-    tl_log(c, fmi2Discard, "plant stopped at t=%.6g s after an earlier error; no further steps", m->stopped_at);
-    return fmi2Discard;
+    tl_log(c, TL_DISCARD, "plant stopped at t=%.6g s after an earlier error; no further steps", m->stopped_at);
+    return TL_DISCARD;
   }
   if (h <= step * (1.0 + 1e-9)) {
     n = 1;
@@ -157,8 +157,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   } else {
     n = lround(h / step);
     if (fabs((double)n * step - h) > 1e-6 * h) {
-      tl_log(c, fmi2Error, "communication step %.9g s is not a whole multiple of integrator_step %.9g s", h, step);
-      return fmi2Error;
+      tl_log(c, TL_ERROR, "communication step %.9g s is not a whole multiple of integrator_step %.9g s", h, step);
+      return TL_ERROR;
     }
     sub = h / (double)n;
   }
@@ -182,8 +182,8 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
       sarg[2] = newly;
       sres[0] = stuck_cur;
       if (tl_plant_stick(sarg, sres, siw, sw, 0)) {
-        tl_log(c, fmi2Error, "plant model evaluation failed when a servo stuck at t=%.6g s", t);
-        return fmi2Error;
+        tl_log(c, TL_ERROR, "plant model evaluation failed when a servo stuck at t=%.6g s", t);
+        return TL_ERROR;
       }
       memcpy(cur, stuck_cur, sizeof cur);
     }
@@ -198,18 +198,18 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   for (k = 1; k <= n; ++k) {
     arg[0] = cur;
     if (any_stuck ? tl_plant_rk4_stuck(arg, res, iw, w, 0) : tl_plant_rk4(arg, res, iw, w, 0)) {
-      tl_log(c, fmi2Error, "plant model evaluation failed at t=%.6g s", t);
-      return fmi2Error;
+      tl_log(c, TL_ERROR, "plant model evaluation failed at t=%.6g s", t);
+      return TL_ERROR;
     }
     for (i = 0; i < NX; ++i) {
       if (!isfinite(next[i])) {
         m->stopped = 1;
         m->stopped_at = t;
         c->s.stop_requested = 1;
-        tl_log(c, fmi2Discard,
+        tl_log(c, TL_DISCARD,
                "state diverged (non-finite) in substep %ld of the step from t=%.6g s; the state is kept at its last value "
                "and the plant stops", k, t);
-        return fmi2Discard;
+        return TL_DISCARD;
       }
     }
     memcpy(cur, next, sizeof cur);
@@ -217,5 +217,5 @@ fmi2Status tl_model_step(TlInstance* c, double t, double h) {
   memcpy(STATE(c), cur, sizeof cur);
   m->stuck[0] = stuck[0] != 0.0;
   m->stuck[1] = stuck[1] != 0.0;
-  return evaluate_outputs(c) == fmi2OK ? fmi2OK : fmi2Error;
+  return evaluate_outputs(c) == TL_OK ? TL_OK : TL_ERROR;
 }

@@ -94,14 +94,14 @@ static void wind(TlInstance* c, double t, double w[3]) {
   }
 }
 
-static fmi2Status evaluate(TlInstance* c, double t) {
+static TlStatus evaluate(TlInstance* c, double t) {
   double* r = c->s.real;
   double out[11], w[3], speed, drag;
   int i;
   const double* in[4];
   if (reference(c, t, out)) {
-    tl_log(c, fmi2Error, "trajectory %d evaluation failed at t=%.6g s", c->s.integer[TL_INTEGER_trajectory], t);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "trajectory %d evaluation failed at t=%.6g s", c->s.integer[TL_INTEGER_trajectory], t);
+    return TL_ERROR;
   }
   memcpy(r + TL_REAL_x_ref, out, 9 * sizeof(double));
   r[TL_REAL_psi_ref] = out[9];
@@ -115,10 +115,10 @@ static fmi2Status evaluate(TlInstance* c, double t) {
     in[2] = &r[TL_REAL_gust_magnitude];
     in[3] = &r[TL_REAL_gust_tau];
     r[TL_REAL_d_x + i] = 0.0;
-    if (c->s.boolean[TL_BOOLEAN_gusts] && call(tl_gust, in, 4, &r[TL_REAL_d_x + i])) return fmi2Error;
+    if (c->s.boolean[TL_BOOLEAN_gusts] && call(tl_gust, in, 4, &r[TL_REAL_d_x + i])) return TL_ERROR;
     r[TL_REAL_d_x + i] += drag * w[i];
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
 static int known(int trajectory) { return trajectory >= 0 && trajectory <= LAST_SHAPE; }
@@ -160,18 +160,18 @@ void tl_model_reset(TlInstance* c) {
   tl_model_outputs(c);
 }
 
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   int trajectory = c->s.integer[TL_INTEGER_trajectory], n = c->s.model.knots;
   set_up(c);
-  if (!known(trajectory) || (trajectory == WAYPOINTS && (n < 2 || n > TL_MAX_WAYPOINTS))) return fmi2OK; /* refused at initialization */
-  if (c->s.integer[TL_INTEGER_wind_profile_count] < 0 || c->s.integer[TL_INTEGER_wind_profile_count] > TL_MAX_PROFILE) return fmi2OK;
+  if (!known(trajectory) || (trajectory == WAYPOINTS && (n < 2 || n > TL_MAX_WAYPOINTS))) return TL_OK; /* refused at initialization */
+  if (c->s.integer[TL_INTEGER_wind_profile_count] < 0 || c->s.integer[TL_INTEGER_wind_profile_count] > TL_MAX_PROFILE) return TL_OK;
   return evaluate(c, c->s.time);
 }
 
 #define REFUSE(...)                                               \
   do {                                                            \
-    tl_log(c, fmi2Error, "invalid scenario parameters: " __VA_ARGS__); \
-    return fmi2Error;                                             \
+    tl_log(c, TL_ERROR, "invalid scenario parameters: " __VA_ARGS__); \
+    return TL_ERROR;                                             \
   } while (0)
 
 /* Times increasing and every value finite in `blocks` consecutive blocks of `stride` entries, n used. */
@@ -187,7 +187,7 @@ static int bad_table(const double* table, int blocks, int stride, int n, int* ro
 }
 
 /* The knot file named by waypoints_file: as given when absolute, else in the FMU's resources folder. */
-static fmi2Status load_knots(TlInstance* c) {
+static TlStatus load_knots(TlInstance* c) {
   const char* name = c->s.string[TL_STRING_waypoints_file];
   char path[TL_STRING_LEN + 4096], why[TL_STRING_LEN + 200];
   int absolute = name[0] == '/' || name[0] == '\\' || (name[0] != '\0' && name[1] == ':');
@@ -196,10 +196,10 @@ static fmi2Status load_knots(TlInstance* c) {
   if (!absolute && strlen(c->resources) >= sizeof path - TL_STRING_LEN) REFUSE("the resources folder's path is too long");
   snprintf(path, sizeof path, "%s%s", absolute ? "" : c->resources, name);
   if (tl_waypoints_load(path, c->s.model.knot, &c->s.model.knots, why, sizeof why)) REFUSE("waypoints_file %s", why);
-  return fmi2OK;
+  return TL_OK;
 }
 
-static fmi2Status check_reference(TlInstance* c) {
+static TlStatus check_reference(TlInstance* c) {
   const double* r = c->s.real;
   int trajectory = c->s.integer[TL_INTEGER_trajectory], n, i, row;
   if (!known(trajectory)) REFUSE("trajectory must be 0 to %d, got %d", LAST_SHAPE, trajectory);
@@ -207,7 +207,7 @@ static fmi2Status check_reference(TlInstance* c) {
   if (trajectory != WAYPOINTS && c->s.string[TL_STRING_waypoints_file][0] != '\0')
     REFUSE("waypoints_file is trajectory 4's; trajectory is %d", trajectory);
   if (trajectory == WAYPOINTS) {
-    if (load_knots(c) != fmi2OK) return fmi2Error;
+    if (load_knots(c) != TL_OK) return TL_ERROR;
     n = c->s.model.knots;
     if (n < 2) REFUSE("waypoints_file %s has %d knots; a mission has 2 to %d", c->s.string[TL_STRING_waypoints_file], n, TL_MAX_WAYPOINTS);
     switch (bad_table(wp_block(c, 0), TL_KNOT_COLUMNS, TL_MAX_WAYPOINTS, n, &row)) {
@@ -224,10 +224,10 @@ static fmi2Status check_reference(TlInstance* c) {
     if (!(r[TL_REAL_shape_duration] > 0.0)) REFUSE("shape_duration must be > 0, got %g", r[TL_REAL_shape_duration]);
     if (!(r[TL_REAL_shape_rise] >= 0.0)) REFUSE("shape_rise must be >= 0, got %g", r[TL_REAL_shape_rise]);
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-static fmi2Status check_wind(TlInstance* c) {
+static TlStatus check_wind(TlInstance* c) {
   const double* r = c->s.real;
   int dryden = c->s.integer[TL_INTEGER_dryden], n = c->s.integer[TL_INTEGER_wind_profile_count], i, row;
   for (i = 0; i < 3; ++i)
@@ -248,15 +248,15 @@ static fmi2Status check_wind(TlInstance* c) {
     case 2: REFUSE("wind_profile_t_%d is not after wind_profile_t_%d", row, row - 1);
     default: break;
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   const double* r = c->s.real;
   int i;
   for (i = 0; i < TL_N_REAL; ++i) /* used or not (a table's spare rows), a parameter that is not a number is a mistake */
     if (tl_real_settable[i] == 1 && !isfinite(r[i])) REFUSE("%s = %g is not finite", tl_real_name[i], r[i]);
-  if (check_reference(c) != fmi2OK || check_wind(c) != fmi2OK) return fmi2Error;
+  if (check_reference(c) != TL_OK || check_wind(c) != TL_OK) return TL_ERROR;
   if (!(r[TL_REAL_gust_tau] >= 0.0)) REFUSE("gust_tau must be >= 0, got %g", r[TL_REAL_gust_tau]);
   for (i = 0; i < 3; ++i) {
     if (!(r[TL_REAL_gust_x_at + i] >= 0.0))
@@ -271,9 +271,9 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   return tl_model_outputs(c);
 }
 
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
-  fmi2Status status = evaluate(c, t); /* the sample at t_k, from the filters' state at t_k */
-  if (status == fmi2OK && c->s.integer[TL_INTEGER_dryden] > 0) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
+  TlStatus status = evaluate(c, t); /* the sample at t_k, from the filters' state at t_k */
+  if (status == TL_OK && c->s.integer[TL_INTEGER_dryden] > 0) {
     c->s.model.sample += 1;
     tl_dryden_step(&c->s.model.dryden, (uint64_t)c->s.integer[TL_INTEGER_seed], c->s.model.sample, h, &c->s.model.step,
                    c->s.model.turbulence);

@@ -36,18 +36,18 @@ static int evaluate_pi(TlInstance* c, double y[TL_SENSOR_NY]) {
 }
 
 /* Each group's held samples from the current state, with noise for sample k when noisy; a group samples when due. */
-static fmi2Status sample(TlInstance* c, long k, int noisy, const int due[TL_N_GROUPS]) {
+static TlStatus sample(TlInstance* c, long k, int noisy, const int due[TL_N_GROUPS]) {
   double y[TL_SENSOR_NY];
   int g, j;
   if (evaluate_pi(c, y)) {
-    tl_log(c, fmi2Error, "measurement model evaluation failed at t=%.6g s", c->s.time);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "measurement model evaluation failed at t=%.6g s", c->s.time);
+    return TL_ERROR;
   }
   memcpy(EXACT(c), STATE(c), NX * sizeof(double));
   for (g = 0; g < TL_N_GROUPS; ++g) {
     const TlSensorGroup* grp = &tl_sensor_groups[g];
     int fresh = !noisy || due[g];
-    c->s.boolean[grp->flag] = noisy && fresh ? fmi2True : fmi2False;
+    c->s.boolean[grp->flag] = noisy && fresh ? 1 : 0;
     if (!fresh) continue;
     for (j = 0; j < grp->n; ++j) {
       double truth = grp->from_pi ? y[grp->index[j]] : STATE(c)[grp->index[j]];
@@ -60,7 +60,7 @@ static fmi2Status sample(TlInstance* c, long k, int noisy, const int due[TL_N_GR
       c->s.real[grp->out + j] = truth + noise;
     }
   }
-  return fmi2OK;
+  return TL_OK;
 }
 
 /* One line naming the first parameter that cannot be sampled, or 0. */
@@ -106,7 +106,7 @@ void tl_model_reset(TlInstance* c) {
 }
 
 /* Before the first sample every channel holds its noise-free value and no flag is raised. */
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   int due[TL_N_GROUPS];
 #if TL_HAS_ROD
   c->s.model.params[TL_L_INDEX] = c->s.real[TL_REAL_l];
@@ -115,30 +115,30 @@ fmi2Status tl_model_outputs(TlInstance* c) {
   return sample(c, 0, 0, due);
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   char why[256];
   if (check_parameters(c, why, sizeof why)) {
-    tl_log(c, fmi2Error, "invalid sensor parameters: %s", why);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "invalid sensor parameters: %s", why);
+    return TL_ERROR;
   }
   return tl_model_outputs(c);
 }
 
 #if TL_N_CLOCK > 0
 /* The step moves the exact channel only: the groups sample at their clocks' ticks (tl_model_event). */
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   (void)t; (void)h;
   memcpy(EXACT(c), STATE(c), NX * sizeof(double));
-  return fmi2OK;
+  return TL_OK;
 }
 
 /* Event Mode at t: the groups whose clocks are active sample (the same sample k as the plain variant's doStep(t));
    every flag says whether its group sampled now. A raised flag is lowered in the next tick's Event Mode, which the
    FMU asks for (a time event one step later) in case no clock ticks there. */
-fmi2Status tl_model_event(TlInstance* c, double t) {
+TlStatus tl_model_event(TlInstance* c, double t) {
   const double step = c->s.real[TL_REAL_step];
   int due[TL_N_GROUPS], g, any = 0;
-  fmi2Status status;
+  TlStatus status;
   for (g = 0; g < TL_N_GROUPS; ++g) {
     due[g] = c->s.clock_active[tl_sensor_groups[g].clock];
     any |= due[g];
@@ -148,17 +148,17 @@ fmi2Status tl_model_event(TlInstance* c, double t) {
   return status;
 }
 #else
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   const double step = c->s.real[TL_REAL_step];
   int due[TL_N_GROUPS], g;
   long k;
   if (fabs(h - step) > 1e-9 * step) {
-    tl_log(c, fmi2Error, "communication step %.9g s differs from the suite's step %.9g s; step refused", h, step);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "communication step %.9g s differs from the suite's step %.9g s; step refused", h, step);
+    return TL_ERROR;
   }
   if (c->s.integer[TL_INTEGER_seed] < 0) { /* tunable: may have changed since initialization */
-    tl_log(c, fmi2Error, "seed must be between 0 and 2147483647, got %d; step refused", c->s.integer[TL_INTEGER_seed]);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "seed must be between 0 and 2147483647, got %d; step refused", c->s.integer[TL_INTEGER_seed]);
+    return TL_ERROR;
   }
   k = lround(t / step);
   for (g = 0; g < TL_N_GROUPS; ++g) due[g] = k % c->s.model.ticks[g] == 0;

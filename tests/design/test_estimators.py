@@ -97,7 +97,7 @@ def lqr_gain(model):
 
 @pytest.fixture(scope="module")
 def c_library(pipeline_fmus, tmp_path_factory):
-    """The controller FMU's C estimators, compiled from its sources/ (controller_fmu/native_estimators.py)."""
+    """The controller FMU's C estimators, compiled from its sources/ (controller_fmu/reference/native_estimators.py)."""
     return c_estimators.compile_library(pipeline_fmus["TiltloadController"], tmp_path_factory.mktemp("c_estimators"))
 
 

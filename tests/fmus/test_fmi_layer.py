@@ -230,7 +230,16 @@ def test_fmi_status_semantics(native):
     with session(native["TiltloadPlant"], instance="vr") as s:
         with pytest.raises(FMICallException):
             s.fmu.getReal([10_000])
-        assert any("value reference 10000 does not exist" in line for line in s.log)
+        assert any("fmi2GetReal: value reference 10000 is not a Real variable of TiltloadPlant" in line for line in s.log)
+    with session(native["TiltloadPlant"], instance="unsupported") as s:
+        s.start()
+        with pytest.raises(FMICallException) as err:
+            s.fmu.getDirectionalDerivative([0], [1], [1.0])
+        assert err.value.status == 3 and any("fmi2GetDirectionalDerivative is not supported by TiltloadPlant" in line
+                                             for line in s.log)
+        with pytest.raises(FMICallException):  # an error, so the instance is in its error phase: no more steps
+            s.fmu.doStep(0.0, T)
+        assert any("fmi2DoStep is not allowed in error" in line for line in s.log)
     with session(native["TiltloadPlant"], instance="diverge") as s:
         s.set(alpha_R_dot_0=1e160, gamma_1_dot_0=1e160)
         s.start()

@@ -1,6 +1,6 @@
 /* The controller FMU's hooks: each doStep(t_k, T_c) reads the reference and the sensor inputs at
    t_k, runs the estimator (none, LKF or ZSE), then u = sat(u_tr - K chi) with the feedforward
-   (3.18) and the integral states, and holds u over the tick. As controller_fmu/runtime.py, the
+   (3.18) and the integral states, and holds u over the tick. As controller_fmu/reference/runtime.py, the
    Python reference the tests compare it with; the designs are embedded (controller_data.h). One source
    for both vehicles: controller_dims.h gives the state size, the first and last measurement, and
    whether this build has the LKF and the mixed design (the UAV alone has neither).
@@ -77,16 +77,16 @@ void tl_model_reset(TlInstance* c) {
 }
 
 /* Before the first tick: the trim inputs and the trim as the estimate. */
-fmi2Status tl_model_outputs(TlInstance* c) {
+TlStatus tl_model_outputs(TlInstance* c) {
   TlModelState* m = &c->s.model;
   memcpy(c->s.real + TL_REAL_f_R, tl_trim_u, sizeof(double) * 4);
   memcpy(m->estimate, tl_trim_x, sizeof m->estimate);
   memset(m->disturbance, 0, sizeof m->disturbance);
   publish_estimate(c, NULL);
-  return fmi2OK;
+  return TL_OK;
 }
 
-fmi2Status tl_model_initialize(TlInstance* c) {
+TlStatus tl_model_initialize(TlInstance* c) {
   TlModelState* m = &c->s.model;
   const double* r = c->s.real;
   int i;
@@ -94,34 +94,34 @@ fmi2Status tl_model_initialize(TlInstance* c) {
   m->estimator = choose(c->s.string[TL_STRING_estimator], estimators, 3);
   m->reduction = choose(c->s.string[TL_STRING_zse_reduction], reductions, 3);
   if (m->controller < 0 || (m->controller == 1 && !TL_HAS_MIXED)) {
-    tl_log(c, fmi2Error, "invalid controller parameters: unknown controller '%s' (available: %s)",
+    tl_log(c, TL_ERROR, "invalid controller parameters: unknown controller '%s' (available: %s)",
            c->s.string[TL_STRING_controller], TL_HAS_MIXED ? "dlqr, mixed" : "dlqr");
-    return fmi2Error;
+    return TL_ERROR;
   }
   if (m->estimator < 0 || (m->estimator == 1 && !TL_HAS_LKF)) {
-    tl_log(c, fmi2Error, "invalid controller parameters: unknown estimator '%s' (available: %s)",
+    tl_log(c, TL_ERROR, "invalid controller parameters: unknown estimator '%s' (available: %s)",
            c->s.string[TL_STRING_estimator], TL_HAS_LKF ? "none, lkf, zse" : "none, zse");
-    return fmi2Error;
+    return TL_ERROR;
   }
   if (m->reduction < 0) {
-    tl_log(c, fmi2Error, "invalid controller parameters: unknown zse_reduction '%s' (available: combastel, girard, pca)",
+    tl_log(c, TL_ERROR, "invalid controller parameters: unknown zse_reduction '%s' (available: combastel, girard, pca)",
            c->s.string[TL_STRING_zse_reduction]);
-    return fmi2Error;
+    return TL_ERROR;
   }
   if (fabs(r[TL_REAL_Tc] - TL_TC) > 1e-12) {
-    tl_log(c, fmi2Error, "invalid controller parameters: Tc = %g s, but the embedded designs are for %g s (rebuild to change it)",
+    tl_log(c, TL_ERROR, "invalid controller parameters: Tc = %g s, but the embedded designs are for %g s (rebuild to change it)",
            r[TL_REAL_Tc], TL_TC);
-    return fmi2Error;
+    return TL_ERROR;
   }
   if (!(r[TL_REAL_f_min] < r[TL_REAL_f_max] && r[TL_REAL_tau_max] > 0.0)) {
-    tl_log(c, fmi2Error, "invalid controller parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
+    tl_log(c, TL_ERROR, "invalid controller parameters: actuator limits need f_min < f_max and tau_max > 0, got %g, %g, %g",
            r[TL_REAL_f_min], r[TL_REAL_f_max], r[TL_REAL_tau_max]);
-    return fmi2Error;
+    return TL_ERROR;
   }
   if (c->s.integer[TL_INTEGER_loop_delay_ticks] < 0 || c->s.integer[TL_INTEGER_loop_delay_ticks] > TL_MAX_DELAY) {
-    tl_log(c, fmi2Error, "invalid controller parameters: loop_delay_ticks = %d, the designs are made for 0 to %d ticks",
+    tl_log(c, TL_ERROR, "invalid controller parameters: loop_delay_ticks = %d, the designs are made for 0 to %d ticks",
            (int)c->s.integer[TL_INTEGER_loop_delay_ticks], TL_MAX_DELAY);
-    return fmi2Error;
+    return TL_ERROR;
   }
   m->delay = (int)c->s.integer[TL_INTEGER_loop_delay_ticks];
   m->k = 0;
@@ -210,45 +210,45 @@ static int control(TlInstance* c, double* u) {
 }
 
 /* One controller tick at t: estimate from the inputs of t, the law, the command held until the next tick. */
-static fmi2Status control_tick(TlInstance* c, double t) {
+static TlStatus control_tick(TlInstance* c, double t) {
   TlModelState* m = &c->s.model;
   double half[NNU], u[4];
   int skipped, i;
   if (m->k == 0) memcpy(m->reference_start, c->s.real + TL_REAL_x_ref, sizeof m->reference_start);
   if (estimate(c, half, &skipped) || control(c, u)) {
-    tl_log(c, fmi2Error, "the %s estimator or the control law failed numerically at t=%.6g s", estimators[m->estimator], t);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "the %s estimator or the control law failed numerically at t=%.6g s", estimators[m->estimator], t);
+    return TL_ERROR;
   }
   for (i = 0; i < 4; ++i)
     if (!isfinite(u[i])) {
-      tl_log(c, fmi2Error, "the controller produced a non-finite input at t=%.6g s (estimator %s); step refused", t,
+      tl_log(c, TL_ERROR, "the controller produced a non-finite input at t=%.6g s (estimator %s); step refused", t,
              estimators[m->estimator]);
-      return fmi2Error;
+      return TL_ERROR;
     }
   memmove(m->u_sent[1], m->u_sent[0], sizeof(double) * 4 * TL_MAX_DELAY);
   memcpy(m->u_sent[0], u, sizeof u);
   memcpy(c->s.real + TL_REAL_f_R, u, sizeof u);
   publish_estimate(c, half);
   c->s.integer[TL_INTEGER_skipped_measurements] = skipped;
-  if (skipped) tl_log(c, fmi2Warning, "t=%.6g s: skipped %d measurement entries (non-finite or inconsistent)", t, skipped);
+  if (skipped) tl_log(c, TL_WARNING, "t=%.6g s: skipped %d measurement entries (non-finite or inconsistent)", t, skipped);
   m->k += 1;
-  return fmi2OK;
+  return TL_OK;
 }
 
 #if TL_N_CLOCK > 0
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   (void)c; (void)t; (void)h;
-  return fmi2OK; /* the law runs at the control clock's ticks; the commands hold in between */
+  return TL_OK; /* the law runs at the control clock's ticks; the commands hold in between */
 }
 
-fmi2Status tl_model_event(TlInstance* c, double t) {
-  return c->s.clock_active[TL_CLOCK_control_clock] ? control_tick(c, t) : fmi2OK;
+TlStatus tl_model_event(TlInstance* c, double t) {
+  return c->s.clock_active[TL_CLOCK_control_clock] ? control_tick(c, t) : TL_OK;
 }
 #else
-fmi2Status tl_model_step(TlInstance* c, double t, double h) {
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
   if (fabs(h - TL_TC) > 1e-9 * TL_TC) {
-    tl_log(c, fmi2Error, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
-    return fmi2Error;
+    tl_log(c, TL_ERROR, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
+    return TL_ERROR;
   }
   return control_tick(c, t);
 }

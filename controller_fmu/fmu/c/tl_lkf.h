@@ -1,5 +1,5 @@
 /* Linearized Kalman filter (thesis Alg. 4.1) on the disturbance-augmented model, Joseph-form
-   covariance update, as controller_fmu/lkf.py. The filter's state is a plain struct. */
+   covariance update, as controller_fmu/reference/lkf.py. The filter's state is a plain struct. */
 #ifndef TL_LKF_H
 #define TL_LKF_H
 

@@ -1,4 +1,4 @@
-/* Multirate zonotopic state estimator: see tl_zse.h. Each step mirrors controller_fmu/zse.py
+/* Multirate zonotopic state estimator: see tl_zse.h. Each step mirrors controller_fmu/reference/zse.py
    operation for operation, so the two agree to rounding; tests check it. */
 #include "tl_platform.h"
 #include "tl_zse.h"

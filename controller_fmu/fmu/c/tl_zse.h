@@ -1,4 +1,4 @@
-/* Multirate zonotopic state estimator (thesis Alg. 4.4) in the fast form of controller_fmu/zse.py:
+/* Multirate zonotopic state estimator (thesis Alg. 4.4) in the fast form of controller_fmu/reference/zse.py:
    prediction (4.25), all strips of a step as one Kalman-like update with R = diag(sigma^2) (the
    Frobenius-optimal strips of Thm 4.6 in sequence), one pass over the generators, then order
    reduction (Combastel, Girard or PCA) to r_max generators.

@@ -1,7 +1,7 @@
 /* A small FMI 2.0 co-simulation master in portable C99: LoadLibrary on Windows, dlopen elsewhere, no
    other POSIX call. It loads the FMU binaries named in a plan, instantiates them with their resource
    URIs, sets parameters, steps them in plan order on a fixed tick (Gauss-Seidel, as tiltload's master
-   and tests/hosts/loop_host.c: before an instance steps, its inputs are set from the current outputs of
+   and tests/support/hosts/loop_host.c: before an instance steps, its inputs are set from the current outputs of
    their sources) and prints Real outputs with %.17g, so two platforms' runs can be compared to the bit.
 
    usage: portable_host PLAN
