@@ -15,11 +15,16 @@ class OneLineParser(argparse.ArgumentParser):
     """A usage error is one line naming the problem (and where help is), not the usage block."""
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {message} (see: {self.prog} --help)\n")
+        self.exit(2, self.usage_line(self.prog, message) + "\n")
+
+    @staticmethod
+    def usage_line(prog: str, message: str) -> str:
+        return f"{prog}: error: {message} (see: {prog} --help)"
 
 
-def parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
+def parser(cls: type[argparse.ArgumentParser] = OneLineParser) -> argparse.ArgumentParser:
+    """The command's parser (cls: its class, inherited by the subcommands'; the public API's raises its errors)."""
+    p = cls(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
     sub = p.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)

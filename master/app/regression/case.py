@@ -79,3 +79,18 @@ def differences(a: dict, b: dict) -> list[str]:
             unit = " s" if key == "stop_time" else ""
             out.append(f"{_LABELS.get(key, key)} {ia[key] or 'none'}{unit} vs {ib[key] or 'none'}{unit}")
     return out
+
+
+def describe(rec: dict) -> str:
+    """A case in words: "zse, trajectory 1, controller mixed, seed 1, stop time 10 s, delay"."""
+    c = identity(rec)
+    if c.get("system"):
+        words = [f"system {c['system']}"]
+    else:
+        words = [("uav, " if c.get("vehicle") == "uav" else "") + c.get("scenario", "?"), f"trajectory {c.get('trajectory', '?')}",
+                 f"controller {c.get('controller', '?')}", f"seed {c.get('seed', '?')}"]
+    words.append(f"stop time {c.get('stop_time', '?')} s")
+    words += [f"{k} {c[k]}" for k in ("set", "faults", "wind") if c.get(k)]
+    words += ["delay"] * (c.get("delay") == "True") + ["calm"] * (c.get("gusts") == "False")
+    words += [f"schedule {c['schedule']}"] * (c.get("schedule", "ordered") != "ordered")
+    return ", ".join(words)
