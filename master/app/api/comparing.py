@@ -65,7 +65,7 @@ def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol:
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"run": dict(result.case), "command": result.command, "metrics": dict(result.metrics),
+    data = {"run": dict(result.case), "metrics": dict(result.metrics),
             "tolerances": {"rtol": rtol, "atol": atol}}
     path.write_text(json.dumps(data, indent=1) + "\n")
     return path

@@ -35,7 +35,7 @@ def raising_parser_class() -> type[argparse.ArgumentParser]:
 @contextmanager
 def as_tiltload_errors() -> Iterator[None]:
     """Inside: the errors the `tiltload` command reports in one line (exit 2, or a failed build) become TiltloadError."""
-    from ...native_fmu.compile import BuildError
+    from ....native_fmu.compile import BuildError
     from ..errors import USER_ERRORS
 
     try:

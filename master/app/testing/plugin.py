@@ -87,13 +87,13 @@ def tiltload_fmus(pytestconfig: pytest.Config) -> Path:
 
 
 @pytest.fixture(scope="session")
-def tiltload_controller(pytestconfig: pytest.Config) -> Callable[..., Path]:
+def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
     """controller(source, class_name=None) -> the controller FMU: a .fmu as is; a Python file, or a class, wrapped
-    as `tiltload wrap` does, once per session (into pytest's cache folder)."""
+    as `tiltload wrap` does, once per session (into the session's temporary folder)."""
     from ..wrap.wrap import wrap
 
     made: dict[tuple[str, str | None], Path] = {}
-    where = Path(pytestconfig.cache.mkdir("tiltload_controllers")) if pytestconfig.cache else None
+    where = tmp_path_factory.mktemp("tiltload_controllers")
 
     def controller(source: str | Path | type, class_name: str | None = None) -> Path:
         if isinstance(source, type):
@@ -103,7 +103,7 @@ def tiltload_controller(pytestconfig: pytest.Config) -> Callable[..., Path]:
             return path
         key = (str(path), class_name)
         if key not in made:
-            out = (where or path.parent) / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
+            out = where / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
             made[key] = wrap(path, out, class_name)
         return made[key]
     return controller
