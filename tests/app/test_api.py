@@ -1,0 +1,174 @@
+"""The public API (import tiltload): the same options, errors and metrics as the command; compare checks the case
+first; docs/api.md's examples run; the example controller repository's suite passes, and fails with a report when its
+controller changes."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from support import ROOT
+
+import tiltload as tl
+from tiltload.master.app.cli import main
+
+TILTLOAD = str(Path(sys.executable).parent / "tiltload")
+
+
+def _cli(*argv: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([TILTLOAD, *argv], capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def test_the_namespace_is_small_and_loads_nothing_heavy():
+    code = "import sys, tiltload; print(sorted(m for m in ('numpy', 'casadi', 'fmpy', 'pandas') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+    assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign",
+                               "compare", "run", "save_baseline"}
+    assert all(getattr(tl, name) is not None for name in tl.__all__)
+
+
+@pytest.mark.parametrize("options", [{"seed": -1}, {"stop_time": "soon"}, {"scenario": "kalman"}, {"vehicle": "uav", "scenario": "lkf"},
+                                     {"clocks": True}, {"set": {"plant": 1}}])
+def test_an_error_is_the_command_s_line(options, tmp_path):
+    """The same options through the command and the API: its stderr line is the exception's cli_line, exit 2."""
+    from tiltload.master.app.api.keywords import to_argv
+
+    argv = to_argv("run", options, "run")
+    cli = _cli("run", *argv, "--no-log", cwd=tmp_path)
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.run(no_log=True, **options)
+    assert cli.returncode == 2 and cli.stderr.strip().splitlines()[-1] == err.value.cli_line
+    assert str(err.value) in err.value.cli_line and "\n" not in err.value.cli_line
+
+
+def test_an_unknown_keyword_or_a_flag_s_wrong_value_is_named():
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'stop_tme' \(did you mean 'stop_time'\?\)"):
+        tl.run(stop_tme=3)
+    with pytest.raises(TypeError, match="'stop'"):  # argparse would take --stop as --stop-time: the API does not
+        tl.run(stop=3)
+    with pytest.raises(tl.TiltloadError, match="argument --delay: a flag takes True or False, got 'yes'"):
+        tl.run(delay="yes")
+
+
+def _record(**changes) -> dict:
+    from tiltload.master.app.regression.case import record
+
+    base = {"scenario": "zse", "trajectory": 1, "controller": "mixed", "seed": 1, "stop_time": 40.0}
+    return {k: str(v) for k, v in record(**{**base, **changes}).items()}
+
+
+def _baseline(path: Path, run: dict, metrics: dict) -> Path:
+    path.write_text(json.dumps({"run": run, "metrics": metrics}))
+    return path
+
+
+def test_compare_says_in_one_line_what_differs_between_the_cases(tmp_path, capsys):
+    metrics = {"ISE(x)": 1.0, "ISE(y)": 2.0}
+    base = _baseline(tmp_path / "base.json", _record(), metrics)
+    other = _baseline(tmp_path / "other.json", _record(seed=3, stop_time=5.0), {"ISE(x)": 7.0, "ISE(y)": 2.0})
+    assert main(["compare", str(other), str(base)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "different cases (seed 3 vs 1; stop time 5 s vs 40 s)" in err[0] and "--any-case" in err[0]
+    assert main(["compare", str(other), str(base), "--any-case"]) == 1  # compared: ISE(x) differs
+    assert "ISE(x)" in capsys.readouterr().out
+    for change, words in [({"wind": ROOT / "docs/examples/gusty_wind.yaml"}, "wind gusty_wind"), ({"settings": (("plant.m_L", 0.2),)},
+                          "--set plant.m_L=0.2 vs none"), ({"controller": "/else/where/mine.fmu"}, "controller mine vs mixed"),
+                          ({"faults": ROOT / "docs/faults/gps_dropout.json"}, "faults gps_dropout"), ({"schedule": "jacobi"},
+                          "schedule jacobi vs ordered"), ({"trajectory": 2}, "trajectory 2 vs 1")]:
+        changed = _baseline(tmp_path / "changed.json", _record(**change), metrics)
+        with pytest.raises(tl.TiltloadError, match=re.escape(words)):
+            tl.compare(changed, base)
+    # the same controller FMU elsewhere is the same case; the same case compares its metrics
+    moved = _baseline(tmp_path / "moved.json", _record(controller="/a/mine.fmu"), metrics)
+    assert tl.compare(moved, _baseline(tmp_path / "mine.json", _record(controller="/b/mine.fmu"), metrics)).ok
+
+
+def test_a_baseline_that_names_no_case_is_compared_with_a_note(tmp_path):
+    base = tmp_path / "old.json"
+    base.write_text(json.dumps({"metrics": {"ISE(x)": 1.0}}))
+    result = tl.compare(_baseline(tmp_path / "run.json", _record(), {"ISE(x)": 1.0}), base)
+    assert result.ok and result.notes == [f"{base} names no case: the case is not checked"]
+
+
+CASES = [("fsi", 1, "dlqr"), ("lkf", 2, "mixed"), ("zse", 1, "mixed")]
+
+
+@pytest.mark.parametrize("case", CASES, ids=["_".join(map(str, c)) for c in CASES])
+def test_the_api_s_metrics_are_the_command_s_bit_for_bit(case, fmus, tmp_path):
+    """Reproduction cases (5 s of each): the command's log record and the API's Result hold the same floats."""
+    scenario, trajectory, controller = case
+    options = {"scenario": scenario, "trajectory": trajectory, "controller": controller, "stop_time": 5, "fmus": fmus,
+               "no_plots": True}
+    result = tl.run(out=tmp_path / "api", **options)
+    from tiltload.master.app.api.keywords import to_argv
+    from tiltload.master.app.regression.compare import load_metrics
+
+    cli = _cli("run", *to_argv("run", {**options, "out": tmp_path / "cli"}, "run"), "--quiet", cwd=tmp_path)
+    assert cli.returncode == 0, cli.stderr
+    log = tmp_path / "cli" / result.log.name
+    assert load_metrics(log)[0] == result.metrics  # dict equality of floats: bit for bit
+    assert result.command.startswith(f"tiltload run --scenario {scenario} --trajectory {trajectory} --controller {controller}")
+    assert tl.compare(result, log, rtol=0, atol=0).ok
+    plant = result.signals("/plant")
+    assert plant.time[0] == 0 and plant.time[-1] == pytest.approx(5, abs=0.012) and len(plant["x"]) == len(plant.time)
+    frame = result.to_dataframe("/plant")
+    assert list(frame["z"]) == list(plant["z"]) and frame.index.name == "t"
+
+
+def _python_blocks(text: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_the_examples_of_docs_api_md_run(fmus, tmp_path, monkeypatch, capsys):
+    blocks = _python_blocks((ROOT / "docs" / "api.md").read_text())
+    script = blocks[1]
+    assert len(script.strip().splitlines()) < 15  # the scripted regression run
+    (tmp_path / "fmus").symlink_to(fmus)
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, "docs/api.md", "exec"), {})
+    out = capsys.readouterr().out
+    assert "tiltload run --scenario lkf --controller dlqr --stop-time 3 --no-plots" in out and "same" not in out
+    assert (tmp_path / "baselines" / "lkf_dlqr_3s.json").is_file()
+
+
+EXAMPLE = ROOT / "docs" / "examples" / "controller_repo"
+
+
+def _example_suite(repo: Path, fmus: Path, junit: Path) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--tiltload-fmus={fmus}",
+                           f"--junitxml={junit}", str(repo / "tests")], capture_output=True, text=True, cwd=repo, env=env,
+                          timeout=900)
+
+
+def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(fmus, tmp_path):
+    import xml.etree.ElementTree as ET
+
+    repo = shutil.copytree(EXAMPLE, tmp_path / "repo")
+    passed = _example_suite(repo, fmus, tmp_path / "pass.xml")
+    assert passed.returncode == 0, passed.stdout[-3000:]
+    suite = ET.parse(tmp_path / "pass.xml").getroot().find("testsuite")
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("3", "0", "0")
+
+    controller = repo / "controller" / "hover_lqr.py"  # a regression: another weight than the baselines were recorded with
+    controller.write_text(controller.read_text().replace("10.0", "3.0"))
+    failed = _example_suite(repo, fmus, tmp_path / "fail.xml")
+    assert failed.returncode == 1
+    suite = ET.parse(tmp_path / "fail.xml").getroot().find("testsuite")
+    failures = {case.get("name"): case.find("failure") for case in suite.iter("testcase") if case.find("failure") is not None}
+    baseline_tests = [name for name in failures if name.startswith("test_the_controller_matches_its_baseline")]
+    assert suite.get("tests") == "3" and len(baseline_tests) == 2, list(failures)
+    message = failures[baseline_tests[0]].get("message")
+    for words in ("differs from its baseline", "metrics out of tolerance", "case:     fsi, trajectory 1, controller hover_lqr, "
+                  "seed 1, stop time 3 s", "change ", "allowed +/-", "(rtol 1e-06, atol 1e-12)", "rerun:    tiltload run "
+                  "--controller", "pytest --tiltload-update-baselines"):
+        assert words in message, message
+    (Path(os.environ.get("TILTLOAD_REPORT_DIR", tmp_path)) / "example_failure.txt").write_text(message)
