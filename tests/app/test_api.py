@@ -5,18 +5,16 @@ controller changes."""
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 from support import ROOT
+from tiltload.master.app.cli import main
 
 import tiltload as tl
-from tiltload.master.app.cli import main
 
 TILTLOAD = str(Path(sys.executable).parent / "tiltload")
 
@@ -139,36 +137,20 @@ def test_the_examples_of_docs_api_md_run(fmus, tmp_path, monkeypatch, capsys):
     assert (tmp_path / "baselines" / "lkf_dlqr_3s.json").is_file()
 
 
-EXAMPLE = ROOT / "docs" / "examples" / "controller_repo"
-
-
-def _example_suite(repo: Path, fmus: Path, junit: Path) -> subprocess.CompletedProcess:
-    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
-    return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--tiltload-fmus={fmus}",
-                           f"--junitxml={junit}", str(repo / "tests")], capture_output=True, text=True, cwd=repo, env=env,
-                          timeout=900)
-
-
 def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(fmus, tmp_path):
-    import xml.etree.ElementTree as ET
+    from support import example_repo
 
-    repo = shutil.copytree(EXAMPLE, tmp_path / "repo")
-    passed = _example_suite(repo, fmus, tmp_path / "pass.xml")
+    repo = example_repo.copy(tmp_path / "repo")
+    passed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "pass.xml")
     assert passed.returncode == 0, passed.stdout[-3000:]
-    suite = ET.parse(tmp_path / "pass.xml").getroot().find("testsuite")
-    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("3", "0", "0")
+    assert list(example_repo.outcomes(tmp_path / "pass.xml").values()) == [None, None, None]
 
-    controller = repo / "controller" / "hover_lqr.py"  # a regression: another weight than the baselines were recorded with
-    controller.write_text(controller.read_text().replace("10.0", "3.0"))
-    failed = _example_suite(repo, fmus, tmp_path / "fail.xml")
+    example_repo.regress(repo)
+    failed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "fail.xml")
     assert failed.returncode == 1
-    suite = ET.parse(tmp_path / "fail.xml").getroot().find("testsuite")
-    failures = {case.get("name"): case.find("failure") for case in suite.iter("testcase") if case.find("failure") is not None}
-    baseline_tests = [name for name in failures if name.startswith("test_the_controller_matches_its_baseline")]
-    assert suite.get("tests") == "3" and len(baseline_tests) == 2, list(failures)
-    message = failures[baseline_tests[0]].get("message")
-    for words in ("differs from its baseline", "metrics out of tolerance", "case:     fsi, trajectory 1, controller hover_lqr, "
-                  "seed 1, stop time 3 s", "change ", "allowed +/-", "(rtol 1e-06, atol 1e-12)", "rerun:    tiltload run "
-                  "--controller", "pytest --tiltload-update-baselines"):
+    results = example_repo.outcomes(tmp_path / "fail.xml")
+    baseline_tests = [name for name in results if name.startswith("test_the_controller_matches_its_baseline")]
+    assert len(results) == 3 and len(baseline_tests) == 2 and all(results[name] for name in baseline_tests), results
+    message = results[baseline_tests[0]]
+    for words in example_repo.REPORT_WORDS:
         assert words in message, message
-    (Path(os.environ.get("TILTLOAD_REPORT_DIR", tmp_path)) / "example_failure.txt").write_text(message)

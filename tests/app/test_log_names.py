@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 
 import pytest
-
 from tiltload.master.app.cli import parser
 from tiltload.master.app.log_name import default_log_name
 from tiltload.master.app.loop import default_stop
