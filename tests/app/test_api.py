@@ -11,10 +11,9 @@ import sys
 from pathlib import Path
 
 import pytest
+import tiltload as tl
 from support import ROOT
 from tiltload.master.app.cli import main
-
-import tiltload as tl
 
 TILTLOAD = str(Path(sys.executable).parent / "tiltload")
 
@@ -154,3 +153,33 @@ def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(
     message = results[baseline_tests[0]]
     for words in example_repo.REPORT_WORDS:
         assert words in message, message
+
+
+CAMPAIGN = """
+name = "api"
+[base]
+scenario = "fsi"
+trajectory = 1
+controllers = ["dlqr"]
+stop_time = 1.5
+[vary]
+seeds = [1, 2]
+"""
+
+
+def test_a_campaign_through_the_api(fmus, tmp_path, capsys):
+    spec = tmp_path / "api.toml"
+    spec.write_text(CAMPAIGN)
+    done = tl.campaign(spec, out=tmp_path / "out", workers=1, fmus=fmus)
+    assert done.command == f"tiltload campaign {spec} --out {tmp_path / 'out'} --workers 1 --fmus {fmus}"
+    assert {k: done.counts[k] for k in ("total", "ran", "completed", "failed")} == {"total": 2, "ran": 2, "completed": 2, "failed": 0}
+    table = done.to_dataframe()
+    assert sorted(table["seed"]) == [1, 2]
+    again = tl.campaign(spec, out=tmp_path / "out", workers=1, fmus=fmus)  # resumable: nothing left to run
+    assert (again.counts["skipped"], again.counts["ran"]) == (2, 0)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(CAMPAIGN.replace('scenario = "fsi"', 'scenario = "ekf"'))
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.campaign(bad, out=tmp_path / "bad", fmus=fmus)
+    assert main(["campaign", str(bad), "--out", str(tmp_path / "bad"), "--fmus", str(fmus)]) == 2
+    assert capsys.readouterr().err.strip() == err.value.cli_line

@@ -3,7 +3,6 @@
 from pathlib import Path
 
 import pytest
-
 from tiltload.testing import assert_metrics_below
 
 CONTROLLER = Path(__file__).parents[1] / "controller" / "hover_lqr.py"
