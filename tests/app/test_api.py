@@ -181,5 +181,6 @@ def test_a_campaign_through_the_api(fmus, tmp_path, capsys):
     bad.write_text(CAMPAIGN.replace('scenario = "fsi"', 'scenario = "ekf"'))
     with pytest.raises(tl.TiltloadError) as err:
         tl.campaign(bad, out=tmp_path / "bad", fmus=fmus)
+    capsys.readouterr()  # the campaigns' progress lines
     assert main(["campaign", str(bad), "--out", str(tmp_path / "bad"), "--fmus", str(fmus)]) == 2
     assert capsys.readouterr().err.strip() == err.value.cli_line
