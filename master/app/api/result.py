@@ -14,7 +14,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays: no elementwise == for the whole
 class Signals(Mapping[str, "np.ndarray"]):
     """One channel of a run's log (/plant, /controller, /scenario, /sensors): its time and each value, numpy arrays of
     the same length. ``signals["x"]`` is a value's array; ``signals.to_dataframe()`` all of them, indexed by time."""
