@@ -184,3 +184,20 @@ def test_a_campaign_through_the_api(fmus, tmp_path, capsys):
     capsys.readouterr()  # the campaigns' progress lines
     assert main(["campaign", str(bad), "--out", str(tmp_path / "bad"), "--fmus", str(fmus)]) == 2
     assert capsys.readouterr().err.strip() == err.value.cli_line
+
+
+def test_a_changed_plant_is_said_to_run_the_nominal_controller(fmus, tmp_path):
+    """--set of a plant parameter: one note that the controller stays the nominal design, and how to get another;
+    none for a value equal to the nominal one, or for a controller parameter."""
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    nominal = dict(zip((s.name for s in VEHICLES["load"].parameter_specs), VEHICLES["load"].default_parameters()))
+    common = {"stop_time": 0.12, "fmus": fmus, "out": tmp_path, "no_plots": True}
+    changed = tl.run(set={"plant.m_L": 0.2}, **common).transcript.splitlines()
+    notes = [line for line in changed if "nominal design" in line]
+    assert notes == ["note: --set plant.m_L=0.2 changes the plant only: the mixed controller, its estimator and the feedforward "
+                     "stay the nominal design (Table 5.1's parameters); for a controller of the changed plant, design your own "
+                     "on it, wrap it (tiltload wrap, docs/ports.md) and run it with --controller IT.fmu"]
+    assert nominal["m_L"] != 0.2
+    same = tl.run(set={"plant.m_L": nominal["m_L"]}, **common).transcript
+    assert "nominal design" not in same
