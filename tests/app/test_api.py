@@ -201,3 +201,48 @@ def test_a_changed_plant_is_said_to_run_the_nominal_controller(fmus, tmp_path):
     assert nominal["m_L"] != 0.2
     same = tl.run(set={"plant.m_L": nominal["m_L"]}, **common).transcript
     assert "nominal design" not in same
+
+
+def _result(metrics: dict, **case) -> tl.Result:
+    """A Result as tiltload.run returns it, without running (the plugin's paths on known numbers)."""
+    return tl.Result(metrics=metrics, case=_record(**case), log=None, command="tiltload run --stop-time 40", options={},
+                     stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)
+
+
+def test_the_plugin_s_baseline_records_compares_and_reports(tmp_path):
+    from tiltload.master.app.testing.plugin import Baseline
+
+    path = tmp_path / "baselines" / "test_x.json"
+    node = "tests/test_c.py::test_x"
+    with pytest.raises(pytest.fail.Exception, match=re.escape(f"no baseline recorded for {node} ({path}): record it with "
+                                                              f'pytest --tiltload-update-baselines "{node}"')):
+        Baseline(path, False, node, 1e-6, 1e-12).check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}))
+    Baseline(path, True, node, 1e-6, 1e-12).check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}))
+    assert json.loads(path.read_text())["tolerances"] == {"rtol": 1e-6, "atol": 1e-12}
+    check = Baseline(path, False, node, 1e-6, 1e-12).check
+    check(_result({"ISE(x)": 0.5 * (1 + 0.9e-6), "IADU(f_R)": 2.0}))  # within rtol 1e-6
+    with pytest.raises(pytest.fail.Exception) as failed:
+        check(_result({"ISE(x)": 0.55, "IADU(f_R)": 2.0}))
+    lines = str(failed.value).splitlines()
+    assert lines[0] == "the run differs from its baseline: 1 of 2 metrics out of tolerance"
+    assert lines[3].split() == ["ISE(x)", "run", "0.55", "baseline", "0.5", "change", "+0.05", "(+10", "%);", "allowed",
+                                "+/-5e-07", "(rtol", "1e-06,", "atol", "1e-12)"]
+    assert "within tolerance: IADU(f_R)" in lines[4] and lines[-2] == "  rerun:    tiltload run --stop-time 40"
+    with pytest.raises(pytest.fail.Exception, match=r"different cases \(seed 2 vs 1\).*\n  rerun: .*\n  to record it again"):
+        check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}, seed=2))
+
+
+def test_the_marker_s_cases_are_every_combination_and_limits_are_reported():
+    from tiltload.master.app.testing.plugin import case_id, cases
+    from tiltload.testing import TiltloadAssertionError, assert_metrics_below
+
+    combos = cases({"scenario": ["zse", "lkf"], "trajectory": [1, 2], "seed": [1, 2, 3], "stop_time": 3})
+    assert len(combos) == 12 and len({case_id(c) for c in combos}) == 12
+    assert combos[0] == {"scenario": "zse", "trajectory": 1, "seed": 1, "stop_time": 3}
+    assert_metrics_below(_result({"ISE(x)": 0.04}), {"ISE(x)": 0.05})
+    with pytest.raises(TiltloadAssertionError) as err:
+        assert_metrics_below(_result({"ISE(x)": 0.06, "ISE(y)": 0.01}), {"ISE(x)": 0.05, "ISE(y)": 0.05, "ISE(z)": 1})
+    lines = str(err.value).splitlines()
+    assert lines[0] == "the run: 2 of 3 metrics above their limits"
+    assert lines[2].split() == ["ISE(x)", "0.06", ">", "limit", "0.05", "(by", "0.01,", "20", "%)"]
+    assert lines[3].split() == ["ISE(z)", "missing", "from", "the", "run"]
