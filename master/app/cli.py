@@ -38,7 +38,11 @@ class OneLineParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {_unechoed(message)} (see: {self.prog} --help)\n")
+        self.exit(2, self.usage_line(self.prog, message) + "\n")
+
+    @staticmethod
+    def usage_line(prog: str, message: str) -> str:
+        return f"{prog}: error: {_unechoed(message)} (see: {prog} --help)"
 
 
 def _unechoed(message: str) -> str:
@@ -64,8 +68,9 @@ def version() -> str:
         return "0+unknown"
 
 
-def parser() -> argparse.ArgumentParser:
-    p = OneLineParser(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
+def parser(cls: type[argparse.ArgumentParser] = OneLineParser) -> argparse.ArgumentParser:
+    """The command's parser (cls: its class, inherited by the subcommands'; the public API's raises its errors)."""
+    p = cls(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
     p.add_argument("--version", action="version", version=f"tiltload {version()}", help="print tiltload's version and exit")
     sub = p.add_subparsers(dest="command", required=True)
     for command in COMMANDS:

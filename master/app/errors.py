@@ -18,15 +18,20 @@ USER_ERRORS = (UserError, DescriptionError, SpecError, ReportError, WrapError, D
                InfeasibleReference, UserFileError)
 
 
-def run_failed(error: str, signal: int | None, log, sim_time: float) -> int:
-    """Say how a run ended early and where its log stands; the exit code (128 + signal, or 1)."""
-    import sys
-
+def failure_line(error: str, log, sim_time: float) -> str:
+    """How a run ended early and where its log stands, in one line."""
     if log is None:
         where = "no log (--no-log)"
     elif log.is_file():
         where = f"the log is readable up to t = {sim_time:.3f} s"
     else:
         where = "no log was written"
-    print(f"tiltload: error: {error}; {where}", file=sys.stderr)
+    return f"{error}; {where}"
+
+
+def run_failed(error: str, signal: int | None, log, sim_time: float) -> int:
+    """Say how a run ended early and where its log stands; the exit code (128 + signal, or 1)."""
+    import sys
+
+    print(f"tiltload: error: {failure_line(error, log, sim_time)}", file=sys.stderr)
     return 128 + signal if signal else 1

@@ -276,8 +276,28 @@ def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Repo
     scenario = system.instance("scenario").parameters
     plant = {k: v for k, v in system.instance("plant").parameters.items() if k in P.PARAMETER_NAMES}
     limits = limits_of(system)
-    return check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt),
-                           design=_our_design(system))
+    design = _our_design(system)
+    report = check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt),
+                             design=design)
+    changed = _changed_plant(vehicle, plant)
+    if design is not None and changed:
+        report.notes.insert(0, nominal_design_note(changed, design[0]))
+    return report
+
+
+def _changed_plant(vehicle: str, plant: dict) -> dict[str, float]:
+    """The plant parameters set to other values than the nominal design's (Table 5.1)."""
+    v = VEHICLES[vehicle]
+    nominal = dict(zip((s.name for s in v.parameter_specs), v.default_parameters()))
+    return {k: float(x) for k, x in plant.items() if k in nominal and float(x) != float(nominal[k])}
+
+
+def nominal_design_note(changed: dict[str, float], kind: str) -> str:
+    """One line: a --set of the plant leaves the controller (and the feedforward above) the nominal design."""
+    given = ", ".join(f"plant.{k}={x:g}" for k, x in changed.items())
+    return (f"--set {given} changes the plant only: the {kind} controller, its estimator and the feedforward stay the "
+            "nominal design (Table 5.1's parameters); for a controller of the changed plant, design your own on it, wrap it "
+            "(tiltload wrap, docs/ports.md) and run it with --controller IT.fmu")
 
 
 def _our_design(system) -> tuple[str, int] | None:

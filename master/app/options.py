@@ -130,8 +130,9 @@ class LoopOptions:
 
     def run_name(self, default_stop_time: float | None = None) -> str:
         """The default name of the run's log: what sets this run apart, so two different runs do not share a log.
-        The loop: vehicle, scenario, trajectory, controller, seed; then each of the delay, calm air, the faults
-        file, the --set values and a stop time other than default_stop_time, when given."""
+        The loop: vehicle, scenario, trajectory, controller, seed; then each of the delay, calm air, the FMI version, the
+        wind file, the faults file, the remote instances, the --set values and a stop time other than default_stop_time,
+        when given. (What `tiltload run` adds of its own: log_name.default_log_name.)"""
         if self.system is not None:
             parts = [self.system.stem]
         else:
@@ -139,13 +140,17 @@ class LoopOptions:
                      f"{self.controller_label}_seed{self.seed}"]
             parts += ["delay"] * self.delay + ["calm"] * (not self.gusts)
             parts += ["fmi3" + "_clocks" * self.clocks] * (self.fmi == 3)
+            if self.wind is not None:
+                parts.append(f"wind-{self.wind.stem}")
         if self.faults is not None:
             parts.append(f"faults-{self.faults.stem}")
+        if self.remotes:  # another machine's build of an FMU may round otherwise
+            parts.append("remote-" + "-".join(name for name, _ in self.remotes))
         if self.settings:
             parts.append("set-" + _settings_tag(self.settings))
         if self.stop_time is not None and self.stop_time != default_stop_time:
             parts.append(f"t{self.stop_time:g}s")
-        return _file_safe("_".join(parts))
+        return file_safe("_".join(parts))
 
 
 def _settings_tag(settings) -> str:
@@ -156,7 +161,7 @@ def _settings_tag(settings) -> str:
     return text if len(text) <= 40 else hashlib.sha256(text.encode()).hexdigest()[:10]
 
 
-def _file_safe(name: str) -> str:
+def file_safe(name: str) -> str:
     import re
 
     return re.sub(r"[^A-Za-z0-9._=+-]", "_", name)

@@ -32,7 +32,7 @@ def _package_of(path: Path) -> tuple[str, str] | None:
     for package in SETUPTOOLS["packages"]:
         root = SETUPTOOLS["package-dir"].get(package)
         if root is None:  # a subpackage: its folder under its top package's
-            top = next(p for p in SETUPTOOLS["package-dir"] if package.startswith(p + "."))
+            top = max((p for p in SETUPTOOLS["package-dir"] if package.startswith(p + ".")), key=len)  # tiltload.master, not tiltload
             root = SETUPTOOLS["package-dir"][top] + "/" + package[len(top) + 1:].replace(".", "/")
         if rel.parent.as_posix() == root or rel.parent.as_posix().startswith(root + "/"):
             inner = rel.relative_to(root).as_posix()
@@ -130,3 +130,25 @@ def test_the_wheel_builds_the_fmus_and_runs_the_loop_outside_the_repository(inst
     assert run.returncode == 0, run.stderr[-3000:]
     assert "ISE(x)" in run.stdout and (where / "runs" / "zse_traj1_mixed_seed1_t2s.mcap").is_file()
     assert len(list((where / "runs").glob("*.png"))) == 7
+
+
+def test_the_example_repository_s_suite_runs_on_the_wheel(installed, fmus, tmp_path):
+    """The plugin comes with the wheel (its pytest11 entry point): the example controller repository's suite, its
+    controller changed, passes one test and fails its two baseline tests with a report, in JUnit XML."""
+    from support import example_repo
+
+    repo = example_repo.copy(tmp_path / "repo")
+    example_repo.regress(repo)
+    built = shutil.copytree(fmus, tmp_path / "fmus")  # the repository's FMUs, checked (and rebuilt if stale) by the wheel
+    junit = tmp_path / "junit.xml"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    ran = example_repo.run_suite(installed, repo, built, junit, env)
+    assert ran.returncode == 1, ran.stdout[-3000:] + ran.stderr[-2000:]
+    results = example_repo.outcomes(junit)
+    passed = [name for name, failure in results.items() if failure is None]
+    failed = {name: failure for name, failure in results.items() if failure is not None}
+    assert passed == ["test_the_controller_tracks_the_circle_closely"] and len(failed) == 2, results
+    for message in failed.values():
+        for words in example_repo.REPORT_WORDS[:4]:
+            assert words in message or "seed 2" in message, message
+    (tmp_path / "failure.txt").write_text(next(iter(failed.values())))

@@ -30,7 +30,9 @@ def test_compare_passes_an_identical_run_and_catches_a_perturbed_one(fmus, tmp_p
     a, b, c = (next((tmp_path / d).glob("*.mcap")) for d in "abc")
     assert main(["compare", str(b), str(a)]) == 0
     assert "same within tolerance" in capsys.readouterr().out
-    assert main(["compare", str(c), str(a)]) == 1
+    assert main(["compare", str(c), str(a)]) == 2  # another case: said in one line, not compared
+    assert "different cases (controller dlqr vs mixed)" in capsys.readouterr().err
+    assert main(["compare", str(c), str(a), "--any-case"]) == 1
     out = capsys.readouterr().out
     assert "DIFFERS" in out and "ISE(x)" in out
     base = tmp_path / "loose.json"  # a metrics file with its own, per-metric tolerance

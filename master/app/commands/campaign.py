@@ -54,26 +54,33 @@ def run(args: argparse.Namespace) -> int:
             raise ReportError(f"{err} (note: {note})") from None
         print(f"note: {note}", file=sys.stderr)
         return code
-    from ..campaign.errors import CampaignIncomplete, ClusterError
-    from ..campaign.runner import run as run_campaign
+    from ..campaign.errors import CampaignIncomplete
 
-    if args.results is not None:
-        raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign-report RESULTS)")
     if args.spec is not None or args.x is not None or args.y is not None:
         raise UserError("campaign: --spec, --x and --y are options of tiltload campaign-report RESULTS")
     try:
-        results, counts = run_campaign(Path(args.what), args.out, args.fmus, scheduler=args.scheduler,
-                                       workers=args.workers, connect_timeout=args.connect_timeout,
-                                       worker_timeout=args.worker_timeout, retries=args.retries,
-                                       retry_failed=args.retry_failed, verbose=args.verbose)
-    except ClusterError as err:
-        raise UserError(str(err)) from None
+        results, counts = execute(args)
     except CampaignIncomplete as err:
         print(f"tiltload: error: {err}", file=sys.stderr)
         return 1
     print(summary(counts))
     print(f"results: {results}")
     return 0
+
+
+def execute(args: argparse.Namespace) -> tuple[Path, dict]:
+    """Run the campaign the arguments name: its results file and counts (tiltload.campaign returns them)."""
+    from ..campaign.errors import ClusterError
+    from ..campaign.runner import run as run_campaign
+
+    if args.results is not None:
+        raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign-report RESULTS)")
+    try:
+        return run_campaign(Path(args.what), args.out, args.fmus, scheduler=args.scheduler, workers=args.workers,
+                            connect_timeout=args.connect_timeout, worker_timeout=args.worker_timeout, retries=args.retries,
+                            retry_failed=args.retry_failed, verbose=args.verbose)
+    except ClusterError as err:
+        raise UserError(str(err)) from None
 
 
 def summary(counts: dict) -> str:

@@ -1,4 +1,4 @@
-"""`tiltload compare RUN BASELINE`: a run's metrics against a baseline; exit 0 same, 1 different."""
+"""`tiltload compare RUN BASELINE`: a run's metrics against a baseline, for the same case; exit 0 same, 1 different."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ from .. import arguments
 
 
 def add_parser(sub) -> None:
-    cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file); exit 0 same, 1 different")
+    cp = sub.add_parser("compare", help="compare a run's metrics with a baseline (a log or a metrics file) of the same case; "
+                                        "exit 0 same, 1 different")
     cp.add_argument("run", type=Path, help="the run: its MCAP log (runs/NAME.mcap) or a metrics file (JSON)")
     cp.add_argument("baseline", type=Path,
                     help="what to compare with: another run's MCAP log or a metrics file (JSON, with per-metric tolerances)")
@@ -22,23 +23,25 @@ def add_parser(sub) -> None:
     cp.add_argument("--requirements", type=Path, default=None, metavar="REQS",
                     help="also judge both logs against these requirements: a verdict that changes is a difference, "
                          "robustness is compared with the tolerances")
+    cp.add_argument("--any-case", action="store_true",
+                    help="compare the metrics even if the two are different cases (scenario, trajectory, controller, seed, "
+                         "stop time, --set, faults, wind, ...); by default that is refused with one line saying what differs")
     cp.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..regression import compare as cmp
+    from ..regression.compare import compare_files
 
-    notes: list[str] = []
-    run_metrics, _ = cmp.load_metrics(args.run, notes)
-    base, tol = cmp.load_metrics(args.baseline, notes)
-    for note in notes:
+    result = compare_files(args.run, args.baseline, args.rtol, args.atol, args.any_case)
+    for note in result.notes:
         print(f"note: {note}")
-    ok, rows = cmp.compare(run_metrics, base, cmp.DEFAULT_RTOL, cmp.DEFAULT_ATOL, cmp.overridden(tol, args.rtol, args.atol))
-    print(cmp.format_rows(rows))
+    print(result.table())
+    ok = result.ok
     if args.requirements is not None:
         from ...engine.requirement_check import check_log
         from ...engine.requirements import load
         from ..errors import UserError
+        from ..regression import compare as cmp
 
         if args.baseline.suffix == ".json" or args.run.suffix == ".json":
             raise UserError("--requirements compares two logs' verdicts: give the baseline as an MCAP log")

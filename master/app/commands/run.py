@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .. import arguments
 from ..errors import UserError
+
+if TYPE_CHECKING:
+    from ...engine.run import RunResult
+    from ..options import LoopOptions
 
 
 def add_parser(sub) -> None:
@@ -151,22 +158,39 @@ def _snapshot_at(args: argparse.Namespace):
         raise UserError(f"--snapshot-at {at}: {err}") from None
 
 
-def _metadata(opts, stop: float) -> dict:
-    """The log's "run" record: what this run was, as it ran (a system file's own settings are in the file)."""
+def _metadata(opts, stop: float, schedule: str | None) -> dict:
+    """The log's "run" record: which case this run was, as it ran (a system file's own settings are in the file)."""
+    from ..regression.case import file_digest, record
+
     if opts.system is not None:
-        meta = {"system": str(opts.system)}
-    else:
-        meta = {"vehicle": opts.vehicle, "scenario": opts.scenario, "trajectory": opts.trajectory,
-                "controller": opts.controller, "seed": opts.seed, "delay": opts.delay, "gusts": opts.gusts,
-                "fmi": opts.fmi, "clocks": opts.clocks}
-        if opts.settings:
-            meta["set"] = " ".join(f"{k}={v}" for k, v in opts.settings)
-    if opts.faults is not None:
-        meta["faults"] = str(opts.faults)
-    return {**meta, "stop_time": stop}
+        meta = {"system": str(opts.system), "system_sha256": file_digest(opts.system), "stop_time": stop}
+        if opts.faults is not None:
+            meta["faults"], meta["faults_sha256"] = str(opts.faults), file_digest(opts.faults)
+        return meta
+    return record(vehicle=opts.vehicle, scenario=opts.scenario, trajectory=opts.trajectory, controller=opts.controller,
+                  seed=opts.seed, delay=opts.delay, gusts=opts.gusts, fmi=opts.fmi, clocks=opts.clocks, settings=opts.settings,
+                  faults=opts.faults, wind=opts.wind, schedule=schedule or "ordered", stop_time=stop)
+
+
+@dataclass
+class Outcome:
+    """What a `tiltload run` did: its exit code and what ran (the public API, tiltload.run, reads it)."""
+
+    code: int
+    opts: LoopOptions
+    metadata: dict  # the log's "run" record
+    result: RunResult
+    log: Path | None
+    plots: list[Path]
+    failure: str | None  # the one line of a run that ended early
+    requirements: tuple = ()  # the requirements' results (engine.requirement_check.Result) when --requirements was given
 
 
 def run(args: argparse.Namespace) -> int:
+    return execute(args).code
+
+
+def execute(args: argparse.Namespace) -> Outcome:
     if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
         print("tiltload run: preparing " + (f"the run continued from {args.from_snapshot}" if args.from_snapshot else
                                             f"the system {args.system}" if args.system else
@@ -176,8 +200,9 @@ def run(args: argparse.Namespace) -> int:
     from ...engine import jacobi, snapshot
     from ...engine.model_description import read_fmu
     from ...engine.run import run_system
-    from ..errors import run_failed
+    from ..errors import failure_line
     from ..fmus import is_foreign
+    from ..log_name import default_log_name
     from ..loop import is_loop, loop_metrics
     from ..options import loop_system, resolve_loop
     from ..plot import plot_run
@@ -205,12 +230,12 @@ def run(args: argparse.Namespace) -> int:
     if schedule == "jacobi":
         system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
         print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
-    label = args.name or (opts.run_name(loop.natural_stop) + (f"_from{snap.time:g}s" if snap else ""))
+    label = args.name or default_log_name(args, opts, loop.natural_stop, loop.schedule, snap.time if snap else None)
     log = None if args.no_log else args.out / f"{label}.mcap"
     if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
         print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
     metrics = loop_metrics() if is_loop(system) else None
-    meta = _metadata(opts, stop)
+    meta = _metadata(opts, stop, schedule)
     checkpoints = []
     if checkpoint is not None:
         at, path = checkpoint
@@ -248,13 +273,15 @@ def run(args: argparse.Namespace) -> int:
     if log is None or log.is_file():
         print(f"log: {log}" if log else "log: none (--no-log)")
     if result.error:
-        return run_failed(result.error, result.signal, log, result.sim_time)
+        failure = failure_line(result.error, log, result.sim_time)
+        print(f"tiltload: error: {failure}", file=sys.stderr)
+        return Outcome(128 + result.signal if result.signal else 1, opts, meta, result, log, [], failure)
+    files = []
     if not args.no_plots and log is not None:
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
-    if monitor is not None and any(r.verdict == "FAIL" for r in monitor.results):
-        return 1
-    return 0
+    verdicts = tuple(monitor.results) if monitor is not None else ()
+    return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
 
 
 def _monitor(args: argparse.Namespace, system):

@@ -8,7 +8,9 @@ DEFAULT_RTOL, DEFAULT_ATOL.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from ...engine.errors import DescriptionError
 from ...engine.log_reader import DamagedLog, check, read_log, read_metadata
@@ -23,6 +25,17 @@ BASELINE_SCHEMA = {  # a baseline .json (regression/reproduce.write_baselines wr
                                                 "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE}}},
     },
 }
+
+
+def load_case(path: Path) -> dict | None:
+    """The case record of a log (its "run" metadata) or of a baseline file (its "run" entry); None if it names none."""
+    path = Path(path)
+    if path.suffix == ".json":
+        from ...engine.user_files import read_json
+
+        record = read_json(path).get("run")  # load_metrics has checked it: a bounded JSON object
+        return record if isinstance(record, dict) else None
+    return read_metadata(path).get("run")
 
 
 def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
@@ -99,26 +112,86 @@ def overridden(tolerances: dict, rtol: float | None, atol: float | None) -> dict
     return {**out, **given}
 
 
-def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[tuple]]:
+class MetricRow(NamedTuple):
+    """One metric of a comparison: passed if abs_diff <= atol + rtol * |baseline|."""
+
+    metric: str
+    run: float
+    baseline: float
+    abs_diff: float
+    rel_diff: float
+    rtol: float
+    atol: float
+    status: str  # ok, DIFFERS, MISSING (the run lacks it)
+
+
+def compare(run: dict[str, float], base: dict[str, float], rtol: float, atol: float, tolerances: dict) -> tuple[bool, list[MetricRow]]:
     rows, ok = [], True
     for name in base:
         tol = tolerances.get(name, tolerances)
         r, a = float(tol.get("rtol", rtol)), float(tol.get("atol", atol))
         if name not in run:
-            rows.append((name, math.nan, base[name], math.nan, math.nan, r, "MISSING"))
+            rows.append(MetricRow(name, math.nan, base[name], math.nan, math.nan, r, a, "MISSING"))
             ok = False
             continue
         diff = abs(run[name] - base[name])
         rel = diff / abs(base[name]) if base[name] else (0.0 if diff == 0 else math.inf)
         passed = diff <= a + r * abs(base[name])
         ok &= passed
-        rows.append((name, run[name], base[name], diff, rel, r, "ok" if passed else "DIFFERS"))
+        rows.append(MetricRow(name, run[name], base[name], diff, rel, r, a, "ok" if passed else "DIFFERS"))
     return ok, rows
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """A run's metrics against a baseline's, after their cases were checked to be the same (or any_case was asked)."""
+
+    ok: bool  # every metric within its tolerance
+    rows: list[MetricRow]
+    case_differences: list[str] = field(default_factory=list)  # what differs between the cases (compared with any_case)
+    notes: list[str] = field(default_factory=list)  # recomputed metrics, a side that names no case
+
+    def table(self) -> str:
+        return format_rows(self.rows)
+
+
+def different_cases(run_name: str, base_name: str, what: list[str]) -> str:
+    """The one line `compare` says when the two runs are different cases."""
+    return (f"{run_name} and {base_name} are different cases ({'; '.join(what)}): their metrics are not compared "
+            "(--any-case compares them anyway)")
+
+
+def compare_cases(run_case: dict | None, base_case: dict | None, run_name: str, base_name: str, any_case: bool,
+                  notes: list[str]) -> list[str]:
+    """What differs between the two cases; a DescriptionError saying it in one line unless any_case."""
+    from .case import differences
+
+    if run_case is None or base_case is None:
+        which = [n for n, c in ((run_name, run_case), (base_name, base_case)) if c is None]
+        notes.append(f"{' and '.join(which)} {'names' if len(which) == 1 else 'name'} no case: the case is not checked")
+        return []
+    what = differences(run_case, base_case)
+    if what and not any_case:
+        raise DescriptionError(different_cases(run_name, base_name, what))
+    if what:
+        notes.append(f"different cases ({'; '.join(what)}), compared as --any-case asks")
+    return what
+
+
+def compare_files(run: Path, baseline: Path, rtol: float | None = None, atol: float | None = None,
+                  any_case: bool = False) -> Comparison:
+    """`tiltload compare RUN BASELINE`: the cases first, then the metrics."""
+    notes: list[str] = []
+    run_metrics, _ = load_metrics(run, notes)
+    base, tol = load_metrics(baseline, notes)
+    what = compare_cases(load_case(run), load_case(baseline), str(run), str(baseline), any_case, notes)
+    ok, rows = compare(run_metrics, base, DEFAULT_RTOL, DEFAULT_ATOL, overridden(tol, rtol, atol))
+    return Comparison(ok, rows, what, notes)
 
 
 def format_rows(rows) -> str:
     lines = [f"{'metric':>12} {'run':>14} {'baseline':>14} {'abs diff':>10} {'rel diff':>10} {'rtol':>8}  status"]
-    for name, r, b, d, rel, rt, status in rows:
+    for name, r, b, d, rel, rt, _, status in rows:
         lines.append(f"{name:>12} {r:>14.8g} {b:>14.8g} {d:>10.3g} {rel:>10.3g} {rt:>8.1g}  {status}")
     return "\n".join(lines)
 

@@ -38,13 +38,15 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
     from ..loop import default_stop, default_system, loop_metrics
     from ..plot import plot_run
     from ..scene import scene_channels
+    from .case import record
 
     name = case_name(scenario, trajectory, controller)
     stop = default_stop(trajectory) if stop is None else stop
     log = Path(out) / f"{name}.mcap"
     res = run_system(default_system(Path(fmus), scenario, trajectory, controller, SEED, fmi=fmi, clocked=clocked), stop, log,
                      loop_metrics(), progress=False, channels=scene_channels("plant"),
-                     metadata={"scenario": scenario, "trajectory": trajectory, "controller": controller, "seed": SEED})
+                     metadata=record(scenario=scenario, trajectory=trajectory, controller=controller, seed=SEED,
+                                     stop_time=stop, fmi=fmi, clocks=clocked))
     figures = [str(f) for f in plot_run(log, Path(out) / "figures")] if res.error is None else []
     return {"case": name, "scenario": scenario, "trajectory": trajectory, "controller": controller, "metrics": res.metrics,
             "error": res.error, "wall": res.wall, "log": str(log), "figures": figures, "stop": stop}
@@ -79,9 +81,17 @@ def write_baselines(results: list[dict], folder: Path) -> None:
             kept = {k: v for k, v in json.loads(path.read_text()).items() if k in ("tolerances", "spread")}
         except (OSError, ValueError):
             kept = {}
-        data = {"case": r["case"], "seed": SEED, "stop_time": r["stop"], "metrics": r["metrics"],
+        data = {"case": r["case"], "seed": SEED, "stop_time": r["stop"], "run": baseline_case(r), "metrics": r["metrics"],
                 "tolerances": {"rtol": BASELINE_RTOL, "atol": 1e-12}, **kept}
         path.write_text(json.dumps(data, indent=1) + "\n")
+
+
+def baseline_case(r: dict) -> dict[str, str]:
+    """The case record a baseline file keeps (as a log's "run" record has it: text), for `tiltload compare`."""
+    from .case import record
+
+    rec = record(scenario=r["scenario"], trajectory=r["trajectory"], controller=r["controller"], seed=SEED, stop_time=r["stop"])
+    return {k: str(v) for k, v in rec.items()}
 
 
 def check_baselines(results: list[dict], folder: Path, echo=print) -> bool:

@@ -1,0 +1,71 @@
+"""tiltload.compare: a run against a baseline, as `tiltload compare` does (the case first, then the metrics)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..regression.compare import Comparison
+from .errors import TiltloadError, as_tiltload_errors
+from .result import Result
+
+Source = Result | str | Path
+
+
+def _tolerance(name: str, value: float | None) -> float | None:
+    from ..arguments import tolerance
+
+    if value is None:
+        return None
+    try:
+        return tolerance(str(value))
+    except argparse.ArgumentTypeError as err:
+        raise TiltloadError(f"{name}: {err}") from None
+
+
+def _load(source: Source, notes: list[str]) -> tuple[dict[str, float], dict, dict | None, str]:
+    """(metrics, tolerances, case, name) of a Result, a log or a baseline file."""
+    from ..regression.compare import load_case, load_metrics
+
+    if isinstance(source, Result):
+        return dict(source.metrics), {}, dict(source.case), str(source.log or "the run")
+    if not isinstance(source, (str, Path)):
+        raise TypeError(f"compare() takes a Result, a log (.mcap) or a baseline file (.json), got {type(source).__name__}")
+    metrics, tolerances = load_metrics(Path(source), notes)
+    return metrics, tolerances, load_case(Path(source)), str(source)
+
+
+def compare(run: Source, baseline: Source, *, rtol: float | None = None, atol: float | None = None,
+            any_case: bool = False) -> Comparison:
+    """A run's metrics against a baseline's: each passes if |run - baseline| <= atol + rtol * |baseline|.
+
+    run, baseline: a Result, a log (.mcap) or a metrics file (.json, as ``tiltload.save_baseline`` writes).
+    rtol, atol: for every metric, in place of the baseline file's (default: its own, else 1e-6 and 1e-12).
+    The two must be the same case (scenario, trajectory, controller, seed, stop time, --set, faults, wind, ...):
+    else TiltloadError says in one line what differs, unless any_case. Returns a Comparison (``.ok``, ``.rows``,
+    ``.table()``)."""
+    from ..regression.compare import DEFAULT_ATOL, DEFAULT_RTOL, compare_cases, overridden
+    from ..regression.compare import compare as compare_metrics
+
+    rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+    notes: list[str] = []
+    with as_tiltload_errors():
+        run_metrics, _, run_case, run_name = _load(run, notes)
+        base, tol, base_case, base_name = _load(baseline, notes)
+        what = compare_cases(run_case, base_case, run_name, base_name, any_case, notes)
+    ok, rows = compare_metrics(run_metrics, base, DEFAULT_RTOL, DEFAULT_ATOL, overridden(tol, rtol, atol))
+    return Comparison(ok, rows, what, notes)
+
+
+def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol: float = 1e-12) -> Path:
+    """Write a run's metrics and case as a baseline file (the format `tiltload compare` and `tiltload reproduce` read),
+    with these tolerances for every metric."""
+    import json
+
+    rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"run": dict(result.case), "metrics": dict(result.metrics),
+            "tolerances": {"rtol": rtol, "atol": atol}}
+    path.write_text(json.dumps(data, indent=1) + "\n")
+    return path

@@ -1,0 +1,96 @@
+"""Which case a run is: the record a log carries (its "run" metadata) and a baseline file copies, and what differs
+between two of them, said in one line.
+
+A case is what decides a run's metrics: the vehicle, scenario, trajectory, controller, seed, stop time, the
+--set parameters, the faults, the wind, the delay, the gusts and the schedule (or a system file). Where the FMUs
+ran (in process, isolated, remote), the FMI version (the same metrics bit for bit, docs/fmi3.md) and what is
+logged are not. A user's controller FMU is named by its file stem, not its path: the same controller checked out
+elsewhere is the same case (and a changed controller is exactly what a regression test compares). A faults or
+wind file is named by its stem and a digest of its content, so an edited file is another case.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+# the keys compared, in the order a difference is told; with the value a record that lacks the key means (logs written
+# before the key was recorded: no wind, the ordered schedule)
+CASE_KEYS: dict[str, str | None] = {
+    "system": "", "vehicle": "load", "scenario": None, "trajectory": None, "controller": None, "seed": None,
+    "stop_time": None, "set": "", "faults": "", "wind": "", "delay": "False", "gusts": "True", "schedule": "ordered",
+}
+_LABELS = {"stop_time": "stop time", "set": "--set", "gusts": "gusts", "delay": "delay"}
+
+
+def file_digest(path: Path | None) -> str:
+    """The first 12 hex digits of a file's SHA-256 (empty for no file or one that cannot be read)."""
+    if path is None:
+        return ""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12]
+    except OSError:
+        return ""
+
+
+def record(*, scenario: str, trajectory: int | str, controller: str, seed: int, stop_time: float, vehicle: str = "load",
+           delay: bool = False, gusts: bool = True, fmi: int = 2, clocks: bool = False,
+           settings: tuple[tuple[str, object], ...] = (), faults: Path | None = None, wind: Path | None = None,
+           schedule: str = "ordered") -> dict[str, object]:
+    """The "run" record of a run of the loop (the log's metadata keeps every value as text)."""
+    meta: dict[str, object] = {"vehicle": vehicle, "scenario": scenario, "trajectory": trajectory, "controller": controller,
+                               "seed": seed, "delay": delay, "gusts": gusts, "fmi": fmi, "clocks": clocks}
+    if settings:
+        meta["set"] = " ".join(f"{k}={v}" for k, v in settings)
+    if faults is not None:
+        meta["faults"], meta["faults_sha256"] = str(faults), file_digest(faults)
+    if wind is not None:
+        meta["wind"], meta["wind_sha256"] = str(wind), file_digest(wind)
+    if schedule != "ordered":
+        meta["schedule"] = schedule
+    return {**meta, "stop_time": stop_time}
+
+
+def identity(rec: dict) -> dict[str, str]:
+    """The case of a record, key by key, as comparable text (a missing key: the value it meant when it was not recorded)."""
+    out = {}
+    for key, default in CASE_KEYS.items():
+        value = rec.get(key, default)
+        if value is None:
+            continue  # not recorded (a log of an older tiltload): not compared
+        value = str(value)
+        if key == "controller" and value.endswith(".fmu"):
+            value = Path(value).stem
+        elif key in ("faults", "wind", "system") and value:
+            digest = rec.get(f"{key}_sha256")
+            value = Path(value).stem + (f" ({digest})" if digest else "")
+        elif key == "stop_time":
+            value = f"{float(value):g}"
+        out[key] = value
+    return out
+
+
+def differences(a: dict, b: dict) -> list[str]:
+    """What differs between two records' cases ("seed 3 vs 1"), in CASE_KEYS's order; empty for the same case."""
+    ia, ib = identity(a), identity(b)
+    out = []
+    for key in CASE_KEYS:
+        if key in ia and key in ib and ia[key] != ib[key]:
+            unit = " s" if key == "stop_time" else ""
+            out.append(f"{_LABELS.get(key, key)} {ia[key] or 'none'}{unit} vs {ib[key] or 'none'}{unit}")
+    return out
+
+
+def describe(rec: dict) -> str:
+    """A case in words: "zse, trajectory 1, controller mixed, seed 1, stop time 10 s, delay"."""
+    c = identity(rec)
+    if c.get("system"):
+        words = [f"system {c['system']}"]
+    else:
+        words = [("uav, " if c.get("vehicle") == "uav" else "") + c.get("scenario", "?"), f"trajectory {c.get('trajectory', '?')}",
+                 f"controller {c.get('controller', '?')}", f"seed {c.get('seed', '?')}"]
+    words.append(f"stop time {c.get('stop_time', '?')} s")
+    words += [f"{k} {c[k]}" for k in ("set", "faults", "wind") if c.get(k)]
+    words += ["delay"] * (c.get("delay") == "True") + ["calm"] * (c.get("gusts") == "False")
+    words += [f"schedule {c['schedule']}"] * (c.get("schedule", "ordered") != "ordered")
+    return ", ".join(words)

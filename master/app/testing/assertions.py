@@ -1,0 +1,39 @@
+"""Assertions on runs for a user's tests (tiltload.testing): their failure messages read like a test report."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from ..api.comparing import compare
+from ..api.errors import TiltloadError
+from ..api.result import Result
+from .report import baseline_report, limits_report
+
+__tracebackhide__ = True
+
+
+class TiltloadAssertionError(AssertionError):
+    """A run that does not match its baseline or exceeds its limits; the message says which metric, by how much."""
+
+
+def assert_matches_baseline(result: Result, baseline: str | Path, *, rtol: float | None = None, atol: float | None = None,
+                            update_hint: str | None = None) -> None:
+    """The run's metrics within tolerance of the baseline file's (the same case, else the one line saying what differs).
+    rtol, atol: in place of the baseline's own tolerances."""
+    __tracebackhide__ = True
+    try:
+        comparison = compare(result, baseline, rtol=rtol, atol=atol)
+    except TiltloadError as err:
+        raise TiltloadAssertionError(f"{err}\n  rerun: {result.command}"
+                                     + (f"\n  to record it again: {update_hint}" if update_hint else "")) from None
+    if not comparison.ok:
+        raise TiltloadAssertionError(baseline_report(comparison, result.case, result.command, baseline, update_hint=update_hint))
+
+
+def assert_metrics_below(result: Result, limits: Mapping[str, float]) -> None:
+    """Each named metric at most its limit (e.g. {"ISE(x)": 0.05})."""
+    __tracebackhide__ = True
+    message = limits_report(result.metrics, limits, result.case, result.command)
+    if message is not None:
+        raise TiltloadAssertionError(message)

@@ -1,0 +1,163 @@
+"""The tiltload pytest plugin (entry point `pytest11`: tiltload), for a user's controller repository: docs/api.md.
+
+Fixtures: tiltload_fmus (the loop's FMUs, built once per session), tiltload_controller (a Python controller file or
+class wrapped as an FMU once per session), tiltload_run (runs a case into the test's own folder), tiltload_case (one
+case of the tiltload_cases marker) and tiltload_baseline (the test's recorded baseline: check a run against it, or
+record it with --tiltload-update-baselines). Loaded in every pytest run once tiltload is installed, so it imports
+nothing heavy until a test asks for one of its fixtures.
+"""
+
+from __future__ import annotations
+
+import inspect
+import itertools
+import re
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pytest
+
+if TYPE_CHECKING:
+    from ..api.result import Result
+
+UPDATE = "--tiltload-update-baselines"
+MARKER = "tiltload_cases"
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("tiltload", "tiltload: runs of the tilt-rotor loop and their baselines")
+    group.addoption(UPDATE, action="store_true", default=False,
+                    help="record each tiltload_baseline from this run's metrics instead of checking against it")
+    group.addoption("--tiltload-fmus", default=None, metavar="DIR",
+                    help="folder of the loop's FMUs, built there when missing or stale (default: the ini's tiltload_fmus)")
+    parser.addini("tiltload_fmus", "folder of the loop's FMUs, relative to the rootdir (default: fmus)", default="fmus")
+    parser.addini("tiltload_baselines", "folder of the recorded baselines, relative to the rootdir (default: baselines)",
+                  default="baselines")
+    parser.addini("tiltload_rtol", "relative tolerance of the recorded baselines (default 1e-6)", default="1e-6")
+    parser.addini("tiltload_atol", "absolute tolerance of the recorded baselines (default 1e-12)", default="1e-12")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", f"{MARKER}(**axes): run the test once per combination of the axes' values "
+                            "(e.g. scenario=['zse', 'lkf'], trajectory=[1, 2], seed=[1, 2]), each given to the test as "
+                            "the tiltload_case fixture: the options of tiltload.run")
+
+
+def cases(axes: Mapping[str, object]) -> list[dict[str, object]]:
+    """Every combination of the axes' values (a value that is not a list or tuple is the only one of its axis)."""
+    names = list(axes)
+    values = [v if isinstance(v, (list, tuple)) else [v] for v in axes.values()]
+    return [dict(zip(names, combo)) for combo in itertools.product(*values)]
+
+
+def case_id(case: Mapping[str, object]) -> str:
+    return ",".join(f"{k}={v}" for k, v in case.items()) or "default"
+
+
+def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
+    marker = metafunc.definition.get_closest_marker(MARKER)
+    if marker is None:
+        return
+    if marker.args:
+        raise pytest.UsageError(f"@pytest.mark.{MARKER} takes keywords (scenario=[...], trajectory=[...], seed=[...]), "
+                                f"not {marker.args!r}")
+    if "tiltload_case" not in metafunc.fixturenames:
+        raise pytest.UsageError(f"{metafunc.definition.nodeid}: @pytest.mark.{MARKER} gives each case as the "
+                                "tiltload_case fixture: add it to the test's arguments")
+    combos = cases(marker.kwargs)
+    metafunc.parametrize("tiltload_case", combos, ids=[case_id(c) for c in combos])
+
+
+@pytest.fixture
+def tiltload_case() -> dict[str, object]:
+    """The case of this test: the options of tiltload.run (from the tiltload_cases marker; the default case without)."""
+    return {}
+
+
+@pytest.fixture(scope="session")
+def tiltload_fmus(pytestconfig: pytest.Config) -> Path:
+    """The loop's FMUs, built (or checked up to date) once per session: their folder."""
+    from ..fmus import build_all
+
+    folder = pytestconfig.getoption("--tiltload-fmus") or pytestconfig.getini("tiltload_fmus")
+    folder = (pytestconfig.rootpath / folder).resolve()
+    build_all(folder, progress=lambda message: None)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
+    """controller(source, class_name=None) -> the controller FMU: a .fmu as is; a Python file, or a class, wrapped
+    as `tiltload wrap` does, once per session (into the session's temporary folder)."""
+    from ..wrap.wrap import wrap
+
+    made: dict[tuple[str, str | None], Path] = {}
+    where = tmp_path_factory.mktemp("tiltload_controllers")
+
+    def controller(source: str | Path | type, class_name: str | None = None) -> Path:
+        if isinstance(source, type):
+            source, class_name = Path(inspect.getsourcefile(source) or ""), source.__name__
+        path = (pytestconfig.rootpath / source).resolve()
+        if path.suffix == ".fmu":
+            return path
+        key = (str(path), class_name)
+        if key not in made:
+            out = where / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
+            made[key] = wrap(path, out, class_name)
+        return made[key]
+    return controller
+
+
+@pytest.fixture
+def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path) -> Callable[..., Result]:
+    """run(controller=..., **options) -> tiltload.Result: a run of the loop with the session's FMUs into this test's
+    own folder, no figures; controller a .fmu, a Python file or class (wrapped), or dlqr / mixed."""
+    from ..api.running import run
+
+    def run_case(*, controller: str | Path | type | None = None, **options: object) -> Result:
+        if controller is not None and not (isinstance(controller, str) and controller in ("dlqr", "mixed")):
+            controller = tiltload_controller(controller)
+        options = {"fmus": tiltload_fmus, "out": tmp_path, "no_plots": True, **options}
+        return run(controller=controller, **options)
+    return run_case
+
+
+def _baseline_name(node: pytest.Item) -> str:
+    return re.sub(r"[^A-Za-z0-9._=,+-]", "_", node.name)
+
+
+class Baseline:
+    """The recorded baseline of one test: check(result) compares a run with it (or records it with
+    --tiltload-update-baselines)."""
+
+    def __init__(self, path: Path, update: bool, nodeid: str, rtol: float, atol: float) -> None:
+        self.path, self.update, self.nodeid, self.rtol, self.atol = path, update, nodeid, rtol, atol
+
+    def check(self, result: Result, rtol: float | None = None, atol: float | None = None) -> None:
+        """Record (with --tiltload-update-baselines, or rtol / atol to record) or compare; a report-like failure."""
+        __tracebackhide__ = True
+        from ..api.comparing import save_baseline
+        from .assertions import assert_matches_baseline
+
+        hint = f'pytest {UPDATE} "{self.nodeid}"'
+        if self.update:
+            save_baseline(result, self.path, rtol=self.rtol if rtol is None else rtol, atol=self.atol if atol is None else atol)
+            return
+        if not self.path.is_file():
+            pytest.fail(f"no baseline recorded for {self.nodeid} ({self.path}): record it with {hint}", pytrace=False)
+        try:
+            assert_matches_baseline(result, self.path, rtol=rtol, atol=atol, update_hint=hint)
+        except AssertionError as err:
+            pytest.fail(str(err), pytrace=False)
+
+
+@pytest.fixture
+def tiltload_baseline(request: pytest.FixtureRequest) -> Baseline:
+    """This test's baseline file: <tiltload_baselines>/<test file's stem>/<test name>.json."""
+    config = request.config
+    folder = config.rootpath / config.getini("tiltload_baselines") / Path(request.node.path).stem
+    return Baseline(folder / f"{_baseline_name(request.node)}.json", config.getoption(UPDATE), request.node.nodeid,
+                    float(config.getini("tiltload_rtol")), float(config.getini("tiltload_atol")))
+
+

@@ -1,0 +1,248 @@
+"""The public API (import tiltload): the same options, errors and metrics as the command; compare checks the case
+first; docs/api.md's examples run; the example controller repository's suite passes, and fails with a report when its
+controller changes."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import tiltload as tl
+from support import ROOT
+from tiltload.master.app.cli import main
+
+TILTLOAD = str(Path(sys.executable).parent / "tiltload")
+
+
+def _cli(*argv: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([TILTLOAD, *argv], capture_output=True, text=True, cwd=cwd, timeout=600)
+
+
+def test_the_namespace_is_small_and_loads_nothing_heavy():
+    code = "import sys, tiltload; print(sorted(m for m in ('numpy', 'casadi', 'fmpy', 'pandas') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+    assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign",
+                               "compare", "run", "save_baseline"}
+    assert all(getattr(tl, name) is not None for name in tl.__all__)
+
+
+@pytest.mark.parametrize("options", [{"seed": -1}, {"stop_time": "soon"}, {"scenario": "kalman"}, {"vehicle": "uav", "scenario": "lkf"},
+                                     {"clocks": True}, {"set": {"plant": 1}}])
+def test_an_error_is_the_command_s_line(options, tmp_path):
+    """The same options through the command and the API: its stderr line is the exception's cli_line, exit 2."""
+    from tiltload.master.app.api.keywords import to_argv
+
+    argv = to_argv("run", options, "run")
+    cli = _cli("run", *argv, "--no-log", cwd=tmp_path)
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.run(no_log=True, **options)
+    assert cli.returncode == 2 and cli.stderr.strip().splitlines()[-1] == err.value.cli_line
+    assert str(err.value) in err.value.cli_line and "\n" not in err.value.cli_line
+
+
+def test_an_unknown_keyword_or_a_flag_s_wrong_value_is_named():
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'stop_tme' \(did you mean 'stop_time'\?\)"):
+        tl.run(stop_tme=3)
+    with pytest.raises(TypeError, match="'stop'"):  # argparse would take --stop as --stop-time: the API does not
+        tl.run(stop=3)
+    with pytest.raises(tl.TiltloadError, match="argument --delay: a flag takes True or False, got 'yes'"):
+        tl.run(delay="yes")
+
+
+def _record(**changes) -> dict:
+    from tiltload.master.app.regression.case import record
+
+    base = {"scenario": "zse", "trajectory": 1, "controller": "mixed", "seed": 1, "stop_time": 40.0}
+    return {k: str(v) for k, v in record(**{**base, **changes}).items()}
+
+
+def _baseline(path: Path, run: dict, metrics: dict) -> Path:
+    path.write_text(json.dumps({"run": run, "metrics": metrics}))
+    return path
+
+
+def test_compare_says_in_one_line_what_differs_between_the_cases(tmp_path, capsys):
+    metrics = {"ISE(x)": 1.0, "ISE(y)": 2.0}
+    base = _baseline(tmp_path / "base.json", _record(), metrics)
+    other = _baseline(tmp_path / "other.json", _record(seed=3, stop_time=5.0), {"ISE(x)": 7.0, "ISE(y)": 2.0})
+    assert main(["compare", str(other), str(base)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "different cases (seed 3 vs 1; stop time 5 s vs 40 s)" in err[0] and "--any-case" in err[0]
+    assert main(["compare", str(other), str(base), "--any-case"]) == 1  # compared: ISE(x) differs
+    assert "ISE(x)" in capsys.readouterr().out
+    for change, words in [({"wind": ROOT / "docs/examples/gusty_wind.yaml"}, "wind gusty_wind"), ({"settings": (("plant.m_L", 0.2),)},
+                          "--set plant.m_L=0.2 vs none"), ({"controller": "/else/where/mine.fmu"}, "controller mine vs mixed"),
+                          ({"faults": ROOT / "docs/faults/gps_dropout.json"}, "faults gps_dropout"), ({"schedule": "jacobi"},
+                          "schedule jacobi vs ordered"), ({"trajectory": 2}, "trajectory 2 vs 1")]:
+        changed = _baseline(tmp_path / "changed.json", _record(**change), metrics)
+        with pytest.raises(tl.TiltloadError, match=re.escape(words)):
+            tl.compare(changed, base)
+    # the same controller FMU elsewhere is the same case; the same case compares its metrics
+    moved = _baseline(tmp_path / "moved.json", _record(controller="/a/mine.fmu"), metrics)
+    assert tl.compare(moved, _baseline(tmp_path / "mine.json", _record(controller="/b/mine.fmu"), metrics)).ok
+
+
+def test_a_baseline_that_names_no_case_is_compared_with_a_note(tmp_path):
+    base = tmp_path / "old.json"
+    base.write_text(json.dumps({"metrics": {"ISE(x)": 1.0}}))
+    result = tl.compare(_baseline(tmp_path / "run.json", _record(), {"ISE(x)": 1.0}), base)
+    assert result.ok and result.notes == [f"{base} names no case: the case is not checked"]
+
+
+CASES = [("fsi", 1, "dlqr"), ("lkf", 2, "mixed"), ("zse", 1, "mixed")]
+
+
+@pytest.mark.parametrize("case", CASES, ids=["_".join(map(str, c)) for c in CASES])
+def test_the_api_s_metrics_are_the_command_s_bit_for_bit(case, fmus, tmp_path):
+    """Reproduction cases (5 s of each): the command's log record and the API's Result hold the same floats."""
+    scenario, trajectory, controller = case
+    options = {"scenario": scenario, "trajectory": trajectory, "controller": controller, "stop_time": 5, "fmus": fmus,
+               "no_plots": True}
+    result = tl.run(out=tmp_path / "api", **options)
+    from tiltload.master.app.api.keywords import to_argv
+    from tiltload.master.app.regression.compare import load_metrics
+
+    cli = _cli("run", *to_argv("run", {**options, "out": tmp_path / "cli"}, "run"), "--quiet", cwd=tmp_path)
+    assert cli.returncode == 0, cli.stderr
+    log = tmp_path / "cli" / result.log.name
+    assert load_metrics(log)[0] == result.metrics  # dict equality of floats: bit for bit
+    assert f"--scenario {scenario} --trajectory {trajectory} --controller {controller} --stop-time 5" in result.command
+    assert tl.compare(result, log, rtol=0, atol=0).ok
+    plant = result.signals("/plant")
+    assert plant.time[0] == 0 and plant.time[-1] == pytest.approx(5, abs=0.012) and len(plant["x"]) == len(plant.time)
+    frame = result.to_dataframe("/plant")
+    assert list(frame["z"]) == list(plant["z"]) and frame.index.name == "t"
+
+
+def _python_blocks(text: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_the_examples_of_docs_api_md_run(fmus, tmp_path, monkeypatch, capsys):
+    blocks = _python_blocks((ROOT / "docs" / "api.md").read_text())
+    script = blocks[1]
+    assert len(script.strip().splitlines()) < 15  # the scripted regression run
+    (tmp_path / "fmus").symlink_to(fmus)
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, "docs/api.md", "exec"), {})
+    out = capsys.readouterr().out
+    assert "tiltload run --scenario lkf --controller dlqr --stop-time 3 --no-plots" in out and "same" not in out
+    assert (tmp_path / "baselines" / "lkf_dlqr_3s.json").is_file()
+
+
+def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(fmus, tmp_path):
+    from support import example_repo
+
+    repo = example_repo.copy(tmp_path / "repo")
+    passed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "pass.xml")
+    assert passed.returncode == 0, passed.stdout[-3000:]
+    assert list(example_repo.outcomes(tmp_path / "pass.xml").values()) == [None, None, None]
+
+    example_repo.regress(repo)
+    failed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "fail.xml")
+    assert failed.returncode == 1
+    results = example_repo.outcomes(tmp_path / "fail.xml")
+    baseline_tests = [name for name in results if name.startswith("test_the_controller_matches_its_baseline")]
+    assert len(results) == 3 and len(baseline_tests) == 2 and all(results[name] for name in baseline_tests), results
+    message = results[baseline_tests[0]]
+    for words in example_repo.REPORT_WORDS:
+        assert words in message, message
+
+
+CAMPAIGN = """
+name = "api"
+[base]
+scenario = "fsi"
+trajectory = 1
+controllers = ["dlqr"]
+stop_time = 1.5
+[vary]
+seeds = [1, 2]
+"""
+
+
+def test_a_campaign_through_the_api(fmus, tmp_path, capsys):
+    spec = tmp_path / "api.toml"
+    spec.write_text(CAMPAIGN)
+    done = tl.campaign(spec, out=tmp_path / "out", workers=1, fmus=fmus)
+    assert done.command == f"tiltload campaign {spec} --out {tmp_path / 'out'} --workers 1 --fmus {fmus}"
+    assert {k: done.counts[k] for k in ("total", "ran", "completed", "failed")} == {"total": 2, "ran": 2, "completed": 2, "failed": 0}
+    table = done.to_dataframe()
+    assert sorted(table["seed"]) == [1, 2]
+    again = tl.campaign(spec, out=tmp_path / "out", workers=1, fmus=fmus)  # resumable: nothing left to run
+    assert (again.counts["skipped"], again.counts["ran"]) == (2, 0)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(CAMPAIGN.replace('scenario = "fsi"', 'scenario = "ekf"'))
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.campaign(bad, out=tmp_path / "bad", fmus=fmus)
+    capsys.readouterr()  # the campaigns' progress lines
+    assert main(["campaign", str(bad), "--out", str(tmp_path / "bad"), "--fmus", str(fmus)]) == 2
+    assert capsys.readouterr().err.strip() == err.value.cli_line
+
+
+def test_a_changed_plant_is_said_to_run_the_nominal_controller(fmus, tmp_path):
+    """--set of a plant parameter: one note that the controller stays the nominal design, and how to get another;
+    none for a value equal to the nominal one, or for a controller parameter."""
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    nominal = dict(zip((s.name for s in VEHICLES["load"].parameter_specs), VEHICLES["load"].default_parameters()))
+    common = {"stop_time": 0.12, "fmus": fmus, "out": tmp_path, "no_plots": True}
+    changed = tl.run(set={"plant.m_L": 0.2}, **common).transcript.splitlines()
+    notes = [line for line in changed if "nominal design" in line]
+    assert notes == ["note: --set plant.m_L=0.2 changes the plant only: the mixed controller, its estimator and the feedforward "
+                     "stay the nominal design (Table 5.1's parameters); for a controller of the changed plant, design your own "
+                     "on it, wrap it (tiltload wrap, docs/ports.md) and run it with --controller IT.fmu"]
+    assert nominal["m_L"] != 0.2
+    same = tl.run(set={"plant.m_L": nominal["m_L"]}, **common).transcript
+    assert "nominal design" not in same
+
+
+def _result(metrics: dict, **case) -> tl.Result:
+    """A Result as tiltload.run returns it, without running (the plugin's paths on known numbers)."""
+    return tl.Result(metrics=metrics, case=_record(**case), log=None, command="tiltload run --stop-time 40", options={},
+                     stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)
+
+
+def test_the_plugin_s_baseline_records_compares_and_reports(tmp_path):
+    from tiltload.master.app.testing.plugin import Baseline
+
+    path = tmp_path / "baselines" / "test_x.json"
+    node = "tests/test_c.py::test_x"
+    with pytest.raises(pytest.fail.Exception, match=re.escape(f"no baseline recorded for {node} ({path}): record it with "
+                                                              f'pytest --tiltload-update-baselines "{node}"')):
+        Baseline(path, False, node, 1e-6, 1e-12).check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}))
+    Baseline(path, True, node, 1e-6, 1e-12).check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}))
+    assert json.loads(path.read_text())["tolerances"] == {"rtol": 1e-6, "atol": 1e-12}
+    check = Baseline(path, False, node, 1e-6, 1e-12).check
+    check(_result({"ISE(x)": 0.5 * (1 + 0.9e-6), "IADU(f_R)": 2.0}))  # within rtol 1e-6
+    with pytest.raises(pytest.fail.Exception) as failed:
+        check(_result({"ISE(x)": 0.55, "IADU(f_R)": 2.0}))
+    lines = str(failed.value).splitlines()
+    assert lines[0] == "the run differs from its baseline: 1 of 2 metrics out of tolerance"
+    assert lines[3].split() == ["ISE(x)", "run", "0.55", "baseline", "0.5", "change", "+0.05", "(+10", "%);", "allowed",
+                                "+/-5e-07", "(rtol", "1e-06,", "atol", "1e-12)"]
+    assert "within tolerance: IADU(f_R)" in lines[4] and lines[-2] == "  rerun:    tiltload run --stop-time 40"
+    with pytest.raises(pytest.fail.Exception, match=r"different cases \(seed 2 vs 1\).*\n  rerun: .*\n  to record it again"):
+        check(_result({"ISE(x)": 0.5, "IADU(f_R)": 2.0}, seed=2))
+
+
+def test_the_marker_s_cases_are_every_combination_and_limits_are_reported():
+    from tiltload.master.app.testing.plugin import case_id, cases
+    from tiltload.testing import TiltloadAssertionError, assert_metrics_below
+
+    combos = cases({"scenario": ["zse", "lkf"], "trajectory": [1, 2], "seed": [1, 2, 3], "stop_time": 3})
+    assert len(combos) == 12 and len({case_id(c) for c in combos}) == 12
+    assert combos[0] == {"scenario": "zse", "trajectory": 1, "seed": 1, "stop_time": 3}
+    assert_metrics_below(_result({"ISE(x)": 0.04}), {"ISE(x)": 0.05})
+    with pytest.raises(TiltloadAssertionError) as err:
+        assert_metrics_below(_result({"ISE(x)": 0.06, "ISE(y)": 0.01}), {"ISE(x)": 0.05, "ISE(y)": 0.05, "ISE(z)": 1})
+    lines = str(err.value).splitlines()
+    assert lines[0] == "the run: 2 of 3 metrics above their limits"
+    assert lines[2].split() == ["ISE(x)", "0.06", ">", "limit", "0.05", "(by", "0.01,", "20", "%)"]
+    assert lines[3].split() == ["ISE(z)", "missing", "from", "the", "run"]

@@ -1,0 +1,60 @@
+"""tiltload: FMI co-simulation of a tilt-rotor UAV carrying a suspended load (Rego, UFMG 2016).
+
+The public API (docs/api.md)::
+
+    import tiltload as tl
+
+    result = tl.run(scenario="lkf", trajectory=2, stop_time=10)   # the options of `tiltload run`, as keywords
+    result.metrics["ISE(x)"], result.signals("/plant")["x"], result.to_dataframe("/plant"), result.command
+    tl.compare(result, "baselines/lkf_traj2.json").ok              # the case first, then the metrics
+    tl.campaign("docs/campaigns/robustness.toml", workers=2)
+
+Errors the user can fix raise TiltloadError, its message the line the `tiltload` command prints. Everything else
+(tiltload.master, tiltload.plant_fmu, ...) is the implementation, not the API. The names load on first use, so
+that `import tiltload` (and the pytest plugin, loaded in every pytest run) costs nothing.
+"""
+
+from __future__ import annotations
+
+import sys
+from importlib import import_module
+from importlib.machinery import ModuleSpec
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .master.app.api.campaigns import CampaignResult, campaign
+    from .master.app.api.comparing import compare, save_baseline
+    from .master.app.api.errors import TiltloadError
+    from .master.app.api.result import Result, Signals
+    from .master.app.api.running import run
+    from .master.app.regression.compare import Comparison, MetricRow
+
+_API = "tiltload.master.app.api."
+_PUBLIC = {  # name: the module it is defined in
+    "run": _API + "running", "Result": _API + "result", "Signals": _API + "result", "compare": _API + "comparing",
+    "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns",
+    "TiltloadError": _API + "errors", "Comparison": "tiltload.master.app.regression.compare",
+    "MetricRow": "tiltload.master.app.regression.compare",
+}
+__all__ = ["CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "compare", "run",
+           "save_baseline"]
+
+
+if "grimp" in sys.modules:  # import-linter is building its graph (pyproject.toml [tool.importlinter])
+    # grimp accepts the portions (tiltload.master, ...) as root packages only under a namespace package: in that process,
+    # tiltload's spec is a namespace's (no location), its submodules found as before
+    __spec__ = ModuleSpec(__name__, None, is_package=True)
+    __spec__.submodule_search_locations = list(__path__)
+
+
+def __getattr__(name: str) -> object:
+    where = _PUBLIC.get(name)
+    if where is None:
+        raise AttributeError(f"module 'tiltload' has no attribute {name!r}")
+    value = getattr(import_module(where), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *__all__])
