@@ -7,6 +7,7 @@ The public API (docs/api.md)::
     result = tl.run(scenario="lkf", trajectory=2, stop_time=10)   # the options of `tiltload run`, as keywords
     result.metrics["ISE(x)"], result.signals("/plant")["x"], result.to_dataframe("/plant"), result.command
     tl.compare(result, "baselines/lkf_traj2.json").ok              # the case first, then the metrics
+    tl.check(result, "docs/requirements/thesis.yaml")                # each requirement's verdict and robustness
     tl.campaign("docs/campaigns/robustness.toml", workers=2)
 
 Errors the user can fix raise TiltloadError, its message the line the `tiltload` command prints. Everything else
@@ -23,6 +24,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from .master.app.api.campaigns import CampaignResult, campaign
+    from .master.app.api.checking import check
     from .master.app.api.comparing import compare, save_baseline
     from .master.app.api.errors import TiltloadError
     from .master.app.api.result import Result, Signals
@@ -32,11 +34,11 @@ if TYPE_CHECKING:
 _API = "tiltload.master.app.api."
 _PUBLIC = {  # name: the module it is defined in
     "run": _API + "running", "Result": _API + "result", "Signals": _API + "result", "compare": _API + "comparing",
-    "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns",
+    "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns", "check": _API + "checking",
     "TiltloadError": _API + "errors", "Comparison": "tiltload.master.app.regression.compare",
     "MetricRow": "tiltload.master.app.regression.compare",
 }
-__all__ = ["CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "compare", "run",
+__all__ = ["CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "check", "compare", "run",
            "save_baseline"]
 
 

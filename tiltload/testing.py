@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
-from .master.app.testing.assertions import TiltloadAssertionError, assert_matches_baseline, assert_metrics_below
+from .master.app.testing.assertions import (
+    TiltloadAssertionError,
+    assert_matches_baseline,
+    assert_metrics_below,
+    assert_requirements_hold,
+)
 
-__all__ = ["TiltloadAssertionError", "assert_matches_baseline", "assert_metrics_below"]
+__all__ = ["TiltloadAssertionError", "assert_matches_baseline", "assert_metrics_below", "assert_requirements_hold"]

@@ -26,7 +26,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     code = "import sys, tiltload; print(sorted(m for m in ('numpy', 'casadi', 'fmpy', 'pandas') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
-    assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign",
+    assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "check",
                                "compare", "run", "save_baseline"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
 
@@ -246,3 +246,32 @@ def test_the_marker_s_cases_are_every_combination_and_limits_are_reported():
     assert lines[0] == "the run: 2 of 3 metrics above their limits"
     assert lines[2].split() == ["ISE(x)", "0.06", ">", "limit", "0.05", "(by", "0.01,", "20", "%)"]
     assert lines[3].split() == ["ISE(z)", "missing", "from", "the", "run"]
+
+
+def test_requirements_through_the_api_are_the_command_s(fmus, tmp_path):
+    """run(requirements=...) monitors online; tl.check re-reads the log; `tiltload check --json` gives the same verdicts
+    and robustness bit for bit; a formula the run breaks is a FAIL whose first violation is where the signal crosses."""
+    import numpy as np
+
+    reqs = tmp_path / "reqs.yaml"
+    reqs.write_text("requirements:\n"
+                    "  - name: thrust\n    formula: always (controller.f_R >= 0 and controller.f_R <= 30)\n"
+                    "  - name: x_close\n    formula: always (abs(plant.x - scenario.x_ref) < 0.2)\n")
+    result = tl.run(scenario="fsi", controller="dlqr", stop_time=4, fmus=fmus, out=tmp_path, no_plots=True, requirements=reqs)
+    assert result.verdicts == {"thrust": "PASS", "x_close": "FAIL"}
+    offline = tl.check(result, reqs)
+    cli = _cli("check", str(reqs), str(result.log), "--json", cwd=tmp_path)
+    assert cli.returncode == 1, cli.stderr  # a FAIL
+    shown = {r["name"]: r for r in json.loads(cli.stdout)["logs"][0]["results"]}
+    for online, again in zip(result.requirements, offline):
+        assert (online.name, online.verdict, online.robustness, online.first_violation) == \
+               (again.name, again.verdict, again.robustness, again.first_violation)
+        assert shown[again.name]["verdict"] == again.verdict and shown[again.name]["robustness"] == again.robustness
+    x, ref = result.signals("/plant"), result.signals("/scenario")
+    err = np.abs(x["x"] - np.interp(x.time, ref.time, ref["x_ref"]))
+    fail = next(r for r in offline if r.name == "x_close")
+    assert fail.robustness == pytest.approx(0.2 - err.max(), abs=1e-9)  # the definition: min over t of 0.2 - |e(t)|
+    before = err[x.time < fail.first_violation]  # the load starts 0.3 m off in x: violated from t = 0
+    assert (before.size == 0 or before.max() < 0.2) and err[np.searchsorted(x.time, fail.first_violation)] >= 0.2
+    with pytest.raises(tl.TiltloadError, match="did you mean"):
+        tl.check(result, formulas=["bad: always plant.xx > 0"])

@@ -75,7 +75,13 @@ class Result:
     ticks: int
     plots: tuple[Path, ...] = ()
     transcript: str = ""  # what the command printed
+    requirements: tuple = ()  # with requirements=FILE: each requirement's verdict (name, verdict, robustness, first_violation)
     _cache: dict[str, Signals] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def verdicts(self) -> dict[str, str]:
+        """Each monitored requirement's verdict by name (run with requirements=FILE): PASS, FAIL, INCONCLUSIVE, ZERO."""
+        return {r.name: r.verdict for r in self.requirements}
 
     def signals(self, topic: str = "/plant") -> Signals:
         """A channel of the log as numpy arrays (read once)."""

@@ -30,6 +30,8 @@ def run(*, progress: bool | None = None, echo: bool = False, **options: object) 
     """Run the loop as `tiltload run` does with the same options, given as keywords: ``--stop-time 5`` is
     ``stop_time=5``, a flag is ``True``, ``--set`` takes a mapping (``set={"plant.m_L": 0.2}``).
 
+    requirements: a requirement file monitored while the run goes (``result.requirements``, ``result.verdicts``); a
+    FAIL does not raise (assert on it, or use tiltload.testing.assert_requirements_hold).
     progress: the terminal's progress bar (default: only if stderr is a terminal, so never in Jupyter).
     echo: print what the command prints (it is in ``result.transcript`` either way).
     Raises TiltloadError for what the user can fix (its message the command's one line), TypeError for an unknown
@@ -51,4 +53,4 @@ def run(*, progress: bool | None = None, echo: bool = False, **options: object) 
     return Result(metrics=dict(res.metrics), case={k: str(v) for k, v in outcome.metadata.items()}, log=outcome.log,
                   command=keywords.command_line("run", argv), options=dict(options),
                   stop_time=float(outcome.metadata["stop_time"]), sim_time=res.sim_time, wall_time=res.wall, ticks=res.ticks,
-                  plots=tuple(outcome.plots), transcript=out.getvalue())
+                  plots=tuple(outcome.plots), transcript=out.getvalue(), requirements=outcome.requirements)

@@ -8,7 +8,7 @@ from pathlib import Path
 from ..api.comparing import compare
 from ..api.errors import TiltloadError
 from ..api.result import Result
-from .report import baseline_report, limits_report
+from .report import baseline_report, limits_report, requirements_report
 
 __tracebackhide__ = True
 
@@ -35,5 +35,20 @@ def assert_metrics_below(result: Result, limits: Mapping[str, float]) -> None:
     """Each named metric at most its limit (e.g. {"ISE(x)": 0.05})."""
     __tracebackhide__ = True
     message = limits_report(result.metrics, limits, result.case, result.command)
+    if message is not None:
+        raise TiltloadAssertionError(message)
+
+
+def assert_requirements_hold(result: Result, requirements: str | Path | None = None, *, formulas=()) -> None:
+    """Every requirement PASSes: those the run monitored (run with requirements=FILE), else those of the file and the
+    formulas given here, checked on the run's log. The message names each that does not hold, its robustness, the
+    time of its first violation and the signals there."""
+    __tracebackhide__ = True
+    from ..api.checking import check
+
+    results = result.requirements if requirements is None and not formulas else check(result, requirements, formulas=formulas)
+    if not results:
+        raise TiltloadAssertionError(f"no requirement to check: run with requirements=FILE or name one here\n  rerun: {result.command}")
+    message = requirements_report(results, result.case, result.command)
     if message is not None:
         raise TiltloadAssertionError(message)

@@ -56,3 +56,22 @@ def limits_report(metrics: Mapping[str, float], limits: Mapping[str, float], cas
                      if lim else f"    {k:<{width}}  {v:.6g} > limit {lim:g}")
     lines.append(f"  rerun: {command}")
     return "\n".join(lines)
+
+
+def requirements_report(results, case: Mapping[str, str], command: str, what: str = "the run") -> str | None:
+    """The message of requirements that do not hold (FAIL, or undecided: INCONCLUSIVE, ZERO); None if all PASS."""
+    bad = [r for r in results if r.verdict != "PASS"]
+    if not bad:
+        return None
+    width = max(len(r.name) for r in bad)
+    lines = [f"{what}: {len(bad)} of {len(results)} requirements do not hold", f"  case:  {case_words(case)}"]
+    for r in bad:
+        if r.verdict == "FAIL":
+            at = ", ".join(f"{k} = {v:.6g}" for k, v in r.values.items())
+            rob = f"robustness {r.robustness:.6g}" if r.robustness is not None else f"robustness at most {r.bounds[1]:.6g}"
+            lines.append(f"    {r.name:<{width}}  FAIL, {rob}; first violated at t = {r.first_violation:.6g} s ({at})")
+        else:
+            lines.append(f"    {r.name:<{width}}  {r.verdict}" + (f": {r.why}" if r.why else ""))
+        lines.append(f"    {'':<{width}}  {r.formula}")
+    lines.append(f"  rerun: {command}")
+    return "\n".join(lines)

@@ -1,0 +1,31 @@
+"""tiltload.check: `tiltload check` from Python: each requirement's verdict on a run's log."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+
+from ...engine.requirement_check import Result as RequirementResult
+from .errors import TiltloadError, as_tiltload_errors
+from .result import Result
+
+
+def check(run: Result | str | Path, requirements: str | Path | None = None, *, formulas: Iterable[str] = ()
+          ) -> list[RequirementResult]:
+    """The verdicts of a requirement file (YAML, docs/requirements.md) and of one-off formulas ("NAME: STL", as
+    `tiltload check --formula` takes them) on a run (a Result of tiltload.run, or an MCAP log's path).
+
+    Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), robustness, first_violation (s) and the signals'
+    values there. Raises TiltloadError for a missing or damaged log, a formula that does not parse, an unknown signal."""
+    from ...engine.requirements import from_option, load
+
+    log = run.log if isinstance(run, Result) else Path(run)
+    if log is None:
+        raise TiltloadError("the run has no log (no_log=True): nothing to check")
+    with as_tiltload_errors():
+        reqs = [*(load(Path(requirements)) if requirements is not None else []), *(from_option(f) for f in formulas)]
+        if not reqs:
+            raise TiltloadError("check: name a requirement file or give formulas")
+        from ...engine.requirement_check import check_log
+
+        return check_log(log, reqs)
