@@ -57,17 +57,14 @@ OPTIONS_SCHEMA = {
 
 def snapshot_options(application: dict, where) -> LoopOptions:
     """The loop options a snapshot was taken with, checked against OPTIONS_SCHEMA (one line naming the first problem)."""
-    import jsonschema
+    from ..engine.user_files import schema_problem
 
     options = application.get("options")
     if options is None:
         raise UserError(f"{where} was not taken by `tiltload run` (it names no loop options)")
-    errors = sorted(jsonschema.Draft202012Validator(OPTIONS_SCHEMA).iter_errors(options), key=lambda e: list(e.absolute_path))
-    if errors:
-        err = errors[0]
-        path = ".".join(str(p) for p in err.absolute_path) or "(all)"
-        message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
-        raise UserError(f"{where}: its loop options are not a run's: options.{path}: {message}")
+    problem = schema_problem(options, OPTIONS_SCHEMA, top="(all)", limit=160)
+    if problem:
+        raise UserError(f"{where}: its loop options are not a run's: options.{problem}")
     opts = LoopOptions.from_dict(options)
     ref = opts.reference
     if ref is not None and opts.trajectory != (ref.code if ref.code in THESIS else ref.label):

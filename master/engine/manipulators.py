@@ -83,13 +83,11 @@ class Fault:
 
 def parse(items: list, where: str = "faults") -> list[Fault]:
     """Faults from their JSON form, checked against the schema and for consistency."""
-    import jsonschema
+    from .user_files import schema_problem
 
-    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(items), key=lambda e: list(e.path))
-    if errors:
-        err = errors[0]
-        path = ".".join(str(p) for p in err.absolute_path)
-        raise FaultError(f"{where}.{path}: {err.message}" if path else f"{where}: {err.message}")
+    problem = schema_problem(items, SCHEMA, top="")
+    if problem:
+        raise FaultError(f"{where}.{problem}" if not problem.startswith(":") else f"{where}{problem}")
     faults = []
     for i, item in enumerate(items):
         targets = item.get("targets") or ([item["target"]] if "target" in item else [])

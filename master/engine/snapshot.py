@@ -267,19 +267,16 @@ SCHEMA = {
 
 def check_manifest(manifest, where) -> None:
     """The manifest's shape (SCHEMA): the first problem, named by its path, in one line."""
-    import jsonschema
+    from .user_files import schema_problem
 
     if isinstance(manifest, dict) and manifest.get("format") != FORMAT:
         found = manifest.get("format")
         older = isinstance(found, str) and found.startswith("tiltload-snapshot/")
         raise SnapshotError(f"{where} is not a tiltload snapshot (format {found!r}, expected {FORMAT})"
                             + ("; it was taken by another version of tiltload: take it again" if older else ""))
-    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(manifest), key=lambda e: list(e.absolute_path))
-    if errors:
-        err = errors[0]
-        path = ".".join(str(p) for p in err.absolute_path) or "(top level)"
-        message = err.message if len(err.message) <= 160 else err.message[:160] + "…"
-        raise SnapshotError(f"{where}: its manifest is not a snapshot's: {path}: {message}")
+    problem = schema_problem(manifest, SCHEMA, limit=160)
+    if problem:
+        raise SnapshotError(f"{where}: its manifest is not a snapshot's: {problem}")
 
 
 def _read_member(z: zipfile.ZipFile, name: str, limit: int, where) -> bytes:

@@ -134,13 +134,11 @@ SCHEMA = {
 
 def _check_schema(data, path: Path) -> None:
     """The description's shape: unknown keys, wrong types and out-of-range values named by their path."""
-    import jsonschema
+    from .user_files import schema_problem
 
-    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.absolute_path))
-    if errors:
-        err = errors[0]
-        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise DescriptionError(f"{path}: {where}: {err.message}")
+    problem = schema_problem(data, SCHEMA)
+    if problem:
+        raise DescriptionError(f"{path}: {problem}")
 
 
 def load(path: Path) -> System:

@@ -189,3 +189,19 @@ def check_values(data, source: str) -> None:
             stack.extend((item, f"{where}.{key}" if where else key, depth + 1) for key, item in reversed(value.items()))
         elif isinstance(value, list):  # reversed: the first breach in the file's order is reported
             stack.extend((value[i], f"{where}.{i}" if where else str(i), depth + 1) for i in reversed(range(len(value))))
+
+
+def schema_problem(data, schema: dict, top: str = "(top level)", limit: int = 200) -> str | None:
+    """The first place where data breaks the JSON Schema, as "path: message" (None: it fits). The first by path, so
+    the same document always gets the same line; the message cut at limit characters (a long enum or a long value)."""
+    import jsonschema
+
+    def place(err) -> list:  # list indexes in order, before names (as a document reads)
+        return [(0, p, "") if isinstance(p, int) else (1, 0, str(p)) for p in err.absolute_path]
+
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(data), key=place)
+    if not errors:
+        return None
+    err = errors[0]
+    where = ".".join(str(p) for p in err.absolute_path) or top
+    return f"{where}: {err.message if len(err.message) <= limit else err.message[:limit] + '…'}"

@@ -166,13 +166,11 @@ def read_spec_file(path: Path) -> dict:
 
 
 def _validate(data: dict, path: Path) -> None:
-    import jsonschema
+    from ...engine.user_files import schema_problem
 
-    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.path))
-    if errors:
-        err = errors[0]
-        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise SpecError(f"{path}: {where}: {err.message}")
+    problem = schema_problem(data, SCHEMA)
+    if problem:
+        raise SpecError(f"{path}: {problem}")
 
 
 def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]]:

@@ -47,18 +47,16 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     if not path.is_file():
         raise DescriptionError(f"{path} does not exist")
     if path.suffix == ".json":
-        import jsonschema
 
-        from ...engine.user_files import UserFileError, read_json
+        from ...engine.user_files import UserFileError, read_json, schema_problem
 
         try:
             data = read_json(path)
         except UserFileError as err:
             raise DescriptionError(f"{path} is not a metrics file: {str(err).removeprefix(f'{path}: ')}") from None
-        errors = sorted(jsonschema.Draft202012Validator(BASELINE_SCHEMA).iter_errors(data), key=lambda e: list(e.path))
-        if errors:
-            where = ".".join(str(p) for p in errors[0].absolute_path) or "(top level)"
-            raise DescriptionError(f"{path} is not a metrics file: {where}: {errors[0].message[:200]}")
+        problem = schema_problem(data, BASELINE_SCHEMA)
+        if problem:
+            raise DescriptionError(f"{path} is not a metrics file: {problem}")
         metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
         if not metrics:
             raise DescriptionError(f"{path} holds no metrics: nothing to compare")
