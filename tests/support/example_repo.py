@@ -39,7 +39,8 @@ def outcomes(junit: Path) -> dict[str, str | None]:
     for case in suite.iter("testcase"):
         failure = case.find("failure")
         assert case.find("error") is None and case.find("skipped") is None, ET.tostring(case)
-        out[case.get("name")] = None if failure is None else failure.get("message")
+        # the element's text is the whole report (pytest >= 9.2 cuts the message attribute to its first lines)
+        out[case.get("name")] = None if failure is None else (failure.text or failure.get("message"))
     return out
 
 
