@@ -12,7 +12,7 @@ from .options import LoopOptions, file_safe
 def default_log_name(args: argparse.Namespace, opts: LoopOptions, natural_stop: float | None,
                      own_schedule: str | None = None, resumed_at: float | None = None) -> str:
     """opts.run_name, then: a schedule other than the system's own (jacobi), real-time pacing (and its overrun
-    limit), a log of every N-th step, a snapshot taken, a run continued from a snapshot at resumed_at."""
+    limit), a log of every N-th step, requirements monitored (and a run stopped at their first FAIL), a snapshot taken, a run continued from a snapshot at resumed_at."""
     parts = [opts.run_name(natural_stop)]
     schedule = getattr(args, "schedule", None)
     if schedule is not None and schedule != (own_schedule or "ordered"):
@@ -23,6 +23,8 @@ def default_log_name(args: argparse.Namespace, opts: LoopOptions, natural_stop: 
             parts.append(f"max{args.max_overruns}overruns")
     if getattr(args, "log_every", 1) != 1:
         parts.append(f"every{args.log_every}")
+    if getattr(args, "requirements", None) is not None:  # the log holds /requirements; stopping at a FAIL cuts the run
+        parts.append(f"req-{args.requirements.stem}" + ("-stoponfail" if getattr(args, "stop_on_violation", False) else ""))
     if getattr(args, "snapshot_at", None) is not None:
         parts.append(f"snap{args.snapshot_at[0]}s")
     if resumed_at is not None:

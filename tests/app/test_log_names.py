@@ -51,6 +51,9 @@ CHANGES = {
     "from_snapshot": None,  # named by the snapshot's run + _from<T>s: test_the_resumed_run_is_named_apart
     "realtime": ([], ["--realtime"]),
     "max_overruns": (["--realtime"], ["--realtime", "--max-overruns", "3"]),
+    "requirements": ([], ["--requirements", "docs/requirements/thesis.yaml"]),
+    "stop_on_violation": (["--requirements", "docs/requirements/thesis.yaml"],
+                          ["--requirements", "docs/requirements/thesis.yaml", "--stop-on-violation"]),
 }
 
 
