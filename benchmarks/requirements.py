@@ -123,7 +123,7 @@ def windows(repeat: int) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
+    ap = argparse.ArgumentParser(allow_abbrev=False)
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     print(machine())
