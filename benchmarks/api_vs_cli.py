@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--fmus", type=Path, default=ROOT / "fmus")
     p.add_argument("--stop-time", type=float, default=None, help="s (default: each case's full length)")
     p.add_argument("--cases", type=int, default=len(CASES), help="the first N of the twelve")

@@ -142,7 +142,7 @@ def clock_ghz() -> float:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--before", default="b93cc50", help="the commit to compare with (default b93cc50)")
     p.add_argument("--rounds", type=int, default=9, help="timed rounds per build and FMU, taken in turn (default 9)")
     p.add_argument("--steps", type=int, default=400, help="doSteps per round (default 400: 4.8 s simulated)")

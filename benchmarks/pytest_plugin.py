@@ -31,7 +31,7 @@ def collect(tests: str, plugin: bool) -> tuple[float, str]:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--tests", default="tests/app")
     p.add_argument("--repeat", type=int, default=5)
     a = p.parse_args()
