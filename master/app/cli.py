@@ -6,9 +6,9 @@ import argparse
 import os
 import sys
 
-from .commands import build, campaign, compare, design, formation, layout, plot, reproduce, run, serve, ssp, wrap
+from .commands import build, campaign, compare, design, falsify, formation, layout, plot, reproduce, run, serve, ssp, wrap
 
-COMMANDS = (build, design, wrap, run, serve, ssp, formation, reproduce, compare, campaign, layout, plot)  # in the help's order
+COMMANDS = (build, design, wrap, run, serve, ssp, formation, reproduce, compare, campaign, falsify, layout, plot)  # in the help's order
 
 
 class OneLineParser(argparse.ArgumentParser):
