@@ -28,16 +28,26 @@ def identity(spec: Falsification) -> str:
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-def check_signals(spec: Falsification, fmus: Path) -> None:
-    """Each requirement's signal is an output of its instance's FMU (read from the built FMUs): before any run."""
+def check_names(spec: Falsification, fmus: Path) -> None:
+    """Before any run, against the built FMUs: each requirement's signal is an output of its instance, each searched
+    instance.name a parameter of it."""
     from ...engine.model_description import read_fmu
     from ..campaign.run_case import case_system
 
     system = case_system(fmus, spec.base(), spec.controller, spec.loop_seed, dict(spec.parameters))
-    outputs = {}
+    outputs, parameters = {}, {}
     for inst in system.instances:
         md = read_fmu(inst.fmu, inst.name)
         outputs[inst.name] = {v.name for v in md.modelVariables if v.causality == "output"}
+        parameters[inst.name] = {v.name for v in md.modelVariables if v.causality == "parameter"}
+    for d in spec.dimensions:
+        instance, _, name = d.target.partition(".")
+        if instance in parameters and name not in parameters[instance]:
+            import difflib
+
+            close = difflib.get_close_matches(name, sorted(parameters[instance]), n=3)
+            hint = f" (did you mean {', '.join(instance + '.' + c for c in close)}?)" if close else ""
+            raise SpecError(f"{spec.source}: search: {d.target} is not a parameter of {instance}{hint}")
     for s in spec.signals:
         instance, _, variable = s.partition(".")
         if variable not in outputs.get(instance, set()):
@@ -89,7 +99,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     say = progress or (lambda text: print(text, file=sys.stderr))
     fmus = Path(fmus).resolve()
     build_all(fmus, progress=say)
-    check_signals(spec, fmus)
+    check_names(spec, fmus)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     cluster = None
     own = client is None

@@ -112,8 +112,8 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
     falsified_at, reused, failures = None, 0, {}
     limit = simulations if simulations is not None else math.inf
     while len(rows) < limit and (seconds is None or time.perf_counter() - started < seconds):
-        asked = opt.ask()
-        asked = asked[:int(min(len(asked), limit - len(rows)))]
+        whole = opt.ask()
+        asked = whole[:int(min(len(whole), limit - len(rows)))]  # the budget's last batch may be cut: never told
         cases, batch_rows = [], {}
         for j, unit in enumerate(asked):
             index = len(rows) + j
@@ -145,7 +145,8 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
             failures.update({rid: "its environment failed" for rid in missing})
             break
         ordered = [batch_rows[run_id(identity, len(rows) + j, unit)] for j, unit in enumerate(asked)]
-        opt.tell(asked, [_told(r) for r in ordered])
+        if len(asked) == len(whole):
+            opt.tell(asked, [_told(r) for r in ordered])
         for r in ordered:
             if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
                 falsified_at = int(r["index"])

@@ -45,6 +45,7 @@ from ..campaign.spec import SCHEMA as CAMPAIGN_SCHEMA
 from ..campaign.spec import Flight, SpecError, checked_faults, read_flight, read_spec_file
 
 OPTIMIZERS = ("uniform", "cmaes", "tpe")
+LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/loop.py's instance names
 GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
 GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
 TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|duration)|gust\.(amplitude|direction|start|"
@@ -192,15 +193,13 @@ def _check_horizons(requirements: list[Requirement], stop: float, path: Path) ->
 
 
 def _check_signals(signals: tuple[str, ...], path: Path) -> None:
-    """Each signal must be instance.variable of the loop (the instance names; the variable is checked at run time
-    against the FMU, whose outputs the observer reads)."""
-    from ..loop import CONTROLLER, PLANT, SCENARIO, SENSORS
-
+    """Each signal must be instance.variable of the loop (the instance names; the variable is checked against the
+    built FMU's outputs before the search: runner.check_names)."""
     for s in signals:
         instance, _, variable = s.partition(".")
-        if instance not in (PLANT, SCENARIO, CONTROLLER, SENSORS) or not variable or "." in variable:
+        if instance not in LOOP_INSTANCES or not variable or "." in variable:
             raise SpecError(f"{path}: requirements: signal {s} is not instance.variable of the loop "
-                            f"({PLANT}, {SCENARIO}, {CONTROLLER}, {SENSORS})")
+                            f"({', '.join(LOOP_INSTANCES)})")
 
 
 def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[Dimension]:
@@ -217,6 +216,12 @@ def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[D
         names.add(item["name"])
         targets.add(item["target"])
         target = item["target"]
+        kind, _, rest = target.partition(".")
+        if kind == "gust" and rest not in GUST_FIELDS:
+            raise SpecError(f"{where}.target: a gust has {', '.join(GUST_FIELDS)}, not {rest}")
+        if kind not in ("gust", "initial", "faults") and kind not in LOOP_INSTANCES:
+            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.* nor a parameter of the "
+                            f"loop's instances ({', '.join(LOOP_INSTANCES)})")
         if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
             raise SpecError(f"{where}.target: {target} names a fault base.faults does not have")
         if target.startswith("gust.") and any(k.startswith("wind_profile") for k, _ in flight.wind):
