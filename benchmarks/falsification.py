@@ -127,9 +127,9 @@ def table(rows: list[dict], uniform_mean: float) -> str:
     return "\n".join(lines)
 
 
-def calibrate(client, fmus, tmp, n):
+def calibrate(client, fmus, tmp, n, names):
     """Each needle's margin (1000 - robustness: the worst |signal| over its window) over n uniform points."""
-    for name in NEEDLES:
+    for name in names:
         spec = load_spec(name, tmp, 1000.0)
         out = run_search(spec, client, fmus, "uniform", 12345, n, stop=False)
         worst = np.array([1000.0 - r["robustness"] for r in out.rows if r["robustness"] == r["robustness"]])
@@ -227,7 +227,7 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as t:
             tmp = Path(t)
             if args.calibrate:
-                calibrate(client, fmus, tmp, args.calibrate)
+                calibrate(client, fmus, tmp, args.calibrate, [args.only] if args.only else NEEDLES)
                 return
             print(evaluation_cost(client, fmus, tmp, 5))
             total_sims, total_time = 0, 0.0
