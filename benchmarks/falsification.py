@@ -20,9 +20,7 @@ import math
 import os
 import statistics
 import subprocess
-import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -86,7 +84,8 @@ def psy_taliro(spec, client, fmus, kind, seed, budget) -> tuple[int | None, list
 
     base = spec.base()
     make = make_case(base)
-    proc = subprocess.Popen([str(ORACLE_PYTHON), "-c", PSY_DRIVER, kind, str(seed), str(budget), str(len(spec.dimensions))],
+    # its TestOptions refuse a seed of 0: seed + 1
+    proc = subprocess.Popen([str(ORACLE_PYTHON), "-c", PSY_DRIVER, kind, str(seed + 1), str(budget), str(len(spec.dimensions))],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     values, first = [], None
     try:
@@ -133,8 +132,8 @@ def calibrate(client, fmus, tmp, n, names):
         spec = load_spec(name, tmp, 1000.0)
         out = run_search(spec, client, fmus, "uniform", 12345, n, stop=False)
         worst = np.array([1000.0 - r["robustness"] for r in out.rows if r["robustness"] == r["robustness"]])
-        q = np.percentile(worst, [50, 90, 95, 97, 98, 99])
-        print(f"{name}: {len(worst)} runs; worst |signal| percentiles 50/90/95/97/98/99: "
+        q = np.percentile(worst, [50, 90, 95, 98, 99, 99.5])
+        print(f"{name}: {len(worst)} runs; worst |signal| percentiles 50/90/95/98/99/99.5: "
               + " ".join(f"{v:.4g}" for v in q) + f"; max {worst.max():.4g}; nominal-free share failing at each: "
               + "; ".join(f"{v:.4g}: {np.mean(worst > v):.3f}" for v in q[2:]))
 
@@ -172,35 +171,6 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
     return {"observer": best_obs, "log": best_log, "same": min(rho) == row["robustness"]}
 
 
-GUARANTEED = """
-name = "zse_containment"
-optimizer = "cmaes"
-seed = 0
-[base]
-scenario = "zse"
-trajectory = 1
-controller = "mixed"
-stop_time = 8.1
-[[requirements]]
-name = "contained"
-description = "the ZSE's bounds contain the true load position and rod angles after the start's transient (1 s)"
-formula = "always[1:8] (plant.x >= controller.est_x_lo and plant.x <= controller.est_x_hi and plant.y >= controller.est_y_lo and plant.y <= controller.est_y_hi and plant.z >= controller.est_z_lo and plant.z <= controller.est_z_hi and plant.gamma_1 >= controller.est_gamma_1_lo and plant.gamma_1 <= controller.est_gamma_1_hi and plant.gamma_2 >= controller.est_gamma_2_lo and plant.gamma_2 <= controller.est_gamma_2_hi)"
-[[search]]
-name = "noise_seed"
-target = "sensors.seed"
-range = [0, 1000000]
-integer = true
-[[search]]
-name = "gust_onset"
-target = "scenario.gust_x_at"
-range = [0.05, 0.95]
-[[search]]
-name = "gust_size"
-target = "scenario.gust_magnitude"
-range = [0.0, 0.1]
-[budget]
-simulations = 500
-"""
 
 
 def main() -> None:
@@ -269,11 +239,9 @@ def main() -> None:
                 figure(curves, args.figure, "Best robustness against simulations (seed 0 of each)")
                 print(f"figure: {args.figure}")
             if args.guaranteed:
-                path = tmp / "zse.toml"
-                path.write_text(GUARANTEED)
                 from tiltload.master.app.falsify.spec import load
 
-                spec = load(path)
+                spec = load(SPECS / "zse_containment.toml")
                 started = time.perf_counter()
                 out = run_search(spec, client, fmus, "cmaes", 0, args.guaranteed)
                 best = out.best
