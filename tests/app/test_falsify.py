@@ -276,3 +276,20 @@ def test_the_counterexample_replays_bit_for_bit(tmp_path, monkeypatch):
     summary = (tmp_path / "o" / "summary.txt").read_text()
     assert ("FALSIFIED after" in summary) == (best["robustness"] < 0)
     assert "tiltload run" in summary
+
+
+def test_the_command_on_a_local_cluster_says_not_falsified_and_a_rerun_takes_the_stored_evaluations(tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    easy = GOOD.replace("< 0.2)", "< 10.0)").replace("range = [0.0, 20.0]", "range = [0.0, 1.0]")
+    path = write(tmp_path, easy)
+    args = ["falsify", str(path), "--out", str(tmp_path / "o"), "--workers", "1", "--simulations", "2"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "NOT FALSIFIED in 2 simulations (a search is no proof)" in said and "tiltload run" in said
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(tmp_path / "o" / "falsification.parquet").to_pylist()
+    assert len(rows) == 2 and all(r["robustness"] > 0 and r["worker"] for r in rows)
+    assert main(args) == 0
+    assert "2 simulations in" in (said := capsys.readouterr().out) and "(2 from the previous run)" in said
