@@ -91,7 +91,8 @@ def summary(spec: Falsification, outcome: Outcome, command: list[str] | None) ->
     lines.append("  search space: " + ", ".join(f"{d.name} = {d.target} in [{d.low:g}, {d.high:g}]" for d in spec.dimensions))
     best = outcome.best
     if outcome.falsified_at is not None and best is not None:
-        lines.append(f"FALSIFIED after {outcome.falsified_at + 1} simulations; the most negative robustness "
+        k = outcome.falsified_at + 1
+        lines.append(f"FALSIFIED after {k} simulation{'s' if k != 1 else ''}; the most negative robustness "
                      f"{best['robustness']:.6g} at:")
     else:
         lines.append(f"NOT FALSIFIED in {n} simulations (a search is no proof); lowest robustness "
