@@ -14,6 +14,7 @@ from .commands import (
     check,
     compare,
     design,
+    falsify,
     formation,
     layout,
     plot,
@@ -25,7 +26,7 @@ from .commands import (
 )
 
 # in the help's order
-COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, check, campaign, campaign_report, layout,
+COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, check, campaign, campaign_report, falsify, layout,
             plot)
 
 

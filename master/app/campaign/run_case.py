@@ -117,7 +117,7 @@ class CampaignMetrics(Metrics):
         return out
 
 
-def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
+def case_system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
     import copy
 
     from ...engine.manipulators import parse
@@ -144,7 +144,7 @@ def ready() -> bool:
     return True
 
 
-def _worker_address() -> str | None:
+def worker_address() -> str | None:
     """The address of the Dask worker running this (None outside a worker: called directly)."""
     try:
         from distributed import get_worker
@@ -190,7 +190,7 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot
             return _run_branch(base, case, fmu_dir, log_dir, snapshot)
         return _run_case(base, case, fmu_dir, log_dir)
     except Exception as err:  # not the run's outcome: retried, never stored
-        address = _worker_address()
+        address = worker_address()
         where = f"worker {address} on {socket.gethostname()}" if address else f"{socket.gethostname()}"
         if isinstance(err, MissingFmu):
             line = f"{err} (the workers must see the FMU folder at the same path)"
@@ -247,7 +247,7 @@ def _run_branch(base: dict, case: dict, fmu_dir: str, log_dir: str | None, data:
     started = time.perf_counter()
     digest, snap = _snapshot(data)
     system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"], case["controller"])
-    _check_fmus(system)
+    check_fmus(system)
     metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=snap.time)  # the branch's own: from the snapshot
     observers = [metrics, *_monitor(base)]
     if log_dir:
@@ -267,7 +267,7 @@ def _monitor(base: dict) -> list:
     return [RequirementObserver([requirement(name, text) for name, text in base["requirements"]])]
 
 
-def _check_fmus(system) -> None:
+def check_fmus(system) -> None:
     for spec in system.instances:
         if not Path(spec.fmu).is_file():
             raise MissingFmu(f"no FMU at {spec.fmu}")
@@ -280,10 +280,10 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     try:
-        system = _system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+        system = case_system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
     except DescriptionError as err:  # the case's own (its controller file is not an FMU, or not one of a tick's period)
         return {"row": error_row(case, str(err)), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
-    _check_fmus(system)
+    check_fmus(system)
     stop = base["stop_time"] or default_stop(_flight(base).trajectory)
     refused = infeasible(system, stop, _flight(base))
     if refused:  # before the first step, as tiltload run refuses it

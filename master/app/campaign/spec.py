@@ -218,7 +218,7 @@ def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]
     return [dict(zip(names, map(float, row))) for row in scaled]
 
 
-def _flight(base: dict, path: Path) -> Flight:
+def read_flight(base: dict, path: Path) -> Flight:
     """base.trajectory and base.wind read (relative to the spec), with the feasibility policy."""
     from ....scenario_fmu.files import ScenarioFileError
     from ...engine.user_files import UserFileError
@@ -308,7 +308,7 @@ def load(path: Path) -> Campaign:
             raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
     controllers = [c if c in ("dlqr", "mixed") else str((path.parent / c).resolve()) for c in controllers]
     seeds = vary.get("seeds", [1])
-    faults = _faults(base, vary, path)
+    faults = checked_faults(base, vary, path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     cases = []
     for point in _points(vary, path, len(controllers) * len(seeds)):
@@ -322,7 +322,7 @@ def load(path: Path) -> Campaign:
     ids = [c.run_id for c in cases]
     if len(set(ids)) != len(ids):
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
-    return Campaign(data["name"], base.get("scenario", "zse"), _flight(base, path), base.get("stop_time"),
+    return Campaign(data["name"], base.get("scenario", "zse"), read_flight(base, path), base.get("stop_time"),
                     base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
                     list(targets), cases, path, requirements=_requirements(keep, path))
 
@@ -344,7 +344,7 @@ def _requirements(keep: dict, path: Path) -> tuple:
     return tuple((r.name, r.text) for r in reqs)
 
 
-def _faults(base: dict, vary: dict, path: Path) -> list:
+def checked_faults(base: dict, vary: dict, path: Path) -> list:
     from ...engine.manipulators import FaultError, parse
 
     faults = base.get("faults", [])
@@ -369,7 +369,7 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     stop = base.get("stop_time") or branching.stop
     if stop is None or stop <= branching.time:
         raise SpecError(f"{path}: base.stop_time: {stop} s is not after the snapshot's time ({branching.time:g} s)")
-    faults = _faults(base, vary, path) if "faults" in base else None  # None: the run's own faults, as --from-snapshot
+    faults = checked_faults(base, vary, path) if "faults" in base else None  # None: the run's own faults, as --from-snapshot
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     for name, these in targets.items():
         if TUNED_SEED in these and "seeds" in vary:

@@ -1,0 +1,41 @@
+"""`tiltload falsify SPEC`: search the spec's space for a case that violates its requirements (docs/falsification.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .. import arguments
+from ..errors import UserError
+
+
+def add_parser(sub) -> None:
+    f = sub.add_parser("falsify", help="search wind, faults and parameters for a case that breaks a requirement (STL)")
+    f.add_argument("spec", type=Path, help="the falsification spec (TOML/YAML): docs/falsification.md")
+    f.add_argument("--out", type=Path, default=None, help="results folder (default runs/falsify/<name>-<optimizer>-<seed>)")
+    f.add_argument("--optimizer", choices=("uniform", "cmaes", "tpe"), default=None, help="instead of the spec's")
+    f.add_argument("--seed", type=arguments.integer(0, 2**32 - 1), default=None, help="the optimizer's seed, instead of the spec's")
+    f.add_argument("--simulations", type=arguments.integer(1, 1000000), default=None, help="budget, instead of the spec's")
+    f.add_argument("--seconds", type=arguments.positive_time, default=None, help="wall-time budget, instead of the spec's")
+    f.add_argument("--scheduler", default=None, help="an existing Dask scheduler (default: a local cluster on 127.0.0.1)")
+    f.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
+    f.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    f.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..campaign.errors import CampaignIncomplete, ClusterError
+    from ..falsify.runner import falsify
+
+    try:
+        spec, outcome, out = falsify(args.spec, args.out, args.fmus, args.optimizer, args.seed, args.simulations,
+                                     args.seconds, args.scheduler, args.workers)
+    except ClusterError as err:
+        raise UserError(str(err)) from None
+    except CampaignIncomplete as err:
+        print(f"tiltload: error: {err}", file=sys.stderr)
+        return 1
+    print((out / "summary.txt").read_text(), end="")
+    print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}")
+    return 0

@@ -1,0 +1,125 @@
+"""What a falsification leaves: the best case as a `tiltload run` command that replays it bit for bit (its fault file
+beside it), the figure of the best robustness against the number of simulations, and a one-screen summary.
+
+A requirement no evaluation violated is "not falsified in N simulations": a search is no proof."""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+from pathlib import Path
+
+from .search import Outcome
+from .spec import Falsification
+
+SUMMARY, FIGURE, FAULTS = "summary.txt", "best_robustness.png", "counterexample_faults.json"
+
+
+def _number(value) -> str:
+    """A value for --set that reads back as the same float (repr round-trips) or integer."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    text = repr(float(value))
+    return text if ("." in text or "e" in text or "inf" in text or "nan" in text) else text + ".0"
+
+
+def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
+    """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
+    from .space import case_faults, case_parameters
+
+    base = spec.base()
+    values = {d.name: row[d.name] for d in spec.dimensions}
+    values = {d.name: (int(values[d.name]) if d.integer else float(values[d.name])) for d in spec.dimensions}
+    parameters = case_parameters(base, values)
+    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", spec.trajectory_arg,
+            "--controller", spec.controller, "--seed", str(spec.loop_seed), "--stop-time", _number(spec.stop_time)]
+    if not spec.gusts:
+        args.append("--no-gusts")
+    if spec.wind_file is not None:
+        args += ["--wind", str(spec.wind_file)]
+    if spec.flight.allow_infeasible:
+        args.append("--allow-infeasible")
+    if spec.flight.max_tilt != 30.0:
+        args += ["--max-tilt", _number(spec.flight.max_tilt)]
+    faults = case_faults(base, parameters)
+    if faults:
+        (out / FAULTS).write_text(json.dumps({"faults": faults}, indent=1))
+        args += ["--faults", str((out / FAULTS).resolve())]
+    for key, value in parameters.items():
+        if not key.startswith("faults."):
+            args += ["--set", f"{key}={_number(value)}"]
+    if fmus is not None:
+        args += ["--fmus", str(fmus)]
+    args += ["--out", str((out / "counterexample").resolve()), "--name", "counterexample"]
+    return args
+
+
+def figure(curves: dict[str, list[float]], path: Path, title: str) -> Path:
+    """Best robustness so far against simulations, one line per label (a search or an optimizer's seeds)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for label, values in curves.items():
+        best = np.minimum.accumulate(np.asarray(values, dtype=float))
+        ax.plot(np.arange(1, len(best) + 1), best, label=label, drawstyle="steps-post")
+    ax.axhline(0.0, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("simulations")
+    ax.set_ylabel("best robustness so far (units of the requirement's signal)")
+    ax.set_title(title)
+    ax.set_yscale("symlog", linthresh=0.01)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def summary(spec: Falsification, outcome: Outcome, command: list[str] | None) -> str:
+    n = outcome.simulations
+    lines = [f"falsification {spec.name}: optimizer {spec.optimizer} (seed {spec.seed}), {len(spec.dimensions)} dimensions, "
+             f"{n} simulations in {outcome.seconds:.1f} s" + (f" ({outcome.reused} from the previous run)" if outcome.reused else "")]
+    for r in spec.requirements:
+        lines.append(f"  requirement {r.name}: {r.formula}")
+    lines.append("  search space: " + ", ".join(f"{d.name} = {d.target} in [{d.low:g}, {d.high:g}]" for d in spec.dimensions))
+    best = outcome.best
+    if outcome.falsified_at is not None and best is not None:
+        k = outcome.falsified_at + 1
+        lines.append(f"FALSIFIED after {k} simulation{'s' if k != 1 else ''}; the most negative robustness "
+                     f"{best['robustness']:.6g} at:")
+    else:
+        lines.append(f"NOT FALSIFIED in {n} simulations (a search is no proof); lowest robustness "
+                     f"{best['robustness']:.6g} at:" if best else f"NOT FALSIFIED in {n} simulations (none had a robustness)")
+    if best is not None:
+        lines.append("  " + ", ".join(f"{d.name} = {best[d.name]:.6g}" for d in spec.dimensions))
+        for r in spec.requirements:
+            rho = best.get(f"rho_{r.name}")
+            lines.append(f"  {r.name}: robustness {rho:.6g} ({best.get(f'verdict_{r.name}')})" if rho is not None and not
+                         math.isnan(rho) else f"  {r.name}: no robustness ({best.get('error')})")
+        if best.get("error"):
+            lines.append(f"  the run ended early: {best['error']}")
+    if command:
+        lines.append("replay it:")
+        lines.append("  " + shlex.join(command))
+    return "\n".join(lines)
+
+
+def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = None) -> str:
+    best = outcome.best
+    command = replay_command(spec, best, out, fmus) if best is not None else None
+    if command:
+        (out / "replay.sh").write_text("#!/bin/sh\n" + shlex.join(command) + "\n")
+    curves = {f"{spec.optimizer} (seed {spec.seed})": [r["robustness"] if r.get("robustness") is not None
+                                                       and not math.isnan(r["robustness"]) else math.inf for r in outcome.rows]}
+    if outcome.rows:
+        figure(curves, out / FIGURE, f"{spec.name}: best robustness against simulations")
+    text = summary(spec, outcome, command)
+    (out / SUMMARY).write_text(text + "\n")
+    return text

@@ -1,0 +1,131 @@
+"""`tiltload falsify SPEC`: the search of a spec on a Dask cluster (a local one on the loopback interface, or an existing
+scheduler, as campaigns run: campaign/cluster.py), its evaluations dispatched with the campaign's retries and failure
+handling (campaign/dispatch.py), its results and report written to the output folder."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from dataclasses import replace
+from functools import partial
+from pathlib import Path
+
+from ..campaign.errors import CampaignIncomplete
+from ..campaign.spec import Case, SpecError
+from .search import Outcome, search
+from .spec import Falsification, load
+
+
+def identity(spec: Falsification) -> str:
+    """What the stored evaluations depend on: a rerun with another spec does not take them."""
+    what = {"name": spec.name, "optimizer": spec.optimizer, "seed": spec.seed, "batch": spec.batch,
+            "loop": [spec.scenario, str(spec.flight.trajectory.label), spec.controller, spec.loop_seed, spec.stop_time,
+                     spec.gusts, sorted(spec.parameters.items()), spec.faults, dict(spec.flight.wind), spec.gust],
+            "requirements": [r.formula for r in spec.requirements],
+            "dimensions": [[d.name, d.target, d.low, d.high, d.integer] for d in spec.dimensions]}
+    return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def check_names(spec: Falsification, fmus: Path) -> None:
+    """Before any run, against the built FMUs: each requirement's signal is an output of its instance, each searched
+    instance.name a parameter of it."""
+    from ...engine.model_description import read_fmu
+    from ..campaign.run_case import case_system
+
+    system = case_system(fmus, spec.base(), spec.controller, spec.loop_seed, dict(spec.parameters))
+    outputs, parameters = {}, {}
+    for inst in system.instances:
+        md = read_fmu(inst.fmu, inst.name)
+        outputs[inst.name] = {v.name for v in md.modelVariables if v.causality == "output"}
+        parameters[inst.name] = {v.name for v in md.modelVariables if v.causality == "parameter"}
+    for d in spec.dimensions:
+        instance, _, name = d.target.partition(".")
+        if instance in parameters and name not in parameters[instance]:
+            import difflib
+
+            close = difflib.get_close_matches(name, sorted(parameters[instance]), n=3)
+            hint = f" (did you mean {', '.join(instance + '.' + c for c in close)}?)" if close else ""
+            raise SpecError(f"{spec.source}: search: {d.target} is not a parameter of {instance}{hint}")
+    for s in spec.signals:
+        instance, _, variable = s.partition(".")
+        if variable not in outputs.get(instance, set()):
+            import difflib
+
+            close = difflib.get_close_matches(variable, sorted(outputs.get(instance, ())), n=3)
+            hint = f" (did you mean {', '.join(instance + '.' + c for c in close)}?)" if close else ""
+            raise SpecError(f"{spec.source}: requirements: {s} is not an output of {instance}{hint}")
+
+
+def cluster_batch(client, where: str, base: dict, fmus: Path, retries: int = 2):
+    """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster."""
+    from ..campaign.dispatch import Dispatch, Policy
+    from .evaluate import evaluate
+
+    task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
+
+    def run(cases: list[dict]) -> dict[str, dict]:
+        got: dict[str, dict] = {}
+        dispatch = Dispatch(client, task, lambda result: got.__setitem__(result["row"]["run_id"], result["row"]), where,
+                            len(cases), 0, Policy(retries=retries))
+        dispatch.run([Case(c["run_id"], base["controller"], base["seed"], c["values"], c["parameters"]) for c in cases])
+        return got
+    return run
+
+
+def make_case(base: dict):
+    from .space import case_parameters
+
+    def make(rid: str, values: dict) -> dict:
+        return {"run_id": rid, "values": values, "parameters": case_parameters(base, values)}
+    return make
+
+
+def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"), optimizer: str | None = None,
+            seed: int | None = None, simulations: int | None = None, seconds: float | None = None,
+            scheduler: str | None = None, workers: int | None = None, client=None, progress=None,
+            write_report: bool = True) -> tuple[Falsification, Outcome, Path]:
+    """Run (or finish) a falsification; returns the spec, what the search found and the output folder. client: an
+    existing Dask client to run on (benchmarks); else a local cluster or the scheduler's."""
+    from ..campaign.cluster import connect, local_cluster
+    from ..fmus import build_all
+
+    spec = load(spec_path)
+    changes = {k: v for k, v in (("optimizer", optimizer), ("seed", seed), ("simulations", simulations),
+                                 ("seconds", seconds)) if v is not None}
+    spec = replace(spec, **changes)
+    out = Path(out) if out else Path("runs") / "falsify" / f"{spec.name}-{spec.optimizer}-{spec.seed}"
+    say = progress or (lambda text: print(text, file=sys.stderr))
+    fmus = Path(fmus).resolve()
+    build_all(fmus, progress=say)
+    check_names(spec, fmus)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    cluster = None
+    own = client is None
+    where = scheduler or "the local cluster"
+    if own:
+        if scheduler is not None:
+            client = connect(scheduler, workers or 1, 5.0, 30.0)
+        else:
+            client, cluster = local_cluster(workers)
+            where = f"{cluster.scheduler_address} (the local cluster's)"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
+    base = spec.base()
+    try:
+        outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
+                         make_case(base), spec.simulations, spec.seconds, out, identity(spec), spec.batch, say)
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    if write_report:
+        from .report import write
+
+        write(spec, outcome, out, fmus)
+    if outcome.failures:
+        raise CampaignIncomplete(f"{len(outcome.failures)} evaluations failed for their environment, not for themselves "
+                                 f"(details: Dask's log); what was stored stays: rerun the same command to go on")
+    return spec, outcome, out

@@ -1,0 +1,160 @@
+"""The search: an optimizer asks a batch of points, the batch runs in parallel (on the campaign's Dask machinery:
+dispatch.py's retries and failure handling), each outcome is stored at once, the optimizer is told, until a point
+falsifies a requirement (robustness < 0) or the budget (simulations, wall time) is spent.
+
+Storage and resume: each evaluation is a part, <out>/parts/<index>.parquet (its point of the unit cube u_*, the
+values, each requirement's robustness and verdict, wall time, worker), and <out>/falsification.parquet is assembled
+from the parts after every batch. The optimizers are deterministic for their seed and what they are told, so a
+search killed half-way and started again asks the same points: a stored part whose point is the one asked is taken as
+it is (not run again), and the search goes on exactly as the uninterrupted one would have.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import optimizers
+from .spec import Dimension
+
+RESULTS = "falsification.parquet"
+PENALTY = 1e6  # told to the optimizer for a point without robustness (refused by the feasibility check)
+
+
+@dataclass
+class Outcome:
+    """What a search found: every row in the order asked, the first falsifying index (None: none)."""
+
+    rows: list[dict]
+    falsified_at: int | None  # index (0-based) of the first evaluation with robustness < 0
+    seconds: float
+    reused: int = 0  # rows taken from a previous, interrupted run
+    failures: dict = field(default_factory=dict)  # run id -> environment line (not stored)
+
+    @property
+    def simulations(self) -> int:
+        return len(self.rows)
+
+    @property
+    def best(self) -> dict | None:
+        scored = [r for r in self.rows if r.get("robustness") is not None and not math.isnan(r["robustness"])]
+        return min(scored, key=lambda r: r["robustness"]) if scored else None
+
+
+def run_id(identity: str, index: int, unit: np.ndarray) -> str:
+    what = json.dumps({"search": identity, "index": index, "u": [float(x) for x in unit]}, sort_keys=True)
+    return f"{index:06d}-" + hashlib.sha256(what.encode()).hexdigest()[:10]
+
+
+def read_parts(folder: Path) -> dict[int, dict]:
+    import pyarrow.parquet as pq
+
+    if not folder.is_dir():
+        return {}
+    out = {}
+    for path in sorted(folder.glob("*.parquet")):
+        row = pq.read_table(path).to_pylist()[0]
+        out[int(row["index"])] = row
+    return out
+
+
+def write_part(folder: Path, row: dict) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tmp = folder / f".{row['index']:06d}.tmp"
+    pq.write_table(pa.Table.from_pylist([row]), tmp)
+    tmp.replace(folder / f"{row['index']:06d}.parquet")  # a part exists only once complete
+
+
+def assemble(out: Path, rows: list[dict]) -> Path:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    tmp = out / f".{RESULTS}.tmp"
+    pq.write_table(pa.Table.from_pylist([{k: r.get(k) for k in keys} for r in rows]), tmp)
+    tmp.replace(out / RESULTS)
+    return out / RESULTS
+
+
+def _told(row: dict) -> float:
+    r = row.get("robustness")
+    if r is None or math.isnan(r):
+        return PENALTY
+    return float(np.clip(r, -PENALTY, PENALTY))
+
+
+def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batch: Callable[[list[dict]], dict[str, dict]],
+           make_case: Callable[[str, dict], dict], simulations: int | None, seconds: float | None, out: Path | None,
+           identity: str, batch: int | None = None, progress: Callable[[str], None] | None = None,
+           stop_when_falsified: bool = True) -> Outcome:
+    """Minimize the robustness over the dimensions. evaluate_batch(cases) -> {run_id: row} (rows of runs whose
+    environment failed are missing); make_case(run_id, values) -> the case a worker gets. out: where parts and
+    falsification.parquet go (None: kept in memory only)."""
+    from .space import values_at
+
+    say = progress or (lambda _: None)
+    parts = out / "parts" if out is not None else None
+    if parts is not None:
+        parts.mkdir(parents=True, exist_ok=True)
+    stored = read_parts(parts) if parts is not None else {}
+    opt = optimizers.make(optimizer, len(dimensions), seed, batch)
+    rows: list[dict] = []
+    started = time.perf_counter()
+    falsified_at, reused, failures = None, 0, {}
+    limit = simulations if simulations is not None else math.inf
+    while len(rows) < limit and (seconds is None or time.perf_counter() - started < seconds):
+        whole = opt.ask()
+        asked = whole[:int(min(len(whole), limit - len(rows)))]  # the budget's last batch may be cut: never told
+        cases, batch_rows = [], {}
+        for j, unit in enumerate(asked):
+            index = len(rows) + j
+            rid = run_id(identity, index, unit)
+            old = stored.get(index)
+            if old is not None and old["run_id"] == rid:
+                batch_rows[rid] = old
+                reused += 1
+                continue
+            values = values_at(dimensions, unit)
+            case = make_case(rid, values)
+            case["unit"] = [float(x) for x in unit]
+            case["index"] = index
+            cases.append(case)
+        if cases:
+            got = evaluate_batch(cases)
+            for case in cases:
+                row = got.get(case["run_id"])
+                if row is None:
+                    continue
+                row = {"index": case["index"], "optimizer": optimizer, "optimizer_seed": seed, **row,
+                       **{f"u_{d.name}": u for d, u in zip(dimensions, case["unit"])}}
+                row["run_id"] = case["run_id"]
+                batch_rows[case["run_id"]] = row
+                if parts is not None:
+                    write_part(parts, row)
+        missing = [c["run_id"] for c in cases if c["run_id"] not in batch_rows]
+        if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
+            failures.update({rid: "its environment failed" for rid in missing})
+            break
+        ordered = [batch_rows[run_id(identity, len(rows) + j, unit)] for j, unit in enumerate(asked)]
+        if len(asked) == len(whole):
+            opt.tell(asked, [_told(r) for r in ordered])
+        for r in ordered:
+            if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
+                falsified_at = int(r["index"])
+        rows.extend(ordered)
+        if out is not None:
+            assemble(out, rows)
+        best = min((_told(r) for r in rows), default=math.nan)
+        say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
+        if stop_when_falsified and falsified_at is not None:
+            break
+    return Outcome(rows, falsified_at, time.perf_counter() - started, reused, failures)

@@ -1,0 +1,102 @@
+"""The signals a requirement names (`instance.variable`), as an STL trace on the master's tick: from a running loop (an
+observer that keeps only those columns) or from a run's MCAP log; the two give the same trace bit for bit.
+
+Sampling: the trace's sample k is at t_k = k T (T the tick). A signal's value there is its instance's last output at or
+before t_k (zero-order hold), the output at the start included; an instance the loop steps every tick gives its own
+step's output. The trace runs to the last tick any of the signals' instances reached (the plant's step ends one tick
+after the others' last output: those hold).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...engine.observers import Observer
+from ...engine.stl import Trace
+
+TYPES = ("Real", "Integer", "Boolean")
+
+
+def _column(instance, variable: str) -> tuple[str, int]:
+    for typ in TYPES:
+        for i, v in enumerate(instance.outputs.get(typ, [])):
+            if v.name == variable:
+                return typ, i
+    from ...engine.errors import DescriptionError
+
+    raise DescriptionError(f"signal {instance.name}.{variable}: {instance.name} has no output {variable}")
+
+
+def sampled(series: dict[str, tuple[np.ndarray, np.ndarray]], tick: float) -> Trace:
+    """A uniform trace on the tick from each signal's (times, values) records (in time order)."""
+    ticks = {name: np.rint(np.asarray(t, dtype=float) / tick).astype(np.int64) for name, (t, _) in series.items()}
+    last = max(int(k[-1]) for k in ticks.values())
+    first = min(int(k[0]) for k in ticks.values())
+    grid = np.arange(first, last + 1)
+    signals = {}
+    for name, (_, values) in series.items():
+        at = np.searchsorted(ticks[name], grid, side="right") - 1
+        signals[name] = np.asarray(values, dtype=float)[np.maximum(at, 0)]
+    return Trace(grid * tick, signals, tick)
+
+
+class SignalRecorder(Observer):
+    """Keeps the named outputs of every step (and their values at the start), nothing else; `trace()` after the run."""
+
+    def __init__(self, names: list[str]) -> None:
+        self.names = list(names)
+        self._times: dict[str, list[np.ndarray]] = {}
+        self._values: dict[str, list[np.ndarray]] = {}
+
+    def start(self, execution) -> None:
+        self.tick = execution.system.tick
+        self._where = {}
+        by_instance: dict[str, list[str]] = {}
+        for name in self.names:
+            instance, _, variable = name.partition(".")
+            if instance not in execution.instances:
+                from ...engine.errors import DescriptionError
+
+                raise DescriptionError(f"signal {name}: the loop has no instance {instance}")
+            self._where[name] = (instance, *_column(execution.instances[instance], variable))
+            by_instance.setdefault(instance, []).append(name)
+        self._instances = by_instance
+        t0 = float(execution.time)
+        for name, (instance, typ, i) in self._where.items():
+            self._times[name] = [np.array([t0])]
+            self._values[name] = [np.array([execution.instances[instance].values[typ][i]], dtype=float)]
+
+    def on_batch(self, execution, batch) -> None:
+        for instance, names in self._instances.items():
+            at = batch.positions(instance)
+            if not len(at):
+                continue
+            times, rows = batch.time[at].copy(), batch.row[at]
+            for name in names:
+                _, typ, i = self._where[name]
+                self._times[name].append(times)
+                self._values[name].append(batch.rows[instance][typ][rows, i].astype(float))
+
+    def series(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        return {n: (np.concatenate(self._times[n]), np.concatenate(self._values[n])) for n in self.names}
+
+    def trace(self) -> Trace:
+        return sampled(self.series(), self.tick)
+
+
+def trace_from_log(path, names: list[str], tick: float) -> Trace:
+    """The same trace from a run's MCAP log (its /instance topics; master/engine/log_reader.py)."""
+    from ...engine import log_reader
+
+    topics = sorted({"/" + n.partition(".")[0] for n in names})
+    data = log_reader.read(path, topics)
+    series = {}
+    for name in names:
+        instance, _, variable = name.partition(".")
+        records = data.get("/" + instance, [])
+        if not records or variable not in records[0]:
+            from ...engine.errors import DescriptionError
+
+            raise DescriptionError(f"{path}: the log has no signal {name}")
+        series[name] = (np.array([r["t"] for r in records]), np.array([float(r[variable]) for r in records]))
+    return sampled(series, tick)

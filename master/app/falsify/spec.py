@@ -1,0 +1,265 @@
+"""Falsification specifications (TOML or YAML): the campaign spec's base case, the requirements, the search space, the
+budget and the optimizer; validated like a campaign spec (its reader, its base schema, its checks of faults and files).
+
+    name = "gust_swing"
+    optimizer = "cmaes"          # uniform | cmaes | tpe
+    seed = 0                     # the optimizer's seed
+    batch = 8                    # evaluations handed to the cluster at once (default: the optimizer's own)
+    [base]                       # campaign base keys (docs/campaigns.md), one controller, the loop's seed
+    scenario = "fsi"
+    trajectory = 1
+    controller = "mixed"         # dlqr | mixed | a controller FMU
+    seed = 1                     # the loop's noise seed: every evaluation uses it (deterministic per point)
+    stop_time = 12.0
+    gusts = false
+    [[requirements]]
+    name = "swing"
+    formula = "always[2:12] (abs(plant.gamma_1) < 0.25)"
+    [[search]]
+    name = "gust_speed"
+    target = "gust.amplitude"    # gust.* | initial.x|y|z | faults.N.start|end|value|duration | instance.parameter
+    range = [0.0, 15.0]
+    integer = false              # true: the value is rounded (e.g. scenario.dryden, 0-3)
+    [gust]                       # the gust's fixed fields (the search's gust.* dimensions replace them)
+    amplitude = 0.0              # m/s
+    direction = 0.0              # degrees from x, in the horizontal plane
+    start = 5.0                  # s
+    duration = 1.0               # s
+    rise = 0.2                   # s (at most a third of the duration)
+    [budget]
+    simulations = 200
+    seconds = 600                # wall time (either or both)
+
+A gust is a trapezoid of wind velocity written into the scenario FMU's wind profile (docs/falsification.md). Files are
+relative to the spec. A bad spec is one line naming the file and the field (SpecError, exit 2).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..campaign.spec import SCHEMA as CAMPAIGN_SCHEMA
+from ..campaign.spec import Flight, SpecError, checked_faults, read_flight, read_spec_file
+
+OPTIMIZERS = ("uniform", "cmaes", "tpe")
+LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/loop.py's instance names
+GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
+GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
+TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|duration)|gust\.(amplitude|direction|start|"
+                  r"duration|rise)|initial\.[xyz])$")
+
+
+def _base_schema() -> dict:
+    base = copy.deepcopy(CAMPAIGN_SCHEMA["properties"]["base"])
+    props = base["properties"]
+    del props["controllers"], props["snapshot"]  # one controller; branching from a snapshot is not searched (yet)
+    props["controller"] = {"type": "string", "minLength": 1}
+    props["seed"] = {"type": "integer", "minimum": 0, "maximum": 2147483647}
+    return base
+
+
+SCHEMA = {
+    "type": "object", "additionalProperties": False, "required": ["name", "base", "requirements", "search", "budget"],
+    "properties": {
+        "name": CAMPAIGN_SCHEMA["properties"]["name"],
+        "optimizer": {"enum": list(OPTIMIZERS)},
+        "seed": {"type": "integer", "minimum": 0, "maximum": 2**32 - 1},
+        "batch": {"type": "integer", "minimum": 1, "maximum": 1024},
+        "base": _base_schema(),
+        "requirements": {"type": "array", "minItems": 1, "items": {
+            "type": "object", "additionalProperties": False, "required": ["name", "formula"], "properties": {
+                "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
+                "formula": {"type": "string", "minLength": 1},
+                "description": {"type": "string"}}}},
+        "search": {"type": "array", "minItems": 1, "items": {
+            "type": "object", "additionalProperties": False, "required": ["name", "target", "range"], "properties": {
+                "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
+                "target": {"type": "string", "pattern": TARGET_PATTERN},
+                "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}},
+                "integer": {"type": "boolean"}}}},
+        "gust": {"type": "object", "additionalProperties": False,
+                 "properties": {f: {"type": "number"} for f in GUST_FIELDS}},
+        "budget": {"type": "object", "additionalProperties": False, "minProperties": 1, "properties": {
+            "simulations": {"type": "integer", "minimum": 1, "maximum": 1000000},
+            "seconds": {"type": "number", "exclusiveMinimum": 0}}},
+    },
+}
+
+
+@dataclass(frozen=True)
+class Dimension:
+    """One axis of the search: a bounded range over a target (module docstring), rounded when integer."""
+
+    name: str
+    target: str
+    low: float
+    high: float
+    integer: bool = False
+
+    def value(self, unit: float) -> float | int:
+        """The target's value at a point of [0, 1] along this axis."""
+        v = self.low + min(max(unit, 0.0), 1.0) * (self.high - self.low)
+        return int(round(v)) if self.integer else float(v)
+
+
+@dataclass(frozen=True)
+class Requirement:
+    name: str
+    formula: str  # rtamt's grammar (master/engine/stl)
+    description: str = ""
+
+
+@dataclass
+class Falsification:
+    name: str
+    scenario: str
+    flight: Flight
+    controller: str  # dlqr | mixed | an absolute FMU path
+    loop_seed: int
+    stop_time: float
+    gusts: bool
+    parameters: dict  # base.parameters (instance.name -> value)
+    faults: list  # base.faults, their JSON form
+    requirements: list[Requirement]
+    dimensions: list[Dimension]
+    gust: dict  # the gust's fixed fields (only used when a dimension targets gust.*)
+    optimizer: str
+    seed: int
+    batch: int | None
+    simulations: int | None
+    seconds: float | None
+    source: Path
+    wind_file: Path | None = None
+    trajectory_arg: str = "1"  # base.trajectory as tiltload run's --trajectory takes it (a file: its absolute path)
+    signals: tuple[str, ...] = field(default=())  # every signal the requirements name
+
+    @property
+    def has_gust(self) -> bool:
+        return any(d.target.startswith("gust.") for d in self.dimensions)
+
+    def base(self) -> dict:
+        """What every evaluation shares, as the workers get it."""
+        return {"scenario": self.scenario, "trajectory": self.flight, "stop_time": self.stop_time, "gusts": self.gusts,
+                "faults": self.faults, "parameters": self.parameters, "requirements": [r.formula for r in self.requirements],
+                "requirement_names": [r.name for r in self.requirements],
+                "signals": list(self.signals), "dimensions": self.dimensions, "gust": self.gust if self.has_gust else None,
+                "controller": self.controller, "seed": self.loop_seed}
+
+
+def _validate(data: dict, path: Path) -> None:
+    import jsonschema
+
+    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.path))
+    if errors:
+        err = errors[0]
+        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
+        raise SpecError(f"{path}: {where}: {err.message}")
+
+
+def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str, ...]]:
+    from ...engine import stl
+
+    names, found, out = set(), [], []
+    for i, item in enumerate(items):
+        if item["name"] in names:
+            raise SpecError(f"{path}: requirements.{i}.name: {item['name']} is named twice")
+        names.add(item["name"])
+        try:
+            node = stl.parse(item["formula"])
+            stl.horizon(node)
+        except stl.StlError as err:
+            raise SpecError(f"{path}: requirements.{i}.formula: {err}") from None
+        for s in stl.signals(node):
+            if s not in found:
+                found.append(s)
+        out.append(Requirement(item["name"], item["formula"], item.get("description", "")))
+    return out, tuple(found)
+
+
+def _check_horizons(requirements: list[Requirement], stop: float, path: Path) -> None:
+    """A requirement must be decidable by the run: its horizon within the last tick the run reaches."""
+    from ...engine import stl
+    from ..loop import TICK
+
+    last = math.floor(stop / TICK + 1e-9) * TICK
+    for i, r in enumerate(requirements):
+        h = stl.bounded_horizon(stl.parse(r.formula))
+        if h > last + 1e-9:
+            raise SpecError(f"{path}: requirements.{i}.formula: its horizon ({h:g} s) is longer than the run (the last tick "
+                            f"of base.stop_time {stop:g} s is at {last:.6g} s): raise stop_time or shorten the windows")
+
+
+def _check_signals(signals: tuple[str, ...], path: Path) -> None:
+    """Each signal must be instance.variable of the loop (the instance names; the variable is checked against the
+    built FMU's outputs before the search: runner.check_names)."""
+    for s in signals:
+        instance, _, variable = s.partition(".")
+        if instance not in LOOP_INSTANCES or not variable or "." in variable:
+            raise SpecError(f"{path}: requirements: signal {s} is not instance.variable of the loop "
+                            f"({', '.join(LOOP_INSTANCES)})")
+
+
+def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[Dimension]:
+    out, names, targets = [], set(), set()
+    for i, item in enumerate(items):
+        where = f"{path}: search.{i}"
+        low, high = item["range"]
+        if not (math.isfinite(low) and math.isfinite(high)) or not low < high:
+            raise SpecError(f"{where}.range: low must be below high (finite numbers), got [{low}, {high}]")
+        if item["name"] in names:
+            raise SpecError(f"{where}.name: {item['name']} is named twice")
+        if item["target"] in targets:
+            raise SpecError(f"{where}.target: {item['target']} is searched twice")
+        names.add(item["name"])
+        targets.add(item["target"])
+        target = item["target"]
+        kind, _, rest = target.partition(".")
+        if kind == "gust" and rest not in GUST_FIELDS:
+            raise SpecError(f"{where}.target: a gust has {', '.join(GUST_FIELDS)}, not {rest}")
+        if kind not in ("gust", "initial", "faults") and kind not in LOOP_INSTANCES:
+            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.* nor a parameter of the "
+                            f"loop's instances ({', '.join(LOOP_INSTANCES)})")
+        if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
+            raise SpecError(f"{where}.target: {target} names a fault base.faults does not have")
+        if target.startswith("gust.") and any(k.startswith("wind_profile") for k, _ in flight.wind):
+            raise SpecError(f"{where}.target: a searched gust is written into the wind profile, and base.wind has one")
+        if target in ("gust.duration", "gust.rise") and low <= 0:
+            raise SpecError(f"{where}.range: a gust's {target[5:]} must be above 0 s")
+        out.append(Dimension(item["name"], target, float(low), float(high), item.get("integer", False)))
+    return out
+
+
+def load(path: Path) -> Falsification:
+    """Read and validate a falsification spec."""
+    path = Path(path)
+    data = read_spec_file(path)
+    _validate(data, path)
+    base = data["base"]
+    controller = base.get("controller", "mixed")
+    if controller not in ("dlqr", "mixed"):
+        if not (path.parent / controller).is_file():
+            raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed nor an existing controller FMU")
+        controller = str((path.parent / controller).resolve())
+    faults = checked_faults(base, {}, path)
+    flight = read_flight(base, path)
+    requirements, signals = _requirements(data["requirements"], path)
+    _check_signals(signals, path)
+    dimensions = _dimensions(data["search"], faults, flight, path)
+    from ..loop import default_stop
+
+    stop = base.get("stop_time") or default_stop(flight.trajectory)
+    _check_horizons(requirements, float(stop), path)
+    gust = {**GUST_DEFAULTS, **data.get("gust", {})}
+    if gust["duration"] <= 0 or gust["rise"] <= 0:
+        raise SpecError(f"{path}: gust: duration and rise must be above 0 s")
+    budget = data["budget"]
+    wind = (path.parent / base["wind"]).resolve() if "wind" in base else None
+    raw = base.get("trajectory", 1)
+    trajectory_arg = str((path.parent / raw).resolve()) if isinstance(raw, str) and (path.parent / raw).is_file() else str(raw)
+    return Falsification(data["name"], base.get("scenario", "zse"), flight, controller, base.get("seed", 1), float(stop),
+                         base.get("gusts", True), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
+                         data.get("optimizer", "cmaes"), data.get("seed", 0), data.get("batch"), budget.get("simulations"),
+                         budget.get("seconds"), path, wind, trajectory_arg, signals)

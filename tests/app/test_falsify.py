@@ -1,0 +1,295 @@
+"""tiltload falsify: the spec's checks, the optimizers on functions with known minima (no simulation), uniform random's
+distribution, resume after a SIGKILL, and the counterexample's replay command bit for bit on a real short case."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tiltload.master.app.campaign.spec import SpecError
+from tiltload.master.app.falsify import optimizers
+from tiltload.master.app.falsify.search import read_parts, search
+from tiltload.master.app.falsify.spec import Dimension, load
+
+GOOD = """
+name = "t"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+trajectory = 1
+stop_time = 4.2
+gusts = false
+[[requirements]]
+name = "swing"
+formula = "always[1:4] (abs(plant.gamma_1) < 0.2)"
+[[search]]
+name = "amp"
+target = "gust.amplitude"
+range = [0.0, 20.0]
+[[search]]
+name = "heading"
+target = "gust.direction"
+range = [0.0, 360.0]
+[gust]
+start = 1.5
+duration = 0.8
+[budget]
+simulations = 3
+"""
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "f.toml"
+    path.write_text(text)
+    return path
+
+
+def test_a_good_spec_loads(tmp_path):
+    spec = load(write(tmp_path, GOOD))
+    assert [d.target for d in spec.dimensions] == ["gust.amplitude", "gust.direction"]
+    assert spec.signals == ("plant.gamma_1",) and spec.stop_time == 4.2 and spec.simulations == 3
+
+
+@pytest.mark.parametrize("change, says", [
+    (("optimizer = \"uniform\"", "optimizer = \"annealing\""), "optimizer"),
+    (("range = [0.0, 20.0]", "range = [20.0, 0.0]"), "search.0.range: low must be below high"),
+    (("target = \"gust.amplitude\"", "target = \"gust.size\""), "search.0.target"),
+    (("target = \"gust.amplitude\"", "target = \"faults.0.start\""), "names a fault base.faults does not have"),
+    (("formula = \"always[1:4] (abs(plant.gamma_1) < 0.2)\"", "formula = \"always[1:4] (abs(plant.gamma_1) < \""),
+     "requirements.0.formula"),
+    (("formula = \"always[1:4] (abs(plant.gamma_1) < 0.2)\"", "formula = \"always[1:9] (abs(plant.gamma_1) < 0.2)\""),
+     "horizon (9 s) is longer than the run"),
+    (("formula = \"always[1:4] (abs(plant.gamma_1) < 0.2)\"", "formula = \"always[1:4] (abs(rotor.gamma_1) < 0.2)\""),
+     "signal rotor.gamma_1 is not instance.variable"),
+    (("[budget]\nsimulations = 3", "[budget]"), "budget"),
+    (("name = \"heading\"", "name = \"amp\""), "search.1.name: amp is named twice"),
+    (("scenario = \"fsi\"", "scenario = \"ekf\""), "base.scenario"),
+])
+def test_a_bad_spec_is_one_line_naming_the_field(tmp_path, change, says):
+    old, new = change
+    assert old in GOOD
+    with pytest.raises(SpecError) as err:
+        load(write(tmp_path, GOOD.replace(old, new, 1)))
+    assert says in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_command_refuses_a_bad_spec_with_exit_2(tmp_path):
+    from tiltload.master.app.cli import main
+
+    path = write(tmp_path, GOOD.replace("range = [0.0, 20.0]", "range = [1.0, 1.0]"))
+    assert main(["falsify", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ("formula = \"always[1:4] (abs(plant.gamma_1) < 0.2)\"", "formula = \"always[1:4] (abs(plant.gama_1) < 0.2)\"",
+     "plant.gama_1 is not an output of plant (did you mean plant.gamma_1"),
+    ("target = \"gust.direction\"", "target = \"plant.m_LL\"", "plant.m_LL is not a parameter of plant (did you mean plant.m_L"),
+])
+def test_names_are_checked_against_the_built_fmus_before_any_run(tmp_path, old, new, says):
+    from tiltload.master.app.falsify.runner import check_names
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    with pytest.raises(SpecError, match=says.replace("(", r"\(").replace(".", r"\.")):
+        check_names(load(write(tmp_path, GOOD.replace(old, new))), fmus)
+
+
+def sphere(centre):
+    return lambda x: float(np.sum((np.asarray(x) - centre) ** 2))
+
+
+@pytest.mark.parametrize("name, budget, tolerance", [("cmaes", 600, 1e-8), ("tpe", 150, 2e-2)])
+def test_optimizers_find_a_known_minimum(name, budget, tolerance):
+    centre = np.array([0.3, 0.7, 0.55])
+    points, values = optimizers.minimize(name, sphere(centre), 3, budget, seed=4)
+    best = int(np.argmin(values))
+    assert values[best] < tolerance
+    assert np.all(np.abs(points[best] - centre) < math.sqrt(tolerance) + 1e-12)
+    assert np.all((points >= 0) & (points <= 1))
+    # far better than uniform random with the same budget on the same function
+    _, uniform = optimizers.minimize("uniform", sphere(centre), 3, budget, seed=4)
+    assert values[best] < min(uniform) / 5
+
+
+def test_a_minimum_in_a_corner_is_reached_inside_the_bounds():
+    points, values = optimizers.minimize("cmaes", sphere(np.array([1.0, 0.0])), 2, 400, seed=1)
+    assert min(values) < 1e-6 and np.all((points >= 0) & (points <= 1))
+
+
+def test_uniform_random_is_uniform_and_independent_and_seeded():
+    from scipy import stats
+
+    opt = optimizers.make("uniform", 3, seed=11, batch=500)
+    x = np.vstack([opt.ask() for _ in range(8)])  # 4000 points
+    for k in range(3):
+        assert stats.kstest(x[:, k], "uniform").pvalue > 1e-3
+    corr = np.corrcoef(x.T)
+    assert np.all(np.abs(corr[np.triu_indices(3, 1)]) < 4 / math.sqrt(len(x)))  # ~4 sigma for independent coordinates
+    again = optimizers.make("uniform", 3, seed=11, batch=500).ask()
+    assert np.array_equal(again, x[:500])
+    assert not np.array_equal(optimizers.make("uniform", 3, seed=12, batch=500).ask(), x[:500])
+
+
+def test_dimensions_map_the_cube_onto_their_ranges():
+    d = Dimension("a", "plant.m_L", 0.02, 0.5)
+    assert d.value(0.0) == 0.02 and d.value(1.0) == 0.5 and d.value(0.5) == pytest.approx(0.26)
+    severity = Dimension("s", "scenario.dryden", 0, 3, integer=True)
+    assert [severity.value(u) for u in (0.0, 0.2, 0.5, 0.9, 1.0)] == [0, 1, 2, 3, 3]
+
+
+NEEDLE = np.array([0.8, 0.15])
+
+
+def needle(unit) -> float:
+    """Robustness of a synthetic requirement violated only within 0.05 of NEEDLE (a cone: minimum -0.05 there)."""
+    return float(np.linalg.norm(np.asarray(unit) - NEEDLE) - 0.05)
+
+
+def synthetic_batch(dims):
+    def run(cases):
+        return {c["run_id"]: {"run_id": c["run_id"], **c["values"], "robustness": needle(c["unit"]), "completed": True,
+                              "error": ""} for c in cases}
+    return run
+
+
+DIMS = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
+
+
+def make_case(rid, values):
+    return {"run_id": rid, "values": values, "parameters": {}}
+
+
+@pytest.mark.parametrize("name", ["uniform", "cmaes", "tpe"])
+def test_a_search_stops_at_its_first_falsification(name):
+    out = search(DIMS, name, 3, synthetic_batch(DIMS), make_case, 3000, None, None, "needle")
+    assert out.falsified_at is not None and out.simulations <= 3000
+    first = out.rows[out.falsified_at]
+    assert first["robustness"] < 0 and all(r["robustness"] >= 0 for r in out.rows[:out.falsified_at])
+    assert np.linalg.norm(np.array([first["u_a"], first["u_b"]]) - NEEDLE) < 0.05
+    assert out.simulations - out.falsified_at <= optimizers.make(name, 2, 3).batch  # at most the rest of its batch
+
+
+def test_not_falsified_within_the_budget_says_so(tmp_path):
+    out = search(DIMS, "uniform", 0, lambda cases: {c["run_id"]: {**c["values"], "robustness": 1.0 + c["unit"][0],
+                                                                   "run_id": c["run_id"]} for c in cases},
+                 make_case, 10, None, tmp_path, "never")
+    assert out.falsified_at is None and out.simulations == 10
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(tmp_path / "falsification.parquet").to_pylist()
+    assert [r["index"] for r in rows] == list(range(10))
+
+
+KILLER = """
+import os, signal, sys
+import numpy as np
+from pathlib import Path
+from tiltload.master.app.falsify.search import search
+from tiltload.master.app.falsify.spec import Dimension
+
+NEEDLE = np.array([0.8, 0.15])
+kill_after = int(sys.argv[2])
+dims = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
+done = [0]
+
+def batch(cases):
+    out = {}
+    for c in cases:
+        if kill_after and done[0] >= kill_after:
+            os.kill(os.getpid(), signal.SIGKILL)
+        out[c["run_id"]] = {"run_id": c["run_id"], **c["values"],
+                            "robustness": float(np.linalg.norm(np.asarray(c["unit"]) - NEEDLE) - 0.01)}
+        done[0] += 1
+    return out
+
+o = search(dims, sys.argv[3], 5, batch, lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 60, None,
+           Path(sys.argv[1]), "kill-test")
+print(o.simulations, o.reused)
+"""
+
+
+@pytest.mark.parametrize("name", ["cmaes", "tpe"])
+def test_a_search_killed_half_way_resumes_as_if_uninterrupted(tmp_path, name):
+    import pyarrow.parquet as pq
+
+    script = tmp_path / "killer.py"
+    script.write_text(textwrap.dedent(KILLER))
+    env = {**os.environ, "PYTHONHASHSEED": "0"}
+    killed = subprocess.run([sys.executable, str(script), str(tmp_path / "a"), "23", name], env=env, capture_output=True)
+    assert killed.returncode == -signal.SIGKILL
+    stored = read_parts(tmp_path / "a" / "parts")
+    assert 0 < len(stored) <= 23
+    resumed = subprocess.run([sys.executable, str(script), str(tmp_path / "a"), "0", name], env=env, capture_output=True,
+                             text=True, check=True)
+    whole = subprocess.run([sys.executable, str(script), str(tmp_path / "b"), "0", name], env=env, capture_output=True,
+                           text=True, check=True)
+    simulations, reused = map(int, resumed.stdout.split())
+    assert reused == len(stored) and simulations == int(whole.stdout.split()[0]) > 23
+    a = pq.read_table(tmp_path / "a" / "falsification.parquet").to_pylist()
+    b = pq.read_table(tmp_path / "b" / "falsification.parquet").to_pylist()
+    assert [(r["index"], r["u_a"], r["u_b"], r["robustness"]) for r in a] == \
+           [(r["index"], r["u_a"], r["u_b"], r["robustness"]) for r in b]
+
+
+SHORT = GOOD.replace("range = [0.0, 20.0]", "range = [14.0, 20.0]").replace("optimizer = \"uniform\"", "optimizer = \"cmaes\"")
+
+
+def test_the_counterexample_replays_bit_for_bit(tmp_path, monkeypatch):
+    """A real 4 s case: the evaluation's robustness (an observer's trace) equals the one of the replay command's log."""
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.falsify.evaluate import evaluate, robustness
+    from tiltload.master.app.falsify.report import replay_command
+    from tiltload.master.app.falsify.report import write as write_report
+    from tiltload.master.app.falsify.runner import make_case as case_of
+    from tiltload.master.app.falsify.signals import trace_from_log
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    spec = load(write(tmp_path, SHORT))
+    base = spec.base()
+
+    def batch(cases):
+        return {c["run_id"]: evaluate(base, c, str(fmus))["row"] for c in cases}
+
+    out = search(spec.dimensions, "cmaes", 2, batch, case_of(base), 3, None, tmp_path / "o", "replay")
+    best = out.best
+    assert best["completed"] or best["error"]
+    write_report(spec, out, tmp_path / "o", fmus)
+    args = replay_command(spec, best, tmp_path / "o", fmus)
+    assert args[:2] == ["tiltload", "run"]
+    code = main(args[1:] + ["--quiet", "--no-plots"])
+    assert code in (0, 1)  # 1: the loop diverged, as it did in the search (the log holds what it got)
+    trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
+    rho, _ = robustness([r.formula for r in spec.requirements], trace, best["error"] == "")
+    assert rho[0] == best["rho_swing"]  # bit for bit
+    assert min(rho) == best["robustness"]
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert ("FALSIFIED after" in summary) == (best["robustness"] < 0)
+    assert "tiltload run" in summary
+
+
+def test_the_command_on_a_local_cluster_says_not_falsified_and_a_rerun_takes_the_stored_evaluations(tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    easy = GOOD.replace("< 0.2)", "< 10.0)").replace("range = [0.0, 20.0]", "range = [0.0, 1.0]")
+    path = write(tmp_path, easy)
+    args = ["falsify", str(path), "--out", str(tmp_path / "o"), "--workers", "1", "--simulations", "2"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "NOT FALSIFIED in 2 simulations (a search is no proof)" in said and "tiltload run" in said
+    import pyarrow.parquet as pq
+
+    rows = pq.read_table(tmp_path / "o" / "falsification.parquet").to_pylist()
+    assert len(rows) == 2 and all(r["robustness"] > 0 and r["worker"] for r in rows)
+    assert main(args) == 0
+    assert "2 simulations in" in (said := capsys.readouterr().out) and "(2 from the previous run)" in said
