@@ -2,9 +2,10 @@
 hangs, in C as a foreign FMU would.
 
 The FMU's library is replaced by a small shim of the same name that defines fmi3DoStep only and needs the original
-library (renamed beside it): every other fmi3 function a host looks up in the shim is found in the original through
-that dependency (dlsym searches a library's dependencies), and the shim's fmi3DoStep hands over to the original's
-(RTLD_NEXT) until the time comes. The build record is left out: the master treats the FMU as foreign.
+library (renamed beside it; linked --no-as-needed, or the linker drops the dependency): every other fmi3 function a
+host looks up in the shim is found in the original (dlsym searches a library's dependencies), and the shim's
+fmi3DoStep hands over to the original's (RTLD_NEXT) until the time comes. The build record is left out: the master
+treats the FMU as foreign.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def misbehaving_fmi3(controller: Path, folder: Path, modes, at: float) -> dict[s
         (work / renamed).write_bytes(original)
         (work / "shim.c").write_text(SHIM.replace("AT", repr(float(at))).replace("ACT", ACTS[mode]))
         subprocess.run(["cc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-shared", "-fPIC", "-O1", "-o", str(work / f"{identifier}.so"),
-                        str(work / "shim.c"), f"-L{work}", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True)
+                        str(work / "shim.c"), f"-L{work}", "-Wl,--no-as-needed", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True)
         out[mode] = folder / f"bad3_{mode}.fmu"
         with zipfile.ZipFile(controller) as src, zipfile.ZipFile(out[mode], "w", zipfile.ZIP_DEFLATED) as dst:
             for item in src.infolist():
