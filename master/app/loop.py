@@ -14,7 +14,7 @@ from ...controller_fmu.design.error_dynamics import LOOP_DELAYS
 from ...scenario_fmu.choice import Trajectory
 from ..engine import jacobi
 from ..engine.errors import DescriptionError
-from ..engine.model_description import read_fmu
+from ..engine.model_description import clocks_of, read_fmu
 from ..engine.observers import Metrics
 from ..engine.system import Connection, Instance, System
 from .inputs import trajectory as as_trajectory
@@ -121,8 +121,11 @@ def select_loop_delay(system: System, schedule: str) -> int | None:
 
 
 def controller_period(fmu: Path) -> float | None:
-    """A controller FMU runs at its DefaultExperiment stepSize, which must be a whole number of ticks (docs/ports.md)."""
+    """A controller FMU runs at its DefaultExperiment stepSize, which must be a whole number of ticks (docs/ports.md);
+    an FMI 3.0 one with clocks at its clocks' ticks, which replace the period (None)."""
     md = read_fmu(fmu, CONTROLLER)
+    if clocks_of(md):
+        return None
     step = md.defaultExperiment.stepSize if md.defaultExperiment is not None else None
     if step in (None, ""):
         return None

@@ -170,9 +170,6 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     fmi, clocks = getattr(args, "fmi", None) or 2, getattr(args, "clocks", False)
     if clocks and fmi != 3:
         raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
-    if fmi == 3 and getattr(args, "remote", None):  # before the build and the feasibility check, not at t = 0
-        raise UserError(f"--remote {args.remote[0][0]}=...: tiltload serve hosts FMI 2.0 FMUs, and the FMI 3.0 loop "
-                        f"(--fmi 3{' --clocks' if clocks else ''}) runs in the master's process: drop --remote, or drop --fmi 3")
     if args.system is not None:
         given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [])]
         if given:

@@ -18,7 +18,7 @@ def folders(machine: str | None = None) -> tuple[str, ...]:
 
     if (machine or platform_tuple) == "aarch64-linux":
         return ("aarch64-linux", "linux64")  # linux64 last: a board's copy made the FMI 2.0 way
-    return (platform,) if machine is None else ("linux64",)
+    return (platform, platform_tuple) if machine is None else ("linux64", "x86_64-linux")  # FMI 2.0's name, then 3.0's
 
 
 def library_path(unzipped: Path | str, model_identifier: str) -> str | None:

@@ -25,7 +25,7 @@ import numpy as np
 
 from . import connections
 from .errors import DescriptionError
-from .model_description import checked_value, fmi_version, read_fmu, steps_every
+from .model_description import checked_value, read_fmu, steps_every
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
 from .slave import C_TYPES, Slave
@@ -79,10 +79,6 @@ class Execution:
         self.time = 0.0
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
-        for i in system.instances:  # refused before anything loads, not when instantiated
-            if i.remote is not None and fmi_version(mds[i.name]) == 3:
-                raise DescriptionError(f"{i.name}: an FMI 3.0 FMU runs in the master's process; tiltload serve hosts FMI 2.0 "
-                                       "FMUs (use the FMI 2.0 build for --remote)")
         self.links = connections.resolve(system, mds)
         _check_parameters(system, mds, self.links)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts

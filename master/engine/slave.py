@@ -1,7 +1,8 @@
 """The slave interface: what the execution, the manipulators and the observers use of one FMU instance.
 
-Two implementations: the FMU loaded into this process (fmu.InProcessFmu) and the FMU hosted in a
-worker process (isolation.process.IsolatedFmu). Both keep the outputs in typed arrays,
+Three implementations: an FMU loaded into this process, FMI 2.0 (fmu.InProcessFmu) or FMI 3.0 (fmu3.Fmu3Slave,
+picked by in_process.load), and an FMU of either version hosted in a worker process or on `tiltload serve`
+(isolation.process.IsolatedFmu, whose worker steps the in-process slave). All keep the outputs in typed arrays,
 `values[type]`, read after every step, and offer raw setters with the fmi2Set<type> signature, so
 the execution moves values between them without knowing where an FMU runs.
 """

@@ -1,6 +1,6 @@
 """Issue 37, the command line's side: token files checked before they are read, no abbreviated options, every wait
 bounded where it is parsed, errors that keep their cause, campaigns that fail a case for itself and leave nothing in
-$TMPDIR, and --fmi 3 --remote refused before anything is built. Each test names the one line it expects."""
+$TMPDIR. Each test names the one line it expects."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from support.remote import token_file
 from tiltload.master.app import cli
 from tiltload.master.app.cli import main
 
@@ -201,18 +200,3 @@ def test_a_controller_that_is_not_an_fmu_is_its_case_error_and_dask_leaves_nothi
     rows = pd.read_parquet(results).set_index("controller")
     assert rows.loc["text", "error"] == f"controller: {tmp_path / 'text.fmu'} is not an FMU (not a zip archive)"
     assert not list(scratch.iterdir())  # no dask-scratch-space/{global,purge}.lock
-
-
-# --- FMI 3.0 and remote instances ---------------------------------------------------------------------------------
-
-@pytest.mark.parametrize("clocks", [["--clocks"], []])
-def test_fmi3_with_remote_is_refused_before_the_build_and_the_feasibility_check(tmp_path, capsys, clocks):
-    token = token_file(tmp_path)
-    empty = tmp_path / "no_fmus"  # nothing is built: the folder stays absent
-    code = main([*RUN, "--fmi", "3", *clocks, "--remote", "controller=127.0.0.1:7390", "--token-file", str(token),
-                 "--fmus", str(empty)])
-    out, err = capsys.readouterr()
-    assert code == 2 and not empty.exists() and "feasibility" not in out
-    assert one_line(err) == (f"tiltload: error: --remote controller=...: tiltload serve hosts FMI 2.0 FMUs, and the FMI 3.0 "
-                             f"loop (--fmi 3{' --clocks' if clocks else ''}) runs in the master's process: drop --remote, "
-                             "or drop --fmi 3")

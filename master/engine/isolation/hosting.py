@@ -8,38 +8,30 @@ same Slave to everything after it.
 from __future__ import annotations
 
 from ..errors import ExecutionError
-from ..fmu import InProcessFmu
+from ..in_process import load
 from ..slave import Slave
 from . import handshake
 from .process import STEP_TIMEOUT, IsolatedFmu
 from .remote_client import RemoteHost
 
 
-def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = STEP_TIMEOUT) -> IsolatedFmu:
+def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = STEP_TIMEOUT,
+               tick: float | None = None) -> IsolatedFmu:
     """The FMU of model description md served by `tiltload serve` at address (picked there by model identifier and
-    GUID), authenticated with the secret in token_file; every call watched for timeout seconds."""
+    GUID), authenticated with the secret in token_file; every call watched for timeout seconds. tick: the execution's
+    (an FMI 3.0 FMU's clocks are placed on it there)."""
     if token_file is None:
         raise ExecutionError(f"{name}: runs on tiltload serve at {address}, which needs the shared secret (--token-file)")
-    return IsolatedFmu(name, path, md, timeout, host=RemoteHost(address, handshake.read_token(token_file), name, md))
+    return IsolatedFmu(name, path, md, timeout, host=RemoteHost(address, handshake.read_token(token_file), name, md, tick))
 
 
 def slave_for(spec, md, isolate=None, step_timeout: float | None = None, tick: float | None = None) -> Slave:
     """The slave of instance spec (system.Instance) with model description md: remote if spec.remote names a server,
-    isolated if isolate(fmu, md) says so (None: never), else in this process. An FMI 3.0 FMU runs in this process
-    (the worker and the server speak FMI 2.0), stepped on the system's tick."""
-    from ..model_description import fmi_version
-
+    isolated if isolate(fmu, md) says so (None: never), else in this process; FMI 2.0 or 3.0 alike, an FMU with
+    clocks stepped on the system's tick wherever it runs."""
     timeout = step_timeout or STEP_TIMEOUT
-    if fmi_version(md) == 3:
-        if spec.remote is not None:
-            raise ExecutionError(f"{spec.name}: an FMI 3.0 FMU runs in the master's process; tiltload serve hosts FMI 2.0 "
-                                 "FMUs (use the FMI 2.0 build for --remote)")
-        from ..fmu3 import Fmu3Slave
-
-        return Fmu3Slave(spec.name, spec.fmu, md, tick)
     if spec.remote is not None:
-        return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout)
+        return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout, tick)
     if isolate is not None and isolate(spec.fmu, md):
-        return IsolatedFmu(spec.name, spec.fmu, md, timeout)
-    return InProcessFmu(spec.name, spec.fmu, md)
-
+        return IsolatedFmu(spec.name, spec.fmu, md, timeout, tick=tick)
+    return load(spec.name, spec.fmu, md, tick)

@@ -54,13 +54,14 @@ def how_it_ended(code: int) -> str:
 class WorkerProcess:
     """The FMU's host on this machine: a worker process (worker.py) on a pipe pair."""
 
-    def __init__(self, path: Path, name: str) -> None:
+    def __init__(self, path: Path, name: str, tick: float | None = None) -> None:
         self._stderr = tempfile.TemporaryFile()
+        placed = ["--tick", repr(float(tick))] if tick is not None else []  # an FMI 3.0 FMU's clocks go on the master's tick
         req_r, req_w = os.pipe()
         rep_r, rep_w = os.pipe()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", WORKER_MODULE, str(path), name, "--pipes", str(req_r), str(rep_w)],
+                [sys.executable, "-m", WORKER_MODULE, str(path), name, "--pipes", str(req_r), str(rep_w), *placed],
                 pass_fds=(req_r, rep_w), stdin=subprocess.DEVNULL, stdout=self._stderr, stderr=self._stderr)
         except BaseException:
             for fd in (req_w, rep_r):
@@ -110,9 +111,10 @@ class WorkerProcess:
 class IsolatedFmu(slave.Slave):
     """One FMU instance hosted outside this process: by a local worker unless another host is given."""
 
-    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT, host=None) -> None:
+    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT, host=None, tick: float | None = None) -> None:
         """host: something with `channel` (transport.Channel), `ended(what)`, `cut_off()` and `close()`,
-        already started (remote_client.RemoteHost); None: a worker process on this machine."""
+        already started (remote_client.RemoteHost); None: a worker process on this machine, told tick (the
+        execution's, on which an FMI 3.0 FMU's clocks tick)."""
         super().__init__(name, path, md)
         self.timeout = float(timeout)
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
@@ -120,7 +122,7 @@ class IsolatedFmu(slave.Slave):
         self._pending: list = []
         self._dead = self._closed = False
         self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
-        self.host = host if host is not None else WorkerProcess(self.path, name)
+        self.host = host if host is not None else WorkerProcess(self.path, name, tick)
         self.channel = self.host.channel
         try:
             self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))

@@ -23,7 +23,9 @@ CONNECT_TIMEOUT = 10.0  # s to reach the server, prove the token and have the FM
 class RemoteHost:
     """A connection to `tiltload serve` carrying one FMU instance."""
 
-    def __init__(self, address: str, secret: bytes, name: str, md, timeout: float = CONNECT_TIMEOUT) -> None:
+    def __init__(self, address: str, secret: bytes, name: str, md, tick: float | None = None,
+                 timeout: float = CONNECT_TIMEOUT) -> None:
+        """tick: the execution's, sent with the request (the server's worker places an FMI 3.0 FMU's clocks on it)."""
         self.address = address
         self.where = f"tiltload serve at {address}"
         where = f"{name}: {self.where}"
@@ -41,7 +43,8 @@ class RemoteHost:
         try:
             self.channel.send(wire.control({
                 "op": "open", "protocol": handshake.PROTOCOL, "model_identifier": md.coSimulation.modelIdentifier, "guid": md.guid,
-                "instance": name, "byteorder": sys.byteorder, "client": f"{socket.gethostname()} pid {os.getpid()}"}))
+                "instance": name, "byteorder": sys.byteorder, "client": f"{socket.gethostname()} pid {os.getpid()}",
+                **({"tick": float(tick)} if tick is not None else {})}))
             reply = wire.decode_reply(self.channel.receive(timeout, handshake.OPEN_LIMIT))
         except (LinkClosed, LinkTimeout, FrameTooLarge, wire.ProtocolError) as err:
             self.channel.close()

@@ -153,6 +153,7 @@ class Session:
     sock: socket.socket
     fmu: Path
     instance: str
+    tick: float | None = None  # the master's, on which an FMI 3.0 FMU's clocks tick
     proc: subprocess.Popen | None = None
     pidfd: int | None = None
     left_at: float | None = field(default=None)  # when the client was seen to leave
@@ -229,7 +230,7 @@ class Server:
                 raise Refused(str(err)) from None
             if channel.buffered():  # the worker takes over the stream: nothing may be waiting in our buffer
                 raise Refused("it sent more than its request before the answer")
-            instance = self._check_request(request, label)
+            instance, tick = self._check_request(request, label)
             fmu = self.catalogue.find(request["model_identifier"], request["guid"])
             with self._lock:
                 if self._in_use.get(fmu, 0) >= self.options.clients_per_fmu:
@@ -238,7 +239,7 @@ class Server:
                 self._in_use[fmu] = self._in_use.get(fmu, 0) + 1
                 reserved = fmu
             channel.send(wire.control({"ok": True, "fmu": fmu.name, "log": []}))
-            self._admitted.put(Session(number, peer, sock, fmu, instance))
+            self._admitted.put(Session(number, peer, sock, fmu, instance, tick))
             handed_over = True
             os.write(self._wake_w, b"!")
         except handshake.HandshakeFailed as err:
@@ -259,7 +260,8 @@ class Server:
             with self._lock:
                 self._pending -= 1
 
-    def _check_request(self, request: dict, label: str) -> str:
+    def _check_request(self, request: dict, label: str) -> tuple[str, float | None]:
+        """The instance name and the master's tick (None: not sent) of a client's request, or Refused."""
         if request.get("op") != "open":
             raise Refused(f"expected a request for an FMU, got {str(request.get('op'))[:40]!r}")
         if request.get("protocol") != handshake.PROTOCOL:
@@ -272,9 +274,12 @@ class Server:
         instance = request.get("instance")
         if not isinstance(instance, str) or not _NAME.match(instance):
             raise Refused("malformed request (instance name)")
+        tick = request.get("tick")
+        if tick is not None and (isinstance(tick, bool) or not isinstance(tick, (int, float)) or not 0 < tick <= DAY):
+            raise Refused("malformed request (tick: a positive number of seconds, at most a day)")
         self.say(f"{label}: authenticated: {request['client']} asks for {request['model_identifier']} "
                  f"{request['guid']} as {instance}")
-        return instance
+        return instance, None if tick is None else float(tick)
 
     def _release(self, fmu: Path) -> None:
         with self._lock:
@@ -287,7 +292,8 @@ class Server:
         try:
             s.proc = subprocess.Popen(
                 [sys.executable, "-m", WORKER_MODULE, str(s.fmu), s.instance, "--socket", str(fd),
-                 "--idle-timeout", repr(self.options.idle_timeout), "--label", f"tiltload serve: {s.label}"],
+                 "--idle-timeout", repr(self.options.idle_timeout), "--label", f"tiltload serve: {s.label}",
+                 *(["--tick", repr(s.tick)] if s.tick is not None else [])],
                 pass_fds=(fd,), stdin=subprocess.DEVNULL, stdout=2)
         except OSError as err:
             self.say(f"{s.label}: cannot start the FMU's process: {err}")

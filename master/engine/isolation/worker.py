@@ -42,10 +42,11 @@ def model_inputs(md) -> dict[str, frozenset]:
             for t in wire.TYPES}
 
 
-def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None) -> int:
-    """Instantiate the FMU, answer the master's requests until it closes the link or asks to close."""
+def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None, tick: float | None = None) -> int:
+    """Instantiate the FMU (FMI 2.0 or 3.0; tick: the master's, for an FMU with clocks), answer the master's requests
+    until it closes the link or asks to close."""
     from ..errors import DescriptionError, ExecutionError
-    from ..fmu import InProcessFmu
+    from ..in_process import load
     from ..model_description import read_fmu
     from ..slave import C_TYPES
 
@@ -58,19 +59,22 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         sent += len(lines)
         return lines
 
-    vr_arrays: dict[bytes, object] = {}  # the value-reference arrays of each set, built once
+    arrays: dict[bytes, tuple] = {}  # each set's value-reference and value arrays, built once: the same call site each
+    # step, as in the master (an FMI 3.0 slave with clocks stages its inputs by call site)
 
     def apply(typ: str, vrs: bytes, values: bytes, n: int, t: float) -> None:
         key = wire.type_code(typ) + vrs
-        if key not in vr_arrays:
-            vr_arrays[key] = (ctypes.c_uint * n).from_buffer_copy(vrs)
-        status = inst.setters[typ](inst.component, vr_arrays[key], n, (C_TYPES[typ] * n).from_buffer_copy(values))
+        if key not in arrays:
+            arrays[key] = ((ctypes.c_uint * n).from_buffer_copy(vrs), (C_TYPES[typ] * n)())
+        vr_array, buffer = arrays[key]
+        ctypes.memmove(buffer, values, len(values))
+        status = inst.setters[typ](inst.component, vr_array, n, buffer)
         if status > 1:
             raise inst.failed(f"set{typ} at t={t:.6g} s", status)
 
     try:
         md = read_fmu(fmu, name)
-        inst = InProcessFmu(name, fmu, md)
+        inst = load(name, fmu, md, tick)
         channel.send(wire.ok(new_log()))
     except (ExecutionError, DescriptionError) as err:
         channel.send(wire.error("execution", str(err), False, new_log()))
@@ -159,13 +163,14 @@ def main() -> None:
     link.add_argument("--socket", type=int, metavar="FD")
     p.add_argument("--idle-timeout", type=time_span(DAY), default=None)
     p.add_argument("--label", default="")
+    p.add_argument("--tick", type=time_span(DAY), default=None)  # the master's, for an FMI 3.0 FMU's clocks
     args = p.parse_args()
     if args.socket is not None:
         channel = Channel.over_socket(socket.socket(fileno=args.socket))
     else:
         channel = Channel.over_pipes(*args.pipes)
     try:
-        code = serve(args.fmu, args.name, channel, args.idle_timeout, _say(args.label))
+        code = serve(args.fmu, args.name, channel, args.idle_timeout, _say(args.label), args.tick)
     except LinkClosed:
         code = 0
     channel.close()  # a socket is shut down: the master sees the end at once

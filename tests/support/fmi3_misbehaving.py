@@ -1,0 +1,71 @@
+"""Misbehaving FMI 3.0 controllers: our FMI 3.0 controller whose fmi3DoStep, from a given time on, crashes, exits or
+hangs, in C as a foreign FMU would.
+
+The FMU's library is replaced by a small shim of the same name that defines fmi3DoStep only and needs the original
+library (renamed beside it; linked --no-as-needed, or the linker drops the dependency): every other fmi3 function a
+host looks up in the shim is found in the original (dlsym searches a library's dependencies), and the shim's
+fmi3DoStep hands over to the original's (RTLD_NEXT) until the time comes. The build record is left out: the master
+treats the FMU as foreign.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import zipfile
+from pathlib import Path
+
+SHIM = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+typedef int DoStep(void *, double, double, bool, bool *, bool *, bool *, double *);
+
+int fmi3DoStep(void *instance, double t, double h, bool no_set_state_prior, bool *event_needed, bool *terminate,
+               bool *early_return, double *last_time) {
+    if (t >= AT) {
+        ACT;
+    }
+    DoStep *original;
+    *(void **)&original = dlsym(RTLD_NEXT, "fmi3DoStep");
+    return original(instance, t, h, no_set_state_prior, event_needed, terminate, early_return, last_time);
+}
+"""
+
+ACTS = {  # what the shim does in place of the step
+    "segfault": "raise(SIGSEGV)",
+    "exit": "exit(3)",
+    "hang": "for (;;) pause()",
+}
+PLATFORM = "x86_64-linux"
+
+
+def misbehaving_fmi3(controller: Path, folder: Path, modes, at: float) -> dict[str, Path]:
+    """{mode: FMU path} for each mode of ACTS: the FMI 3.0 controller at controller, misbehaving from t >= at."""
+    folder = Path(folder)
+    with zipfile.ZipFile(controller) as z:
+        identifier = next(n for n in z.namelist() if n.startswith(f"binaries/{PLATFORM}/")).rsplit("/", 1)[1][:-3]
+        original = z.read(f"binaries/{PLATFORM}/{identifier}.so")
+    out = {}
+    for mode in modes:
+        work = folder / f"shim_{mode}"
+        work.mkdir(parents=True, exist_ok=True)
+        renamed = f"{identifier}_original.so"
+        (work / renamed).write_bytes(original)
+        (work / "shim.c").write_text(SHIM.replace("AT", repr(float(at))).replace("ACT", ACTS[mode]))
+        subprocess.run(["cc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-shared", "-fPIC", "-O1", "-o", str(work / f"{identifier}.so"),
+                        str(work / "shim.c"), f"-L{work}", "-Wl,--no-as-needed", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True)
+        out[mode] = folder / f"bad3_{mode}.fmu"
+        with zipfile.ZipFile(controller) as src, zipfile.ZipFile(out[mode], "w", zipfile.ZIP_DEFLATED) as dst:
+            for item in src.infolist():
+                if item.filename == "resources/build_info.json":
+                    continue
+                if item.filename == f"binaries/{PLATFORM}/{identifier}.so":
+                    dst.writestr(item, (work / f"{identifier}.so").read_bytes())
+                    dst.writestr(f"binaries/{PLATFORM}/{renamed}", (work / renamed).read_bytes())
+                else:
+                    dst.writestr(item, src.read(item.filename))
+    return out
