@@ -174,7 +174,7 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--budget", type=int, default=200)
     ap.add_argument("--workers", type=int, default=2)
