@@ -269,11 +269,11 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, bu
 
 def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False):
     """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule)."""
-    from ..engine import ssp
     from ..engine import system as sysdesc
+    from ..engine.ssp.load import load
 
     if path.suffix.lower() in (".ssp", ".ssd"):
-        return ssp.load(path, unpack_into, allow_external=allow_external_fmus)
+        return load(path, unpack_into, allow_external=allow_external_fmus)
     if allow_external_fmus:
         raise UserError(f"--allow-external-fmus is for SSP packages (.ssp/.ssd); {path} is a JSON description, "
                         "whose FMU paths are the user's own")

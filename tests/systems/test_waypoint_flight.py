@@ -12,8 +12,10 @@ from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.inputs import READER
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader, ssp
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.run import run_system
+from tiltload.master.engine.ssp.load import load
+from tiltload.master.engine.ssp.schema import PARAMETER_SET
 from tiltload.scenario_fmu import choice, reference
 from tiltload.scenario_fmu.wind import read_wind
 
@@ -65,7 +67,7 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
 
-    system, _, _ = ssp.load(mission_package, cache_root() / "ssp")
+    system, _, _ = load(mission_package, cache_root() / "ssp")
     parameters = system.instance("scenario").parameters
     with zipfile.ZipFile(system.instance("scenario").fmu) as z:  # the mission travels in the scenario FMU's resources
         (tmp_path / "knots.csv").write_bytes(z.read(f"resources/{parameters['waypoints_file']}"))
@@ -93,7 +95,7 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
 
     sim = EcosSimulation(ssp_path=str(mission_package), step_size=TICK)
     try:
-        sim.init(parameter_set=ssp.PARAMETER_SET)
+        sim.init(parameter_set=PARAMETER_SET)
         ecos, clock = [], []
         for _ in range(3000):
             clock.append(sim.get_time())
