@@ -231,7 +231,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, bu
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
     prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot). build:
     build what is stale (a run continued from a snapshot builds nothing: it runs the build the snapshot was taken with)."""
-    from ..engine.manipulators import load as load_faults
+    from ..engine.faults.parse import load as load_faults
     from .fmus import build_all, fmu_folder
 
     if opts.system is not None:

@@ -120,7 +120,7 @@ class CampaignMetrics(Metrics):
 def _system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
     import copy
 
-    from ...engine.manipulators import parse
+    from ...engine.faults.parse import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
     flight = _flight(base)
@@ -209,7 +209,7 @@ def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str
     its tunable parameters."""
     import dataclasses
 
-    from ...engine.manipulators import parse
+    from ...engine.faults.parse import parse
     from ..options import loop_system, snapshot_options
 
     opts = dataclasses.replace(snapshot_options(snap.application, "base.snapshot"), fmus=fmu_dir)

@@ -130,7 +130,7 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
     system = System(tick, instances, conns, auto_connect=False)
     faults = master.find("tl:Faults", SSD_NS) if master is not None else None
     if faults is not None and faults.text:
-        from ..manipulators import parse
+        from ..faults.parse import parse
 
         try:
             system.faults = parse(json.loads(faults.text), f"{path}: faults")
