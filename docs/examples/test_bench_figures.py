@@ -26,7 +26,7 @@ TICK = 0.012
 
 
 def mission(fmus: Path) -> None:
-    from tiltload.master.app.feasibility import check_reference
+    from tiltload.master.app.trajectory_check import check_reference
     from tiltload.master.app.inputs import READER
     from tiltload.master.app.loop import default_system, loop_metrics
     from tiltload.master.engine import log_reader
