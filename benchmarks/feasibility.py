@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import scipy.linalg
-from tiltload.master.app.trajectory_check import check_reference
 from tiltload.master.app.inputs import trajectory
+from tiltload.master.app.trajectory_check import check_reference
 from tiltload.scenario_fmu import waypoints
 
 SPACING = 0.3  # s between waypoints
