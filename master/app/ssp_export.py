@@ -17,7 +17,8 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     from ..engine.model_description import read_fmu
     from ..engine.ssp import export as ssp1
     from .loop import select_loop_delay
-    from .options import loop_system, resolve_loop
+    from .loop_system import loop_system
+    from .options import resolve_loop
 
     loop = loop_system(resolve_loop(args), cache_root() / "ssp")
     system, stop = loop.system, loop.stop

@@ -210,7 +210,8 @@ def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str
     import dataclasses
 
     from ...engine.faults.parse import parse
-    from ..options import loop_system, snapshot_options
+    from ..loop_system import loop_system
+    from ..options import snapshot_options
 
     opts = dataclasses.replace(snapshot_options(snap.application, "base.snapshot"), fmus=fmu_dir)
     if opts.controller_fmu is not None:

@@ -198,7 +198,7 @@ def execute(args: argparse.Namespace) -> Outcome:
     from ...engine.run import run_system
     from ..fmus import is_foreign
     from ..loop import is_loop, loop_metrics
-    from ..options import loop_system
+    from ..loop_system import loop_system
     from ..scene import scene_channels
 
     pacer = _pacer(args)
