@@ -22,7 +22,7 @@ from functools import cache
 import numpy as np
 
 from ...plant_fmu.vehicles import VEHICLES
-from ...scenario_fmu import reference
+from ...scenario_fmu import twin
 from ...scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
 from .yaw_margin import yaw_problem
 
@@ -110,14 +110,14 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     n_angles = len(unknown)
     u_ff = np.empty((n, 4))
     z = np.r_[hover_actual.x[unknown], hover_actual.u]
-    first = reference.evaluate(scenario, [0.0])
+    first = twin.evaluate(scenario, [0.0])
     previous = np.zeros(11)
     previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
     trims, times, failed = [], [], False
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
-        s = reference.evaluate(scenario, t)
+        s = twin.evaluate(scenario, t)
         x = np.tile(hover.x, (t.size, 1))
         x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
         x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
-from support import reference_trajectories as ref_traj
+from support import trajectory_oracle as ref_traj
 from support.fmu_session import session
 from tiltload.master.app.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
