@@ -37,7 +37,7 @@ def loop_arguments(fmus: Path, fmi_version: int) -> argparse.Namespace:
     """The options of `tiltload ssp export --fmus FMUS --fmi N`, the defaults for the rest."""
     from . import arguments
 
-    p = argparse.ArgumentParser(prog="tiltload")
+    p = argparse.ArgumentParser(prog="tiltload", allow_abbrev=False)
     arguments.add_loop_options(p)
     return p.parse_args(["--fmus", str(fmus), "--fmi", str(fmi_version)])
 

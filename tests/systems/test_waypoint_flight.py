@@ -16,7 +16,7 @@ from tiltload.master.engine import log_reader
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.ssp.load import load
 from tiltload.master.engine.ssp.schema import PARAMETER_SET
-from tiltload.scenario_fmu import choice, reference
+from tiltload.scenario_fmu import choice, twin
 from tiltload.scenario_fmu.wind import read_wind
 
 MISSION = ROOT / "docs" / "examples" / "mission.csv"
@@ -74,8 +74,8 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
     parameters = {**parameters, "waypoints_file": str(tmp_path / "knots.csv")}
 
     def ours(times):
-        twin = reference.evaluate(parameters, np.array(times))
-        return np.c_[twin.p, twin.v, twin.a, twin.psi, twin.psi_dot]
+        expected = twin.evaluate(parameters, np.array(times))
+        return np.c_[expected.p, expected.v, expected.a, expected.psi, expected.psi_dot]
 
     want = ours(np.arange(3000) * TICK)
 
