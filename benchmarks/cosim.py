@@ -33,9 +33,11 @@ from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import TICK, default_system, loop_metrics, select_loop_delay
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import jacobi, ssp
+from tiltload.master.engine import jacobi
 from tiltload.master.engine.mcap_log import McapLogger
 from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.ssp.export import export
+from tiltload.master.engine.ssp.load import load
 from timing import Timed, best, machine, timed
 
 UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
@@ -47,8 +49,8 @@ def package(fmus: Path, scenario: str, schedule: str, folder: Path, stop: float)
     """The loop exported for a master of this schedule, and the system ours runs of it (as tiltload run --system)."""
     system = default_system(fmus, scenario, 1, "mixed")
     select_loop_delay(system, schedule)
-    path = ssp.export(system, folder / f"{scenario}-{schedule}.ssp", stop, schedule)
-    loaded, _, _ = ssp.load(path, UNPACK)
+    path = export(system, folder / f"{scenario}-{schedule}.ssp", stop, schedule)
+    loaded, _, _ = load(path, UNPACK)
     if schedule == "jacobi":
         loaded = jacobi.explicit(loaded, {i.name: read_fmu(i.fmu, i.name) for i in loaded.instances}, jacobi=True)
     return path, loaded

@@ -23,7 +23,8 @@ from pathlib import Path
 
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine.manipulators import Manipulator, parse
+from tiltload.master.engine.faults.apply import Manipulator
+from tiltload.master.engine.faults.parse import parse
 from tiltload.master.engine.native import kernel
 from timing import best, machine, timed
 

@@ -18,7 +18,7 @@ from ..controller_fmu.design import cache as design_cache
 from ..native_fmu import casadi_c
 from ..native_fmu.build import Prepared, Recipe, tiltload_version
 from ..native_fmu.compile import NativeSources
-from ..native_fmu.describe import c_array
+from ..native_fmu.describe_fmi2 import c_array
 from ..plant_fmu import codegen
 from ..plant_fmu.vehicles import VEHICLES
 from . import dstable, fmu_variables, kinematics

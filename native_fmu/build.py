@@ -23,8 +23,8 @@ from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
 # the toolkit's own files: a change in any of them rebuilds every FMU
-TOOLKIT_FILES = (*LAYER_FILES, HERE / "build.py", HERE / "compile.py", HERE / "package.py", HERE / "describe.py",
-                 HERE / "describe3.py", HERE / "variables.py", HERE / "units.py")
+TOOLKIT_FILES = (*LAYER_FILES, HERE / "build.py", HERE / "compile.py", HERE / "package.py", HERE / "describe_fmi2.py",
+                 HERE / "describe_fmi3.py", HERE / "variables.py", HERE / "units.py")
 BuildError = cc.BuildError
 NativeSources = cc.NativeSources
 

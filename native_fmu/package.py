@@ -20,7 +20,7 @@ import zipfile
 from pathlib import Path
 
 from . import compile as cc
-from . import describe, describe3
+from . import describe_fmi2, describe_fmi3
 from .variables import FmuDefinition
 
 HERE = Path(__file__).parent
@@ -62,11 +62,11 @@ def _stage_sources(definition: FmuDefinition, sources: cc.NativeSources, src: Pa
     for f in (layer, *SHARED_FILES, *sources.model, *sources.generated):
         shutil.copy2(f, src / f.name)
     if fmi_version == 2:
-        (src / "tl_model.h").write_text(describe.c_header(definition, guid))
-        (src / "tl_model_tables.c").write_text(describe.c_tables(definition))
+        (src / "tl_model.h").write_text(describe_fmi2.c_header(definition, guid))
+        (src / "tl_model_tables.c").write_text(describe_fmi2.c_tables(definition))
     else:
-        (src / "tl_model.h").write_text(describe3.c_header(definition, guid))
-        (src / "tl_model_tables.c").write_text(describe3.c_tables(definition))
+        (src / "tl_model.h").write_text(describe_fmi3.c_header(definition, guid))
+        (src / "tl_model_tables.c").write_text(describe_fmi3.c_tables(definition))
 
 
 def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path, source_digest: str,
@@ -80,7 +80,7 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
     toolchains = toolchains or cc.choose()[0]
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    guid = describe.guid(definition, source_digest)
+    guid = describe_fmi2.guid(definition, source_digest)
     api = f"fmi{fmi_version}"
     include = () if fmi_version == 2 else (fmi_header_dir(3),)
     with tempfile.TemporaryDirectory(prefix="tiltload_native_") as tmp:
@@ -98,10 +98,10 @@ def write_fmu(definition: FmuDefinition, sources: cc.NativeSources, target: Path
         compilers = "; ".join(f"{t.binary_folder(fmi_version)}: {cc.compiler_identity(cc.compiler(t))}" for t in toolchains)
         tool = f"tiltload {definition.version} (native FMI {fmi_version}.0 layer, {compilers})"
         if fmi_version == 2:
-            md = describe.model_description(definition, guid, c_files, tool)
+            md = describe_fmi2.model_description(definition, guid, c_files, tool)
         else:
-            md = describe3.model_description(definition, guid, tool)
-            (src / "buildDescription.xml").write_bytes(describe3.build_description(definition, c_files))
+            md = describe_fmi3.model_description(definition, guid, tool)
+            (src / "buildDescription.xml").write_bytes(describe_fmi3.build_description(definition, c_files))
         (stage / "modelDescription.xml").write_bytes(md)
         (stage / "resources").mkdir()
         (stage / BUILD_INFO).write_text(json.dumps({"source_hash": source_digest, "guid": guid, "fmi_version": fmi_version,

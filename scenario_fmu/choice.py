@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import reference, shapes, trajectories, waypoints
+from . import shapes, trajectories, twin, waypoints
 from .files import Reader, ScenarioFileError, read_rows, read_structured
 
 THESIS = (0, 1, 2, 3)
@@ -94,8 +94,8 @@ def thesis(code: int) -> Trajectory:
 
 def _from_parameters(label: str, code: int, settings: dict, source: str = "") -> Trajectory:
     values = {"trajectory": code, **settings}
-    start = reference.evaluate(values, [0.0]).p[0]
-    return Trajectory(label, code, tuple(settings.items()), tuple(float(x) for x in start), reference.duration(values), source)
+    start = twin.evaluate(values, [0.0]).p[0]
+    return Trajectory(label, code, tuple(settings.items()), tuple(float(x) for x in start), twin.duration(values), source)
 
 
 def _shape(label: str, name: str, given: dict, where: str) -> Trajectory:
@@ -143,7 +143,7 @@ def _overrides(text: str, where: str) -> dict:
 def _waypoint_file(path: Path, rows: list, where: list[str]) -> Trajectory:
     waypoints.check(rows, where, str(path))
     ref = waypoints.minimum_jerk(rows)
-    return Trajectory(path.stem, reference.WAYPOINTS, (), ref.start, ref.duration, str(path),
+    return Trajectory(path.stem, twin.WAYPOINTS, (), ref.start, ref.duration, str(path),
                       tuple(tuple(float(v) for v in k) for k in ref.knots()))
 
 

@@ -3,7 +3,7 @@ Sec. 5.1.3, written once in CasADi.
 
 Only positions are written; velocity and acceleration are their exact time derivatives by
 automatic differentiation. The scenario FMU runs the C that CasADi generates from these
-expressions (psi_tr = 0 throughout, as in the thesis). tests/support/reference_trajectories.py is an
+expressions (psi_tr = 0 throughout, as in the thesis). tests/support/trajectory_oracle.py is an
 independent hand-derived version.
 """
 

@@ -127,9 +127,9 @@ def test_what_counts_as_a_named_path(text, named):
 
 def test_a_missing_path_is_found_and_an_existing_one_is_not():
     files = {p.as_posix() for p in tracked()}
-    here = Path("native_fmu/describe.py")
+    here = Path("native_fmu/describe_fmi2.py")
     assert exists("c/tl_fmi2.c", here, files) and exists("native_fmu/c/tl_core.c", here, files)
-    assert exists("describe3.py", here, files) and exists("../plant_fmu/trim.py", here, files)
+    assert exists("describe_fmi3.py", here, files) and exists("../plant_fmu/trim.py", here, files)
     assert not exists("controller_fmu/zse.py", here, files) and not exists("c/tl_fmi4.c", here, files)
     assert not exists("tests/reference_trajectories.py", here, files)  # it lives in tests/support/
 

@@ -11,7 +11,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ...native_fmu.describe import c_array
+from ...native_fmu.describe_fmi2 import c_array
 from ...native_fmu.variables import Clock, FmuDefinition, Variable
 from ...plant_fmu.vehicles import VEHICLES
 from ...sensor_fmu.fmu_variables import channel_names, channel_units

@@ -26,17 +26,17 @@ TICK = 0.012
 
 
 def mission(fmus: Path) -> None:
-    from tiltload.master.app.feasibility import check_reference
     from tiltload.master.app.inputs import READER
     from tiltload.master.app.loop import default_system, loop_metrics
+    from tiltload.master.app.trajectory_check import check_reference
     from tiltload.master.engine import log_reader
     from tiltload.master.engine.run import run_system
-    from tiltload.scenario_fmu import choice, reference
+    from tiltload.scenario_fmu import choice, twin
     from tiltload.scenario_fmu.wind import read_wind
 
     m = choice.resolve(str(EXAMPLES / "mission.csv"), read=READER)
     t = np.arange(0, m.duration + 2, 0.003)
-    s = reference.evaluate(m.fmu_parameters(Path(tempfile.mkdtemp())), t)
+    s = twin.evaluate(m.fmu_parameters(Path(tempfile.mkdtemp())), t)
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     for ax, values, label in zip(axes, (s.p, s.v, s.a), ("position (m)", "velocity (m/s)", "acceleration (m/s2)")):
         for k, a in enumerate("xyz"):

@@ -16,7 +16,7 @@ import numpy as np
 
 from ...formation.fmu_variables import MEASURED, TICK
 from ...formation.kinematics import AGENTS, formation_start
-from ..engine.manipulators import Fault
+from ..engine.faults.schedule import Fault
 from ..engine.system import Connection, Instance, System
 
 DURATION = 60.0  # s: long enough to see the backstepping reject the disturbances (time constant ~10 s)

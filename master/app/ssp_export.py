@@ -13,10 +13,12 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     """The loop the options describe as an SSP package at out (SSP 2.0 when its FMUs are FMI 3.0): (path, SSP 2.0?,
     the schedule it is prepared for, the controller's loop delay in ticks or None, FMUs, stop time)."""
     from ...controller_fmu.design.cache import cache_root
-    from ..engine import ssp, ssp2
+    from ..engine import ssp2
     from ..engine.model_description import read_fmu
+    from ..engine.ssp import export as ssp1
     from .loop import select_loop_delay
-    from .options import loop_system, resolve_loop
+    from .loop_system import loop_system
+    from .options import resolve_loop
 
     loop = loop_system(resolve_loop(args), cache_root() / "ssp")
     system, stop = loop.system, loop.stop
@@ -25,7 +27,7 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     schedule = schedule or ("ordered" if version2 else "jacobi")
     delay = select_loop_delay(system, schedule)
     try:
-        path = (ssp2 if version2 else ssp).export(system, out, stop, schedule)
+        path = (ssp2 if version2 else ssp1).export(system, out, stop, schedule)
     except OSError as err:
         raise UserError(f"cannot write {out}: {err.strerror or err}") from None
     return path, version2, schedule, delay, len(system.instances), stop

@@ -94,7 +94,7 @@ class Execution:
         self.loop: NativeLoop | None = None
         self.resumed_at: float | None = None  # the time of the snapshot this run continues from
         if system.faults:
-            from .manipulators import Manipulator
+            from .faults.apply import Manipulator
 
             self.manipulator = Manipulator(system.faults)
             self.manipulator.check(mds, self.links)
@@ -151,7 +151,7 @@ class Execution:
         if observers is not None:
             self.observers = list(observers)
         if faults is not None:  # a new fault schedule (a list, possibly empty)
-            from .manipulators import Manipulator
+            from .faults.apply import Manipulator
 
             self.system.faults = list(faults)
             self.manipulator = Manipulator(self.system.faults) if faults else None

@@ -145,7 +145,7 @@ class McapLogger(Observer):
         self._writer.add_messages(batch)
 
     def on_fault(self, t, fault, what) -> None:
-        from .manipulators import describe
+        from .faults.schedule import describe
 
         if self._faults_channel is not None:
             self._batch.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode())
@@ -208,7 +208,7 @@ class McapLogger(Observer):
                     if text is not None:
                         out.add(channel, int(ns[j]), text.encode(), int(keys[j]) + 1)
         if self._faults_channel is not None:
-            from .manipulators import describe
+            from .faults.schedule import describe
 
             for position, t, fault, what in batch.events:
                 out.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode(),

@@ -68,7 +68,7 @@ class Observer:
 
     def on_tick(self, k: int, t: float) -> None: ...
 
-    def on_fault(self, t: float, fault, what: str) -> None: ...  # what: "start" or "end" (manipulators.py)
+    def on_fault(self, t: float, fault, what: str) -> None: ...  # what: "start" or "end" (faults/apply.py)
 
     def finish(self, execution, error: str | None) -> None: ...
 

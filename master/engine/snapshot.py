@@ -94,7 +94,7 @@ def fingerprint(execution) -> dict:
 
 def take(execution, application: dict | None = None) -> Snapshot:
     """The execution's state between two ticks. Every FMU must be able to serialize its state."""
-    from .manipulators import describe
+    from .faults.schedule import describe
 
     for name, slave in execution.instances.items():
         if not slave.can_serialize:
@@ -161,7 +161,7 @@ def restore(execution, snap: Snapshot) -> None:
 
 def restore_loop(execution, snap: Snapshot) -> None:
     """The parts that live in the tick loop's plan and in the faults: after the plan is built."""
-    from .manipulators import describe
+    from .faults.schedule import describe
 
     loop = execution.loop
     for name, lines in zip(loop.names, loop.delay_line()):

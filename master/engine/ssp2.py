@@ -1,4 +1,4 @@
-"""SSP 2.0 packages of a system with FMI 3.0 FMUs: what SSP 1.0 (ssp.py) cannot say, FMI 3.0 types and clocks.
+"""SSP 2.0 packages of a system with FMI 3.0 FMUs: what SSP 1.0 (ssp/export.py) cannot say, FMI 3.0 types and clocks.
 
 SSP 2.0 (modelica/ssp-standard, tag v2.0) keeps SSP 1.0's namespaces and adds the FMI 3.0 connector types
 (ssc:Float64, ssc:Int32, ..., ssc:Clock) and the association of a connector with a clock (ssd:Clock). pyssp-standard
@@ -6,9 +6,9 @@ ships the SSP 2.0 schemas but its object model knows only SSP 1.0's types, so th
 lxml and checked against those schemas (the XSD 1.0 form and the XSD 1.1 form pyssp-standard itself uses); nothing
 is written that does not validate. An FMU's periodic input clocks are connectors of kind input with their
 intervals; they are not connected: the importer ticks each from its own interval. FMI 2.0 components in the same
-system keep SSP 1.0's types (Real, Integer). Everything else is as in ssp.py: one SSV parameter set per component
+system keep SSP 1.0's types (Real, Integer). Everything else is as in ssp/export.py: one SSV parameter set per component
 (version 2.0), every connection explicit, tiltload's annotation (tick, schedule, timing, the FMI version of each
-instance, delays, faults) and libcosim's fixed step. ssp.load reads the package back.
+instance, delays, faults) and libcosim's fixed step. ssp/load.py reads the package back.
 """
 
 from __future__ import annotations
@@ -19,18 +19,8 @@ from lxml import etree
 
 from .errors import DescriptionError
 from .model_description import FMI3_TYPE, clocks_of, fmi_version, read_fmu
-from .ssp import (
-    FMU_TYPE,
-    OSP_NS,
-    PARAMETER_SET,
-    SSD_NAME,
-    TL_NS,
-    check_members,
-    master_annotation,
-    osp_annotation,
-    schema_errors,
-    write_package,
-)
+from .ssp.export import check_members, master_annotation, osp_annotation, write_package
+from .ssp.schema import FMU_TYPE, OSP_NS, PARAMETER_SET, SSD_NAME, TL_NS, schema_errors
 from .system import Instance, System
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"

@@ -40,7 +40,7 @@ class System:
     instances: list[Instance]  # in the in-tick stepping order
     connections: list[Connection] = field(default_factory=list)  # explicit; the rest by unique name
     auto_connect: bool = True
-    faults: list = field(default_factory=list)  # manipulators.Fault: injected between outputs and inputs
+    faults: list = field(default_factory=list)  # faults.schedule.Fault: injected between outputs and inputs
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -159,7 +159,7 @@ def load(path: Path) -> System:
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
         if "faults" in data:
-            from .manipulators import parse
+            from .faults.parse import parse
 
             system.faults = parse(data["faults"], f"{path}: faults")
     except DescriptionError:

@@ -3,7 +3,7 @@
 
    What is FMI 3.0's own is here: the state-mask table, how the standard logs and allocates (tl_binding; '#' is its
    escape character), value references unique across types (0 time, then the clocks, then each type from its base;
-   describe3.py), Event Mode and the clocks. Any error leads to Terminated, a fatal error makes the instance
+   describe_fmi3.py), Event Mode and the clocks. Any error leads to Terminated, a fatal error makes the instance
    unusable; a refused step (fmi3Discard) keeps the state.
 
    Clocked builds (TL_N_CLOCK > 0) have Event Mode and periodic input clocks. The importer enters Event Mode,

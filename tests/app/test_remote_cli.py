@@ -13,8 +13,9 @@ import pytest
 from support.remote import ServerProcess, token_file
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
-from tiltload.master.engine import log_reader, ssp
+from tiltload.master.engine import log_reader
 from tiltload.master.engine import system as sysdesc
+from tiltload.master.engine.ssp.load import load
 
 
 @pytest.fixture(scope="module")
@@ -161,7 +162,7 @@ def test_remote_in_a_json_description_and_an_ssp_package(fmus, token, tmp_path, 
         package = tmp_path / "loop.ssp"
         assert main(["ssp", "export", str(package), "--fmus", str(fmus), "--scenario", "fsi", "--stop-time", "0.24",
                      "--schedule", "ordered", "--remote", f"controller={srv.address}"]) == 0
-        system, _, _ = ssp.load(package, cache_root() / "ssp")
+        system, _, _ = load(package, cache_root() / "ssp")
         assert system.instance("controller").remote == srv.address and system.instance("plant").remote is None
         assert main(["run", "--system", str(package), "--token-file", str(token), "--out", str(tmp_path), "--quiet",
                      "--no-plots"]) == 0

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.linalg import solve_discrete_are
 from scipy.stats import chi2
-from support.reference_physics import zse_measurement
+from support.physics_oracle import zse_measurement
 from tiltload.controller_fmu.design.estimator_setup import augmented_model, lkf_setup, zse_setup
 from tiltload.controller_fmu.reference import native_estimators as c_estimators
 from tiltload.controller_fmu.reference.lkf import KalmanFilter

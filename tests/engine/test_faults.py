@@ -11,7 +11,8 @@ from support import ROOT, T
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import log_reader
-from tiltload.master.engine.manipulators import FaultError, load, parse
+from tiltload.master.engine.faults.parse import load, parse
+from tiltload.master.engine.faults.schedule import FaultError
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.system import Instance, System
 
@@ -61,7 +62,7 @@ def test_a_delay_longer_than_the_history_s_trim_reads_its_own_lag(fmus, tmp_path
 
 
 def test_a_stale_for_ever_holds_the_first_value(fmus, tmp_path):
-    """10^12 ticks back: longer than the C loop's ring (manipulators.NATIVE_LAG_LIMIT), so the manipulator applies
+    """10^12 ticks back: longer than the C loop's ring (faults.apply.NATIVE_LAG_LIMIT), so the manipulator applies
     it; every sample reads the oldest value there is."""
     t, x, _ = scenario_run(fmus, tmp_path, {"action": "stale", "value": 10**12})
     on = ACTIVE(t)
@@ -255,7 +256,7 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
     """The six value faults, noise, delay, stale, jitter and dropout, applied by the C tick loop, against the same
     faults applied by the Python manipulator (noise and jitter: drawn by numpy there, by tl_draw.c in the loop)."""
     from tiltload.master.engine.execution import Execution
-    from tiltload.master.engine.manipulators import Manipulator
+    from tiltload.master.engine.faults.apply import Manipulator
     from tiltload.master.engine.native import kernel
 
     system = default_system(fmus, "zse", 1, "mixed")
@@ -284,7 +285,7 @@ def test_value_faults_in_the_c_loop_equal_the_python_manipulator_bit_for_bit(fmu
 def test_fault_events_come_in_the_manipulator_s_order_from_the_c_loop_too(fmus, tmp_path, monkeypatch):
     """Two faults of one instance start at one tick, the output's listed first: the input's acts first (before the
     step), so its start is logged first, by the C loop as by the manipulator; a third, forced into Python, between."""
-    from tiltload.master.engine.manipulators import Manipulator
+    from tiltload.master.engine.faults.apply import Manipulator
 
     faults = [{"action": "bias", "target": "plant.x", "value": 0.01, "start": 0.3, "end": 0.6},
               {"action": "override", "target": "plant.servo_R_stuck", "value": False, "start": 0.3, "end": 0.6},

@@ -98,7 +98,7 @@ def test_fmi2_and_fmi3_fmus_with_and_without_clocks_mix_in_one_system(fmus, fmi3
 def test_faults_act_on_the_clocked_loop_as_on_the_fmi2_loop(fmus, fmi3_set, fault, stop):
     """Manipulators on clocked outputs (held samples, flags), on connections into the plant and on unconnected inputs."""
     from support import ROOT
-    from tiltload.master.engine.manipulators import load as load_faults
+    from tiltload.master.engine.faults.parse import load as load_faults
 
     faults = load_faults(ROOT / "docs" / "faults" / f"{fault}.json")
     fmi2, clocked = default_system(fmus, "zse", 1, "mixed"), default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
@@ -122,7 +122,7 @@ def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set,
     """FMI 3.0 FMUs without clocks: the C loop calls their fmi3 functions; forced through the Python callback instead,
     every logged value is the same, faults (on outputs, on a connection, on an unconnected Boolean input) included."""
     from support import ROOT
-    from tiltload.master.engine.manipulators import load as load_faults
+    from tiltload.master.engine.faults.parse import load as load_faults
     from tiltload.master.engine.native import loop as native_loop
 
     runs = {}

@@ -15,7 +15,7 @@ from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.app.scene import scene_channels
 from tiltload.master.engine import snapshot
-from tiltload.master.engine.manipulators import parse
+from tiltload.master.engine.faults.parse import parse
 from tiltload.master.engine.run import run_system
 
 STOP, AT = 6.0, 3.0

@@ -13,11 +13,13 @@ from support.system_libraries import needs_library
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import jacobi, ssp
+from tiltload.master.engine import jacobi, zip_unpack
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.model_description import read_fmu
 from tiltload.master.engine.run import run_system
+from tiltload.master.engine.ssp.load import load
+from tiltload.master.engine.ssp.schema import PARAMETER_SET, schema_errors
 from tiltload.scenario_fmu.trajectories import circle
 
 UNPACK = cache_root() / "ssp"  # where packages are unpacked, as tiltload run does
@@ -46,7 +48,7 @@ def packages(pipeline_fmus, tmp_path_factory):
 
 
 def _ours(package: Path, ticks: int = TICKS) -> np.ndarray:
-    system, _, schedule = ssp.load(package, UNPACK)
+    system, _, schedule = load(package, UNPACK)
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     if schedule == "jacobi":
         system = jacobi.explicit(system, mds, jacobi=True)
@@ -90,7 +92,7 @@ def _ecos(package: Path, scratch: Path, ticks: int = TICKS) -> np.ndarray:
     try:
         sim = EcosSimulation(ssp_path=str(package), step_size=TICK)
         try:
-            sim.init(parameter_set=ssp.PARAMETER_SET)
+            sim.init(parameter_set=PARAMETER_SET)
             sim.step(ticks)
             return np.array([sim.get_real(f"plant::{n}") for n in ("x", "y", "z")])
         finally:
@@ -111,11 +113,11 @@ def test_the_package_validates_against_the_ssp_schema(packages):
         assert {"SystemStructure.ssd", "resources/TiltloadPlant.fmu", "resources/TiltloadController.fmu",
                 "resources/TiltloadSensors.fmu", "resources/TiltloadScenario.fmu", "resources/controller.ssv"} <= names
         ssd = z.read("SystemStructure.ssd")
-        assert ssp.schema_errors(ssd, "ssd") == []
-        assert ssp.schema_errors(z.read("resources/controller.ssv"), "ssv") == []
+        assert schema_errors(ssd, "ssd") == []
+        assert schema_errors(z.read("resources/controller.ssv"), "ssv") == []
     # the check can fail: a connection without its end connector is refused by the schema
     broken = ssd.replace(b'endConnector="f_R"', b"", 1)
-    assert broken != ssd and ssp.schema_errors(broken, "ssd")
+    assert broken != ssd and schema_errors(broken, "ssd")
     from lxml import etree
 
     root = etree.fromstring(ssd)
@@ -132,7 +134,7 @@ def test_the_package_validates_against_the_ssp_schema(packages):
 def test_three_masters_run_one_package_and_agree(packages, scenario, tmp_path):
     """d = 2 (the Jacobi export): ours, libcosim and Ecos all stable, final load positions within 1 cm."""
     package = packages[scenario, "jacobi"]
-    system, _, _ = ssp.load(package, UNPACK)
+    system, _, _ = load(package, UNPACK)
     assert system.instance("controller").parameters["loop_delay_ticks"] == 2
     ours, theirs, ecos = _ours(package), _libcosim(package), _ecos(package, tmp_path / "ecos")
     assert theirs is not None
@@ -170,7 +172,7 @@ def test_the_plain_design_diverges_in_a_jacobi_master(pipeline_fmus, tmp_path):
 def test_ordered_package_reproduces_tiltload_run_exactly(pipeline_fmus, packages):
     """d = 0: our master on the package gives the metrics of the loop it was exported from, bit for bit."""
     fmus = pipeline_fmus["TiltloadPlant"].parent
-    system, stop, schedule = ssp.load(packages["zse", "ordered"], UNPACK)
+    system, stop, schedule = load(packages["zse", "ordered"], UNPACK)
     assert schedule == "ordered" and system.instance("controller").parameters["loop_delay_ticks"] == 0
     assert stop == pytest.approx(TICKS * TICK)
     ran = [run_system(s, stop, None, loop_metrics(), progress=False).metrics
@@ -225,12 +227,12 @@ def test_not_a_package(tmp_path):
     (tmp_path / "text.ssp").write_text("hello")
     for path, needle in ((tmp_path / "text.ssp", "not a zip"), (tmp_path / "none.ssp", "does not exist")):
         with pytest.raises(DescriptionError, match=needle):
-            ssp.load(path, UNPACK)
+            load(path, UNPACK)
     empty = tmp_path / "empty.ssp"
     with zipfile.ZipFile(empty, "w") as z:
         z.writestr("readme.txt", io.BytesIO(b"x").getvalue())
     with pytest.raises(DescriptionError, match="no SystemStructure.ssd"):
-        ssp.load(empty, UNPACK)
+        load(empty, UNPACK)
 
 
 def _unpacked_leftovers() -> list[Path]:
@@ -264,7 +266,7 @@ def test_a_zip_bomb_is_refused_before_it_unpacks(tmp_path):
                                            ("resources/zeros.bin", bytes(20 << 20), zipfile.ZIP_DEFLATED)])
     assert package.stat().st_size < 100_000
     with pytest.raises(DescriptionError, match=r"'resources/zeros.bin' expands \d+-fold .* more than the 100-fold"):
-        ssp.load(package, UNPACK)
+        load(package, UNPACK)
     assert not _unpacked_leftovers()
 
 
@@ -280,17 +282,17 @@ def test_a_member_that_lies_about_its_size_is_refused(tmp_path):
     liar = tmp_path / "liar2.ssp"
     liar.write_bytes(bytes(raw))
     with pytest.raises(DescriptionError, match="holds more than the 1000 bytes it declares|the archive is damaged"):
-        ssp.load(liar, UNPACK)
+        load(liar, UNPACK)
     assert not _unpacked_leftovers()
 
 
 def test_the_unpacked_total_is_limited(tmp_path, monkeypatch):
-    monkeypatch.setattr(ssp, "MAX_UNPACKED", 1 << 20)
+    monkeypatch.setattr(zip_unpack, "MAX_UNPACKED", 1 << 20)
     package = _zip(tmp_path / "big.ssp", [("SystemStructure.ssd", b"<x/>", zipfile.ZIP_DEFLATED),
                                           ("resources/a.bin", bytes(700 << 10), zipfile.ZIP_STORED),
                                           ("resources/b.bin", bytes(700 << 10), zipfile.ZIP_STORED)])
     with pytest.raises(DescriptionError, match="unpacks to 1.4 MiB, more than the 1 MiB a package may"):
-        ssp.load(package, UNPACK)
+        load(package, UNPACK)
 
 
 def test_a_package_is_hashed_without_reading_it_whole(packages, monkeypatch, tmp_path):
@@ -305,11 +307,11 @@ def test_a_package_is_hashed_without_reading_it_whole(packages, monkeypatch, tmp
         assert self != package, "the package was read whole"
         return real(self)
     monkeypatch.setattr(Path, "read_bytes", guarded)
-    ssp.load(package, UNPACK)
+    load(package, UNPACK)
     big = tmp_path / "big.ssp"
     big.write_bytes(bytes(range(256)) * (1 << 16))  # 16 MiB
     tracemalloc.start()
-    digest = ssp.package_digest(big)
+    digest = zip_unpack.package_digest(big)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     assert digest == hashlib.sha256(real(big)).hexdigest() and peak < 1 << 20
@@ -335,8 +337,8 @@ def test_unpackers_of_one_package_at_once_share_one_whole_folder(tmp_path):
     package = _zip(tmp_path / "p.ssp", [(f"resources/f{i}.bin", bytes(range(256)) * 64, zipfile.ZIP_DEFLATED)
                                         for i in range(40)])
     into = tmp_path / "unpack"
-    (into / ssp.package_digest(package)[:20]).mkdir(parents=True)  # no .complete: left by a crash
-    got, errors = at_once(lambda: ssp._unpack(package, into))
+    (into / zip_unpack.package_digest(package)[:20]).mkdir(parents=True)  # no .complete: left by a crash
+    got, errors = at_once(lambda: zip_unpack.unpack(package, into))
     assert errors == [] and len(set(got)) == 1
     folder = got[0]
     assert (folder / ".complete").exists() and len(list((folder / "resources").iterdir())) == 40

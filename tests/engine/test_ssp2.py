@@ -1,6 +1,6 @@
 """SSP 2.0 export of a system with FMI 3.0 FMUs (master/engine/ssp2.py): valid against the SSP 2.0 schemas (both forms)
 and pyssp-standard's check, FMI 3.0 types and clocks declared, FMI 2.0 components kept SSP 1.0-typed, read back by
-ssp.load into the same system, which runs to the same metrics bit for bit; FMI 2.0-only systems stay SSP 1.0."""
+ssp.load.load into the same system, which runs to the same metrics bit for bit; FMI 2.0-only systems stay SSP 1.0."""
 
 from __future__ import annotations
 
@@ -10,13 +10,16 @@ import pytest
 from lxml import etree
 from support import T
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import ssp, ssp2
+from tiltload.master.engine import ssp2
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.run import run_system
+from tiltload.master.engine.ssp.export import export
+from tiltload.master.engine.ssp.load import load
+from tiltload.master.engine.ssp.schema import SSD_NAME, TL_NS, schema_errors
 from tiltload.sensor_fmu.fmu_variables import channel_names
 from tiltload.sensor_fmu.suite import GROUPS
 
-NS = {"ssd": ssp2.SSD, "ssc": ssp2.SSC, "ssv": ssp2.SSV, "tl": ssp.TL_NS}
+NS = {"ssd": ssp2.SSD, "ssc": ssp2.SSC, "ssv": ssp2.SSV, "tl": TL_NS}
 
 
 @pytest.fixture(scope="module")
@@ -42,15 +45,15 @@ def _connectors(root, component: str) -> dict[str, etree._Element]:
 def test_the_package_validates_against_the_ssp_2_0_schemas(package, tmp_path):
     path, _ = package
     with zipfile.ZipFile(path) as z:
-        ssd = z.read(ssp.SSD_NAME)
-        assert ssp.schema_errors(ssd, "ssd2") == [] and ssp.schema_errors(ssd, "ssd2_11") == []
+        ssd = z.read(SSD_NAME)
+        assert schema_errors(ssd, "ssd2") == [] and schema_errors(ssd, "ssd2_11") == []
         for member in (m for m in z.namelist() if m.endswith(".ssv")):
-            assert ssp.schema_errors(z.read(member), "ssv2") == [], member
+            assert schema_errors(z.read(member), "ssv2") == [], member
         z.extractall(tmp_path)
-    assert ssp.schema_errors(ssd, "ssd")  # SSP 1.0 has no Float64 or Clock: this is 2.0 only
+    assert schema_errors(ssd, "ssd")  # SSP 1.0 has no Float64 or Clock: this is 2.0 only
     from pyssp_standard.ssd import SSD
 
-    with SSD(tmp_path / ssp.SSD_NAME) as doc:  # pyssp-standard's own compliance check (the SSP 2.0 XSD 1.1)
+    with SSD(tmp_path / SSD_NAME) as doc:  # pyssp-standard's own compliance check (the SSP 2.0 XSD 1.1)
         assert doc.version == "2.0"
         doc.__check_compliance__()
 
@@ -58,7 +61,7 @@ def test_the_package_validates_against_the_ssp_2_0_schemas(package, tmp_path):
 def test_fmi3_types_and_clocks_are_declared(package):
     path, _ = package
     with zipfile.ZipFile(path) as z:
-        root = etree.fromstring(z.read(ssp.SSD_NAME))
+        root = etree.fromstring(z.read(SSD_NAME))
     assert root.get("version") == "2.0"
     sensors = _connectors(root, "sensors")
     for g in GROUPS:
@@ -80,7 +83,7 @@ def test_fmi3_types_and_clocks_are_declared(package):
 
 def test_read_back_it_is_the_same_system_and_runs_bit_for_bit(package, tmp_path):
     path, system = package
-    loaded, stop, schedule = ssp.load(path, tmp_path)
+    loaded, stop, schedule = load(path, tmp_path)
     assert stop == 2.4 and schedule == "ordered" and loaded.tick == T
     assert [(i.name, i.fmi, i.timing, i.parameters) for i in loaded.instances] == \
         [(i.name, i.fmi, i.timing, i.parameters) for i in system.instances]
@@ -94,15 +97,15 @@ def test_fmi2_components_keep_their_types_and_fmi2_only_systems_stay_ssp_1_0(fmu
     mixed.instance("sensors").fmu = fmi3_set / "TiltloadSensorsClocked.fmu"
     path = ssp2.export(mixed, tmp_path / "mixed.ssp", 1.2)
     with zipfile.ZipFile(path) as z:
-        root = etree.fromstring(z.read(ssp.SSD_NAME))
+        root = etree.fromstring(z.read(SSD_NAME))
     assert _connectors(root, "plant")["x"].find("ssc:Real", NS) is not None
     assert _connectors(root, "sensors")["x"].find("ssc:Float64", NS) is not None
     from tiltload.master.engine.model_description import read_fmu
 
     fmi2 = default_system(fmus, "zse", 1, "mixed")
     assert not ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in fmi2.instances})
-    with zipfile.ZipFile(ssp.export(fmi2, tmp_path / "fmi2.ssp", 1.2)) as z:
-        assert etree.fromstring(z.read(ssp.SSD_NAME)).get("version") == "1.0"
+    with zipfile.ZipFile(export(fmi2, tmp_path / "fmi2.ssp", 1.2)) as z:
+        assert etree.fromstring(z.read(SSD_NAME)).get("version") == "1.0"
 
 
 def test_a_broken_ssp_2_0_document_is_refused_naming_the_schema(package, tmp_path):
@@ -111,11 +114,11 @@ def test_a_broken_ssp_2_0_document_is_refused_naming_the_schema(package, tmp_pat
     with zipfile.ZipFile(path) as src, zipfile.ZipFile(broken, "w") as dst:
         for item in src.infolist():
             data = src.read(item)
-            if item.filename == ssp.SSD_NAME:
+            if item.filename == SSD_NAME:
                 data = data.replace(b'intervalVariability="constant"', b'intervalVariability="sometimes"', 1)
             dst.writestr(item, data)
     with pytest.raises(DescriptionError, match="does not validate against the SSP 2.0 schema"):
-        ssp.load(broken, tmp_path / "unpack")
+        load(broken, tmp_path / "unpack")
 
 
 def test_cli_exports_the_fmi3_loop_as_ssp_2_0(fmi3_set, tmp_path, capsys):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 from support import T
-from tiltload.scenario_fmu import reference, waypoints
+from tiltload.scenario_fmu import twin, waypoints
 
 REF_NAMES = ["x_ref", "y_ref", "z_ref", "vx_ref", "vy_ref", "vz_ref", "ax_ref", "ay_ref", "az_ref", "psi_ref", "psi_dot_ref"]
 N = 10_000
@@ -48,8 +48,8 @@ def test_a_10000_waypoint_mission_in_the_fmu_is_its_python_twin(pipeline_fmus, f
     times = result["time"]
     # doStep(t, h) samples at t and holds: the row at t_{k+1} is the sample at t_k, the first row the value at 0
     sampled = np.r_[times[:1], times[:-1]]
-    twin = reference.evaluate(parameters, sampled)
-    np.testing.assert_array_equal(got, np.c_[twin.p, twin.v, twin.a, twin.psi, twin.psi_dot])
+    expected = twin.evaluate(parameters, sampled)
+    np.testing.assert_array_equal(got, np.c_[expected.p, expected.v, expected.a, expected.psi, expected.psi_dot])
     assert got.shape[0] > 40_000 and np.abs(got[:, 0]).max() > 2.9  # the whole mission was flown, not held at a point
 
 

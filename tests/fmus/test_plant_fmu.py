@@ -8,7 +8,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from support import TUMBLE, T
-from support import reference_physics as ref
+from support import physics_oracle as ref
 from support.fmu_session import session
 from tiltload.plant_fmu import codegen
 from tiltload.plant_fmu import parameters as P

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
-from support import reference_trajectories as ref_traj
+from support import trajectory_oracle as ref_traj
 from support.fmu_session import session
 from tiltload.master.app.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
 from tiltload.plant_fmu.trim import hover_trim
-from tiltload.scenario_fmu import choice, reference, waypoints, wind
+from tiltload.scenario_fmu import choice, twin, waypoints, wind
 from tiltload.sensor_fmu.measurement import pi
 from tiltload.sensor_fmu.suite import GROUPS, ZSE_NAMES
 
@@ -125,8 +125,8 @@ def test_the_waypoint_reference_in_c_is_its_python_twin_to_the_bit(native, opene
     s = _configured(opened, native["TiltloadScenario"], parameters)
     steps = int((mission.duration + 2) / T)
     got = _sample(s, REF_NAMES, steps, T)
-    twin = reference.evaluate(parameters, np.arange(steps) * T)
-    np.testing.assert_array_equal(got, np.c_[twin.p, twin.v, twin.a, twin.psi, twin.psi_dot])
+    expected = twin.evaluate(parameters, np.arange(steps) * T)
+    np.testing.assert_array_equal(got, np.c_[expected.p, expected.v, expected.a, expected.psi, expected.psi_dot])
     rows = [r for r in csv.DictReader(line for line in MISSION.read_text().splitlines() if not line.startswith("#"))]
     for row in rows:  # through every waypoint, at its time, with the velocity given there
         k = int(round(float(row["t"]) / T))

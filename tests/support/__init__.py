@@ -1,5 +1,5 @@
-"""Helpers of the test suite: FMU sessions on FMPy (fmu_session), independent references (reference_physics,
-reference_trajectories), a third-party controller FMU, C and Python hosts (hosts/), old logs (data/)."""
+"""Helpers of the test suite: FMU sessions on FMPy (fmu_session), independent references (physics_oracle,
+trajectory_oracle), a third-party controller FMU, C and Python hosts (hosts/), old logs (data/)."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from support import ROOT
-from support import reference_physics as ref
+from support import physics_oracle as ref
 from support.fmu_session import session
 from tiltload.master.app.cli import main
 from tiltload.master.engine import log_reader

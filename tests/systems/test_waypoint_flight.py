@@ -12,9 +12,11 @@ from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.inputs import READER
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader, ssp
+from tiltload.master.engine import log_reader
 from tiltload.master.engine.run import run_system
-from tiltload.scenario_fmu import choice, reference
+from tiltload.master.engine.ssp.load import load
+from tiltload.master.engine.ssp.schema import PARAMETER_SET
+from tiltload.scenario_fmu import choice, twin
 from tiltload.scenario_fmu.wind import read_wind
 
 MISSION = ROOT / "docs" / "examples" / "mission.csv"
@@ -65,15 +67,15 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
 
-    system, _, _ = ssp.load(mission_package, cache_root() / "ssp")
+    system, _, _ = load(mission_package, cache_root() / "ssp")
     parameters = system.instance("scenario").parameters
     with zipfile.ZipFile(system.instance("scenario").fmu) as z:  # the mission travels in the scenario FMU's resources
         (tmp_path / "knots.csv").write_bytes(z.read(f"resources/{parameters['waypoints_file']}"))
     parameters = {**parameters, "waypoints_file": str(tmp_path / "knots.csv")}
 
     def ours(times):
-        twin = reference.evaluate(parameters, np.array(times))
-        return np.c_[twin.p, twin.v, twin.a, twin.psi, twin.psi_dot]
+        expected = twin.evaluate(parameters, np.array(times))
+        return np.c_[expected.p, expected.v, expected.a, expected.psi, expected.psi_dot]
 
     want = ours(np.arange(3000) * TICK)
 
@@ -93,7 +95,7 @@ def test_the_same_file_gives_the_same_reference_in_libcosim_ecos_and_ours(missio
 
     sim = EcosSimulation(ssp_path=str(mission_package), step_size=TICK)
     try:
-        sim.init(parameter_set=ssp.PARAMETER_SET)
+        sim.init(parameter_set=PARAMETER_SET)
         ecos, clock = [], []
         for _ in range(3000):
             clock.append(sim.get_time())

@@ -120,7 +120,7 @@ class CampaignMetrics(Metrics):
 def case_system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
     import copy
 
-    from ...engine.manipulators import parse
+    from ...engine.faults.parse import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
     flight = _flight(base)
@@ -209,8 +209,9 @@ def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str
     its tunable parameters."""
     import dataclasses
 
-    from ...engine.manipulators import parse
-    from ..options import loop_system, snapshot_options
+    from ...engine.faults.parse import parse
+    from ..loop_system import loop_system
+    from ..options import snapshot_options
 
     opts = dataclasses.replace(snapshot_options(snap.application, "base.snapshot"), fmus=fmu_dir)
     if opts.controller_fmu is not None:

@@ -345,7 +345,8 @@ def _requirements(keep: dict, path: Path) -> tuple:
 
 
 def checked_faults(base: dict, vary: dict, path: Path) -> list:
-    from ...engine.manipulators import FaultError, parse
+    from ...engine.faults.parse import parse
+    from ...engine.faults.schedule import FaultError
 
     faults = base.get("faults", [])
     try:

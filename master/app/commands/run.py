@@ -191,61 +191,29 @@ def run(args: argparse.Namespace) -> int:
 
 
 def execute(args: argparse.Namespace) -> Outcome:
-    if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
-        print("tiltload run: preparing " + (f"the run continued from {args.from_snapshot}" if args.from_snapshot else
-                                            f"the system {args.system}" if args.system else
-                                            f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
-              + " ...", flush=True)
+    """The run in its steps: the options (or a snapshot's), the system built, its schedule, the log's name, the run,
+    what it printed and its outcome."""
+    _say_preparing(args)
     from ....controller_fmu.design.cache import cache_root
-    from ...engine import jacobi, snapshot
-    from ...engine.model_description import read_fmu
     from ...engine.run import run_system
-    from ..errors import failure_line
     from ..fmus import is_foreign
-    from ..log_name import default_log_name
     from ..loop import is_loop, loop_metrics
-    from ..options import loop_system, resolve_loop
-    from ..plot import plot_run
+    from ..loop_system import loop_system
     from ..scene import scene_channels
 
-    pacer = None
-    if args.realtime is not None:
-        from ...engine.realtime import Pacer
-
-        pacer = Pacer(args.realtime, args.max_overruns)
-    elif args.max_overruns is not None:
-        raise UserError("--max-overruns needs --realtime")
-    snap = None
-    if args.from_snapshot is not None:
-        snap, opts = _branch(args)
-    else:
-        opts = resolve_loop(args)
+    pacer = _pacer(args)
+    snap, opts = _options(args)
     checkpoint = _snapshot_at(args)
     loop = loop_system(opts, cache_root() / "ssp", build=snap is None)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
     _with_token(system, args.token_file)
-    schedule = (snap.application.get("schedule") if snap else None) or args.schedule or loop.schedule
-    if schedule == "jacobi":
-        system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
-        print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
-    label = args.name or default_log_name(args, opts, loop.natural_stop, loop.schedule, snap.time if snap else None)
-    log = None if args.no_log else args.out / f"{label}.mcap"
-    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
-        print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
+    system, schedule = _scheduled(args, loop, system, snap)
+    label, log = _log_path(args, opts, loop, snap)
     metrics = loop_metrics() if is_loop(system) else None
     meta = _metadata(opts, stop, schedule)
-    checkpoints = []
-    if checkpoint is not None:
-        at, path = checkpoint
-        if not 0 < at < stop:
-            raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
-        application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
-
-        def save(execution) -> None:
-            print(f"snapshot at t = {execution.time:.3f} s: {snapshot.write(snapshot.take(execution, application), path)}")
-        checkpoints.append((at, save))
+    checkpoints = _checkpoints(checkpoint, opts, schedule, stop)
     if snap is not None:
         meta["from_snapshot"] = f"{args.from_snapshot} (t = {snap.time:.3f} s)"
         print(f"continuing from {args.from_snapshot}: t = {snap.time:.3f} s")
@@ -256,6 +224,79 @@ def execute(args: argparse.Namespace) -> Outcome:
                         channels=scene_channels(scene) if scene else (), isolate=None if args.trust_fmus else is_foreign,
                         step_timeout=args.step_timeout, announce=_announce, realtime=pacer, resume=snap,
                         checkpoints=checkpoints, observers_extra=[monitor] if monitor else ())
+    _print_results(result, snap, monitor, pacer, log)
+    return _outcome(args, opts, meta, result, log, monitor)
+
+
+def _say_preparing(args: argparse.Namespace) -> None:
+    if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
+        print("tiltload run: preparing " + (f"the run continued from {args.from_snapshot}" if args.from_snapshot else
+                                            f"the system {args.system}" if args.system else
+                                            f"the loop (FMUs missing or stale in {args.fmus or 'fmus'}/ are built first)")
+              + " ...", flush=True)
+
+
+def _pacer(args: argparse.Namespace):
+    """The real-time pacer of --realtime, or None."""
+    if args.realtime is not None:
+        from ...engine.realtime import Pacer
+
+        return Pacer(args.realtime, args.max_overruns)
+    if args.max_overruns is not None:
+        raise UserError("--max-overruns needs --realtime")
+    return None
+
+
+def _options(args: argparse.Namespace):
+    """(the snapshot continued or None, the loop's options: the snapshot's, or the command line's)."""
+    from ..options import resolve_loop
+
+    if args.from_snapshot is not None:
+        return _branch(args)
+    return None, resolve_loop(args)
+
+
+def _scheduled(args: argparse.Namespace, loop, system, snap):
+    """(the system as its schedule runs it, the schedule): the snapshot's, the command line's or the loop's own."""
+    from ...engine import jacobi
+    from ...engine.model_description import read_fmu
+
+    schedule = (snap.application.get("schedule") if snap else None) or args.schedule or loop.schedule
+    if schedule == "jacobi":
+        system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
+        print("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
+    return system, schedule
+
+
+def _log_path(args: argparse.Namespace, opts, loop, snap) -> tuple[str, Path | None]:
+    """(the run's label, its log or None with --no-log); a log replaced is said."""
+    from ..log_name import default_log_name
+
+    label = args.name or default_log_name(args, opts, loop.natural_stop, loop.schedule, snap.time if snap else None)
+    log = None if args.no_log else args.out / f"{label}.mcap"
+    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
+        print(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
+    return label, log
+
+
+def _checkpoints(checkpoint, opts, schedule: str | None, stop: float) -> list:
+    """--snapshot-at as the engine's (time, action) checkpoint."""
+    if checkpoint is None:
+        return []
+    from ...engine import snapshot
+
+    at, path = checkpoint
+    if not 0 < at < stop:
+        raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
+    application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
+
+    def save(execution) -> None:
+        print(f"snapshot at t = {execution.time:.3f} s: {snapshot.write(snapshot.take(execution, application), path)}")
+    return [(at, save)]
+
+
+def _print_results(result, snap, monitor, pacer, log: Path | None) -> None:
+    """The speed, the metrics, the requirements' verdicts, the pacer's overruns and where the log went."""
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
     print(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
           + (f", from t = {snap.time:.3f} s" if snap else ""))
@@ -272,6 +313,14 @@ def execute(args: argparse.Namespace) -> Outcome:
         print(pacer.summary())
     if log is None or log.is_file():
         print(f"log: {log}" if log else "log: none (--no-log)")
+
+
+def _outcome(args: argparse.Namespace, opts, meta: dict, result, log: Path | None, monitor) -> Outcome:
+    """A failed run's one line (exit 1, or 128 + the signal), else the plots and the requirements' verdicts (exit 1 on a
+    FAIL)."""
+    from ..errors import failure_line
+    from ..plot import plot_run
+
     if result.error:
         failure = failure_line(result.error, log, result.sim_time)
         print(f"tiltload: error: {failure}", file=sys.stderr)

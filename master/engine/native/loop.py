@@ -49,7 +49,7 @@ def _fmi3_function(slave, name: str) -> int:
 
 
 def _entropy(fault, k: int) -> dict:
-    """The noise or jitter fault's seed words: [seed, k] as numpy's SeedSequence reads them (manipulators.py draws
+    """The noise or jitter fault's seed words: [seed, k] as numpy's SeedSequence reads them (faults/draw.py draws
     from default_rng([seed, k, tick]))."""
     if fault.action not in ("noise", "jitter"):
         return {}

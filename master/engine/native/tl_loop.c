@@ -1,5 +1,5 @@
 /* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = k * tick, computed as
-   the Python engine computes them, and the faults', operation for operation those of manipulators.py (with
+   the Python engine computes them, and the faults', operation for operation those of faults/apply.py (with
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
@@ -96,7 +96,7 @@ static void record(tl_plan *plan, int i, int64_t k, double when) {
     }
 }
 
-/* The value lag ticks before (the oldest recorded if there are fewer), as manipulators.py reads its history. */
+/* The value lag ticks before (the oldest recorded if there are fewer), as faults/apply.py reads its history. */
 static double history_back(const tl_fault *q, int64_t lag) {
     if (lag > q->history_count - 1) lag = q->history_count - 1;
     int64_t slot = (q->history_next - 1 - lag) % q->history_capacity;
@@ -114,7 +114,7 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
     for (int f = 0; f < plan->n_faults; f++) {
         tl_fault *q = &plan->faults[f];
         if (q->instance != i || q->side != side) continue;
-        int on = q->start <= t + 1e-9 && t + 1e-9 < q->end; /* as manipulators.Fault.active */
+        int on = q->start <= t + 1e-9 && t + 1e-9 < q->end; /* as faults/schedule.py Fault.active */
         if (q->reports && on != plan->fault_on[q->fault]) {
             plan->fault_on[q->fault] = (int8_t)on;
             if (plan->events < plan->event_capacity) {
@@ -149,7 +149,7 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             *x = q->held;
             break;
         case TL_DELAY: *x = history_back(q, (int64_t)q->value); break;
-        case TL_DROPOUT: /* the sample the consumer had before the fault's first tick, as manipulators.py keeps it */
+        case TL_DROPOUT: /* the sample the consumer had before the fault's first tick, as faults/apply.py keeps it */
             if (!q->holding) {
                 q->holding = 1;
                 q->held = q->history_count > 1 ? history_back(q, 1) : *x;
@@ -157,7 +157,7 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             *x = q->held;
             break;
 #ifdef TL_DRAWS
-        case TL_NOISE: /* x + sigma N(0, 1) of default_rng([seed, fault, tick]), as manipulators.py draws it */
+        case TL_NOISE: /* x + sigma N(0, 1) of default_rng([seed, fault, tick]), as faults/draw.py draws it */
             *x = *x + q->value * tl_draw_normal(q->entropy, q->n_entropy, (uint64_t)nearbyint(t / plan->tick));
             break;
         case TL_JITTER: /* 0..n ticks back, n drawn from default_rng([seed, fault, tick]).integers(0, n + 1) */

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from support import ROOT
-from tiltload.master.app import feasibility
+from tiltload.master.app import trajectory_check, yaw_margin
 from tiltload.master.app.campaign import spec as campaign_spec
 from tiltload.master.app.campaign.run_case import run_case
 from tiltload.master.app.cli import main
@@ -129,7 +129,7 @@ def test_a_yaw_the_design_cannot_hold_is_refused(fmus, tmp_path, capsys):
                            tmp_path / "runs")
     m = re.search(r"psi_ref reaches 0\.5 rad at t = (\S+) s; the dlqr design keeps the loop stable for \|psi\| <= (\S+) rad", line)
     assert code == 2 and m and 0.2 < float(m.group(2)) < 0.3, line
-    assert feasibility._closed_loop_radius("dlqr", "load", 0, 0.5) > 1 > feasibility._closed_loop_radius("dlqr", "load", 0, 0.0)
+    assert yaw_margin.closed_loop_radius("dlqr", "load", 0, 0.5) > 1 > yaw_margin.closed_loop_radius("dlqr", "load", 0, 0.0)
 
 
 @pytest.mark.parametrize("text, vehicle", [("1", "load"), ("2", "load"), ("3", "uav"), ("lemniscate", "load"),
@@ -137,7 +137,7 @@ def test_a_yaw_the_design_cannot_hold_is_refused(fmus, tmp_path, capsys):
 def test_the_thesis_trajectories_and_the_shapes_pass(text, vehicle):
     trajectory = choice.resolve(text, read=READER)
     kind = "mixed" if vehicle == "load" else "dlqr"
-    report = feasibility.check_reference(trajectory.parameters, trajectory.duration, vehicle, design=(kind, 0))
+    report = trajectory_check.check_reference(trajectory.parameters, trajectory.duration, vehicle, design=(kind, 0))
     assert report.ok, report.problems
     forces = [float(x) for x in re.findall(r"f_[RL] (-?\d+\.\d+)\.\.(-?\d+\.\d+) N", report.summary)[0]]
     assert 0 < forces[0] <= forces[1] < 30  # the feedforward's thrust range, inside Table 5.2's
@@ -151,7 +151,7 @@ def test_the_trim_check_sees_what_the_feedforward_cannot(tmp_path):
     path = tmp_path / "dash.csv"
     path.write_text("t,x,y,z\n0,0,0,3\n2.5,10,0,3\n5,10,0,3\n")
     trajectory = choice.resolve(str(path), read=READER)
-    report = feasibility.check_reference(trajectory.fmu_parameters(tmp_path), trajectory.duration)
+    report = trajectory_check.check_reference(trajectory.fmu_parameters(tmp_path), trajectory.duration)
     assert any(re.match(r"theta would need 3\d\.\d degrees at t = ", p) for p in report.problems), report.problems
     assert not any(p.startswith("f_") for p in report.problems)
 

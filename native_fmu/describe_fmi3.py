@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from decimal import Decimal
 
-from . import describe
+from . import describe_fmi2
 from .units import base_exponents, display_units
 from .variables import TYPES, Clock, DefinitionError, FmuDefinition, Variable
 
@@ -91,7 +91,7 @@ def _variable(mv: ET.Element, refs: References, v: Variable) -> None:
     elif v.causality == "parameter":
         attrs["initial"] = "exact"
     if v.has_start and v.type != "String":
-        attrs["start"] = describe.start_text(v)
+        attrs["start"] = describe_fmi2.start_text(v)
     if v.unit:
         attrs["unit"] = v.unit
         shown = display_units(v.unit)
@@ -129,7 +129,7 @@ def model_description(definition: FmuDefinition, token: str, tool: str) -> bytes
         "providesEvaluateDiscreteStates": "false"})
     _unit_definitions(root, d)
     cats = ET.SubElement(root, "LogCategories")
-    for name, what in describe.LOG_CATEGORIES:
+    for name, what in describe_fmi2.LOG_CATEGORIES:
         ET.SubElement(cats, "Category", {"name": name, "description": what})
     start, stop, step = d.default_experiment
     ET.SubElement(root, "DefaultExperiment", {"startTime": repr(start), "stopTime": repr(stop), "stepSize": repr(step)})
@@ -174,7 +174,7 @@ def c_header(definition: FmuDefinition, token: str) -> str:
     """tl_model.h of an FMI 3.0 build: the FMI 2.0 one's macros, the value-reference bases, the clocks."""
     d = definition
     base = References(d).base
-    lines = ["", "/* FMI 3.0: value references unique across types (native_fmu/describe3.py, References) */",
+    lines = ["", "/* FMI 3.0: value references unique across types (native_fmu/describe_fmi3.py, References) */",
              f"#define TL_VR_TIME {TIME_VR}", "#define TL_VR_CLOCK0 1"]
     lines += [f"#define TL_VR_{t.upper()}0 {base[t]}" for t in TYPES]
     lines += [f"#define TL_CLOCK_{k.name} {i}" for i, k in enumerate(d.clocks)]
@@ -186,7 +186,7 @@ def c_header(definition: FmuDefinition, token: str) -> str:
               "TL_INTERNAL extern const double tl_clock_interval[TL_CAP_CLOCK];",
               "TL_INTERNAL extern const unsigned long long tl_clock_counter[TL_CAP_CLOCK];",
               "TL_INTERNAL extern const unsigned long long tl_clock_resolution[TL_CAP_CLOCK];"]
-    return describe.c_header(d, token, 3, tuple(lines))
+    return describe_fmi2.c_header(d, token, 3, tuple(lines))
 
 
 def c_tables(definition: FmuDefinition) -> str:
@@ -200,11 +200,11 @@ def c_tables(definition: FmuDefinition) -> str:
         lines.append(f"const int tl_{t.lower()}_clock[{cap}] = {{{clocks}}};")
         lines.append(f"const unsigned char tl_{t.lower()}_discrete[{cap}] = {{{discrete}}};")
     fractions = [fraction(k.interval) for k in d.clocks]
-    rows = (("const char* const tl_clock_name", [describe.c_string(k.name) for k in d.clocks], "0"),
+    rows = (("const char* const tl_clock_name", [describe_fmi2.c_string(k.name) for k in d.clocks], "0"),
             ("const double tl_clock_interval", [repr(k.interval) for k in d.clocks], "0.0"),
             ("const unsigned long long tl_clock_counter", [f"{c}ULL" for c, _ in fractions], "0"),
             ("const unsigned long long tl_clock_resolution", [f"{r}ULL" for _, r in fractions], "1"))
     for declaration, values, empty in rows:
         lines.append(f"{declaration}[TL_CAP_CLOCK] = {{{', '.join(values) or empty}}};")
     lines.append("")
-    return describe.c_tables(d, tuple(lines))
+    return describe_fmi2.c_tables(d, tuple(lines))

@@ -1,169 +1,16 @@
-"""Manipulators: faults and timing faults injected between what an FMU outputs and what another one receives.
-
-The engine's fourth part beside execution, algorithm and observers (libcosim's term). A fault acts
-from `start` to `end` (s; no end: to the end of the run) on one or more variables:
-
-- on an **output** (`instance.output`): the master's copy of it changes, so the log, the plots
-  and every consumer see the faulty value (a lying or failed sensor, a drifting reference);
-- on an **input** (`instance.input`): only what the master writes into that FMU changes (an
-  actuator fault: `plant.f_R` scaled by 0.7 is a 30 % thrust loss; `plant.f_R_applied` logs it).
-
-Actions and their `value`:
-    override v       the value is v
-    bias b           value + b
-    scale s          value * s
-    ramp r           value + r (t - start): a drift of r per second
-    clamp [lo, hi]   value limited to [lo, hi] (a lower saturation limit)
-    hold             the value at the start, held (a stuck sensor or actuator)
-    noise sigma      value + sigma N(0, 1), seeded per tick (`seed`)
-    dropout          the values hold and `flag` (a Boolean `instance.<group>_new`) stays false: a lost sensor
-    delay n          the value of n ticks before (also list the flag among the targets to delay it too)
-    stale n          the value of n ticks before, the flag untouched: old samples presented as new
-    jitter n         the value of a random 0..n ticks before, drawn per tick (`seed`)
-
-A schedule is a list of such faults, in a system description ("faults"), a campaign spec or a file
-for `tiltload run --faults`. libcosim's scenario files (events at times: override, bias, reset)
-are read too. Every fault's start and end is an observer event; the logger writes it on /faults.
-"""
+"""The manipulator: a fault schedule applied inside an Execution, between what an FMU outputs and what another one
+receives, telling the observers when faults start and end (libcosim's term for the engine's fourth part)."""
 
 from __future__ import annotations
 
 import ctypes
-import math
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-from .errors import DescriptionError
+from .draw import Draws
+from .schedule import SEEDS, TICK_ACTIONS, VALUE_ACTIONS, Fault, FaultError
 
-ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold", "noise", "dropout", "delay", "stale", "jitter")
-VALUE_ACTIONS = ("override", "bias", "scale", "ramp", "clamp", "hold")  # functions of time and value only
 NATIVE_LAG_LIMIT = 2**20  # ticks back the C loop's ring holds (8 MiB a target); a longer lag's history grows here
-SEEDS = 2**64  # seeds are 0..SEEDS-1: the words the kernel's draws take (tl_draw.c)
-_NEEDS_VALUE = {"override", "bias", "scale", "ramp", "clamp", "noise", "delay", "stale", "jitter"}
-_TICKS = {"delay", "stale", "jitter"}
-
-SCHEMA = {
-    "type": "array", "items": {
-        "type": "object", "additionalProperties": False, "required": ["action", "start"],
-        "properties": {
-            "name": {"type": "string"},
-            "target": {"type": "string", "pattern": r"^[A-Za-z_][\w]*\.[A-Za-z_][\w]*$"},
-            "targets": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern": r"^[A-Za-z_][\w]*\.[A-Za-z_][\w]*$"}},
-            "action": {"enum": list(ACTIONS)},
-            "start": {"type": "number", "minimum": 0},
-            "end": {"type": ["number", "null"], "minimum": 0},
-            "value": {"type": ["number", "array", "boolean"]},
-            "flag": {"type": "string", "pattern": r"^[A-Za-z_][\w]*\.[A-Za-z_][\w]*$"},
-            "seed": {"type": "integer", "minimum": 0, "maximum": SEEDS - 1}}}}
-
-
-class FaultError(DescriptionError):
-    """A fault schedule that cannot be applied; the message names the fault and the field."""
-
-
-@dataclass
-class Fault:
-    action: str
-    targets: list[str]
-    start: float
-    end: float | None = None
-    value: object = None
-    flag: str | None = None
-    seed: int = 0
-    name: str = ""
-
-    def label(self) -> str:
-        return self.name or f"{self.action} {', '.join(self.targets)}"
-
-    def active(self, t: float) -> bool:
-        return self.start <= t + 1e-9 and (self.end is None or t + 1e-9 < self.end)
-
-
-def parse(items: list, where: str = "faults") -> list[Fault]:
-    """Faults from their JSON form, checked against the schema and for consistency."""
-    from .user_files import schema_problem
-
-    problem = schema_problem(items, SCHEMA, top="")
-    if problem:
-        raise FaultError(f"{where}.{problem}" if not problem.startswith(":") else f"{where}{problem}")
-    faults = []
-    for i, item in enumerate(items):
-        targets = item.get("targets") or ([item["target"]] if "target" in item else [])
-        if not targets:
-            raise FaultError(f"{where}.{i}: name the faulty variable(s): target or targets")
-        action, value = item["action"], item.get("value")
-        if action in _NEEDS_VALUE and value is None:
-            raise FaultError(f"{where}.{i}: {action} needs a value")
-        if action == "clamp" and not (isinstance(value, list) and len(value) == 2 and value[0] <= value[1]):
-            raise FaultError(f"{where}.{i}: clamp takes value = [low, high]")
-        if action in _TICKS and not (isinstance(value, (int, float)) and 0 <= value <= 2**53 and float(value).is_integer()):
-            raise FaultError(f"{where}.{i}: {action} takes a whole number of ticks (0 to 2^53), got {value!r}")
-        if action not in _TICKS | {"clamp"} and value is not None and not isinstance(value, (int, float)):
-            raise FaultError(f"{where}.{i}: {action} takes a number, got {value!r}")
-        if action == "dropout" and not item.get("flag"):
-            raise FaultError(f"{where}.{i}: dropout needs the group's flag (e.g. sensors.gps_new)")
-        end = item.get("end")
-        if end is not None and end <= item["start"]:
-            raise FaultError(f"{where}.{i}: end {end} must come after start {item['start']}")
-        faults.append(Fault(action, targets, float(item["start"]), None if end is None else float(end), value,
-                            item.get("flag"), int(item.get("seed", 0)), item.get("name", "")))
-    return faults
-
-
-def from_libcosim(scenario: dict, where: str) -> list[Fault]:
-    """A libcosim scenario (events at times: override, bias, reset of model.variable) as faults."""
-    defaults = scenario.get("defaults", {})
-    events = scenario.get("events")
-    if not isinstance(events, list):
-        raise FaultError(f"{where}: a libcosim scenario has a list of events")
-    open_faults: dict[str, Fault] = {}
-    faults = []
-    for i, event in enumerate(sorted(events, key=lambda e: e.get("time", 0))):
-        e = {**defaults, **event}
-        for key in ("time", "model", "variable", "action"):
-            if key not in e:
-                raise FaultError(f"{where}: events.{i}: no {key}")
-        target = f"{e['model']}.{e['variable']}"
-        if target in open_faults:  # a new event on the variable ends the previous one
-            open_faults.pop(target).end = float(e["time"])
-        if e["action"] == "reset":
-            continue
-        if e["action"] not in ("override", "bias"):
-            raise FaultError(f"{where}: events.{i}: libcosim action {e['action']!r} is not override, bias or reset")
-        value = e.get("value")
-        if isinstance(value, str) and value.lower() in ("true", "false"):
-            value = value.lower() == "true"
-        f = Fault(e["action"], [target], float(e["time"]), None, float(value) if not isinstance(value, bool) else value,
-                  name=f"libcosim {e['action']} {target}")
-        open_faults[target] = f
-        faults.append(f)
-    end = scenario.get("end")
-    for f in faults:
-        if f.end is None and end is not None:
-            f.end = float(end)
-    return faults
-
-
-def load(path: Path) -> list[Fault]:
-    """A fault file: JSON or YAML, a list of faults, {"faults": [...]}, or a libcosim scenario."""
-    from .user_files import UserFileError, read_json, read_yaml
-
-    path = Path(path)
-    if not path.exists():
-        raise FaultError(f"fault file {path} does not exist")
-    try:
-        data = read_yaml(path) if path.suffix.lower() in (".yaml", ".yml") else read_json(path)
-    except UserFileError as err:
-        raise FaultError(str(err)) from None
-    if isinstance(data, dict) and "events" in data:
-        return from_libcosim(data, str(path))
-    if isinstance(data, dict) and "faults" in data:
-        data = data["faults"]
-    if not isinstance(data, list):
-        raise FaultError(f"{path}: a fault file is a list of faults, {{\"faults\": [...]}} or a libcosim scenario")
-    return parse(data, str(path))
 
 
 class _Direct:
@@ -242,10 +89,10 @@ class Manipulator:
         self._lags: dict[str, int] = {}  # the most ticks back any fault reads a target's history (dropout: 1)
         for f in self.faults:
             for target in f.targets:
-                self._lags[target] = max(self._lags.get(target, 0), int(f.value) if f.action in _TICKS else 1)
+                self._lags[target] = max(self._lags.get(target, 0), int(f.value) if f.action in TICK_ACTIONS else 1)
         self._keep = {t: max(256, self._lags.get(t, 0) + 2) for t in self._where}
         self._tick = execution.system.tick
-        self._draws = _Draws(self.faults)
+        self._draws = Draws(self.faults)
 
     def python_entries(self, instance: str, side: str) -> bool:
         """Are there faults on this instance's side ("input" or "output") that Python applies?"""
@@ -259,9 +106,9 @@ class Manipulator:
         f = self.faults[k]
         if f.action not in (*VALUE_ACTIONS, "delay", "stale", "dropout", *(("noise", "jitter") if draws else ())):
             return False
-        if f.action in (*_TICKS, "dropout") and any(self._where[t][2] != "Real" for t in f.targets):
+        if f.action in (*TICK_ACTIONS, "dropout") and any(self._where[t][2] != "Real" for t in f.targets):
             return False
-        if f.action in _TICKS and int(f.value) > NATIVE_LAG_LIMIT or f.action in ("noise", "jitter") and f.seed >= SEEDS:
+        if f.action in TICK_ACTIONS and int(f.value) > NATIVE_LAG_LIMIT or f.action in ("noise", "jitter") and f.seed >= SEEDS:
             return False  # the ring is allocated whole; a Fault made in code may carry a seed the schema refuses
         return all(self._where[t][0] in ("input", "output") for t in _touched(f))
 
@@ -385,38 +232,3 @@ def _touched(f: Fault) -> list[str]:
     """The variables a fault writes: its targets and its flag."""
     return f.targets + ([f.flag] if f.flag else [])
 
-
-class _Draws:
-    """The draws of noise and jitter: those of numpy's default_rng([seed, fault, tick]), a pure function of the three
-    (the same with any batching, after a snapshot, in any worker). Made by the kernel's C (tl_draw.c, equal to numpy
-    bit for bit, 30-45x cheaper than seeding a Generator) when it has them, else by numpy."""
-
-    def __init__(self, faults: list[Fault]) -> None:
-        from .native import kernel
-
-        self.seeds = [f.seed for f in faults]
-        self.lib = kernel.library() if kernel.draws_in_c() and all(f.seed < SEEDS for f in faults) else None
-        if self.lib is not None:
-            self.words = []
-            for k, f in enumerate(faults):
-                words = kernel.entropy_words(f.seed, k)
-                self.words.append(((ctypes.c_uint32 * len(words))(*words), len(words)))
-
-    def normal(self, k: int, tick: int) -> float:
-        if self.lib is None:
-            return float(np.random.default_rng([self.seeds[k], k, tick]).standard_normal())
-        return self.lib.tl_draw_normal(*self.words[k], tick)
-
-    def bounded(self, k: int, tick: int, n: int) -> int:
-        """An integer in 0..n"""
-        if self.lib is None:
-            return int(np.random.default_rng([self.seeds[k], k, tick]).integers(0, n + 1))
-        return int(self.lib.tl_draw_bounded(*self.words[k], tick, n))
-
-
-def describe(fault: Fault) -> dict:
-    value = fault.value
-    if isinstance(value, float) and not math.isfinite(value):
-        value = str(value)
-    return {"name": fault.label(), "action": fault.action, "targets": fault.targets, "start": fault.start,
-            "end": fault.end, "value": value, "flag": fault.flag}

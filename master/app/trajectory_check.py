@@ -1,0 +1,209 @@
+"""Can the vehicle fly this trajectory? The feedforward and the trim along the reference the scenario FMU outputs.
+
+Two questions at every sample the controller takes (the 12 ms tick):
+- the feedforward (3.18) the controller computes, u_tr = L_in^+ (M qdd_tr + (C + L_fr) qd_tr + g) at the reference
+  state (the load on the path, the other coordinates at the hover trim of the nominal model, as in
+  control_law.StateFeedback), against the actuator limits of Table 5.2 (0 <= f <= 30 N, |tau| <= 2 N m);
+- the trim the path needs: the attitude and inputs that carry the load along with the reference's velocity and
+  acceleration with every joint at rest (M(q) qdd + C(q, qd) qd + L_fr qd + g(q) = L_in(q) u, the hover trim's
+  equations plus the path's motion, solved for phi, theta, gamma_1, gamma_2, alpha_R, alpha_L and u by Newton's
+  method, on the plant's own parameters), every 0.12 s: its thrusts against the same limits and its tilt angles
+  against max_tilt (30 degrees by default: the controllers are linearized at the hover trim).
+A problem names the quantity, the time and the margin: "f_R would need 31.4 N at t = 12.30 s; the limit is 30 N".
+(Which systems are checked and what a problem refuses: feasibility.py; the yaw a design holds: yaw_margin.py.)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cache
+
+import numpy as np
+
+from ...plant_fmu.vehicles import VEHICLES
+from ...scenario_fmu import twin
+from ...scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
+from .yaw_margin import yaw_problem
+
+INPUT_NAMES = ("f_R", "f_L", "tau_R", "tau_L")
+TRIM_EVERY = 10  # ticks between trim solves (0.12 s)
+MAX_SPAN = WAYPOINT_MAX_TIME  # s checked at most: the longest reference a file can describe (a longer --stop-time holds it)
+CHUNK = 2**14  # ticks sampled at once: the check's memory is bounded whatever the span
+
+
+@dataclass(frozen=True)
+class Limits:
+    f_min: float = 0.0  # N, Table 5.2
+    f_max: float = 30.0
+    tau_max: float = 2.0  # N m
+    max_tilt: float = 30.0  # degrees, any trim angle (load roll/pitch, UAV tilt to the rod, thruster tilts)
+
+
+@dataclass
+class Report:
+    problems: list[str] = field(default_factory=list)  # each one line; any refuses the run
+    notes: list[str] = field(default_factory=list)  # worth saying, not refusing (a jump the feedforward cannot see)
+    summary: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+@cache
+def _feedforward(vehicle: str):
+    """The controller's feedforward (3.18) as a CasADi function."""
+    from ...plant_fmu.codegen import feedforward_function
+
+    return feedforward_function(vehicle)
+
+
+def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
+    """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
+    strays (a solution far from the previous one is another branch: the vehicle upside down)."""
+    from ...plant_fmu.trim import newton
+
+    found = newton(vehicle, z_prev, ref, p, 1e-9, 20)
+    if found is not None and np.max(np.abs(found[0][:n_angles] - z_prev[:n_angles])) < 0.3:
+        return found[0]
+    if depth >= 8:
+        return None
+    middle = 0.5 * (ref_prev + ref)
+    z_mid = _trim(vehicle, z_prev, ref_prev, middle, p, n_angles, depth + 1)
+    return None if z_mid is None else _trim(vehicle, z_mid, middle, ref, p, n_angles, depth + 1)
+
+
+def _vector(vehicle: str, overrides: dict) -> np.ndarray:
+    """The vehicle's parameter vector with the plant instance's overrides (m_L, ...)."""
+    v = VEHICLES[vehicle]
+    p = v.default_parameters()
+    for k, s in enumerate(v.parameter_specs):
+        if s.name in overrides:
+            p[k] = float(overrides[s.name])
+    return p
+
+
+
+def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
+                    limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None) -> Report:
+    """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
+    MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
+    stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
+    from ...plant_fmu.trim import TrimError, hover_trim, unknown_coordinates
+
+    ff = _feedforward(vehicle)
+    unknown = unknown_coordinates(vehicle)
+    nq = VEHICLES[vehicle].nq
+    names = VEHICLES[vehicle].coordinates
+    nominal = VEHICLES[vehicle].default_parameters()
+    actual = _vector(vehicle, plant or {})
+    report = Report()
+    try:
+        hover = hover_trim(nominal, vehicle=vehicle)
+        hover_actual = hover_trim(actual, vehicle=vehicle)
+    except (TrimError, ValueError) as err:
+        report.problems.append(f"the plant has no hover trim with these parameters ({err})")
+        return report
+    span = min(stop, MAX_SPAN)
+    n = int(math.floor(span / tick + 1e-9)) + 1
+    n_angles = len(unknown)
+    u_ff = np.empty((n, 4))
+    z = np.r_[hover_actual.x[unknown], hover_actual.u]
+    first = twin.evaluate(scenario, [0.0])
+    previous = np.zeros(11)
+    previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
+    trims, times, failed = [], [], False
+    jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
+    for lo in range(0, n, CHUNK):
+        t = np.arange(lo, min(lo + CHUNK, n)) * tick
+        s = twin.evaluate(scenario, t)
+        x = np.tile(hover.x, (t.size, 1))
+        x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
+        x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
+        qdd = np.zeros((t.size, nq))
+        qdd[:, 0:3] = s.a
+        u_ff[lo:lo + t.size] = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+        refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
+        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY):
+            if failed:
+                break
+            found = _trim(vehicle, z, previous, refs[k], actual, n_angles)
+            if found is None:
+                report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} "
+                                       f"m/s2 at t = {t[k]:.2f} s")
+                failed = True
+                break
+            z, previous = found, refs[k]
+            trims.append(z)
+            times.append(t[k])
+        jump = max(jump, _largest_jump(s, last, tick))
+        k = int(np.argmax(np.abs(s.psi)))
+        psi_worst = max(psi_worst, (abs(float(s.psi[k])), float(s.psi[k]), float(t[k])))
+        last = (s.t[-1], s.p[-1], s.v[-1])
+    t_all = np.arange(n) * tick
+    _limit_inputs(report, "", u_ff, t_all, limits)
+    if trims:
+        trims, times = np.array(trims), np.array(times)
+        _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
+        angles = np.degrees(trims[:, :n_angles])
+        worst = np.argmax(np.abs(angles), axis=0)
+        for j, i in enumerate(unknown):
+            value, when = angles[worst[j], j], times[worst[j]]
+            if abs(value) > limits.max_tilt:
+                report.problems.append(f"{names[i]} would need {value:.1f} degrees at t = {when:.2f} s; the limit is "
+                                       f"{limits.max_tilt:g} degrees (--max-tilt)")
+        tilt = np.abs(angles).max()
+        k_tilt = np.unravel_index(np.argmax(np.abs(angles)), angles.shape)
+    else:
+        tilt, k_tilt = math.nan, (0, 0)
+    if jump[0] > 0.01:
+        report.notes.append(f"the reference jumps by {jump[1]:.3g} m at t = {jump[2]:.2f} s: no feedforward can "
+                            "anticipate it, the feedback alone takes it")
+    yaw = yaw_problem(psi_worst[1:], design, vehicle)
+    if yaw:
+        report.problems.append(yaw)
+    forces = ", ".join(f"{name} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, name in enumerate(INPUT_NAMES[:2]))
+    torque = np.abs(u_ff[:, 2:]).max()
+    where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
+    part = f" (the first {span:g} s of {stop:g} s)" if span < stop else ""
+    report.summary = (f"feasibility over {t_all[-1]:.2f} s{part}: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "
+                      f"{limits.f_min:g}..{limits.f_max:g} N, {limits.tau_max:g} N m); trim tilt up to {tilt:.1f} degrees{where}, "
+                      f"limit {limits.max_tilt:g}")
+    return report
+
+
+def _limit_inputs(report: Report, what: str, u: np.ndarray, t: np.ndarray, limits: Limits) -> None:
+    """One line per input beyond its limit, at its worst sample."""
+    for i, name in enumerate(INPUT_NAMES):
+        if i < 2:
+            over, under = u[:, i] - limits.f_max, limits.f_min - u[:, i]
+            k_over, k_under = int(np.argmax(over)), int(np.argmin(u[:, i]))
+            if over[k_over] > 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k_over, i]:.3g} N at t = {t[k_over]:.2f} s; the limit is "
+                                       f"{limits.f_max:g} N")
+            if under[k_under] > 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k_under, i]:.3g} N at t = {t[k_under]:.2f} s; the limit is "
+                                       f"{limits.f_min:g} N")
+        else:
+            k = int(np.argmax(np.abs(u[:, i])))
+            if abs(u[k, i]) > limits.tau_max + 1e-9:
+                report.problems.append(f"{what}{name} would need {u[k, i]:.3g} N m at t = {t[k]:.2f} s; the limit is "
+                                       f"+-{limits.tau_max:g} N m")
+
+
+def _largest_jump(s, before, tick: float) -> tuple[float, float, float]:
+    """(gap, step, time) of the largest jump in these samples (and from the chunk before's last sample): a position change
+    over a tick beyond what the reference's own velocity covers (1.5 ticks of it). A reference that jumps (a step) has no
+    feedforward for the jump: the feedback alone takes it."""
+    p, v, t = s.p, s.v, s.t
+    if before is not None:
+        p, v, t = np.r_[before[1][None], p], np.r_[before[2][None], v], np.r_[before[0], t]
+    step = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    speed = np.maximum(np.linalg.norm(v[:-1], axis=1), np.linalg.norm(v[1:], axis=1))
+    gap = step - 1.5 * tick * speed
+    if not gap.size:
+        return (0.0, 0.0, 0.0)
+    k = int(np.argmax(gap))
+    return (float(gap[k]), float(step[k]), float(t[k + 1]))
+
