@@ -137,12 +137,11 @@ class McapLogger(Observer):
         schema = self._writer.add_schema(enc.full_name, "protobuf", enc.schema())
         channel = self._writer.add_channel(topic, schema, "protobuf", {**(metadata or {}), "layout": LAYOUT})
         times = np.asarray(times, dtype=float)
-        batch = MessageBatch()
-        if len(times):
-            rows = enc.encode_rows(times, np.asarray(values, dtype=float).reshape(len(times), len(columns)),
-                                   np.zeros((len(times), 0), np.int32), np.zeros((len(times), 0), bool))
-            batch.add_rows(channel, np.rint(times * 1e9).astype(np.uint64), rows, np.arange(len(times), dtype=np.int64))
-        self._writer.add_messages(batch)
+        if len(times):  # encoded by the writer's thread, queued without waiting for it (the run is over: no backlog grows)
+            values = np.asarray(values, dtype=float).reshape(len(times), len(columns))
+            ns, keys = np.rint(times * 1e9).astype(np.uint64), np.arange(len(times), dtype=np.int64)
+            none = np.zeros((len(times), 0), np.int32), np.zeros((len(times), 0), bool)
+            self._writer.add_messages(MessageBatch(), [_fixed_rows(channel, enc, times, ns, values, *none, keys)], wait=False)
 
     def on_fault(self, t, fault, what) -> None:
         from .faults.schedule import describe

@@ -167,14 +167,15 @@ class McapWriter:
             self._file.write(raw)
         self._put(write)
 
-    def add_messages(self, batch: MessageBatch, fill=()) -> None:
+    def add_messages(self, batch: MessageBatch, fill=(), wait: bool = True) -> None:
         """Append the messages to the chunks (in key order), sealing each chunk as it reaches the chunk size. fill:
         callables the writing thread runs first, each adding messages to the batch (encoding them beside the tick loop
         from copies of its values). Waits until the previous call's messages are in the chunks: the writer is at most
-        one batch behind."""
+        one batch behind (wait=False: a last batch before closing, queued behind it without waiting)."""
         if not len(batch) and not fill:
             return
-        self._wait_for_room()
+        if wait:
+            self._wait_for_room()
         with self._room:
             self._in_flight += 1
         self._put(lambda: self._lay_out(batch, fill))

@@ -58,17 +58,20 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     used = sorted({split(n)[0] for n in names})
     if not used:
         raise StlError("no signal")
-    every = np.concatenate([series[i][0] for i in used])
-    gaps = np.concatenate([np.diff(_sorted(series[i][0])) for i in used])
-    gaps = gaps[gaps > 1e-9]
-    if not len(gaps):
-        return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
-    tick = float(gaps.min())
-    # from the first message to the last tick every instance has reached (past its last message an instance's value
-    # is not known: the plant's state after the last step has no controller's output of that time)
-    first, last = int(np.rint(every.min() / tick)), int(np.rint(min(series[i][0].max() for i in used) / tick))
-    keys = np.arange(first, last + 1)
     cache = {} if cache is None else cache
+    span_key = ("span", *used)
+    if span_key not in cache:  # the tick and the span: once per set of instances
+        every = np.concatenate([series[i][0] for i in used])
+        gaps = np.concatenate([np.diff(_sorted(series[i][0])) for i in used])
+        gaps = gaps[gaps > 1e-9]
+        if not len(gaps):
+            return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
+        tick = float(gaps.min())
+        # from the first message to the last tick every instance has reached (past its last message an instance's value
+        # is not known: the plant's state after the last step has no controller's output of that time)
+        first, last = int(np.rint(every.min() / tick)), int(np.rint(min(series[i][0].max() for i in used) / tick))
+        cache[span_key] = (tick, first, last, np.arange(first, last + 1))
+    tick, first, last, keys = cache[span_key]
     values = {}
     for n in names:
         key = (n, tick, first, last)

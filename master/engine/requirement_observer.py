@@ -65,12 +65,15 @@ class RequirementObserver(Observer):
                 self._times[instance].append(np.zeros(1))
                 for variable, (typ, i) in cols.items():
                     self._values[instance][variable].append(np.array([inst.values[typ][i]], dtype=float))
+        # instance -> type -> (the columns read, the batches' blocks of them)
+        self._blocks = {instance: {typ: (np.array([i for t, i in cols.values() if t == typ]), []) for typ in {t for t, _ in cols.values()}}
+                        for instance, cols in self._columns.items()}
         for logger in execution.observers:
             if hasattr(logger, "closing"):  # the MCAP logger: the channel and the verdicts go in before it closes
                 logger.closing.append(self._to_log)
 
     def on_batch(self, execution, batch) -> None:
-        for instance, cols in self._columns.items():
+        for instance in self._columns:
             mine = batch.positions(instance)
             if not len(mine):
                 continue
@@ -78,16 +81,24 @@ class RequirementObserver(Observer):
                 k = self._steps[instance] + np.arange(len(mine))
                 self._steps[instance] += len(mine)
                 mine = mine[k % self.log_every == 0]
-            self._times[instance].append(batch.time[mine].copy())
+            self._times[instance].append(batch.time[mine])  # fancy indexing: a copy
             rows = batch.row[mine]
-            for variable, (typ, i) in cols.items():
-                self._values[instance][variable].append(batch.rows[instance][typ][rows, i].astype(float))
+            for typ, (indices, blocks) in self._blocks[instance].items():  # one copy a type, the columns split at the end
+                blocks.append(batch.rows[instance][typ].take(rows, axis=0).take(indices, axis=1))  # take: 2x np.ix_'s speed
         self._since_check += batch.ticks
         if self.stop_on_violation and self._since_check >= CHECK_EVERY:
             self._since_check = 0
             self._check_early()
 
     def _series(self) -> dict:
+        for instance, cols in self._columns.items():  # the blocks taken since, into the columns
+            for typ, (indices, blocks) in self._blocks[instance].items():
+                if blocks:
+                    block = np.concatenate(blocks).astype(float, copy=False)
+                    blocks.clear()
+                    for variable, (t, i) in cols.items():
+                        if t == typ:
+                            self._values[instance][variable].append(block[:, int(np.flatnonzero(indices == i)[0])])
         return {i: (np.concatenate(self._times[i]) if self._times[i] else np.zeros(0),
                     {v: np.concatenate(chunks) if chunks else np.zeros(0) for v, chunks in self._values[i].items()})
                 for i in self._columns}

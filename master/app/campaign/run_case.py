@@ -174,6 +174,25 @@ def infeasible(system, stop: float, flight: Flight) -> str | None:
     return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
 
 
+def feasibility_verdicts(base: dict, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
+    """The feasibility check's verdicts (infeasible's cache) of the first case of each set of plant parameters the cases
+    vary (at most `most` sets), for the client to compute once and hand to every worker in base["feasibility"]: each
+    worker would otherwise check them itself (seconds each). A case this cannot describe is left to its worker, and so
+    is any verdict missed here (looked up by the same key, computed where missing)."""
+    stop = base["stop_time"] or default_stop(_flight(base).trajectory)
+    seen: set[tuple] = set()
+    for case in cases:
+        plant = tuple(sorted((k, repr(v)) for k, v in case["parameters"].items() if k.startswith(f"{PLANT}.")))
+        if plant in seen or len(seen) >= most:
+            continue
+        seen.add(plant)
+        try:
+            infeasible(case_system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"]), stop, _flight(base))
+        except Exception:  # noqa: BLE001  (its worker describes it, and says what is wrong)
+            continue
+    return dict(_CHECKED)
+
+
 def error_row(case: dict, error: str) -> dict:
     """The row of a run that produced no metrics."""
     controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
@@ -278,6 +297,7 @@ def check_fmus(system) -> None:
 
 def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
     started = time.perf_counter()
+    _CHECKED.update(base.get("feasibility", {}))  # the client's verdicts (feasibility_verdicts)
     if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     try:

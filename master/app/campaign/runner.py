@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from functools import partial
 from pathlib import Path
 
@@ -118,7 +118,10 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     # Dask's workers keep a scratch folder with lock files (dask-scratch-space/{global,purge}.lock) in its
     # temporary-directory: a folder this campaign owns and removes, not $TMPDIR
     with (campaign_log(opts.verbose) as log, tempfile.TemporaryDirectory(prefix="tiltload-campaign-") as scratch,
-          dask.config.set({"temporary-directory": scratch})):
+          dask.config.set({"temporary-directory": scratch,
+                           # every run goes to a worker at once (Dask's work stealing evens them out): a worker finishing
+                           # one starts the next it holds, with no round trip to the scheduler between runs
+                           "distributed.scheduler.worker-saturation": float("inf")})):
         client = cluster = None
         if scheduler is not None:
             parse(scheduler)  # a malformed address is refused even with nothing to run
@@ -137,7 +140,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 f"{len(todo)} to run")
             if todo:
                 from ..fmus import build_all  # these import the controller's design tools: seconds, so only now
-                from .run_case import run_case
+                from .run_case import feasibility_verdicts, run_case
 
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
@@ -146,7 +149,10 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 if client is None:
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
-                task = partial(run_case, campaign.base(), fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
+                base = campaign.base()
+                if campaign.snapshot is None:  # checked once here, not once per worker (seconds each)
+                    base["feasibility"] = feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve()))
+                task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 shared = {}
                 if campaign.snapshot is not None:  # to every worker once, not with every run
                     shared["snapshot"] = client.scatter(campaign.snapshot.read_bytes(), broadcast=True, hash=False)

@@ -71,14 +71,14 @@ class Evaluator:
 
     def __init__(self, trace: Trace, final: bool = True) -> None:
         self.trace, self.final = trace, final
-        self._memo: dict[tuple[int, str], np.ndarray] = {}
+        self._memo: dict[tuple[int, str], tuple[object, np.ndarray]] = {}
 
     def __call__(self, node, mode: str = "value") -> np.ndarray:
         key = (id(node), mode)
-        out = self._memo.get(key)
-        if out is None:
-            out = self._memo[key] = self._eval(node, mode)  # (the tree outlives the evaluator: its ids stay its nodes')
-        return out
+        hit = self._memo.get(key)
+        if hit is None:  # the node is kept with its value: a freed tree's id, reused by a new node, must not hit
+            hit = self._memo[key] = (node, self._eval(node, mode))
+        return hit[1]
 
     def _pads(self, mode: str, unbounded: bool) -> tuple[float, float]:
         """(what an absent sample is for a min, for a max): neutral for the value, unknown for a bound."""

@@ -1,7 +1,8 @@
 """Sliding-window minimum over the samples [i + lo, i + hi] of every i, in O(n).
 
-Two algorithms, the same results: `sliding_min` (van Herk / Gil-Werman: the window is cut at block boundaries of its
-width, each part a prefix or suffix minimum of its block, so numpy computes it in a few array passes) and
+Two algorithms, the same results: `sliding_min` (scipy.ndimage.minimum_filter1d, in C, on samples without NaN; with a
+NaN, van Herk / Gil-Werman: the window is cut at block boundaries of its width, each part a prefix or suffix minimum of
+its block, so numpy computes it in a few array passes and NaN propagates as numpy's minimum carries it) and
 `sliding_min_deque` (Lemire 2006: a monotonic deque, one pass, amortized O(1) a sample, but a Python loop). The
 first is the monitor's; the second is kept as the textbook form and an independent check (tests, benchmarks).
 Samples past the end of the array take the value `pad`. A maximum is the minimum of the negated samples.
@@ -12,6 +13,7 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+from scipy.ndimage import minimum_filter1d
 
 
 def sliding_min(x: np.ndarray, lo: int, hi: int, pad: float = np.inf) -> np.ndarray:
@@ -27,6 +29,8 @@ def sliding_min(x: np.ndarray, lo: int, hi: int, pad: float = np.inf) -> np.ndar
         y[:have] = x[lo:lo + have]
     if w == 1:
         return y[:n].copy()
+    if not np.isnan(y).any():  # scipy's filter in C, 5-10x faster; its comparisons do not carry NaN as numpy's minimum does
+        return minimum_filter1d(y, w, mode="constant", cval=pad, origin=-(w // 2))[:n]
     m = -(-len(y) // w) * w
     z = np.full(m, pad, dtype=float)
     z[:len(y)] = y
