@@ -109,6 +109,7 @@ def stale_references() -> list[tuple[str, int, str]]:
     return stale
 
 
+@pytest.mark.slow
 def test_every_named_path_exists():
     stale = stale_references()
     assert not stale, "paths named that do not exist:\n" + "\n".join(f"  {f}:{line}: {named}" for f, line, named in stale)

@@ -33,6 +33,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
 
 @pytest.mark.parametrize("options", [{"seed": -1}, {"stop_time": "soon"}, {"scenario": "kalman"}, {"vehicle": "uav", "scenario": "lkf"},
                                      {"clocks": True}, {"set": {"plant": 1}}])
+@pytest.mark.slow
 def test_an_error_is_the_command_s_line(options, tmp_path):
     """The same options through the command and the API: its stderr line is the exception's cli_line, exit 2."""
     from tiltload.master.app.api.keywords import to_argv
@@ -98,6 +99,7 @@ CASES = [("fsi", 1, "dlqr"), ("lkf", 2, "mixed"), ("zse", 1, "mixed")]
 
 
 @pytest.mark.parametrize("case", CASES, ids=["_".join(map(str, c)) for c in CASES])
+@pytest.mark.slow
 def test_the_api_s_metrics_are_the_command_s_bit_for_bit(case, fmus, tmp_path):
     """Reproduction cases (5 s of each): the command's log record and the API's Result hold the same floats."""
     scenario, trajectory, controller = case
@@ -123,6 +125,7 @@ def _python_blocks(text: str) -> list[str]:
     return re.findall(r"```python\n(.*?)```", text, flags=re.S)
 
 
+@pytest.mark.slow
 def test_the_examples_of_docs_api_md_run(fmus, tmp_path, monkeypatch, capsys):
     blocks = _python_blocks((ROOT / "docs" / "api.md").read_text())
     script = blocks[1]
@@ -136,6 +139,7 @@ def test_the_examples_of_docs_api_md_run(fmus, tmp_path, monkeypatch, capsys):
     assert (tmp_path / "baselines" / "lkf_dlqr_3s.json").is_file()
 
 
+@pytest.mark.slow
 def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(fmus, tmp_path):
     from support import example_repo
 
@@ -167,6 +171,7 @@ seeds = [1, 2]
 """
 
 
+@pytest.mark.slow
 def test_a_campaign_through_the_api(fmus, tmp_path, capsys):
     spec = tmp_path / "api.toml"
     spec.write_text(CAMPAIGN)

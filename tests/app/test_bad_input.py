@@ -346,6 +346,7 @@ def misbehaving(tmp_path_factory):
     return wrap_misbehaving(tmp_path_factory.mktemp("fuzz_misbehaving"), acts, 0.1)
 
 
+@pytest.mark.slow
 def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbehaving, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # relative outputs (runs/, designs/) land here
     cases = _cli_cases() + _set_cases() + _parameter_cases(fmus) + _files(tmp_path, fmus, misbehaving)
@@ -566,6 +567,7 @@ def taken_snapshot(fmus, tmp_path_factory) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_trust_boundary_bad_inputs_each_get_one_line_and_exit_2(fmus, fmi3_fmus, taken_snapshot, tmp_path, capsys,
                                                                  monkeypatch):
     monkeypatch.chdir(tmp_path)

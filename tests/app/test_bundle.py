@@ -47,6 +47,7 @@ def opened(bundle, tmp_path_factory) -> Path:
     return where
 
 
+@pytest.mark.slow
 def test_every_fmu_of_tiltload_build_is_in_it_as_fmi2_and_fmi3(opened):
     from tiltload.master.app.fmus import every_recipe
 

@@ -119,6 +119,7 @@ def local_results(fmus, tmp_path_factory):
     return results
 
 
+@pytest.mark.slow
 def test_a_failed_run_is_a_row_with_its_error_line(local_results):
     failed = [r for r in rows(local_results) if not r["completed"]]
     assert len(failed) == 4 and all(r["load_mass"] == -1.0 for r in failed)
@@ -223,6 +224,7 @@ def dask_cluster():
         c.stop_all()
 
 
+@pytest.mark.slow
 def test_a_separate_scheduler_with_two_workers_gives_identical_rows(fmus, local_results, tmp_path, dask_cluster):
     cluster = dask_cluster()
     cluster.add_worker()
@@ -233,6 +235,7 @@ def test_a_separate_scheduler_with_two_workers_gives_identical_rows(fmus, local_
     assert identical(rows(results), rows(local_results))
 
 
+@pytest.mark.slow
 def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_results, tmp_path):
     spec = write_spec(tmp_path, bad=-1.0)
     out = tmp_path / "out"
@@ -259,6 +262,7 @@ def _parts(out: Path) -> list[Path]:
     return sorted((out / "parts").glob("*.parquet"))
 
 
+@pytest.mark.slow
 def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_finishes_it(fmus, local_results, tmp_path,
                                                                                            dask_cluster, capfd):
     cluster = dask_cluster()
@@ -302,6 +306,7 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
 
 @pytest.mark.skipif(not _can_hide_folders(), reason="a worker that does not see the FMU folder needs a mount namespace "
                                                    "(unshare -m)")
+@pytest.mark.slow
 def test_a_worker_without_the_fmus_fails_no_run_and_the_rerun_after_the_fix_completes_them(fmus, local_results, tmp_path,
                                                                                             dask_cluster, capfd):
     cluster = dask_cluster()
@@ -354,6 +359,7 @@ def test_a_bad_scheduler_address_is_one_line_and_exit_2_in_seconds_before_anythi
     assert not (tmp_path / "out").exists() and not (tmp_path / "fmus").exists()  # nothing written, nothing built
 
 
+@pytest.mark.slow
 def test_a_scheduler_without_enough_workers_is_one_line_and_exit_2_in_seconds(tmp_path, dask_cluster, capfd):
     cluster = dask_cluster()
     args = ["campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(tmp_path / "fmus"),
@@ -376,6 +382,7 @@ def test_a_scheduler_without_enough_workers_is_one_line_and_exit_2_in_seconds(tm
     assert not (tmp_path / "out").exists() and not (tmp_path / "fmus").exists()
 
 
+@pytest.mark.slow
 def test_the_runs_stop_when_the_last_worker_is_gone_for_good(fmus, local_results, tmp_path, dask_cluster, capfd):
     cluster = dask_cluster()
     worker = cluster.add_worker(nanny=False)  # no nanny to start it again
@@ -416,6 +423,7 @@ def _certificate(folder: Path) -> dict[str, Path]:
     return files
 
 
+@pytest.mark.slow
 def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only(fmus, local_results, tmp_path, dask_cluster,
                                                                                 capfd):
     import dask
@@ -446,6 +454,7 @@ def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only
     assert identical(rows(out / "results.parquet"), rows(local_results))
 
 
+@pytest.mark.slow
 def test_nothing_the_campaign_starts_listens_beyond_loopback(fmus, tmp_path):
     proc = subprocess.Popen(_cli("campaign", str(write_spec(tmp_path)), "--out", str(tmp_path / "out"), "--fmus", str(fmus),
                                  "--workers", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -468,6 +477,7 @@ def test_nothing_the_campaign_starts_listens_beyond_loopback(fmus, tmp_path):
     assert {ip for ip, *_ in listening} <= {"127.0.0.1", "::1"}, listening
 
 
+@pytest.mark.slow
 def test_retry_failed_reruns_stored_failures_and_the_summary_counts_what_the_results_hold(fmus, local_results, tmp_path,
                                                                                           capsys):
     out = tmp_path / "out"
@@ -503,6 +513,7 @@ def test_a_missing_fmu_is_the_environment_s_failure_and_a_refused_value_the_run_
     assert "row" not in unwritable and "Error" in unwritable["environment"]
 
 
+@pytest.mark.slow
 def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_results, fmus, tmp_path, capsys):
     assert main(["campaign-report", str(local_results)]) == 0
     text = (local_results.parent / "report.md").read_text()
@@ -541,6 +552,7 @@ def _log_metrics(path: Path) -> dict[str, float]:
     return {k: float(v) for k, v in read_metadata(path)["metrics"].items() if k.startswith(("ISE", "IADU"))}
 
 
+@pytest.mark.slow
 def test_fifty_branches_from_one_snapshot_each_cover_the_rest_of_the_run(fmus, tmp_path, capsys):
     """A ZSE run snapshotted at 1.5 s; 50 branches (25 sensor seeds x a left rotor at 100 % or 80 % from 2 s) run on
     Dask from it. Independent fact: the branch that changes nothing (the run's own seed, the fault at 100 %) has the

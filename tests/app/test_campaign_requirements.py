@@ -33,6 +33,7 @@ REQS = """requirements:
 """
 
 
+@pytest.mark.slow
 def test_requirement_columns_equal_the_offline_check(fmus, tmp_path):
     (tmp_path / "reqs.yaml").write_text(REQS)
     spec = tmp_path / "c.toml"

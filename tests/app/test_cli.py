@@ -13,6 +13,7 @@ def run(*args, cwd):
     return subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
+@pytest.mark.slow
 def test_run_reports_metrics_log_and_plots(pipeline_fmus, tmp_path):
     fmus = next(iter(pipeline_fmus.values())).parent
     proc = run("run", "--stop-time", "2", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", cwd=tmp_path)
@@ -28,12 +29,14 @@ def test_run_reports_metrics_log_and_plots(pipeline_fmus, tmp_path):
     assert again.returncode == 0 and len(list((tmp_path / "again").glob("*.png"))) == 7
 
 
+@pytest.mark.slow
 def test_bad_stop_time_is_one_line_and_nonzero(tmp_path):
     proc = run("run", "--stop-time", "-1", cwd=tmp_path)
     assert proc.returncode == 2 and "positive finite time" in proc.stderr
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.slow
 def test_unwritable_output_is_one_line_and_nonzero(pipeline_fmus, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
@@ -53,6 +56,7 @@ def test_out_of_range_seed_and_a_path_as_name_are_refused(capsys):
         assert exit_.value.code == 2 and needle in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_run_leaves_no_temporary_folder(pipeline_fmus, tmp_path):
     import os
 
@@ -101,6 +105,7 @@ def test_a_run_s_default_name_says_what_sets_it_apart():
     assert names[4].endswith("_t10s") and all("/" not in n for n in names)
 
 
+@pytest.mark.slow
 def test_a_log_of_the_same_name_is_not_replaced_without_a_word(pipeline_fmus, tmp_path):
     fmus = next(iter(pipeline_fmus.values())).parent
     args = ("run", "--scenario", "fsi", "--stop-time", "0.12", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet",

@@ -48,6 +48,7 @@ def metric_rows(text: str) -> list[str]:
 
 
 @pytest.mark.parametrize("kind", list(CLOCKS))
+@pytest.mark.slow
 def test_an_fmi3_controller_on_tiltload_serve_gives_the_in_process_run_bit_for_bit(kind, fmus, fmi3_folder, token, tmp_path, capsys):
     """`tiltload run --fmi 3 [--clocks] --remote controller=127.0.0.1:PORT`: a tick's Event Mode, clock activation,
     discrete-state update and staging happen in the server's worker, one round trip; the logs and metrics equal."""
@@ -70,6 +71,7 @@ def test_an_fmi3_controller_on_tiltload_serve_gives_the_in_process_run_bit_for_b
         assert len(a[topic]) > 200 and a[topic] == b[topic], topic
 
 
+@pytest.mark.slow
 def test_a_snapshot_of_a_remote_clocked_fmi3_controller_continues_on_the_server(fmus, fmi3_folder, token, tmp_path, capsys):
     """The clocked controller's state (the FMU's own, its held clocked outputs, a pending event) travels both ways:
     the continued remote run is the tail of the uninterrupted in-process run, to the bit."""
@@ -139,6 +141,7 @@ def misbehaving3(fmi3_folder, tmp_path_factory):
 
 
 @pytest.mark.parametrize("mode", list(MISBEHAVIOURS))
+@pytest.mark.slow
 def test_a_misbehaving_fmi3_controller_ends_the_run_with_one_line_and_its_log(mode, misbehaving3, fmus, tmp_path, capsys):
     code = run(fmus, tmp_path, mode, "--clocks", "--controller", str(misbehaving3[mode]), "--stop-time", "2",
                "--step-timeout", "1")

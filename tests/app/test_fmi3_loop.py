@@ -24,6 +24,7 @@ def fmi3_set(fmi3_fmus):
     return folder
 
 
+@pytest.mark.slow
 def test_twelve_cases_on_clocked_fmi3_fmus_equal_the_fmi2_runs_bit_for_bit(fmus, fmi3_set):
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     with ProcessPoolExecutor(max_workers=2, mp_context=get_context("spawn")) as pool:
@@ -62,6 +63,7 @@ def test_run_fmi3_with_clocks_reports_its_metrics_and_log(fmi3_set, tmp_path, ca
     assert table(clocked) == table(fmi2) and len(table(fmi2)) == 8
 
 
+@pytest.mark.slow
 def test_a_clocked_fmi3_run_continued_from_its_snapshot_ends_as_the_whole_run(fmi3_set, tmp_path, capsys):
     """tiltload run --fmi 3 --clocks --snapshot-at 2, then --from-snapshot (which takes --fmi 3 --clocks from the
     snapshot): the metrics of 4 s, as the uninterrupted run prints them."""

@@ -111,6 +111,7 @@ def test_a_campaign_grid_is_counted_before_it_is_built(tmp_path, capsys):
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs")
 @pytest.mark.parametrize("flag", ["--trajectory", "--wind", "--faults"])
+@pytest.mark.slow
 def test_a_fifo_given_as_a_file_is_refused_without_opening_it(fmus, tmp_path, flag):
     fifo = tmp_path / ("mission.csv" if flag == "--trajectory" else "f.json")
     os.mkfifo(fifo)

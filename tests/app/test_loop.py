@@ -31,6 +31,7 @@ def short_run(fmus, tmp_path, name, stop=1.2, **kw):
 
 @pytest.mark.parametrize("scenario", ["fsi", "lkf", "zse"])
 @pytest.mark.parametrize("controller", ["dlqr", "mixed"])
+@pytest.mark.slow
 def test_thesis_loop_trajectory_1_is_stable_and_tracks(fmus, tmp_path, scenario, controller):
     """40 s of trajectory 1 through the four FMUs: stable, gusts rejected, ISE of the order of the thesis's tables."""
     res = short_run(fmus, tmp_path, f"{scenario}_{controller}", stop=40.0, scenario=scenario, controller=controller)
@@ -58,6 +59,7 @@ def test_zse_bounds_show_the_gps_and_camera_teeth(fmus, tmp_path):
     assert wdx.std() > 0
 
 
+@pytest.mark.slow
 def test_same_seed_same_metrics_bit_for_bit(fmus, tmp_path):
     a = short_run(fmus, tmp_path, "a", seed=5)
     b = short_run(fmus, tmp_path, "b", seed=5)
@@ -86,6 +88,7 @@ def third_party(tmp_path_factory):
     return fmus
 
 
+@pytest.mark.slow
 def test_third_party_controller_runs_through_the_cli(fmus, third_party, tmp_path, capsys):
     code = main(["run", "--controller", str(third_party["ok"]), "--scenario", "fsi", "--trajectory", "0",
                  "--stop-time", "3", "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--no-gusts"])
@@ -157,6 +160,7 @@ def _edited(fmu: Path, out: Path, *replacements: tuple[str, str]) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_controller_input_the_contract_does_not_know_is_refused_unless_allowed(fmus, third_party, tmp_path, capsys):
     misspelt = _edited(third_party["ok"], tmp_path / "misspelt.fmu", ('name="x_ref"', 'name="ref_x"'))
     args = ["run", "--controller", str(misspelt), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "0.6", "--fmus", str(fmus),

@@ -107,6 +107,7 @@ def installed(tmp_path_factory) -> Path:
     return python
 
 
+@pytest.mark.slow
 def test_the_wheel_builds_the_fmus_and_runs_the_loop_outside_the_repository(installed, tmp_path):
     where = tmp_path / "elsewhere"
     where.mkdir()
@@ -132,6 +133,7 @@ def test_the_wheel_builds_the_fmus_and_runs_the_loop_outside_the_repository(inst
     assert len(list((where / "runs").glob("*.png"))) == 7
 
 
+@pytest.mark.slow
 def test_the_example_repository_s_suite_runs_on_the_wheel(installed, fmus, tmp_path):
     """The plugin comes with the wheel (its pytest11 entry point): the example controller repository's suite, its
     controller changed, passes one test and fails its two baseline tests with a report, in JUnit XML."""

@@ -30,12 +30,14 @@ def _check(data) -> dict[str, object]:
     return made
 
 
+@pytest.mark.slow
 def test_every_axis_of_the_loop_s_figures_has_its_unit():
     made = _check(log_reader.read(DATA / "json_log_v0.mcap"))  # a ZSE loop: all seven kinds
     assert set(made) == {"trajectory3d", "tracking_error", "disturbances", "remaining_dof", "actuators",
                          "estimation_error", "zse_frobenius"}
 
 
+@pytest.mark.slow
 def test_the_uav_alone_s_figures_have_units_too(uav_log):
     made = _check(log_reader.read(uav_log))
     assert "estimation_error_rest" in made
@@ -93,6 +95,7 @@ def test_limits_far_from_the_data_are_named_not_drawn():
     assert shown == [30.0] and far == [0.0]
 
 
+@pytest.mark.slow
 def test_the_actuator_figure_is_scaled_to_the_torques_not_their_limits():
     made = dict(figures(log_reader.read(DATA / "json_log_v0.mcap")))
     fig = made["actuators"]

@@ -39,6 +39,7 @@ def ran(fmus, tmp_path_factory) -> dict[str, subprocess.CompletedProcess]:
     return out
 
 
+@pytest.mark.slow
 def test_every_fmpy_command_of_the_readme_works_as_written(ran):
     commands = [c for c in ran if c != "cwd"]
     assert len(commands) >= 4
@@ -74,6 +75,7 @@ def test_what_the_readme_says_fmpy_info_lists_is_what_it_lists(ran, fmus):
         " ".join(README.split())
 
 
+@pytest.mark.slow
 def test_the_readme_counts_the_figures_a_run_writes(tmp_path):
     from tiltload.master.app.plot import plot_run
 
@@ -109,6 +111,7 @@ def test_the_readme_says_how_to_get_the_system_library_a_skipped_test_needs():
         assert soname in README and f"apt-get install {package}" in README
 
 
+@pytest.mark.slow
 def test_a_test_needing_a_missing_system_library_skips_with_one_line_naming_it(tmp_path):
     test = tmp_path / "test_needs.py"
     test.write_text("from support.system_libraries import needs_library\n\n"

@@ -12,6 +12,7 @@ from tiltload.master.app.regression.thesis_values import METRICS
 
 
 @pytest.mark.parametrize("case", [("fsi", 1, "mixed"), ("lkf", 2, "dlqr")])
+@pytest.mark.slow
 def test_committed_baselines_hold(fmus, tmp_path, case, capsys):
     """Two of the twelve cases, full length, against baselines/ with their own tolerance."""
     r = run_case(str(fmus), str(tmp_path), *case, None)

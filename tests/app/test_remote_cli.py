@@ -49,6 +49,7 @@ def run(fmus, out, *extra):
     return exit_code(["run", "--scenario", "fsi", "--fmus", str(fmus), "--out", str(out), "--quiet", "--no-plots", *extra])
 
 
+@pytest.mark.slow
 def test_killing_the_server_mid_run_is_one_line_the_log_is_kept_and_a_restarted_server_serves(fmus, token, tmp_path, capsys):
     srv = ServerProcess(fmus, token)
     port = srv.address.rsplit(":", 1)[1]
@@ -143,6 +144,7 @@ def test_a_port_in_use_is_one_line(fmus, token, capsys):
         srv.stop()
 
 
+@pytest.mark.slow
 def test_remote_in_a_json_description_and_an_ssp_package(fmus, token, tmp_path, capsys):
     srv = ServerProcess(fmus, token)
     try:
@@ -176,6 +178,7 @@ def test_remote_in_a_json_description_and_an_ssp_package(fmus, token, tmp_path, 
     assert "controller: remote 'somewhere' is not HOST:PORT" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_snapshot_of_a_remote_controller_continues_on_the_server_and_nowhere_else(fmus, token, tmp_path, capsys):
     """The controller's state travels over the link both ways (get_state, set_state): the continued run's log is the
     tail of the uninterrupted in-process run's, to the bit. Where each instance runs may not change across it."""

@@ -39,6 +39,7 @@ def wait_until(clock: Path, proc, t: float) -> float:
 
 @pytest.mark.parametrize("signum, code, name", [(signal.SIGINT, 130, "SIGINT"), (signal.SIGTERM, 143, "SIGTERM")])
 @pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.slow
 def test_sigint_and_sigterm_finalize_the_log(fmus, tmp_path, signum, code, name, seed):
     proc, log, clock = start(fmus, tmp_path)
     wait_until(clock, proc, random.Random(seed).uniform(0.5, 6.0))
@@ -54,6 +55,7 @@ def test_sigint_and_sigterm_finalize_the_log(fmus, tmp_path, signum, code, name,
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.slow
 def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, capsys, seed):
     earlier = tmp_path / "run.mcap"
     earlier.write_bytes(b"an earlier log")  # a kill must not destroy a previous run's log of the same name

@@ -205,6 +205,7 @@ def test_a_continued_run_must_stop_after_the_snapshot(taken, fmus, capfd, stop):
                                  "time (0.504 s)")
 
 
+@pytest.mark.slow
 def test_a_zip_bomb_in_a_snapshot_is_refused_unread(taken, fmus, tmp_path, capfd):
     """300 MB of zeros (300 kB on disk) as the plant's state: refused by its declared size, never decompressed."""
     bomb = tmp_path / "bomb.snapshot"

@@ -47,6 +47,7 @@ def one_line(stderr: str) -> str:
 
 @pytest.mark.parametrize("kind", ["fifo", "zero", "folder", "large"])
 @pytest.mark.parametrize("command", ["serve", "run"])
+@pytest.mark.slow
 def test_a_token_file_that_is_not_a_small_regular_file_is_refused_before_it_is_read(fmus, tmp_path, kind, command):
     if kind == "fifo":
         path = tmp_path / "fifo"
@@ -120,6 +121,7 @@ def test_no_parser_of_the_project_takes_abbreviations():
      "tiltload design: error: argument --Tc: must be a positive period in s, at most 1, got 1e300 "
      "(see: tiltload design --help)"),
 ])
+@pytest.mark.slow
 def test_every_wait_is_bounded_where_it_is_parsed(argv, line):
     done = tiltload(*argv, timeout=60)  # before: serve listened for ever, run and design went on
     assert (done.returncode, one_line(done.stderr)) == (2, line)
@@ -181,6 +183,7 @@ def test_a_spec_that_is_not_a_file_is_one_line(tmp_path, capsys):
     assert (code, one_line(capsys.readouterr().err)) == (2, f"tiltload: error: {spec}: not a regular file")
 
 
+@pytest.mark.slow
 def test_a_controller_that_is_not_an_fmu_is_its_case_error_and_dask_leaves_nothing_in_tmpdir(fmus, tmp_path, monkeypatch):
     import tempfile
 

@@ -99,6 +99,7 @@ def returns_from_30cm_and_rejects_a_step(d, axis):
     assert np.all(np.abs(log["u"][:, 2:]) <= 2.0) and np.all(log["u"][:, :2] >= 0)
 
 
+@pytest.mark.slow
 def test_dlqr_on_the_nonlinear_plant(dlqr):
     returns_from_30cm_and_rejects_a_step(dlqr, axis=0)
 
@@ -125,6 +126,7 @@ def test_mixed_design_meets_its_guarantees_on_the_returned_gain(mixed):
         assert r["hinf_norm"] == pytest.approx(hinf_norm, rel=1e-9) and r["h2_norm"] == pytest.approx(h2_norm, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_mixed_design_on_the_nonlinear_plant(mixed):
     returns_from_30cm_and_rejects_a_step(mixed, axis=1)
 
@@ -146,6 +148,7 @@ def small_system(Tc=0.05):
     return ErrorDynamics(A, BF[:, :1], BF[:, 1:], Tc, None, None)
 
 
+@pytest.mark.slow
 def test_mixed_synthesis_is_deterministic_and_feasible_at_its_point():
     from tiltload.controller_fmu.design.lmi import synthesize
 
@@ -158,6 +161,7 @@ def test_mixed_synthesis_is_deterministic_and_feasible_at_its_point():
     assert poles.real.min() > 0.3 and np.abs(poles).max() < 0.999 and a.hinf_norm < 30.0
 
 
+@pytest.mark.slow
 def test_infeasible_hinf_bound_is_named():
     """gamma~ below what any gain achieves (the pure H-infinity optimum) must fail as infeasible."""
     from tiltload.controller_fmu.design.lmi import synthesize
@@ -168,6 +172,7 @@ def test_infeasible_hinf_bound_is_named():
         synthesize(sys, Q, R, gamma_sq=(0.5 * best.gamma_bound) ** 2, eps=0.3, varpi=0.999)
 
 
+@pytest.mark.slow
 def test_sdpa_and_clarabel_agree_and_clarabel_takes_over_when_sdpa_fails(monkeypatch):
     """Two independent interior-point solvers on one problem: the same optimum to solver tolerance,
     and a failing SDPA (here: its child process exits) falls back to Clarabel, never to an unchecked point."""
@@ -186,6 +191,7 @@ def test_sdpa_and_clarabel_agree_and_clarabel_takes_over_when_sdpa_fails(monkeyp
     assert all(v > 0 for v in b.lmi_min_eig.values())
 
 
+@pytest.mark.slow
 def test_sdpa_reports_every_iteration_in_order():
     import cvxpy as cp
     from tiltload.controller_fmu.design import sdp_solver

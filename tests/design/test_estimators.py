@@ -109,6 +109,7 @@ def make_zse(impl, c_library, *args, **kw):
 
 @pytest.mark.parametrize("impl, reduction", [("python", "combastel"), ("c", "combastel"), ("c", "girard"), ("c", "pca")])
 @pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.slow
 def test_zse_contains_the_true_state_for_10000_steps(model, seed, impl, reduction, request):
     """Linear model, noise inside W_bar and V_bar (vertices included), multirate measurements, reduction active.
 
@@ -165,6 +166,7 @@ def test_bad_zse_setup_is_named(model, change, needle):
         ZonotopicEstimator(**args)
 
 
+@pytest.mark.slow
 def test_lkf_error_is_consistent_with_its_covariance(model):
     """NEES over 40 Monte Carlo runs inside the two-sided 95 % chi-square band at >= 90 % of the steps."""
     s = lkf_setup()
@@ -239,6 +241,7 @@ def closed_loop_sequence(model, z, steps, seed):
 
 
 @pytest.mark.parametrize("reduction", ["combastel", "girard"])
+@pytest.mark.slow
 def test_c_zse_equals_the_python_reference_for_3000_steps(model, c_library, reduction):
     """Centre and interval hull of the shipped C estimator against controller_fmu.zse, step by step."""
     z = zse_setup(model)
@@ -259,6 +262,7 @@ def test_c_zse_equals_the_python_reference_for_3000_steps(model, c_library, redu
     assert worst <= 1e-9, worst
 
 
+@pytest.mark.slow
 def test_c_zse_pca_is_as_tight_as_the_python_pca(model, c_library):
     """PCA boxes the discarded generators in the eigenbasis of G'G. Near-equal eigenvalues make that basis
     ill-conditioned: the C (Jacobi) and numpy (LAPACK) bases differ at rounding level, the two estimators drop

@@ -161,6 +161,7 @@ def test_thrust_loss_scales_what_the_plant_applies(fmus, tmp_path):
         assert m["f_R_applied"] == pytest.approx(factor * commanded[t_k], rel=1e-12), t_k
 
 
+@pytest.mark.slow
 def test_a_libcosim_scenario_file_runs_unchanged(fmus, tmp_path, capsys):
     faults = load(ROOT / "docs" / "faults" / "libcosim_scenario.json")
     assert [(f.action, f.targets, f.start, f.end, f.value) for f in faults] == [

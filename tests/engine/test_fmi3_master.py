@@ -95,6 +95,7 @@ def test_fmi2_and_fmi3_fmus_with_and_without_clocks_mix_in_one_system(fmus, fmi3
 
 @pytest.mark.parametrize("fault, stop", [("gps_dropout", 17.0), ("camera_stale", 7.0), ("thrust_loss", 21.0),
                                          ("servo_stuck", 11.0)])
+@pytest.mark.slow
 def test_faults_act_on_the_clocked_loop_as_on_the_fmi2_loop(fmus, fmi3_set, fault, stop):
     """Manipulators on clocked outputs (held samples, flags), on connections into the plant and on unconnected inputs."""
     from support import ROOT
@@ -231,6 +232,7 @@ def test_a_json_system_names_an_instance_fmi_version(fmi3_set, tmp_path):
 
 
 # ---- a snapshot ------------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_state_saved_at_20_s_continues_bit_for_bit_in_new_instances(fmi3_set, tmp_path):
     """A snapshot at 20 s (every FMU's fmi3SerializeFMUState, the slaves' held clocked outputs, the master's state),
     written to a file, read back and restored into a new set of instances, continues the clocked loop through the C
@@ -278,6 +280,7 @@ def test_a_damaged_fmi3_state_is_refused_in_one_line(fmi3_set):
 
 
 # ---- other importers ---------------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_fmpy_steps_the_plain_fmi3_loop_as_our_master_does(fmi3_set):
     """FMPy's FMU3Slave wrapper, driven by a few lines here in the loop's order (set the inputs from the latest outputs,
     doStep, get), gives our master's plant trajectory bit for bit."""
@@ -338,6 +341,7 @@ def test_a_c_host_written_from_the_standard_runs_the_clocked_loop_as_our_master_
     assert abs(ours[-1, 0] - 2 * np.cos(np.pi * 5.0 / 20)) < 0.5  # on its way round the circle
 
 
+@pytest.mark.slow
 def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitizers(fmi3_set, tmp_path):
     """The clocked FMUs rebuilt from their sources/ (the files buildDescription.xml lists) with ASan and UBSan, the C
     host too: 2 s of the clocked loop with no finding (the plain FMUs' layer path is the FMI 2.0 tests' ASan run's)."""

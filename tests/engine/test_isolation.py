@@ -83,6 +83,7 @@ def test_a_foreign_fmu_without_its_resources_is_one_line(misbehaving, fmus, tmp_
     assert not workers()
 
 
+@pytest.mark.slow
 def test_a_killed_master_leaves_no_worker_behind(misbehaving, fmus, tmp_path):
     """SIGKILL gives the master no chance to clean up: the worker must die with it (even while hung)."""
     import sys
@@ -130,6 +131,7 @@ def _guid_mismatch(fmu: Path, dest: Path) -> Path:
 
 
 @pytest.mark.parametrize("how", ["segfault", "guid mismatch", "guid mismatch, trusted", "SIGKILL"])
+@pytest.mark.slow
 def test_a_failed_run_leaves_no_temporary_folder(how, misbehaving, fmus, tmp_path):
     """Every unpacked FMU copy goes, also when its process cannot clean up: a worker that segfaults, a master killed."""
     import sys

@@ -109,6 +109,7 @@ def _flip_inside_a_chunk(log: Path, dest: Path, offset: int, count: int = 64) ->
 @pytest.mark.parametrize("offset, what", [(CHUNK_DATA + 100, r"chunk \d+, from t = \d\.\d+ s, (fails its CRC check|does not "
                                                                         r"decompress)"),
                                            (CHUNK_DATA - 8, r"unreadable record after chunk \d+")])
+@pytest.mark.slow
 def test_a_damaged_log_is_reported_by_every_reader(two_second_log, tmp_path, capsys, offset, what):
     """64 flipped bytes mid-file (in a chunk's data, or in its framing), footer intact: read, plot and compare each
     say it is damaged and up to when it holds."""

@@ -70,6 +70,7 @@ def served_fine(server, fmus, token) -> None:
     server.wait_for("session ended (controller: exit 0)")
 
 
+@pytest.mark.slow
 def test_a_remote_controller_gives_the_in_process_results_bit_for_bit(fmus, token, server):
     _, local = run_loop(loop(fmus), 1.2, restart=0.6)
     hosted, remote = run_loop(loop(fmus, server.address, token), 1.2, restart=0.6)
@@ -327,6 +328,7 @@ def misbehaving_served(tmp_path_factory, token):
     srv.stop()
 
 
+@pytest.mark.slow
 def test_a_remote_fmu_that_hangs_trips_the_watchdog_and_the_server_kills_it(fmus, token, misbehaving_served):
     bad, srv = misbehaving_served
     system = default_system(fmus, "fsi", 1, controller_fmu=bad["hang"])

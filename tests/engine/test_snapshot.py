@@ -49,6 +49,7 @@ def loop(fmus, case: str, tmp_path: Path):
 
 
 @pytest.mark.parametrize("case", ["faults", "delay", "isolated"])
+@pytest.mark.slow
 def test_a_continued_run_equals_the_uninterrupted_one_bit_for_bit(fmus, tmp_path, case):
     kw = dict(progress=False, channels=scene_channels("plant"), isolate=is_foreign)
     full = run_system(loop(fmus, case, tmp_path), STOP, tmp_path / "full.mcap", loop_metrics(), **kw)

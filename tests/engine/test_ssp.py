@@ -131,6 +131,7 @@ def test_the_package_validates_against_the_ssp_schema(packages):
 
 @ECOS
 @pytest.mark.parametrize("scenario", ["fsi", "zse"])
+@pytest.mark.slow
 def test_three_masters_run_one_package_and_agree(packages, scenario, tmp_path):
     """d = 2 (the Jacobi export): ours, libcosim and Ecos all stable, final load positions within 1 cm."""
     package = packages[scenario, "jacobi"]
@@ -147,6 +148,7 @@ def test_three_masters_run_one_package_and_agree(packages, scenario, tmp_path):
 
 
 @ECOS
+@pytest.mark.slow
 def test_the_uav_alone_runs_in_the_three_masters_too(pipeline_fmus, tmp_path):
     """Appendix A's loop (DLQR + ZSE, 80 s circle) exported for a Jacobi master: the three agree."""
     from tiltload.master.app.fmus import build_all

@@ -15,6 +15,7 @@ from tiltload.master.engine.stl.windows import sliding_min, sliding_min_deque
 
 
 @pytest.mark.parametrize("seed", range(40))
+@pytest.mark.slow
 def test_random_formulas_equal_the_definition(seed):
     rng = random.Random(seed)
     period = rng.choice([1.0, 0.012, 0.25])

@@ -144,6 +144,7 @@ def test_all_four_fmus_run_in_a_c_master_without_python(pipeline_fmus, tmp_path)
     assert abs(final[0] - 2 * np.cos(np.pi * 5.0 / 20)) < 0.5  # on its way round the circle
 
 
+@pytest.mark.slow
 def test_all_four_fmus_run_in_libcosim_without_numpy(pipeline_fmus, libcosim_python):  # noqa: F811
     """libcosim steps all four for 1 s: finite, near the start, the ZSE running.
 

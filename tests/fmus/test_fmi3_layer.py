@@ -107,6 +107,7 @@ def test_our_c_compiles_without_a_warning(unpacked3, name):
         assert proc.returncode == 0, proc.stderr
 
 
+@pytest.mark.slow
 def test_fmpy_rebuilds_the_scenario_from_its_build_description(fmi3_fmus, tmp_path):
     """sources/buildDescription.xml is enough for FMPy's own build (fmpy.build, CMake): the rebuilt FMU gives the same."""
     from fmpy.build import build_platform_binary

@@ -100,6 +100,7 @@ def test_a_c_host_without_python_hovers_ten_seconds(unpacked, tmp_path):
     assert drift <= 1e-9
 
 
+@pytest.mark.slow
 def test_fmu_rebuilt_from_its_sources_is_clean_under_address_sanitizer(unpacked, tmp_path):
     """sources/ holds everything needed to rebuild: compile the files the model description lists."""
     folder = unpacked["TiltloadPlant"]

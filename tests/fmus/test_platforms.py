@@ -142,6 +142,7 @@ def test_the_dll_is_reproducible_from_its_sources(unpacked, tmp_path):
 # ---- the same results on every platform ---------------------------------------------------------------
 @pytest.mark.parametrize("folder", ["win64", "aarch64-linux"])
 @pytest.mark.parametrize("name", FMUS)
+@pytest.mark.slow
 def test_two_seconds_alone_equal_linux64(unpacked, hosts, tmp_path, name, folder):
     """The default experiment's step for 2 s, every Real output at every step: within 1e-12 of linux64's binary.
     (aarch64 is bit-identical: contraction is off in the sources; win64 differs in libm's last bits.)"""
@@ -153,6 +154,7 @@ def test_two_seconds_alone_equal_linux64(unpacked, hosts, tmp_path, name, folder
     assert there.max_difference(linux) <= SAME
 
 
+@pytest.mark.slow
 def test_the_closed_loop_on_win64_gives_linux_ise(unpacked, hosts, tmp_path, all_fmus):
     """Plant, sensors, scenario, controller (ZSE, trajectory 1) stepped by the C host on win64 under wine for 40 s:
     ISE(x..psi) as tiltload's own master on Linux gets them, to the digits `tiltload run` prints."""
@@ -214,6 +216,7 @@ def plain(unpacked, tmp_path_factory):
 
 @pytest.mark.parametrize("compiler", sorted(PLAIN))
 @pytest.mark.parametrize("name", FMUS)
+@pytest.mark.slow
 def test_sources_build_warning_free_with_plain_flags_and_give_the_shipped_results(unpacked, hosts, plain, tmp_path, name,
                                                                                   compiler):
     """sources/ of each FMU with gcc or clang at -std=c99 -pedantic -Wall -Wextra and no other flag: zero warnings,
@@ -244,6 +247,7 @@ def test_source_built_fmus_share_one_process_in_the_global_symbol_scope(unpacked
     assert shared.values == shipped.values and shared.ise == shipped.ise
 
 
+@pytest.mark.slow
 def test_fmpy_compile_on_an_aarch64_board_gives_the_shipped_aarch64_binary(unpacked, hosts, tmp_path):
     """What docs/platforms.md tells an FMPy user on aarch64 Linux (FMPy looks in binaries/linux64 there): `fmpy
     compile`, i.e. FMPy's own CMake build of sources/ with its default flags. Done here with the aarch64 cross compiler,
@@ -309,6 +313,7 @@ def test_fmi3_fmus_ship_every_platforms_binary_under_its_tuple_exporting_fmi3_on
         assert sorted(exported) == sorted(linux), t.name
 
 
+@pytest.mark.slow
 def test_fmi3_clocked_sensors_and_scenario_on_aarch64_and_win64_equal_x86_64(fmi3_fmus, tmp_path):
     """The FMI 3.0 C host (hosts/fmi3_loop_host.c, written from the standard's call sequences) built for each platform
     runs the scenario and the clocked sensors (Event Mode at each group's clock ticks) for 1.2 s: the aarch64 binaries

@@ -260,6 +260,7 @@ def wind_host(native, tmp_path_factory):
 TURBULENCE = ("turbulence_u", "turbulence_v", "turbulence_w")
 
 
+@pytest.mark.slow
 def test_dryden_turbulence_has_the_models_variance_and_correlation(wind_host):
     """Moderate turbulence at 10 m (W20 = 30 kn, V = W20), 60000 s at the 12 ms tick through the C host. The estimators'
     standard errors over this record (Bartlett): variance 1.2 % (u), 1.0 % (v), 0.4 % (w); the 1/e correlation time

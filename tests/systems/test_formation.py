@@ -109,6 +109,7 @@ def _kinematic_loop(law: int, disturbance: np.ndarray, stop: float = 60.0, h: fl
     return rho, np.linalg.norm(e_A)
 
 
+@pytest.mark.slow
 def test_both_laws_converge_and_only_backstepping_rejects_a_constant_disturbance():
     d = np.tile([0.3, -0.2, 0.1, 0.0], 3)
     assert _kinematic_loop(0, np.zeros(12))[1] < 1e-3 and _kinematic_loop(1, np.zeros(12))[1] < 1e-3
@@ -223,12 +224,14 @@ def _run(fmus, controller, disturbances, stop):
         ex.close()
 
 
+@pytest.mark.slow
 def test_seven_fmus_in_one_deterministic_run(formation_fmus):
     first, again = _run(formation_fmus, "backstepping", True, 15.0), _run(formation_fmus, "backstepping", True, 15.0)
     assert np.array_equal(first, again)
     assert first[0] > 0.5 and first[int(9.9 / 0.004)] < 0.1  # converged before the disturbances at 10 s
 
 
+@pytest.mark.slow
 def test_with_disturbances_backstepping_rejects_and_tsid_does_not(formation_fmus):
     """Sec. B.4's finding, through the seven FMUs (inner loops, plants with external forces): 60 s."""
     back, tsid = _run(formation_fmus, "backstepping", True, 60.0), _run(formation_fmus, "tsid", True, 60.0)

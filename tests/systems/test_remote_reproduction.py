@@ -34,6 +34,7 @@ def metrics(fmus, scenario, trajectory, controller, remote=None, token=None, **f
     return result.metrics
 
 
+@pytest.mark.slow
 def test_the_twelve_cases_with_a_remote_controller_give_the_in_process_metrics_bit_for_bit(fmus, served):
     srv, token = served
     results = []
@@ -60,6 +61,7 @@ def served_fmi3(fmus, tmp_path_factory):
     srv.stop()
 
 
+@pytest.mark.slow
 def test_the_twelve_cases_with_a_remote_clocked_fmi3_controller_give_the_in_process_metrics_bit_for_bit(served_fmi3):
     """The clocked controller's Event Mode, clock activation and discrete-state update run in the server's worker, one
     round trip per step: the same metrics as in process, and as the committed (FMI 2.0) baselines."""

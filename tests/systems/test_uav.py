@@ -112,6 +112,7 @@ def _containment(log) -> tuple[int, int]:
     return ticks, outside
 
 
+@pytest.mark.slow
 def test_the_loop_tracks_appendix_a_with_the_zse_which_contains_the_truth(uav_fmus, tmp_path, capsys):
     """80 s of the circle of Sec. A.4 with gusts and sensor noise: near-zero steady error, the truth inside the
     zonotope's interval hull at every tick of the nonlinear loop."""
