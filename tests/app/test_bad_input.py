@@ -537,9 +537,9 @@ def _fmi3_cases(folder: Path, fmi3: dict[str, Path]) -> list[tuple[str, list[str
         cases.append((f"fmi={value!r}", ["run", "--fmi", value]))
     cases.append(("clocks without fmi 3", ["run", "--clocks"]))
     cases.append(("clocks with fmi 2", ["run", "--fmi", "2", "--clocks"]))
-    for clocks in ([], ["--clocks"]):
-        cases.append((f"fmi 3{' clocks' * bool(clocks)} remote", ["run", "--fmi", "3", *clocks, "--remote",
-                                                                    "controller=127.0.0.1:9", "--token-file", str(token)]))
+    for clocks in ([], ["--clocks"]):  # FMI 3.0 FMUs are hosted remotely now: a bad address is still the user's to fix
+        cases.append((f"fmi 3{' clocks' * bool(clocks)} remote, no port", ["run", "--fmi", "3", *clocks, "--remote",
+                                                                             "controller=127.0.0.1", "--token-file", str(token)]))
     controller = fmi3["TiltloadController"]
 
     def edited(label, edit):
