@@ -26,26 +26,24 @@ def time_span(high: float, what: str = "time"):
     return parse
 
 
-def positive_number(text: str) -> float:
-    """An argparse type: a positive finite number."""
+def _positive_finite(text: str, what: str) -> float:
     try:
         value = float(text)
     except ValueError:
         value = math.nan
     if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
+        raise argparse.ArgumentTypeError(f"must be a positive finite {what}, got {text}")
     return value
+
+
+def positive_number(text: str) -> float:
+    """An argparse type: a positive finite number."""
+    return _positive_finite(text, "number")
 
 
 def positive_time(text: str) -> float:
     """An argparse type: a positive finite time in s (a span a run covers, not a wait: see time_span)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive finite time in s, got {text}")
-    return value
+    return _positive_finite(text, "time in s")
 
 
 def integer(low: int, high: int | None = None):

@@ -209,14 +209,20 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot
             return _run_branch(base, case, fmu_dir, log_dir, snapshot)
         return _run_case(base, case, fmu_dir, log_dir)
     except Exception as err:  # not the run's outcome: retried, never stored
-        address = worker_address()
-        where = f"worker {address} on {socket.gethostname()}" if address else f"{socket.gethostname()}"
-        if isinstance(err, MissingFmu):
-            line = f"{err} (the workers must see the FMU folder at the same path)"
-        else:
-            text = str(err).strip().splitlines()
-            line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
-        return {"environment": f"{where}: {line}", "worker": address}
+        return environment_failure(err)
+
+
+def environment_failure(err: Exception) -> dict:
+    """What a worker returns when its environment, not the run, failed: one line naming the worker, and its address
+    (the dispatcher retries the run elsewhere and stores nothing)."""
+    address = worker_address()
+    where = f"worker {address} on {socket.gethostname()}" if address else socket.gethostname()
+    if isinstance(err, MissingFmu):
+        line = f"{err} (the workers must see the FMU folder at the same path)"
+    else:
+        text = str(err).strip().splitlines()
+        line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
+    return {"environment": f"{where}: {line}", "worker": address}
 
 
 _SNAPSHOTS: dict[str, object] = {}  # per worker process: the snapshot of each digest, read once

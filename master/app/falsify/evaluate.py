@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ...engine.execution import Execution
 from ...engine.stl import Evaluator, parse, verdict
-from ..campaign.run_case import RUN_FAILURES, MissingFmu, case_system, check_fmus, infeasible, worker_address
+from ..campaign.run_case import RUN_FAILURES, case_system, check_fmus, environment_failure, infeasible, worker_address
 from ..fmus import is_foreign
 from .signals import SignalRecorder
 
@@ -97,11 +97,4 @@ def evaluate(base: dict, case: dict, fmu_dir: str) -> dict:
         row["wall_s"] = wall
         return {"row": row, "wall": wall, "setup": 0.0, "sim_time": sim_time}
     except Exception as err:  # the environment's failure: retried elsewhere by the dispatcher, never stored
-        address = worker_address()
-        where = f"worker {address} on {socket.gethostname()}" if address else socket.gethostname()
-        if isinstance(err, MissingFmu):
-            line = f"{err} (the workers must see the FMU folder at the same path)"
-        else:
-            text = str(err).strip().splitlines()
-            line = f"{type(err).__name__}: {text[0]}" if text else type(err).__name__
-        return {"environment": f"{where}: {line}", "worker": address}
+        return environment_failure(err)
