@@ -164,23 +164,13 @@ def parse_entries(data, where: str) -> list[Requirement]:
 
 
 def load(path: Path) -> list[Requirement]:
-    """A requirement file (YAML, or JSON: YAML reads it), its size checked before it is parsed."""
-    path = Path(path)
-    if not path.is_file():
-        raise RequirementError(f"requirement file {path} does not exist")
-    size = path.stat().st_size
-    if size > MAX_BYTES:
-        raise RequirementError(f"{path}: {size} bytes: a requirement file is at most {MAX_BYTES} bytes")
-    import yaml
+    """A requirement file (YAML, or JSON: YAML reads it), read as every user file is (engine/user_files.py)."""
+    from master.engine.user_files import UserFileError, read_yaml
 
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise RequirementError(f"{path}: not UTF-8 text") from None
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        raise RequirementError(f"{path}: not valid YAML{at}: {getattr(err, 'problem', None) or err}") from None
+        data = read_yaml(Path(path), MAX_BYTES)
+    except UserFileError as err:
+        raise RequirementError(str(err)) from None
     return parse_entries(data, f"{path}: ")
 
 

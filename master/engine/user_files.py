@@ -114,8 +114,10 @@ def read_yaml(path: Path, max_bytes: int = MAX_BYTES):
     except RecursionError:
         raise UserFileError(f"{path}: nested deeper than {MAX_DEPTH} levels") from None
     except (yaml.YAMLError, ValueError, OverflowError) as err:  # ValueError, OverflowError: an integer or date out of range
-        first = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise UserFileError(f"{path}: not valid YAML: {first[:200]}") from None
+        mark = getattr(err, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = getattr(err, "problem", None) or (str(err).splitlines() or [type(err).__name__])[0]
+        raise UserFileError(f"{path}: not valid YAML{at}: {problem[:200]}") from None
     finally:
         loader.dispose()
     check_values(data, str(path))

@@ -123,6 +123,7 @@ def test_cli_table_json_and_exit_codes(log, tmp_path, capsys):
     ('requirements:\n  - {name: a, formula: "plant.x > 0"}\n  - {name: a, formula: "plant.x > 1"}\n', [], "named twice"),
     ('requirements:\n  - {name: a, formla: "plant.x > 0"}\n', [], "unknown key 'formla'"),
     ('requirements: [\n', [], "not valid YAML at line"),
+    ('r: &one {name: a, formula: "plant.x > 0"}\nrequirements: [*one]\n', [], "aliases are not accepted"),
     ('- just a list\n', [], "one key, requirements"),
 ])
 def test_bad_input_is_one_line_and_exit_2(log, tmp_path, capsys, yaml_text, argv_extra, needle):
@@ -140,7 +141,8 @@ def test_bad_files_and_options(log, tmp_path, capsys):
     cases = [(["check", str(big), str(log)], "bytes"),
              (["check", str(log), "--formula", "no colon here"], "NAME: STL"),
              (["check", str(log)], "no requirements"),
-             (["check", str(tmp_path / "none.yaml"), str(log)], "does not exist"),
+             (["check", str(tmp_path / "none.yaml"), str(log)], "no such file"),
+             (["check", str(tmp_path), str(log)], "not a regular file"),
              (["check", "--formula", "a: plant.x > 0", str(tmp_path / "none.mcap")], "does not exist"),
              (["check", "--formula", "a: plant.x > 0", str(fake)], "not an MCAP log")]
     for argv, needle in cases:

@@ -75,7 +75,7 @@ def test_the_largest_accepted_values_pass(tmp_path):
     (f"a: {'9' * 400}\n", "a: an integer of more than 18 digits"),
     ("? [1, 2]\n: 3\n", "not valid YAML"),
     ("1: x\n", "the key '1' is not text"),
-    ("a: [\n", "not valid YAML: while parsing a flow node"),
+    ("a: [\n", "not valid YAML at line 2, column 1: expected the node content"),
 ])
 def test_yaml_refuses_aliases_and_what_json_refuses(tmp_path, text, needle):
     path = tmp_path / "f.yaml"
