@@ -11,18 +11,23 @@ Per scenario (FSI, LKF, ZSE; trajectory 1, mixed H2/Hinf design, OpenBLAS single
 4. the fmu-manipulation-toolbox's container of the same four FMUs (fmu_container.py: built from the ordered package,
    sequential, run by FMPy) against ours on that package, no observer: target container / ours >= 1; and whether the
    plants end bit for bit equal.
+5. with --before COMMIT (issue 41): the no-log loop with that commit's plant and controller FMUs (built from its code by
+   fmu_arithmetic.build_tree) and with this tree's, the sensors and scenario this tree's in both, in turn: x RT and the
+   FMUs' C cost per tick side by side, and whether the runs end bit for bit equal.
 Every master runs the same whole number of ticks (stop / tick, rounded); instantiation and initialization are not
 timed, finishing the log is; each figure is the best of --repeat runs (the machine is shared: the least disturbed
 run), taken in turn. Our full-log and no-log runs time every FMU call (the C cost: two clock reads per step, in the
 figures); our runs against libcosim and the container do not, as neither of those does (and a user's run does not).
 
-Run: pip install -e ".[bench]" && python benchmarks/cosim.py [--stop 20] [--repeat 3] [--quick]
+Run: pip install -e ".[bench]" && python benchmarks/cosim.py [--stop 20] [--repeat 3] [--quick] [--before b93cc50]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -150,6 +155,41 @@ def report(scenario: str, r: dict, stop: float) -> list[str]:
     return lines
 
 
+def before_folder(commit: str, fmus: Path, tmp: Path) -> Path:
+    """This tree's FMUs with the plant and controller of commit (built from its code) in their place."""
+    from fmu_arithmetic import FMUS, REPO, build_tree
+
+    tree = tmp / "tree-before"
+    tree.mkdir()
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", commit], check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
+    built = tmp / "built-before"
+    build_tree(tree, built, tmp / "cache-before")
+    folder = tmp / "fmus-before"
+    shutil.copytree(fmus, folder)
+    for name in FMUS.values():
+        shutil.copy2(built / name, folder / name)
+    return folder
+
+
+def before_after(commit: str, folders: dict[str, Path], scenario: str, stop: float, repeat: int) -> list[str]:
+    """The no-log loop on the commit's plant and controller and on this tree's, in turn; best of repeat each."""
+    runs: dict[str, list[Timed]] = {k: [] for k in folders}
+    for _ in range(repeat):
+        for k, folder in folders.items():
+            runs[k].append(timed(default_system(folder, scenario, 1, "mixed"), stop, [loop_metrics()]))
+    b, a = best(runs["before"]), best(runs["after"])
+    pa, pb = a.outputs["plant"], b.outputs["plant"]
+    same = ("bit for bit equal" if np.array_equal(pa, pb) else "not comparable (other outputs)" if pa.shape != pb.shape
+            else f"differ by up to {np.abs(pa - pb).max():.2e}")
+    return [f"{scenario.upper()} before {commit} / after (this tree), no log, {b.ticks} ticks:",
+            f"  x RT        {stop / b.wall:8.0f}  {stop / a.wall:8.0f}   after/before time {a.wall / b.wall:.2f}",
+            f"  C cost/tick {b.us_per_tick(b.fmi_total):6.1f} us {a.us_per_tick(a.fmi_total):6.1f} us   "
+            f"{a.fmi_total / b.fmi_total:.2f}  (" + ", ".join(f"{n} {b.us_per_tick(b.fmi[n]):.1f} -> {a.us_per_tick(s):.1f}"
+                                                          for n, s in a.fmi.items()) + ")",
+            f"  the plants' outputs at the end: {same}"]
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--stop", type=float, default=20.0, help="s of trajectory 1 per run (default 20)")
@@ -157,6 +197,8 @@ def main() -> None:
     p.add_argument("--quick", action="store_true", help="5 s runs, once each: shows the script works, figures are rough")
     p.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
     p.add_argument("--ours-only", action="store_true", help="no libcosim and no container")
+    p.add_argument("--before", metavar="COMMIT", help="only the before/after comparison with this commit's plant and "
+                   "controller FMUs (issue 41; e.g. b93cc50)")
     args = p.parse_args()
     if args.stop <= 0 or args.repeat < 1:
         p.error("--stop must be > 0 and --repeat >= 1")
@@ -166,6 +208,12 @@ def main() -> None:
     build_all(fmus, progress=lambda _: None)
     print(f"{machine()}\n{stop:g} s of trajectory 1 per run, mixed H2/Hinf design, best of {repeat}\n")
     with tempfile.TemporaryDirectory() as tmp:
+        if args.before:
+            folders = {"before": before_folder(args.before, fmus, Path(tmp)), "after": fmus}
+            for scenario in args.scenarios:
+                print("\n".join(before_after(args.before, folders, scenario, stop, repeat)), flush=True)
+            print(f"\nload average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
+            return
         for scenario in args.scenarios:
             folder = Path(tmp) / scenario
             folder.mkdir()
