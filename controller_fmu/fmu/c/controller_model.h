@@ -18,6 +18,12 @@ typedef struct {
   double estimate[TL_NX], disturbance[3];
   TlLkf lkf;
   TlZse zse;
+#if defined(TL_SCHEDULED) && TL_SCHEDULED
+  /* Scheduled Execution: what the correction partitions latched for the next law (shared: under the importer's lock) */
+  double latched_meas[TL_NY_ZSE];      /* the ZSE's measurements, pi order */
+  int latched_new[TL_N_ZSE_GROUPS];     /* each ZSE group's flag as its correction took it */
+  double latched_q[TL_NY_LKF];          /* the LKF's q */
+#endif
 } TlModelState;
 
 #endif
