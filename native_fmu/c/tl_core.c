@@ -210,7 +210,7 @@ static long long grid_index(const TlInstance* c, int k, double t) {
 
 int tl_partition_done(const TlInstance* c, int k, double t) {
   const long long n = grid_index(c, k, t);
-  return n < 0 || c->s.activation[k] == n;
+  return n < 0 || c->s.activation[k] >= n; /* a later activation (preempting this instant's partition) counts too */
 }
 
 TlStatus tl_activate(TlInstance* c, const char* call, int k, double t) {

@@ -109,8 +109,8 @@ TL_INTERNAL TlStatus tl_model_event(TlInstance* c, double t);
 TL_INTERNAL TlStatus tl_model_partition(TlInstance* c, int k, double t);
 TL_INTERNAL void tl_lock_preemption(const TlInstance* c);
 TL_INTERNAL void tl_unlock_preemption(const TlInstance* c);
-/* 1 if clock k has no activation due at t, or its partition ran at t; else 0 (a partition that must precede another
-   at the same instant has not run: the importer broke the declared priorities). */
+/* 1 if clock k has no activation due at t, or its partition ran at t (or later); else 0 (a partition that must
+   precede another at the same instant has not run: the importer broke the declared priorities). */
 TL_INTERNAL int tl_partition_done(const TlInstance* c, int k, double t);
 #endif
 

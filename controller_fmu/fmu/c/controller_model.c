@@ -249,17 +249,24 @@ static TlStatus control_tick(TlInstance* c, double t, const Samples* in) {
    takes everything latched and runs the tick: the strips of all groups of an instant meet in one update, as in the
    co-simulation variants, so the result is theirs bit for bit. The law ranks below the corrections (the importer
    activates one instant's partitions by priority); one it finds missing at its instant is the importer's error. A
-   correction of the next instant may preempt the law: the latch is swapped under the importer's lock. */
+   correction of the next instant may preempt the law anywhere: it latches into the next instant's slot, and the
+   slots are touched under the importer's lock. */
 TlStatus tl_model_step(TlInstance* c, double t, double h) {
   (void)t; (void)h;
   tl_log(c, TL_ERROR, "%s is a Scheduled Execution FMU: no communication steps", TL_MODEL_IDENTIFIER);
   return TL_ERROR;
 }
 
+/* The slot of the law instant a partition activated at t belongs to: the first law activation at or after t. */
+static int slot_of(const TlInstance* c, double t) {
+  return (int)((long long)ceil((t - c->s.start_time) / TL_TC - 1e-6) & 1);
+}
+
 static TlStatus law_partition(TlInstance* c, double t) {
   TlModelState* m = &c->s.model;
   double meas[TL_NY_ZSE], q[TL_NY_LKF];
   int fresh[TL_N_ZSE_GROUPS], k;
+  const int slot = slot_of(c, t);
   Samples in;
   for (k = 0; k < TL_N_CLOCK; ++k)
     if (k != TL_CLOCK_control_clock && !tl_partition_done(c, k, t)) {
@@ -268,10 +275,10 @@ static TlStatus law_partition(TlInstance* c, double t) {
       return TL_ERROR;
     }
   tl_lock_preemption(c);
-  memcpy(meas, m->latched_meas, sizeof meas);
-  memcpy(fresh, m->latched_new, sizeof fresh);
-  memcpy(q, m->latched_q, sizeof q);
-  memset(m->latched_new, 0, sizeof m->latched_new); /* a group not activated before the next law brings nothing new */
+  memcpy(meas, m->latched_meas[slot], sizeof meas);
+  memcpy(fresh, m->latched_new[slot], sizeof fresh);
+  memcpy(q, m->latched_q[slot], sizeof q);
+  memset(m->latched_new[slot], 0, sizeof fresh); /* a group not activated before that slot's next law brings nothing new */
   tl_unlock_preemption(c);
   in.meas = meas;
   in.group_new = fresh;
@@ -282,6 +289,7 @@ static TlStatus law_partition(TlInstance* c, double t) {
 TlStatus tl_model_partition(TlInstance* c, int k, double t) {
   TlModelState* m = &c->s.model;
   const double* r = c->s.real;
+  const int slot = slot_of(c, t);
   int g, j;
   if (k == TL_CLOCK_control_clock) return law_partition(c, t);
   for (g = 0; g < TL_N_ZSE_GROUPS; ++g)
@@ -289,16 +297,16 @@ TlStatus tl_model_partition(TlInstance* c, int k, double t) {
       tl_lock_preemption(c);
       for (j = 0; j < tl_zse_groups[g].n; ++j) {
         const int i = tl_zse_groups[g].index[j];
-        m->latched_meas[i] = r[TL_FIRST_MEAS + i];
+        m->latched_meas[slot][i] = r[TL_FIRST_MEAS + i];
       }
-      m->latched_new[g] = c->s.boolean[tl_zse_groups[g].flag] != 0;
+      m->latched_new[slot][g] = c->s.boolean[tl_zse_groups[g].flag] != 0;
       tl_unlock_preemption(c);
       return TL_OK;
     }
 #if TL_HAS_LKF
   if (k == TL_CLOCK_lkf_clock) {
     tl_lock_preemption(c);
-    memcpy(m->latched_q, r + TL_REAL_lkf_x, sizeof m->latched_q);
+    memcpy(m->latched_q[slot], r + TL_REAL_lkf_x, sizeof m->latched_q[slot]);
     tl_unlock_preemption(c);
   }
 #endif

@@ -19,10 +19,11 @@ typedef struct {
   TlLkf lkf;
   TlZse zse;
 #if defined(TL_SCHEDULED) && TL_SCHEDULED
-  /* Scheduled Execution: what the correction partitions latched for the next law (shared: under the importer's lock) */
-  double latched_meas[TL_NY_ZSE];      /* the ZSE's measurements, pi order */
-  int latched_new[TL_N_ZSE_GROUPS];     /* each ZSE group's flag as its correction took it */
-  double latched_q[TL_NY_LKF];          /* the LKF's q */
+  /* Scheduled Execution: what the correction partitions latched for a law instant, one slot per instant parity (a
+     correction of the next instant that preempts the law writes the other slot); shared, under the importer's lock */
+  double latched_meas[2][TL_NY_ZSE]; /* the ZSE's measurements, pi order */
+  int latched_new[2][TL_N_ZSE_GROUPS]; /* each ZSE group's flag as its correction took it */
+  double latched_q[2][TL_NY_LKF];    /* the LKF's q */
 #endif
 } TlModelState;
 
