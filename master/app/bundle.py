@@ -117,8 +117,6 @@ def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
 def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, str]:
     """One line per member, from the files themselves: an FMU's model description and its build record's platforms;
     refused if an FMU lacks a platform's binary (a bundle is for every platform)."""
-    from ..engine.model_description import read_fmu
-
     out = {}
     for member, path in members.items():
         if member in packages:
@@ -130,15 +128,30 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
         with zipfile.ZipFile(path) as z:
             names = z.namelist()
             info = json.loads(z.read("resources/build_info.json"))
-        md = read_fmu(path, path.stem)
+        md = _description(path)
         binaries = {n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") >= 2 and not n.endswith("/")}
         wanted = set(info.get("platforms", ()))
         if len(binaries) < len(PLATFORMS) or not wanted <= binaries:
             raise UserError(f"bundle: {path} has binaries for {', '.join(sorted(binaries))} only; rebuild it: "
                             f"tiltload build --force --fmi {md.fmiVersion[0]} --platforms {','.join(PLATFORMS)}")
-        clocks = " (with FMI 3.0 clocks)" if path.stem.endswith("Clocked") else ""
+        clocks = (" (with FMI 3.0 clocks)" if path.stem.endswith("Clocked") else
+                  " (FMI 3.0 Scheduled Execution)" if _is_scheduled(md) else "")
         out[member] = short(md.description or md.modelName, 84 - len(clocks)) + clocks
     return out
+
+
+def _is_scheduled(md) -> bool:
+    return getattr(md, "scheduledExecution", None) is not None and getattr(md, "coSimulation", None) is None
+
+
+def _description(path: Path):
+    """The engine's reading of a co-simulation FMU; FMPy's of a Scheduled Execution one (which the engine refuses)."""
+    from fmpy import read_model_description
+
+    from ..engine.model_description import read_fmu
+
+    md = read_model_description(str(path), validate=False)
+    return md if _is_scheduled(md) else read_fmu(path, path.stem)
 
 
 def short(text: str, width: int = 84) -> str:
@@ -159,7 +172,8 @@ def readme(descriptions: dict[str, str]) -> str:
 
     lines = [f"tiltload {tiltload_version()}: the FMUs of a tilt-rotor UAV carrying a suspended load",
              "(Rego, MSc thesis, UFMG 2016), for any FMI 2.0 or 3.0 co-simulation tool.", "",
-             "Every FMU is a co-simulation FMU with binaries for x86_64 Linux, x86_64 Windows and aarch64 Linux",
+             "Every FMU is a co-simulation FMU (the *SE controllers: FMI 3.0 Scheduled Execution) with binaries for",
+             "x86_64 Linux, x86_64 Windows and aarch64 Linux",
              "and its C sources. PORTS.txt says how the FMUs connect and what a controller of your own must declare.", ""]
     folders = {"fmi2": f"FMI 2.0; binaries/{', '.join(t.binary_folder(2) for t in TOOLCHAINS)}",
                "fmi3": f"FMI 3.0; binaries/{', '.join(t.binary_folder(3) for t in TOOLCHAINS)}",
