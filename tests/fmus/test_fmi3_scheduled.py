@@ -161,8 +161,44 @@ def test_the_se_controller_refuses_co_simulation(se_fmu, fmi3_set, tmp_path):
     with pytest.raises(Exception, match="Failed to instantiate"):
         slave.instantiate(logMessage=lambda env, status, cat, msg: log.append(msg.decode()))
     assert any("is a Scheduled Execution FMU only (fmi3InstantiateScheduledExecution)" in m for m in log)
-    with pytest.raises(Exception, match="is a scheduled-execution-only FMU; a co-simulation FMU is needed"):
-        read_fmu(se_fmu, "controller")  # the engine's own reader says so in one line
+
+
+# ---- our master as its scheduler (the Python path: master/engine/fmu3_scheduled.py) ---------------------------------
+def test_our_master_schedules_the_se_controller_as_it_runs_the_clocked_one_bit_for_bit(fmi3_set, se_fmu):
+    """The loop with the SE controller in place of the clocked one: the plant's trajectory the same bits; each
+    partition activated exactly at its clock's ticks (the GPS every 10th, the camera every 2nd, the law every tick)."""
+    clocked = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
+    scheduled = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
+    scheduled.instance("controller").fmu = se_fmu
+    ticks = round(2.0 / T)
+    rec = Record()
+    ex = Execution(scheduled, [rec])
+    try:
+        ex.instantiate()
+        ex.run(ticks * T)
+        slave = ex.instances["controller"]
+        activations, locks = dict(slave.activations), slave.locks
+    finally:
+        ex.close()
+    md = read_fmu(fmi3_set / "TiltloadPlant.fmu", "plant")
+    outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    ours = np.array(rec.rows["plant"])[:, [outputs.index(n) for n in STATE_NAMES]]
+    assert np.array_equal(ours, _ours(clocked, ticks, fmi3_set))
+    every = {"gps_clock": 10, "cam_xy_clock": 2, "cam_z_clock": 2, "control_clock": 1, "baro_clock": 1}
+    for clock, n in every.items():
+        assert activations[clock] == list(range(0, ticks, n)), clock
+    assert locks > 0
+
+
+def test_a_se_fmu_runs_in_this_process_only(se_fmu):
+    from tiltload.master.engine.errors import ExecutionError
+    from tiltload.master.engine.isolation.hosting import slave_for
+    from tiltload.master.engine.system import Instance
+
+    md = read_fmu(se_fmu, "controller")  # the engine reads it: its clocks with their priorities
+    assert {k.name: k.priority for k in md.clocks}["control_clock"] == max(k.priority for k in md.clocks)
+    with pytest.raises(ExecutionError, match="is a Scheduled Execution FMU, which runs in this process only"):
+        slave_for(Instance("controller", se_fmu), md, isolate=lambda fmu, md: True, tick=T)
 
 
 # ---- the C host -----------------------------------------------------------------------------------------------------
