@@ -75,7 +75,7 @@ class Fmu3ScheduledSlave(Fmu3Slave):
     @property
     def can_serialize(self) -> bool:
         se = self.md.scheduledExecution
-        return bool(se.canGetAndSetFMUState and se.canSerializeFMUState)
+        return bool(se.canGetAndSetFMUstate and se.canSerializeFMUstate)  # FMPy's spelling for every version
 
     def initialize(self, parameters: dict) -> None:
         super().initialize(parameters)

@@ -285,3 +285,36 @@ def test_preemption_at_the_fmu_s_unlock_points_changes_no_output(fmi3_set, se_fm
     assert np.array_equal(looped["controller"], replayed["controller"])
     ours = _ours(system, round(3.0 / T), fmi3_set, "controller", [n for _, n in outputs])
     assert np.array_equal(looped["controller"].reshape(ours.shape), ours)  # and our clocked controller's, too
+
+
+@pytest.mark.slow
+def test_a_snapshot_of_the_se_controller_continues_bit_for_bit_in_new_instances(fmi3_set, se_fmu, tmp_path):
+    """A snapshot at 1 s (the SE FMU's serialized state: its latches and activation record), restored into new
+    instances, continues as the uninterrupted run: every instance's outputs at every step."""
+    from tiltload.master.engine import snapshot
+
+    def system():
+        s = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
+        s.instance("controller").fmu = se_fmu
+        return s
+    at, end = round(1.0 / T), round(1.5 / T)
+    whole = Record()
+    ex = Execution(system(), [whole])
+    try:
+        ex.instantiate()
+        ex.run(at * T)
+        path = snapshot.write(snapshot.take(ex), tmp_path / "at1.snapshot")
+        mark = {name: len(rows) for name, rows in whole.rows.items()}
+        ex.run(end * T)
+    finally:
+        ex.close()
+    again = Record()
+    ex = Execution(system(), [again])
+    try:
+        ex.instantiate(resume=snapshot.read(path))
+        ex.run(end * T)
+    finally:
+        ex.close()
+    for name, rows in again.rows.items():
+        assert np.array_equal(np.array(rows), np.array(whole.rows[name][mark[name]:])), name
+    assert len(again.rows["controller"]) == end - at
