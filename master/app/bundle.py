@@ -173,8 +173,8 @@ def readme(descriptions: dict[str, str]) -> str:
     lines = [f"tiltload {tiltload_version()}: the FMUs of a tilt-rotor UAV carrying a suspended load",
              "(Rego, MSc thesis, UFMG 2016), for any FMI 2.0 or 3.0 co-simulation tool.", "",
              "Every FMU is a co-simulation FMU (the *SE controllers: FMI 3.0 Scheduled Execution) with binaries for",
-             "x86_64 Linux, x86_64 Windows and aarch64 Linux",
-             "and its C sources. PORTS.txt says how the FMUs connect and what a controller of your own must declare.", ""]
+             "x86_64 Linux, x86_64 Windows and aarch64 Linux and its C sources. PORTS.txt says how the FMUs connect",
+             "and what a controller of your own must declare.", ""]
     folders = {"fmi2": f"FMI 2.0; binaries/{', '.join(t.binary_folder(2) for t in TOOLCHAINS)}",
                "fmi3": f"FMI 3.0; binaries/{', '.join(t.binary_folder(3) for t in TOOLCHAINS)}",
                "ssp": "the load's loop as SSP packages, its FMUs inside"}
