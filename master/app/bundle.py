@@ -117,6 +117,8 @@ def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
 def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, str]:
     """One line per member, from the files themselves: an FMU's model description and its build record's platforms;
     refused if an FMU lacks a platform's binary (a bundle is for every platform)."""
+    from ..engine.model_description import read_fmu
+
     out = {}
     for member, path in members.items():
         if member in packages:
@@ -128,7 +130,7 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
         with zipfile.ZipFile(path) as z:
             names = z.namelist()
             info = json.loads(z.read("resources/build_info.json"))
-        md = _description(path)
+        md = read_fmu(path, path.stem)
         binaries = {n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") >= 2 and not n.endswith("/")}
         wanted = set(info.get("platforms", ()))
         if len(binaries) < len(PLATFORMS) or not wanted <= binaries:
@@ -141,17 +143,9 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
 
 
 def _is_scheduled(md) -> bool:
-    return getattr(md, "scheduledExecution", None) is not None and getattr(md, "coSimulation", None) is None
+    from ..engine.model_description import is_scheduled
 
-
-def _description(path: Path):
-    """The engine's reading of a co-simulation FMU; FMPy's of a Scheduled Execution one (which the engine refuses)."""
-    from fmpy import read_model_description
-
-    from ..engine.model_description import read_fmu
-
-    md = read_model_description(str(path), validate=False)
-    return md if _is_scheduled(md) else read_fmu(path, path.stem)
+    return is_scheduled(md)
 
 
 def short(text: str, width: int = 84) -> str:
