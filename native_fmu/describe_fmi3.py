@@ -75,6 +75,8 @@ def _clock(mv: ET.Element, refs: References, k: Clock) -> None:
     attrs = {"name": k.name, "valueReference": str(refs.clock(k.name)), "causality": "input", "variability": "discrete",
              "intervalVariability": "constant", "intervalDecimal": repr(k.interval), "shiftDecimal": "0",
              "supportsFraction": "true", "resolution": str(resolution), "intervalCounter": str(counter), "shiftCounter": "0"}
+    if k.priority is not None:
+        attrs["priority"] = str(k.priority)
     if k.description:
         attrs["description"] = k.description
     ET.SubElement(mv, "Clock", attrs)
@@ -111,7 +113,9 @@ def in_reference_order(d: FmuDefinition) -> list[Variable]:
 
 def model_description(definition: FmuDefinition, token: str, tool: str) -> bytes:
     """modelDescription.xml (FMI 3.0 co-simulation). A definition with clocks is the clocked variant: Event Mode, one
-    periodic input clock per entry of definition.clocks; without, the plain variant (no Event Mode)."""
+    periodic input clock per entry of definition.clocks; without, the plain variant (no Event Mode). A scheduled
+    definition is the Scheduled Execution variant: the same variables and clocks, each clock a model partition with its
+    priority."""
     d = definition
     check(d)
     refs = References(d)
@@ -119,14 +123,18 @@ def model_description(definition: FmuDefinition, token: str, tool: str) -> bytes
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "3.0", "modelName": d.model_identifier, "instantiationToken": token, "description": d.description,
         "author": "tiltload", "version": d.version, "generationTool": tool, "variableNamingConvention": "flat"})
-    ET.SubElement(root, "CoSimulation", {
-        "modelIdentifier": d.model_identifier, "needsExecutionTool": "false", "canBeInstantiatedOnlyOncePerProcess": "false",
-        "canGetAndSetFMUState": "true", "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
-        "providesAdjointDerivatives": "false", "providesPerElementDependencies": "false",
-        "canHandleVariableCommunicationStepSize": "true" if d.variable_step or clocked else "false",
-        "maxOutputDerivativeOrder": "0", "providesIntermediateUpdate": "false", "mightReturnEarlyFromDoStep": "false",
-        "canReturnEarlyAfterIntermediateUpdate": "false", "hasEventMode": "true" if clocked else "false",
-        "providesEvaluateDiscreteStates": "false"})
+    common = {"modelIdentifier": d.model_identifier, "needsExecutionTool": "false",
+              "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
+              "providesDirectionalDerivatives": "false", "providesAdjointDerivatives": "false",
+              "providesPerElementDependencies": "false"}
+    if d.scheduled:  # one model partition per clock, activated by the importer's scheduler (FMI 3.0, ch. 5)
+        ET.SubElement(root, "ScheduledExecution", common)
+    else:
+        ET.SubElement(root, "CoSimulation", {
+            **common, "canHandleVariableCommunicationStepSize": "true" if d.variable_step or clocked else "false",
+            "maxOutputDerivativeOrder": "0", "providesIntermediateUpdate": "false", "mightReturnEarlyFromDoStep": "false",
+            "canReturnEarlyAfterIntermediateUpdate": "false", "hasEventMode": "true" if clocked else "false",
+            "providesEvaluateDiscreteStates": "false"})
     _unit_definitions(root, d)
     cats = ET.SubElement(root, "LogCategories")
     for name, what in describe_fmi2.LOG_CATEGORIES:
@@ -175,7 +183,8 @@ def c_header(definition: FmuDefinition, token: str) -> str:
     d = definition
     base = References(d).base
     lines = ["", "/* FMI 3.0: value references unique across types (native_fmu/describe_fmi3.py, References) */",
-             f"#define TL_VR_TIME {TIME_VR}", "#define TL_VR_CLOCK0 1"]
+             f"#define TL_VR_TIME {TIME_VR}", "#define TL_VR_CLOCK0 1",
+             f"#define TL_SCHEDULED {int(d.scheduled)} /* Scheduled Execution: a model partition per clock */"]
     lines += [f"#define TL_VR_{t.upper()}0 {base[t]}" for t in TYPES]
     lines += [f"#define TL_CLOCK_{k.name} {i}" for i, k in enumerate(d.clocks)]
     lines += ["/* a variable's clock (-1: none) and whether it is discrete, by type and index */"]

@@ -22,6 +22,7 @@ class Clock:
     name: str
     interval: float  # s
     description: str = ""
+    priority: int | None = None  # Scheduled Execution: the partition's priority (smaller runs first; the standard's rule)
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,7 @@ class FmuDefinition:
     version: str = "0"
     clocks: tuple[Clock, ...] = ()  # FMI 3.0 input clocks (a clocked FMU is FMI 3.0 only)
     string_length: int = 64  # the longest String value + 1 (TL_STRING_LEN: each String's room in the state)
+    scheduled: bool = False  # FMI 3.0 Scheduled Execution: one model partition per clock instead of co-simulation
     value_references: dict[str, int] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -94,7 +96,12 @@ class FmuDefinition:
                 raise DefinitionError(f"{self.model_identifier}: clock name {k.name!r} is not a new C identifier")
             if not (isinstance(k.interval, float) and k.interval > 0 and k.interval < float("inf")):
                 raise DefinitionError(f"{self.model_identifier}.{k.name}: interval must be a positive time, got {k.interval!r}")
+            if self.scheduled and not (isinstance(k.priority, int) and k.priority >= 0):
+                raise DefinitionError(f"{self.model_identifier}.{k.name}: Scheduled Execution needs a priority per clock, "
+                                      f"got {k.priority!r}")
             clocks[k.name] = k
+        if self.scheduled and not clocks:
+            raise DefinitionError(f"{self.model_identifier}: Scheduled Execution needs at least one clock (its partitions)")
         for v in self.variables:
             if not v.clock:
                 continue

@@ -28,6 +28,7 @@ HERE = Path(__file__).parent
 PACKAGE = HERE.parent
 FMU_NAMES = {"load": "TiltloadController.fmu", "uav": "TiltrotorController.fmu"}
 CLOCKED_FMU_NAMES = {"load": "TiltloadControllerClocked.fmu", "uav": "TiltrotorControllerClocked.fmu"}  # FMI 3.0 only
+SE_FMU_NAMES = {"load": "TiltloadControllerSE.fmu", "uav": "TiltrotorControllerSE.fmu"}  # FMI 3.0 Scheduled Execution
 FMU_NAME = FMU_NAMES["load"]
 C = HERE / "c"
 MODEL_C = [C / "controller_model.c", C / "controller_model.h", C / "tl_zse.c", C / "tl_zse.h", C / "tl_lkf.c", C / "tl_lkf.h",
@@ -54,20 +55,26 @@ def bundle(Tc: float = TC, progress=print, vehicle: str = "load") -> dict[str, n
     return b
 
 
-def recipe(vehicle: str = "load", clocked: bool = False) -> Recipe:
-    """The controller FMU; clocked: its FMI 3.0 variant, run at the ticks of a periodic input clock of interval T_c."""
+def recipe(vehicle: str = "load", clocked: bool = False, scheduled: bool = False) -> Recipe:
+    """The controller FMU; clocked: its FMI 3.0 variant, run at the ticks of a periodic input clock of interval T_c;
+    scheduled: its FMI 3.0 Scheduled Execution variant (a partition per estimator correction and the law's)."""
+    if scheduled:
+        return _recipe(vehicle, SE_FMU_NAMES[vehicle], "se")
+    return _recipe(vehicle, (CLOCKED_FMU_NAMES if clocked else FMU_NAMES)[vehicle], "clocked" if clocked else "cs")
+
+
+def _recipe(vehicle: str, name: str, interface: str) -> Recipe:
     plant, sensors = PACKAGE.parent / "plant_fmu", PACKAGE.parent / "sensor_fmu"
     inputs = (*sorted(PACKAGE.rglob("*.py")), *MODEL_C, *sorted(plant.glob("*.py")), sensors / "suite.py",
               sensors / "fmu_variables.py", sensors / "measurement.py")
-    return Recipe((CLOCKED_FMU_NAMES if clocked else FMU_NAMES)[vehicle], inputs,
-                  (ca.__version__, design_cache.key("all", TC, np.zeros(1)), vehicle, *(("clocked",) if clocked else ())),
-                  partial(_prepare, vehicle, clocked))
+    return Recipe(name, inputs, (ca.__version__, design_cache.key("all", TC, np.zeros(1)), vehicle,
+                                 *((interface,) if interface != "cs" else ())), partial(_prepare, vehicle, interface))
 
 
-def _prepare(vehicle: str, clocked: bool, folder: Path, progress) -> Prepared:
+def _prepare(vehicle: str, interface: str, folder: Path, progress) -> Prepared:
     b = bundle(TC, progress, vehicle)
     pi_eq = np.asarray(measurement.pi_codegen_function(vehicle)(b["trim_x"], b["params"])).ravel()
-    definition = fmu_variables.definition(b["trim_x"], pi_eq, TC, tiltload_version(), vehicle, clocked)
+    definition = fmu_variables.definition(b["trim_x"], pi_eq, TC, tiltload_version(), vehicle, interface=interface)
     generated = casadi_c.generate([codegen.feedforward_function(vehicle)], folder, "tl_feedforward_gen")
     (folder / "controller_dims.h").write_text(fmu_variables.dims_header(b, vehicle))
     (folder / "controller_data.h").write_text(fmu_variables.data_header(b, definition, vehicle))

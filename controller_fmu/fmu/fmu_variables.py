@@ -46,11 +46,33 @@ def extended(vehicle: str = "load") -> tuple[tuple[str, ...], tuple[str, ...]]:
 
 
 CONTROL_CLOCK = "control_clock"
+INTERFACES = ("cs", "clocked", "se")  # co-simulation, with a clock (Event Mode), Scheduled Execution (FMI 3.0)
 
 
-def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load", clocked: bool = False) -> FmuDefinition:
-    """The variable table; clocked: the FMI 3.0 variant with one periodic input clock of interval T_c that every
-    input and output belongs to (the law runs at its ticks)."""
+def correction_clock(group: str) -> str:
+    """The Scheduled Execution variant's partition that takes sensor group's samples: the sensor FMU's clock name."""
+    return f"{group}_clock"
+
+
+def partitions(Tc: float, vehicle: str = "load") -> tuple[Clock, ...]:
+    """Scheduled Execution: a partition per estimator correction at its sensor group's period, then the law at T_c.
+    Priorities rate-monotonic among the corrections (the shorter period first); the law reads every correction of
+    its instant, so it ranks below them all (the standard orders one instant's activations by priority)."""
+    groups = [g for g in SUITES[vehicle].groups if g.source == "pi" or g.name in ESTIMATORS[vehicle]]
+    periods = sorted({g.period for g in groups})
+    out = [Clock(correction_clock(g.name), float(g.period), f"estimator correction: the {g.name} samples, every "
+                 f"{g.period * 1000:g} ms", 1 + periods.index(g.period)) for g in groups]
+    return (*out, Clock(CONTROL_CLOCK, float(Tc), "the law at T_c, with the corrections latched at this instant",
+                        1 + len(periods)))
+
+
+def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load", clocked: bool = False,
+               interface: str = "") -> FmuDefinition:
+    """The variable table; clocked (interface "clocked"): the FMI 3.0 variant with one periodic input clock of interval
+    T_c that every input and output belongs to (the law runs at its ticks); interface "se": the same variables as the
+    Scheduled Execution variant, each sensor group's inputs (samples and flag) clocked by its correction partition,
+    the reference, the exact state and every output by the law's."""
+    interface = interface or ("clocked" if clocked else "cs")
     names, units = extended(vehicle)
     state_names, state_units = names[:-3], units[:-3]
     suite = SUITES[vehicle]
@@ -90,11 +112,28 @@ def definition(trim_x, pi_eq, Tc: float, version: str, vehicle: str = "load", cl
           Variable("estimator", "String", "parameter", "zse", " or ".join(estimators) + " (none: the exact state)"),
           Variable("zse_reduction", "String", "parameter", "combastel", "ZSE order reduction: combastel (thesis), girard or pca")]
     clocks = ()
-    if clocked:
+    if interface == "clocked":
         v = [replace(x, clock=CONTROL_CLOCK) if x.causality in ("input", "output") else x for x in v]
         clocks = (Clock(CONTROL_CLOCK, float(Tc), "the controller's period T_c: estimate and law at each tick"),)
+    elif interface == "se":
+        clocks = partitions(Tc, vehicle)
+        v = [replace(x, clock=_partition_of(x.name, vehicle)) if x.causality in ("input", "output") else x for x in v]
+    elif interface != "cs":
+        raise ValueError(f"interface must be one of {', '.join(INTERFACES)}, got {interface!r}")
     return FmuDefinition(MODEL_IDENTIFIER[vehicle], DESCRIPTION[vehicle], v, "controller_model.h", (0.0, 1.2, Tc),
-                         variable_step=False, version=version, clocks=clocks)
+                         variable_step=False, version=version, clocks=clocks, scheduled=interface == "se")
+
+
+def _partition_of(name: str, vehicle: str) -> str:
+    """The Scheduled Execution partition a port belongs to: a sensor group's samples and flag to its correction, the
+    LKF's q to the lkf group's, everything else (reference, exact state, outputs) to the law."""
+    suite = SUITES[vehicle]
+    for g in zse_groups(vehicle):
+        if name == f"{g.name}_new" or name in channel_names(g, suite):
+            return correction_clock(g.name)
+    if name.startswith("lkf_"):
+        return correction_clock("lkf")
+    return CONTROL_CLOCK
 
 
 def estimator_arrays(b: dict) -> dict[str, np.ndarray]:
@@ -117,7 +156,7 @@ def dims_header(b: dict, vehicle: str = "load") -> str:
                       f"#define TL_HAS_LKF {int('H_lkf' in b)}", f"#define TL_HAS_MIXED {int('K_mixed_d0' in b)}",
                       f"#define TL_MAX_DELAY {LOOP_DELAYS[-1]}",
                       f"#define TL_NY_LKF {b['H_lkf'].shape[0] if 'H_lkf' in b else 1}", f"#define TL_R_MAX {int(b['r_max'])}",
-                      f"#define TL_RW {e['Gw_rows'].shape[0]}",
+                      f"#define TL_RW {e['Gw_rows'].shape[0]}", f"#define TL_N_ZSE_GROUPS {len(zse_groups(vehicle))}",
                       f"#define TL_FIRST_MEAS TL_REAL_{first}", f"#define TL_LAST_MEAS TL_REAL_{last}", "#endif", ""])
 
 
@@ -131,11 +170,12 @@ def data_header(b: dict, definition: FmuDefinition, vehicle: str = "load") -> st
     groups = []
     for g in zse_groups(vehicle):
         idx = ", ".join(map(str, g.indices))
-        groups.append(f"  {{{definition.vr(f'{g.name}_new')}, {len(g.indices)}, {{{idx}}}}}")
+        clock = definition.clock_index(correction_clock(g.name)) if definition.scheduled else -1
+        groups.append(f"  {{{definition.vr(f'{g.name}_new')}, {clock}, {len(g.indices)}, {{{idx}}}}}")
     lines = ["/* Generated at build time from the designs and the estimator set-up: do not edit. */",
-             "#ifndef CONTROLLER_DATA_H", "#define CONTROLLER_DATA_H", "",
+             "#ifndef CONTROLLER_DATA_H", "#define CONTROLLER_DATA_H", "", '#include "controller_dims.h"', "",
              f"#define TL_TC {float(b['Tc'])!r}", f"#define TL_R0 {e['G0_rows'].shape[0]}", f"#define TL_N_PARAMS {b['params'].size}",
-             f"#define TL_N_ZSE_GROUPS {len(zse_groups(vehicle))}", "",
+             "",
              "/* the gains by controller, then loop delay d (4 x (nx + 4 + 4 d) each) */",
              *(c_array(f"tl_{k}", b[k]) for k in gain_names(b)),
              "static const double* const tl_gains[] = {" + ", ".join(f"tl_{k}" for k in gain_names(b)) + "};",
@@ -145,7 +185,8 @@ def data_header(b: dict, definition: FmuDefinition, vehicle: str = "load") -> st
              c_array("tl_H_zse", b["H_zse"]), c_array("tl_zse_c_w", e["c_w"]), c_array("tl_zse_Gw", e["Gw_rows"]),
              c_array("tl_zse_sigma", e["sigma"]), c_array("tl_zse_s", e["s"]), c_array("tl_zse_hull_w", e["hull_w"]),
              c_array("tl_zse_Sw", e["Sw"]), c_array("tl_zse_G0", e["G0_rows"]), "",
-             "/* ZSE sensor groups: the Boolean value reference of the group's flag and the measurements it covers. */",
-             "typedef struct { int flag; int n; int index[16]; } TlZseGroup;",
+             "/* ZSE sensor groups: the Boolean value reference of the group's flag, its correction partition (Scheduled",
+             "   Execution: the clock index; -1 otherwise) and the measurements it covers. */",
+             "typedef struct { int flag; int clock; int n; int index[16]; } TlZseGroup;",
              "static const TlZseGroup tl_zse_groups[TL_N_ZSE_GROUPS] = {", ",\n".join(groups), "};", "", "#endif", ""]
     return "\n".join(lines)

@@ -136,9 +136,16 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
         if len(binaries) < len(PLATFORMS) or not wanted <= binaries:
             raise UserError(f"bundle: {path} has binaries for {', '.join(sorted(binaries))} only; rebuild it: "
                             f"tiltload build --force --fmi {md.fmiVersion[0]} --platforms {','.join(PLATFORMS)}")
-        clocks = " (with FMI 3.0 clocks)" if path.stem.endswith("Clocked") else ""
+        clocks = (" (with FMI 3.0 clocks)" if path.stem.endswith("Clocked") else
+                  " (FMI 3.0 Scheduled Execution)" if _is_scheduled(md) else "")
         out[member] = short(md.description or md.modelName, 84 - len(clocks)) + clocks
     return out
+
+
+def _is_scheduled(md) -> bool:
+    from ..engine.model_description import is_scheduled
+
+    return is_scheduled(md)
 
 
 def short(text: str, width: int = 84) -> str:
@@ -159,8 +166,9 @@ def readme(descriptions: dict[str, str]) -> str:
 
     lines = [f"tiltload {tiltload_version()}: the FMUs of a tilt-rotor UAV carrying a suspended load",
              "(Rego, MSc thesis, UFMG 2016), for any FMI 2.0 or 3.0 co-simulation tool.", "",
-             "Every FMU is a co-simulation FMU with binaries for x86_64 Linux, x86_64 Windows and aarch64 Linux",
-             "and its C sources. PORTS.txt says how the FMUs connect and what a controller of your own must declare.", ""]
+             "Every FMU is a co-simulation FMU (the *SE controllers: FMI 3.0 Scheduled Execution) with binaries for",
+             "x86_64 Linux, x86_64 Windows and aarch64 Linux and its C sources. PORTS.txt says how the FMUs connect",
+             "and what a controller of your own must declare.", ""]
     folders = {"fmi2": f"FMI 2.0; binaries/{', '.join(t.binary_folder(2) for t in TOOLCHAINS)}",
                "fmi3": f"FMI 3.0; binaries/{', '.join(t.binary_folder(3) for t in TOOLCHAINS)}",
                "ssp": "the load's loop as SSP packages, its FMUs inside"}

@@ -41,14 +41,21 @@ def clocked_recipes(vehicles=("load", "uav")) -> list[Recipe]:
     return [r for v in vehicles for r in (sensors.recipe(v, True), controller.recipe(v, True))]
 
 
+def scheduled_recipes(vehicles=("load", "uav")) -> list[Recipe]:
+    """The controller's FMI 3.0 Scheduled Execution variant of each vehicle (docs/fmi3.md, "Scheduled Execution")."""
+    return [controller.recipe(v, scheduled=True) for v in vehicles]
+
+
 def formation_recipes() -> list[Recipe]:
     """The UAV alone's plant, the formation controller and the tracker (Appendix B)."""
     return [plant.recipe("uav"), *formation.recipes()]
 
 
 def every_recipe(fmi_version: int = 2) -> list[Recipe]:
-    """What `tiltload build` builds: both vehicles' loops and the formation; with FMI 3.0, the variants with clocks too."""
-    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *(clocked_recipes() if fmi_version == 3 else ())]
+    """What `tiltload build` builds: both vehicles' loops and the formation; with FMI 3.0, the variants with clocks and
+    the Scheduled Execution controllers too."""
+    fmi3_only = [*clocked_recipes(), *scheduled_recipes()] if fmi_version == 3 else []
+    every = [*loop_recipes(("load", "uav")), *formation_recipes(), *fmi3_only]
     return list({r.fmu_name: r for r in every}.values())  # the UAV's plant once
 
 

@@ -150,16 +150,19 @@ class Fmu3Slave(Slave):
             self.log.append(message.decode("utf-8", "replace"))
         self._log_message = log_message
         try:
-            self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
-                                 instanceName=name)
-            self.call("instantiate", lambda: self.fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked,
-                                                                  logMessage=self._log_message))
+            self._instantiate(md, name)
         except BaseException:
             self._unpacked.release()  # nothing of a failed instantiation stays behind
             raise
         self._bind()
 
     # ---- set-up ---------------------------------------------------------------------------------------------
+    def _instantiate(self, md, name: str) -> None:
+        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
+                             instanceName=name)
+        self.call("instantiate", lambda: self.fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked,
+                                                              logMessage=self._log_message))
+
     def _bind(self) -> None:
         dll = self.fmu.dll
         self.component = self.fmu.component

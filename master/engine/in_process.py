@@ -9,13 +9,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .model_description import fmi_version
+from .model_description import fmi_version, is_scheduled
 from .slave import Slave
 
 
 def load(name: str, path: Path, md, tick: float | None = None) -> Slave:
     """The FMU at path (model description md) instantiated here as name; tick: the execution's, which places the clock
     ticks of an FMI 3.0 FMU with clocks (unused otherwise)."""
+    if is_scheduled(md):
+        from .fmu3_scheduled import Fmu3ScheduledSlave
+
+        return Fmu3ScheduledSlave(name, path, md, tick)
     if fmi_version(md) == 3:
         from .fmu3 import Fmu3Slave
 

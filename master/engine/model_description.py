@@ -32,6 +32,7 @@ class Clock:
     interval: float  # s
     shift: float  # s
     variables: tuple[str, ...]  # the variables it clocks
+    priority: int | None = None  # Scheduled Execution: its partition's priority (smaller runs first at one instant)
 
 
 class Fmi3Description:
@@ -48,6 +49,11 @@ class Fmi3Description:
 
 def fmi_version(md) -> int:
     return 3 if str(md.fmiVersion).startswith("3") else 2
+
+
+def is_scheduled(md) -> bool:
+    """An FMI 3.0 Scheduled Execution FMU (no co-simulation interface): the master schedules its model partitions."""
+    return fmi_version(md) == 3 and md.coSimulation is None and getattr(md, "scheduledExecution", None) is not None
 
 
 def read_fmu(path: Path, instance: str):
@@ -67,9 +73,9 @@ def read_fmu(path: Path, instance: str):
         attribute = "instantiationToken" if fmi_version(md) == 3 else "guid"
         raise DescriptionError(f"{instance}: {path} declares no {attribute} in its modelDescription.xml "
                                f"(FMI {md.fmiVersion} requires one)")
-    if md.coSimulation is None:
-        kind = "scheduled-execution" if fmi_version(md) == 3 and md.scheduledExecution is not None else "model-exchange"
-        raise DescriptionError(f"{instance}: {path} is a {kind}-only FMU; a co-simulation FMU is needed")
+    if md.coSimulation is None and not is_scheduled(md):
+        raise DescriptionError(f"{instance}: {path} is a model-exchange-only FMU; a co-simulation or an FMI 3.0 Scheduled "
+                               "Execution FMU is needed")
     return _engine_view(md, path, instance) if fmi_version(md) == 3 else md
 
 
@@ -92,9 +98,13 @@ def _engine_view(md, path: Path, instance: str) -> Fmi3Description:
             raise DescriptionError(f"{instance}: clock {v.name} is a{'n' if v.causality[0] in 'aeiou' else ''} "
                                    f"{v.causality} clock with intervalVariability {kind!r}; only periodic input clocks "
                                    "(constant, fixed or tunable, with an intervalDecimal) are supported")
+        priority = e.get("priority")
         clocks.append(Clock(v.name, v.valueReference, float(e.get("intervalDecimal")), float(e.get("shiftDecimal", "0")),
-                            tuple(clocked.get(v.name, ()))))
-    if clocks and not md.coSimulation.hasEventMode:
+                            tuple(clocked.get(v.name, ())), None if priority is None else int(priority)))
+    if is_scheduled(md) and any(k.priority is None for k in clocks):
+        raise DescriptionError(f"{instance}: {path} is a Scheduled Execution FMU whose clocks do not all declare a priority "
+                               "(FMI 3.0 requires one per clock)")
+    if clocks and not is_scheduled(md) and not md.coSimulation.hasEventMode:
         raise DescriptionError(f"{instance}: {path} has clocks but hasEventMode is false")
     md.modelVariables = [v for v in md.modelVariables if v.type != "Clock"]
     fmi3_types = {v.name: v.type for v in md.modelVariables}

@@ -47,6 +47,7 @@ static const char* phase_name(int phase) {
     case TL_INITIALIZATION: return "initialization mode";
     case TL_STEPPING: return "step mode";
     case TL_EVENT: return "event mode";
+    case TL_ACTIVATION: return "clock activation mode";
     case TL_TERMINATED: return "terminated";
     case TL_BROKEN: return "fatal error";
     default: return "error";
@@ -136,6 +137,9 @@ void tl_reset(TlInstance* c) {
   memset(c->s.clock_active, 0, sizeof c->s.clock_active);
   c->s.event_dirty = c->s.event_ran = 0;
   c->s.next_event_time = -1.0;
+#if TL_SCHEDULED
+  for (i = 0; i < TL_CAP_CLOCK; ++i) c->s.activation[i] = -1;
+#endif
   tl_model_reset(c);
 }
 
@@ -179,7 +183,7 @@ void tl_begin_event(TlInstance* c) {
 
 /* The first run keeps the model state it starts from (one copy per event), so that a later change runs it again from there. */
 TlStatus tl_run_event(TlInstance* c) {
-#if TL_N_CLOCK > 0
+#if TL_EVENT_PARTITION
   TlStatus status;
   if (!c->s.event_dirty) return TL_OK;
   if (c->s.event_ran) c->s.model = c->s.pre_event; /* inputs or clocks changed: run again from the event's start */
@@ -193,6 +197,50 @@ TlStatus tl_run_event(TlInstance* c) {
   return TL_OK;
 #endif
 }
+
+/* ---- Scheduled Execution ---------------------------------------------------------------------------------------------- */
+#if TL_SCHEDULED
+/* The activation of clock k at t in intervals from the start (exact decimal interval counter / resolution), or -1 when
+   t is not on its grid. */
+static long long grid_index(const TlInstance* c, int k, double t) {
+  const double intervals = (t - c->s.start_time) * (double)tl_clock_resolution[k] / (double)tl_clock_counter[k];
+  const double n = floor(intervals + 0.5);
+  return isfinite(intervals) && n >= 0.0 && fabs(intervals - n) <= 1e-6 ? (long long)n : -1;
+}
+
+int tl_partition_done(const TlInstance* c, int k, double t) {
+  const long long n = grid_index(c, k, t);
+  return n < 0 || c->s.activation[k] >= n; /* a later activation (preempting this instant's partition) counts too */
+}
+
+TlStatus tl_activate(TlInstance* c, const char* call, int k, double t) {
+  long long n;
+  TlStatus status;
+  if (!isfinite(t) || t > c->s.stop_time + 1e-9 * tl_clock_interval[k])
+    return tl_fail(c, "%s: %s activated at t=%.9g s, beyond the stop time %.9g s", call, tl_clock_name[k], t, c->s.stop_time);
+  n = grid_index(c, k, t);
+  if (n < 0)
+    return tl_fail(c, "%s: t=%.9g s is not an activation time of %s (every %.9g s from %.9g s)", call, t, tl_clock_name[k],
+                   tl_clock_interval[k], c->s.start_time);
+  tl_lock_preemption(c); /* the activation record and the time are shared by every partition */
+  if (n <= c->s.activation[k]) {
+    tl_unlock_preemption(c);
+    return tl_fail(c, "%s: %s activated at t=%.9g s, but its last activation was at t=%.9g s (activation times must "
+                   "increase)", call, tl_clock_name[k], t, c->s.start_time + (double)c->s.activation[k] * tl_clock_interval[k]);
+  }
+  c->partitions_running += 1;
+  tl_unlock_preemption(c);
+  status = tl_model_partition(c, k, t);
+  tl_lock_preemption(c);
+  c->partitions_running -= 1;
+  if (status <= TL_WARNING) {
+    c->s.activation[k] = n;
+    if (t > c->s.time) c->s.time = t;
+  }
+  tl_unlock_preemption(c);
+  return tl_settle(c, status == TL_DISCARD ? TL_ERROR : status); /* Scheduled Execution treats Discard as Error */
+}
+#endif
 
 /* ---- variables ------------------------------------------------------------------------------------------------------- */
 /* The generated tables of one type (tl_model_tables.c) and where its value references begin. */
@@ -241,6 +289,7 @@ static int clock_of(TlType type, int k) {
 /* May a variable with this clock (-1: none) be read or written now? Logs why not. */
 static int clock_allows(TlInstance* c, const char* call, const char* name, int clock) {
   if (clock < 0 || c->s.phase == TL_INSTANTIATED || c->s.phase == TL_INITIALIZATION || c->s.phase == TL_TERMINATED) return 1;
+  if (c->s.phase == TL_ACTIVATION) return 1; /* set before its partition's activation, read after it: the importer's order */
 #if TL_N_CLOCK > 0
   if (c->s.phase == TL_EVENT && c->s.clock_active[clock]) return 1;
   tl_log(c, TL_ERROR, "%s: %s is clocked by %s, which is not active (%s)", call, name, tl_clock_name[clock],
@@ -365,7 +414,15 @@ static int is_serial_of_this_build(const unsigned char* bytes, size_t size) {
   return bytes != NULL && size == TL_SERIAL_SIZE && memcmp(bytes, TL_STATE_MAGIC, 8) == 0 && memcmp(bytes + 8, guid, TL_GUID_LEN) == 0;
 }
 
+/* Scheduled Execution: the state functions apply to the whole FMU, never while a partition runs (or is preempted). */
+static TlStatus partitions_idle(TlInstance* c, const char* call) {
+  if (c->partitions_running == 0) return TL_OK;
+  return tl_fail(c, "%s: %d model partition(s) active or preempted; the FMU state applies to all of them", call,
+                 c->partitions_running);
+}
+
 TlStatus tl_get_state(TlInstance* c, const char* call, void** state) {
+  if (partitions_idle(c, call) != TL_OK) return TL_ERROR;
   if (state == NULL) return tl_fail(c, "%s: no place for the state given", call);
   if (*state == NULL) {
     *state = tl_binding.allocate(&c->host, sizeof(TlState));
@@ -376,6 +433,7 @@ TlStatus tl_get_state(TlInstance* c, const char* call, void** state) {
 }
 
 TlStatus tl_set_state(TlInstance* c, const char* call, const void* state) {
+  if (partitions_idle(c, call) != TL_OK) return TL_ERROR;
   if (state == NULL) return tl_fail(c, "%s: no state given", call);
   memcpy(&c->s, state, sizeof(TlState));
   return TL_OK;

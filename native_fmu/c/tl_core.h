@@ -38,8 +38,9 @@ typedef fmi2Boolean TlBoolean;
 /* ---- phases and refusal --------------------------------------------------------------------------------------- */
 #define TL_IN(phase) (1u << (phase))
 /* Every phase but the one after a fatal error: the calls that stay allowed until the instance is freed. */
-#define TL_ANY_BUT_FATAL \
-  (TL_IN(TL_INSTANTIATED) | TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT) | TL_IN(TL_STEPPING) | TL_IN(TL_TERMINATED) | TL_IN(TL_ERRORED))
+#define TL_ANY_BUT_FATAL                                                                                             \
+  (TL_IN(TL_INSTANTIATED) | TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT) | TL_IN(TL_STEPPING) | TL_IN(TL_TERMINATED) | \
+   TL_IN(TL_ERRORED) | TL_IN(TL_ACTIVATION))
 
 /* The first statement of an API function: c, the instance, and call, the function's name; or the call refused (NULL
    instance, or its phase not in MASK_<function> of the version's state-mask table). TL_API_STATUS: the version's status. */
@@ -91,6 +92,11 @@ TL_INTERNAL TlStatus tl_do_step(TlInstance* c, const char* call, double t, doubl
 TL_INTERNAL void tl_begin_event(TlInstance* c);
 /* This instant's partition, if inputs or clocks changed since it last ran (from the model state the event began in). */
 TL_INTERNAL TlStatus tl_run_event(TlInstance* c);
+
+/* ---- Scheduled Execution (TL_SCHEDULED builds) ---------------------------------------------------------------------- */
+/* Activate clock k's model partition at t: t on the clock's grid, after its previous activation; then the model's
+   partition, and the activation recorded. */
+TL_INTERNAL TlStatus tl_activate(TlInstance* c, const char* call, int k, double t);
 
 /* ---- variables ------------------------------------------------------------------------------------------------ */
 /* Get or set n variables of one type by value reference: values is the standard's array of that type (double,

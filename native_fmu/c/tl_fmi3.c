@@ -12,7 +12,13 @@
    the first Get in Event Mode, or in UpdateDiscreteStates, so inputs set after fmi3SetClock are seen. An input
    or clock set after a Get makes it run again, from the model state the event began with. Clocked variables
    are accessible only while their clock is active (and at initialization). Every fmi3 function is exported;
-   those of model exchange and scheduled execution refuse with a reason. */
+   those of model exchange refuse with a reason.
+
+   Scheduled Execution builds (TL_SCHEDULED) have no co-simulation: after Initialization Mode the instance is in Clock
+   Activation Mode, where the importer's scheduler calls fmi3ActivateModelPartition for each clock at its activation
+   times (on the clock's grid, increasing), setting a partition's inputs before and reading its outputs after. The
+   partitions may preempt each other; the model locks around what they share through the importer's callbacks. The
+   co-simulation builds refuse fmi3InstantiateScheduledExecution, and these builds fmi3InstantiateCoSimulation. */
 #include "tl_platform.h"
 
 #include <stdlib.h>
@@ -20,20 +26,22 @@
 
 #include "tl_core.h"
 
-#define TL_HAS_EVENT_MODE (TL_N_CLOCK > 0)
+#define TL_HAS_EVENT_MODE TL_EVENT_PARTITION
 #define TL_API_STATUS fmi3Status
 TL_STATIC_ASSERT(fmi3OK == (int)TL_OK && fmi3Warning == (int)TL_WARNING && fmi3Discard == (int)TL_DISCARD &&
                      fmi3Error == (int)TL_ERROR && fmi3Fatal == (int)TL_FATAL,
                  "a TlStatus is returned as the fmi3Status of the same value");
 
 /* ---- the state-mask table: the phases in which each call is allowed --------------------------------------------- */
-#define TL_FMI3_VARIABLES_SET (TL_IN(TL_INSTANTIATED) | TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT) | TL_IN(TL_STEPPING))
-#define TL_FMI3_CLOCK_QUERY (TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT))
+#define TL_FMI3_VARIABLES_SET \
+  (TL_IN(TL_INSTANTIATED) | TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT) | TL_IN(TL_STEPPING) | TL_IN(TL_ACTIVATION))
+#define TL_FMI3_CLOCK_QUERY (TL_IN(TL_INITIALIZATION) | TL_IN(TL_EVENT) | TL_IN(TL_ACTIVATION))
 #define MASK_fmi3SetDebugLogging TL_ANY_BUT_FATAL
 #define MASK_fmi3EnterInitializationMode TL_IN(TL_INSTANTIATED)
 #define MASK_fmi3ExitInitializationMode TL_IN(TL_INITIALIZATION)
 #define MASK_fmi3EnterEventMode TL_IN(TL_STEPPING)
-#define MASK_fmi3Terminate (TL_IN(TL_EVENT) | TL_IN(TL_STEPPING))
+#define MASK_fmi3Terminate (TL_IN(TL_EVENT) | TL_IN(TL_STEPPING) | TL_IN(TL_ACTIVATION))
+#define MASK_fmi3ActivateModelPartition TL_IN(TL_ACTIVATION)
 #define MASK_fmi3Reset TL_ANY_BUT_FATAL
 #define MASK_fmi3GetFloat64 TL_ANY_BUT_FATAL
 #define MASK_fmi3GetInt32 TL_ANY_BUT_FATAL
@@ -135,9 +143,15 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
   TlHost host;
   TlInstance* c;
   (void)visible; (void)early_return_allowed; (void)required_intermediate; (void)intermediate_update;
+  memset(&host, 0, sizeof host);
   host.environment = environment;
   host.log_message = log_message;
   if (!tl_may_instantiate(&host, call, name, "instantiation token", token)) return NULL;
+  if (TL_SCHEDULED) {
+    tl_log_host(&host, name, "%s: %s: %s is a Scheduled Execution FMU only (fmi3InstantiateScheduledExecution)", call, name,
+                TL_MODEL_IDENTIFIER);
+    return NULL;
+  }
   if (event_mode_used && !TL_HAS_EVENT_MODE) {
     tl_log_host(&host, name, "%s: %s: %s has no Event Mode (hasEventMode=\"false\"): eventModeUsed must be false", call, name,
                 TL_MODEL_IDENTIFIER);
@@ -166,6 +180,7 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi
                                           fmi3LogMessageCallback log_message) {
   TlHost host;
   (void)token; (void)resources; (void)visible; (void)logging_on;
+  memset(&host, 0, sizeof host);
   host.environment = environment;
   host.log_message = log_message;
   tl_log_host(&host, name ? name : "?", "fmi3InstantiateModelExchange: %s: %s is a co-simulation FMU only", name ? name : "?", TL_MODEL_IDENTIFIER);
@@ -176,13 +191,25 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token
                                                fmi3Boolean logging_on, fmi3InstanceEnvironment environment,
                                                fmi3LogMessageCallback log_message, fmi3ClockUpdateCallback clock_update,
                                                fmi3LockPreemptionCallback lock, fmi3UnlockPreemptionCallback unlock) {
+  const char* const call = "fmi3InstantiateScheduledExecution";
   TlHost host;
-  (void)token; (void)resources; (void)visible; (void)logging_on; (void)clock_update; (void)lock; (void)unlock;
+  TlInstance* c;
+  (void)visible; (void)clock_update; /* no output or countdown clocks: nothing to signal */
+  memset(&host, 0, sizeof host);
   host.environment = environment;
   host.log_message = log_message;
-  tl_log_host(&host, name ? name : "?", "fmi3InstantiateScheduledExecution: %s: %s is a co-simulation FMU only", name ? name : "?",
-              TL_MODEL_IDENTIFIER);
-  return NULL;
+  if (!TL_SCHEDULED) {
+    tl_log_host(&host, name ? name : "?", "%s: %s: %s is a co-simulation FMU only", call, name ? name : "?", TL_MODEL_IDENTIFIER);
+    return NULL;
+  }
+  if (!tl_may_instantiate(&host, call, name, "instantiation token", token)) return NULL;
+  host.lock_preemption = lock;
+  host.unlock_preemption = unlock;
+  c = tl_instantiate(&host, name, logging_on, resource_path(resources));
+  if (c == NULL) return NULL;
+  tl_log(c, TL_OK, "%s: resources in %s", call, c->resources ? c->resources : "(none given)");
+  tl_reset(c);
+  return c;
 }
 
 void fmi3FreeInstance(fmi3Instance instance) { tl_free_instance((TlInstance*)instance); }
@@ -200,7 +227,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
   TlStatus status;
   TL_ENTER(fmi3ExitInitializationMode);
-  status = tl_exit_initialization(c, c->event_mode_used ? TL_EVENT : TL_STEPPING); /* the initial event, clocks inactive */
+  status = tl_exit_initialization(c, TL_SCHEDULED ? TL_ACTIVATION : c->event_mode_used ? TL_EVENT : TL_STEPPING);
   if (status <= TL_WARNING) tl_begin_event(c);
   return (fmi3Status)status;
 }
@@ -590,7 +617,25 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t* n) {
   return unsupported(instance, "fmi3GetNumberOfContinuousStates", CS_ONLY);
 }
 
+#if TL_SCHEDULED
+void tl_lock_preemption(const TlInstance* c) {
+  if (c->host.lock_preemption != NULL) c->host.lock_preemption();
+}
+
+void tl_unlock_preemption(const TlInstance* c) {
+  if (c->host.unlock_preemption != NULL) c->host.unlock_preemption();
+}
+
+fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clock, fmi3Float64 time) {
+  int k;
+  TL_ENTER(fmi3ActivateModelPartition);
+  k = clock_of(c, call, clock);
+  if (k < 0) return (fmi3Status)tl_settle(c, TL_ERROR);
+  return (fmi3Status)tl_activate(c, call, k, time);
+}
+#else
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clock, fmi3Float64 time) {
   (void)clock; (void)time;
   return unsupported(instance, "fmi3ActivateModelPartition", "it is not a scheduled-execution FMU");
 }
+#endif

@@ -16,6 +16,11 @@
 #ifndef TL_FMI_VERSION
 #define TL_FMI_VERSION 2
 #endif
+#ifndef TL_SCHEDULED /* FMI 3.0 Scheduled Execution (a model partition per clock); FMI 2.0 tables do not say */
+#define TL_SCHEDULED 0
+#endif
+/* Event Mode's lazy partition: the co-simulation builds with clocks (a Scheduled Execution build runs partitions instead) */
+#define TL_EVENT_PARTITION (TL_N_CLOCK > 0 && !TL_SCHEDULED)
 
 /* The result of a hook or a call, in the order and with the values of fmi2Status and fmi3Status (each layer checks). */
 typedef enum { TL_OK, TL_WARNING, TL_DISCARD, TL_ERROR, TL_FATAL } TlStatus;
@@ -26,6 +31,8 @@ typedef enum { TL_OK, TL_WARNING, TL_DISCARD, TL_ERROR, TL_FATAL } TlStatus;
 typedef struct {
   fmi3InstanceEnvironment environment;
   fmi3LogMessageCallback log_message;
+  fmi3LockPreemptionCallback lock_preemption;     /* Scheduled Execution: around state partitions share (or NULL) */
+  fmi3UnlockPreemptionCallback unlock_preemption;
 } TlHost;
 #else
 #include "fmi2Functions.h"
@@ -38,8 +45,9 @@ typedef fmi2CallbackFunctions TlHost;
 
 /* Co-simulation phases; each version reaches some of them (its state-mask table in its file says where each call is
    allowed). FMI 2.0: TL_ERRORED follows an error, TL_BROKEN a fatal error. FMI 3.0: TL_EVENT is Event Mode,
-   TL_STEPPING Step Mode; an error leads to TL_TERMINATED, a fatal error to TL_BROKEN. */
-enum { TL_INSTANTIATED, TL_INITIALIZATION, TL_STEPPING, TL_TERMINATED, TL_BROKEN, TL_ERRORED, TL_EVENT };
+   TL_STEPPING Step Mode, TL_ACTIVATION Scheduled Execution's Clock Activation Mode; an error leads to TL_TERMINATED, a
+   fatal error to TL_BROKEN. */
+enum { TL_INSTANTIATED, TL_INITIALIZATION, TL_STEPPING, TL_TERMINATED, TL_BROKEN, TL_ERRORED, TL_EVENT, TL_ACTIVATION };
 
 typedef struct {
   int phase;
@@ -57,8 +65,11 @@ typedef struct {
   int event_dirty;                /* inputs or clocks changed since this event's partition ran (or it has not run) */
   int event_ran;                  /* the partition ran in this Event Mode: a rerun starts again from pre_event */
   double next_event_time;         /* a time event the model asks for (< 0: none): DoStep reports it as an event */
-#if TL_N_CLOCK > 0
+#if TL_EVENT_PARTITION
   TlModelState pre_event; /* the model state when this Event Mode began */
+#endif
+#if TL_SCHEDULED
+  long long activation[TL_CAP_CLOCK]; /* each partition's last activation, in its clock's intervals from the start (-1: none) */
 #endif
 } TlState;
 
@@ -69,6 +80,7 @@ typedef struct TlInstance {
   char* resources; /* the resources folder as a native path ending in a separator, or NULL (no file URI given) */
   int logging_on;
   int event_mode_used; /* FMI 3.0: the importer runs Event Mode (clocked FMUs require it) */
+  int partitions_running; /* Scheduled Execution: activations in progress (preempted ones too) */
 } TlInstance;
 
 /* Log a formatted message through the host's logger (errors and discards always; others when
@@ -84,11 +96,22 @@ TL_INTERNAL void tl_model_reset(TlInstance* c);                        /* start 
 TL_INTERNAL TlStatus tl_model_outputs(TlInstance* c);                  /* outputs from parameters and inputs (initialization mode) */
 TL_INTERNAL TlStatus tl_model_initialize(TlInstance* c);               /* exitInitializationMode: check parameters, set outputs */
 TL_INTERNAL TlStatus tl_model_step(TlInstance* c, double t, double h); /* advance [t, t + h); the layer advances the clock on OK */
-#if TL_N_CLOCK > 0
+#if TL_EVENT_PARTITION
 /* Event Mode at time t with the clocks c->s.clock_active (any of them, or none): run their partitions from the
    inputs set, write the clocked outputs and the discrete ones. May run again in the same event, from the model
    state the event began with (the layer restores it), when inputs or clocks change after an output was read. */
 TL_INTERNAL TlStatus tl_model_event(TlInstance* c, double t);
+#endif
+#if TL_SCHEDULED
+/* Scheduled Execution: the model partition of clock k (TL_CLOCK_*) activated at t, inputs as set before. Partitions
+   may preempt each other: state two partitions share is touched only between tl_lock_preemption and
+   tl_unlock_preemption (the importer's callbacks). */
+TL_INTERNAL TlStatus tl_model_partition(TlInstance* c, int k, double t);
+TL_INTERNAL void tl_lock_preemption(const TlInstance* c);
+TL_INTERNAL void tl_unlock_preemption(const TlInstance* c);
+/* 1 if clock k has no activation due at t, or its partition ran at t (or later); else 0 (a partition that must
+   precede another at the same instant has not run: the importer broke the declared priorities). */
+TL_INTERNAL int tl_partition_done(const TlInstance* c, int k, double t);
 #endif
 
 #endif

@@ -54,6 +54,7 @@ def test_every_fmu_of_tiltload_build_is_in_it_as_fmi2_and_fmi3(opened):
     assert {p.name for p in (opened / "fmi2").glob("*.fmu")} == {r.fmu_name for r in every_recipe(2)}
     assert {p.name for p in (opened / "fmi3").glob("*.fmu")} == {r.fmu_name for r in every_recipe(3)}
     assert len(list(opened.glob("fmi3/*Clocked.fmu"))) == 4
+    assert {p.name for p in opened.glob("fmi3/*SE.fmu")} == {"TiltloadControllerSE.fmu", "TiltrotorControllerSE.fmu"}
     assert {p.name for p in (opened / "ssp").iterdir()} == {"loop.ssp", "loop-fmi3.ssp"}
 
 
@@ -61,7 +62,7 @@ def test_fmpy_validates_every_fmu_with_no_problem(opened):
     from fmpy.validation import validate_fmu
 
     fmus = sorted(opened.glob("fmi*/*.fmu"))
-    assert len(fmus) == 22
+    assert len(fmus) == 24  # 9 FMI 2.0; 15 FMI 3.0: the same 9, 4 with clocks, 2 Scheduled Execution
     for fmu in fmus:
         assert validate_fmu(str(fmu)) == [], fmu
 

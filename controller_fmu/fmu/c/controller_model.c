@@ -8,7 +8,8 @@
    master adds one tick per connection, docs/ports.md); the gain then also acts on the d commands still on their way,
    and the estimator propagates with the command that drove the plant over the interval it was measured in.
    The clocked FMI 3.0 variant (TL_N_CLOCK > 0) runs the same tick in the Event Mode of each control_clock tick
-   (tl_model_event); its steps only advance time. */
+   (tl_model_event); its steps only advance time. The Scheduled Execution variant (TL_SCHEDULED) runs it in the law's
+   partition, from the samples the correction partitions latched (tl_model_partition). */
 #include "tl_platform.h"
 
 #include <math.h>
@@ -131,8 +132,16 @@ TlStatus tl_model_initialize(TlInstance* c) {
   return tl_model_outputs(c);
 }
 
+/* What the estimator reads at a tick: the co-simulation variants their inputs, the Scheduled Execution variant what its
+   correction partitions latched. The same numbers either way, so the same arithmetic follows. */
+typedef struct {
+  const double* meas;   /* the ZSE's measurements, pi order (TL_NY_ZSE) */
+  const int* group_new; /* per ZSE group: its sample is new at this tick */
+  const double* q;      /* the LKF's measured q (TL_NY_LKF) */
+} Samples;
+
 /* Runs the chosen estimator for this tick; fills half-widths of the bounds. 0 ok, -1 numerical failure. */
-static int estimate(TlInstance* c, double* half, int* skipped) {
+static int estimate(TlInstance* c, const Samples* in, double* half, int* skipped) {
   TlModelState* m = &c->s.model;
   const double* r = c->s.real;
   double du[4], nu[NNU];
@@ -153,7 +162,7 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
     } else {
       double dy[TL_NY_LKF];
       int skip[TL_NY_LKF];
-      for (i = 0; i < TL_NY_LKF; ++i) dy[i] = r[TL_REAL_lkf_x + i] - tl_trim_x[i];
+      for (i = 0; i < TL_NY_LKF; ++i) dy[i] = in->q[i] - tl_trim_x[i];
       if (tl_lkf_step(&m->lkf, &lkf_model, du, dy, NULL, skip, skipped)) return -1;
     }
     memcpy(nu, m->lkf.nu, sizeof nu);
@@ -169,13 +178,13 @@ static int estimate(TlInstance* c, double* half, int* skipped) {
     int available[TL_NY_ZSE], g, j;
     memset(available, 0, sizeof available);
     for (g = 0; g < TL_N_ZSE_GROUPS; ++g)
-      for (j = 0; j < tl_zse_groups[g].n; ++j) available[tl_zse_groups[g].index[j]] = c->s.boolean[tl_zse_groups[g].flag] != 0;
+      for (j = 0; j < tl_zse_groups[g].n; ++j) available[tl_zse_groups[g].index[j]] = in->group_new[g] != 0;
     if (m->k == 0) { /* Sec. 5.4: a box around the reference start, then the initial update with y_0 */
       double c0[NNU];
       memset(c0, 0, sizeof c0);
       for (i = 0; i < 3; ++i) c0[i] = m->reference_start[i] - tl_trim_x[i];
-      if (tl_zse_initialize(&m->zse, &model, c0, tl_zse_G0, TL_R0, r + TL_FIRST_MEAS, available, &report)) return -1;
-    } else if (tl_zse_step(&m->zse, &model, du, r + TL_FIRST_MEAS, available, &report)) {
+      if (tl_zse_initialize(&m->zse, &model, c0, tl_zse_G0, TL_R0, in->meas, available, &report)) return -1;
+    } else if (tl_zse_step(&m->zse, &model, du, in->meas, available, &report)) {
       return -1;
     }
     *skipped = report.n_nonfinite + report.n_inconsistent;
@@ -209,13 +218,13 @@ static int control(TlInstance* c, double* u) {
   return tl_law_step(&law, c->s.real + TL_REAL_x_ref, m->estimate, m->integral, m->du_sent, u);
 }
 
-/* One controller tick at t: estimate from the inputs of t, the law, the command held until the next tick. */
-static TlStatus control_tick(TlInstance* c, double t) {
+/* One controller tick at t: estimate from the samples of t, the law, the command held until the next tick. */
+static TlStatus control_tick(TlInstance* c, double t, const Samples* in) {
   TlModelState* m = &c->s.model;
   double half[NNU], u[4];
   int skipped, i;
   if (m->k == 0) memcpy(m->reference_start, c->s.real + TL_REAL_x_ref, sizeof m->reference_start);
-  if (estimate(c, half, &skipped) || control(c, u)) {
+  if (estimate(c, in, half, &skipped) || control(c, u)) {
     tl_log(c, TL_ERROR, "the %s estimator or the control law failed numerically at t=%.6g s", estimators[m->estimator], t);
     return TL_ERROR;
   }
@@ -235,14 +244,100 @@ static TlStatus control_tick(TlInstance* c, double t) {
   return TL_OK;
 }
 
-#if TL_N_CLOCK > 0
+#if TL_SCHEDULED
+/* Scheduled Execution. A correction partition latches its group's sample (and flag) for the law; the law's partition
+   takes everything latched and runs the tick: the strips of all groups of an instant meet in one update, as in the
+   co-simulation variants, so the result is theirs bit for bit. The law ranks below the corrections (the importer
+   activates one instant's partitions by priority); one it finds missing at its instant is the importer's error. A
+   correction of the next instant may preempt the law anywhere: it latches into the next instant's slot, and the
+   slots are touched under the importer's lock. */
+TlStatus tl_model_step(TlInstance* c, double t, double h) {
+  (void)t; (void)h;
+  tl_log(c, TL_ERROR, "%s is a Scheduled Execution FMU: no communication steps", TL_MODEL_IDENTIFIER);
+  return TL_ERROR;
+}
+
+/* The slot of the law instant a partition activated at t belongs to: the first law activation at or after t. */
+static int slot_of(const TlInstance* c, double t) {
+  return (int)((long long)ceil((t - c->s.start_time) / TL_TC - 1e-6) & 1);
+}
+
+static TlStatus law_partition(TlInstance* c, double t) {
+  TlModelState* m = &c->s.model;
+  double meas[TL_NY_ZSE], q[TL_NY_LKF];
+  int fresh[TL_N_ZSE_GROUPS], k;
+  const int slot = slot_of(c, t);
+  Samples in;
+  for (k = 0; k < TL_N_CLOCK; ++k)
+    if (k != TL_CLOCK_control_clock && !tl_partition_done(c, k, t)) {
+      tl_log(c, TL_ERROR, "the law at t=%.9g s needs the %s correction of the same instant first (its priority is higher); "
+             "activate it before control_clock", t, tl_clock_name[k]);
+      return TL_ERROR;
+    }
+  tl_lock_preemption(c);
+  memcpy(meas, m->latched_meas[slot], sizeof meas);
+  memcpy(fresh, m->latched_new[slot], sizeof fresh);
+  memcpy(q, m->latched_q[slot], sizeof q);
+  memset(m->latched_new[slot], 0, sizeof fresh); /* a group not activated before that slot's next law brings nothing new */
+  tl_unlock_preemption(c);
+  in.meas = meas;
+  in.group_new = fresh;
+  in.q = q;
+  return control_tick(c, t, &in);
+}
+
+TlStatus tl_model_partition(TlInstance* c, int k, double t) {
+  TlModelState* m = &c->s.model;
+  const double* r = c->s.real;
+  const int slot = slot_of(c, t);
+  int g, j;
+  if (k == TL_CLOCK_control_clock) return law_partition(c, t);
+  for (g = 0; g < TL_N_ZSE_GROUPS; ++g)
+    if (tl_zse_groups[g].clock == k) {
+      tl_lock_preemption(c);
+      for (j = 0; j < tl_zse_groups[g].n; ++j) {
+        const int i = tl_zse_groups[g].index[j];
+        m->latched_meas[slot][i] = r[TL_FIRST_MEAS + i];
+      }
+      m->latched_new[slot][g] = c->s.boolean[tl_zse_groups[g].flag] != 0;
+      tl_unlock_preemption(c);
+      return TL_OK;
+    }
+#if TL_HAS_LKF
+  if (k == TL_CLOCK_lkf_clock) {
+    tl_lock_preemption(c);
+    memcpy(m->latched_q[slot], r + TL_REAL_lkf_x, sizeof m->latched_q[slot]);
+    tl_unlock_preemption(c);
+  }
+#endif
+  return TL_OK;
+}
+#else
+/* The co-simulation variants read the tick's samples from their inputs. */
+static TlStatus tick_from_inputs(TlInstance* c, double t) {
+  int flags[TL_N_ZSE_GROUPS], g;
+  Samples in;
+  for (g = 0; g < TL_N_ZSE_GROUPS; ++g) flags[g] = c->s.boolean[tl_zse_groups[g].flag] != 0;
+  in.meas = c->s.real + TL_FIRST_MEAS;
+  in.group_new = flags;
+#if TL_HAS_LKF
+  in.q = c->s.real + TL_REAL_lkf_x;
+#else
+  in.q = NULL;
+#endif
+  return control_tick(c, t, &in);
+}
+#endif
+
+#if TL_SCHEDULED
+#elif TL_N_CLOCK > 0
 TlStatus tl_model_step(TlInstance* c, double t, double h) {
   (void)c; (void)t; (void)h;
   return TL_OK; /* the law runs at the control clock's ticks; the commands hold in between */
 }
 
 TlStatus tl_model_event(TlInstance* c, double t) {
-  return c->s.clock_active[TL_CLOCK_control_clock] ? control_tick(c, t) : TL_OK;
+  return c->s.clock_active[TL_CLOCK_control_clock] ? tick_from_inputs(c, t) : TL_OK;
 }
 #else
 TlStatus tl_model_step(TlInstance* c, double t, double h) {
@@ -250,6 +345,6 @@ TlStatus tl_model_step(TlInstance* c, double t, double h) {
     tl_log(c, TL_ERROR, "communication step %.9g s is not the controller period T_c = %g s; step refused", h, TL_TC);
     return TL_ERROR;
   }
-  return control_tick(c, t);
+  return tick_from_inputs(c, t);
 }
 #endif

@@ -18,6 +18,13 @@ typedef struct {
   double estimate[TL_NX], disturbance[3];
   TlLkf lkf;
   TlZse zse;
+#if defined(TL_SCHEDULED) && TL_SCHEDULED
+  /* Scheduled Execution: what the correction partitions latched for a law instant, one slot per instant parity (a
+     correction of the next instant that preempts the law writes the other slot); shared, under the importer's lock */
+  double latched_meas[2][TL_NY_ZSE]; /* the ZSE's measurements, pi order */
+  int latched_new[2][TL_N_ZSE_GROUPS]; /* each ZSE group's flag as its correction took it */
+  double latched_q[2][TL_NY_LKF];    /* the LKF's q */
+#endif
 } TlModelState;
 
 #endif

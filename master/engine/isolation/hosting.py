@@ -7,8 +7,11 @@ same Slave to everything after it.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from ..errors import ExecutionError
 from ..in_process import load
+from ..model_description import is_scheduled
 from ..slave import Slave
 from . import handshake
 from .process import STEP_TIMEOUT, IsolatedFmu
@@ -30,6 +33,9 @@ def slave_for(spec, md, isolate=None, step_timeout: float | None = None, tick: f
     isolated if isolate(fmu, md) says so (None: never), else in this process; FMI 2.0 or 3.0 alike, an FMU with
     clocks stepped on the system's tick wherever it runs."""
     timeout = step_timeout or STEP_TIMEOUT
+    if is_scheduled(md) and (spec.remote is not None or (isolate is not None and isolate(spec.fmu, md))):
+        raise ExecutionError(f"{spec.name}: {Path(spec.fmu).name} is a Scheduled Execution FMU, which runs in this process "
+                             "only (a worker process or --remote hosts co-simulation FMUs)")
     if spec.remote is not None:
         return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout, tick)
     if isolate is not None and isolate(spec.fmu, md):
