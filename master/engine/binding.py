@@ -1,4 +1,4 @@
-"""What the FMI 2.0 and FMI 3.0 bindings (fmu.py, fmu3.py) share: an FMU extracted and instantiated in this process
+"""What the FMI 2.0 and FMI 3.0 bindings (fmi2.py, fmi3.py) share: an FMU extracted and instantiated in this process
 through FMPy, calls timed and turned into one-line errors, parameters set by name, and the teardown.
 
 Each binding adds only what its standard's functions differ in: the raw ctypes functions of the hot path, the

@@ -1,6 +1,6 @@
 """The slave interface: what the execution, the manipulators and the observers use of one FMU instance.
 
-Three implementations: an FMU loaded into this process, FMI 2.0 (fmu.InProcessFmu) or FMI 3.0 (fmu3.Fmu3Slave,
+Three implementations: an FMU loaded into this process, FMI 2.0 (fmi2.InProcessFmu) or FMI 3.0 (fmi3.Fmu3Slave,
 picked by in_process.load; what the two bindings share is binding.py), and an FMU of either version hosted in a
 worker process or on `tiltload serve` (isolation.process.IsolatedFmu, whose worker steps the in-process slave).
 All keep the outputs in typed arrays, `values[type]`, read after every step, and offer raw setters with the
