@@ -328,3 +328,9 @@ class Server:
                 os.close(fd)
             except OSError:
                 pass
+
+
+if __name__ == "__main__":  # the command line of boards set up before it moved: one line saying where, not silence
+    print("python -m tiltload.master.engine.isolation.server: the command line is now "
+          "python -m tiltload.master.engine.isolation.server_cli (docs/remote.md)", file=sys.stderr)
+    sys.exit(2)
