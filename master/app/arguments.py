@@ -3,22 +3,24 @@
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
-from ..engine.argument_types import DAY, integer, positive_number, positive_time, time_span
+from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, time_span, tolerance
 
-__all__ = ["DAY", "integer", "positive_number", "positive_time", "time_span"]  # the engine's, shared with tiltload serve
+# the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
+__all__ = ["DAY", "integer", "positive_number", "positive_time", "time_span", "tolerance"]
 
 DEFAULT_FMU_DIR = Path("fmus")
 MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
 
 
+_realtime_range = real_in(lambda value: 1 / MAX_REALTIME_FACTOR <= value <= MAX_REALTIME_FACTOR,
+                          f"from {1 / MAX_REALTIME_FACTOR:g} to {MAX_REALTIME_FACTOR:g}")
+
+
 def realtime_factor(text: str) -> float:
-    value = positive_number(text)
-    if not (1 / MAX_REALTIME_FACTOR <= value <= MAX_REALTIME_FACTOR):
-        raise argparse.ArgumentTypeError(f"must be from {1 / MAX_REALTIME_FACTOR:g} to {MAX_REALTIME_FACTOR:g}, got {text}")
-    return value
+    positive_number(text)  # not a number, or not above 0: that line first
+    return _realtime_range(text)
 
 
 def assignment(text: str) -> tuple[str, object]:
@@ -30,26 +32,7 @@ def assignment(text: str) -> tuple[str, object]:
     return key.strip(), parse_value(value.strip())
 
 
-def tolerance(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
-    return value
-
-
-def tilt_limit(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}") from None
-    if not (0 < value <= 180):
-        raise argparse.ArgumentTypeError(f"must be an angle in degrees, above 0 and at most 180, got {text}")
-    return value
-
-
+tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")
 seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 

@@ -4,7 +4,7 @@
     ssp/              the same as an SSP 1.0 package (export, load); ssp2: SSP 2.0, for FMI 3.0; zip_unpack
     connections       connections resolved and checked against the model descriptions
     model_description reading an FMU's description; values checked against it
-    slave             the interface of one FMU instance; fmu (FMI 2.0), fmu3 (FMI 3.0): in this process;
+    slave             the interface of one FMU instance; fmi2 (FMI 2.0), fmi3 (FMI 3.0): in this process;
                       isolation/: in a worker process or on another machine
     execution         the multirate algorithm: who steps when, inputs from outputs, delay lines
     jacobi            what a Jacobi master (libcosim, Ecos) does to a system, as connection delays

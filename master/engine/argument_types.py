@@ -13,37 +13,33 @@ import math
 DAY = 86400.0  # s: the longest wait any option allows (a session idle for a day, a watchdog of a day)
 
 
-def time_span(high: float, what: str = "time"):
-    """An argparse type: a positive finite number of seconds, at most high."""
+def real_in(accepts, what: str):
+    """An argparse type: a number accepts(value) holds for, else "must be {what}, got TEXT". Text that is no number reads
+    as NaN, which every range refuses with that same line."""
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             value = math.nan
-        if not (0 < value <= high):
-            raise argparse.ArgumentTypeError(f"must be a positive {what} in s, at most {high:g}, got {text}")
+        if not accepts(value):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text}")
         return value
     return parse
 
 
-def _positive_finite(text: str, what: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"must be a positive finite {what}, got {text}")
-    return value
+def time_span(high: float, what: str = "time"):
+    """An argparse type: a positive finite number of seconds, at most high."""
+    return real_in(lambda value: 0 < value <= high, f"a positive {what} in s, at most {high:g}")
 
 
-def positive_number(text: str) -> float:
-    """An argparse type: a positive finite number."""
-    return _positive_finite(text, "number")
+def _finite_above_zero(value: float) -> bool:
+    return value > 0 and math.isfinite(value)
 
 
-def positive_time(text: str) -> float:
-    """An argparse type: a positive finite time in s (a span a run covers, not a wait: see time_span)."""
-    return _positive_finite(text, "time in s")
+positive_number = real_in(_finite_above_zero, "a positive finite number")
+# a span a run covers, not a wait (time_span)
+positive_time = real_in(_finite_above_zero, "a positive finite time in s")
+tolerance = real_in(lambda value: math.isfinite(value) and value >= 0, "a finite number >= 0")
 
 
 def integer(low: int, high: int | None = None):

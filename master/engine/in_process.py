@@ -2,7 +2,7 @@
 
 The execution (for a trusted FMU) and an FMU's host (isolation/worker.py, in its own process or under
 `tiltload serve`) both call `load`, so an FMI 2.0 and an FMI 3.0 FMU (plain or with clocks) are hosted by the
-same code: what differs is fmu.py's binding or fmu3.py's, both behind the Slave interface (slave.py).
+same code: what differs is fmi2.py's binding or fmi3.py's, both behind the Slave interface (slave.py).
 """
 
 from __future__ import annotations
@@ -17,13 +17,13 @@ def load(name: str, path: Path, md, tick: float | None = None) -> Slave:
     """The FMU at path (model description md) instantiated here as name; tick: the execution's, which places the clock
     ticks of an FMI 3.0 FMU with clocks (unused otherwise)."""
     if is_scheduled(md):
-        from .fmu3_scheduled import Fmu3ScheduledSlave
+        from .fmi3_scheduled import Fmu3ScheduledSlave
 
         return Fmu3ScheduledSlave(name, path, md, tick)
     if fmi_version(md) == 3:
-        from .fmu3 import Fmu3Slave
+        from .fmi3 import Fmu3Slave
 
         return Fmu3Slave(name, path, md, tick)
-    from .fmu import InProcessFmu
+    from .fmi2 import InProcessFmu
 
     return InProcessFmu(name, path, md)

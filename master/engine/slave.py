@@ -1,10 +1,10 @@
 """The slave interface: what the execution, the manipulators and the observers use of one FMU instance.
 
-Three implementations: an FMU loaded into this process, FMI 2.0 (fmu.InProcessFmu) or FMI 3.0 (fmu3.Fmu3Slave,
-picked by in_process.load), and an FMU of either version hosted in a worker process or on `tiltload serve`
-(isolation.process.IsolatedFmu, whose worker steps the in-process slave). All keep the outputs in typed arrays,
-`values[type]`, read after every step, and offer raw setters with the fmi2Set<type> signature, so
-the execution moves values between them without knowing where an FMU runs.
+Three implementations: an FMU loaded into this process, FMI 2.0 (fmi2.InProcessFmu) or FMI 3.0 (fmi3.Fmu3Slave,
+picked by in_process.load; what the two bindings share is binding.py), and an FMU of either version hosted in a
+worker process or on `tiltload serve` (isolation.process.IsolatedFmu, whose worker steps the in-process slave).
+All keep the outputs in typed arrays, `values[type]`, read after every step, and offer raw setters with the
+fmi2Set<type> signature, so the execution moves values between them without knowing where an FMU runs.
 """
 
 from __future__ import annotations
@@ -24,12 +24,21 @@ STATUS = {1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 
 
 class Slave(ABC):
-    """One FMU instance as the engine sees it.
+    """One FMU instance as the engine sees it: the attributes below and the methods, nothing else."""
 
-    values[type]: the outputs of that type, in model-description order (out_vrs[type]), as a numpy array;
-    setters[type](component, vrs, n, values): sets inputs, returns an FMI status; log: the FMU's log lines;
-    fatal: the instance reported fmi2Fatal (no further call is allowed); fmi_seconds: wall time spent in it.
-    """
+    name: str  # the instance's name in the system
+    path: Path
+    md: object  # its model description (model_description.read_fmu)
+    values: dict[str, np.ndarray]  # values[type]: the outputs of that type, in model-description order (out_vrs[type])
+    setters: dict[str, object]  # setters[type](component, vrs, n, values): sets inputs, returns an FMI status
+    component: object  # what the setters take as their first argument
+    outputs: dict[str, list]  # the output variables of each type
+    out_vrs: dict[str, list[int]]
+    out_index: dict[str, dict[int, int]]  # type -> value reference -> its index in values[type]
+    vars: dict[str, object]  # every variable by name
+    log: list[str]  # the FMU's log lines
+    fatal: bool  # the instance reported a Fatal status: no further call is allowed
+    fmi_seconds: float  # wall time spent in the FMU's calls
 
     def __init__(self, name: str, path: Path, md) -> None:
         self.name, self.path, self.md = name, Path(path), md

@@ -15,7 +15,7 @@ from tiltload.master.app.fmus import fmu_folder, is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.fmu3 import Fmu3Slave
+from tiltload.master.engine.fmi3 import Fmu3Slave
 from tiltload.master.engine.isolation.process import IsolatedFmu
 
 CLOCKS = {"clocked": ["--clocks"], "plain": []}

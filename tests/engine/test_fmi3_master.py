@@ -1,4 +1,4 @@
-"""The engine's FMI 3.0 slave (master/engine/fmu3.py): the loop on FMI 3.0 FMUs with and without clocks, mixed with
+"""The engine's FMI 3.0 slave (master/engine/fmi3.py): the loop on FMI 3.0 FMUs with and without clocks, mixed with
 FMI 2.0 ones, equals the FMI 2.0 loop bit for bit; the log shows each clocked sensor group sampled at its clock's
 ticks; clocks replace periods; a state saved at 20 s continues bit for bit in new instances; two other importers
 agree: FMPy's FMU3Slave stepping the plain FMUs, and a C host written from the standard's call sequences stepping

@@ -17,10 +17,10 @@ from tiltload.master.engine.binaries import library_member
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation import handshake, wire
+from tiltload.master.engine.isolation.elf import library_machine, this_machine
 from tiltload.master.engine.isolation.hosting import remote_fmu
 from tiltload.master.engine.isolation.process import IsolatedFmu
 from tiltload.master.engine.isolation.remote_client import RemoteHost
-from tiltload.master.engine.isolation.server import library_machine, this_machine
 from tiltload.master.engine.isolation.transport import Channel, FrameTooLarge, LinkClosed
 from tiltload.master.engine.model_description import read_fmu
 

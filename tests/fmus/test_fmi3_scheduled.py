@@ -163,7 +163,7 @@ def test_the_se_controller_refuses_co_simulation(se_fmu, fmi3_set, tmp_path):
     assert any("is a Scheduled Execution FMU only (fmi3InstantiateScheduledExecution)" in m for m in log)
 
 
-# ---- our master as its scheduler (the Python path: master/engine/fmu3_scheduled.py) ---------------------------------
+# ---- our master as its scheduler (the Python path: master/engine/fmi3_scheduled.py) ---------------------------------
 def test_our_master_schedules_the_se_controller_as_it_runs_the_clocked_one_bit_for_bit(fmi3_set, se_fmu):
     """The loop with the SE controller in place of the clocked one: the plant's trajectory the same bits; each
     partition activated exactly at its clock's ticks (the GPS every 10th, the camera every 2nd, the law every tick)."""

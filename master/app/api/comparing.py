@@ -13,7 +13,7 @@ Source = Result | str | Path
 
 
 def _tolerance(name: str, value: float | None) -> float | None:
-    from ..arguments import tolerance
+    from ...engine.argument_types import tolerance
 
     if value is None:
         return None

@@ -1,44 +1,5 @@
-"""Campaign specifications (TOML or YAML): what is run, what varies, what is kept; validated, then expanded into runs.
-
-    name = "robustness"
-    [base]                      # the run every case starts from (tiltload run's options)
-    scenario = "zse"            # fsi | lkf | zse
-    trajectory = 1              # 0 hover | 1 circle | 2 Table 5.3 | a shape ("lemniscate") | a waypoint file
-    wind = "gusty.yaml"         # a wind file (docs/test_bench.md), seeded by each case's seed
-    allow_infeasible = false    # true: run a case the feasibility check refuses (its row says so)
-    max_tilt = 30.0             # degrees: the feasibility check's largest trim tilt
-    controllers = ["dlqr", "mixed"]   # ours by name, or paths of controller FMUs
-    stop_time = 40.0            # s (default: the trajectory's duration)
-    gusts = true
-    [vary]
-    seeds = [1, 2, 3]           # every case runs with each seed
-    method = "grid"             # grid (every combination) | random | lhs (scipy.stats.qmc)
-    samples = 20                # random and lhs: how many points
-    sample_seed = 0             # random and lhs: the sampler's seed
-    [[vary.parameters]]
-    name = "load_mass"          # the column in the results
-    targets = ["plant.m_L"]     # FMU parameters set to the value (instance.name)
-    values = [0.02, 0.1, 0.5]   # grid; random and lhs take range = [low, high]
-    [keep]
-    metrics = ["ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"]
-    logs = false                # true: keep every run's MCAP log
-    requirements = "reqs.yaml"  # judge every run (docs/requirements.md): columns NAME_verdict, NAME_robustness
-
-Files (trajectory, wind) are relative to the spec. Every case's reference is checked before it runs
-(master/app/feasibility.py, with the case's plant parameters); a case the check refuses is a row with its line.
-
-`base.faults` is a fault schedule (docs/faults.md); a varied parameter's target `faults.N.start`,
-`faults.N.end` or `faults.N.value` varies fault N.
-
-Branches: `base.snapshot = "at20s.snapshot"` (written by `tiltload run --snapshot-at`) runs every case from
-where that run was, as `tiltload run --from-snapshot` does. The snapshot fixes the loop (scenario,
-trajectory, controller, wind, gusts: none of those may be given); what a case may change is what a
-continued run may: the faults (base.faults and their varied fields, which replace the run's own), tunable
-parameters (base.parameters and varied targets; the build's tunable ones: sensors.seed) and
-base.stop_time. vary.seeds sets sensors.seed: the noise after the snapshot (the scenario's wind and
-gusts keep the snapshot's seed). Each row's metrics cover the branch: from the snapshot to the stop time.
-
-A JSON Schema declares the format; a file that breaks it is refused with the path of the field.
+"""Campaign specifications (TOML or YAML): what is run, what varies, what is kept; validated against a JSON Schema,
+then expanded into runs. The format, annotated: docs/campaigns.md ("The spec").
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""`tiltload serve`: the FMUs of one folder, each stepped for a master across the network as a local worker would.
+"""The server of `tiltload serve` (its command line: server_cli.py): the FMUs of one folder (catalogue.py), each
+stepped for a master across the network as a local worker would.
 
 A connection goes: accepted (logged, with the peer's address) → the HMAC handshake (handshake.py)
 → one JSON request naming an FMU by model identifier and GUID → a worker process (worker.py)
@@ -20,7 +21,6 @@ What keeps one client from harming the server or the others:
 
 from __future__ import annotations
 
-import argparse
 import os
 import queue
 import re
@@ -33,10 +33,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..argument_types import DAY, integer, time_span
-from ..errors import DescriptionError
-from ..model_description import read_fmu
+from ..argument_types import DAY
 from . import handshake, wire
+from .catalogue import Catalogue, Refused
 from .process import WORKER_MODULE, how_it_ended
 from .transport import HEADER, Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -56,94 +55,6 @@ class ServeOptions:
     handshake_timeout: float = 5.0  # s from the connection to the FMU's pick
     idle_timeout: float = 600.0  # s a session may wait for the master's next request
     max_pending: int = 16  # connections being admitted at a time
-
-
-class ServeError(Exception):
-    """The server cannot start (a missing folder, a bad token file, an address it cannot listen on): one line."""
-
-
-class Refused(Exception):
-    """A client's request this server does not grant; the message goes to the client and the log."""
-
-
-_ELF_MACHINES = {3: "x86", 40: "arm", 62: "x86_64", 183: "aarch64", 243: "riscv64"}
-_THIS_MACHINE = {"amd64": "x86_64", "arm64": "aarch64", "i686": "x86", "i386": "x86"}
-
-
-def library_machine(fmu: Path, model_identifier: str) -> str | None:
-    """The processor of the Linux library this machine would load from the FMU (binaries.py; failing that, of any it
-    holds), from its ELF header; None if it has none or it cannot be read. A library for another processor is then
-    refused with a line, not a loader error."""
-    import zipfile
-
-    from ..binaries import library_member
-
-    try:
-        with zipfile.ZipFile(fmu) as z:
-            member = library_member(z.namelist(), model_identifier)
-            if member is None:
-                return None
-            with z.open(member) as f:
-                header = f.read(20)
-    except (OSError, zipfile.BadZipFile):
-        return None
-    if header[:4] != b"\x7fELF" or len(header) < 20:
-        return None
-    return _ELF_MACHINES.get(int.from_bytes(header[18:20], "little" if header[5] == 1 else "big"), "another processor")
-
-
-def this_machine() -> str:
-    import platform
-
-    machine = platform.machine().lower()
-    return _THIS_MACHINE.get(machine, machine)
-
-
-class Catalogue:
-    """The FMUs of the folder by model identifier and GUID, read again whenever a file changes."""
-
-    def __init__(self, folder: Path, say) -> None:
-        self.folder, self.say = Path(folder), say
-        self._known: dict[Path, tuple] = {}  # path -> ((mtime, size), model description or None)
-        self._lock = threading.Lock()
-
-    def entries(self) -> list[tuple[Path, object]]:
-        with self._lock:
-            found = []
-            for path in sorted(self.folder.glob("*.fmu")):
-                try:
-                    st = path.stat()
-                except OSError:
-                    continue
-                stamp = (st.st_mtime_ns, st.st_size)
-                if self._known.get(path, (None,))[0] != stamp:
-                    try:
-                        md = read_fmu(path, path.stem)
-                    except DescriptionError as err:
-                        self.say(f"not served: {err}")
-                        md = None
-                    self._known[path] = (stamp, md)
-                md = self._known[path][1]
-                if md is not None:
-                    found.append((path, md))
-            return found
-
-    def find(self, model_identifier: str, guid: str) -> Path:
-        entries = self.entries()
-        for path, md in entries:
-            if md.coSimulation.modelIdentifier == model_identifier and md.guid == guid:
-                built_for = library_machine(path, model_identifier)
-                if built_for is not None and built_for != this_machine():
-                    raise Refused(f"{path.name} here holds a library for {built_for}, this machine is {this_machine()}: "
-                                  "build the FMU for it (docs/remote.md)")
-                return path
-        same = [(path, md.guid) for path, md in entries if md.coSimulation.modelIdentifier == model_identifier]
-        if same:
-            path, other = same[0]
-            raise Refused(f"{path.name} here is {model_identifier} with GUID {other}, the master's has {guid}: "
-                          "build the same version on both machines")
-        have = ", ".join(sorted({md.coSimulation.modelIdentifier for _, md in entries})) or "none"
-        raise Refused(f"no FMU {model_identifier} in the served folder (it has: {have})")
 
 
 @dataclass
@@ -419,82 +330,7 @@ class Server:
                 pass
 
 
-# --- the command line: `tiltload serve`, or `python -m tiltload.master.engine.isolation.server` on a board that has
-# only numpy and FMPy (the engine's own dependencies), not the whole application ---
-
-def _address(text: str) -> tuple[str, int]:
-    from ..system import parse_address
-
-    try:
-        return parse_address(text, port_zero=True)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-
-
-MAX_HANDSHAKE = 3600.0  # s: a client names its FMU in milliseconds; an hour is generous and far from any overflow
-MAX_CLIENTS_PER_FMU = 1024
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--fmus", type=Path, default=Path("fmus"),
-                   help="the folder whose FMUs are served, built for this machine (default: fmus); nothing else is")
-    p.add_argument("--bind", type=_address, default=("127.0.0.1", DEFAULT_PORT), metavar="HOST:PORT",
-                   help=f"where to listen (default 127.0.0.1:{DEFAULT_PORT}, this machine only; 0.0.0.0:{DEFAULT_PORT} or "
-                        "the board's address for a master elsewhere; port 0 picks a free one)")
-    p.add_argument("--token-file", type=Path, required=True, metavar="FILE",
-                   help="the shared secret (at least 16 bytes, readable by you only) a master must prove, as "
-                        "tiltload run --token-file")
-    p.add_argument("--clients-per-fmu", type=integer(1, MAX_CLIENTS_PER_FMU), default=1, metavar="N",
-                   help=f"sessions one FMU serves at a time (default 1; at most {MAX_CLIENTS_PER_FMU})")
-    p.add_argument("--handshake-timeout", type=time_span(MAX_HANDSHAKE), default=5.0, metavar="S",
-                   help=f"the time a client has from connecting to naming its FMU (default 5 s; at most {MAX_HANDSHAKE:g} s)")
-    p.add_argument("--idle-timeout", type=time_span(DAY), default=600.0, metavar="S",
-                   help=f"a session ends after this long without a request from its master (default 600 s; at most {DAY:g} s)")
-
-
-def run(args: argparse.Namespace) -> int:
-    """Serve until Ctrl-C or SIGTERM (raised as KeyboardInterrupt); ServeError if it cannot start."""
-    from .handshake import read_token
-
-    if not args.fmus.is_dir():
-        raise ServeError(f"--fmus {args.fmus}: no such folder")
-    try:
-        secret = read_token(args.token_file)
-    except DescriptionError as err:
-        raise ServeError(str(err)) from None
-    host, port = args.bind
-    server = Server(ServeOptions(args.fmus.resolve(), secret, host, port, args.clients_per_fmu, args.handshake_timeout,
-                                 args.idle_timeout))
-    try:
-        server.start()
-    except OSError as err:
-        raise ServeError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
-    try:
-        server.serve_forever()
-    except KeyboardInterrupt as err:
-        server.say(f"stopped ({'SIGTERM' if getattr(err, 'signum', 2) == 15 else 'SIGINT'}); every session ended")
-    return 0
-
-
-class _Terminated(KeyboardInterrupt):
-    signum = 15
-
-
-def main() -> None:
-    import signal
-
-    def terminated(signum, frame):
-        raise _Terminated()
-    signal.signal(signal.SIGTERM, terminated)
-    p = argparse.ArgumentParser(prog="python -m tiltload.master.engine.isolation.server", allow_abbrev=False,
-                                description="Serve the FMUs of a folder to tiltload masters elsewhere (docs/remote.md).")
-    add_arguments(p)
-    try:
-        sys.exit(run(p.parse_args()))
-    except ServeError as err:
-        print(f"{p.prog}: error: {err}", file=sys.stderr)
-        sys.exit(2)
-
-
-if __name__ == "__main__":
-    main()
+if __name__ == "__main__":  # the command line of boards set up before it moved: one line saying where, not silence
+    print("python -m tiltload.master.engine.isolation.server: the command line is now "
+          "python -m tiltload.master.engine.isolation.server_cli (docs/remote.md)", file=sys.stderr)
+    sys.exit(2)

@@ -16,8 +16,8 @@ import ctypes
 import numpy as np
 
 from ..errors import ExecutionError
-from ..fmu import InProcessFmu
-from ..fmu3 import FMI3_NAME, Fmu3Slave
+from ..fmi2 import InProcessFmu
+from ..fmi3 import FMI3_NAME, Fmu3Slave
 from ..observers import Batch
 from ..slave import TYPES
 from . import kernel

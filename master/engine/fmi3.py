@@ -35,11 +35,10 @@ from pathlib import Path
 import numpy as np
 from fmpy.fmi3 import FMU3Slave
 
+from .binding import Binding, c_function
 from .errors import ExecutionError
-from .extraction import Unpacked
-from .fmu import fmpy_call
-from .model_description import checked_value, clock_ticks, clocks_of
-from .slave import TYPES, Slave
+from .model_description import clock_ticks, clocks_of
+from .slave import TYPES
 
 FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
 FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
@@ -121,12 +120,13 @@ class _Inputs:
                    for _, vrs, _, _, _, idx in self.discrete)
 
 
-class Fmu3Slave(Slave):
+class Fmu3Slave(Binding):
     """One instantiated FMI 3.0 co-simulation FMU in this process; tick: the execution's, to place the clock ticks."""
+
+    PARAMETER_SETTERS = {"Real": "setFloat64", "Integer": "setInt32", "Boolean": "setBoolean", "String": "setString"}
 
     def __init__(self, name: str, path: Path, md, tick: float | None = None) -> None:
         super().__init__(name, path, md)
-        self._closed = False
         self.clocks = clocks_of(md)
         self.clocked = bool(self.clocks)
         self.tick = tick
@@ -143,25 +143,20 @@ class Fmu3Slave(Slave):
             if v.causality == "input" and v.type in TYPES:
                 kind = clock if clock is not None else ("discrete" if v.variability == "discrete" else "continuous")
                 self.input_kind[(v.type, v.valueReference)] = kind
-        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
-        self.dir = self._unpacked.folder
 
         def log_message(env, status, category, message):
             self.log.append(message.decode("utf-8", "replace"))
         self._log_message = log_message
-        try:
-            self._instantiate(md, name)
-        except BaseException:
-            self._unpacked.release()  # nothing of a failed instantiation stays behind
-            raise
+        self.fmu = self._instantiate(md, name)
         self._bind()
 
     # ---- set-up ---------------------------------------------------------------------------------------------
-    def _instantiate(self, md, name: str) -> None:
-        self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName=name)
-        self.call("instantiate", lambda: self.fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked,
-                                                              logMessage=self._log_message))
+    def _instantiate(self, md, name: str):
+        """FMPy's object for this FMU, instantiated for co-simulation (the Scheduled Execution slave overrides it)."""
+        return self._load(
+            lambda folder: FMU3Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                                     instanceName=name),
+            lambda fmu: fmu.instantiate(loggingOn=True, eventModeUsed=self.clocked, logMessage=self._log_message))
 
     def _bind(self) -> None:
         dll = self.fmu.dll
@@ -169,25 +164,19 @@ class Fmu3Slave(Slave):
         self._raw = {}
         for t in TYPES:
             for kind in ("Get", "Set"):
-                fn = getattr(dll, f"fmi3{kind}{FMI3_NAME[t]}")
-                fn.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(FMI3_C[t]),
-                               ctypes.c_size_t]
-                fn.restype = ctypes.c_int
-                self._raw[kind, t] = fn
-        self._do_step = dll.fmi3DoStep
-        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
-                                  *([ctypes.POINTER(ctypes.c_bool)] * 3), ctypes.POINTER(ctypes.c_double)]
-        self._do_step.restype = ctypes.c_int
+                self._raw[kind, t] = c_function(dll, f"fmi3{kind}{FMI3_NAME[t]}",
+                                                [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                                 ctypes.POINTER(FMI3_C[t]), ctypes.c_size_t])
+        self._do_step = c_function(dll, "fmi3DoStep", [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
+                                                       *([ctypes.POINTER(ctypes.c_bool)] * 3), ctypes.POINTER(ctypes.c_double)])
         self._step_out = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool(), ctypes.c_double())
         self._step_refs = tuple(ctypes.byref(x) for x in self._step_out)
         for fn in ("fmi3EnterEventMode", "fmi3EnterStepMode"):
-            getattr(dll, fn).argtypes = [ctypes.c_void_p]
-            getattr(dll, fn).restype = ctypes.c_int
-        dll.fmi3SetClock.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(ctypes.c_bool)]
-        dll.fmi3SetClock.restype = ctypes.c_int
-        dll.fmi3UpdateDiscreteStates.argtypes = [ctypes.c_void_p, *([ctypes.POINTER(ctypes.c_bool)] * 5),
-                                                 ctypes.POINTER(ctypes.c_double)]
-        dll.fmi3UpdateDiscreteStates.restype = ctypes.c_int
+            c_function(dll, fn, [ctypes.c_void_p])
+        c_function(dll, "fmi3SetClock", [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                         ctypes.POINTER(ctypes.c_bool)])
+        c_function(dll, "fmi3UpdateDiscreteStates", [ctypes.c_void_p, *([ctypes.POINTER(ctypes.c_bool)] * 5),
+                                                     ctypes.POINTER(ctypes.c_double)])
         self._update_out = (*(ctypes.c_bool() for _ in range(5)), ctypes.c_double())
         self._update_refs = tuple(ctypes.byref(x) for x in self._update_out)
         # outputs: values[type] in model-description order; the clocked ones read in Event Mode, the rest after a step
@@ -246,9 +235,6 @@ class Fmu3Slave(Slave):
         return stage
 
     # ---- calls -----------------------------------------------------------------------------------------------
-    def call(self, what: str, fn):
-        return fmpy_call(self, what, fn)
-
     def _check(self, status: int, what: str, t: float) -> None:
         if status > 1:
             raise self.failed(f"{what} at t={t:.6g} s", status)
@@ -270,17 +256,6 @@ class Fmu3Slave(Slave):
         self.call("reset", self.fmu.reset)
         self._staged.clear()
         self._discrete_inputs = []
-
-    def set_values(self, values: dict) -> None:
-        self.set_parameters(values)
-
-    def set_parameters(self, params: dict) -> None:
-        setters = {"Real": self.fmu.setFloat64, "Integer": self.fmu.setInt32, "Boolean": self.fmu.setBoolean,
-                   "String": self.fmu.setString}
-        for key, value in params.items():
-            v = self.vars.get(key)
-            value = checked_value(self.name, v, key, value)
-            self.call(f"setting {key}", lambda s=setters[v.type], vr=v.valueReference, x=value: s([vr], [x]))
 
     def _set(self, kinds, t: float) -> None:
         """Set the staged inputs whose kind is in kinds (a set of "continuous", "discrete", clock indices)."""
@@ -412,19 +387,3 @@ class Fmu3Slave(Slave):
             raise ExecutionError(f"{self.name}: cannot restore its state: it holds other clocked outputs than this FMU")
         self.restore_state(saved)
         self.read_outputs()
-
-    def close(self) -> None:
-        """Terminate and free the instance, then remove its extracted copy; safe to call twice."""
-        if self._closed:
-            return
-        self._closed = True
-        if not self.fatal:  # after fmi3Fatal no call is allowed
-            try:
-                self.fmu.terminate()
-            except Exception:
-                pass
-            try:
-                self.fmu.freeInstance()
-            except Exception:
-                pass
-        self._unpacked.release()

@@ -1,7 +1,7 @@
 """An FMI 3.0 Scheduled Execution FMU loaded into this process, behind the Slave interface: the master as the scheduler
 of its model partitions (FMI 3.0, chapter 5; docs/fmi3.md, "Scheduled Execution").
 
-It reuses the clocked co-simulation slave's staging (fmu3.py): the execution's setters stage the inputs, each kept
+It reuses the clocked co-simulation slave's staging (fmi3.py): the execution's setters stage the inputs, each kept
 with the clock that clocks it, and the outputs are held between their clock's activations. A step at tick k runs no
 fmi3DoStep; it activates the partitions due at k one after the other, in the order of their declared priorities
 (smaller first; equal ones in declaration order: the standard leaves that to the importer):
@@ -30,7 +30,7 @@ from fmpy.fmi3 import (
 )
 
 from .errors import ExecutionError
-from .fmu3 import Fmu3Slave
+from .fmi3 import Fmu3Slave
 
 
 class Fmu3ScheduledSlave(Fmu3Slave):
@@ -38,9 +38,7 @@ class Fmu3ScheduledSlave(Fmu3Slave):
 
     scheduled = True
 
-    def _instantiate(self, md, name: str) -> None:
-        self.fmu = FMU3ScheduledExecution(guid=md.guid, unzipDirectory=self.dir,
-                                          modelIdentifier=md.scheduledExecution.modelIdentifier, instanceName=name)
+    def _instantiate(self, md, name: str):
         self.locks = 0  # lock callbacks received
         self._depth = 0
 
@@ -53,15 +51,17 @@ class Fmu3ScheduledSlave(Fmu3Slave):
         # FMPy's instantiate hands the FMU no-op lock callbacks; these count (kept on the slave: the FMU holds them)
         self._callbacks = (fmi3LogMessageCallback(self._log_message), fmi3ClockUpdateCallback(lambda env: None),
                            fmi3LockPreemptionCallback(lock), fmi3UnlockPreemptionCallback(unlock))
-        resources = os.path.join(self.dir, "resources") + os.path.sep
 
-        def instantiate() -> None:
-            self.fmu.component = self.fmu.fmi3InstantiateScheduledExecution(
+        def instantiate(fmu) -> None:
+            resources = os.path.join(self.dir, "resources") + os.path.sep
+            fmu.component = fmu.fmi3InstantiateScheduledExecution(
                 name.encode(), md.guid.encode(), resources.encode(), fmi3Boolean(False), fmi3Boolean(True),
                 fmi3InstanceEnvironment(), *self._callbacks)
-            if not self.fmu.component:
+            if not fmu.component:
                 raise Exception("Failed to instantiate FMU")
-        self.call("instantiate", instantiate)
+        return self._load(lambda folder: FMU3ScheduledExecution(guid=md.guid, unzipDirectory=folder,
+                                                                modelIdentifier=md.scheduledExecution.modelIdentifier,
+                                                                instanceName=name), instantiate)
 
     def _bind(self) -> None:
         super()._bind()

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from fmpy.fmi1 import FMICallException, calloc, free
+from fmpy.fmi1 import calloc, free
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -22,35 +22,19 @@ from fmpy.fmi2 import (
 )
 
 from .binaries import library_path
-from .errors import ExecutionError
-from .extraction import Unpacked
-from .model_description import checked_value
+from .binding import Binding, c_function
 from .pythonfmu_guard import pin
-from .slave import C_TYPES, TYPES, Slave
+from .slave import C_TYPES, TYPES
 
 
-def fmpy_call(slave: Slave, what: str, fn):
-    """fn() through FMPy, timed into the slave's fmi_seconds; a refused call becomes the slave's one-line error."""
-    started = time.perf_counter()
-    try:
-        return fn()
-    except FMICallException as err:
-        raise slave.failed(what, err.status) from None
-    except OSError as err:
-        raise ExecutionError(f"{slave.name}: {what} failed: {err}") from None
-    finally:
-        slave.fmi_seconds += time.perf_counter() - started
-
-
-class InProcessFmu(Slave):
+class InProcessFmu(Binding):
     """One instantiated FMU in this process: typed output tables, captured log, fatal-aware teardown."""
+
+    PARAMETER_SETTERS = {"Real": "setReal", "Integer": "setInteger", "Boolean": "setBoolean", "String": "setString"}
 
     def __init__(self, name: str, path: Path, md) -> None:
         super().__init__(name, path, md)
-        self._closed = False
         pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
-        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
-        self.dir = self._unpacked.folder
 
         def logger(env, inst, status, category, message):
             self.log.append(message.decode("utf-8", "replace"))
@@ -58,28 +42,22 @@ class InProcessFmu(Slave):
         self._callbacks.logger = fmi2CallbackLoggerTYPE(logger)
         self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:
-            self.slave = FMU2Slave(guid=md.guid, unzipDirectory=self.dir, modelIdentifier=md.coSimulation.modelIdentifier,
-                                   instanceName=name, libraryPath=library_path(self.dir, md.coSimulation.modelIdentifier))
-            self.call("instantiate", lambda: self.slave.instantiate(loggingOn=True, callbacks=self._callbacks))
-        except BaseException:
-            self._unpacked.release()  # nothing of a failed instantiation stays behind
-            raise
+        identifier = md.coSimulation.modelIdentifier
+        self.slave = self._load(
+            lambda folder: FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=identifier, instanceName=name,
+                                     libraryPath=library_path(folder, identifier)),
+            lambda slave: slave.instantiate(loggingOn=True, callbacks=self._callbacks))
         self._bind()
 
     def _bind(self) -> None:
         """The raw fmi2 functions and the output arrays, set up once."""
         dll = self.slave.dll
-        self._do_step = dll.fmi2DoStep
-        self._do_step.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int]
-        self._do_step.restype = ctypes.c_int
+        self._do_step = c_function(dll, "fmi2DoStep", [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int])
         self.getters = {}
         for t in TYPES:
             for kind, table in (("Get", self.getters), ("Set", self.setters)):
-                fn = getattr(dll, f"fmi2{kind}{t}")
-                fn.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t, ctypes.POINTER(C_TYPES[t])]
-                fn.restype = ctypes.c_int
-                table[t] = fn
+                table[t] = c_function(dll, f"fmi2{kind}{t}", [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                                              ctypes.POINTER(C_TYPES[t])])
         self._reads = []
         for t in TYPES:
             n = len(self.out_vrs[t])
@@ -93,9 +71,6 @@ class InProcessFmu(Slave):
         """The address of one of the FMU's own functions (fmi2DoStep, fmi2SetReal, ...), for the C tick loop."""
         return ctypes.cast(getattr(self.slave.dll, name), ctypes.c_void_p).value
 
-    def call(self, what: str, fn):
-        return fmpy_call(self, what, fn)
-
     def initialize(self, parameters: dict) -> None:
         self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
         self.call("enterInitializationMode", self.slave.enterInitializationMode)
@@ -105,17 +80,6 @@ class InProcessFmu(Slave):
 
     def reset(self) -> None:
         self.call("reset", self.slave.reset)
-
-    def set_values(self, values: dict) -> None:
-        self.set_parameters(values)
-
-    def set_parameters(self, params: dict) -> None:
-        for key, value in params.items():
-            v = self.vars.get(key)
-            value = checked_value(self.name, v, key, value)
-            setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger, "Boolean": self.slave.setBoolean,
-                      "String": self.slave.setString}[v.type]
-            self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
 
     def read_outputs(self) -> None:
         started = time.perf_counter()
@@ -152,19 +116,3 @@ class InProcessFmu(Slave):
                 self.slave.freeFMUstate(fmu_state)
         self.call("restoring its state", restore)
         self.read_outputs()
-
-    def close(self) -> None:
-        """Terminate and free the instance, then remove its extracted copy (a run leaves no folder behind)."""
-        if self._closed:
-            return
-        self._closed = True
-        if not self.fatal:  # after fmi2Fatal the standard allows no call, not even fmi2FreeInstance
-            try:
-                self.slave.terminate()
-            except Exception:
-                pass
-            try:
-                self.slave.freeInstance()
-            except Exception:
-                pass
-        self._unpacked.release()

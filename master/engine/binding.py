@@ -1,0 +1,96 @@
+"""What the FMI 2.0 and FMI 3.0 bindings (fmi2.py, fmi3.py) share: an FMU extracted and instantiated in this process
+through FMPy, calls timed and turned into one-line errors, parameters set by name, and the teardown.
+
+Each binding adds only what its standard's functions differ in: the raw ctypes functions of the hot path, the
+initialization sequence, the state calls (and for FMI 3.0 the clocks' Event Mode)."""
+
+from __future__ import annotations
+
+import ctypes
+import time
+from pathlib import Path
+
+from fmpy.fmi1 import FMICallException
+
+from .errors import ExecutionError
+from .extraction import Unpacked
+from .model_description import checked_value
+from .slave import Slave
+
+
+def fmpy_call(slave: Slave, what: str, fn):
+    """fn() through FMPy, timed into the slave's fmi_seconds; a refused call becomes the slave's one-line error."""
+    started = time.perf_counter()
+    try:
+        return fn()
+    except FMICallException as err:
+        raise slave.failed(what, err.status) from None
+    except OSError as err:
+        raise ExecutionError(f"{slave.name}: {what} failed: {err}") from None
+    finally:
+        slave.fmi_seconds += time.perf_counter() - started
+
+
+def c_function(dll, name: str, argtypes: list):
+    """One of the FMU's own functions, typed for ctypes: it returns an FMI status (an int in both standards)."""
+    fn = getattr(dll, name)
+    fn.argtypes = argtypes
+    fn.restype = ctypes.c_int
+    return fn
+
+
+class Binding(Slave):
+    """An FMU instantiated in this process through FMPy's object for its standard (FMU2Slave, FMU3Slave)."""
+
+    # FMPy's setter of a parameter of each type, by method name: the standards name the types differently
+    PARAMETER_SETTERS: dict[str, str] = {}
+
+    def __init__(self, name: str, path: Path, md) -> None:
+        super().__init__(name, path, md)
+        self._closed = False
+        self._unpacked: Unpacked | None = None
+        self._fmpy = None
+
+    def _load(self, make, instantiate):
+        """FMPy's object for the FMU, make(its extracted folder), instantiated by instantiate(that object). Nothing of a
+        failed instantiation stays behind; the extracted copy goes with close(), or with its reaper if this process
+        dies first."""
+        self._unpacked = Unpacked(self.path)
+        self.dir = self._unpacked.folder
+        try:
+            self._fmpy = make(self.dir)
+            self.call("instantiate", lambda: instantiate(self._fmpy))
+        except BaseException:
+            self._unpacked.release()
+            raise
+        return self._fmpy
+
+    def call(self, what: str, fn):
+        return fmpy_call(self, what, fn)
+
+    def set_values(self, values: dict) -> None:
+        self.set_parameters(values)
+
+    def set_parameters(self, params: dict) -> None:
+        for key, value in params.items():
+            v = self.vars.get(key)
+            value = checked_value(self.name, v, key, value)
+            setter = getattr(self._fmpy, self.PARAMETER_SETTERS[v.type])
+            self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
+
+    def close(self) -> None:
+        """Terminate and free the instance, then remove its extracted copy (a run leaves no folder behind); safe to call
+        twice."""
+        if self._closed:
+            return
+        self._closed = True
+        if not self.fatal:  # after a Fatal status the standards allow no call, not even freeInstance
+            try:
+                self._fmpy.terminate()
+            except Exception:
+                pass
+            try:
+                self._fmpy.freeInstance()
+            except Exception:
+                pass
+        self._unpacked.release()
