@@ -326,7 +326,8 @@ static double girard_score(const double* g) {
 }
 
 /* Indices of the k smallest scores, ascending by index (ties: the lower index goes first): a max-heap of k
-   (score, index) pairs, one pass over the rows given (rows[0..n_rows), or 0..n_rows if rows is NULL). */
+   (score, index) pairs, one pass over the rows given (rows[0..n_rows) ascending and without a NaN score, or
+   0..n_rows if rows is NULL). */
 static void heap_select(const int* rows, int n_rows, const double* scores, int k, int* chosen) {
   int heap[TL_ZSE_CAP], size = 0, i, t;
 #define LESS(a, b) (scores[a] < scores[b] || (scores[a] == scores[b] && (a) < (b)))
@@ -353,6 +354,17 @@ static void heap_select(const int* rows, int n_rows, const double* scores, int k
       }
       heap[pos] = row;
     }
+  }
+  if (rows != NULL && size == k && k > 0) { /* rows ascend and have no NaN score (smallest's promise): LESS orders them
+                                               totally, so the k chosen are the rows not after the heap's root, kept in
+                                               the rows' order, without sorting */
+    const int kth = heap[0];
+    int m = 0;
+    for (t = 0; t < n_rows && m < k; ++t) {
+      chosen[m] = rows[t];
+      m += !LESS(kth, rows[t]);
+    }
+    return;
   }
 #undef LESS
   for (i = 0; i < k; ++i) chosen[i] = heap[i];
