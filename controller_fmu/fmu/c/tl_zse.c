@@ -531,8 +531,9 @@ static int update(TlZse* z, const TlZseModel* m, const double* M, const double* 
           ++nonzero;
           at = k;
         }
-      if (nonzero == 1 && finite_T) { /* g = w e_at (a diagonal G_w): T g is w T[:, at]; the zero terms of the product
-                                         add +-0, which turns a -0 into +0 and nothing else, as 0.0 + does */
+      if (nonzero == 1 && finite_T && isfinite(g[at])) { /* g = w e_at (a diagonal G_w): T g is w T[:, at]; the zero
+                                                           terms of the product add +-0, which turns a -0 into +0 and
+                                                           nothing else, as 0.0 + does */
         for (j = 0; j < N; ++j) dst[r][j] = 0.0 + g[at] * T[j * N + at];
         for (j = N; j < LD; ++j) dst[r][j] = 0.0;
         continue;
