@@ -21,16 +21,17 @@ REDUCTION = {"combastel": 0, "girard": 1, "pca": 2}
 FILES = ("tl_zse.c", "tl_lkf.c", "tl_linalg.c")
 
 
-def compile_library(fmu: Path, folder: Path) -> Path:
-    """The estimators exactly as shipped: the FMU's sources, the FMU's hot-kernel flags."""
+def compile_library(fmu: Path, folder: Path, extra: tuple[str, ...] = ()) -> Path:
+    """The estimators exactly as shipped: the FMU's sources, the FMU's hot-kernel flags (and extra flags, e.g.
+    -DTL_PORTABLE_FP for the baseline vector copy alone)."""
     from ...native_fmu.compile import HOT_CFLAGS
 
     with zipfile.ZipFile(fmu) as z:
         z.extractall(folder, [n for n in z.namelist() if n.startswith("sources/")])
     src = folder / "sources"
     lib = folder / "libestimators.so"
-    subprocess.run(["cc", "-std=c11", *HOT_CFLAGS, "-fPIC", "-shared", "-DTL_INTERNAL=", f"-I{src}", *(str(src / f) for f in FILES),
-                    "-o", str(lib), "-lm"], check=True)
+    subprocess.run(["cc", "-std=c11", *HOT_CFLAGS, *extra, "-fPIC", "-shared", "-DTL_INTERNAL=", f"-I{src}",
+                    *(str(src / f) for f in FILES), "-o", str(lib), "-lm"], check=True)
     return lib
 
 

@@ -262,6 +262,32 @@ def test_c_zse_equals_the_python_reference_for_3000_steps(model, c_library, redu
     assert worst <= 1e-9, worst
 
 
+@pytest.mark.parametrize("reduction", ["combastel", "girard", "pca"])
+@pytest.mark.slow
+def test_c_zse_vector_copies_give_the_same_bits(model, c_library, pipeline_fmus, tmp_path, reduction):
+    """The kernels this CPU dispatches to (AVX2, AVX-512VL or the baseline) and the baseline copy alone
+    (-DTL_PORTABLE_FP) do the same IEEE operations in the same order: centre, hull and every generator equal
+    to the bit over 300 closed-loop steps with the reduction active (docs/platforms.md)."""
+    z = zse_setup(model)
+    portable = c_estimators.compile_library(pipeline_fmus["TiltloadController"], tmp_path, ("-DTL_PORTABLE_FP",))
+    args = (model.A, model.B, z.H, np.zeros(23), z.G_w, z.y_eq, z.G_v, z.r_max, reduction)
+    a, b = c_estimators.CZonotopicEstimator(c_library, *args), c_estimators.CZonotopicEstimator(portable, *args)
+    rng, K, nu = closed_loop_sequence(model, z, 300, 11)
+    y0 = z.y_eq + z.H @ nu
+    a.initialize(np.zeros(23), z.G_x0, y0, available(0))
+    b.initialize(np.zeros(23), z.G_x0, y0, available(0))
+    bits = lambda x: np.ascontiguousarray(x).view(np.int64)  # noqa: E731
+    for k in range(1, 301):
+        du = -K @ a.c[:20]
+        nu = model.A @ nu + model.B @ du + np.diag(z.G_w) * rng.uniform(-1, 1, 23)
+        y = z.y_eq + z.H @ nu + np.diag(z.G_v) * rng.uniform(-1, 1, 16)
+        assert a.step(du, y, available(k)) == b.step(du, y, available(k))
+        assert a.r == b.r
+        for x, w in ((a.c, b.c), (a.hull, b.hull), (a.Gt, b.Gt)):
+            np.testing.assert_array_equal(bits(x), bits(w), err_msg=f"step {k}")
+    assert a.r == z.r_max  # the reduction ran
+
+
 @pytest.mark.slow
 def test_c_zse_pca_is_as_tight_as_the_python_pca(model, c_library):
     """PCA boxes the discarded generators in the eigenbasis of G'G. Near-equal eigenvalues make that basis

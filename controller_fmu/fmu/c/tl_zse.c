@@ -25,7 +25,7 @@ typedef double v2d __attribute__((vector_size(16), aligned(8)));
 #define TL_VECTORS (LD / 4)
 TL_STATIC_ASSERT(LD / 2 <= 14, "a row's two-wide accumulators fit the 16 SSE2 registers");
 
-static void transform_rows_base(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+static void transform_rows_base(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD], double* norms) {
   int i, j, k;
   const v2d zero = {0.0, 0.0};
   for (i = 0; i < rows; ++i) {
@@ -40,13 +40,21 @@ static void transform_rows_base(int rows, double (*src)[LD], const double* Mt, d
       v2d* d = (v2d*)dst[i];
       for (j = 0; j < LD / 2; ++j) d[j] = a[j];
     }
+    if (norms) { /* row_norms2's sums from the registers: its four-wide lanes are the halves lo, hi here */
+      v2d lo = a[0] * a[0], hi = a[1] * a[1];
+      for (j = 1; j < TL_VECTORS; ++j) {
+        lo += a[2 * j] * a[2 * j];
+        hi += a[2 * j + 1] * a[2 * j + 1];
+      }
+      norms[i] = (lo[0] + lo[1]) + (hi[0] + hi[1]);
+    }
   }
 }
 
 #if TL_HAVE_WIDE
 /* One row pair: the 2 x TL_VECTORS accumulators stay in the 16 AVX registers across the N multiply-adds
    (the constant-trip inner loops unroll at -O3). */
-TL_WIDE static void transform_rows_wide(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+TL_WIDE static void transform_rows_wide(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD], double* norms) {
   int i, j, k;
   const v4d zero = {0.0, 0.0, 0.0, 0.0};
   for (i = 0; i < rows; i += 2) {
@@ -70,21 +78,80 @@ TL_WIDE static void transform_rows_wide(int rows, double (*src)[LD], const doubl
       v4d* db = (v4d*)dst[i + 1];
       for (j = 0; j < TL_VECTORS; ++j) db[j] = b[j];
     }
+    if (norms) { /* row_norms2's sums, from the registers */
+      v4d na = a[0] * a[0], nb = b[0] * b[0];
+      for (j = 1; j < TL_VECTORS; ++j) {
+        na += a[j] * a[j];
+        nb += b[j] * b[j];
+      }
+      norms[i] = (na[0] + na[1]) + (na[2] + na[3]);
+      if (pair) norms[i + 1] = (nb[0] + nb[1]) + (nb[2] + nb[3]);
+    }
   }
 }
 #endif
 
-static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
 #if TL_HAVE_WIDE
+/* Three rows at a time: 3 x TL_VECTORS accumulators, each loaded block of Mt used three times, in AVX-512VL's 32
+   registers (the two-row copy above is bound by its loads: each block loaded once per row, 16 registers); the
+   rows left over (at most two) go to that copy. Same sums in the same order. */
+TL_WIDE32 static void transform_rows_wide32(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD],
+                                            double* norms) {
+  int i, j, k;
+  const v4d zero = {0.0, 0.0, 0.0, 0.0};
+  for (i = 0; i + 3 <= rows; i += 3) {
+    v4d a[TL_VECTORS], b[TL_VECTORS], c[TL_VECTORS];
+    for (j = 0; j < TL_VECTORS; ++j) a[j] = b[j] = c[j] = zero;
+    for (k = 0; k < N; ++k) {
+      const double ga = src[i][k], gb = src[i + 1][k], gc = src[i + 2][k];
+      const v4d* m = (const v4d*)(Mt + k * LD);
+      for (j = 0; j < TL_VECTORS; ++j) {
+        const v4d mj = m[j];
+        a[j] += ga * mj;
+        b[j] += gb * mj;
+        c[j] += gc * mj;
+      }
+    }
+    for (j = 0; j < TL_VECTORS; ++j) {
+      ((v4d*)dst[i])[j] = a[j];
+      ((v4d*)dst[i + 1])[j] = b[j];
+      ((v4d*)dst[i + 2])[j] = c[j];
+    }
+    if (norms) { /* row_norms2's sums, from the registers */
+      v4d na = a[0] * a[0], nb = b[0] * b[0], nc = c[0] * c[0];
+      for (j = 1; j < TL_VECTORS; ++j) {
+        na += a[j] * a[j];
+        nb += b[j] * b[j];
+        nc += c[j] * c[j];
+      }
+      norms[i] = (na[0] + na[1]) + (na[2] + na[3]);
+      norms[i + 1] = (nb[0] + nb[1]) + (nb[2] + nb[3]);
+      norms[i + 2] = (nc[0] + nc[1]) + (nc[2] + nc[3]);
+    }
+  }
+  if (i < rows) transform_rows_wide(rows - i, src + i, Mt, dst + i, norms ? norms + i : NULL);
+}
+#endif
+
+/* dst = src M^T; norms (if not NULL): the squared 2-norm of each dst row, as row_norms2 sums it (the Combastel and
+   PCA scores, taken while the row is in registers instead of in a second pass over the generators). */
+static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD], double* norms) {
+#if TL_HAVE_WIDE
+  if (tl_wide32()) {
+    transform_rows_wide32(rows, src, Mt, dst, norms);
+    return;
+  }
   if (tl_wide()) {
-    transform_rows_wide(rows, src, Mt, dst);
+    transform_rows_wide(rows, src, Mt, dst, norms);
     return;
   }
 #endif
-  transform_rows_base(rows, src, Mt, dst);
+  transform_rows_base(rows, src, Mt, dst, norms);
 }
 #else
-static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD]) {
+static void row_norms2(int rows, double (*G)[LD], double* out);
+
+static void transform_rows(int rows, double (*src)[LD], const double* Mt, double (*dst)[LD], double* norms) {
   int i, j, k;
   for (i = 0; i < rows; ++i) {
     double acc[LD];
@@ -93,6 +160,7 @@ static void transform_rows(int rows, double (*src)[LD], const double* Mt, double
       for (j = 0; j < LD; ++j) acc[j] += src[i][k] * Mt[k * LD + j];
     for (j = 0; j < LD; ++j) dst[i][j] = acc[j];
   }
+  if (norms) row_norms2(rows, dst, norms);
 }
 #endif
 
@@ -258,7 +326,8 @@ static double girard_score(const double* g) {
 }
 
 /* Indices of the k smallest scores, ascending by index (ties: the lower index goes first): a max-heap of k
-   (score, index) pairs, one pass over the rows given (rows[0..n_rows), or 0..n_rows if rows is NULL). */
+   (score, index) pairs, one pass over the rows given (rows[0..n_rows) ascending and without a NaN score, or
+   0..n_rows if rows is NULL). */
 static void heap_select(const int* rows, int n_rows, const double* scores, int k, int* chosen) {
   int heap[TL_ZSE_CAP], size = 0, i, t;
 #define LESS(a, b) (scores[a] < scores[b] || (scores[a] == scores[b] && (a) < (b)))
@@ -285,6 +354,17 @@ static void heap_select(const int* rows, int n_rows, const double* scores, int k
       }
       heap[pos] = row;
     }
+  }
+  if (rows != NULL && size == k && k > 0) { /* rows ascend and have no NaN score (smallest's promise): LESS orders them
+                                               totally, so the k chosen are the rows not after the heap's root, kept in
+                                               the rows' order, without sorting */
+    const int kth = heap[0];
+    int m = 0;
+    for (t = 0; t < n_rows && m < k; ++t) {
+      chosen[m] = rows[t];
+      m += !LESS(kth, rows[t]);
+    }
+    return;
   }
 #undef LESS
   for (i = 0; i < k; ++i) chosen[i] = heap[i];
@@ -320,17 +400,29 @@ static void smallest(int r, const double* scores, int k, int* chosen, double* be
   *below = SELECT_MARGIN * kth;
 }
 
+/* S += sign * diag(w)^T diag(w) as add_gram sums it over the rows w_j e_j: each off-diagonal sum is +0 (products
+   of a zero, finite w), each diagonal one w_j^2, added once to its entry (n^2 operations, not n^3). */
+static void add_gram_diagonal(const double* w, double sign, double* S) {
+  int j;
+  for (j = 0; j < N * N; ++j) S[j] += sign * 0.0;
+  for (j = 0; j < N; ++j) S[j * N + j] += sign * (0.0 + w[j] * w[j]);
+}
+
 /* Reduce buf[:r] to buf[:r_max] keeping the kept rows in place (as zonotope.reduce_in_place does);
-   S is updated with the removed and added generators. */
-static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S, double* below) {
+   S is updated with the removed and added generators. scores: the Combastel and PCA scores (squared 2-norms of
+   the rows) when the caller has them, else NULL. */
+static void reduce(double (*buf)[LD], int r, int r_max, int method, double* scores, double* S, double* below) {
   static const int n = N;
-  double scores[TL_ZSE_CAP], removed[2 * N + NY][LD], added[N][LD];
-  int drop[2 * N + NY], nbox = r - r_max + n, i, j, k, n_slots = 0, n_movers = 0;
+  double own[TL_ZSE_CAP], removed[2 * N + NY][LD], added[N][LD], widths[N];
+  int drop[2 * N + NY], nbox = r - r_max + n, i, j, k, n_slots = 0, n_movers = 0, finite = 1;
   int slots[2 * N + NY], movers[N + NY], tail_dropped[N + NY + N];
-  if (method == TL_REDUCE_GIRARD)
-    for (i = 0; i < r; ++i) scores[i] = girard_score(buf[i]);
-  else
-    row_norms2(r, buf, scores); /* combastel, pca: the shortest (2-norm) generators go */
+  if (method == TL_REDUCE_GIRARD || scores == NULL) {
+    scores = own;
+    if (method == TL_REDUCE_GIRARD)
+      for (i = 0; i < r; ++i) scores[i] = girard_score(buf[i]);
+    else
+      row_norms2(r, buf, scores); /* combastel, pca: the shortest (2-norm) generators go */
+  }
   smallest(r, scores, nbox, drop, below);
   for (i = 0; i < nbox; ++i) memcpy(removed[i], buf[drop[i]], sizeof(double) * LD);
   memset(added, 0, sizeof added);
@@ -351,7 +443,8 @@ static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S, d
     for (j = 0; j < n; ++j) {
       double width = 0.0;
       for (i = 0; i < nbox; ++i) width += fabs(removed[i][j]);
-      added[j][j] = width;
+      added[j][j] = widths[j] = width;
+      finite &= isfinite(width) != 0;
     }
   }
   for (i = 0; i < r - r_max; ++i) tail_dropped[i] = 0;
@@ -364,14 +457,16 @@ static void reduce(double (*buf)[LD], int r, int r_max, int method, double* S, d
   for (i = 0; i < n_movers; ++i) memcpy(buf[slots[i]], buf[movers[i]], sizeof(double) * LD);
   for (i = n_movers; i < n_slots; ++i) memcpy(buf[slots[i]], added[i - n_movers], sizeof(double) * LD);
   add_gram(nbox, removed, -1.0, S); /* S += added^T added - removed^T removed */
-  add_gram(n, added, 1.0, S);
+  if (method != TL_REDUCE_PCA && finite) add_gram_diagonal(widths, 1.0, S);
+  else add_gram(n, added, 1.0, S);
 }
 
 /* All strips of this step at once, then one pass over the generators: G+ = [T G_w, (T M) G, K Sigma]. */
 static int update(TlZse* z, const TlZseModel* m, const double* M, const double* y, const int* available,
                   const double* predicted_hull, int with_noise, TlZseReport* rep) {
-  int idx[NY], n_idx = 0, i, j, k, r;
-  double innovation[NY], Hs[NY * N], K[N * NY], T[N * N], TM[N * N], TMt[LD * LD];
+  int idx[NY], n_idx = 0, i, j, k, r, finite_T = 1;
+  double innovation[NY], Hs[NY * N], K[N * NY], T[N * N], TM[N * N], TMt[LD * LD], scores[TL_ZSE_CAP];
+  double* fused = NULL;
   double (*src)[LD] = z->G[z->cur], (*dst)[LD] = z->G[1 - z->cur];
   memset(rep, 0, sizeof *rep);
   for (i = 0; y != NULL && i < NY; ++i) {
@@ -427,15 +522,32 @@ static int update(TlZse* z, const TlZseModel* m, const double* M, const double* 
     double row[LD];
     for (k = 0; k < N; ++k)
       for (j = 0; j < N; ++j) TMt[k * LD + j] = T[j * N + k];
-    for (i = 0; i < m->rw; ++i) {
+    for (i = 0; i < N * N; ++i) finite_T &= isfinite(T[i]) != 0;
+    for (i = 0; i < m->rw; ++i, ++r) {
+      const double* g = m->Gw + i * N;
+      int nonzero = 0, at = 0;
+      for (k = 0; k < N; ++k)
+        if (g[k] != 0.0) {
+          ++nonzero;
+          at = k;
+        }
+      if (nonzero == 1 && finite_T && isfinite(g[at])) { /* g = w e_at (a diagonal G_w): T g is w T[:, at]; the zero
+                                                           terms of the product add +-0, which turns a -0 into +0 and
+                                                           nothing else, as 0.0 + does */
+        for (j = 0; j < N; ++j) dst[r][j] = 0.0 + g[at] * T[j * N + at];
+        for (j = N; j < LD; ++j) dst[r][j] = 0.0;
+        continue;
+      }
       memset(row, 0, sizeof row);
-      memcpy(row, m->Gw + i * N, sizeof(double) * N);
-      transform_rows(1, &row, TMt, &dst[r++]);
+      memcpy(row, g, sizeof(double) * N);
+      transform_rows(1, &row, TMt, &dst[r], NULL);
     }
   }
   for (k = 0; k < N; ++k)
     for (j = 0; j < N; ++j) TMt[k * LD + j] = TM[j * N + k];
-  transform_rows(z->r, src, TMt, dst + r); /* (T M) G */
+  if (r + z->r + n_idx > m->r_max && m->reduction != TL_REDUCE_GIRARD) fused = scores; /* a reduction follows */
+  transform_rows(z->r, src, TMt, dst + r, fused ? fused + r : NULL); /* (T M) G */
+  if (fused) row_norms2(r, dst, fused);
   r += z->r;
   for (i = 0; i < n_idx; ++i, ++r) { /* the new generators sigma_i K[:, i] */
     for (k = 0; k < N; ++k) dst[r][k] = K[k * n_idx + i] * m->sigma[idx[i]];
@@ -443,7 +555,8 @@ static int update(TlZse* z, const TlZseModel* m, const double* M, const double* 
   }
   z->cur = 1 - z->cur;
   if (r > m->r_max) {
-    reduce(dst, r, m->r_max, m->reduction, z->S, &z->select_below);
+    if (fused) row_norms2(n_idx, dst + r - n_idx, fused + r - n_idx);
+    reduce(dst, r, m->r_max, m->reduction, fused, z->S, &z->select_below);
     r = m->r_max;
   }
   z->r = r;
