@@ -22,6 +22,7 @@ import statistics
 import subprocess
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ROOT / "docs" / "falsification"
 NEEDLES = ("swing_gust", "altitude_thrust_loss", "tracking_wind_load")
+TOOLS = ("uniform", "cmaes", "tpe", "uniform_random", "dual_annealing")  # ours, then PSY-TaLiRo's
 ORACLE_PYTHON = Path(os.environ.get("TILTLOAD_ORACLES_PYTHON", "/work/venvs/oracles/bin/python"))
 
 PSY_DRIVER = r"""
@@ -182,6 +184,8 @@ def main() -> None:
     ap.add_argument("--calibrate", type=int, default=0, help="only: the needles' margins over N uniform points")
     ap.add_argument("--only", default=None, help="one requirement of docs/falsification")
     ap.add_argument("--no-psy", action="store_true", help="skip PSY-TaLiRo")
+    ap.add_argument("--tools", default=",".join(TOOLS), help=f"a comma-separated subset of {', '.join(TOOLS)}")
+    ap.add_argument("--no-cost", action="store_true", help="skip the one-evaluation cost (observer against log)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "falsification_best_robustness.png")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -199,7 +203,11 @@ def main() -> None:
             if args.calibrate:
                 calibrate(client, fmus, tmp, args.calibrate, [args.only] if args.only else NEEDLES)
                 return
-            print(evaluation_cost(client, fmus, tmp, 5))
+            tools = [t for t in args.tools.split(",") if t]
+            if unknown := sorted(set(tools) - set(TOOLS)):
+                raise SystemExit(f"--tools: unknown {', '.join(unknown)} (of {', '.join(TOOLS)})")
+            if not args.no_cost:
+                print(evaluation_cost(client, fmus, tmp, 5))
             total_sims, total_time = 0, 0.0
             curves: dict[str, list[float]] = {}
             for name in ([args.only] if args.only else NEEDLES):
@@ -207,7 +215,7 @@ def main() -> None:
                 print(f"\n## {name}: {spec.requirements[0].formula}; {len(spec.dimensions)} dimensions; budget {args.budget}; "
                       f"{args.seeds} seeds")
                 rows = []
-                for opt in ("uniform", "cmaes", "tpe"):
+                for opt in (t for t in TOOLS[:3] if t in tools):
                     firsts, started = [], time.perf_counter()
                     for seed in range(args.seeds):
                         out = run_search(spec, client, fmus, opt, seed, args.budget)
@@ -221,16 +229,18 @@ def main() -> None:
                     rows.append(row_of(f"tiltload {opt}", firsts, args.budget, wall))
                     print(f"  {rows[-1]}", flush=True)
                 if not args.no_psy and ORACLE_PYTHON.is_file():
-                    for kind in ("uniform_random", "dual_annealing"):
-                        firsts, started = [], time.perf_counter()
-                        for seed in range(args.seeds):
-                            first, values = psy_taliro(spec, client, fmus, kind, seed, args.budget)
-                            firsts.append(first)
-                            if seed == 0:
-                                curves[f"{name}: PSY-TaLiRo {kind}"] = values
+                    for kind in (t for t in TOOLS[3:] if t in tools):
+                        started = time.perf_counter()
+                        # its seeds side by side, one per worker (each still one sample at a time, as it evaluates)
+                        with ThreadPoolExecutor(args.workers) as pool:
+                            got = list(pool.map(lambda seed: psy_taliro(spec, client, fmus, kind, seed, args.budget),
+                                                range(args.seeds)))
+                        firsts = [first for first, _ in got]
+                        print(f"  PSY-TaLiRo {kind} per seed: {[None if f is None else f + 1 for f in firsts]}", flush=True)
+                        curves[f"{name}: PSY-TaLiRo {kind}"] = got[0][1]
                         rows.append(row_of(f"PSY-TaLiRo {kind}", firsts, args.budget, time.perf_counter() - started))
                         print(f"  {rows[-1]}", flush=True)
-                print(table(rows, rows[0]["mean"]))
+                print(table(rows, rows[0]["mean"] if rows and rows[0]["tool"] == "tiltload uniform" else math.nan))
             if total_time:
                 print(f"\nthroughput: {total_sims} simulations in {total_time:.0f} s on the local cluster: "
                       f"{total_sims / total_time:.1f} simulations/s (tiltload's searches, batches included)")
