@@ -293,3 +293,117 @@ def test_the_command_on_a_local_cluster_says_not_falsified_and_a_rerun_takes_the
     assert len(rows) == 2 and all(r["robustness"] > 0 and r["worker"] for r in rows)
     assert main(args) == 0
     assert "2 simulations in" in (said := capsys.readouterr().out) and "(2 from the previous run)" in said
+
+
+THRUST = """
+name = "thrust"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+trajectory = 1
+controller = "mixed"
+stop_time = 8.1
+gusts = false
+faults = [{name = "right rotor thrust loss", action = "scale", target = "plant.f_R", value = 0.7, start = 3.0, end = 3.5}]
+[[requirements]]
+name = "altitude"
+formula = "always[2:8] (abs(plant.z - scenario.z_ref) < 0.15)"
+[[search]]
+name = "thrust_left"
+target = "faults.0.value"
+range = [0.6, 1.0]
+[[search]]
+name = "loss_start"
+target = "faults.0.start"
+range = [2.0, 5.0]
+[[search]]
+name = "loss_length"
+target = "faults.0.duration"
+range = [0.1, 1.0]
+[budget]
+simulations = 4
+"""
+
+
+def _thrust_case(tmp_path, unit):
+    from tiltload.master.app.falsify.space import case_parameters, values_at
+
+    spec = load(write(tmp_path, THRUST))
+    base = spec.base()
+    values = values_at(spec.dimensions, np.asarray(unit, dtype=float))
+    return spec, base, {"run_id": "t", "values": values, "parameters": case_parameters(base, values)}
+
+
+@pytest.mark.slow
+def test_an_early_stopped_run_reports_the_bound_of_its_prefix_against_brute_force_on_the_whole_trace(tmp_path):
+    """Stopped at a decided violation: its robustness is the lowest margin of the always's predicate over the window so
+    far (brute force on the whole run's trace, cut at the stop), below 0 and at least the whole run's robustness; a run
+    that passes is not stopped and has the whole run's robustness, bit for bit."""
+    from tiltload.master.app.falsify.evaluate import evaluate, run_loop
+    from tiltload.master.app.falsify.signals import SignalRecorder
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    stopped = 0
+    for unit in ([0.0, 0.1, 1.0], [0.0, 0.9, 1.0], [0.5, 0.5, 0.5], [1.0, 0.5, 0.5]):
+        spec, base, case = _thrust_case(tmp_path, unit)
+        recorder = SignalRecorder(list(spec.signals))
+        run_loop(base, case["parameters"], fmus, [recorder])
+        trace = recorder.trace()
+        z, ref = trace.signals["plant.z"], trace.signals["scenario.z_ref"]
+        window = (trace.times >= 2.0 - 1e-9) & (trace.times <= 8.0 + 1e-9)
+        whole = float(np.min(0.15 - np.abs(z - ref)[window]))
+        early = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+        assert evaluate(base, case, str(fmus))["row"]["robustness"] == pytest.approx(whole, abs=1e-12)
+        if math.isnan(early["stopped_at"]):
+            assert whole >= 0 and early["robustness"] == evaluate(base, case, str(fmus))["row"]["robustness"]
+            continue
+        stopped += 1
+        assert early["stopped_at"] < 8.0 and early["verdict_altitude"] == "FAIL"
+        cut = window & (trace.times <= early["stopped_at"] + 1e-9)
+        assert early["robustness"] == pytest.approx(float(np.min(0.15 - np.abs(z - ref)[cut])), abs=1e-12)
+        assert whole <= early["robustness"] < 0
+    assert stopped >= 2
+
+
+@pytest.mark.slow
+def test_a_branch_from_a_snapshot_is_the_whole_run_bit_for_bit(tmp_path):
+    from tiltload.master.app.falsify.branching import branch_tick, choose, with_branch
+    from tiltload.master.app.falsify.evaluate import run_loop
+    from tiltload.master.app.falsify.signals import SignalRecorder
+    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop import TICK
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    spec, base, _ = _thrust_case(tmp_path, [0.5, 0.5, 0.5])
+    ticks = branch_tick(spec.dimensions, base["faults"], TICK)
+    assert ticks == 165  # the last tick before 2 s (the earliest start), one tick earlier
+    branched = with_branch(base, ticks)
+    for unit in ([0.0, 0.0, 1.0], [0.3, 0.7, 0.2], [0.0, 0.1, 1.0]):
+        _, _, case = _thrust_case(tmp_path, unit)
+        traces = []
+        for b, branch in ((base, False), (branched, True)):
+            recorder = SignalRecorder(list(spec.signals))
+            run_loop(b, case["parameters"], fmus, [recorder], branch=branch)
+            traces.append(recorder.trace())
+        assert np.array_equal(traces[0].times, traces[1].times)
+        for name in spec.signals:
+            assert np.array_equal(traces[0].signals[name], traces[1].signals[name])  # bit for bit
+    use, line = choose(base, spec.dimensions, fmus, ticks, repeat=1)
+    assert "branching from a snapshot at t = 1.980 s" in line and ("not used" in line) != use
+
+
+def test_only_faults_that_start_late_are_branched():
+    from tiltload.master.app.falsify.branching import branch_tick
+
+    faults = [{"name": "f", "action": "scale", "target": "plant.f_R", "value": 0.7, "start": 3.0, "end": 3.5}]
+    start = Dimension("s", "faults.0.start", 2.0, 5.0)
+    value = Dimension("v", "faults.0.value", 0.5, 1.0)
+    assert branch_tick([value], faults, 0.012) == 249  # 3.0 s is tick 250: the one before, less one
+    assert branch_tick([start, value], faults, 0.012) == 165
+    assert branch_tick([value, Dimension("g", "gust.amplitude", 0.0, 5.0)], faults, 0.012) is None  # a gust: from t = 0
+    assert branch_tick([value, Dimension("m", "plant.m_L", 0.04, 0.08)], faults, 0.012) is None
+    assert branch_tick([value], [{**faults[0], "action": "delay", "value": 3}], 0.012) is None  # looks back before start
+    assert branch_tick([Dimension("s", "faults.0.start", 0.0, 5.0)], faults, 0.012) is None  # no prefix worth it

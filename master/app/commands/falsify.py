@@ -21,6 +21,10 @@ def add_parser(sub) -> None:
     f.add_argument("--scheduler", default=None, help="an existing Dask scheduler (default: a local cluster on 127.0.0.1)")
     f.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
     f.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    f.add_argument("--no-early-stop", action="store_true",
+                   help="run every evaluation to the stop time (default: stop at the first violation that cannot change)")
+    f.add_argument("--branch", choices=("auto", "on", "off"), default="auto",
+                   help="branch evaluations from a snapshot where the searched inputs act late (auto: if measured faster)")
     f.set_defaults(func=run)
 
 
@@ -30,7 +34,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         spec, outcome, out = falsify(args.spec, args.out, args.fmus, args.optimizer, args.seed, args.simulations,
-                                     args.seconds, args.scheduler, args.workers)
+                                     args.seconds, args.scheduler, args.workers, early_stop=not args.no_early_stop,
+                                     branch=args.branch)
     except ClusterError as err:
         raise UserError(str(err)) from None
     except CampaignIncomplete as err:
