@@ -175,6 +175,53 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
 
 
 
+def throughput(client, fmus, tmp, n: int, names, rounds: int = 2) -> None:
+    """Simulations per second of uniform random searches (n evaluations each, not stopped at a falsification) on the
+    cluster, with and without early stop and branching from a snapshot, the configurations alternated round by round
+    (a load that changes falls on each); once at the requirement's bound, once at half of it (many runs fail)."""
+    import re
+
+    from tiltload.master.app.falsify.branching import branch_tick, with_branch
+    from tiltload.master.app.falsify.runner import cluster_batch, make_case
+    from tiltload.master.app.falsify.search import search
+    from tiltload.master.app.loop import TICK
+
+    print(f"\n## throughput: uniform random, {n} evaluations a configuration in {rounds} rounds, batches of 8, "
+          f"{len(client.scheduler_info()['workers'])} workers")
+    print("| requirement | bound | early stop | branch | simulations/s | runs stopped early | mean simulated s |")
+    print("|---|---|---|---|---|---|---|")
+    for name in names:
+        bound = float(re.search(r"< ([0-9.]+)\)", (SPECS / f"{name}.toml").read_text()).group(1))
+        for label, threshold in (("as shipped", None), ("halved", bound / 2)):
+            spec = load_spec(name, tmp, threshold)
+            base0 = spec.base()
+            ticks = branch_tick(spec.dimensions, base0["faults"], TICK)
+            configs = [(e, b) for e in (False, True) for b in ((False, True) if ticks else (False,))]
+            got = {c: {"sims": 0, "s": 0.0, "stopped": 0, "simulated": 0.0} for c in configs}
+            for r in range(-1, rounds):  # round -1: a warm-up (the workers' executions and snapshots made), not counted
+                for early, branch in configs:
+                    base = {**base0, "early_stop": early}
+                    if branch:
+                        base = with_branch(base, ticks)
+                    started = time.perf_counter()
+                    out = search(spec.dimensions, "uniform", r + 1, cluster_batch(client, "the local cluster", base, fmus),
+                                 make_case(base), n // rounds if r >= 0 else 16, None, None,
+                                 f"throughput-{name}-{label}-{early}-{branch}-{r}", 8, stop_when_falsified=False)
+                    if r < 0:
+                        continue
+                    g = got[(early, branch)]
+                    g["s"] += time.perf_counter() - started
+                    g["sims"] += out.simulations
+                    g["stopped"] += sum(1 for row in out.rows if row.get("stopped_at") == row.get("stopped_at")
+                                        and row.get("stopped_at") is not None)
+                    g["simulated"] += sum(row["sim_time"] for row in out.rows)
+            for (early, branch), g in got.items():
+                print(f"| {name} | {label} ({threshold or bound:g}) | {'on' if early else 'off'} | "
+                      f"{'on' if branch else ('off' if ticks else 'n/a')} | {g['sims'] / g['s']:.1f} | "
+                      f"{g['stopped']}/{g['sims']} | {g['simulated'] / g['sims']:.2f} |", flush=True)
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--seeds", type=int, default=10)
@@ -182,6 +229,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--guaranteed", type=int, default=500, help="budget of the guaranteed property's search (0: skip)")
     ap.add_argument("--calibrate", type=int, default=0, help="only: the needles' margins over N uniform points")
+    ap.add_argument("--throughput", type=int, default=0,
+                    help="only: simulations/s with and without early stop and branching (N evaluations a configuration)")
     ap.add_argument("--only", default=None, help="one requirement of docs/falsification")
     ap.add_argument("--no-psy", action="store_true", help="skip PSY-TaLiRo")
     ap.add_argument("--tools", default=",".join(TOOLS), help=f"a comma-separated subset of {', '.join(TOOLS)}")
@@ -202,6 +251,9 @@ def main() -> None:
             tmp = Path(t)
             if args.calibrate:
                 calibrate(client, fmus, tmp, args.calibrate, [args.only] if args.only else NEEDLES)
+                return
+            if args.throughput:
+                throughput(client, fmus, tmp, args.throughput, [args.only] if args.only else NEEDLES[:2])
                 return
             tools = [t for t in args.tools.split(",") if t]
             if unknown := sorted(set(tools) - set(TOOLS)):

@@ -407,3 +407,29 @@ def test_only_faults_that_start_late_are_branched():
     assert branch_tick([value, Dimension("m", "plant.m_L", 0.04, 0.08)], faults, 0.012) is None
     assert branch_tick([value], [{**faults[0], "action": "delay", "value": 3}], 0.012) is None  # looks back before start
     assert branch_tick([Dimension("s", "faults.0.start", 0.0, 5.0)], faults, 0.012) is None  # no prefix worth it
+
+
+@pytest.mark.slow
+def test_an_early_stopped_counterexample_replays_the_whole_run_the_summary_states(tmp_path):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.falsify.evaluate import evaluate, robustness
+    from tiltload.master.app.falsify.report import replay_command
+    from tiltload.master.app.falsify.report import write as write_report
+    from tiltload.master.app.falsify.signals import trace_from_log
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    spec, base, case = _thrust_case(tmp_path, [0.0, 0.1, 1.0])
+    row = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+    assert row["stopped_at"] < 8.0
+    out = search(spec.dimensions, "uniform", 0, lambda cases: {c["run_id"]: {**row, "run_id": c["run_id"]} for c in cases},
+                 lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 1, None, tmp_path / "o", "early")
+    write_report(spec, out, tmp_path / "o", fmus)
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert "upper bound over every continuation" in summary
+    stated = float(summary.split("the whole run (what replay.sh runs): robustness ")[1].split()[0])
+    assert main(replay_command(spec, out.best, tmp_path / "o", fmus)[1:] + ["--quiet", "--no-plots"]) in (0, 1)
+    trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
+    rho, _ = robustness([r.formula for r in spec.requirements], trace, True)
+    assert rho[0] == stated <= row["robustness"] < 0  # the replay is the whole run, bit for bit
