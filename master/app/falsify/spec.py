@@ -15,6 +15,9 @@ budget and the optimizer; validated like a campaign spec (its reader, its base s
     [[requirements]]
     name = "swing"
     formula = "always[2:12] (abs(plant.gamma_1) < 0.25)"
+    [[requirements]]             # or named from a requirement file (docs/requirements.md's format), beside formulas:
+    file = "../requirements/uav.yaml"
+    name = "track_z"             # leave it out: every requirement of the file
     [[search]]
     name = "gust_speed"
     target = "gust.amplitude"    # gust.* | initial.x|y|z | faults.N.start|end|value|duration | instance.parameter
@@ -69,11 +72,14 @@ SCHEMA = {
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**32 - 1},
         "batch": {"type": "integer", "minimum": 1, "maximum": 1024},
         "base": _base_schema(),
-        "requirements": {"type": "array", "minItems": 1, "items": {
-            "type": "object", "additionalProperties": False, "required": ["name", "formula"], "properties": {
+        "requirements": {"type": "array", "minItems": 1, "items": {"oneOf": [
+            {"type": "object", "additionalProperties": False, "required": ["name", "formula"], "properties": {
                 "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
                 "formula": {"type": "string", "minLength": 1},
-                "description": {"type": "string"}}}},
+                "description": {"type": "string"}}},
+            {"type": "object", "additionalProperties": False, "required": ["file"], "properties": {
+                "file": {"type": "string", "minLength": 1},
+                "name": {"type": "string", "minLength": 1}}}]}},
         "search": {"type": "array", "minItems": 1, "items": {
             "type": "object", "additionalProperties": False, "required": ["name", "target", "range"], "properties": {
                 "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
@@ -159,11 +165,40 @@ def _validate(data: dict, path: Path) -> None:
         raise SpecError(f"{path}: {where}: {err.message}")
 
 
+def _from_file(item: dict, i: int, path: Path) -> list[dict]:
+    """The entries a {file, name} item names, as {name, formula, description} (the file read through user_files: its
+    size, depth and numbers bounded; its entries checked by the requirements' own loader, master/engine/requirements.py)."""
+    from ...engine.requirements import RequirementError, parse_entries
+    from ...engine.user_files import UserFileError, read_yaml
+
+    file = (path.parent / item["file"]).resolve()
+    where = f"{path}: requirements.{i}.file: "
+    if not file.is_file():
+        raise SpecError(f"{where}no requirement file {file}")
+    try:
+        entries = parse_entries(read_yaml(file), f"{file}: ")
+    except (UserFileError, RequirementError) as err:
+        raise SpecError(f"{where}{err}") from None
+    if "name" in item:
+        entries = [e for e in entries if e.name == item["name"]]
+        if not entries:
+            import difflib
+
+            names = [e.name for e in parse_entries(read_yaml(file), "")]
+            close = difflib.get_close_matches(item["name"], names, n=3)
+            hint = f" (did you mean {', '.join(close)}?)" if close else f" (it has {', '.join(names)})"
+            raise SpecError(f"{path}: requirements.{i}.name: {file} has no requirement {item['name']}{hint}")
+    return [{"name": e.name, "formula": e.text, "description": e.description} for e in entries]
+
+
 def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str, ...]]:
     from ...engine import stl
 
     names, found, out = set(), [], []
+    expanded = []
     for i, item in enumerate(items):
+        expanded.extend((i, e) for e in (_from_file(item, i, path) if "file" in item else [item]))
+    for i, item in expanded:
         if item["name"] in names:
             raise SpecError(f"{path}: requirements.{i}.name: {item['name']} is named twice")
         names.add(item["name"])
