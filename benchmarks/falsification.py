@@ -175,7 +175,7 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
 
 
 
-def throughput(client, fmus, tmp, n: int, names, rounds: int = 2) -> None:
+def throughput(client, fmus, tmp, n: int, names, rounds: int = 4) -> None:
     """Simulations per second of uniform random searches (n evaluations each, not stopped at a falsification) on the
     cluster, with and without early stop and branching from a snapshot, the configurations alternated round by round
     (a load that changes falls on each); once at the requirement's bound, once at half of it (many runs fail)."""
@@ -188,8 +188,9 @@ def throughput(client, fmus, tmp, n: int, names, rounds: int = 2) -> None:
 
     print(f"\n## throughput: uniform random, {n} evaluations a configuration in {rounds} rounds, batches of 8, "
           f"{len(client.scheduler_info()['workers'])} workers")
-    print("| requirement | bound | early stop | branch | simulations/s | runs stopped early | mean simulated s |")
-    print("|---|---|---|---|---|---|---|")
+    print("| requirement | bound | early stop | branch | simulations/s | CPU ms an evaluation | runs stopped early | "
+          "mean simulated s |")
+    print("|---|---|---|---|---|---|---|---|")
     for name in names:
         bound = float(re.search(r"< ([0-9.]+)\)", (SPECS / f"{name}.toml").read_text()).group(1))
         for label, threshold in (("as shipped", None), ("halved", bound / 2)):
@@ -197,7 +198,7 @@ def throughput(client, fmus, tmp, n: int, names, rounds: int = 2) -> None:
             base0 = spec.base()
             ticks = branch_tick(spec.dimensions, base0["faults"], TICK)
             configs = [(e, b) for e in (False, True) for b in ((False, True) if ticks else (False,))]
-            got = {c: {"sims": 0, "s": 0.0, "stopped": 0, "simulated": 0.0} for c in configs}
+            got = {c: {"sims": 0, "s": 0.0, "stopped": 0, "simulated": 0.0, "cpu": 0.0} for c in configs}
             for r in range(-1, rounds):  # round -1: a warm-up (the workers' executions and snapshots made), not counted
                 for early, branch in configs:
                     base = {**base0, "early_stop": early}
@@ -215,9 +216,10 @@ def throughput(client, fmus, tmp, n: int, names, rounds: int = 2) -> None:
                     g["stopped"] += sum(1 for row in out.rows if row.get("stopped_at") == row.get("stopped_at")
                                         and row.get("stopped_at") is not None)
                     g["simulated"] += sum(row["sim_time"] for row in out.rows)
+                    g["cpu"] += sum(row["cpu_s"] for row in out.rows)
             for (early, branch), g in got.items():
                 print(f"| {name} | {label} ({threshold or bound:g}) | {'on' if early else 'off'} | "
-                      f"{'on' if branch else ('off' if ticks else 'n/a')} | {g['sims'] / g['s']:.1f} | "
+                      f"{'on' if branch else ('off' if ticks else 'n/a')} | {g['sims'] / g['s']:.1f} | {g['cpu'] / g['sims'] * 1e3:.2f} | "
                       f"{g['stopped']}/{g['sims']} | {g['simulated'] / g['sims']:.2f} |", flush=True)
     print(f"load average after: {os.getloadavg()[0]:.1f}")
 

@@ -473,3 +473,54 @@ def test_a_bad_requirement_file_is_one_line(tmp_path, file_text, entry, says):
     with pytest.raises(SpecError) as err:
         load(write(tmp_path, GOOD.replace("[[search]]", f"[[requirements]]\n{entry}\n[[search]]", 1)))
     assert says in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_neighbourhood_axis_is_centred_clipped_and_rounded():
+    from tiltload.master.app.falsify.neighbourhood import axis
+
+    d = Dimension("v", "faults.0.value", 0.6, 1.0)
+    assert axis(d, 0.8, 0.1, 5) == pytest.approx([0.76, 0.78, 0.8, 0.82, 0.84])
+    assert axis(d, 0.61, 0.1, 5) == pytest.approx([0.6, 0.61, 0.6125, 0.625, 0.6375, 0.65])  # clipped; the centre kept
+    assert axis(Dimension("s", "sensors.seed", 0, 100, True), 50.4, 0.1, 5) == [40, 45, 50, 55, 60]
+
+
+def test_the_failure_region_s_width_is_measured_along_the_line_through_the_counterexample():
+    from tiltload.master.app.falsify.neighbourhood import grid, widths
+    from tiltload.master.app.falsify.spec import Falsification
+
+    dims = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
+    spec = Falsification.__new__(Falsification)
+    spec.dimensions = dims
+    best = {"a": 0.5, "b": 0.5}
+    axes, points = grid(spec, best, 0.1, 5)  # a and b in 0.4, 0.45, ..., 0.6
+    rows = [{**p, "robustness": abs(p["a"] - 0.5) - 0.06} for p in points]  # fails where |a - 0.5| < 0.06, any b
+    w = widths(spec, best, axes, rows)
+    assert w["a"]["line_fails"] == "3/5" and w["a"]["line_width"] == pytest.approx(0.1)
+    assert w["b"]["line_fails"] == "5/5" and w["b"]["line_width"] == pytest.approx(0.2) == w["b"]["line_span"]
+
+
+@pytest.mark.slow
+def test_the_neighbourhood_of_a_counterexample_runs_and_its_campaign_spec_is_the_same_grid(tmp_path):
+    import pyarrow.parquet as pq
+    from tiltload.master.app.campaign.spec import load as load_campaign
+    from tiltload.master.app.falsify import neighbourhood
+    from tiltload.master.app.falsify.evaluate import evaluate
+    from tiltload.master.app.falsify.runner import make_case as case_of
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    text = THRUST.replace("[[search]]\nname = \"loss_length\"\ntarget = \"faults.0.duration\"\nrange = [0.1, 1.0]\n", "")
+    spec = load(write(tmp_path, text.replace("end = 3.5", "end = 4.5")))
+    base = spec.base()
+    best = {"thrust_left": 0.62, "loss_start": 2.3}
+    said = neighbourhood.run(spec, best, lambda cases: {c["run_id"]: evaluate(base, c, str(fmus))["row"] for c in cases},
+                             case_of(base), tmp_path, 0.1, 3)
+    rows = pq.read_table(tmp_path / "neighbourhood" / neighbourhood.RESULTS).to_pylist()
+    assert len(rows) == 4 * 3  # thrust 0.6 (clipped), 0.63, 0.66 and the centre 0.62; start 2.0, 2.3 (the centre), 2.6
+    failing = sum(r["robustness"] < 0 for r in rows)
+    assert f"{failing} fail: {failing / len(rows):.1%} of the grid" in said
+    assert (tmp_path / "neighbourhood" / neighbourhood.FIGURE).is_file()
+    campaign = load_campaign(tmp_path / "neighbourhood" / neighbourhood.CAMPAIGN)
+    assert sorted((c.values["thrust_left"], c.values["loss_start"]) for c in campaign.cases) == \
+           sorted((r["thrust_left"], r["loss_start"]) for r in rows)

@@ -25,6 +25,12 @@ def add_parser(sub) -> None:
                    help="run every evaluation to the stop time (default: stop at the first violation that cannot change)")
     f.add_argument("--branch", choices=("auto", "on", "off"), default="auto",
                    help="branch evaluations from a snapshot where the searched inputs act late (auto: if measured faster)")
+    f.add_argument("--neighbourhood", action="store_true",
+                   help="then run a grid around the best case: how wide the failure region is (docs/falsification.md)")
+    f.add_argument("--neighbourhood-fraction", type=arguments.positive_number, default=0.1,
+                   help="the grid's half-width, a fraction of each dimension's range (default 0.1)")
+    f.add_argument("--neighbourhood-points", type=arguments.integer(2, 15), default=None,
+                   help="grid values per dimension (default 5, 3 from four dimensions on)")
     f.set_defaults(func=run)
 
 
@@ -35,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         spec, outcome, out = falsify(args.spec, args.out, args.fmus, args.optimizer, args.seed, args.simulations,
                                      args.seconds, args.scheduler, args.workers, early_stop=not args.no_early_stop,
-                                     branch=args.branch)
+                                     branch=args.branch, neighbourhood=args.neighbourhood,
+                                     fraction=args.neighbourhood_fraction, points=args.neighbourhood_points)
     except ClusterError as err:
         raise UserError(str(err)) from None
     except CampaignIncomplete as err:
@@ -43,4 +50,6 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print((out / "summary.txt").read_text(), end="")
     print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}")
+    if args.neighbourhood and (out / "neighbourhood" / "neighbourhood.txt").is_file():
+        print((out / "neighbourhood" / "neighbourhood.txt").read_text(), end="")
     return 0

@@ -136,7 +136,7 @@ def run_loop(base: dict, parameters: dict, fmu_dir: Path, observers: list,
 def evaluate(base: dict, case: dict, fmu_dir: str) -> dict:
     """The outcome of one point, as campaign/dispatch.py expects it: {"row", "wall", "setup", "sim_time"}; or, when its
     environment failed (not the run), {"environment": line, "worker": address}. Never raises."""
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.thread_time()
     try:
         early = base.get("early_stop", False)
         recorder = SignalRecorder(base["signals"], [_formula(f) for f in base["requirements"]] if early else None)
@@ -157,6 +157,7 @@ def evaluate(base: dict, case: dict, fmu_dir: str) -> dict:
         row["robustness"] = float(min(rho)) if refused is None else math.nan
         wall = time.perf_counter() - started
         row["wall_s"] = wall
+        row["cpu_s"] = time.thread_time() - cpu  # this thread's: the run and its robustness, not the worker's other work
         return {"row": row, "wall": wall, "setup": 0.0, "sim_time": sim_time}
     except Exception as err:  # the environment's failure: retried elsewhere by the dispatcher, never stored
         return environment_failure(err)

@@ -110,10 +110,12 @@ def make_case(base: dict):
 def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"), optimizer: str | None = None,
             seed: int | None = None, simulations: int | None = None, seconds: float | None = None,
             scheduler: str | None = None, workers: int | None = None, client=None, progress=None,
-            write_report: bool = True, early_stop: bool = True, branch: str = "auto") -> tuple[Falsification, Outcome, Path]:
+            write_report: bool = True, early_stop: bool = True, branch: str = "auto", neighbourhood: bool = False,
+            fraction: float = 0.1, points: int | None = None) -> tuple[Falsification, Outcome, Path]:
     """Run (or finish) a falsification; returns the spec, what the search found and the output folder. client: an
     existing Dask client to run on (benchmarks); else a local cluster or the scheduler's. early_stop: each evaluation
-    stops at its first decided violation; branch: auto (measured: cheaper_base), on or off."""
+    stops at its first decided violation; branch: auto (measured: cheaper_base), on or off; neighbourhood: then run the
+    grid around the best case (neighbourhood.py: ±fraction of each range, points values each)."""
     from ..campaign.cluster import connect, local_cluster
     from ..fmus import build_all
 
@@ -144,6 +146,10 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     try:
         outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
                          make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
+        if neighbourhood and outcome.best is not None and not outcome.failures:
+            from . import neighbourhood as nb
+
+            say(nb.run(spec, outcome.best, cluster_batch(client, where, base, fmus), make_case(base), out, fraction, points))
     finally:
         if own:
             client.close()
