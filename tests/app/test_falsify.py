@@ -524,3 +524,60 @@ def test_the_neighbourhood_of_a_counterexample_runs_and_its_campaign_spec_is_the
     campaign = load_campaign(tmp_path / "neighbourhood" / neighbourhood.CAMPAIGN)
     assert sorted((c.values["thrust_left"], c.values["loss_start"]) for c in campaign.cases) == \
            sorted((r["thrust_left"], r["loss_start"]) for r in rows)
+
+
+MISSION = "t,x,y,z\n0,0,0,1\n2,0.5,0,1.2\n4,0.5,0.5,1.2\n"
+MOVED = GOOD.replace('trajectory = 1', 'trajectory = "m.csv"').replace(
+    "always[1:4] (abs(plant.gamma_1) < 0.2)", "always[1:4] (abs(plant.y - scenario.y_ref) < 0.05)").replace(
+    'target = "gust.amplitude"\nrange = [0.0, 20.0]', 'target = "waypoints.1.y"\nrange = [-0.4, 0.4]').replace(
+    'target = "gust.direction"\nrange = [0.0, 360.0]', 'target = "waypoints.2.t"\nrange = [-1.5, 1.0]')
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ("waypoints.1.y", "waypoints.3.y", "names a waypoint the mission does not have (it has 3: 0 to 2)"),
+    ('trajectory = "m.csv"', "trajectory = 1", "base.trajectory must be a waypoint file"),
+    ("waypoints.1.y", "waypoints.1.vx", "search.0.target"),
+])
+def test_a_bad_waypoint_dimension_is_one_line(tmp_path, old, new, says):
+    (tmp_path / "m.csv").write_text(MISSION)
+    with pytest.raises(SpecError) as err:
+        load(write(tmp_path, MOVED.replace(old, new, 1)))
+    assert says in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.slow
+def test_a_moved_waypoint_is_searched_and_its_counterexample_replays_bit_for_bit(tmp_path):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.falsify.evaluate import evaluate, robustness
+    from tiltload.master.app.falsify.report import MISSION as MOVED_FILE
+    from tiltload.master.app.falsify.report import replay_command
+    from tiltload.master.app.falsify.report import write as write_report
+    from tiltload.master.app.falsify.runner import make_case as case_of
+    from tiltload.master.app.falsify.signals import trace_from_log
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    (tmp_path / "m.csv").write_text(MISSION)
+    spec = load(write(tmp_path, MOVED))
+    base = spec.base()
+    make = case_of(base)
+    rows = {}
+    for name, values in (("still", {"amp": 0.0, "heading": 0.0}), ("moved", {"amp": 0.4, "heading": 0.0}),
+                         ("steep", {"amp": 0.0, "heading": -1.5}), ("disorder", {"amp": 0.0, "heading": -2.5})):
+        rows[name] = evaluate(base, make(name, values), str(fmus))["row"]
+    # moving waypoint 1 by 0.4 m in y changes the run; waypoint 2 half a second after waypoint 1 asks for more tilt than
+    # the feasibility check allows (it judges the moved mission); moved before waypoint 1 it is no mission: refused
+    assert rows["still"]["robustness"] != rows["moved"]["robustness"]
+    assert "the reference is infeasible" in rows["steep"]["error"] and math.isnan(rows["steep"]["robustness"])
+    assert "moved mission" in rows["disorder"]["error"] and math.isnan(rows["disorder"]["robustness"])
+    out = search(spec.dimensions, "uniform", 0, lambda cases: {c["run_id"]: {**rows["moved"], "run_id": c["run_id"]}
+                                                                for c in cases},
+                 make, 1, None, tmp_path / "o", "moved")
+    write_report(spec, out, tmp_path / "o", fmus)
+    args = replay_command(spec, out.best, tmp_path / "o", fmus)
+    assert args[args.index("--trajectory") + 1] == str((tmp_path / "o" / MOVED_FILE).resolve())
+    assert main(args[1:] + ["--quiet", "--no-plots"]) in (0, 1)
+    trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
+    rho, _ = robustness([r.formula for r in spec.requirements], trace, rows["moved"]["error"] == "")
+    assert rho[0] == rows["moved"]["robustness"]  # bit for bit: the moved mission's file gives the same reference

@@ -26,12 +26,14 @@ import socket
 import time
 from pathlib import Path
 
+from ....scenario_fmu.files import ScenarioFileError
 from ...engine.execution import Execution
 from ...engine.observers import StopRun
 from ...engine.stl import Evaluator, parse, verdict
 from ..campaign.run_case import RUN_FAILURES, case_system, check_fmus, environment_failure, infeasible, worker_address
 from ..fmus import is_foreign
 from .signals import CHECK_TICKS, SignalRecorder
+from .space import case_flight
 
 _EXECUTIONS: dict[tuple, Execution] = {}  # per worker process: one execution per loop structure, restarted per run
 _BRANCHES: dict[tuple, tuple] = {}  # per worker process: (execution, snapshot at k0) per branching base
@@ -102,7 +104,8 @@ def run_loop(base: dict, parameters: dict, fmu_dir: Path, observers: list,
         execution, snap = _branch_point(base, fmu_dir, key)
         _BRANCHES.pop(key)
     else:
-        key = ("falsify", base["scenario"], base["trajectory"], base["gusts"], base["controller"], str(fmu_dir))
+        # the same FMUs whatever the reference (a moved mission too): restart sets every parameter
+        key = ("falsify", base["scenario"], str(base["trajectory"]), base["gusts"], base["controller"], str(fmu_dir))
         execution = _EXECUTIONS.pop(key, None)
     error, healthy, stopped = None, False, False
     try:
@@ -140,8 +143,13 @@ def evaluate(base: dict, case: dict, fmu_dir: str) -> dict:
     try:
         early = base.get("early_stop", False)
         recorder = SignalRecorder(base["signals"], [_formula(f) for f in base["requirements"]] if early else None)
-        refused, sim_time, error, stopped = run_loop(base, case["parameters"], Path(fmu_dir), [recorder],
-                                                     branch=base.get("branch") is not None)
+        try:
+            run_base, parameters = case_flight(base, case["parameters"])
+        except ScenarioFileError as err:  # the moved mission is no mission (waypoints out of order): the case's own
+            refused, sim_time, error, stopped = f"the moved mission: {err}", 0.0, None, False
+        else:
+            refused, sim_time, error, stopped = run_loop(run_base, parameters, Path(fmu_dir), [recorder],
+                                                         branch=base.get("branch") is not None)
         row = {"run_id": case["run_id"], **case["values"], "completed": refused is None and error is None and not stopped,
                "error": refused or error or "", "sim_time": sim_time, "worker": worker_address() or socket.gethostname(),
                "stopped_at": recorder.stopped_at if stopped else math.nan}

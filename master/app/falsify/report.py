@@ -14,6 +14,7 @@ from .search import Outcome
 from .spec import Falsification
 
 SUMMARY, FIGURE, FAULTS = "summary.txt", "best_robustness.png", "counterexample_faults.json"
+MISSION = "counterexample_mission.csv"
 
 
 def _number(value) -> str:
@@ -28,13 +29,19 @@ def _number(value) -> str:
 
 def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
     """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
-    from .space import case_faults, case_parameters
+    from .space import case_faults, case_parameters, mission_csv, moved_waypoints
 
     base = spec.base()
     values = {d.name: row[d.name] for d in spec.dimensions}
     values = {d.name: (int(values[d.name]) if d.integer else float(values[d.name])) for d in spec.dimensions}
     parameters = case_parameters(base, values)
-    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", spec.trajectory_arg,
+    trajectory = spec.trajectory_arg
+    moved = moved_waypoints(base, parameters)
+    if moved is not None:  # the moved mission as a file of its own
+        (out / MISSION).write_text(mission_csv(moved))
+        trajectory = str((out / MISSION).resolve())
+        parameters = {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
+    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", trajectory,
             "--controller", spec.controller, "--seed", str(spec.loop_seed), "--stop-time", _number(spec.stop_time)]
     if not spec.gusts:
         args.append("--no-gusts")

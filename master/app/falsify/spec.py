@@ -20,7 +20,8 @@ budget and the optimizer; validated like a campaign spec (its reader, its base s
     name = "track_z"             # leave it out: every requirement of the file
     [[search]]
     name = "gust_speed"
-    target = "gust.amplitude"    # gust.* | initial.x|y|z | faults.N.start|end|value|duration | instance.parameter
+    target = "gust.amplitude"    # gust.* | initial.x|y|z | faults.N.start|end|value|duration | waypoints.K.t|x|y|z|psi
+                                 # (an offset of a mission's waypoint K) | instance.parameter
     range = [0.0, 15.0]
     integer = false              # true: the value is rounded (e.g. scenario.dryden, 0-3)
     [gust]                       # the gust's fixed fields (the search's gust.* dimensions replace them)
@@ -52,7 +53,7 @@ LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/lo
 GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
 GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
 TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|duration)|gust\.(amplitude|direction|start|"
-                  r"duration|rise)|initial\.[xyz])$")
+                  r"duration|rise)|initial\.[xyz]|waypoints\.\d+\.(t|x|y|z|psi))$")
 
 
 def _base_schema() -> dict:
@@ -141,6 +142,7 @@ class Falsification:
     wind_file: Path | None = None
     trajectory_arg: str = "1"  # base.trajectory as tiltload run's --trajectory takes it (a file: its absolute path)
     signals: tuple[str, ...] = field(default=())  # every signal the requirements name
+    waypoints: list = field(default_factory=list)  # a mission's waypoints ({t, x, y, z, ...}) when a dimension moves one
 
     @property
     def has_gust(self) -> bool:
@@ -152,7 +154,7 @@ class Falsification:
                 "faults": self.faults, "parameters": self.parameters, "requirements": [r.formula for r in self.requirements],
                 "requirement_names": [r.name for r in self.requirements],
                 "signals": list(self.signals), "dimensions": self.dimensions, "gust": self.gust if self.has_gust else None,
-                "controller": self.controller, "seed": self.loop_seed}
+                "controller": self.controller, "seed": self.loop_seed, "waypoints": self.waypoints or None}
 
 
 def _validate(data: dict, path: Path) -> None:
@@ -237,6 +239,26 @@ def _check_signals(signals: tuple[str, ...], path: Path) -> None:
                             f"({', '.join(LOOP_INSTANCES)})")
 
 
+def _mission_rows(flight: Flight, path: Path) -> list[dict]:
+    """The waypoints of base.trajectory's mission file (read through the master's input layer), for waypoints.K.*."""
+    from ....scenario_fmu import waypoints
+    from ....scenario_fmu.files import ScenarioFileError, read_rows, read_structured
+    from ...engine.user_files import UserFileError
+    from ..inputs import READER
+
+    source = Path(flight.trajectory.source) if flight.trajectory.source else None
+    if source is None or not flight.trajectory.knots:
+        raise SpecError(f"{path}: search: waypoints.K.* moves a mission's waypoint: base.trajectory must be a waypoint file")
+    try:
+        if source.suffix.lower() == ".csv":
+            rows, _ = read_rows(source, waypoints.FIELDS, waypoints.REQUIRED, READER)
+        else:
+            rows = read_structured(source, READER)["waypoints"]
+    except (ScenarioFileError, UserFileError) as err:
+        raise SpecError(f"{path}: base.trajectory: {err}") from None
+    return [{k: float(v) for k, v in row.items()} for row in rows]
+
+
 def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[Dimension]:
     out, names, targets = [], set(), set()
     for i, item in enumerate(items):
@@ -254,9 +276,9 @@ def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[D
         kind, _, rest = target.partition(".")
         if kind == "gust" and rest not in GUST_FIELDS:
             raise SpecError(f"{where}.target: a gust has {', '.join(GUST_FIELDS)}, not {rest}")
-        if kind not in ("gust", "initial", "faults") and kind not in LOOP_INSTANCES:
-            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.* nor a parameter of the "
-                            f"loop's instances ({', '.join(LOOP_INSTANCES)})")
+        if kind not in ("gust", "initial", "faults", "waypoints") and kind not in LOOP_INSTANCES:
+            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.*, waypoints.K.* nor a "
+                            f"parameter of the loop's instances ({', '.join(LOOP_INSTANCES)})")
         if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
             raise SpecError(f"{where}.target: {target} names a fault base.faults does not have")
         if target.startswith("gust.") and any(k.startswith("wind_profile") for k, _ in flight.wind):
@@ -283,6 +305,11 @@ def load(path: Path) -> Falsification:
     requirements, signals = _requirements(data["requirements"], path)
     _check_signals(signals, path)
     dimensions = _dimensions(data["search"], faults, flight, path)
+    mission = _mission_rows(flight, path) if any(d.target.startswith("waypoints.") for d in dimensions) else []
+    for i, d in enumerate(dimensions):
+        if d.target.startswith("waypoints.") and int(d.target.split(".")[1]) >= len(mission):
+            raise SpecError(f"{path}: search.{i}.target: {d.target} names a waypoint the mission does not have "
+                            f"(it has {len(mission)}: 0 to {len(mission) - 1})")
     from ..loop import default_stop
 
     stop = base.get("stop_time") or default_stop(flight.trajectory)
@@ -297,4 +324,4 @@ def load(path: Path) -> Falsification:
     return Falsification(data["name"], base.get("scenario", "zse"), flight, controller, base.get("seed", 1), float(stop),
                          base.get("gusts", True), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
                          data.get("optimizer", "cmaes"), data.get("seed", 0), data.get("batch"), budget.get("simulations"),
-                         budget.get("seconds"), path, wind, trajectory_arg, signals)
+                         budget.get("seconds"), path, wind, trajectory_arg, signals, mission)
