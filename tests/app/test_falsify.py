@@ -581,3 +581,18 @@ def test_a_moved_waypoint_is_searched_and_its_counterexample_replays_bit_for_bit
     trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
     rho, _ = robustness([r.formula for r in spec.requirements], trace, rows["moved"]["error"] == "")
     assert rho[0] == rows["moved"]["robustness"]  # bit for bit: the moved mission's file gives the same reference
+
+
+@pytest.mark.slow
+def test_the_command_runs_the_neighbourhood_and_says_what_it_found(tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    easy = GOOD.replace("< 0.2)", "< 10.0)").replace("range = [0.0, 20.0]", "range = [0.0, 1.0]")
+    args = ["falsify", str(write(tmp_path, easy)), "--out", str(tmp_path / "o"), "--workers", "1", "--simulations", "2",
+            "--neighbourhood", "--neighbourhood-points", "2", "--branch", "off"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "neighbourhood of the counterexample:" in said and "0 fail: 0.0% of the grid" in said
+    assert (tmp_path / "o" / "neighbourhood" / "neighbourhood.png").is_file()
+    # gust dimensions: no campaign spec (a campaign cannot set a gust from one value), said so
+    assert "no campaign spec" in said and not (tmp_path / "o" / "neighbourhood" / "neighbourhood_campaign.toml").exists()
