@@ -4,9 +4,6 @@ Each is deterministic for its seed and the values it is told (a resumed search a
 - uniform: independent uniform points (numpy's PCG64), the baseline every comparison is against;
 - cmaes: CMA-ES (Hansen's `cma`), bounded to the cube, restarted with a doubled population (IPOP) when it stops;
 - tpe: optuna's Tree-structured Parzen Estimator (multivariate; a batch is asked with the constant liar).
-
-Their settings (CMA-ES's population 4, TPE's 5 start-up trials) were chosen on seeds 10-19 of the benchmark's
-thrust-loss requirement, not on the seeds 0-9 it reports (docs/falsification.md, "Measured").
 """
 
 from __future__ import annotations
@@ -41,13 +38,11 @@ class UniformRandom(Optimizer):
 class CmaEs(Optimizer):
     """sigma0 = 0.3 of the cube from its centre; cma's own bound handling; IPOP restarts (popsize doubled)."""
 
-    POPSIZE = 4  # the others' batch; below cma's 4 + 3 ln d (7 for 3 dimensions): more generations in a small budget
-
     def __init__(self, dim: int, seed: int, batch: int | None = None) -> None:
         self.dim = dim
         self.width = max(dim, 2)  # cma refuses one dimension: a second one is carried and ignored
         self.seed = seed
-        self.popsize = batch or self.POPSIZE
+        self.popsize = batch or 4 + int(3 * np.log(self.width))
         self.batch = self.popsize
         self.restarts = 0
         self._start()
@@ -75,15 +70,12 @@ class CmaEs(Optimizer):
 
 
 class Tpe(Optimizer):
-    STARTUP = 5  # uniform trials before the model (optuna's default: 10)
-
     def __init__(self, dim: int, seed: int, batch: int | None = None) -> None:
         import optuna
 
         optuna.logging.set_verbosity(optuna.logging.WARNING)
         self.dim, self.batch = dim, batch or 4
-        sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, constant_liar=True,
-                                                    n_startup_trials=self.STARTUP)
+        sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, constant_liar=True, n_startup_trials=10)
         self.study = optuna.create_study(direction="minimize", sampler=sampler)
         self.space = {f"u{i}": optuna.distributions.FloatDistribution(0.0, 1.0) for i in range(dim)}
         self._trials: list = []
