@@ -596,3 +596,19 @@ def test_the_command_runs_the_neighbourhood_and_says_what_it_found(tmp_path, cap
     assert (tmp_path / "o" / "neighbourhood" / "neighbourhood.png").is_file()
     # gust dimensions: no campaign spec (a campaign cannot set a gust from one value), said so
     assert "no campaign spec" in said and not (tmp_path / "o" / "neighbourhood" / "neighbourhood_campaign.toml").exists()
+
+
+@pytest.mark.slow
+def test_a_search_on_the_cluster_branched_from_snapshots_stores_what_whole_runs_give(tmp_path):
+    import pyarrow.parquet as pq
+    from tiltload.master.app.falsify.runner import falsify
+
+    path = write(tmp_path, THRUST)
+    said = []
+    runs = {}
+    for branch in ("off", "on"):
+        falsify(path, tmp_path / branch, simulations=4, workers=1, branch=branch, progress=said.append)
+        runs[branch] = pq.read_table(tmp_path / branch / "falsification.parquet").to_pylist()
+    assert "branching from a snapshot at t = 1.980 s: on" in said and "branching from a snapshot: off" in said
+    assert [r["robustness"] for r in runs["off"]] == [r["robustness"] for r in runs["on"]]  # bit for bit
+    assert [r["stopped_at"] for r in runs["off"]] == pytest.approx([r["stopped_at"] for r in runs["on"]], nan_ok=True)
