@@ -4,7 +4,9 @@ requirements of docs/falsification/*.toml; a guaranteed property (the ZSE contai
 large budget; the cost of one evaluation with the observer against a log read back; simulations per second.
 
     python benchmarks/falsification.py [--seeds 10] [--budget 200] [--workers 2] [--guaranteed 500]
+    python benchmarks/falsification.py --only tracking_wind_load --tools dual_annealing   # one row
     python benchmarks/falsification.py --calibrate 300     # the distribution of each requirement's signal margin
+    python benchmarks/falsification.py --throughput 320    # simulations/s with and without early stop and branching
 
 PSY-TaLiRo runs in its own interpreter (/work/venvs/oracles: psy-taliro pins what ours does not): a driver script there
 builds its optimizer and a cost function that writes each sample to its stdout as a JSON line and reads the cost from
