@@ -60,9 +60,9 @@ def choose(base: dict, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> t
         values = values_at(dimensions, np.full(len(dimensions), u))
         cases.append({"run_id": f"calibrate-{u}", "values": values, "parameters": case_parameters(base, values)})
     for case in cases:  # the same outcome both ways (and the executions, the snapshot made: not timed)
-        whole, branch = evaluate(base, case, str(fmus))["row"], evaluate(branched, case, str(fmus))["row"]
-        if "robustness" not in whole or "robustness" not in branch:
-            return False, "branching from a snapshot: not used (the calibration's runs failed)"
+        whole, branch = evaluate(base, case, str(fmus)).get("row"), evaluate(branched, case, str(fmus)).get("row")
+        if whole is None or branch is None:  # an environment's failure (say, an FMU that cannot serialize its state)
+            return False, "branching from a snapshot: not used (the calibration could not run it here)"
         same = whole["robustness"] == branch["robustness"] or (math.isnan(whole["robustness"])
                                                                and math.isnan(branch["robustness"]))
         if not same:
