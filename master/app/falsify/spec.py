@@ -59,7 +59,7 @@ TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|d
 def _base_schema() -> dict:
     base = copy.deepcopy(CAMPAIGN_SCHEMA["properties"]["base"])
     props = base["properties"]
-    del props["controllers"], props["snapshot"]  # one controller; branching from a snapshot is not searched (yet)
+    del props["controllers"], props["snapshot"]  # one controller; a search branches from snapshots of its own (branching.py)
     props["controller"] = {"type": "string", "minLength": 1}
     props["seed"] = {"type": "integer", "minimum": 0, "maximum": 2147483647}
     return base
