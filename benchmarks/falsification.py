@@ -32,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ROOT / "docs" / "falsification"
 NEEDLES = ("swing_gust", "altitude_thrust_loss", "tracking_wind_load")
-TOOLS = ("uniform", "cmaes", "tpe", "uniform_random", "dual_annealing")  # ours, then PSY-TaLiRo's
+TOOLS = ("uniform", "cmaes", "tpe", "neldermead", "uniform_random", "dual_annealing")  # ours, then PSY-TaLiRo's
 ORACLE_PYTHON = Path(os.environ.get("TILTLOAD_ORACLES_PYTHON", "/work/venvs/oracles/bin/python"))
 
 PSY_DRIVER = r"""
@@ -271,7 +271,7 @@ def main() -> None:
                 print(f"\n## {name}: {spec.requirements[0].formula}; {len(spec.dimensions)} dimensions; budget {args.budget}; "
                       f"{args.seeds} seeds")
                 rows = []
-                for opt in (t for t in TOOLS[:3] if t in tools):
+                for opt in (t for t in TOOLS[:4] if t in tools):
                     firsts, started = [], time.perf_counter()
                     for seed in range(args.seeds):
                         out = run_search(spec, client, fmus, opt, seed, args.budget)
@@ -285,7 +285,7 @@ def main() -> None:
                     rows.append(row_of(f"tiltload {opt}", firsts, args.budget, wall))
                     print(f"  {rows[-1]}", flush=True)
                 if not args.no_psy and ORACLE_PYTHON.is_file():
-                    for kind in (t for t in TOOLS[3:] if t in tools):
+                    for kind in (t for t in TOOLS[4:] if t in tools):
                         started = time.perf_counter()
                         # its seeds side by side, one per worker (each still one sample at a time, as it evaluates)
                         with ThreadPoolExecutor(args.workers) as pool:

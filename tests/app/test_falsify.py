@@ -107,7 +107,7 @@ def sphere(centre):
     return lambda x: float(np.sum((np.asarray(x) - centre) ** 2))
 
 
-@pytest.mark.parametrize("name, budget, tolerance", [("cmaes", 600, 1e-8), ("tpe", 150, 2e-2)])
+@pytest.mark.parametrize("name, budget, tolerance", [("cmaes", 600, 1e-8), ("tpe", 150, 2e-2), ("neldermead", 300, 1e-6)])
 def test_optimizers_find_a_known_minimum(name, budget, tolerance):
     centre = np.array([0.3, 0.7, 0.55])
     points, values = optimizers.minimize(name, sphere(centre), 3, budget, seed=4)
@@ -120,9 +120,31 @@ def test_optimizers_find_a_known_minimum(name, budget, tolerance):
     assert values[best] < min(uniform) / 5
 
 
-def test_a_minimum_in_a_corner_is_reached_inside_the_bounds():
-    points, values = optimizers.minimize("cmaes", sphere(np.array([1.0, 0.0])), 2, 400, seed=1)
+@pytest.mark.parametrize("name", ["cmaes", "neldermead"])
+def test_a_minimum_in_a_corner_is_reached_inside_the_bounds(name):
+    points, values = optimizers.minimize(name, sphere(np.array([1.0, 0.0])), 2, 400, seed=1)
     assert min(values) < 1e-6 and np.all((points >= 0) & (points <= 1))
+
+
+def test_nelder_mead_restarts_when_its_simplex_collapses():
+    """A function with two basins: a simplex that collapsed into the shallow one starts again elsewhere (a restart
+    asks a new simplex of d + 1 points), so the deep one is found within the budget."""
+    deep, shallow = np.array([0.9, 0.9]), np.array([0.2, 0.2])
+
+    def two_basins(x):
+        x = np.asarray(x)
+        return float(min(np.sum((x - shallow) ** 2), np.sum((x - deep) ** 2) - 0.5))
+
+    opt = optimizers.make("neldermead", 2, 0)
+    starts, values = 0, []
+    while len(values) < 2000:
+        if opt.phase == "start":
+            starts += 1
+        asked = opt.ask()
+        got = [two_basins(x) for x in asked]
+        opt.tell(asked, got)
+        values.extend(got)
+    assert starts > 1 and min(values) < -0.5 + 1e-6
 
 
 def test_uniform_random_is_uniform_and_independent_and_seeded():
@@ -168,7 +190,7 @@ def make_case(rid, values):
     return {"run_id": rid, "values": values, "parameters": {}}
 
 
-@pytest.mark.parametrize("name", ["uniform", "cmaes", "tpe"])
+@pytest.mark.parametrize("name", ["uniform", "cmaes", "tpe", "neldermead"])
 def test_a_search_stops_at_its_first_falsification(name):
     out = search(DIMS, name, 3, synthetic_batch(DIMS), make_case, 3000, None, None, "needle")
     assert out.falsified_at is not None and out.simulations <= 3000
@@ -217,7 +239,7 @@ print(o.simulations, o.reused)
 """
 
 
-@pytest.mark.parametrize("name", ["cmaes", "tpe"])
+@pytest.mark.parametrize("name", ["cmaes", "tpe", "neldermead"])
 def test_a_search_killed_half_way_resumes_as_if_uninterrupted(tmp_path, name):
     import pyarrow.parquet as pq
 

@@ -2,7 +2,7 @@
 budget and the optimizer; validated like a campaign spec (its reader, its base schema, its checks of faults and files).
 
     name = "gust_swing"
-    optimizer = "cmaes"          # uniform | cmaes | tpe
+    optimizer = "cmaes"          # uniform | cmaes | tpe | neldermead
     seed = 0                     # the optimizer's seed
     batch = 8                    # evaluations handed to the cluster at once (default: the optimizer's own)
     [base]                       # campaign base keys (docs/campaigns.md), one controller, the loop's seed
@@ -48,7 +48,7 @@ from pathlib import Path
 from ..campaign.spec import SCHEMA as CAMPAIGN_SCHEMA
 from ..campaign.spec import Flight, SpecError, checked_faults, read_flight, read_spec_file
 
-OPTIMIZERS = ("uniform", "cmaes", "tpe")
+OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
 LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/loop.py's instance names
 GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
 GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
