@@ -1,41 +1,6 @@
 """Falsification specifications (TOML or YAML): the campaign spec's base case, the requirements, the search space, the
 budget and the optimizer; validated like a campaign spec (its reader, its base schema, its checks of faults and files).
-
-    name = "gust_swing"
-    optimizer = "cmaes"          # uniform | cmaes | tpe | neldermead
-    seed = 0                     # the optimizer's seed
-    batch = 8                    # evaluations handed to the cluster at once (default: the optimizer's own)
-    [base]                       # campaign base keys (docs/campaigns.md), one controller, the loop's seed
-    scenario = "fsi"
-    trajectory = 1
-    controller = "mixed"         # dlqr | mixed | a controller FMU
-    seed = 1                     # the loop's noise seed: every evaluation uses it (deterministic per point)
-    stop_time = 12.0
-    gusts = false
-    [[requirements]]
-    name = "swing"
-    formula = "always[2:12] (abs(plant.gamma_1) < 0.25)"
-    [[requirements]]             # or named from a requirement file (docs/requirements.md's format), beside formulas:
-    file = "../requirements/uav.yaml"
-    name = "track_z"             # leave it out: every requirement of the file
-    [[search]]
-    name = "gust_speed"
-    target = "gust.amplitude"    # gust.* | initial.x|y|z | faults.N.start|end|value|duration | waypoints.K.t|x|y|z|psi
-                                 # (an offset of a mission's waypoint K) | instance.parameter
-    range = [0.0, 15.0]
-    integer = false              # true: the value is rounded (e.g. scenario.dryden, 0-3)
-    [gust]                       # the gust's fixed fields (the search's gust.* dimensions replace them)
-    amplitude = 0.0              # m/s
-    direction = 0.0              # degrees from x, in the horizontal plane
-    start = 5.0                  # s
-    duration = 1.0               # s
-    rise = 0.2                   # s (at most a third of the duration)
-    [budget]
-    simulations = 200
-    seconds = 600                # wall time (either or both)
-
-A gust is a trapezoid of wind velocity written into the scenario FMU's wind profile (docs/falsification.md). Files are
-relative to the spec. A bad spec is one line naming the file and the field (SpecError, exit 2).
+The format, annotated: docs/falsification.md ("The spec").
 """
 
 from __future__ import annotations
