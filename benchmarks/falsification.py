@@ -4,7 +4,9 @@ requirements of docs/falsification/*.toml; a guaranteed property (the ZSE contai
 large budget; the cost of one evaluation with the observer against a log read back; simulations per second.
 
     python benchmarks/falsification.py [--seeds 10] [--budget 200] [--workers 2] [--guaranteed 500]
+    python benchmarks/falsification.py --only tracking_wind_load --tools dual_annealing   # one row
     python benchmarks/falsification.py --calibrate 300     # the distribution of each requirement's signal margin
+    python benchmarks/falsification.py --throughput 320    # simulations/s with and without early stop and branching
 
 PSY-TaLiRo runs in its own interpreter (/work/venvs/oracles: psy-taliro pins what ours does not): a driver script there
 builds its optimizer and a cost function that writes each sample to its stdout as a JSON line and reads the cost from
@@ -22,6 +24,7 @@ import statistics
 import subprocess
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 SPECS = ROOT / "docs" / "falsification"
 NEEDLES = ("swing_gust", "altitude_thrust_loss", "tracking_wind_load")
+TOOLS = ("uniform", "cmaes", "tpe", "neldermead", "uniform_random", "dual_annealing")  # ours, then PSY-TaLiRo's
 ORACLE_PYTHON = Path(os.environ.get("TILTLOAD_ORACLES_PYTHON", "/work/venvs/oracles/bin/python"))
 
 PSY_DRIVER = r"""
@@ -173,6 +177,55 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
 
 
 
+def throughput(client, fmus, tmp, n: int, names, rounds: int = 4) -> None:
+    """Simulations per second of uniform random searches (n evaluations each, not stopped at a falsification) on the
+    cluster, with and without early stop and branching from a snapshot, the configurations alternated round by round
+    (a load that changes falls on each); once at the requirement's bound, once at half of it (many runs fail)."""
+    import re
+
+    from tiltload.master.app.falsify.branching import branch_tick, with_branch
+    from tiltload.master.app.falsify.runner import cluster_batch, make_case
+    from tiltload.master.app.falsify.search import search
+    from tiltload.master.app.loop import TICK
+
+    print(f"\n## throughput: uniform random, {n} evaluations a configuration in {rounds} rounds, batches of 8, "
+          f"{len(client.scheduler_info()['workers'])} workers")
+    print("| requirement | bound | early stop | branch | simulations/s | CPU ms an evaluation | runs stopped early | "
+          "mean simulated s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name in names:
+        bound = float(re.search(r"< ([0-9.]+)\)", (SPECS / f"{name}.toml").read_text()).group(1))
+        for label, threshold in (("as shipped", None), ("halved", bound / 2)):
+            spec = load_spec(name, tmp, threshold)
+            base0 = spec.base()
+            ticks = branch_tick(spec.dimensions, base0["faults"], TICK)
+            configs = [(e, b) for e in (False, True) for b in ((False, True) if ticks else (False,))]
+            got = {c: {"sims": 0, "s": 0.0, "stopped": 0, "simulated": 0.0, "cpu": 0.0} for c in configs}
+            for r in range(-1, rounds):  # round -1: a warm-up (the workers' executions and snapshots made), not counted
+                for early, branch in configs:
+                    base = {**base0, "early_stop": early}
+                    if branch:
+                        base = with_branch(base, ticks)
+                    started = time.perf_counter()
+                    out = search(spec.dimensions, "uniform", r + 1, cluster_batch(client, "the local cluster", base, fmus),
+                                 make_case(base), n // rounds if r >= 0 else 16, None, None,
+                                 f"throughput-{name}-{label}-{early}-{branch}-{r}", 8, stop_when_falsified=False)
+                    if r < 0:
+                        continue
+                    g = got[(early, branch)]
+                    g["s"] += time.perf_counter() - started
+                    g["sims"] += out.simulations
+                    g["stopped"] += sum(1 for row in out.rows if row.get("stopped_at") == row.get("stopped_at")
+                                        and row.get("stopped_at") is not None)
+                    g["simulated"] += sum(row["sim_time"] for row in out.rows)
+                    g["cpu"] += sum(row["cpu_s"] for row in out.rows)
+            for (early, branch), g in got.items():
+                print(f"| {name} | {label} ({threshold or bound:g}) | {'on' if early else 'off'} | "
+                      f"{'on' if branch else ('off' if ticks else 'n/a')} | {g['sims'] / g['s']:.1f} | {g['cpu'] / g['sims'] * 1e3:.2f} | "
+                      f"{g['stopped']}/{g['sims']} | {g['simulated'] / g['sims']:.2f} |", flush=True)
+    print(f"load average after: {os.getloadavg()[0]:.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--seeds", type=int, default=10)
@@ -180,8 +233,12 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--guaranteed", type=int, default=500, help="budget of the guaranteed property's search (0: skip)")
     ap.add_argument("--calibrate", type=int, default=0, help="only: the needles' margins over N uniform points")
+    ap.add_argument("--throughput", type=int, default=0,
+                    help="only: simulations/s with and without early stop and branching (N evaluations a configuration)")
     ap.add_argument("--only", default=None, help="one requirement of docs/falsification")
     ap.add_argument("--no-psy", action="store_true", help="skip PSY-TaLiRo")
+    ap.add_argument("--tools", default=",".join(TOOLS), help=f"a comma-separated subset of {', '.join(TOOLS)}")
+    ap.add_argument("--no-cost", action="store_true", help="skip the one-evaluation cost (observer against log)")
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "falsification_best_robustness.png")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -199,7 +256,14 @@ def main() -> None:
             if args.calibrate:
                 calibrate(client, fmus, tmp, args.calibrate, [args.only] if args.only else NEEDLES)
                 return
-            print(evaluation_cost(client, fmus, tmp, 5))
+            if args.throughput:
+                throughput(client, fmus, tmp, args.throughput, [args.only] if args.only else NEEDLES[:2])
+                return
+            tools = [t for t in args.tools.split(",") if t]
+            if unknown := sorted(set(tools) - set(TOOLS)):
+                raise SystemExit(f"--tools: unknown {', '.join(unknown)} (of {', '.join(TOOLS)})")
+            if not args.no_cost:
+                print(evaluation_cost(client, fmus, tmp, 5))
             total_sims, total_time = 0, 0.0
             curves: dict[str, list[float]] = {}
             for name in ([args.only] if args.only else NEEDLES):
@@ -207,7 +271,7 @@ def main() -> None:
                 print(f"\n## {name}: {spec.requirements[0].formula}; {len(spec.dimensions)} dimensions; budget {args.budget}; "
                       f"{args.seeds} seeds")
                 rows = []
-                for opt in ("uniform", "cmaes", "tpe"):
+                for opt in (t for t in TOOLS[:4] if t in tools):
                     firsts, started = [], time.perf_counter()
                     for seed in range(args.seeds):
                         out = run_search(spec, client, fmus, opt, seed, args.budget)
@@ -221,16 +285,18 @@ def main() -> None:
                     rows.append(row_of(f"tiltload {opt}", firsts, args.budget, wall))
                     print(f"  {rows[-1]}", flush=True)
                 if not args.no_psy and ORACLE_PYTHON.is_file():
-                    for kind in ("uniform_random", "dual_annealing"):
-                        firsts, started = [], time.perf_counter()
-                        for seed in range(args.seeds):
-                            first, values = psy_taliro(spec, client, fmus, kind, seed, args.budget)
-                            firsts.append(first)
-                            if seed == 0:
-                                curves[f"{name}: PSY-TaLiRo {kind}"] = values
+                    for kind in (t for t in TOOLS[4:] if t in tools):
+                        started = time.perf_counter()
+                        # its seeds side by side, one per worker (each still one sample at a time, as it evaluates)
+                        with ThreadPoolExecutor(args.workers) as pool:
+                            got = list(pool.map(lambda seed: psy_taliro(spec, client, fmus, kind, seed, args.budget),
+                                                range(args.seeds)))
+                        firsts = [first for first, _ in got]
+                        print(f"  PSY-TaLiRo {kind} per seed: {[None if f is None else f + 1 for f in firsts]}", flush=True)
+                        curves[f"{name}: PSY-TaLiRo {kind}"] = got[0][1]
                         rows.append(row_of(f"PSY-TaLiRo {kind}", firsts, args.budget, time.perf_counter() - started))
                         print(f"  {rows[-1]}", flush=True)
-                print(table(rows, rows[0]["mean"]))
+                print(table(rows, rows[0]["mean"] if rows and rows[0]["tool"] == "tiltload uniform" else math.nan))
             if total_time:
                 print(f"\nthroughput: {total_sims} simulations in {total_time:.0f} s on the local cluster: "
                       f"{total_sims / total_time:.1f} simulations/s (tiltload's searches, batches included)")

@@ -65,8 +65,23 @@ class Snapshot:
         return self.ticks_done * self.tick
 
 
+_DIGESTS: dict[tuple, str] = {}  # per process: (path, inode, size, mtime) -> digest; a replaced file is hashed again
+
+
 def file_digest(path: Path) -> str:
-    """SHA-256 of a file (an FMU), read in blocks."""
+    """SHA-256 of a file (an FMU), read in blocks; once per version of the file (its inode, size and modification time:
+    a run branched from a snapshot again and again checks the same FMUs each time, fmus' hashing dominated its cost)."""
+    try:
+        st = Path(path).stat()
+    except OSError as err:
+        raise SnapshotError(f"cannot read {path}: {err.strerror or err}") from None
+    key = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
+    if key not in _DIGESTS:
+        _DIGESTS[key] = _hash_file(path)
+    return _DIGESTS[key]
+
+
+def _hash_file(path: Path) -> str:
     h = hashlib.sha256()
     try:
         with open(path, "rb") as f:

@@ -107,7 +107,7 @@ def sphere(centre):
     return lambda x: float(np.sum((np.asarray(x) - centre) ** 2))
 
 
-@pytest.mark.parametrize("name, budget, tolerance", [("cmaes", 600, 1e-8), ("tpe", 150, 2e-2)])
+@pytest.mark.parametrize("name, budget, tolerance", [("cmaes", 600, 1e-8), ("tpe", 150, 2e-2), ("neldermead", 300, 1e-6)])
 def test_optimizers_find_a_known_minimum(name, budget, tolerance):
     centre = np.array([0.3, 0.7, 0.55])
     points, values = optimizers.minimize(name, sphere(centre), 3, budget, seed=4)
@@ -120,9 +120,31 @@ def test_optimizers_find_a_known_minimum(name, budget, tolerance):
     assert values[best] < min(uniform) / 5
 
 
-def test_a_minimum_in_a_corner_is_reached_inside_the_bounds():
-    points, values = optimizers.minimize("cmaes", sphere(np.array([1.0, 0.0])), 2, 400, seed=1)
+@pytest.mark.parametrize("name", ["cmaes", "neldermead"])
+def test_a_minimum_in_a_corner_is_reached_inside_the_bounds(name):
+    points, values = optimizers.minimize(name, sphere(np.array([1.0, 0.0])), 2, 400, seed=1)
     assert min(values) < 1e-6 and np.all((points >= 0) & (points <= 1))
+
+
+def test_nelder_mead_restarts_when_its_simplex_collapses():
+    """A function with two basins: a simplex that collapsed into the shallow one starts again elsewhere (a restart
+    asks a new simplex of d + 1 points), so the deep one is found within the budget."""
+    deep, shallow = np.array([0.9, 0.9]), np.array([0.2, 0.2])
+
+    def two_basins(x):
+        x = np.asarray(x)
+        return float(min(np.sum((x - shallow) ** 2), np.sum((x - deep) ** 2) - 0.5))
+
+    opt = optimizers.make("neldermead", 2, 0)
+    starts, values = 0, []
+    while len(values) < 2000:
+        if opt.phase == "start":
+            starts += 1
+        asked = opt.ask()
+        got = [two_basins(x) for x in asked]
+        opt.tell(asked, got)
+        values.extend(got)
+    assert starts > 1 and min(values) < -0.5 + 1e-6
 
 
 def test_uniform_random_is_uniform_and_independent_and_seeded():
@@ -168,7 +190,7 @@ def make_case(rid, values):
     return {"run_id": rid, "values": values, "parameters": {}}
 
 
-@pytest.mark.parametrize("name", ["uniform", "cmaes", "tpe"])
+@pytest.mark.parametrize("name", ["uniform", "cmaes", "tpe", "neldermead"])
 def test_a_search_stops_at_its_first_falsification(name):
     out = search(DIMS, name, 3, synthetic_batch(DIMS), make_case, 3000, None, None, "needle")
     assert out.falsified_at is not None and out.simulations <= 3000
@@ -217,7 +239,7 @@ print(o.simulations, o.reused)
 """
 
 
-@pytest.mark.parametrize("name", ["cmaes", "tpe"])
+@pytest.mark.parametrize("name", ["cmaes", "tpe", "neldermead"])
 def test_a_search_killed_half_way_resumes_as_if_uninterrupted(tmp_path, name):
     import pyarrow.parquet as pq
 
@@ -293,3 +315,322 @@ def test_the_command_on_a_local_cluster_says_not_falsified_and_a_rerun_takes_the
     assert len(rows) == 2 and all(r["robustness"] > 0 and r["worker"] for r in rows)
     assert main(args) == 0
     assert "2 simulations in" in (said := capsys.readouterr().out) and "(2 from the previous run)" in said
+
+
+THRUST = """
+name = "thrust"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+trajectory = 1
+controller = "mixed"
+stop_time = 8.1
+gusts = false
+faults = [{name = "right rotor thrust loss", action = "scale", target = "plant.f_R", value = 0.7, start = 3.0, end = 3.5}]
+[[requirements]]
+name = "altitude"
+formula = "always[2:8] (abs(plant.z - scenario.z_ref) < 0.15)"
+[[search]]
+name = "thrust_left"
+target = "faults.0.value"
+range = [0.6, 1.0]
+[[search]]
+name = "loss_start"
+target = "faults.0.start"
+range = [2.0, 5.0]
+[[search]]
+name = "loss_length"
+target = "faults.0.duration"
+range = [0.1, 1.0]
+[budget]
+simulations = 4
+"""
+
+
+def _thrust_case(tmp_path, unit):
+    from tiltload.master.app.falsify.space import case_parameters, values_at
+
+    spec = load(write(tmp_path, THRUST))
+    base = spec.base()
+    values = values_at(spec.dimensions, np.asarray(unit, dtype=float))
+    return spec, base, {"run_id": "t", "values": values, "parameters": case_parameters(base, values)}
+
+
+@pytest.mark.slow
+def test_an_early_stopped_run_reports_the_bound_of_its_prefix_against_brute_force_on_the_whole_trace(tmp_path):
+    """Stopped at a decided violation: its robustness is the lowest margin of the always's predicate over the window so
+    far (brute force on the whole run's trace, cut at the stop), below 0 and at least the whole run's robustness; a run
+    that passes is not stopped and has the whole run's robustness, bit for bit."""
+    from tiltload.master.app.falsify.evaluate import evaluate, run_loop
+    from tiltload.master.app.falsify.signals import SignalRecorder
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    stopped = 0
+    for unit in ([0.0, 0.1, 1.0], [0.0, 0.9, 1.0], [0.5, 0.5, 0.5], [1.0, 0.5, 0.5]):
+        spec, base, case = _thrust_case(tmp_path, unit)
+        recorder = SignalRecorder(list(spec.signals))
+        run_loop(base, case["parameters"], fmus, [recorder])
+        trace = recorder.trace()
+        z, ref = trace.signals["plant.z"], trace.signals["scenario.z_ref"]
+        window = (trace.times >= 2.0 - 1e-9) & (trace.times <= 8.0 + 1e-9)
+        whole = float(np.min(0.15 - np.abs(z - ref)[window]))
+        early = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+        assert evaluate(base, case, str(fmus))["row"]["robustness"] == pytest.approx(whole, abs=1e-12)
+        if math.isnan(early["stopped_at"]):
+            assert whole >= 0 and early["robustness"] == evaluate(base, case, str(fmus))["row"]["robustness"]
+            continue
+        stopped += 1
+        assert early["stopped_at"] < 8.0 and early["verdict_altitude"] == "FAIL"
+        cut = window & (trace.times <= early["stopped_at"] + 1e-9)
+        assert early["robustness"] == pytest.approx(float(np.min(0.15 - np.abs(z - ref)[cut])), abs=1e-12)
+        assert whole <= early["robustness"] < 0
+    assert stopped >= 2
+
+
+@pytest.mark.slow
+def test_a_branch_from_a_snapshot_is_the_whole_run_bit_for_bit(tmp_path):
+    from tiltload.master.app.falsify.branching import branch_tick, choose, with_branch
+    from tiltload.master.app.falsify.evaluate import run_loop
+    from tiltload.master.app.falsify.signals import SignalRecorder
+    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop import TICK
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    spec, base, _ = _thrust_case(tmp_path, [0.5, 0.5, 0.5])
+    ticks = branch_tick(spec.dimensions, base["faults"], TICK)
+    assert ticks == 165  # the last tick before 2 s (the earliest start), one tick earlier
+    branched = with_branch(base, ticks)
+    for unit in ([0.0, 0.0, 1.0], [0.3, 0.7, 0.2], [0.0, 0.1, 1.0]):
+        _, _, case = _thrust_case(tmp_path, unit)
+        traces = []
+        for b, branch in ((base, False), (branched, True)):
+            recorder = SignalRecorder(list(spec.signals))
+            run_loop(b, case["parameters"], fmus, [recorder], branch=branch)
+            traces.append(recorder.trace())
+        assert np.array_equal(traces[0].times, traces[1].times)
+        for name in spec.signals:
+            assert np.array_equal(traces[0].signals[name], traces[1].signals[name])  # bit for bit
+    use, line = choose(base, spec.dimensions, fmus, ticks, repeat=1)
+    assert "branching from a snapshot at t = 1.980 s" in line and ("not used" in line) != use
+
+
+def test_only_faults_that_start_late_are_branched():
+    from tiltload.master.app.falsify.branching import branch_tick
+
+    faults = [{"name": "f", "action": "scale", "target": "plant.f_R", "value": 0.7, "start": 3.0, "end": 3.5}]
+    start = Dimension("s", "faults.0.start", 2.0, 5.0)
+    value = Dimension("v", "faults.0.value", 0.5, 1.0)
+    assert branch_tick([value], faults, 0.012) == 249  # 3.0 s is tick 250: the one before, less one
+    assert branch_tick([start, value], faults, 0.012) == 165
+    assert branch_tick([value, Dimension("g", "gust.amplitude", 0.0, 5.0)], faults, 0.012) is None  # a gust: from t = 0
+    assert branch_tick([value, Dimension("m", "plant.m_L", 0.04, 0.08)], faults, 0.012) is None
+    assert branch_tick([value], [{**faults[0], "action": "delay", "value": 3}], 0.012) is None  # looks back before start
+    assert branch_tick([Dimension("s", "faults.0.start", 0.0, 5.0)], faults, 0.012) is None  # no prefix worth it
+
+
+@pytest.mark.slow
+def test_an_early_stopped_counterexample_replays_the_whole_run_the_summary_states(tmp_path):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.falsify.evaluate import evaluate, robustness
+    from tiltload.master.app.falsify.report import replay_command
+    from tiltload.master.app.falsify.report import write as write_report
+    from tiltload.master.app.falsify.signals import trace_from_log
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    spec, base, case = _thrust_case(tmp_path, [0.0, 0.1, 1.0])
+    row = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+    assert row["stopped_at"] < 8.0
+    out = search(spec.dimensions, "uniform", 0, lambda cases: {c["run_id"]: {**row, "run_id": c["run_id"]} for c in cases},
+                 lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 1, None, tmp_path / "o", "early")
+    write_report(spec, out, tmp_path / "o", fmus)
+    summary = (tmp_path / "o" / "summary.txt").read_text()
+    assert "upper bound over every continuation" in summary
+    stated = float(summary.split("the whole run (what replay.sh runs): robustness ")[1].split()[0])
+    assert main(replay_command(spec, out.best, tmp_path / "o", fmus)[1:] + ["--quiet", "--no-plots"]) in (0, 1)
+    trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
+    rho, _ = robustness([r.formula for r in spec.requirements], trace, True)
+    assert rho[0] == stated <= row["robustness"] < 0  # the replay is the whole run, bit for bit
+
+
+REQS = """requirements:
+  - name: low_swing
+    description: the rod stays near the vertical
+    formula: always[1:4] (abs(plant.gamma_1) < 0.3)
+  - name: cap_f_R
+    bounds: {signal: controller.f_R, min: 0, max: 30}
+"""
+
+
+def test_requirements_are_named_from_a_requirement_file_beside_formulas(tmp_path):
+    (tmp_path / "reqs.yaml").write_text(REQS)
+    named = GOOD.replace("[[search]]", '[[requirements]]\nfile = "reqs.yaml"\nname = "cap_f_R"\n[[search]]', 1)
+    spec = load(write(tmp_path, named))
+    assert [r.name for r in spec.requirements] == ["swing", "cap_f_R"]
+    # the bounds sugar, expanded by the requirements' loader (docs/requirements.md): within [0, 30] the whole run
+    assert spec.requirements[1].formula.replace(" ", "") == "always(controller.f_R>=0.0andcontroller.f_R<=30.0)"
+    assert set(spec.signals) == {"plant.gamma_1", "controller.f_R"}
+    every = GOOD.replace("[[search]]", '[[requirements]]\nfile = "reqs.yaml"\n[[search]]', 1)
+    spec = load(write(tmp_path, every))
+    assert [r.name for r in spec.requirements] == ["swing", "low_swing", "cap_f_R"]
+    assert spec.requirements[1].formula == "always[1:4] (abs(plant.gamma_1) < 0.3)"
+    assert spec.requirements[1].description == "the rod stays near the vertical"
+
+
+@pytest.mark.parametrize("file_text, entry, says", [
+    (REQS, 'file = "reqs.yaml"\nname = "low_swig"', "has no requirement low_swig (did you mean low_swing?)"),
+    (REQS, 'file = "nothere.yaml"', "requirements.1.file: no requirement file"),
+    ("requirements:\n  - &a {name: x, formula: always plant.z > 0}\n  - *a\n", 'file = "reqs.yaml"', "alias"),
+    ("requirements:\n  - {name: x, formula: always plant.z >}\n", 'file = "reqs.yaml"', "requirement 'x'"),
+    (REQS.replace("< 0.3)", "< 0.3)\n  - name: low_swing\n    formula: always plant.z > 0"), 'file = "reqs.yaml"',
+     "named twice"),
+    (REQS.replace("low_swing", "swing"), 'file = "reqs.yaml"', "swing is named twice"),
+])
+def test_a_bad_requirement_file_is_one_line(tmp_path, file_text, entry, says):
+    (tmp_path / "reqs.yaml").write_text(file_text)
+    with pytest.raises(SpecError) as err:
+        load(write(tmp_path, GOOD.replace("[[search]]", f"[[requirements]]\n{entry}\n[[search]]", 1)))
+    assert says in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_neighbourhood_axis_is_centred_clipped_and_rounded():
+    from tiltload.master.app.falsify.neighbourhood import axis
+
+    d = Dimension("v", "faults.0.value", 0.6, 1.0)
+    assert axis(d, 0.8, 0.1, 5) == pytest.approx([0.76, 0.78, 0.8, 0.82, 0.84])
+    assert axis(d, 0.61, 0.1, 5) == pytest.approx([0.6, 0.61, 0.6125, 0.625, 0.6375, 0.65])  # clipped; the centre kept
+    assert axis(Dimension("s", "sensors.seed", 0, 100, True), 50.4, 0.1, 5) == [40, 45, 50, 55, 60]
+
+
+def test_the_failure_region_s_width_is_measured_along_the_line_through_the_counterexample():
+    from tiltload.master.app.falsify.neighbourhood import grid, widths
+    from tiltload.master.app.falsify.spec import Falsification
+
+    dims = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
+    spec = Falsification.__new__(Falsification)
+    spec.dimensions = dims
+    best = {"a": 0.5, "b": 0.5}
+    axes, points = grid(spec, best, 0.1, 5)  # a and b in 0.4, 0.45, ..., 0.6
+    rows = [{**p, "robustness": abs(p["a"] - 0.5) - 0.06} for p in points]  # fails where |a - 0.5| < 0.06, any b
+    w = widths(spec, best, axes, rows)
+    assert w["a"]["line_fails"] == "3/5" and w["a"]["line_width"] == pytest.approx(0.1)
+    assert w["b"]["line_fails"] == "5/5" and w["b"]["line_width"] == pytest.approx(0.2) == w["b"]["line_span"]
+
+
+@pytest.mark.slow
+def test_the_neighbourhood_of_a_counterexample_runs_and_its_campaign_spec_is_the_same_grid(tmp_path):
+    import pyarrow.parquet as pq
+    from tiltload.master.app.campaign.spec import load as load_campaign
+    from tiltload.master.app.falsify import neighbourhood
+    from tiltload.master.app.falsify.evaluate import evaluate
+    from tiltload.master.app.falsify.runner import make_case as case_of
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    text = THRUST.replace("[[search]]\nname = \"loss_length\"\ntarget = \"faults.0.duration\"\nrange = [0.1, 1.0]\n", "")
+    spec = load(write(tmp_path, text.replace("end = 3.5", "end = 4.5")))
+    base = spec.base()
+    best = {"thrust_left": 0.62, "loss_start": 2.3}
+    said = neighbourhood.run(spec, best, lambda cases: {c["run_id"]: evaluate(base, c, str(fmus))["row"] for c in cases},
+                             case_of(base), tmp_path, 0.1, 3)
+    rows = pq.read_table(tmp_path / "neighbourhood" / neighbourhood.RESULTS).to_pylist()
+    assert len(rows) == 4 * 3  # thrust 0.6 (clipped), 0.63, 0.66 and the centre 0.62; start 2.0, 2.3 (the centre), 2.6
+    failing = sum(r["robustness"] < 0 for r in rows)
+    assert f"{failing} fail: {failing / len(rows):.1%} of the grid" in said
+    assert (tmp_path / "neighbourhood" / neighbourhood.FIGURE).is_file()
+    campaign = load_campaign(tmp_path / "neighbourhood" / neighbourhood.CAMPAIGN)
+    assert sorted((c.values["thrust_left"], c.values["loss_start"]) for c in campaign.cases) == \
+           sorted((r["thrust_left"], r["loss_start"]) for r in rows)
+
+
+MISSION = "t,x,y,z\n0,0,0,1\n2,0.5,0,1.2\n4,0.5,0.5,1.2\n"
+MOVED = GOOD.replace('trajectory = 1', 'trajectory = "m.csv"').replace(
+    "always[1:4] (abs(plant.gamma_1) < 0.2)", "always[1:4] (abs(plant.y - scenario.y_ref) < 0.05)").replace(
+    'target = "gust.amplitude"\nrange = [0.0, 20.0]', 'target = "waypoints.1.y"\nrange = [-0.4, 0.4]').replace(
+    'target = "gust.direction"\nrange = [0.0, 360.0]', 'target = "waypoints.2.t"\nrange = [-1.5, 1.0]')
+
+
+@pytest.mark.parametrize("old, new, says", [
+    ("waypoints.1.y", "waypoints.3.y", "names a waypoint the mission does not have (it has 3: 0 to 2)"),
+    ('trajectory = "m.csv"', "trajectory = 1", "base.trajectory must be a waypoint file"),
+    ("waypoints.1.y", "waypoints.1.vx", "search.0.target"),
+])
+def test_a_bad_waypoint_dimension_is_one_line(tmp_path, old, new, says):
+    (tmp_path / "m.csv").write_text(MISSION)
+    with pytest.raises(SpecError) as err:
+        load(write(tmp_path, MOVED.replace(old, new, 1)))
+    assert says in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.slow
+def test_a_moved_waypoint_is_searched_and_its_counterexample_replays_bit_for_bit(tmp_path):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.falsify.evaluate import evaluate, robustness
+    from tiltload.master.app.falsify.report import MISSION as MOVED_FILE
+    from tiltload.master.app.falsify.report import replay_command
+    from tiltload.master.app.falsify.report import write as write_report
+    from tiltload.master.app.falsify.runner import make_case as case_of
+    from tiltload.master.app.falsify.signals import trace_from_log
+    from tiltload.master.app.fmus import build_all
+
+    fmus = Path("fmus").resolve()
+    build_all(fmus)
+    (tmp_path / "m.csv").write_text(MISSION)
+    spec = load(write(tmp_path, MOVED))
+    base = spec.base()
+    make = case_of(base)
+    rows = {}
+    for name, values in (("still", {"amp": 0.0, "heading": 0.0}), ("moved", {"amp": 0.4, "heading": 0.0}),
+                         ("steep", {"amp": 0.0, "heading": -1.5}), ("disorder", {"amp": 0.0, "heading": -2.5})):
+        rows[name] = evaluate(base, make(name, values), str(fmus))["row"]
+    # moving waypoint 1 by 0.4 m in y changes the run; waypoint 2 half a second after waypoint 1 asks for more tilt than
+    # the feasibility check allows (it judges the moved mission); moved before waypoint 1 it is no mission: refused
+    assert rows["still"]["robustness"] != rows["moved"]["robustness"]
+    assert "the reference is infeasible" in rows["steep"]["error"] and math.isnan(rows["steep"]["robustness"])
+    assert "moved mission" in rows["disorder"]["error"] and math.isnan(rows["disorder"]["robustness"])
+    out = search(spec.dimensions, "uniform", 0, lambda cases: {c["run_id"]: {**rows["moved"], "run_id": c["run_id"]}
+                                                                for c in cases},
+                 make, 1, None, tmp_path / "o", "moved")
+    write_report(spec, out, tmp_path / "o", fmus)
+    args = replay_command(spec, out.best, tmp_path / "o", fmus)
+    assert args[args.index("--trajectory") + 1] == str((tmp_path / "o" / MOVED_FILE).resolve())
+    assert main(args[1:] + ["--quiet", "--no-plots"]) in (0, 1)
+    trace = trace_from_log(tmp_path / "o" / "counterexample" / "counterexample.mcap", list(spec.signals), 0.012)
+    rho, _ = robustness([r.formula for r in spec.requirements], trace, rows["moved"]["error"] == "")
+    assert rho[0] == rows["moved"]["robustness"]  # bit for bit: the moved mission's file gives the same reference
+
+
+@pytest.mark.slow
+def test_the_command_runs_the_neighbourhood_and_says_what_it_found(tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    easy = GOOD.replace("< 0.2)", "< 10.0)").replace("range = [0.0, 20.0]", "range = [0.0, 1.0]")
+    args = ["falsify", str(write(tmp_path, easy)), "--out", str(tmp_path / "o"), "--workers", "1", "--simulations", "2",
+            "--neighbourhood", "--neighbourhood-points", "2", "--branch", "off"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    assert "neighbourhood of the counterexample:" in said and "0 fail: 0.0% of the grid" in said
+    assert (tmp_path / "o" / "neighbourhood" / "neighbourhood.png").is_file()
+    # gust dimensions: no campaign spec (a campaign cannot set a gust from one value), said so
+    assert "no campaign spec" in said and not (tmp_path / "o" / "neighbourhood" / "neighbourhood_campaign.toml").exists()
+
+
+@pytest.mark.slow
+def test_a_search_on_the_cluster_branched_from_snapshots_stores_what_whole_runs_give(tmp_path):
+    import pyarrow.parquet as pq
+    from tiltload.master.app.falsify.runner import falsify
+
+    path = write(tmp_path, THRUST)
+    said = []
+    runs = {}
+    for branch in ("off", "on"):
+        falsify(path, tmp_path / branch, simulations=4, workers=1, branch=branch, progress=said.append)
+        runs[branch] = pq.read_table(tmp_path / branch / "falsification.parquet").to_pylist()
+    assert "branching from a snapshot at t = 1.980 s: on" in said and "branching from a snapshot: off" in said
+    assert [r["robustness"] for r in runs["off"]] == [r["robustness"] for r in runs["on"]]  # bit for bit
+    assert [r["stopped_at"] for r in runs["off"]] == pytest.approx([r["stopped_at"] for r in runs["on"]], nan_ok=True)

@@ -145,3 +145,20 @@ def test_an_fmu_that_cannot_serialize_its_state_is_refused_by_name(fmus, tmp_pat
                  str(tmp_path / "x.snapshot"), "--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(err) == 1 and "controller: its FMU cannot serialize its state" in err[0], err
+
+
+def test_a_file_s_digest_is_its_content_s_and_follows_a_replaced_or_rewritten_file(tmp_path):
+    import hashlib
+    import os
+
+    from tiltload.master.engine.snapshot import file_digest
+
+    path = tmp_path / "a.fmu"
+    path.write_bytes(b"one")
+    assert file_digest(path) == hashlib.sha256(b"one").hexdigest()
+    assert file_digest(path) == hashlib.sha256(b"one").hexdigest()  # the second time from the memo: the same
+    (tmp_path / "b").write_bytes(b"two")
+    os.replace(tmp_path / "b", path)  # a rebuild replaces the file: another inode
+    assert file_digest(path) == hashlib.sha256(b"two").hexdigest()
+    path.write_bytes(b"three!")  # rewritten in place: another size and modification time
+    assert file_digest(path) == hashlib.sha256(b"three!").hexdigest()

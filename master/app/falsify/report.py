@@ -14,6 +14,7 @@ from .search import Outcome
 from .spec import Falsification
 
 SUMMARY, FIGURE, FAULTS = "summary.txt", "best_robustness.png", "counterexample_faults.json"
+MISSION = "counterexample_mission.csv"
 
 
 def _number(value) -> str:
@@ -28,13 +29,19 @@ def _number(value) -> str:
 
 def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
     """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
-    from .space import case_faults, case_parameters
+    from .space import case_faults, case_parameters, mission_csv, moved_waypoints
 
     base = spec.base()
     values = {d.name: row[d.name] for d in spec.dimensions}
     values = {d.name: (int(values[d.name]) if d.integer else float(values[d.name])) for d in spec.dimensions}
     parameters = case_parameters(base, values)
-    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", spec.trajectory_arg,
+    trajectory = spec.trajectory_arg
+    moved = moved_waypoints(base, parameters)
+    if moved is not None:  # the moved mission as a file of its own
+        (out / MISSION).write_text(mission_csv(moved))
+        trajectory = str((out / MISSION).resolve())
+        parameters = {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
+    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", trajectory,
             "--controller", spec.controller, "--seed", str(spec.loop_seed), "--stop-time", _number(spec.stop_time)]
     if not spec.gusts:
         args.append("--no-gusts")
@@ -82,7 +89,18 @@ def figure(curves: dict[str, list[float]], path: Path, title: str) -> Path:
     return path
 
 
-def summary(spec: Falsification, outcome: Outcome, command: list[str] | None) -> str:
+def whole_run(spec: Falsification, row: dict, fmus: Path) -> dict:
+    """The row's case run to its stop time (no early stop, no branch): what its replay gives."""
+    from .evaluate import evaluate
+    from .space import case_parameters
+
+    base = spec.base()
+    values = {d.name: (int(row[d.name]) if d.integer else float(row[d.name])) for d in spec.dimensions}
+    return evaluate(base, {"run_id": row["run_id"], "values": values, "parameters": case_parameters(base, values)},
+                    str(fmus))["row"]
+
+
+def summary(spec: Falsification, outcome: Outcome, command: list[str] | None, notes=(), whole: dict | None = None) -> str:
     n = outcome.simulations
     lines = [f"falsification {spec.name}: optimizer {spec.optimizer} (seed {spec.seed}), {len(spec.dimensions)} dimensions, "
              f"{n} simulations in {outcome.seconds:.1f} s" + (f" ({outcome.reused} from the previous run)" if outcome.reused else "")]
@@ -105,14 +123,23 @@ def summary(spec: Falsification, outcome: Outcome, command: list[str] | None) ->
                          math.isnan(rho) else f"  {r.name}: no robustness ({best.get('error')})")
         if best.get("error"):
             lines.append(f"  the run ended early: {best['error']}")
+        stopped = best.get("stopped_at")
+        if stopped is not None and not math.isnan(stopped):
+            lines.append(f"  its evaluation stopped at t = {stopped:.3f} s, the violation decided: the robustness above is the "
+                         "upper bound over every continuation (the value at the stop)")
+            if whole is not None:
+                lines.append(f"  the whole run (what replay.sh runs): robustness {whole['robustness']!r}")
+    lines.extend(notes)
     if command:
         lines.append("replay it:")
         lines.append("  " + shlex.join(command))
     return "\n".join(lines)
 
 
-def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = None) -> str:
+def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = None, notes=()) -> str:
     best = outcome.best
+    stopped = best.get("stopped_at") if best is not None else None
+    whole = whole_run(spec, best, fmus) if fmus is not None and stopped is not None and not math.isnan(stopped) else None
     command = replay_command(spec, best, out, fmus) if best is not None else None
     if command:
         (out / "replay.sh").write_text("#!/bin/sh\n" + shlex.join(command) + "\n")
@@ -120,6 +147,6 @@ def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = 
                                                        and not math.isnan(r["robustness"]) else math.inf for r in outcome.rows]}
     if outcome.rows:
         figure(curves, out / FIGURE, f"{spec.name}: best robustness against simulations")
-    text = summary(spec, outcome, command)
+    text = summary(spec, outcome, command, notes, whole)
     (out / SUMMARY).write_text(text + "\n")
     return text

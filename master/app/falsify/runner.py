@@ -18,9 +18,10 @@ from .search import Outcome, search
 from .spec import Falsification, load
 
 
-def identity(spec: Falsification) -> str:
-    """What the stored evaluations depend on: a rerun with another spec does not take them."""
-    what = {"name": spec.name, "optimizer": spec.optimizer, "seed": spec.seed, "batch": spec.batch,
+def identity(spec: Falsification, early_stop: bool = True) -> str:
+    """What the stored evaluations depend on: a rerun with another spec (or early stop) does not take them. Branching
+    is not in it: a branch's outcome is the whole run's, bit for bit (checked before it is used: branching.choose)."""
+    what = {"name": spec.name, "early_stop": early_stop, "optimizer": spec.optimizer, "seed": spec.seed, "batch": spec.batch,
             "loop": [spec.scenario, str(spec.flight.trajectory.label), spec.controller, spec.loop_seed, spec.stop_time,
                      spec.gusts, sorted(spec.parameters.items()), spec.faults, dict(spec.flight.wind), spec.gust],
             "requirements": [r.formula for r in spec.requirements],
@@ -74,6 +75,30 @@ def cluster_batch(client, where: str, base: dict, fmus: Path, retries: int = 2):
     return run
 
 
+def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[dict, list[str]]:
+    """The workers' base with the cheaper evaluations it can have (evaluate.py): early stop, and branching from a
+    snapshot when the searched inputs all act late and (auto) it measured faster here; the lines that say what."""
+    from ..loop import TICK
+    from .branching import branch_tick, choose, with_branch
+
+    base = {**spec.base(), "early_stop": early_stop}
+    notes = ["early stop at the first decided violation: " + ("on" if early_stop else "off")]
+    ticks = branch_tick(spec.dimensions, base["faults"], TICK) if branch != "off" else None
+    if branch == "off":
+        notes.append("branching from a snapshot: off")
+    elif ticks is None:
+        notes.append("branching from a snapshot: not possible (a searched input may act from the start)")
+    elif branch == "on":
+        notes.append(f"branching from a snapshot at t = {ticks * TICK:.3f} s: on")
+        base = with_branch(base, ticks)
+    else:
+        use, line = choose(base, spec.dimensions, fmus, ticks)
+        notes.append(line)
+        if use:
+            base = with_branch(base, ticks)
+    return base, notes
+
+
 def make_case(base: dict):
     from .space import case_parameters
 
@@ -85,9 +110,12 @@ def make_case(base: dict):
 def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"), optimizer: str | None = None,
             seed: int | None = None, simulations: int | None = None, seconds: float | None = None,
             scheduler: str | None = None, workers: int | None = None, client=None, progress=None,
-            write_report: bool = True) -> tuple[Falsification, Outcome, Path]:
+            write_report: bool = True, early_stop: bool = True, branch: str = "auto", neighbourhood: bool = False,
+            fraction: float = 0.1, points: int | None = None) -> tuple[Falsification, Outcome, Path]:
     """Run (or finish) a falsification; returns the spec, what the search found and the output folder. client: an
-    existing Dask client to run on (benchmarks); else a local cluster or the scheduler's."""
+    existing Dask client to run on (benchmarks); else a local cluster or the scheduler's. early_stop: each evaluation
+    stops at its first decided violation; branch: auto (measured: cheaper_base), on or off; neighbourhood: then run the
+    grid around the best case (neighbourhood.py: ±fraction of each range, points values each)."""
     from ..campaign.cluster import connect, local_cluster
     from ..fmus import build_all
 
@@ -112,10 +140,16 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
             where = f"{cluster.scheduler_address} (the local cluster's)"
     out.mkdir(parents=True, exist_ok=True)
     (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
-    base = spec.base()
+    base, notes = cheaper_base(spec, fmus, early_stop, branch)
+    for line in notes:
+        say(line)
     try:
         outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
-                         make_case(base), spec.simulations, spec.seconds, out, identity(spec), spec.batch, say)
+                         make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
+        if neighbourhood and outcome.best is not None and not outcome.failures:
+            from . import neighbourhood as nb
+
+            say(nb.run(spec, outcome.best, cluster_batch(client, where, base, fmus), make_case(base), out, fraction, points))
     finally:
         if own:
             client.close()
@@ -124,7 +158,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     if write_report:
         from .report import write
 
-        write(spec, outcome, out, fmus)
+        write(spec, outcome, out, fmus, notes)
     if outcome.failures:
         raise CampaignIncomplete(f"{len(outcome.failures)} evaluations failed for their environment, not for themselves "
                                  f"(details: Dask's log); what was stored stays: rerun the same command to go on")

@@ -6,7 +6,10 @@ sets (`faults.N.start|end|value`), so that one evaluation runs exactly as a camp
 - `initial.x|y|z`: the plant's initial load position offset from the trajectory's start (plant.x_0 ...); the
   controller's estimator keeps the start it is told (the offset is what it does not know);
 - `gust.amplitude|direction|start|duration|rise`: a trapezoidal gust of horizontal wind velocity (m/s; direction in
-  degrees from x), rising over `rise` s, written into the scenario FMU's wind profile (4 rows, held zero outside).
+  degrees from x), rising over `rise` s, written into the scenario FMU's wind profile (4 rows, held zero outside);
+- `waypoints.K.t|x|y|z|psi`: an offset added to waypoint K of the mission (base.trajectory, a waypoint file); the
+  worker makes the moved mission's minimum-jerk reference as `tiltload run --trajectory` does from a file
+  (scenario_fmu/choice.py), so the plant starts at the moved first waypoint and the feasibility check judges it.
 """
 
 from __future__ import annotations
@@ -51,6 +54,8 @@ def case_parameters(base: dict, values: dict[str, float | int]) -> dict[str, obj
             gust[rest] = v
         elif kind == "initial":
             parameters[f"plant.{rest}_0"] = float(start["xyz".index(rest)]) + v
+        elif kind == "waypoints":
+            parameters[target] = float(v)  # resolved into the flight by case_flight, in the worker
         elif kind == "faults" and target.endswith(".duration"):
             durations.append((int(rest.split(".")[0]), v))
         else:
@@ -73,3 +78,47 @@ def case_faults(base: dict, parameters: dict) -> list:
             _, index, field = key.split(".")
             faults[int(index)][field] = value
     return faults
+
+
+def moved_waypoints(base: dict, parameters: dict) -> list[dict] | None:
+    """The mission's waypoints with the point's offsets (None: no waypoint moves)."""
+    offsets = {k: v for k, v in parameters.items() if k.startswith("waypoints.")}
+    if not offsets:
+        return None
+    rows = [dict(r) for r in base["waypoints"]]
+    for key, offset in offsets.items():
+        _, k, field = key.split(".")
+        rows[int(k)][field] = rows[int(k)].get(field, 0.0) + float(offset)
+    return rows
+
+
+def case_flight(base: dict, parameters: dict) -> tuple[dict, dict]:
+    """(base with the moved mission's flight, the parameters without the waypoint offsets); unchanged without any.
+    A moved mission that is no mission (waypoints out of time order) raises ScenarioFileError: the case's own."""
+    rows = moved_waypoints(base, parameters)
+    if rows is None:
+        return base, parameters
+    import dataclasses
+    from pathlib import Path
+
+    from ....scenario_fmu import twin, waypoints
+    from ....scenario_fmu.choice import Trajectory
+
+    flight = base["trajectory"]
+    source = Path(flight.trajectory.source)
+    waypoints.check(rows, [f"waypoint {i}" for i in range(len(rows))], f"{source.name} (moved)")
+    ref = waypoints.minimum_jerk(rows)  # as choice.read_file makes a mission file's reference
+    trajectory = Trajectory(source.stem, twin.WAYPOINTS, (), ref.start, ref.duration, str(source),
+                            tuple(tuple(float(v) for v in k) for k in ref.knots()))
+    moved = dataclasses.replace(flight, trajectory=trajectory)
+    return {**base, "trajectory": moved}, {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
+
+
+def mission_csv(rows: list[dict]) -> str:
+    """Waypoints as a mission CSV (tiltload run --trajectory) whose numbers read back exactly (repr)."""
+    from ....scenario_fmu.waypoints import FIELDS
+
+    columns = [f for f in FIELDS if any(f in r for r in rows)]
+    lines = [",".join(columns)]
+    lines += [",".join(repr(float(r[c])) if c in r else "" for c in columns) for r in rows]
+    return "\n".join(lines) + "\n"

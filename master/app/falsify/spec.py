@@ -13,18 +13,18 @@ from pathlib import Path
 from ..campaign.spec import SCHEMA as CAMPAIGN_SCHEMA
 from ..campaign.spec import Flight, SpecError, checked_faults, read_flight, read_spec_file
 
-OPTIMIZERS = ("uniform", "cmaes", "tpe")
+OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
 LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/loop.py's instance names
 GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
 GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
 TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|duration)|gust\.(amplitude|direction|start|"
-                  r"duration|rise)|initial\.[xyz])$")
+                  r"duration|rise)|initial\.[xyz]|waypoints\.\d+\.(t|x|y|z|psi))$")
 
 
 def _base_schema() -> dict:
     base = copy.deepcopy(CAMPAIGN_SCHEMA["properties"]["base"])
     props = base["properties"]
-    del props["controllers"], props["snapshot"]  # one controller; branching from a snapshot is not searched (yet)
+    del props["controllers"], props["snapshot"]  # one controller; a search branches from snapshots of its own (branching.py)
     props["controller"] = {"type": "string", "minLength": 1}
     props["seed"] = {"type": "integer", "minimum": 0, "maximum": 2147483647}
     return base
@@ -38,11 +38,14 @@ SCHEMA = {
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**32 - 1},
         "batch": {"type": "integer", "minimum": 1, "maximum": 1024},
         "base": _base_schema(),
-        "requirements": {"type": "array", "minItems": 1, "items": {
-            "type": "object", "additionalProperties": False, "required": ["name", "formula"], "properties": {
+        "requirements": {"type": "array", "minItems": 1, "items": {"oneOf": [
+            {"type": "object", "additionalProperties": False, "required": ["name", "formula"], "properties": {
                 "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
                 "formula": {"type": "string", "minLength": 1},
-                "description": {"type": "string"}}}},
+                "description": {"type": "string"}}},
+            {"type": "object", "additionalProperties": False, "required": ["file"], "properties": {
+                "file": {"type": "string", "minLength": 1},
+                "name": {"type": "string", "minLength": 1}}}]}},
         "search": {"type": "array", "minItems": 1, "items": {
             "type": "object", "additionalProperties": False, "required": ["name", "target", "range"], "properties": {
                 "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
@@ -104,6 +107,7 @@ class Falsification:
     wind_file: Path | None = None
     trajectory_arg: str = "1"  # base.trajectory as tiltload run's --trajectory takes it (a file: its absolute path)
     signals: tuple[str, ...] = field(default=())  # every signal the requirements name
+    waypoints: list = field(default_factory=list)  # a mission's waypoints ({t, x, y, z, ...}) when a dimension moves one
 
     @property
     def has_gust(self) -> bool:
@@ -115,7 +119,7 @@ class Falsification:
                 "faults": self.faults, "parameters": self.parameters, "requirements": [r.formula for r in self.requirements],
                 "requirement_names": [r.name for r in self.requirements],
                 "signals": list(self.signals), "dimensions": self.dimensions, "gust": self.gust if self.has_gust else None,
-                "controller": self.controller, "seed": self.loop_seed}
+                "controller": self.controller, "seed": self.loop_seed, "waypoints": self.waypoints or None}
 
 
 def _validate(data: dict, path: Path) -> None:
@@ -128,11 +132,40 @@ def _validate(data: dict, path: Path) -> None:
         raise SpecError(f"{path}: {where}: {err.message}")
 
 
+def _from_file(item: dict, i: int, path: Path) -> list[dict]:
+    """The entries a {file, name} item names, as {name, formula, description} (the file read through user_files: its
+    size, depth and numbers bounded; its entries checked by the requirements' own loader, master/engine/requirements.py)."""
+    from ...engine.requirements import RequirementError, parse_entries
+    from ...engine.user_files import UserFileError, read_yaml
+
+    file = (path.parent / item["file"]).resolve()
+    where = f"{path}: requirements.{i}.file: "
+    if not file.is_file():
+        raise SpecError(f"{where}no requirement file {file}")
+    try:
+        entries = parse_entries(read_yaml(file), f"{file}: ")
+    except (UserFileError, RequirementError) as err:
+        raise SpecError(f"{where}{err}") from None
+    if "name" in item:
+        entries = [e for e in entries if e.name == item["name"]]
+        if not entries:
+            import difflib
+
+            names = [e.name for e in parse_entries(read_yaml(file), "")]
+            close = difflib.get_close_matches(item["name"], names, n=3)
+            hint = f" (did you mean {', '.join(close)}?)" if close else f" (it has {', '.join(names)})"
+            raise SpecError(f"{path}: requirements.{i}.name: {file} has no requirement {item['name']}{hint}")
+    return [{"name": e.name, "formula": e.text, "description": e.description} for e in entries]
+
+
 def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str, ...]]:
     from ...engine import stl
 
     names, found, out = set(), [], []
+    expanded = []
     for i, item in enumerate(items):
+        expanded.extend((i, e) for e in (_from_file(item, i, path) if "file" in item else [item]))
+    for i, item in expanded:
         if item["name"] in names:
             raise SpecError(f"{path}: requirements.{i}.name: {item['name']} is named twice")
         names.add(item["name"])
@@ -171,6 +204,26 @@ def _check_signals(signals: tuple[str, ...], path: Path) -> None:
                             f"({', '.join(LOOP_INSTANCES)})")
 
 
+def _mission_rows(flight: Flight, path: Path) -> list[dict]:
+    """The waypoints of base.trajectory's mission file (read through the master's input layer), for waypoints.K.*."""
+    from ....scenario_fmu import waypoints
+    from ....scenario_fmu.files import ScenarioFileError, read_rows, read_structured
+    from ...engine.user_files import UserFileError
+    from ..inputs import READER
+
+    source = Path(flight.trajectory.source) if flight.trajectory.source else None
+    if source is None or not flight.trajectory.knots:
+        raise SpecError(f"{path}: search: waypoints.K.* moves a mission's waypoint: base.trajectory must be a waypoint file")
+    try:
+        if source.suffix.lower() == ".csv":
+            rows, _ = read_rows(source, waypoints.FIELDS, waypoints.REQUIRED, READER)
+        else:
+            rows = read_structured(source, READER)["waypoints"]
+    except (ScenarioFileError, UserFileError) as err:
+        raise SpecError(f"{path}: base.trajectory: {err}") from None
+    return [{k: float(v) for k, v in row.items()} for row in rows]
+
+
 def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[Dimension]:
     out, names, targets = [], set(), set()
     for i, item in enumerate(items):
@@ -188,9 +241,9 @@ def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[D
         kind, _, rest = target.partition(".")
         if kind == "gust" and rest not in GUST_FIELDS:
             raise SpecError(f"{where}.target: a gust has {', '.join(GUST_FIELDS)}, not {rest}")
-        if kind not in ("gust", "initial", "faults") and kind not in LOOP_INSTANCES:
-            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.* nor a parameter of the "
-                            f"loop's instances ({', '.join(LOOP_INSTANCES)})")
+        if kind not in ("gust", "initial", "faults", "waypoints") and kind not in LOOP_INSTANCES:
+            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.*, waypoints.K.* nor a "
+                            f"parameter of the loop's instances ({', '.join(LOOP_INSTANCES)})")
         if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
             raise SpecError(f"{where}.target: {target} names a fault base.faults does not have")
         if target.startswith("gust.") and any(k.startswith("wind_profile") for k, _ in flight.wind):
@@ -217,6 +270,11 @@ def load(path: Path) -> Falsification:
     requirements, signals = _requirements(data["requirements"], path)
     _check_signals(signals, path)
     dimensions = _dimensions(data["search"], faults, flight, path)
+    mission = _mission_rows(flight, path) if any(d.target.startswith("waypoints.") for d in dimensions) else []
+    for i, d in enumerate(dimensions):
+        if d.target.startswith("waypoints.") and int(d.target.split(".")[1]) >= len(mission):
+            raise SpecError(f"{path}: search.{i}.target: {d.target} names a waypoint the mission does not have "
+                            f"(it has {len(mission)}: 0 to {len(mission) - 1})")
     from ..loop import default_stop
 
     stop = base.get("stop_time") or default_stop(flight.trajectory)
@@ -231,4 +289,4 @@ def load(path: Path) -> Falsification:
     return Falsification(data["name"], base.get("scenario", "zse"), flight, controller, base.get("seed", 1), float(stop),
                          base.get("gusts", True), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
                          data.get("optimizer", "cmaes"), data.get("seed", 0), data.get("batch"), budget.get("simulations"),
-                         budget.get("seconds"), path, wind, trajectory_arg, signals)
+                         budget.get("seconds"), path, wind, trajectory_arg, signals, mission)
