@@ -57,6 +57,20 @@ def test_a_good_spec_loads(tmp_path):
     assert spec.signals == ("plant.gamma_1",) and spec.stop_time == 4.2 and spec.simulations == 3
 
 
+def test_the_documented_spec_loads_as_written(tmp_path):
+    """docs/falsification.md's annotated spec, placed as a spec in docs/falsification/ is (its requirement file is
+    ../requirements/thesis.yaml), loads with both kinds of requirement."""
+    docs = Path(__file__).resolve().parents[2] / "docs"
+    text = (docs / "falsification.md").read_text(encoding="utf-8")
+    block = text.split("```toml\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "requirements").mkdir()
+    (tmp_path / "requirements" / "thesis.yaml").write_bytes((docs / "requirements" / "thesis.yaml").read_bytes())
+    (tmp_path / "falsification").mkdir()
+    spec = load(write(tmp_path / "falsification", block))
+    assert [r.name for r in spec.requirements] == ["swing", "load_swing"]
+    assert [d.target for d in spec.dimensions] == ["gust.amplitude"] and spec.simulations == 200
+
+
 @pytest.mark.parametrize("change, says", [
     (("optimizer = \"uniform\"", "optimizer = \"annealing\""), "optimizer"),
     (("range = [0.0, 20.0]", "range = [20.0, 0.0]"), "search.0.range: low must be below high"),
@@ -239,6 +253,7 @@ print(o.simulations, o.reused)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cmaes", "tpe", "neldermead"])
 def test_a_search_killed_half_way_resumes_as_if_uninterrupted(tmp_path, name):
     import pyarrow.parquet as pq
@@ -265,6 +280,7 @@ def test_a_search_killed_half_way_resumes_as_if_uninterrupted(tmp_path, name):
 SHORT = GOOD.replace("range = [0.0, 20.0]", "range = [14.0, 20.0]").replace("optimizer = \"uniform\"", "optimizer = \"cmaes\"")
 
 
+@pytest.mark.slow
 def test_the_counterexample_replays_bit_for_bit(tmp_path, monkeypatch):
     """A real 4 s case: the evaluation's robustness (an observer's trace) equals the one of the replay command's log."""
     from tiltload.master.app.cli import main
@@ -300,6 +316,7 @@ def test_the_counterexample_replays_bit_for_bit(tmp_path, monkeypatch):
     assert "tiltload run" in summary
 
 
+@pytest.mark.slow
 def test_the_command_on_a_local_cluster_says_not_falsified_and_a_rerun_takes_the_stored_evaluations(tmp_path, capsys):
     from tiltload.master.app.cli import main
 
