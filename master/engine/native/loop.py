@@ -76,9 +76,10 @@ def _address(array) -> int:
 
 
 class NativeLoop:
-    """The plan of one execution (rebuilt when it restarts) and its runs."""
+    """The plan of one execution (rebuilt when it restarts) and its runs. by_callback: instances to step through the
+    Python callback although the kernel could call them (to hold the two paths side by side)."""
 
-    def __init__(self, execution, chunk: int = CHUNK) -> None:
+    def __init__(self, execution, chunk: int = CHUNK, by_callback=frozenset()) -> None:
         self.lib = kernel.library()
         self.ex = execution
         self.chunk = chunk
@@ -99,10 +100,11 @@ class NativeLoop:
             slave, c = self.slaves[i], self.instances[i]
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
-            fmi3 = _native_fmi3(slave)
-            c.by_callback = not (isinstance(slave, InProcessFmu) or fmi3)
+            forced = spec.name in by_callback
+            fmi3 = _native_fmi3(slave) and not forced
+            c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
-            self.paths[spec.name] = path_of(slave, fmi3)
+            self.paths[spec.name] = "callback: asked for" if forced else path_of(slave, fmi3)
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
