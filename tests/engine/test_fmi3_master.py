@@ -404,3 +404,42 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
                           timeout=600)
     assert proc.returncode == 0, proc.stdout[-1000:] + proc.stderr[-3000:]
     assert "runtime error" not in proc.stderr and "AddressSanitizer" not in proc.stderr and "LeakSanitizer" not in proc.stderr
+
+
+def test_the_kernel_s_event_mode_makes_the_calls_fmu3_py_makes(tmp_path, monkeypatch):
+    """A clocked FMU that logs every call (support/fmi3_trace_fmu.py: a discrete input, two clocks with a shift, events
+    asked by the step and by a next event time, a second update): the C loop's Event Mode and fmu3.py's sequence
+    (forced through the callback) make the same calls with the same values, step after step, and the FMU refuses
+    none. The trace has what the thesis's FMUs never make: events with no clock due, steps with no event, a
+    second fmi3UpdateDiscreteStates."""
+    import re
+
+    from support.fmi3_trace_fmu import TICK, trace_fmu
+    from tiltload.master.engine.native import loop as native_loop
+
+    fmu = trace_fmu(tmp_path)
+    runs = {}
+    for path in ("kernel", "python"):
+        if path == "python":
+            monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
+        system = sysdesc.System(TICK, [sysdesc.Instance("src", fmu), sysdesc.Instance("dut", fmu)], auto_connect=False,
+                                connections=[sysdesc.Connection("src.y_a", "dut.u_c"), sysdesc.Connection("src.y", "dut.u_a"),
+                                             sysdesc.Connection("src.n_b", "dut.u_d", delay=1),
+                                             sysdesc.Connection("src.f", "dut.b_b")])
+        rec = RecordAll()
+        ex = Execution(system, [rec])
+        ex.instantiate()
+        try:
+            assert list(ex.loop.paths.values()) == ["kernel: FMI 3.0 with clocks" if path == "kernel" else "callback: Fmu3Slave"] * 2
+            ex.run(1.2)
+            runs[path] = rec.rows, {n: (list(i.log), i.activations) for n, i in ex.instances.items()}
+        finally:
+            ex.close()
+    assert runs["kernel"] == runs["python"]
+    log = runs["kernel"][1]["dut"][0]
+    assert not [line for line in log if line.startswith("refused")] and len(runs["kernel"][0]) == 2 * 120
+    assert runs["kernel"][1]["dut"][1] == {"a": list(range(0, 120, 2)), "b": list(range(1, 120, 3))}
+    calls = " ".join(line.split(" ", 1)[0] for line in log)
+    assert re.search(r"enterEventMode (set\w+ |getBoolean )*updateDiscreteStates", calls)  # an event with no clock due
+    assert re.search(r"doStep (set\w+ |get\w+ )*doStep", calls)  # a step with no event
+    assert any("update 2" in line for line in log)
