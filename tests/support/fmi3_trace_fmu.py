@@ -4,9 +4,9 @@ importers' call sequences side by side: the C tick loop's Event Mode and fmu3.py
 It has what the thesis's FMUs lack: a discrete input (an event when it changes), two clocks of different intervals and
 a shift (ticks where no clock is due), an fmi3DoStep that asks for an event (eventHandlingNeeded) every 7th step, and
 an fmi3UpdateDiscreteStates that asks for a second update in every 5th event and sets a next event time in every
-4th (on a tick where nothing else makes an event: 3 mod 6 on the 10 ms tick). It refuses (fmi3Error) what the standard forbids: a discrete input set outside Event Mode, a clocked variable
-set or read while its clock is inactive (but at initialization), a step at a time other than its own
-(within 1e-9 s).
+4th (on a tick where nothing else makes an event: 3 mod 6 on the 10 ms tick). It refuses (fmi3Error) what the
+standard forbids: a discrete input set outside Event Mode, a clocked variable set or read while its clock is inactive
+(but at initialization), a step at a time other than its own (within 1e-9 s).
 
     clocks a (20 ms), b (30 ms, shift 10 ms); inputs u_c (Float64), u_d (Int32, discrete), u_a (Float64, clock a),
     b_b (Boolean, clock b); outputs y (Float64), y_a (Float64, clock a), n_b (Int32, clock b), f (Boolean, discrete)
