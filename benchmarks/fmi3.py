@@ -2,7 +2,8 @@
 
 Each set runs the ZSE scenario (trajectory 1, mixed design) without a log, several rounds interleaved so the
 machine's load touches every set alike; printed: the best wall time, the microseconds per tick spent in the
-FMUs' FMI calls and outside them (the master's own work), the path the C tick loop takes for each FMU, and whether
+FMUs' FMI calls (in the best round) and outside them (the master's own work: the least of the rounds, since other
+processes' load only adds to it), the path the C tick loop takes for each FMU, and whether
 the metrics are the same bits as FMI 2.0's. The clocked set runs Event Mode at every tick for the sensors and the
 controller (fmi3EnterEventMode, fmi3SetClock, clocked gets, fmi3UpdateDiscreteStates, fmi3EnterStepMode besides
 the step), in the kernel; the same set once more with its clocked FMUs stepped through the Python callback (the path
@@ -80,9 +81,11 @@ def main() -> int:
                 "FMI 3.0 clocks": (default_system(three, "zse", 1, "mixed", fmi=3, clocked=True), frozenset()),
                 "clocks, callback": (default_system(three, "zse", 1, "mixed", fmi=3, clocked=True), CLOCKED)}
         best: dict[str, tuple] = {}
+        least: dict[str, float] = {}  # the master's share, s: the least of the rounds
         for _ in range(args.rounds):
             for label, (system, by_callback) in sets.items():
                 r = timed(system, args.stop, by_callback)
+                least[label] = min(least.get(label, r[0]), r[0] - r[1])
                 if label not in best or r[0] < best[label][0]:
                     best[label] = r
         stop, ticks = args.stop, round(args.stop / 0.012)
@@ -94,7 +97,7 @@ def main() -> int:
         master = {}
         for label, (wall, fmi, metrics, paths) in best.items():
             same = "same bits" if metrics == reference else "DIFFER   "
-            master[label] = (wall - fmi) / ticks * 1e6
+            master[label] = least[label] / ticks * 1e6
             print(f"{label:>16} {wall:8.2f} {stop / wall:12.0f} {fmi / ticks * 1e6:12.1f} {master[label]:15.1f}  {same}"
                   f"  {paths['sensors']}; {paths['controller']}")
         gap = master["FMI 3.0 clocks"] - master["FMI 3.0 plain"]
