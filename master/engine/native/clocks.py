@@ -76,14 +76,15 @@ class ClockedPlan:
         for code, index in kinds.items():
             m = len(index)
             parts.append(kernel.Part(group=g, kind=code, n=m, vrs=self._array(ctypes.c_uint, [group.dst_vrs[i] for i in index]),
-                                     index=self._ints(index), buffer=self._array(FMI3_C[group.type], [0] * m),
+                                     index=self._ints(index), whole=m == len(group.view),
+                                     buffer=self._array(FMI3_C[group.type], [0] * m),
                                      applied=self._array(FMI3_C[group.type], [0] * m)))
         return parts
 
     def _read(self, clock, typ: str, vrs, n: int, buffer, idx) -> kernel.Read:
         index = np.arange(n) if isinstance(idx, slice) else idx  # buffers and vrs are the slave's, alive as long
         return kernel.Read(type=TYPES.index(typ), clock=-1 if clock is None else clock, n=n, vrs=ctypes.addressof(vrs),
-                           index=self._ints(index), buffer=ctypes.addressof(buffer))
+                           index=self._ints(index), whole=isinstance(idx, slice), buffer=ctypes.addressof(buffer))
 
     def push(self) -> None:
         """The slave's state between steps into the plan (before a call of the loop)."""

@@ -57,13 +57,13 @@ FAULT_ACTIONS = {"override": 0, "bias": 1, "scale": 2, "ramp": 3, "clamp": 4, "h
 
 class Part(ctypes.Structure):
     _fields_ = [("group", ctypes.c_int), ("kind", ctypes.c_int), ("n", ctypes.c_int), ("vrs", ctypes.c_void_p),
-                ("index", ctypes.c_void_p), ("buffer", ctypes.c_void_p), ("applied", ctypes.c_void_p),
+                ("index", ctypes.c_void_p), ("whole", ctypes.c_int), ("buffer", ctypes.c_void_p), ("applied", ctypes.c_void_p),
                 ("has_applied", ctypes.c_int)]
 
 
 class Read(ctypes.Structure):
     _fields_ = [("type", ctypes.c_int), ("clock", ctypes.c_int), ("n", ctypes.c_int), ("vrs", ctypes.c_void_p),
-                ("index", ctypes.c_void_p), ("buffer", ctypes.c_void_p)]
+                ("index", ctypes.c_void_p), ("whole", ctypes.c_int), ("buffer", ctypes.c_void_p)]
 
 
 CONTINUOUS, DISCRETE = -1, -2  # tl_loop.h: a part's kind (else its clock's index)

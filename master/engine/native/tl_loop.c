@@ -192,7 +192,9 @@ static size_t fmu_width(int type) { return type == 0 ? sizeof(double) : type == 
 /* The part's values from its group's (the kernel's types) into its buffer (the FMU's). */
 static void stage(const tl_instance *in, tl_part *p) {
     const tl_group *g = &in->groups[p->group];
-    if (g->type == 0) {
+    if (p->whole && g->type != 2) {
+        memcpy(p->buffer, g->values, (size_t)p->n * width(g->type));
+    } else if (g->type == 0) {
         const double *s = g->values;
         double *d = p->buffer;
         for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]];
@@ -252,7 +254,9 @@ static int set_parts(tl_plan *plan, int i, double t, int discrete, int clocked, 
 
 /* The read's buffer (the FMU's types) into the instance's outputs (the kernel's). */
 static void scatter(tl_instance *in, const tl_read *r) {
-    if (r->type == 0) {
+    if (r->whole && r->type != 2) { /* fmi3Float64 is a double, fmi3Int32 an int here: the same bytes */
+        memcpy(in->out[r->type], r->buffer, (size_t)r->n * width(r->type));
+    } else if (r->type == 0) {
         const double *s = r->buffer;
         double *d = in->out[0];
         for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j];

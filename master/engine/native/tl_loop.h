@@ -84,6 +84,7 @@ typedef struct {
     int n;
     const unsigned int *vrs;
     const int64_t *index;       /* n indices into the group's values */
+    int whole;                  /* the index is 0..n - 1: the whole group */
     void *buffer;               /* n values as the FMU takes them (fmi3Float64, fmi3Int32, fmi3Boolean) */
     void *applied;              /* discrete: the values last set; a change makes the step an event */
     int has_applied;            /* 0: none set yet (the next step is an event) */
@@ -97,6 +98,7 @@ typedef struct {
     int n;
     const unsigned int *vrs;
     const int64_t *index;       /* n indices into the instance's outputs of this type */
+    int whole;                  /* the index is 0..n - 1: every output of the type */
     void *buffer;               /* n values as the FMU gives them */
 } tl_read;
 
