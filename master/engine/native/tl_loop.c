@@ -271,13 +271,19 @@ static void scatter(tl_instance *in, const tl_read *r) {
     }
 }
 
-/* Get the outputs of one clock (-1: of none) into the outputs. Returns 0, or stops the run. */
+/* Get the outputs of one clock (-1: of none) into the outputs (a clock's reads are next to each other). Returns 0, or
+   stops the run. */
 static int read_clock(tl_plan *plan, int i, int clock, double t) {
     tl_instance *in = &plan->instances[i];
     tl_clocks *c = in->clocks;
+    int seen = 0;
     for (int q = 0; q < c->n_reads; q++) {
         tl_read *r = &c->reads[q];
-        if (r->clock != clock) continue;
+        if (r->clock != clock) {
+            if (seen) break;
+            continue;
+        }
+        seen = 1;
         int status = in->get3[r->type](in->component, r->vrs, (size_t)r->n, r->buffer, (size_t)r->n);
         if (status > 1) {
             if (clock < 0) fail(plan, 3, i, status, -1, r->type, t);

@@ -91,7 +91,8 @@ typedef struct {
 } tl_part;
 
 /* Outputs read in one call: those of no clock after every step; a clock's in the Event Mode where it ticks (before
-   fmi3UpdateDiscreteStates deactivates it), their values held in the buffer until it ticks again. */
+   fmi3UpdateDiscreteStates deactivates it), their values held in the buffer until it ticks again. A clock's reads
+   (and those of no clock) are next to each other in tl_clocks.reads. */
 typedef struct {
     int type;
     int clock;                  /* -1: not clocked */
