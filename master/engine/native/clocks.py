@@ -51,9 +51,13 @@ class ClockedPlan:
         parts = [part for g, group in enumerate(groups) for part in self._parts(g, group)]
         self.parts = (kernel.Part * max(len(parts), 1))(*parts)
         c.n_parts, c.parts = len(parts), self.parts
-        reads = [self._read(*r) for r in slave.output_reads()]
+        # those of no clock first, then by clock (each clock's in the slave's order, so its gets come in the same order)
+        by_clock = sorted(slave.output_reads(), key=lambda r: -1 if r[0] is None else r[0])
+        reads = [self._read(*r) for r in by_clock]
         self.reads = (kernel.Read * max(len(reads), 1))(*reads)
         c.n_reads, c.reads = len(reads), self.reads
+        clocks = [r.clock for r in reads]
+        c.read_first = self._array(ctypes.c_int, [sum(k < j for k in clocks) for j in range(-1, n + 1)])
 
     def _array(self, ctype, values) -> int:
         array = (ctype * max(len(values), 1))(*values)

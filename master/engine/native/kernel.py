@@ -74,10 +74,11 @@ class Clocks(ctypes.Structure):
                 ("update_discrete_states", ctypes.c_void_p), ("n_clocks", ctypes.c_int), ("clock_vrs", ctypes.c_void_p),
                 ("interval", ctypes.c_void_p), ("shift", ctypes.c_void_p), ("n_parts", ctypes.c_int),
                 ("parts", ctypes.POINTER(Part)), ("n_reads", ctypes.c_int), ("reads", ctypes.POINTER(Read)),
-                ("max_iterations", ctypes.c_int), ("in_event", ctypes.c_int), ("event_asked", ctypes.c_int),
-                ("next_event_defined", ctypes.c_int), ("next_event", ctypes.c_double), ("due", ctypes.c_void_p),
-                ("due_vrs", ctypes.c_void_p), ("due_on", ctypes.c_void_p), ("activation_capacity", ctypes.c_int64),
-                ("activations", ctypes.c_int64), ("activation_clock", ctypes.c_void_p), ("activation_tick", ctypes.c_void_p)]
+                ("read_first", ctypes.c_void_p), ("max_iterations", ctypes.c_int), ("in_event", ctypes.c_int),
+                ("event_asked", ctypes.c_int), ("next_event_defined", ctypes.c_int), ("next_event", ctypes.c_double),
+                ("due", ctypes.c_void_p), ("due_vrs", ctypes.c_void_p), ("due_on", ctypes.c_void_p),
+                ("activation_capacity", ctypes.c_int64), ("activations", ctypes.c_int64),
+                ("activation_clock", ctypes.c_void_p), ("activation_tick", ctypes.c_void_p)]
 
 
 class Instance(ctypes.Structure):

@@ -271,19 +271,12 @@ static void scatter(tl_instance *in, const tl_read *r) {
     }
 }
 
-/* Get the outputs of one clock (-1: of none) into the outputs (a clock's reads are next to each other). Returns 0, or
-   stops the run. */
+/* Get the outputs of one clock (-1: of none) into the outputs. Returns 0, or stops the run. */
 static int read_clock(tl_plan *plan, int i, int clock, double t) {
     tl_instance *in = &plan->instances[i];
     tl_clocks *c = in->clocks;
-    int seen = 0;
-    for (int q = 0; q < c->n_reads; q++) {
+    for (int q = c->read_first[clock + 1]; q < c->read_first[clock + 2]; q++) {
         tl_read *r = &c->reads[q];
-        if (r->clock != clock) {
-            if (seen) break;
-            continue;
-        }
-        seen = 1;
         int status = in->get3[r->type](in->component, r->vrs, (size_t)r->n, r->buffer, (size_t)r->n);
         if (status > 1) {
             if (clock < 0) fail(plan, 3, i, status, -1, r->type, t);
@@ -375,8 +368,7 @@ static int clocked_inputs(tl_plan *plan, int i, int64_t k, double t, int event, 
 /* A clocked FMU's clocked outputs after its step, as held since their clock's last tick (again each step: what a fault
    or an observer wrote into the outputs since is not the FMU's). */
 static void held_outputs(tl_instance *in) {
-    for (int q = 0; q < in->clocks->n_reads; q++)
-        if (in->clocks->reads[q].clock >= 0) scatter(in, &in->clocks->reads[q]);
+    for (int q = in->clocks->read_first[1]; q < in->clocks->n_reads; q++) scatter(in, &in->clocks->reads[q]);
 }
 
 /* ---- a step ----------------------------------------------------------------------------------------------- */

@@ -91,8 +91,7 @@ typedef struct {
 } tl_part;
 
 /* Outputs read in one call: those of no clock after every step; a clock's in the Event Mode where it ticks (before
-   fmi3UpdateDiscreteStates deactivates it), their values held in the buffer until it ticks again. A clock's reads
-   (and those of no clock) are next to each other in tl_clocks.reads. */
+   fmi3UpdateDiscreteStates deactivates it), their values held in the buffer until it ticks again. */
 typedef struct {
     int type;
     int clock;                  /* -1: not clocked */
@@ -119,7 +118,8 @@ typedef struct {
     int n_parts;
     tl_part *parts;
     int n_reads;
-    tl_read *reads;
+    tl_read *reads;             /* those of no clock, then clock 0's, 1's, ... */
+    const int *read_first;      /* n_clocks + 2: clock j's reads are [read_first[j + 1], read_first[j + 2]) (j = -1: none) */
     int max_iterations;
     /* between steps (handed in by the caller before a call, read back after it) */
     int in_event;               /* in the Event Mode that follows initialization */
