@@ -157,7 +157,7 @@ typedef struct {
     int n_groups;
     tl_group *groups;
     void *record[TL_TYPES];     /* rows x n_out values per type, one row per recorded step */
-    double seconds;             /* wall time in this instance's FMI calls (with profile on) */
+    double seconds;             /* time in this instance's FMI calls (with profile on) */
     tl_clocks *clocks;          /* fmi3 with clocks: its Event Mode plan (NULL: none) */
 } tl_instance;
 
@@ -169,7 +169,8 @@ typedef struct {
     int slots;                  /* delay-line length: max delay + 1 (0: no delay line) */
     tl_step_callback step_callback;
     tl_hook_callback hook_callback;
-    int profile;                /* time every FMI call into tl_instance.seconds */
+    int profile;                /* time every step's FMI calls into tl_instance.seconds: 1 wall time, 2 this thread's
+                                   CPU time (which other processes' load does not inflate) */
     /* records of the last call: which instance stepped, the time its outputs hold, its row */
     int64_t record_capacity;    /* rows available per instance, and entries in the arrays below */
     int64_t records;            /* steps recorded in this call */
