@@ -28,7 +28,7 @@ from pathlib import Path
 from tiltload.master.app.fmus import build_all, fmu_folder
 from tiltload.master.app.loop import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
-from tiltload.master.engine import execution, fmu3
+from tiltload.master.engine import execution, fmi3
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.native.loop import NativeLoop
 
@@ -73,7 +73,7 @@ def main() -> int:
     parser.add_argument("--no-cases", action="store_true", help="skip the twelve reproduction cases")
     args = parser.parse_args()
     # the callback path's own timers (the slave's FMI calls, the execution's sets) in this thread's CPU time too
-    execution.time = fmu3.time = types.SimpleNamespace(perf_counter=time.thread_time)
+    execution.time = fmi3.time = types.SimpleNamespace(perf_counter=time.thread_time)
     with tempfile.TemporaryDirectory() as tmp:
         base = args.fmus or Path(tmp) / "fmus"
         say = lambda m: print(f"  {m}", file=sys.stderr)  # noqa: E731

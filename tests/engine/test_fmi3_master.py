@@ -122,7 +122,7 @@ class RecordAll(Observer):
 @pytest.mark.parametrize("fault, stop", [("gps_dropout", 17.0), ("thrust_loss", 21.0), ("servo_stuck", 11.0)])
 def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set, fault, stop, clocked, monkeypatch):
     """The C loop calls FMI 3.0 FMUs' fmi3 functions itself, a clocked one's Event Mode included (native/clocks.py);
-    forced through the Python callback instead (fmu3.py's own sequence), every logged value is the same, faults (on
+    forced through the Python callback instead (fmi3.py's own sequence), every logged value is the same, faults (on
     outputs, on a connection, on an unconnected Boolean input) included, and so is every clock's activation record."""
     from support import ROOT
     from tiltload.master.engine.faults.parse import load as load_faults
@@ -153,7 +153,7 @@ def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_th
     """The loop says which path each instance takes, and does take it: with the slaves' own Python step disabled
     here, the in-process FMUs (plain and clocked) still run; the controller in a worker process is stepped there
     (its callback, a message to the worker); asked to, the loop steps an in-process clocked FMU through the callback."""
-    from tiltload.master.engine.fmu3 import Fmu3Slave
+    from tiltload.master.engine.fmi3 import Fmu3Slave
     from tiltload.master.engine.native.loop import NativeLoop
 
     system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
@@ -172,7 +172,7 @@ def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_th
         assert ex.instances["sensors"].activations["gps_clock"] == [0, 10, 20, 30, 40]  # the kernel's, handed back
         ex.loop = NativeLoop(ex, by_callback={"sensors"})
         assert ex.loop.paths["sensors"] == "callback: asked for" and not ex.loop.instances[1].clocks
-        ex.run(1.2)  # the same slave continues through fmu3.py's sequence: its state was handed back after each call
+        ex.run(1.2)  # the same slave continues through fmi3.py's sequence: its state was handed back after each call
         assert ex.instances["sensors"].activations["gps_clock"] == list(range(0, 100, 10))
     finally:
         ex.close()
@@ -406,9 +406,21 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
     assert "runtime error" not in proc.stderr and "AddressSanitizer" not in proc.stderr and "LeakSanitizer" not in proc.stderr
 
 
-def test_the_kernel_s_event_mode_makes_the_calls_fmu3_py_makes(tmp_path, monkeypatch):
+def test_a_scheduled_execution_slave_keeps_the_callback():
+    """It is an Fmu3Slave (it reuses the clocked slave's staging) but runs partitions, no Event Mode and no step: the
+    kernel must not take it for a clocked co-simulation FMU."""
+    from tiltload.master.engine.fmi3 import Fmu3Slave
+    from tiltload.master.engine.fmi3_scheduled import Fmu3ScheduledSlave
+    from tiltload.master.engine.native.loop import path_of
+
+    scheduled, clocked = object.__new__(Fmu3ScheduledSlave), object.__new__(Fmu3Slave)
+    scheduled.clocked = clocked.clocked = True
+    assert path_of(scheduled) == "callback: Scheduled Execution" and path_of(clocked) == "kernel: FMI 3.0 with clocks"
+
+
+def test_the_kernel_s_event_mode_makes_the_calls_fmi3_py_makes(tmp_path, monkeypatch):
     """A clocked FMU that logs every call (support/fmi3_trace_fmu.py: a discrete input, two clocks with a shift, events
-    asked by the step and by a next event time, a second update): the C loop's Event Mode and fmu3.py's sequence
+    asked by the step and by a next event time, a second update): the C loop's Event Mode and fmi3.py's sequence
     (forced through the callback) make the same calls with the same values, step after step, and the FMU refuses
     none. The trace has what the thesis's FMUs never make: events with no clock due, steps with no event, a
     second fmi3UpdateDiscreteStates."""

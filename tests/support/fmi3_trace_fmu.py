@@ -1,5 +1,5 @@
 """A small clocked FMI 3.0 FMU that logs every call it gets, with its arguments and values (hex floats), to hold two
-importers' call sequences side by side: the C tick loop's Event Mode and fmu3.py's.
+importers' call sequences side by side: the C tick loop's Event Mode and fmi3.py's.
 
 It has what the thesis's FMUs lack: a discrete input (an event when it changes), two clocks of different intervals and
 a shift (ticks where no clock is due), an fmi3DoStep that asks for an event (eventHandlingNeeded) every 7th step, and

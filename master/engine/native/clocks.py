@@ -1,7 +1,7 @@
 """A clocked FMI 3.0 FMU stepped by the C tick loop: the plan of its Event Mode (tl_loop.h's tl_clocks), built
-from its in-process slave (fmu3.Fmu3Slave), and what the two hand each other around a call of the loop.
+from its in-process slave (fmi3.Fmu3Slave), and what the two hand each other around a call of the loop.
 
-The plan follows the slave's own sequence (fmu3.py, Fmu3Slave.do_step) call for call: its clocks' schedule
+The plan follows the slave's own sequence (fmi3.py, Fmu3Slave.do_step) call for call: its clocks' schedule
 (interval and shift in ticks), its inputs split by kind within each of the execution's connection groups (continuous,
 discrete, or clocked by clock j: each set only where the standard allows it), its output reads (those of no clock
 after every step, each clock's at its ticks). The clocked outputs are held in the slave's own buffers, so its
@@ -70,7 +70,7 @@ class ClockedPlan:
         return array.ctypes.data
 
     def _parts(self, g: int, group) -> list:
-        """One group's inputs by kind, in the order the kinds first appear (as fmu3.py's staging splits them)."""
+        """One group's inputs by kind, in the order the kinds first appear (as fmi3.py's staging splits them)."""
         kinds: dict[int, list[int]] = {}
         for i, vr in enumerate(group.dst_vrs[:len(group.view)]):
             kind = self.slave.input_kind.get((group.type, vr), "continuous")

@@ -4,9 +4,10 @@ The plan points at the arrays the engine already has: each slave's output arrays
 fills), each connection group's value-reference and value arrays, the delay line; so Python and C
 read and write the same memory, and a manipulator (a fault) that the kernel calls back acts on the
 same values it did when Python stepped. An FMU in this process the kernel calls itself: FMI 2.0 through its fmi2
-functions, FMI 3.0 through its fmi3 ones, with clocks through Event Mode as well (clocks.py plans it). Only a slave
-hosted elsewhere (a worker process of its own, a `tiltload serve`) is stepped through the Python callback: its
-calls are messages to its host, where the in-process slave runs them. `paths` says which each instance takes.
+functions, FMI 3.0 co-simulation through its fmi3 ones, with clocks through Event Mode as well (clocks.py plans it).
+The Python callback steps a slave hosted elsewhere (a worker process of its own, a `tiltload serve`: its calls are
+messages to its host, where the in-process slave runs them) and a Scheduled Execution FMU (its partitions are
+activated by fmi3_scheduled.py). `paths` says which each instance takes.
 After each call the kernel's records of every step are handed to the observers as one Batch.
 """
 
@@ -42,16 +43,19 @@ class _EventQueue:
 
 
 def _native_fmi3(slave) -> bool:
-    """An FMI 3.0 FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event Mode too)."""
-    return isinstance(slave, Fmu3Slave)
+    """An FMI 3.0 co-simulation FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event
+    Mode too). A Scheduled Execution one (fmi3_scheduled.py: partitions activated, no step) keeps the callback."""
+    return isinstance(slave, Fmu3Slave) and not getattr(slave, "scheduled", False)
 
 
-def path_of(slave, fmi3: bool) -> str:
+def path_of(slave) -> str:
     """How the loop steps this slave (NativeLoop.paths): the kernel's own calls, or the callback and why."""
-    if fmi3:
+    if _native_fmi3(slave):
         return "kernel: FMI 3.0 with clocks" if slave.clocked else "kernel: FMI 3.0"
     if isinstance(slave, InProcessFmu):
         return "kernel: FMI 2.0"
+    if getattr(slave, "scheduled", False):
+        return "callback: Scheduled Execution"
     host = getattr(slave, "host", None)  # isolation.process.IsolatedFmu: a worker process, or a remote host's `where`
     if host is not None:
         return f"callback: {getattr(host, 'where', 'worker process')}"
@@ -104,7 +108,7 @@ class NativeLoop:
             fmi3 = _native_fmi3(slave) and not forced
             c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
-            self.paths[spec.name] = "callback: asked for" if forced else path_of(slave, fmi3)
+            self.paths[spec.name] = "callback: asked for" if forced else path_of(slave)
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")

@@ -1,5 +1,5 @@
 /* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = k * tick, computed as
-   the Python engine computes them, a clocked FMU's test of its next event time (as fmu3.py's), and the faults', operation for operation those of faults/apply.py (with
+   the Python engine computes them, a clocked FMU's test of its next event time (as fmi3.py's), and the faults', operation for operation those of faults/apply.py (with
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
