@@ -1,68 +1,121 @@
-"""The loop on FMI 2.0, plain FMI 3.0 and clocked FMI 3.0 FMUs, side by side: wall time, the master's overhead, same bits.
+"""The loop on FMI 2.0, plain FMI 3.0 and clocked FMI 3.0 FMUs, side by side: wall time, the master's share, same bits.
 
 Each set runs the ZSE scenario (trajectory 1, mixed design) without a log, several rounds interleaved so the
-machine's load touches every set alike; printed: the best wall time, the microseconds per tick spent in the
-FMUs' FMI calls and outside them (the master's own work), and whether the metrics are the same bits as FMI
-2.0's. The clocked set runs Event Mode at every tick for the sensors and the controller (fmi3EnterEventMode,
-fmi3SetClock, clocked gets, fmi3UpdateDiscreteStates, fmi3EnterStepMode besides the step).
+machine's load touches every set alike; printed: the best wall time, and the microseconds of CPU time per tick (the
+loop's thread: other processes' load does not inflate it) spent in the FMUs' FMI calls and outside them (the
+master's own work), each the least of the rounds; the path the C tick loop takes for each FMU, and whether
+the metrics are the same bits as FMI 2.0's. The clocked set runs Event Mode at every tick for the sensors and the
+controller (fmi3EnterEventMode, fmi3SetClock, clocked gets, fmi3UpdateDiscreteStates, fmi3EnterStepMode besides
+the step), in the kernel; the same set once more with its clocked FMUs stepped through the Python callback (the path
+a hosted FMU takes) shows what the kernel saves. Then the twelve reproduction cases (ch. 5, seed 1, full length)
+on the three sets: their metrics must be the same bits.
 
-Run: python benchmarks/fmi3.py [stop] [rounds]   (FMUs built into a temporary folder)
+Run: python benchmarks/fmi3.py [stop] [rounds] [--fmus FOLDER] [--no-cases]
+     (FMUs built into FOLDER, by default a temporary one; exit 1 if any metrics differ)
 """
 
 from __future__ import annotations
 
+import argparse
+import os
 import platform
 import sys
 import tempfile
 import time
+import types
 from pathlib import Path
 
 from tiltload.master.app.fmus import build_all, fmu_folder
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop import default_stop, default_system, loop_metrics
+from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
+from tiltload.master.engine import execution, fmi3
 from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.native.loop import NativeLoop
+
+CLOCKED = frozenset({"sensors", "controller"})
 
 
-def timed(system, stop: float) -> tuple[float, float, dict]:
+def timed(system, stop: float, by_callback=frozenset()) -> tuple[float, float, dict, dict]:
     metrics = loop_metrics()
     ex = Execution(system, [metrics], profile=True)
     ex.instantiate()
+    if by_callback:  # the same instances, their clocked FMUs stepped through the Python callback
+        ex.loop = NativeLoop(ex, by_callback=by_callback)
+    ex.loop.plan.profile = 2  # the kernel times the FMUs' calls in this thread's CPU time (tl_loop.h)
+    paths = dict(ex.loop.paths)
     for inst in ex.instances.values():
         inst.fmi_seconds = 0.0
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.thread_time()
     ex.run(stop)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - cpu0
     fmi = sum(inst.fmi_seconds for inst in ex.instances.values())
     ex.close()
-    return wall, fmi, metrics.table()
+    return wall, fmi, cpu - fmi, metrics.table(), paths
+
+
+def case_metrics(folder: Path, case, **kw) -> dict:
+    scenario, trajectory, controller = case
+    metrics = loop_metrics()
+    ex = Execution(default_system(folder, scenario, trajectory, controller, SEED, **kw), [metrics])
+    ex.instantiate()
+    try:
+        ex.run(default_stop(trajectory))
+    finally:
+        ex.close()
+    return metrics.table()
 
 
 def main() -> int:
-    stop = float(sys.argv[1]) if len(sys.argv) > 1 else 40.0
-    rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 3
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    parser.add_argument("stop", nargs="?", type=float, default=40.0)
+    parser.add_argument("rounds", nargs="?", type=int, default=3)
+    parser.add_argument("--fmus", type=Path, help="build into (and reuse) this folder")
+    parser.add_argument("--no-cases", action="store_true", help="skip the twelve reproduction cases")
+    args = parser.parse_args()
+    # the callback path's own timers (the slave's FMI calls, the execution's sets) in this thread's CPU time too
+    execution.time = fmi3.time = types.SimpleNamespace(perf_counter=time.thread_time)
     with tempfile.TemporaryDirectory() as tmp:
-        base = Path(tmp) / "fmus"
+        base = args.fmus or Path(tmp) / "fmus"
         say = lambda m: print(f"  {m}", file=sys.stderr)  # noqa: E731
         build_all(base, progress=say)
         build_all(fmu_folder(base, 3), progress=say, fmi_version=3)
         build_all(fmu_folder(base, 3), progress=say, fmi_version=3, clocked=True)
-        sets = {"FMI 2.0": default_system(base, "zse", 1, "mixed"),
-                "FMI 3.0 plain": default_system(fmu_folder(base, 3), "zse", 1, "mixed", fmi=3),
-                "FMI 3.0 clocks": default_system(fmu_folder(base, 3), "zse", 1, "mixed", fmi=3, clocked=True)}
-        best: dict[str, tuple] = {}
-        for _ in range(rounds):
-            for label, system in sets.items():
-                r = timed(system, stop)
-                if label not in best or r[0] < best[label][0]:
-                    best[label] = r
-    ticks = round(stop / 0.012)
-    print(f"machine: {platform.node()} {platform.machine()} {platform.processor() or ''} ({sys.version.split()[0]}); "
-          f"{stop:g} s = {ticks} ticks, best of {rounds}")
-    print(f"{'FMU set':>16} {'wall s':>8} {'x real time':>12} {'FMI us/tick':>12} {'master us/tick':>15}  metrics")
-    reference = best["FMI 2.0"][2]
-    for label, (wall, fmi, metrics) in best.items():
-        same = "same bits" if metrics == reference else "DIFFER"
-        print(f"{label:>16} {wall:8.2f} {stop / wall:12.0f} {fmi / ticks * 1e6:12.1f} {(wall - fmi) / ticks * 1e6:15.1f}  {same}")
-    return 0 if all(m == reference for _, _, m in best.values()) else 1
+        three = fmu_folder(base, 3)
+        sets = {"FMI 2.0": (default_system(base, "zse", 1, "mixed"), frozenset()),
+                "FMI 3.0 plain": (default_system(three, "zse", 1, "mixed", fmi=3), frozenset()),
+                "FMI 3.0 clocks": (default_system(three, "zse", 1, "mixed", fmi=3, clocked=True), frozenset()),
+                "clocks, callback": (default_system(three, "zse", 1, "mixed", fmi=3, clocked=True), CLOCKED)}
+        best: dict[str, list] = {}  # the least wall time, FMUs' and master's CPU time of the rounds; metrics; paths
+        for _ in range(args.rounds):
+            for label, (system, by_callback) in sets.items():
+                r = timed(system, args.stop, by_callback)
+                best[label] = [min(a, b) for a, b in zip(best[label][:3], r[:3])] + list(r[3:]) if label in best else list(r)
+        stop, ticks = args.stop, round(args.stop / 0.012)
+        print(f"machine: {platform.node()} {platform.machine()} {platform.processor() or ''} ({sys.version.split()[0]}, "
+              f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.2f}); {stop:g} s = {ticks} ticks, best of {args.rounds}")
+        print(f"{'FMU set':>16} {'wall s':>8} {'x real time':>12} {'FMI us/tick':>12} {'master us/tick':>15}  metrics"
+              f"    sensors, controller")
+        reference = best["FMI 2.0"][3]
+        master = {}
+        for label, (wall, fmi, own, metrics, paths) in best.items():
+            same = "same bits" if metrics == reference else "DIFFER   "
+            master[label] = own / ticks * 1e6
+            print(f"{label:>16} {wall:8.2f} {stop / wall:12.0f} {fmi / ticks * 1e6:12.1f} {master[label]:15.1f}  {same}"
+                  f"  {paths['sensors']}; {paths['controller']}")
+        gap = master["FMI 3.0 clocks"] - master["FMI 3.0 plain"]
+        print(f"master share, clocked in the kernel minus plain: {gap:+.1f} us/tick (target: within 2 us); "
+              f"through the callback: {master['clocks, callback'] - master['FMI 3.0 plain']:+.1f} us/tick")
+        ok = all(r[3] == reference for r in best.values())
+        if not args.no_cases:
+            print("the twelve reproduction cases (seed 1, full length), metrics against FMI 2.0's:")
+            for case in CASES:
+                two = case_metrics(base, case)
+                plain = case_metrics(three, case, fmi=3)
+                clocked = case_metrics(three, case, fmi=3, clocked=True)
+                verdict = lambda m: "same bits" if m == two else "DIFFER"  # noqa: E731
+                print(f"  {case_name(*case):>18}: plain FMI 3.0 {verdict(plain)}, clocked FMI 3.0 {verdict(clocked)}")
+                ok = ok and plain == two == clocked
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

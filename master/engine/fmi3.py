@@ -15,10 +15,11 @@ is the Event Mode that follows fmi3ExitInitializationMode. The setters the execu
 they reach the FMU in the Step Mode before the step (continuous inputs) or in the Event Mode (discrete and
 clocked ones; a discrete input that changed makes the step an event). `activations` records every clock tick.
 
-Without clocks the C tick loop (native/tl_loop.c) calls its fmi3 functions itself (set, fmi3DoStep, get), as it
-calls an FMI 2.0 FMU's fmi2 ones, into `values`. A clocked one it steps through its Python callback, as it does a
-slave in a worker process: the kernel gathers the inputs (faults applied), the callback sets them here, steps and
-reads the outputs into `values`, where the kernel's output faults and records find them. A snapshot's bytes (get_state) carry the FMU's
+In this process the C tick loop (native/tl_loop.c) calls its fmi3 functions itself, as it calls an FMI 2.0 FMU's
+fmi2 ones: without clocks set, fmi3DoStep, get; with clocks the sequence above too, planned from this slave
+(native/clocks.py: its schedule, input kinds and output reads, the held clocked outputs in this slave's buffers,
+event_state handed over around each call). do_step here is the sequence for a host process (isolation/worker.py),
+where the slave is stepped from Python. A snapshot's bytes (get_state) carry the FMU's
 own serialized state and what this slave holds besides: the clocked outputs as read at their last ticks and a
 pending event.
 """
@@ -233,6 +234,23 @@ class Fmu3Slave(Binding):
             entry.stage(values)
             return 0
         return stage
+
+    # ---- the C tick loop's view of a clocked FMU (native/clocks.py) -------------------------------------------
+    def output_reads(self) -> list[tuple]:
+        """Every read of outputs: (clock index, None for the outputs of no clock; type; value references; n; the
+        buffer in the FMU's type, which holds a clock's outputs between its ticks; indices into values[type])."""
+        by_values = {id(v): t for t, v in self.values.items()}
+        groups = [(None, self._reads), *self._clocked_outputs.items()]
+        return [(clock, by_values[id(out)], vrs, n, buf, idx) for clock, es in groups for _, out, vrs, n, buf, _, idx in es]
+
+    @property
+    def event_state(self) -> tuple[bool, bool, float | None]:
+        """Between two steps: in the Event Mode after initialization, an event asked for, the next event time."""
+        return self._in_event, self._event_asked, self._next_event
+
+    @event_state.setter
+    def event_state(self, state: tuple[bool, bool, float | None]) -> None:
+        self._in_event, self._event_asked, self._next_event = state
 
     # ---- calls -----------------------------------------------------------------------------------------------
     def _check(self, status: int, what: str, t: float) -> None:

@@ -1,5 +1,6 @@
-"""The thesis loop on the FMI 3.0 FMUs: the twelve reproduction cases with clocks give the FMI 2.0 metrics bit for bit
-(and so the committed baselines, within their tolerances); `tiltload run --fmi 3 [--clocks]` and its refusals."""
+"""The thesis loop on the FMI 3.0 FMUs: the twelve reproduction cases, plain and with clocks, give the FMI 2.0 metrics
+bit for bit (and so the committed baselines, within their tolerances); `tiltload run --fmi 3 [--clocks]` and its
+refusals; a clocked controller whose Event Mode fails ends the run with one line, stepped by the C loop or hosted."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from multiprocessing import get_context
 
 import pytest
 from support import ROOT
+from support.fmi3_misbehaving import misbehaving_fmi3
 from support.loop_runs import case_metrics
 from tiltload.master.app.cli import main
 from tiltload.master.app.regression import compare as cmp
@@ -25,14 +27,16 @@ def fmi3_set(fmi3_fmus):
 
 
 @pytest.mark.slow
-def test_twelve_cases_on_clocked_fmi3_fmus_equal_the_fmi2_runs_bit_for_bit(fmus, fmi3_set):
+def test_twelve_cases_on_plain_and_clocked_fmi3_fmus_equal_the_fmi2_runs_bit_for_bit(fmus, fmi3_set):
+    """The clocked FMUs stepped by the C loop's own Event Mode (native/clocks.py), the plain ones by its fmi3 calls."""
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     with ProcessPoolExecutor(max_workers=2, mp_context=get_context("spawn")) as pool:
         fmi2 = [pool.submit(case_metrics, str(fmus), *case) for case in CASES]
-        fmi3 = [pool.submit(case_metrics, str(fmi3_set), *case, 3, True) for case in CASES]
-        results = [(case, a.result(), b.result()) for case, a, b in zip(CASES, fmi2, fmi3)]
-    for case, two, three in results:
-        assert three == two, case_name(*case)  # float ==: the same bits
+        plain = [pool.submit(case_metrics, str(fmi3_set), *case, 3, False) for case in CASES]
+        clocked = [pool.submit(case_metrics, str(fmi3_set), *case, 3, True) for case in CASES]
+        results = [(case, a.result(), b.result(), c.result()) for case, a, b, c in zip(CASES, fmi2, plain, clocked)]
+    for case, two, three, with_clocks in results:
+        assert three == two and with_clocks == two, case_name(*case)  # float ==: the same bits
         base, tolerances = cmp.load_metrics(ROOT / "baselines" / f"{case_name(*case)}.json")
         passed, rows = cmp.compare(two, base, BASELINE_RTOL, 1e-12, tolerances)
         assert passed, cmp.format_rows(rows)
@@ -100,3 +104,31 @@ def test_fmi_version_must_be_2_or_3(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["run", "--fmi", "4"])
     assert exit_.value.code == 2 and "invalid choice: 4" in capsys.readouterr().err
+
+
+EVENT_MODE_FAILURES = {  # fmi3UpdateDiscreteStates of the clocked controller from t = 0.5 s: what the one line says
+    "update_error": "controller: updateDiscreteStates at t=0.504 s failed (error)",
+    "unsettled": "controller: its discrete states still needed an update after 100 iterations at t=0.504 s",
+}
+
+
+@pytest.fixture(scope="module")
+def failing_events(fmi3_set, tmp_path_factory):
+    """Our clocked controller, foreign, its fmi3UpdateDiscreteStates failing from t = 0.5 s (support/fmi3_misbehaving.py)."""
+    return misbehaving_fmi3(fmi3_set / "TiltloadControllerClocked.fmu", tmp_path_factory.mktemp("events"), EVENT_MODE_FAILURES, 0.5)
+
+
+@pytest.mark.parametrize("where", ["kernel", "worker"])
+@pytest.mark.parametrize("mode", list(EVENT_MODE_FAILURES))
+def test_a_clocked_controller_whose_event_mode_fails_ends_the_run_with_one_line(mode, where, failing_events, fmi3_set,
+                                                                                  tmp_path, capsys):
+    """--trust-fmus: in this process, its Event Mode run by the C loop; else (a foreign FMU) in a worker process,
+    run by the slave's Python sequence there. The same line either way, and the log readable up to the failure."""
+    fmus = fmi3_set.parent
+    trust = ["--trust-fmus"] if where == "kernel" else []
+    code = main(["run", "--scenario", "fsi", "--fmi", "3", "--clocks", "--fmus", str(fmus), "--out", str(tmp_path), "--no-plots",
+                 "--quiet", "--name", mode, "--controller", str(failing_events[mode]), "--stop-time", "2", *trust])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "Traceback" not in err[0], err
+    assert err[0].startswith(f"tiltload: error: {EVENT_MODE_FAILURES[mode]}"), err
+    assert err[0].endswith("the log is readable up to t = 0.504 s"), err

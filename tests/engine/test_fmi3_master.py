@@ -118,10 +118,12 @@ class RecordAll(Observer):
         self.rows.append((instance.name, t, b"".join(instance.values[typ].tobytes() for typ in ("Real", "Integer", "Boolean"))))
 
 
+@pytest.mark.parametrize("clocked", [False, True], ids=["plain", "clocked"])
 @pytest.mark.parametrize("fault, stop", [("gps_dropout", 17.0), ("thrust_loss", 21.0), ("servo_stuck", 11.0)])
-def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set, fault, stop, monkeypatch):
-    """FMI 3.0 FMUs without clocks: the C loop calls their fmi3 functions; forced through the Python callback instead,
-    every logged value is the same, faults (on outputs, on a connection, on an unconnected Boolean input) included."""
+def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set, fault, stop, clocked, monkeypatch):
+    """The C loop calls FMI 3.0 FMUs' fmi3 functions itself, a clocked one's Event Mode included (native/clocks.py);
+    forced through the Python callback instead (fmi3.py's own sequence), every logged value is the same, faults (on
+    outputs, on a connection, on an unconnected Boolean input) included, and so is every clock's activation record."""
     from support import ROOT
     from tiltload.master.engine.faults.parse import load as load_faults
     from tiltload.master.engine.native import loop as native_loop
@@ -130,18 +132,51 @@ def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set,
     for path in ("kernel", "python"):
         if path == "python":
             monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
-        system = default_system(fmi3_set, "zse", 1, "mixed", seed=2, fmi=3)
+        system = default_system(fmi3_set, "zse", 1, "mixed", seed=2, fmi=3, clocked=clocked)
         system.faults = load_faults(ROOT / "docs" / "faults" / f"{fault}.json")
         rec = RecordAll()
         ex = Execution(system, [rec])
         ex.instantiate()
         try:
             assert [bool(c.fmi3) for c in ex.loop.instances] == [path == "kernel"] * len(system.instances)
+            assert [bool(c.clocks) for c in ex.loop.instances] == [path == "kernel" and clocked and i.name in ("sensors", "controller")
+                                                                    for i in system.instances]
             ex.run(stop)
+            activations = {name: getattr(inst, "activations", None) for name, inst in ex.instances.items()}
         finally:
             ex.close()
-        runs[path] = rec.rows
-    assert runs["kernel"] == runs["python"] and len(runs["kernel"]) > 3000
+        runs[path] = rec.rows, activations
+    assert runs["kernel"] == runs["python"] and len(runs["kernel"][0]) > 3000
+
+
+def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_the_callback(fmi3_set, monkeypatch):
+    """The loop says which path each instance takes, and does take it: with the slaves' own Python step disabled
+    here, the in-process FMUs (plain and clocked) still run; the controller in a worker process is stepped there
+    (its callback, a message to the worker); asked to, the loop steps an in-process clocked FMU through the callback."""
+    from tiltload.master.engine.fmi3 import Fmu3Slave
+    from tiltload.master.engine.native.loop import NativeLoop
+
+    system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
+    metrics = loop_metrics()
+    ex = Execution(system, [metrics], isolate=lambda fmu, md: "Controller" in fmu.name)
+    try:
+        ex.instantiate()
+        assert ex.loop.paths == {"scenario": "kernel: FMI 3.0", "sensors": "kernel: FMI 3.0 with clocks",
+                                 "controller": "callback: worker process", "plant": "kernel: FMI 3.0"}
+
+        def python_step(self, t, h):
+            raise AssertionError(f"{self.name} stepped from Python at t={t}")
+        with monkeypatch.context() as m:
+            m.setattr(Fmu3Slave, "do_step", python_step)
+            ex.run(0.6)
+        assert ex.instances["sensors"].activations["gps_clock"] == [0, 10, 20, 30, 40]  # the kernel's, handed back
+        ex.loop = NativeLoop(ex, by_callback={"sensors"})
+        assert ex.loop.paths["sensors"] == "callback: asked for" and not ex.loop.instances[1].clocks
+        ex.run(1.2)  # the same slave continues through fmi3.py's sequence: its state was handed back after each call
+        assert ex.instances["sensors"].activations["gps_clock"] == list(range(0, 100, 10))
+    finally:
+        ex.close()
+    assert metrics.table() == _metrics(default_system(fmi3_set, "zse", 1, "mixed", fmi=3), 1.2)
 
 
 def test_restart_on_the_same_instances_repeats_the_run(fmi3_set):
@@ -369,3 +404,54 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
                           timeout=600)
     assert proc.returncode == 0, proc.stdout[-1000:] + proc.stderr[-3000:]
     assert "runtime error" not in proc.stderr and "AddressSanitizer" not in proc.stderr and "LeakSanitizer" not in proc.stderr
+
+
+def test_a_scheduled_execution_slave_keeps_the_callback():
+    """It is an Fmu3Slave (it reuses the clocked slave's staging) but runs partitions, no Event Mode and no step: the
+    kernel must not take it for a clocked co-simulation FMU."""
+    from tiltload.master.engine.fmi3 import Fmu3Slave
+    from tiltload.master.engine.fmi3_scheduled import Fmu3ScheduledSlave
+    from tiltload.master.engine.native.loop import path_of
+
+    scheduled, clocked = object.__new__(Fmu3ScheduledSlave), object.__new__(Fmu3Slave)
+    scheduled.clocked = clocked.clocked = True
+    assert path_of(scheduled) == "callback: Scheduled Execution" and path_of(clocked) == "kernel: FMI 3.0 with clocks"
+
+
+def test_the_kernel_s_event_mode_makes_the_calls_fmi3_py_makes(tmp_path, monkeypatch):
+    """A clocked FMU that logs every call (support/fmi3_trace_fmu.py: a discrete input, two clocks with a shift, events
+    asked by the step and by a next event time, a second update): the C loop's Event Mode and fmi3.py's sequence
+    (forced through the callback) make the same calls with the same values, step after step, and the FMU refuses
+    none. The trace has what the thesis's FMUs never make: events with no clock due, steps with no event, a
+    second fmi3UpdateDiscreteStates."""
+    import re
+
+    from support.fmi3_trace_fmu import TICK, trace_fmu
+    from tiltload.master.engine.native import loop as native_loop
+
+    fmu = trace_fmu(tmp_path)
+    runs = {}
+    for path in ("kernel", "python"):
+        if path == "python":
+            monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
+        system = sysdesc.System(TICK, [sysdesc.Instance("src", fmu), sysdesc.Instance("dut", fmu)], auto_connect=False,
+                                connections=[sysdesc.Connection("src.y_a", "dut.u_c"), sysdesc.Connection("src.y", "dut.u_a"),
+                                             sysdesc.Connection("src.n_b", "dut.u_d", delay=1),
+                                             sysdesc.Connection("src.f", "dut.b_b")])
+        rec = RecordAll()
+        ex = Execution(system, [rec])
+        ex.instantiate()
+        try:
+            assert list(ex.loop.paths.values()) == ["kernel: FMI 3.0 with clocks" if path == "kernel" else "callback: Fmu3Slave"] * 2
+            ex.run(1.2)
+            runs[path] = rec.rows, {n: (list(i.log), i.activations) for n, i in ex.instances.items()}
+        finally:
+            ex.close()
+    assert runs["kernel"] == runs["python"]
+    log = runs["kernel"][1]["dut"][0]
+    assert not [line for line in log if line.startswith("refused")] and len(runs["kernel"][0]) == 2 * 120
+    assert runs["kernel"][1]["dut"][1] == {"a": list(range(0, 120, 2)), "b": list(range(1, 120, 3))}
+    calls = " ".join(line.split(" ", 1)[0] for line in log)
+    assert re.search(r"enterEventMode (set\w+ |getBoolean )*updateDiscreteStates", calls)  # an event with no clock due
+    assert re.search(r"doStep (set\w+ |get\w+ )*doStep", calls)  # a step with no event
+    assert any("update 2" in line for line in log)

@@ -1,6 +1,7 @@
 """The kernel's libraries are built on first use into the cache; threads and processes that ask at once all get a
 whole library (the CI once loaded a half-written tl_loop.so from the log writer's thread)."""
 import ctypes
+import subprocess
 
 from support.at_once import at_once
 from tiltload.master.engine.native import kernel
@@ -40,3 +41,11 @@ def test_a_numpy_random_library_that_does_not_link_leaves_the_draws_to_numpy(tmp
     assert kernel._with_draws() is None
     lib = kernel.compiled("tl_loop", kernel.SOURCES, libraries=("m",))  # what library() builds instead
     assert hasattr(lib, "tl_run") and not hasattr(lib, "tl_draw_normal")
+
+
+def test_the_tick_loop_compiles_as_c99_with_every_warning_an_error():
+    """tl_loop.c (the clocked FMUs' Event Mode included) and tl_mcap.c: C99, -pedantic -Wall -Wextra -Wshadow."""
+    for source in (kernel.HERE / "tl_loop.c", kernel.HERE / "tl_mcap.c"):
+        proc = subprocess.run(["cc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wshadow", "-Werror", "-O2", "-fsyntax-only",
+                               str(source)], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr

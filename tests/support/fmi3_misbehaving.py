@@ -1,10 +1,12 @@
 """Misbehaving FMI 3.0 controllers: our FMI 3.0 controller whose fmi3DoStep, from a given time on, crashes, exits or
-hangs, in C as a foreign FMU would.
+hangs, or (the clocked one) whose fmi3UpdateDiscreteStates returns fmi3Error or never settles (discreteStatesNeedUpdate
+always true), in C as a foreign FMU would.
 
-The FMU's library is replaced by a small shim of the same name that defines fmi3DoStep only and needs the original
-library (renamed beside it; linked --no-as-needed, or the linker drops the dependency): every other fmi3 function a
-host looks up in the shim is found in the original (dlsym searches a library's dependencies), and the shim's
-fmi3DoStep hands over to the original's (RTLD_NEXT) until the time comes. The build record is left out: the master
+The FMU's library is replaced by a small shim of the same name that defines one fmi3 function only and needs the
+original library (renamed beside it; linked --no-as-needed, or the linker drops the dependency): every other fmi3
+function a host looks up in the shim is found in the original (dlsym searches a library's dependencies), and the
+shim's function hands over to the original's (RTLD_NEXT) until the time comes (fmi3UpdateDiscreteStates reads it
+from the independent variable, value reference 0). The build record is left out: the master
 treats the FMU as foreign.
 """
 
@@ -35,10 +37,39 @@ int fmi3DoStep(void *instance, double t, double h, bool no_set_state_prior, bool
 }
 """
 
-ACTS = {  # what the shim does in place of the step
-    "segfault": "raise(SIGSEGV)",
-    "exit": "exit(3)",
-    "hang": "for (;;) pause()",
+UPDATE_SHIM = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdbool.h>
+#include <stddef.h>
+
+typedef int Update(void *, bool *, bool *, bool *, bool *, bool *, double *);
+typedef int GetFloat64(void *, const unsigned int *, size_t, double *, size_t);
+
+int fmi3UpdateDiscreteStates(void *instance, bool *need_update, bool *terminate, bool *nominals_changed,
+                             bool *values_changed, bool *next_event_defined, double *next_event_time) {
+    GetFloat64 *get;
+    Update *original;
+    *(void **)&get = dlsym(RTLD_NEXT, "fmi3GetFloat64");
+    *(void **)&original = dlsym(RTLD_NEXT, "fmi3UpdateDiscreteStates");
+    const unsigned int time_vr = 0;
+    double t = 0.0;
+    get(instance, &time_vr, 1, &t, 1);
+    int status = original(instance, need_update, terminate, nominals_changed, values_changed, next_event_defined,
+                          next_event_time);
+    if (t >= AT) {
+        ACT;
+    }
+    return status;
+}
+"""
+
+ACTS = {  # what the shim does in place of the call: (which shim, its act)
+    "segfault": (SHIM, "raise(SIGSEGV)"),
+    "exit": (SHIM, "exit(3)"),
+    "hang": (SHIM, "for (;;) pause()"),
+    "update_error": (UPDATE_SHIM, "return 3"),  # fmi3Error
+    "unsettled": (UPDATE_SHIM, "*need_update = true"),
 }
 PLATFORM = "x86_64-linux"
 
@@ -55,7 +86,8 @@ def misbehaving_fmi3(controller: Path, folder: Path, modes, at: float) -> dict[s
         work.mkdir(parents=True, exist_ok=True)
         renamed = f"{identifier}_original.so"
         (work / renamed).write_bytes(original)
-        (work / "shim.c").write_text(SHIM.replace("AT", repr(float(at))).replace("ACT", ACTS[mode]))
+        shim, act = ACTS[mode]
+        (work / "shim.c").write_text(shim.replace("AT", repr(float(at))).replace("ACT", act))
         subprocess.run(["cc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-shared", "-fPIC", "-O1", "-o", str(work / f"{identifier}.so"),
                         str(work / "shim.c"), f"-L{work}", "-Wl,--no-as-needed", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True)
         out[mode] = folder / f"bad3_{mode}.fmu"

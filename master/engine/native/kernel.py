@@ -55,6 +55,32 @@ FAULT_ACTIONS = {"override": 0, "bias": 1, "scale": 2, "ramp": 3, "clamp": 4, "h
                  "stale": 7, "jitter": 8, "dropout": 9}
 
 
+class Part(ctypes.Structure):
+    _fields_ = [("group", ctypes.c_int), ("kind", ctypes.c_int), ("n", ctypes.c_int), ("vrs", ctypes.c_void_p),
+                ("index", ctypes.c_void_p), ("whole", ctypes.c_int), ("buffer", ctypes.c_void_p), ("applied", ctypes.c_void_p),
+                ("has_applied", ctypes.c_int)]
+
+
+class Read(ctypes.Structure):
+    _fields_ = [("type", ctypes.c_int), ("clock", ctypes.c_int), ("n", ctypes.c_int), ("vrs", ctypes.c_void_p),
+                ("index", ctypes.c_void_p), ("whole", ctypes.c_int), ("buffer", ctypes.c_void_p)]
+
+
+CONTINUOUS, DISCRETE = -1, -2  # tl_loop.h: a part's kind (else its clock's index)
+
+
+class Clocks(ctypes.Structure):
+    _fields_ = [("enter_event_mode", ctypes.c_void_p), ("enter_step_mode", ctypes.c_void_p), ("set_clock", ctypes.c_void_p),
+                ("update_discrete_states", ctypes.c_void_p), ("n_clocks", ctypes.c_int), ("clock_vrs", ctypes.c_void_p),
+                ("interval", ctypes.c_void_p), ("shift", ctypes.c_void_p), ("n_parts", ctypes.c_int),
+                ("parts", ctypes.POINTER(Part)), ("n_reads", ctypes.c_int), ("reads", ctypes.POINTER(Read)),
+                ("read_first", ctypes.c_void_p), ("max_iterations", ctypes.c_int), ("in_event", ctypes.c_int),
+                ("event_asked", ctypes.c_int), ("next_event_defined", ctypes.c_int), ("next_event", ctypes.c_double),
+                ("due", ctypes.c_void_p), ("due_vrs", ctypes.c_void_p), ("due_on", ctypes.c_void_p),
+                ("activation_capacity", ctypes.c_int64), ("activations", ctypes.c_int64),
+                ("activation_clock", ctypes.c_void_p), ("activation_tick", ctypes.c_void_p)]
+
+
 class Instance(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
                 ("get", ctypes.c_void_p * TYPES), ("do_step3", ctypes.c_void_p), ("set3", ctypes.c_void_p * TYPES),
@@ -63,7 +89,7 @@ class Instance(ctypes.Structure):
                 ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
                 ("n_out", ctypes.c_int * TYPES), ("out_vrs", ctypes.c_void_p * TYPES), ("out", ctypes.c_void_p * TYPES),
                 ("history", ctypes.c_void_p * TYPES), ("n_groups", ctypes.c_int), ("groups", ctypes.POINTER(Group)),
-                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double)]
+                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double), ("clocks", ctypes.POINTER(Clocks))]
 
 
 class Plan(ctypes.Structure):

@@ -3,10 +3,12 @@
 The plan points at the arrays the engine already has: each slave's output arrays (which fmi2Get
 fills), each connection group's value-reference and value arrays, the delay line; so Python and C
 read and write the same memory, and a manipulator (a fault) that the kernel calls back acts on the
-same values it did when Python stepped. Slaves the kernel cannot call directly (an FMU in a worker
-process, a clocked FMI 3.0 FMU) are stepped through a callback; an FMI 3.0 FMU without clocks the kernel calls
-through its fmi3 functions, as an FMI 2.0 one through its fmi2 functions. After each call the kernel's records of
-every step are handed to the observers as one Batch.
+same values it did when Python stepped. An FMU in this process the kernel calls itself: FMI 2.0 through its fmi2
+functions, FMI 3.0 co-simulation through its fmi3 ones, with clocks through Event Mode as well (clocks.py plans it).
+The Python callback steps a slave hosted elsewhere (a worker process of its own, a `tiltload serve`: its calls are
+messages to its host, where the in-process slave runs them) and a Scheduled Execution FMU (its partitions are
+activated by fmi3_scheduled.py). `paths` says which each instance takes.
+After each call the kernel's records of every step are handed to the observers as one Batch.
 """
 
 from __future__ import annotations
@@ -17,11 +19,13 @@ import numpy as np
 
 from ..errors import ExecutionError
 from ..fmi2 import InProcessFmu
-from ..fmi3 import FMI3_NAME, Fmu3Slave
+from ..fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS, Fmu3Slave
 from ..observers import Batch
 from ..slave import TYPES
 from . import kernel
+from .clocks import ClockedPlan
 
+_EVENT_CALLS = {7: "enterEventMode", 8: "setClock", 9: "updateDiscreteStates", 10: "enterStepMode"}  # tl_loop.h's kinds
 CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
 REALTIME_BATCH = 0.25  # s of wall time between two batches of a paced run
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
@@ -39,9 +43,23 @@ class _EventQueue:
 
 
 def _native_fmi3(slave) -> bool:
-    """An FMI 3.0 FMU in this process without clocks: the kernel calls its fmi3 functions itself. A clocked one (Event
-    Mode, clocks, the staging of inputs by kind) is stepped through the callback."""
-    return isinstance(slave, Fmu3Slave) and not slave.clocked
+    """An FMI 3.0 co-simulation FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event
+    Mode too). A Scheduled Execution one (fmi3_scheduled.py: partitions activated, no step) keeps the callback."""
+    return isinstance(slave, Fmu3Slave) and not getattr(slave, "scheduled", False)
+
+
+def path_of(slave) -> str:
+    """How the loop steps this slave (NativeLoop.paths): the kernel's own calls, or the callback and why."""
+    if _native_fmi3(slave):
+        return "kernel: FMI 3.0 with clocks" if slave.clocked else "kernel: FMI 3.0"
+    if isinstance(slave, InProcessFmu):
+        return "kernel: FMI 2.0"
+    if getattr(slave, "scheduled", False):
+        return "callback: Scheduled Execution"
+    host = getattr(slave, "host", None)  # isolation.process.IsolatedFmu: a worker process, or a remote host's `where`
+    if host is not None:
+        return f"callback: {getattr(host, 'where', 'worker process')}"
+    return f"callback: {type(slave).__name__}"
 
 
 def _fmi3_function(slave, name: str) -> int:
@@ -62,9 +80,10 @@ def _address(array) -> int:
 
 
 class NativeLoop:
-    """The plan of one execution (rebuilt when it restarts) and its runs."""
+    """The plan of one execution (rebuilt when it restarts) and its runs. by_callback: instances to step through the
+    Python callback although the kernel could call them (to hold the two paths side by side)."""
 
-    def __init__(self, execution, chunk: int = CHUNK) -> None:
+    def __init__(self, execution, chunk: int = CHUNK, by_callback=frozenset()) -> None:
         self.lib = kernel.library()
         self.ex = execution
         self.chunk = chunk
@@ -78,14 +97,18 @@ class NativeLoop:
         self.slots = execution.max_delay + 1 if execution.max_delay else 0
         self.history: list[dict[str, np.ndarray]] = []
         self.records: list[dict[str, np.ndarray]] = []
+        self.paths: dict[str, str] = {}  # instance -> how the loop steps it (path_of)
+        self.clocked: list[ClockedPlan] = []
         manipulator = execution.manipulator
         for i, spec in enumerate(specs):
             slave, c = self.slaves[i], self.instances[i]
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
-            fmi3 = _native_fmi3(slave)
-            c.by_callback = not (isinstance(slave, InProcessFmu) or fmi3)
+            forced = spec.name in by_callback
+            fmi3 = _native_fmi3(slave) and not forced
+            c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
+            self.paths[spec.name] = "callback: asked for" if forced else path_of(slave)
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
@@ -128,6 +151,9 @@ class NativeLoop:
                 booleans = (ctypes.c_bool * room)()
                 self._keep.append(booleans)
                 c.booleans = _address(booleans)
+            if fmi3 and slave.clocked:
+                self.clocked.append(ClockedPlan(slave, groups, chunk))
+                c.clocks = ctypes.pointer(self.clocked[-1].c)
         self.record_instance = np.zeros(chunk * n, dtype=np.int32)
         self.record_tick = np.zeros(chunk * n, dtype=np.int64)
         self.record_time = np.zeros(chunk * n, dtype=np.float64)
@@ -242,6 +268,8 @@ class NativeLoop:
         """After the execution's instances were reset and initialized: tick 0, the delay line at its start."""
         self.plan.ticks_done = self.ex.ticks_done
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)
+        for clocked in self.clocked:
+            clocked.forget_inputs()
 
     def run(self, ticks: int, realtime=None) -> None:
         """Run the given number of ticks, handing every call's steps to the observers; raise a run's failure."""
@@ -255,7 +283,11 @@ class NativeLoop:
             if realtime is not None:
                 realtime.prepare(self.plan, first, self.lateness, self.overrun)
             self._queue.events = []
+            for clocked in self.clocked:
+                clocked.push()
             done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
+            for clocked in self.clocked:
+                clocked.pull()
             for slave, c in zip(self.slaves, self.instances):
                 slave.fmi_seconds += c.seconds
                 c.seconds = 0.0
@@ -304,6 +336,16 @@ class NativeLoop:
         if p.error_kind == 6:
             h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
             return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
+        if p.error_kind in _EVENT_CALLS:
+            return slave.failed(f"{_EVENT_CALLS[p.error_kind]} at t={t:.6g} s", p.error_status)
+        if p.error_kind == 11:
+            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t:.6g} s")
+        if p.error_kind == 12:
+            return ExecutionError(f"{slave.name}: its discrete states still needed an update after {MAX_EVENT_ITERATIONS} "
+                                  f"iterations at t={t:.6g} s")
+        if p.error_kind == 13:
+            clock = slave.clocks[p.error_group].name
+            return slave.failed(f"get{name(TYPES[p.error_type])} of {clock}'s outputs at t={t:.6g} s", p.error_status)
         return slave.failed(f"get{name(TYPES[p.error_type])}", p.error_status)
 
     def delay_line(self) -> list[dict[str, np.ndarray]]:

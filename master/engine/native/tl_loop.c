@@ -1,5 +1,5 @@
 /* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = k * tick, computed as
-   the Python engine computes them, and the faults', operation for operation those of faults/apply.py (with
+   the Python engine computes them, a clocked FMU's test of its next event time (as fmi3.py's), and the faults', operation for operation those of faults/apply.py (with
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
@@ -22,6 +22,19 @@ TL_EXPORT int64_t tl_monotonic_ns(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+/* The profile's clock: wall time, or (profile 2) the calling thread's CPU time. */
+static int64_t profile_ns(int profile) {
+#if defined(CLOCK_THREAD_CPUTIME_ID)
+    if (profile == 2) {
+        struct timespec ts;
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+        return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+    }
+#endif
+    (void)profile;
+    return tl_monotonic_ns();
 }
 
 static void sleep_until(int64_t ns) {
@@ -186,6 +199,246 @@ static int get3(tl_instance *in, int type, const unsigned int *vrs, int n, void 
     return status;
 }
 
+/* ---- a clocked FMU's Event Mode (tl_clocks) ---------------------------------------------------------------- */
+static size_t fmu_width(int type) { return type == 0 ? sizeof(double) : type == 1 ? sizeof(int) : sizeof(bool); }
+
+/* The part's values from its group's (the kernel's types) into its buffer (the FMU's). */
+static void stage(const tl_instance *in, tl_part *p) {
+    const tl_group *g = &in->groups[p->group];
+    if (p->whole && g->type != 2) {
+        memcpy(p->buffer, g->values, (size_t)p->n * width(g->type));
+    } else if (g->type == 0) {
+        const double *s = g->values;
+        double *d = p->buffer;
+        for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]];
+    } else if (g->type == 1) {
+        const int *s = g->values;
+        int *d = p->buffer;
+        for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]];
+    } else {
+        const int *s = g->values;
+        bool *d = p->buffer;
+        for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]] != 0;
+    }
+}
+
+/* A discrete part whose values differ from those last set (== per value: -0.0 equals 0.0, a NaN differs). */
+static int changed(const tl_instance *in, const tl_part *p) {
+    if (!p->has_applied) return 1;
+    int type = in->groups[p->group].type;
+    for (int j = 0; j < p->n; j++) {
+        int same = type == 0 ? ((const double *)p->buffer)[j] == ((const double *)p->applied)[j]
+                 : type == 1 ? ((const int *)p->buffer)[j] == ((const int *)p->applied)[j]
+                             : ((const bool *)p->buffer)[j] == ((const bool *)p->applied)[j];
+        if (!same) return 1;
+    }
+    return 0;
+}
+
+static int is_due(const tl_clocks *c, int n_due, int clock) {
+    for (int d = 0; d < n_due; d++)
+        if (c->due[d] == clock) return 1;
+    return 0;
+}
+
+/* Set the parts of the instance whose kind is selected: unclocked (continuous; discrete too with discrete set), or
+   clocked by a due clock. Returns 0, or stops the run. */
+static int set_parts(tl_plan *plan, int i, double t, int discrete, int clocked, int n_due) {
+    tl_instance *in = &plan->instances[i];
+    tl_clocks *c = in->clocks;
+    for (int q = 0; q < c->n_parts; q++) {
+        tl_part *p = &c->parts[q];
+        int take = p->kind >= 0 ? clocked && is_due(c, n_due, p->kind)
+                                : !clocked && (p->kind == TL_CONTINUOUS || discrete);
+        if (!take) continue;
+        int type = in->groups[p->group].type;
+        int status = in->set3[type](in->component, p->vrs, (size_t)p->n, p->buffer, (size_t)p->n);
+        if (status > 1) {
+            fail(plan, 2, i, status, p->group, type, t);
+            return 1;
+        }
+        if (p->kind == TL_DISCRETE) {
+            memcpy(p->applied, p->buffer, (size_t)p->n * fmu_width(type));
+            p->has_applied = 1;
+        }
+    }
+    return 0;
+}
+
+/* The read's buffer (the FMU's types) into the instance's outputs (the kernel's). */
+static void scatter(tl_instance *in, const tl_read *r) {
+    if (r->whole && r->type != 2) { /* fmi3Float64 is a double, fmi3Int32 an int here: the same bytes */
+        memcpy(in->out[r->type], r->buffer, (size_t)r->n * width(r->type));
+    } else if (r->type == 0) {
+        const double *s = r->buffer;
+        double *d = in->out[0];
+        for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j];
+    } else if (r->type == 1) {
+        const int *s = r->buffer;
+        int *d = in->out[1];
+        for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j];
+    } else {
+        const bool *s = r->buffer;
+        int *d = in->out[2];
+        for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j] ? 1 : 0;
+    }
+}
+
+/* Get the outputs of one clock (-1: of none) into the outputs. Returns 0, or stops the run. */
+static int read_clock(tl_plan *plan, int i, int clock, double t) {
+    tl_instance *in = &plan->instances[i];
+    tl_clocks *c = in->clocks;
+    for (int q = c->read_first[clock + 1]; q < c->read_first[clock + 2]; q++) {
+        tl_read *r = &c->reads[q];
+        int status = in->get3[r->type](in->component, r->vrs, (size_t)r->n, r->buffer, (size_t)r->n);
+        if (status > 1) {
+            if (clock < 0) fail(plan, 3, i, status, -1, r->type, t);
+            else fail(plan, 13, i, status, clock, r->type, t);
+            return 1;
+        }
+        scatter(in, r);
+    }
+    return 0;
+}
+
+/* A clocked FMU's step at tick k, before any call: its inputs staged, the clocks due (into c->due, their number into
+   *n_due). Returns whether the step is an event. */
+static int clocked_event(tl_instance *in, int64_t k, double t, double h, int *n_due) {
+    tl_clocks *c = in->clocks;
+    for (int q = 0; q < c->n_parts; q++) stage(in, &c->parts[q]);
+    *n_due = 0;
+    for (int j = 0; j < c->n_clocks; j++) {
+        if (k >= c->shift[j] && (k - c->shift[j]) % c->interval[j] == 0) {
+            c->due[*n_due] = j;
+            c->due_vrs[(*n_due)++] = c->clock_vrs[j];
+        }
+    }
+    int event = c->in_event || *n_due > 0 || c->event_asked || (c->next_event_defined && t >= c->next_event - 1e-9 * h);
+    for (int q = 0; q < c->n_parts && !event; q++)
+        if (c->parts[q].kind == TL_DISCRETE && changed(in, &c->parts[q])) event = 1;
+    return event;
+}
+
+/* A clocked FMU's inputs before its step at tick k: in an Event Mode if the step is an event (the header's sequence),
+   else the continuous ones alone. Returns 0, or stops the run. */
+static int clocked_inputs(tl_plan *plan, int i, int64_t k, double t, int event, int n_due) {
+    tl_instance *in = &plan->instances[i];
+    tl_clocks *c = in->clocks;
+    if (!event) return set_parts(plan, i, t, 0, 0, 0);
+    c->event_asked = 0;
+    int status;
+    if (!c->in_event && (status = c->enter_event_mode(in->component)) > 1) {
+        fail(plan, 7, i, status, -1, -1, t);
+        return 1;
+    }
+    if (set_parts(plan, i, t, 1, 0, 0) != 0) return 1;
+    if (n_due > 0) {
+        if ((status = c->set_clock(in->component, c->due_vrs, (size_t)n_due, c->due_on)) > 1) {
+            fail(plan, 8, i, status, -1, -1, t);
+            return 1;
+        }
+        if (set_parts(plan, i, t, 1, 1, n_due) != 0) return 1;
+        for (int d = 0; d < n_due; d++) {
+            if (c->activations < c->activation_capacity) {
+                c->activation_clock[c->activations] = c->due[d];
+                c->activation_tick[c->activations++] = k;
+            }
+        }
+        /* before fmi3UpdateDiscreteStates: it deactivates the clocks, and a clocked variable is accessible only while
+           its clock is active */
+        for (int d = 0; d < n_due; d++)
+            if (read_clock(plan, i, c->due[d], t) != 0) return 1;
+    }
+    bool need = false, terminate = false, nominals = false, values = false, defined = false;
+    double next = 0.0;
+    int settled = 0;
+    for (int it = 0; it < c->max_iterations && !settled; it++) {
+        status = c->update_discrete_states(in->component, &need, &terminate, &nominals, &values, &defined, &next);
+        if (status > 1) {
+            fail(plan, 9, i, status, -1, -1, t);
+            return 1;
+        }
+        if (terminate) {
+            fail(plan, 11, i, status, -1, -1, t);
+            return 1;
+        }
+        settled = !need;
+    }
+    if (!settled) {
+        fail(plan, 12, i, 0, -1, -1, t);
+        return 1;
+    }
+    c->next_event_defined = defined;
+    c->next_event = next;
+    if ((status = c->enter_step_mode(in->component)) > 1) {
+        fail(plan, 10, i, status, -1, -1, t);
+        return 1;
+    }
+    c->in_event = 0;
+    return 0;
+}
+
+/* A clocked FMU's clocked outputs after its step, as held since their clock's last tick (again each step: what a fault
+   or an observer wrote into the outputs since is not the FMU's). */
+static void held_outputs(tl_instance *in) {
+    for (int q = in->clocks->read_first[1]; q < in->clocks->n_reads; q++) scatter(in, &in->clocks->reads[q]);
+}
+
+/* ---- a step ----------------------------------------------------------------------------------------------- */
+/* The FMU's inputs set from the gathered groups (the plain FMI 2.0 and FMI 3.0 way). Returns 0, or stops the run. */
+static int set_inputs(tl_plan *plan, int i, double t) {
+    tl_instance *in = &plan->instances[i];
+    for (int g = 0; g < in->n_groups; g++) {
+        tl_group *gr = &in->groups[g];
+        int status = in->fmi3 ? set3(in, gr->type, gr->dst_vrs, gr->n, gr->values)
+                              : in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
+        if (status > 1) {
+            fail(plan, 2, i, status, g, gr->type, t);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static int get_outputs(tl_plan *plan, int i, double t) {
+    tl_instance *in = &plan->instances[i];
+    for (int ty = 0; ty < TL_TYPES; ty++) {
+        if (in->n_out[ty] == 0) continue;
+        int status = in->fmi3 ? get3(in, ty, in->out_vrs[ty], in->n_out[ty], in->out[ty])
+                              : in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
+        if (status > 1) {
+            fail(plan, 3, i, status, -1, ty, t);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The kernel's own calls of one step: inputs, doStep, outputs (a clocked FMU's: event tells whether in Event Mode
+   first, with n_due clocks due). Returns 0, or stops the run. */
+static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int event, int n_due) {
+    tl_instance *in = &plan->instances[i];
+    if (in->clocks != NULL ? clocked_inputs(plan, i, k, t, event, n_due) != 0 : set_inputs(plan, i, t) != 0) return 1;
+    int status;
+    if (in->fmi3) {
+        bool event_needed = false, terminate = false, early_return = false;
+        double last_time = t;
+        status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
+        if (status <= 1 && terminate) {
+            fail(plan, 6, i, status, -1, -1, t);
+            return 1;
+        }
+        if (in->clocks != NULL) in->clocks->event_asked = event_needed;
+    } else {
+        status = in->do_step(in->component, t, h, 1);
+    }
+    if (status > 1) {
+        fail(plan, 1, i, status, -1, -1, t);
+        return 1;
+    }
+    return in->clocks != NULL ? read_clock(plan, i, -1, t) : get_outputs(plan, i, t);
+}
+
 /* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
@@ -201,43 +454,14 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
             fail(plan, 4, i, 0, -1, -1, t);
             return 1;
         }
-    } else {
-        int64_t started = plan->profile ? tl_monotonic_ns() : 0;
-        for (int g = 0; g < in->n_groups; g++) {
-            tl_group *gr = &in->groups[g];
-            int status = in->fmi3 ? set3(in, gr->type, gr->dst_vrs, gr->n, gr->values)
-                                  : in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
-            if (status > 1) {
-                fail(plan, 2, i, status, g, gr->type, t);
-                return 1;
-            }
-        }
-        int status;
-        if (in->fmi3) {
-            bool event_needed = false, terminate = false, early_return = false;
-            double last_time = t;
-            status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
-            if (status <= 1 && terminate) {
-                fail(plan, 6, i, status, -1, -1, t);
-                return 1;
-            }
-        } else {
-            status = in->do_step(in->component, t, h, 1);
-        }
-        if (status > 1) {
-            fail(plan, 1, i, status, -1, -1, t);
-            return 1;
-        }
-        for (int ty = 0; ty < TL_TYPES; ty++) {
-            if (in->n_out[ty] == 0) continue;
-            status = in->fmi3 ? get3(in, ty, in->out_vrs[ty], in->n_out[ty], in->out[ty])
-                              : in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
-            if (status > 1) {
-                fail(plan, 3, i, status, -1, ty, t);
-                return 1;
-            }
-        }
-        if (plan->profile) in->seconds += (double)(tl_monotonic_ns() - started) * 1e-9;
+    } else { /* the profile times the FMU's calls; a clocked FMU's staging and held outputs are the master's work */
+        int event = 0, n_due = 0;
+        if (in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
+        int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
+        int failed = call_fmu(plan, i, k, t, h, event, n_due);
+        if (plan->profile) in->seconds += (double)(profile_ns(plan->profile) - started) * 1e-9;
+        if (failed) return 1;
+        if (in->clocks != NULL) held_outputs(in);
     }
     if (plan->n_faults) apply_faults(plan, i, 1, t);
     if (in->hook_outputs && plan->hook_callback(i, 1, t) != 0) {
@@ -252,7 +476,10 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
     plan->error_kind = 0;
     plan->records = 0;
     plan->events = 0;
-    for (int i = 0; i < plan->n_instances; i++) plan->rows[i] = 0;
+    for (int i = 0; i < plan->n_instances; i++) {
+        plan->rows[i] = 0;
+        if (plan->instances[i].clocks != NULL) plan->instances[i].clocks->activations = 0;
+    }
     int64_t done = 0;
     for (; done < n; done++) {
         int64_t k = plan->ticks_done;
