@@ -118,8 +118,8 @@ def authenticated(address: str, token) -> socket.socket:
     return sock
 
 
-def open_request(md, instance="controller") -> bytes:
-    return wire.control({"op": "open", "protocol": 1, "model_identifier": md.coSimulation.modelIdentifier, "guid": md.guid,
+def open_request(md, instance="controller", protocol=handshake.PROTOCOL) -> bytes:
+    return wire.control({"op": "open", "protocol": protocol, "model_identifier": md.coSimulation.modelIdentifier, "guid": md.guid,
                          "instance": instance, "byteorder": "little", "client": "a test"})
 
 
@@ -174,7 +174,8 @@ def transport_frame(body: bytes) -> bytes:
     ("unknown", "no FMU NotThere in the served folder"),
     ("other guid", "the master's has {00000000-"),
     ("ahead", "it sent more than its request before the answer"),
-], ids=["waits", "1GB-frame", "garbage", "unknown-fmu", "other-guid", "sends-ahead"])
+    ("protocol 1", "protocol 1, this server speaks 2"),  # a client from before FMI 3.0 hosting
+], ids=["waits", "1GB-frame", "garbage", "unknown-fmu", "other-guid", "sends-ahead", "old-protocol"])
 def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(sends, why, fmus, token, server):
     md = read_fmu(fmus / "TiltloadController.fmu", "controller")
     sock = authenticated(server.address, token)
@@ -182,6 +183,8 @@ def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(send
         md.coSimulation.modelIdentifier = "NotThere"
     if sends == "other guid":
         md.guid = "{00000000-0000-0000-0000-000000000000}"
+    if sends == "protocol 1":
+        sends = transport_frame(open_request(md, protocol=1))
     if isinstance(sends, str):
         sends = transport_frame(open_request(md)) + (transport_frame(b"S" + bytes(16)) if sends == "ahead" else b"")
     if sends is not None:

@@ -175,8 +175,11 @@ class Server:
         """The instance name and the master's tick (None: not sent) of a client's request, or Refused."""
         if request.get("op") != "open":
             raise Refused(f"expected a request for an FMU, got {str(request.get('op'))[:40]!r}")
-        if request.get("protocol") != handshake.PROTOCOL:
-            raise Refused(f"protocol {str(request.get('protocol'))[:20]!r}, this server speaks {handshake.PROTOCOL}")
+        spoken = request.get("protocol")
+        if spoken != handshake.PROTOCOL:
+            named = spoken if isinstance(spoken, int) and abs(spoken) < 10**6 else repr(str(spoken)[:20])
+            raise Refused(f"protocol {named}, this server speaks {handshake.PROTOCOL} (the older side's tiltload needs an "
+                          "update)")
         if request.get("byteorder") != sys.byteorder:
             raise Refused(f"the master is {str(request.get('byteorder'))[:20]}-endian, this machine {sys.byteorder}-endian")
         for key in ("model_identifier", "guid", "client"):
