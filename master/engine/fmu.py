@@ -23,7 +23,7 @@ from fmpy.fmi2 import (
 
 from .binaries import library_path
 from .errors import ExecutionError
-from .extraction import Unpacked
+from .fmu_cache import unpacked
 from .model_description import checked_value
 from .pythonfmu_guard import pin
 from .slave import C_TYPES, TYPES, Slave
@@ -49,7 +49,7 @@ class InProcessFmu(Slave):
         super().__init__(name, path, md)
         self._closed = False
         pin(path)  # pythonfmu FMUs crash when reloaded unless one copy stays loaded (harmless for others)
-        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self._unpacked = unpacked(path)  # the machine's cached copy (fmu_cache.py), or a private one removed by close()
         self.dir = self._unpacked.folder
 
         def logger(env, inst, status, category, message):

@@ -36,7 +36,7 @@ import numpy as np
 from fmpy.fmi3 import FMU3Slave
 
 from .errors import ExecutionError
-from .extraction import Unpacked
+from .fmu_cache import unpacked
 from .fmu import fmpy_call
 from .model_description import checked_value, clock_ticks, clocks_of
 from .slave import TYPES, Slave
@@ -143,7 +143,7 @@ class Fmu3Slave(Slave):
             if v.causality == "input" and v.type in TYPES:
                 kind = clock if clock is not None else ("discrete" if v.variability == "discrete" else "continuous")
                 self.input_kind[(v.type, v.valueReference)] = kind
-        self._unpacked = Unpacked(path)  # removed by close(), or by its reaper if this process dies first
+        self._unpacked = unpacked(path)  # the machine's cached copy (fmu_cache.py), or a private one removed by close()
         self.dir = self._unpacked.folder
 
         def log_message(env, status, category, message):
