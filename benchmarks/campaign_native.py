@@ -86,6 +86,7 @@ def probed_run_case(*args, **kwargs):
     if "row" in result:
         result = {**result, "_probe": {"pid": os.getpid(), "start": t0, "end": time.time(), "cpu": time.thread_time() - c0,
                                        "sim_cpu": Execution._probe_cpu - s0, "sim_wall": Execution._probe_wall - sw0,
+                                       "setup": result.get("setup", 0.0),
                                        "proc0": p0, "proc1": time.process_time()}}
     return result
 
@@ -246,7 +247,7 @@ def report(label: str, scenario: str, r: dict) -> str:
         tail += last - runs[-1]["end"]
         worker_cpu += runs[-1]["proc1"] - runs[0]["proc0"]
         in_tasks += sum(p["cpu"] for p in runs)
-        cold.append(runs[0]["cpu"] - runs[0]["sim_cpu"])
+        cold.append((runs[0]["cpu"] - runs[0]["sim_cpu"], runs[0].get("setup", float("nan"))))
     ours = worker_cpu + r["client_main"] + r["client_other"]
     others = max(r["machine_busy"] - ours, 0.0)
     cores = r["machine_all"] / r["wall"] if r["wall"] else float("nan")
@@ -255,7 +256,8 @@ def report(label: str, scenario: str, r: dict) -> str:
         f"{serial:.2f} s; parallel efficiency {serial / (w * wall):.2f}; load {r['load']:.1f}",
         f"  workers' busy fraction (in-simulation CPU / workers x wall) {sim_cpu / (w * wall):.2f}; CPU per run: "
         f"simulation {sim_cpu / n * 1e3:.1f} ms, the task's other {(task_cpu - sim_cpu) / n * 1e3:.2f} ms (a worker's "
-        f"first: {_mean(cold) * 1e3:.0f} ms: unpack, load, instantiate), all our processes {ours / n * 1e3:.1f} ms; "
+        f"first: {_mean(c for c, _ in cold) * 1e3:.0f} ms CPU, {_mean(w for _, w in cold) * 1e3:.0f} ms wall to unpack, "
+        f"load and instantiate), all our processes {ours / n * 1e3:.1f} ms (the simulation's share {sim_cpu / ours:.2f}); "
         f"serial run in one process {run_cpu * 1e3:.1f} ms CPU",
         f"  worker timeline (sums over {len(by_worker)} workers, of {w * wall:.2f} worker-s): in runs "
         f"{sum(p['end'] - p['start'] for p in probes):.2f} s, before the first {lead:.2f} s, between runs {gaps:.2f} s "
