@@ -151,9 +151,11 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     # temporary-directory: a folder this campaign owns and removes, not $TMPDIR
     with (campaign_log(opts.verbose) as log, tempfile.TemporaryDirectory(prefix="tiltload-campaign-") as scratch,
           dask.config.set({"temporary-directory": scratch,
-                           # every run goes to a worker at once (Dask's work stealing evens them out): a worker finishing
-                           # one starts the next it holds, with no round trip to the scheduler between runs
-                           "distributed.scheduler.worker-saturation": float("inf")})):
+                           # a worker holds its task and the next (ceil(1.1 x 1 thread) = 2): it starts the next without
+                           # a round trip to the scheduler, and the scheduler hands the rest to whichever worker is free
+                           # (with every task on a worker at once, as before chunks, the ends of the queues differed by
+                           # a chunk until work stealing moved it: benchmarks/campaign_native.py)
+                           "distributed.scheduler.worker-saturation": 1.1})):
         client = cluster = None
         if scheduler is not None:
             parse(scheduler)  # a malformed address is refused even with nothing to run
