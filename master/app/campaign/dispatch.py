@@ -1,6 +1,7 @@
 """The runs of a campaign on a Dask cluster, each until it has its outcome.
 
-- A run's outcome (a row: completed, diverged, refused input) is handed to `store` as soon as it arrives.
+- A run's outcome (a row: completed, diverged, refused input) is handed to `store` as soon as it arrives (with
+  chunks, a task's outcomes to `store_many`).
 - A failure of its environment (an FMU its worker cannot see, an import error, memory, its worker killed) is no
   outcome: the run is tried again, on a worker it has not failed on when there is one, `retries` times; then it is
   reported (Dispatch.failures), never stored.
@@ -94,7 +95,7 @@ class Dispatch:
             self._lost()
         started = time.perf_counter()
         attempts = [_Attempt(case) for case in cases]
-        sizes = chunk_sizes(len(cases), len(self._workers()) or 1) if self.chunked else [1] * len(cases)
+        sizes = chunk_sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
         at = 0
         for size in sizes:
             self._submit(*attempts[at:at + size])
@@ -145,6 +146,13 @@ class Dispatch:
                 future.cancel()
                 LOGGER.info("run %s: the workers it was left to are gone; submitted again", attempts[0].case.run_id)
                 self.finished.add(self._submit(*attempts))
+
+    def _threads(self) -> int:
+        """How many runs the cluster runs at once (its workers' threads; 1 if the scheduler does not say)."""
+        try:
+            return max(1, sum(self.client.nthreads(callback_timeout=self.policy.answer_timeout).values()))
+        except Exception:
+            return 1
 
     def _workers(self) -> list[str]:
         return sorted(self._workers_or_none() or ())
