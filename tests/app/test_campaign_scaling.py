@@ -89,8 +89,7 @@ def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path
     from tiltload.master.app.campaign.spec import Case
 
     stored: list[list[str]] = []
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, host="127.0.0.1",
-                      dashboard_address="127.0.0.1:0") as cluster, \
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
             Client(cluster, set_as_default=False) as client:
         d = dispatch.Dispatch(client, partial(_flaky, marker=str(tmp_path / "failed-once")), lambda _: None, "here", 6, 0,
                               chunked=True, store_many=lambda results: stored.append([r["row"]["run_id"] for r in results]))

@@ -92,10 +92,20 @@ def test_a_damaged_or_edited_copy_is_unpacked_again(fmu, tmp_path, tamper):
     assert os.listdir(tmp_path) == [key]
 
 
+def _own_copy(fmu: Path, dest: Path) -> Path:
+    """The FMU with a note added: another digest, which no instance of this process (earlier tests') holds."""
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w") as out:
+        for item in src.infolist():
+            out.writestr(item, src.read(item.filename))
+        out.writestr("documentation/note.txt", str(dest))
+    return dest
+
+
 def test_two_live_instances_of_a_process_never_share_the_cached_library(fmu, tmp_path, monkeypatch):
     """The second hold of an FMU while the first is alive is a private copy (dlopen of one path is one handle, one
     set of globals); once released, the cached copy serves the next."""
     monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path))
+    fmu = _own_copy(fmu, tmp_path / "Sensors.fmu")
     first = fmu_cache.unpacked(fmu)
     second = fmu_cache.unpacked(fmu)
     try:
