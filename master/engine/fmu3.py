@@ -36,8 +36,8 @@ import numpy as np
 from fmpy.fmi3 import FMU3Slave
 
 from .errors import ExecutionError
-from .fmu_cache import unpacked
 from .fmu import fmpy_call
+from .fmu_cache import unpacked
 from .model_description import checked_value, clock_ticks, clocks_of
 from .slave import TYPES, Slave
 
