@@ -1,32 +1,43 @@
-"""Campaign throughput of the native tick loop: runs per second per worker against one run alone, for FSI and ZSE.
+"""Campaign throughput of the native tick loop on 1 and 2 workers, for FSI and ZSE, and where a campaign's time goes;
+optionally the code of another commit measured side by side (--before main).
 
-For each scenario (trajectory 1, mixed H2/Hinf design, 40 s per run, no log, the campaign's metrics), a campaign of
+For each scenario (trajectory 1, mixed H2/Hinf design, --stop s per run, no log, the campaign's metrics) a campaign of
 --runs seeds runs on the project's campaign runner (master/app/campaign/runner.py: a Dask LocalCluster of 1, then 2
-worker processes, one thread each). Its rate counts from the first submission to the last result (the cluster's start
-and stop apart, printed). One run alone is the mean wall time of the same cases run one after the other in this process
-(warm, as a worker runs them: the FMUs instantiated once, fmi2Reset between runs), measured right before and right after
-each campaign (a shared machine's load drifts). Parallel efficiency = (runs per second per worker) x (one run's wall
-time): 1.0 when N workers each keep the pace of one run alone. The machine and its load are printed: on a machine other
-work is using, efficiency on 2 workers says more about that work than about the runner.
+worker processes, one thread each). Each measurement is a fresh Python process (the code under test imported from its
+tree), so the trees and worker counts are measured alike, taken in turn (a shared machine's load drifts):
 
-Run: python benchmarks/campaign_native.py [--runs 16] [--stop 40] [--workers 1 2] [--quick]
+- serial: the same cases run one after the other in that process (warm: the FMUs instantiated once and reset between
+  runs, a warm-up run apart), before and after the campaign; `serial` = N x the mean wall time of such a run;
+- wall: the campaign's seconds from the first submission to the last result (the cluster's start and stop apart);
+- parallel efficiency = serial / (workers x wall): 1.0 when N workers each keep the pace of one process alone.
+
+And where the time went, measured by wrapping the runner's task and the engine's Execution.run (the same probe on
+every tree): per run, the worker's CPU inside Execution.run (the simulation) against its task's other CPU (FMU
+unpack, instantiation or reset, metrics); each worker's timeline (before its first run, between runs: Dask's
+messages, (de)serialization; after its last); the worker processes' CPU outside the runs; the client process's CPU
+(its main thread: dispatch and the Parquet parts; its other threads: the LocalCluster's scheduler and Dask's
+comms); the machine's busy CPU over the campaign (/proc/stat), ours and others'. Load-independent figures: the
+workers' busy fraction = sum of in-simulation CPU / (workers x wall), and the CPU per run (all our processes).
+
+Run: python benchmarks/campaign_native.py [--runs 48] [--stop 40] [--workers 1 2] [--before main] [--quick]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
+import sys
 import tempfile
+import threading
 import time
+import tomllib
 from dataclasses import asdict
 from pathlib import Path
 
-import pyarrow.parquet as pq
-from tiltload.master.app.campaign import runner
-from tiltload.master.app.campaign.run_case import run_case
-from tiltload.master.app.campaign.spec import load
-from tiltload.master.app.fmus import build_all
-from timing import machine
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
 
 SPEC = """
 name = "native-{scenario}"
@@ -40,84 +51,259 @@ seeds = [{seeds}]
 """
 
 
-def spec_file(folder: Path, scenario: str, stop: float, runs: int) -> Path:
-    path = folder / f"{scenario}.toml"
-    path.write_text(SPEC.format(scenario=scenario, stop=stop, seeds=", ".join(str(s) for s in range(1, runs + 1))))
-    return path
+# ---- the probe: runs in the measuring process and in its workers (imported there by name: campaign_native) --------
+
+def _patch_execution() -> None:
+    """Execution.run timed into class attributes (CPU of this thread, wall): the simulation's own cost."""
+    from tiltload.master.engine.execution import Execution
+
+    if getattr(Execution, "_probe_cpu", None) is not None:
+        return
+    run = Execution.run
+
+    def timed_run(self, stop, realtime=None):
+        c, w = time.thread_time(), time.perf_counter()
+        try:
+            return run(self, stop, realtime)
+        finally:
+            Execution._probe_cpu += time.thread_time() - c
+            Execution._probe_wall += time.perf_counter() - w
+    Execution._probe_cpu, Execution._probe_wall = 0.0, 0.0
+    Execution.run = timed_run
 
 
-def one_run_alone(spec: Path, fmus: Path, n: int) -> float:
-    """Mean wall time of n of the campaign's cases run one after the other here, after one warm-up run; each must
-    complete (a failed run would be fast and mean nothing)."""
+def probed_run_case(*args, **kwargs):
+    """The runner's task, with what it cost: its outcome plus "_probe" (pid, start/end epoch, CPU in and around the
+    simulation, the worker process's CPU at start and end)."""
+    from tiltload.master.app.campaign import run_case as module
+    from tiltload.master.engine.execution import Execution
+
+    _patch_execution()
+    original = getattr(module, "_probe_original", module.run_case)
+    t0, c0, p0 = time.time(), time.thread_time(), time.process_time()
+    s0, sw0 = Execution._probe_cpu, Execution._probe_wall
+    result = original(*args, **kwargs)
+    if "row" in result:
+        result = {**result, "_probe": {"pid": os.getpid(), "start": t0, "end": time.time(), "cpu": time.thread_time() - c0,
+                                       "sim_cpu": Execution._probe_cpu - s0, "sim_wall": Execution._probe_wall - sw0,
+                                       "setup": result.get("setup", 0.0),
+                                       "proc0": p0, "proc1": time.process_time()}}
+    return result
+
+
+def _thread_cpu() -> dict[int, float]:
+    """CPU seconds of each thread of this process (/proc/self/task: utime + stime)."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    out = {}
+    for task in Path("/proc/self/task").iterdir():
+        try:
+            fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+            out[int(task.name)] = (int(fields[11]) + int(fields[12])) / ticks
+        except (OSError, IndexError, ValueError):
+            pass
+    return out
+
+
+def _machine_cpu() -> tuple[float, float]:
+    """(busy, all) CPU seconds of the whole machine so far (/proc/stat)."""
+    values = [int(v) for v in Path("/proc/stat").read_text().splitlines()[0].split()[1:]]
+    ticks = os.sysconf("SC_CLK_TCK")
+    return (sum(values) - values[3] - values[4]) / ticks, sum(values) / ticks
+
+
+def _serial(spec: Path, fmus: Path, n: int) -> list[tuple[float, float]]:
+    """(wall, CPU) of n of the campaign's cases run one after the other here, after one warm-up run (as a worker runs
+    them: the FMUs instantiated once, reset between runs); each must complete."""
+    from tiltload.master.app.campaign import run_case as module
+    from tiltload.master.app.campaign.spec import load
+
     c = load(spec)
-    base = {"scenario": c.scenario, "trajectory": c.trajectory, "stop_time": c.stop_time, "gusts": c.gusts,
-            "keep_metrics": list(c.keep_metrics), "faults": c.faults}  # as the runner hands them to a worker
-    cases = [asdict(case) for case in c.cases[:n + 1]]
-    walls = []
-    for k, case in enumerate(cases):
-        t0 = time.perf_counter()
-        result = run_case(base, case, str(fmus.resolve()), None)
+    run_case = getattr(module, "_probe_original", module.run_case)
+    out = []
+    for k, case in enumerate([asdict(x) for x in c.cases[:n + 1]]):
+        t0, c0 = time.perf_counter(), time.thread_time()
+        result = run_case(c.base(), case, str(fmus.resolve()), None)
         if not result["row"]["completed"]:
             raise SystemExit(f"run {case['run_id']} failed: {result['row']['error']}")
         if k:
-            walls.append(time.perf_counter() - t0)
-    return sum(walls) / len(walls)
+            out.append((time.perf_counter() - t0, time.thread_time() - c0))
+    return out
 
 
-def campaign(spec: Path, out: Path, fmus: Path, workers: int, alone_runs: int) -> dict:
-    before = one_run_alone(spec, fmus, alone_runs)
-    t0 = time.perf_counter()
-    _, counts = runner.run(spec, out, workers=workers, fmus=fmus, progress=lambda _: None)
-    total = time.perf_counter() - t0
-    after = one_run_alone(spec, fmus, alone_runs)
+def measure(spec: str, out: str, fmus: str, workers: int, alone: int) -> dict:
+    """One campaign on `workers` local workers with the probe, and the serial runs around it: the figures, a dict."""
+    from tiltload.master.app.campaign import dispatch, runner
+    from tiltload.master.app.campaign import run_case as module
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    spec_path, fmu_dir = Path(spec), Path(fmus)
+    from tiltload.master.app.fmus import build_all
+
+    build_all(fmu_dir, progress=lambda _: None)
+    module._probe_original = module.run_case
+    module.run_case = probed_run_case
+    probes, writes = [], [0, 0.0]
+    window: dict = {}
+    write_part = runner.write_part
+
+    def timed_write(folder, result):
+        t = time.perf_counter()
+        write_part(folder, result)
+        writes[0] += 1
+        writes[1] += time.perf_counter() - t
+        probes.append(result.get("_probe"))
+    runner.write_part = timed_write
+    if hasattr(runner, "write_parts"):  # a tree that writes several outcomes a part
+        write_parts = runner.write_parts
+
+        def timed_writes(folder, results):
+            t = time.perf_counter()
+            write_parts(folder, results)
+            writes[0] += 1
+            writes[1] += time.perf_counter() - t
+            probes.extend(r.get("_probe") for r in results)
+        runner.write_parts = timed_writes
+    run = dispatch.Dispatch.run
+
+    def timed_dispatch(self, cases):
+        main = threading.main_thread().native_id
+        before, machine0 = _thread_cpu(), _machine_cpu()
+        load0, t0, epoch = os.getloadavg()[0], time.perf_counter(), time.time()
+        try:
+            return run(self, cases)
+        finally:
+            wall = time.perf_counter() - t0
+            after, machine1 = _thread_cpu(), _machine_cpu()
+            spent = {tid: after[tid] - before.get(tid, 0.0) for tid in after}
+            window.update(wall=wall, epoch=epoch, client_main=spent.get(main, 0.0),
+                          client_other=sum(v for k, v in spent.items() if k != main),
+                          machine_busy=machine1[0] - machine0[0], machine_all=machine1[1] - machine0[1],
+                          load=(load0 + os.getloadavg()[0]) / 2)
+    dispatch.Dispatch.run = timed_dispatch
+    serial_before = _serial(spec_path, fmu_dir, alone)
+    _, counts = runner.run(spec_path, Path(out), workers=workers, fmus=fmu_dir, progress=lambda _: None)
+    serial_after = _serial(spec_path, fmu_dir, alone)
     if counts["failed"]:
-        raise SystemExit(f"{counts['failed']} of the campaign's runs failed: see {out / runner.RESULTS}")
-    timings = pq.read_table(out / runner.TIMINGS).to_pylist()
-    alone = (before + after) / 2
-    rate = counts["ran"] / counts["seconds"]
-    return {"workers": workers, "runs": counts["ran"], "seconds": counts["seconds"], "total": total, "rate": rate,
-            "alone": alone, "before": before, "after": after, "efficiency": rate / workers * alone,
-            "in_worker": sum(t["wall_s"] for t in timings) / len(timings),
-            # a worker's first run loads and instantiates the FMUs (its setup: about a second); the others restart them
-            "warm": _mean([t["wall_s"] for t in timings if t["setup_s"] < COLD_SETUP]),
-            "cold": _mean([t["wall_s"] for t in timings if t["setup_s"] >= COLD_SETUP])}
+        raise SystemExit(f"{counts['failed']} of the campaign's runs failed")
+    return {"workers": workers, "runs": counts["ran"], "seconds": counts["seconds"], "serial": serial_before + serial_after,
+            "probes": [p for p in probes if p], "writes": writes, **window}
 
 
-COLD_SETUP = 0.1  # s of setup above which a run is a worker's first (FMUs loaded), not a restart (a few ms)
+# ---- the orchestrator ----------------------------------------------------------------------------------------------
+
+def _tree(rev: str, folder: Path) -> Path:
+    """The commit's code, importable as `tiltload` from the returned folder (on PYTHONPATH): its files exported, and a
+    package folder that maps tiltload.* to them as its pyproject's package-dir does."""
+    src = folder / "src"
+    src.mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev], capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(src)], input=archive, check=True)
+    dirs = tomllib.loads((src / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+    shim = folder / "shim" / "tiltload"
+    shim.mkdir(parents=True)
+    for entry in (src / dirs.get("tiltload", "tiltload")).iterdir():
+        (shim / entry.name).symlink_to(entry)
+    for name, where in dirs.items():
+        if name.count(".") == 1:
+            (shim / name.split(".")[1]).symlink_to(src / where)
+    return folder / "shim"
 
 
-def _mean(values: list[float]) -> float:
+def _one(label: str, path: Path | None, spec: Path, out: Path, fmus: Path, workers: int, alone: int) -> dict:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), *([str(path)] if path else [])]))
+    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure({str(spec)!r}, {str(out)!r}, "
+            f"{str(fmus)!r}, {workers}, {alone})))")
+    # not run from the repository: its tiltload/ folder would shadow the tree under test
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=str(out.parent))
+    line = next((x for x in done.stdout.splitlines() if x.startswith("RESULT ")), None)
+    if done.returncode or line is None:
+        raise SystemExit(f"{label}: the measurement failed:\n{done.stderr[-3000:]}")
+    return json.loads(line[7:])
+
+
+def _mean(values) -> float:
+    values = list(values)
     return sum(values) / len(values) if values else float("nan")
+
+
+def report(label: str, scenario: str, r: dict) -> str:
+    n, w, wall = r["runs"], r["workers"], r["seconds"]
+    run_wall = _mean(s[0] for s in r["serial"])
+    run_cpu = _mean(s[1] for s in r["serial"])
+    serial = n * run_wall
+    probes = r["probes"]
+    sim_cpu = sum(p["sim_cpu"] for p in probes)
+    task_cpu = sum(p["cpu"] for p in probes)
+    by_worker: dict[int, list] = {}
+    for p in probes:
+        by_worker.setdefault(p["pid"], []).append(p)
+    start, last = r["epoch"], r["epoch"] + r["wall"]  # the dispatch's span
+    lead = gaps = tail = worker_cpu = in_tasks = 0.0
+    cold = []
+    for runs in by_worker.values():
+        runs.sort(key=lambda p: p["start"])
+        lead += runs[0]["start"] - start
+        gaps += sum(b["start"] - a["end"] for a, b in zip(runs, runs[1:]))
+        tail += last - runs[-1]["end"]
+        worker_cpu += runs[-1]["proc1"] - runs[0]["proc0"]
+        in_tasks += sum(p["cpu"] for p in runs)
+        cold.append((runs[0]["cpu"] - runs[0]["sim_cpu"], runs[0].get("setup", float("nan"))))
+    ours = worker_cpu + r["client_main"] + r["client_other"]
+    others = max(r["machine_busy"] - ours, 0.0)
+    cores = r["machine_all"] / r["wall"] if r["wall"] else float("nan")
+    return "\n".join([
+        f"{scenario.upper()}, {w} worker(s), {label}: {n} runs in {wall:.2f} s; serial {n} x {run_wall * 1e3:.1f} ms = "
+        f"{serial:.2f} s; parallel efficiency {serial / (w * wall):.2f}; load {r['load']:.1f}",
+        f"  workers' busy fraction (in-simulation CPU / workers x wall) {sim_cpu / (w * wall):.2f}; CPU per run: "
+        f"simulation {sim_cpu / n * 1e3:.1f} ms, the task's other {(task_cpu - sim_cpu) / n * 1e3:.2f} ms (a worker's "
+        f"first: {_mean(c for c, _ in cold) * 1e3:.0f} ms CPU, {_mean(w for _, w in cold) * 1e3:.0f} ms wall to unpack, "
+        f"load and instantiate), all our processes {ours / n * 1e3:.1f} ms (the simulation's share {sim_cpu / ours:.2f}); "
+        f"serial run in one process {run_cpu * 1e3:.1f} ms CPU",
+        f"  worker timeline (sums over {len(by_worker)} workers, of {w * wall:.2f} worker-s): in runs "
+        f"{sum(p['end'] - p['start'] for p in probes):.2f} s, before the first {lead:.2f} s, between runs {gaps:.2f} s "
+        f"({gaps / max(n - len(by_worker), 1) * 1e3:.1f} ms each), after the last {tail:.2f} s; worker processes' "
+        f"CPU outside the runs {worker_cpu - in_tasks:.2f} s",
+        f"  client process CPU: main thread {r['client_main']:.2f} s (Parquet parts {r['writes'][1]:.2f} s wall in "
+        f"{r['writes'][0]} writes), scheduler and comms threads {r['client_other']:.2f} s; machine: {r['machine_busy']:.2f} "
+        f"of {r['machine_all']:.2f} CPU-s busy ({cores:.1f} cores), ours {ours:.2f}, others' {others:.2f}"])
 
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
-    p.add_argument("--runs", type=int, default=16, help="runs per campaign (seeds 1..N), default 16")
+    p.add_argument("--runs", type=int, default=48, help="runs per campaign (seeds 1..N), default 48")
     p.add_argument("--stop", type=float, default=40.0, help="s per run, default 40")
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts, default 1 2")
-    p.add_argument("--alone", type=int, default=3, help="runs timed alone before and after each campaign, default 3")
+    p.add_argument("--alone", type=int, default=4, help="runs timed serially before and after each campaign, default 4")
     p.add_argument("--scenarios", nargs="+", choices=("fsi", "lkf", "zse"), default=["fsi", "zse"])
-    p.add_argument("--quick", action="store_true", help="6 runs of 10 s, 2 timed alone: shows the script works")
+    p.add_argument("--before", default=None, help="a commit (e.g. main) measured side by side with this tree")
+    p.add_argument("--rounds", type=int, default=1, help="times each measurement is taken (in turn), default 1")
+    p.add_argument("--quick", action="store_true", help="6 runs of 10 s, 2 timed serially: shows the script works")
     args = p.parse_args()
     runs, stop, alone = (6, 10.0, 2) if args.quick else (args.runs, args.stop, args.alone)
-    if runs < 1 or stop <= 0 or alone < 1 or min(args.workers) < 1:
-        p.error("--runs, --alone and --workers must be >= 1 and --stop > 0")
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    fmus = Path("fmus")
-    build_all(fmus, progress=lambda _: None)
-    print(f"{machine()}\n{runs} runs of {stop:g} s per campaign (trajectory 1, mixed design, seeds 1..{runs}, no log)\n")
-    with tempfile.TemporaryDirectory() as tmp:
+    if runs < 1 or stop <= 0 or alone < 1 or args.rounds < 1 or min(args.workers) < 1:
+        p.error("--runs, --alone, --rounds and --workers must be >= 1 and --stop > 0")
+    sys.path.insert(0, str(HERE))
+    from timing import machine
+
+    print(f"{machine()}\n{runs} runs of {stop:g} s per campaign (trajectory 1, mixed design, seeds 1..{runs}, no log)\n",
+          flush=True)
+    with tempfile.TemporaryDirectory() as t:
+        tmp = Path(t)
+        trees = [("this tree", None, ROOT / "fmus")]
+        if args.before:
+            rev = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", args.before], capture_output=True,
+                                 text=True, check=True).stdout.strip()
+            trees.insert(0, (f"{args.before} ({rev})", _tree(args.before, tmp / "before"), tmp / "fmus-before"))
         for scenario in args.scenarios:
-            spec = spec_file(Path(tmp), scenario, stop, runs)
+            spec = tmp / f"{scenario}.toml"
+            spec.write_text(SPEC.format(scenario=scenario, stop=stop, seeds=", ".join(str(s) for s in range(1, runs + 1))))
             for workers in args.workers:
-                r = campaign(spec, Path(tmp) / f"{scenario}-w{workers}", fmus, workers, alone)
-                print(f"{scenario.upper()}, {workers} worker(s): {r['runs']} runs in {r['seconds']:.2f} s = {r['rate']:.2f} runs/s, "
-                      f"{r['rate'] / workers:.2f} per worker; one run alone {r['alone']:.3f} s ({r['before']:.3f} before, "
-                      f"{r['after']:.3f} after) = {1 / r['alone']:.2f} runs/s; parallel efficiency {r['efficiency']:.2f}; "
-                      f"a run inside a worker {r['in_worker']:.3f} s (a worker's first, loading the FMUs, {r['cold']:.3f} s; "
-                      f"the others {r['warm']:.3f} s); with the cluster's start and stop {r['total']:.1f} s",
-                      flush=True)
-    print(f"\nload average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
+                for k in range(args.rounds):
+                    for label, path, fmus in trees:
+                        out = tmp / f"{scenario}-w{workers}-{k}-{len(label)}"
+                        print(report(label, scenario, _one(label, path, spec, out, fmus, workers, alone)), flush=True)
+                print()
+    print(f"load average at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())} (on {os.cpu_count()} cores)")
 
 
 if __name__ == "__main__":

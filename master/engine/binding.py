@@ -13,7 +13,7 @@ from pathlib import Path
 from fmpy.fmi1 import FMICallException
 
 from .errors import ExecutionError
-from .extraction import Unpacked
+from .fmu_cache import unpacked
 from .model_description import checked_value
 from .slave import Slave
 
@@ -48,14 +48,14 @@ class Binding(Slave):
     def __init__(self, name: str, path: Path, md) -> None:
         super().__init__(name, path, md)
         self._closed = False
-        self._unpacked: Unpacked | None = None
+        self._unpacked = None  # fmu_cache.Cached or extraction.Unpacked, from _load
         self._fmpy = None
 
     def _load(self, make, instantiate):
         """FMPy's object for the FMU, make(its extracted folder), instantiated by instantiate(that object). Nothing of a
         failed instantiation stays behind; the extracted copy goes with close(), or with its reaper if this process
         dies first."""
-        self._unpacked = Unpacked(self.path)
+        self._unpacked = unpacked(self.path)  # the machine's cached copy (fmu_cache.py), or a private one close() removes
         self.dir = self._unpacked.folder
         try:
             self._fmpy = make(self.dir)

@@ -243,11 +243,11 @@ def test_a_campaign_killed_half_way_finishes_only_the_missing_runs(fmus, local_r
            "--workers", "1", "--fmus", str(fmus)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 120
-    while len(list((out / "parts").glob("*.parquet"))) < 2 and time.time() < deadline:
+    while _stored(out) < 2 and time.time() < deadline:
         time.sleep(0.002)  # a run takes tens of ms: kill early, while most of the twelve are still to do
     os.killpg(proc.pid, signal.SIGKILL)  # the campaign and its cluster, at once
     proc.wait()
-    done = len(list((out / "parts").glob("*.parquet")))
+    done = _stored(out)
     assert 2 <= done < 12
     results, counts = campaign.run(spec, out, fmus=fmus, progress=lambda _: None, workers=2)
     assert counts["skipped"] == done and counts["ran"] == 12 - done
@@ -262,6 +262,16 @@ def _parts(out: Path) -> list[Path]:
     return sorted((out / "parts").glob("*.parquet"))
 
 
+def _part_rows(out: Path) -> list[dict]:
+    """The rows of the parts (a part holds a task's outcomes: one run or several)."""
+    return [row for part in _parts(out) for row in rows(part)]
+
+
+def _stored(out: Path) -> int:
+    """How many runs the parts hold."""
+    return len({row["run_id"] for row in _part_rows(out)})
+
+
 @pytest.mark.slow
 def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_finishes_it(fmus, local_results, tmp_path,
                                                                                            dask_cluster, capfd):
@@ -272,11 +282,11 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
     args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address]
     proc = subprocess.Popen(_cli(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cluster.env)
     deadline = time.time() + 120
-    while len(_parts(out)) < 3 and proc.poll() is None and time.time() < deadline:
+    while _stored(out) < 3 and proc.poll() is None and time.time() < deadline:
         time.sleep(0.002)  # a run takes tens of ms: the scheduler goes with most of the twelve still to do
     cluster.scheduler.kill()
     _, stderr = proc.communicate(timeout=60)
-    done = len(_parts(out))
+    done = _stored(out)
     assert proc.returncode == 1 and 3 <= done < 12
     assert stderr.strip().splitlines()[-1] == (f"tiltload: error: the scheduler at {cluster.address} went away after {done} "
                                                f"of 12 runs; rerun the same command to finish (details: {out / 'campaign.log'})")
@@ -285,8 +295,8 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
     # what Dask said is kept there (its words vary with timing: a traceback or only its error line)
     assert f"stopped after {done} of 12 runs" in log and "distributed." in log
     reference = {r["run_id"]: r for r in rows(local_results)}
-    for part in _parts(out):  # outcomes only, each the undisturbed campaign's: nothing cancelled was stored
-        row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
+    for row in _part_rows(out):  # outcomes only, each the undisturbed campaign's: nothing cancelled was stored
+        row = {k: v for k, v in row.items() if not k.startswith("_")}
         assert identical([row], [reference[row["run_id"]]])
     for worker in cluster.workers:
         cluster.stop(worker)
@@ -391,7 +401,7 @@ def test_the_runs_stop_when_the_last_worker_is_gone_for_good(fmus, local_results
 
     def kill_after_two_runs():
         deadline = time.time() + 120
-        while len(_parts(out)) < 2 and time.time() < deadline:
+        while _stored(out) < 2 and time.time() < deadline:
             time.sleep(0.002)
         worker.kill()
     killer = threading.Thread(target=kill_after_two_runs)
@@ -399,14 +409,14 @@ def test_the_runs_stop_when_the_last_worker_is_gone_for_good(fmus, local_results
     code = main(["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address,
                  "--worker-timeout", "2"])
     killer.join()
-    done = len(_parts(out))
+    done = _stored(out)
     line = capfd.readouterr().err.strip().splitlines()[-1]
     assert code == 1 and 2 <= done < 12
     assert line.startswith(f"tiltload: error: the scheduler at {cluster.address} has had no workers for 2 s "
                            f"(--worker-timeout) after {done} of 12 runs; start workers and rerun the same command")
     reference = {r["run_id"]: r for r in rows(local_results)}
-    for part in _parts(out):  # the run the worker took with it is not among them
-        row = {k: v for k, v in rows(part)[0].items() if not k.startswith("_")}
+    for row in _part_rows(out):  # the run the worker took with it is not among them
+        row = {k: v for k, v in row.items() if not k.startswith("_")}
         assert identical([row], [reference[row["run_id"]]])
 
 

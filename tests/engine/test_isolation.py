@@ -151,8 +151,8 @@ def test_a_failed_run_leaves_no_temporary_folder(how, misbehaving, fmus, tmp_pat
         deadline = time.time() + 60
         while not workers(proc.pid) and time.time() < deadline:
             time.sleep(0.1)
-        time.sleep(1.0)  # the master and the hung worker each hold unpacked copies
-        assert len(list(temp.iterdir())) >= 3
+        time.sleep(1.0)  # the hung worker holds a temporary copy (the loop's own FMUs: the machine's cache, fmu_cache.py)
+        assert len(list(temp.iterdir())) >= 1
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     else:

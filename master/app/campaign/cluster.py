@@ -113,18 +113,27 @@ def wait_for_workers(client, address: str, n: int, timeout: float) -> None:
                            f"{timeout:g} s for {n}, --worker-timeout): start them with: dask worker {address}") from None
 
 
+# Dask's periodic chores, on a machine whose cores the runs need: its workers sample their thread's stack every 10 ms
+# (the dashboard's profile), every process checks its event loop every 20 ms and its memory every 100 ms. Idle, that
+# was 3 % of a core per worker and 4 % for the client and scheduler; these make it a tenth (benchmarks/campaign_native.py).
+QUIET = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+         "distributed.admin.system-monitor.interval": "5s", "distributed.worker.memory.monitor-interval": "500ms"}
+
+
 def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | None = None):
     """A LocalCluster on 127.0.0.1 (its scheduler, dashboard, nannies and workers), one single-threaded worker process
     per core unless `workers` says, ready to run; and its client. scratch: the workers' local directory (the caller's
     to remove; default: Dask's temporary-directory)."""
+    import dask
     from dask.distributed import Client, LocalCluster
 
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
-                           local_directory=str(scratch) if scratch is not None else None,
-                           silence_logs=False if verbose else logging.CRITICAL)  # the workers' own logs: quiet
-    client = Client(cluster, set_as_default=False)
+    with dask.config.set(QUIET):  # the nannies hand their workers the config of this moment
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
+                               local_directory=str(scratch) if scratch is not None else None,
+                               silence_logs=False if verbose else logging.CRITICAL)  # the workers' own logs: quiet
+        client = Client(cluster, set_as_default=False)
     from .run_case import ready
 
     client.run(ready)  # each new worker imports the runs' module now: part of the start, not of the first run

@@ -1,16 +1,24 @@
 """The runs of a campaign on a Dask cluster, each until it has its outcome.
 
-- A run's outcome (a row: completed, diverged, refused input) is handed to `store` as soon as it arrives.
+- A run's outcome (a row: completed, diverged, refused input) is handed to `store` as soon as it arrives (with
+  chunks, a task's outcomes to `store_many`).
 - A failure of its environment (an FMU its worker cannot see, an import error, memory, its worker killed) is no
   outcome: the run is tried again, on a worker it has not failed on when there is one, `retries` times; then it is
   reported (Dispatch.failures), never stored.
 - A cancelled future is no outcome either: the scheduler went away (or someone cancelled the runs), and the campaign
   ends with CampaignIncomplete; what was stored stays, the same command finishes the rest.
 - A scheduler without workers for `worker_timeout` seconds (or silent that long) ends it the same way.
+
+With `chunked`, several runs go to a task (`run_chunk`): a task costs the client, the scheduler and the worker a few
+ms of messages and (de)serialization, as much as a short run's simulation. Their sizes shrink as the runs left do
+(guided self-scheduling, `chunk_sizes`): the first tasks carry several runs, the last one each, so that no worker is
+left with a long task when the others are done. A task's outcomes are stored together (`store_many`: one Parquet
+part); a run whose environment failed is tried again alone.
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from concurrent.futures import CancelledError
@@ -23,6 +31,23 @@ from .spec import Case
 
 POLL = 0.02  # s between looks at the finished futures
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
+PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
+MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
+
+
+def chunk_sizes(runs: int, workers: int) -> list[int]:
+    """Sizes of the tasks that carry `runs` runs on `workers` workers: each the runs left / (PER_WORKER x workers),
+    rounded up, at most MOST; the last ones 1."""
+    sizes, left = [], runs
+    while left > 0:
+        sizes.append(min(MOST, max(1, math.ceil(left / (PER_WORKER * max(workers, 1))))))
+        left -= sizes[-1]
+    return sizes
+
+
+def run_chunk(task: Callable[..., dict], cases: list[dict], **shared) -> list[dict]:
+    """A task of several runs, on a worker: each run's outcome, in order (task never raises: run_case)."""
+    return [task(case, **shared) for case in cases]
 
 
 @dataclass
@@ -46,13 +71,16 @@ class Dispatch:
 
     def __init__(self, client, task: Callable[[dict], dict], store: Callable[[dict], None], where: str, total: int,
                  done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
-                 shared: dict | None = None) -> None:
+                 shared: dict | None = None, chunked: bool = False,
+                 store_many: Callable[[list[dict]], None] | None = None) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
+        self.chunked = chunked  # several runs a task (chunk_sizes)
+        self.store_many = store_many  # stores a task's outcomes at once (default: store, one by one)
         self.shared = shared or {}  # keyword arguments of every run: futures of data scattered once (a snapshot)
         self.total, self.done_before = total, done_before
         self.policy = policy or Policy()
         self.say = progress or (lambda _: None)
-        self.pending: dict = {}  # future -> _Attempt (the futures must stay referenced, or Dask forgets their tasks)
+        self.pending: dict = {}  # future -> its _Attempts (the futures must stay referenced, or Dask forgets their tasks)
         self.stored = 0
         self.failed = 0  # stored rows of failed runs (data)
         self.retried = 0
@@ -66,8 +94,12 @@ class Dispatch:
         if self.client.status != "running":
             self._lost()
         started = time.perf_counter()
-        for case in cases:
-            self._submit(_Attempt(case))
+        attempts = [_Attempt(case) for case in cases]
+        sizes = chunk_sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
+        at = 0
+        for size in sizes:
+            self._submit(*attempts[at:at + size])
+            at += size
         finished = self.finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
         last_look, alone_since = time.monotonic(), None
         while not finished.is_empty():
@@ -75,8 +107,7 @@ class Dispatch:
             for future in batch:
                 if future not in self.pending:  # replaced (_look)
                     continue
-                again = self._settle(future, len(cases), started)
-                if again is not None:
+                for again in self._settle(future, len(cases), started):
                     finished.add(again)
             if batch:
                 last_look, alone_since = time.monotonic(), None
@@ -86,27 +117,42 @@ class Dispatch:
                 last_look = time.monotonic()
                 alone_since = self._look(alone_since)
 
-    def _submit(self, attempt: _Attempt):
-        """Its future; after failures of its environment, on the workers it has not failed on (any if none is left).
-        Strictly there: with a loose restriction Dask's work stealing hands it to an idle worker, the failing one."""
+    def _submit(self, *attempts: _Attempt):
+        """The future of a task of these runs (several: a chunk of first tries); a run after failures of its
+        environment goes alone, to the workers it has not failed on (any if none is left). Strictly there: with a
+        loose restriction Dask's work stealing hands it to an idle worker, the failing one."""
+        attempt = attempts[0]
         attempt.allowed = None
         if attempt.failed_on:
             attempt.allowed = frozenset(w for w in self._workers() if w not in attempt.failed_on) or None
         self._submitted += 1
         suffix = f"-try{attempt.number + 1}-{self._submitted}" if attempt.number or attempt.allowed else ""
-        future = self.client.submit(self.task, asdict(attempt.case), **self.shared, key=f"run-{attempt.case.run_id}{suffix}", pure=False,
-                                    workers=sorted(attempt.allowed) if attempt.allowed else None, allow_other_workers=False)
-        self.pending[future] = attempt
+        where = {"workers": sorted(attempt.allowed) if attempt.allowed else None, "allow_other_workers": False}
+        if len(attempts) == 1 and not self.chunked:
+            future = self.client.submit(self.task, asdict(attempt.case), **self.shared,
+                                        key=f"run-{attempt.case.run_id}{suffix}", pure=False, **where)
+        else:
+            future = self.client.submit(run_chunk, self.task, [asdict(a.case) for a in attempts], **self.shared,
+                                        key=f"runs-{attempt.case.run_id}+{len(attempts)}{suffix}", pure=False, **where)
+        self.pending[future] = attempts
         return future
 
     def _resubmit_stranded(self, workers: set[str]) -> None:
         """A run restricted to workers that are all gone would wait for ever: submitted again (not a further try)."""
-        for future, attempt in list(self.pending.items()):
-            if attempt.allowed is not None and not attempt.allowed & workers:
+        for future, attempts in list(self.pending.items()):
+            allowed = attempts[0].allowed
+            if allowed is not None and not allowed & workers:
                 del self.pending[future]
                 future.cancel()
-                LOGGER.info("run %s: the workers it was left to are gone; submitted again", attempt.case.run_id)
-                self.finished.add(self._submit(attempt))
+                LOGGER.info("run %s: the workers it was left to are gone; submitted again", attempts[0].case.run_id)
+                self.finished.add(self._submit(*attempts))
+
+    def _threads(self) -> int:
+        """How many runs the cluster runs at once (its workers' threads; 1 if the scheduler does not say)."""
+        try:
+            return max(1, sum(self.client.nthreads(callback_timeout=self.policy.answer_timeout).values()))
+        except Exception:
+            return 1
 
     def _workers(self) -> list[str]:
         return sorted(self._workers_or_none() or ())
@@ -118,9 +164,10 @@ class Dispatch:
         except Exception:
             return None
 
-    def _settle(self, future, runs: int, started: float):
-        """Store the outcome of a finished future; the future of its next try when its environment failed."""
-        attempt = self.pending.pop(future)
+    def _settle(self, future, runs: int, started: float) -> list:
+        """Store the outcomes of a finished future; the futures of the next tries of the runs whose environment
+        failed."""
+        attempts = self.pending.pop(future)
         status = future.status
         if status == "cancelled":
             self._lost(future)
@@ -129,29 +176,47 @@ class Dispatch:
             from distributed.scheduler import KilledWorker
 
             if isinstance(err, KilledWorker):  # Dask already tried it on several workers: each died under it
-                return self._environment(attempt, "its worker died each time it ran it (a crash, or out of memory)",
-                                         None, final=True)
-            return self._environment(attempt, f"{type(err).__name__}: {first_line(err)}", None)
+                return self._environments(attempts, "its worker died each time it ran it (a crash, or out of memory)",
+                                          None, final=True)
+            return self._environments(attempts, f"{type(err).__name__}: {first_line(err)}", None)
         try:
-            result = future.result()
+            results = future.result()
         except CancelledError:
             self._lost(future)
         except Exception as err:  # the outcome could not be fetched (its worker went away meanwhile)
             if self.client.status != "running":
                 self._lost(future)
-            return self._environment(attempt, f"its result could not be fetched: {first_line(err)}", None)
-        if "environment" in result:
-            return self._environment(attempt, result["environment"], result.get("worker"))
-        self.store(result)
-        self.stored += 1
-        self.failed += not result["row"]["completed"]
+            return self._environments(attempts, f"its result could not be fetched: {first_line(err)}", None)
+        if not isinstance(results, list):
+            results = [results]
+        again, outcomes = [], []
+        for attempt, result in zip(attempts, results):
+            if "environment" in result:
+                again += self._environments([attempt], result["environment"], result.get("worker"))
+            else:
+                outcomes.append(result)
+        if outcomes:
+            if self.store_many is not None:
+                self.store_many(outcomes)
+            else:
+                for result in outcomes:
+                    self.store(result)
+        for result in outcomes:
+            self.stored += 1
+            self.failed += not result["row"]["completed"]
         done = self.stored + len(self.failures)
         elapsed = time.perf_counter() - started
         others = "".join(f", {n} {what}" for n, what in ((self.retried, "retried"), (len(self.failures), "not run"))
                          if n)
-        self.say(f"  {done}/{runs} runs ({self.failed} failed{others}), {elapsed:.0f} s, "
-                 f"about {elapsed / done * (runs - done):.0f} s left")
-        return None
+        if outcomes and done:
+            self.say(f"  {done}/{runs} runs ({self.failed} failed{others}), {elapsed:.0f} s, "
+                     f"about {elapsed / done * (runs - done):.0f} s left")
+        return again
+
+    def _environments(self, attempts: list[_Attempt], line: str, worker: str | None, final: bool = False) -> list:
+        """The futures of the next tries of these runs (none for those given up)."""
+        futures = [self._environment(a, line, worker, final) for a in attempts]
+        return [f for f in futures if f is not None]
 
     def _environment(self, attempt: _Attempt, line: str, worker: str | None, final: bool = False):
         run = f"run {attempt.case.run_id} ({attempt.case.controller}, seed {attempt.case.seed})"

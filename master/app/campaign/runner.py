@@ -1,15 +1,16 @@
-"""Campaigns on Dask: every case of a spec runs as a task; each outcome is saved at once, so a rerun skips it.
+"""Campaigns on Dask: the cases of a spec run as tasks (several a task: dispatch.py); each task's outcomes are saved
+at once, so a rerun skips them.
 
 Results: <out>/results.parquet, one row per run (run id, controller, seed, the varied values, the
 metrics, completed / diverged / when / error line), ordered as the spec lists the runs, and
-<out>/timings.parquet (wall and set-up time of each run, which differ between machines). Each
-outcome is first written to <out>/parts/<run id>.parquet; `results.parquet` is assembled from the
-parts, so a campaign stopped half-way (killed, or its scheduler gone) and started again runs only
-what is missing. Only outcomes are parts: a run whose environment failed, or whose future was
-cancelled, is not (dispatch.py). Runs execute on a LocalCluster on the loopback interface, sized to
-the machine, or on an existing Dask scheduler, checked before anything is built or written
-(cluster.py). Workers must see the FMU folder (and the log folder, with logs kept) at the same
-paths. Dask's log goes to <out>/campaign.log (logs.py).
+<out>/timings.parquet (wall and set-up time of each run, which differ between machines). A task's
+outcomes are first written to a part, <out>/parts/<first run id>+<count>-<unique>.parquet (write_parts);
+`results.parquet` is assembled from the parts (a run's newest row), so a campaign stopped half-way
+(killed, or its scheduler gone) and started again runs only what is missing. Only outcomes are
+parts: a run whose environment failed, or whose future was cancelled, is not (dispatch.py). Runs
+execute on a LocalCluster on the loopback interface, sized to the machine, or on an existing Dask
+scheduler, checked before anything is built or written (cluster.py). Workers must see the FMU
+folder (and the log folder, with logs kept) at the same paths. Dask's log goes to <out>/campaign.log (logs.py).
 """
 
 from __future__ import annotations
@@ -42,25 +43,60 @@ class Options:
 
 
 def write_part(folder: Path, result: dict) -> None:
+    """One outcome as a part of its own."""
+    write_parts(folder, [result])
+
+
+def write_parts(folder: Path, results: list[dict]) -> None:
+    """Outcomes (a task's) as one part, <first run id>+<count>-<unique>.parquet: a part is never replaced, so a run
+    stored again (--retry-failed) is a newer row in a newer part; the newest row of a run is its outcome."""
+    import uuid
+
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    row = dict(result["row"])
-    row["_wall"], row["_setup"], row["_sim_time"] = result["wall"], result["setup"], result["sim_time"]
-    tmp = folder / f".{row['run_id']}.tmp"
-    pq.write_table(pa.Table.from_pylist([row]), tmp)
-    tmp.replace(folder / f"{row['run_id']}.parquet")  # a part exists only once complete
+    at = time.time_ns()
+    rows = []
+    for result in results:
+        row = dict(result["row"])
+        row["_wall"], row["_setup"], row["_sim_time"] = result["wall"], result["setup"], result["sim_time"]
+        row["_stored_at"] = at
+        rows.append(row)
+    name = f"{rows[0]['run_id']}+{len(rows)}-{uuid.uuid4().hex[:8]}"
+    tmp = folder / f".{name}.tmp"
+    pq.write_table(pa.Table.from_pylist(rows), tmp)
+    tmp.replace(folder / f"{name}.parquet")  # a part exists only once complete
+
+
+def _warm_writer() -> None:
+    """The first Parquet write imports pandas (pyarrow's metadata): a quarter of a second, paid here rather than by
+    the first outcome, while the workers wait for their next run."""
+    import io
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    pq.write_table(pa.Table.from_pylist([{"run_id": "", "_wall": 0.0}]), io.BytesIO())
+
+
+def _newest(parts: Path) -> dict[str, dict]:
+    """Each stored run's newest row (rows of older versions' parts, one run a part and no _stored_at, count as oldest)."""
+    import pyarrow.parquet as pq
+
+    newest: dict[str, dict] = {}
+    for path in parts.glob("*.parquet") if parts.is_dir() else ():
+        for row in pq.read_table(path).to_pylist():
+            old = newest.get(row["run_id"])
+            if old is None or (row.get("_stored_at") or 0) >= (old.get("_stored_at") or 0):
+                newest[row["run_id"]] = row
+    return newest
 
 
 def _stored(parts: Path, cases: list[Case], failed_too: bool) -> set[str]:
     """The run ids whose outcome is stored; with failed_too, only those that completed (the failed ones run again)."""
-    import pyarrow.parquet as pq
-
-    done = {p.stem for p in parts.glob("*.parquet")} if parts.is_dir() else set()
-    if failed_too:
-        done = {c.run_id for c in cases if c.run_id in done
-                and pq.read_table(parts / f"{c.run_id}.parquet", columns=["completed"])["completed"][0].as_py()}
-    return done
+    newest = _newest(parts)
+    ids = {c.run_id for c in cases}
+    return {rid for rid, row in newest.items() if rid in ids and (not failed_too or row["completed"])}
 
 
 def assemble(campaign: Campaign, out: Path) -> Path:
@@ -68,12 +104,8 @@ def assemble(campaign: Campaign, out: Path) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    parts = out / "parts"
-    rows = []
-    for case in campaign.cases:
-        path = parts / f"{case.run_id}.parquet"
-        if path.is_file():
-            rows.append(pq.read_table(path).to_pylist()[0])
+    newest = _newest(out / "parts")
+    rows = [newest[case.run_id] for case in campaign.cases if case.run_id in newest]
     results = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
     keys = list(dict.fromkeys(k for r in results for k in r))  # failed runs lack metrics: fill with null
     pq.write_table(pa.Table.from_pylist([{k: r.get(k) for k in keys} for r in results]), out / RESULTS)
@@ -119,9 +151,11 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     # temporary-directory: a folder this campaign owns and removes, not $TMPDIR
     with (campaign_log(opts.verbose) as log, tempfile.TemporaryDirectory(prefix="tiltload-campaign-") as scratch,
           dask.config.set({"temporary-directory": scratch,
-                           # every run goes to a worker at once (Dask's work stealing evens them out): a worker finishing
-                           # one starts the next it holds, with no round trip to the scheduler between runs
-                           "distributed.scheduler.worker-saturation": float("inf")})):
+                           # a worker holds its task and the next (ceil(1.1 x 1 thread) = 2): it starts the next without
+                           # a round trip to the scheduler, and the scheduler hands the rest to whichever worker is free
+                           # (with every task on a worker at once, as before chunks, the ends of the queues differed by
+                           # a chunk until work stealing moved it: benchmarks/campaign_native.py)
+                           "distributed.scheduler.worker-saturation": 1.1})):
         client = cluster = None
         if scheduler is not None:
             parse(scheduler)  # a malformed address is refused even with nothing to run
@@ -156,9 +190,11 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 shared = {}
                 if campaign.snapshot is not None:  # to every worker once, not with every run
                     shared["snapshot"] = client.scatter(campaign.snapshot.read_bytes(), broadcast=True, hash=False)
+                _warm_writer()
                 dispatch = Dispatch(client, task, partial(write_part, out / "parts"), where, len(campaign.cases),
                                     len(campaign.cases) - len(todo),
-                                    Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say, shared)
+                                    Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say, shared,
+                                    chunked=True, store_many=partial(write_parts, out / "parts"))
                 started = time.perf_counter()
                 try:
                     dispatch.run(todo)

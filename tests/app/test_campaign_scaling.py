@@ -1,0 +1,100 @@
+"""What makes campaigns scale keeps their results: FMUs reset between runs give the rows fresh instances give, bit
+for bit; several runs a task, their sizes, and a run of a task whose environment failed tried again alone."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from pathlib import Path
+
+import pytest
+from tiltload.master.app.campaign import dispatch, run_case
+from tiltload.master.app.campaign.spec import load
+
+SPEC = """
+name = "reuse"
+[base]
+scenario = "{scenario}"
+trajectory = 1
+controllers = ["mixed", "dlqr"]
+stop_time = 2.0
+[vary]
+seeds = [3, 8]
+[[vary.parameters]]
+name = "load_mass"
+targets = ["plant.m_L"]
+values = [0.05, 0.3]
+"""
+
+
+def _same(a: dict, b: dict) -> bool:
+    """Equal rows, NaN equal to NaN, floats bit for bit."""
+    return a.keys() == b.keys() and all(
+        (isinstance(x, float) and isinstance(y, float) and math.isnan(x) and math.isnan(y)) or x == y
+        for x, y in ((a[k], b[k]) for k in a))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", ["fsi", "zse"])
+def test_runs_on_reset_fmus_give_the_rows_of_fresh_instances_bit_for_bit(fmus, tmp_path, scenario):
+    spec = tmp_path / "reuse.toml"
+    spec.write_text(SPEC.format(scenario=scenario))
+    campaign = load(spec)
+    base, cases = campaign.base(), [asdict(c) for c in campaign.cases]
+    order = cases[::-1] + cases  # each case after a different one: the reset leaves nothing of the run before
+    reused = []
+    run_case._EXECUTIONS.clear()
+    for case in order:
+        reused.append(run_case.run_case(base, case, str(fmus), None)["row"])
+    assert len(run_case._EXECUTIONS) == 2  # one execution per structure (controller), restarted for every other run
+    fresh = []
+    for case in order:
+        for execution in run_case._EXECUTIONS.values():
+            execution.close()
+        run_case._EXECUTIONS.clear()  # instantiated anew for this run
+        fresh.append(run_case.run_case(base, case, str(fmus), None)["row"])
+    for execution in run_case._EXECUTIONS.values():
+        execution.close()
+    run_case._EXECUTIONS.clear()
+    assert all(r["completed"] for r in fresh)
+    assert all(_same(a, b) for a, b in zip(reused, fresh))
+    assert all(_same(a, b) for a, b in zip(reused[:len(cases)][::-1], reused[len(cases):]))  # and each run twice alike
+
+
+@pytest.mark.parametrize("runs, workers", [(1, 1), (12, 1), (48, 2), (1000, 2), (7, 8)])
+def test_chunks_shrink_to_single_runs_and_carry_every_run_once(runs, workers):
+    sizes = dispatch.chunk_sizes(runs, workers)
+    assert sum(sizes) == runs and all(1 <= s <= dispatch.MOST for s in sizes)
+    assert sizes == sorted(sizes, reverse=True) and sizes[-1] == 1
+    left = runs
+    for s in sizes:  # no task carries more than its share of what is left
+        assert s <= max(1, math.ceil(left / (dispatch.PER_WORKER * workers)))
+        left -= s
+    assert len(sizes) < runs or runs <= dispatch.PER_WORKER * workers
+
+
+def _flaky(case: dict, marker: str) -> dict:
+    """An outcome; for run r0, the first time, its environment's failure."""
+    if case["run_id"] == "r0" and not Path(marker).exists():
+        Path(marker).touch()
+        return {"environment": "no FMU here", "worker": None}
+    return {"row": {"run_id": case["run_id"], "completed": True}, "wall": 0.0, "setup": 0.0, "sim_time": 1.0}
+
+
+@pytest.mark.slow
+def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path):
+    from functools import partial
+
+    from dask.distributed import Client, LocalCluster
+    from tiltload.master.app.campaign.spec import Case
+
+    stored: list[list[str]] = []
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        d = dispatch.Dispatch(client, partial(_flaky, marker=str(tmp_path / "failed-once")), lambda _: None, "here", 6, 0,
+                              chunked=True, store_many=lambda results: stored.append([r["row"]["run_id"] for r in results]))
+        d.run([Case(f"r{i}", "mixed", i, {}, {}) for i in range(6)])
+    assert dispatch.chunk_sizes(6, 1) == [2, 1, 1, 1, 1]  # r0 and r1 a task, then one a task
+    assert sorted(r for part in stored for r in part) == [f"r{i}" for i in range(6)]
+    assert ["r1"] in stored and ["r0"] in stored  # r1 stored with its task, r0 after its second try, alone
+    assert d.retried == 1 and d.stored == 6 and not d.failures
