@@ -64,7 +64,7 @@ def native(pipeline_fmus) -> dict[str, Path]:
 @pytest.fixture
 def opened():
     """open_(fmu path, instance name) -> an FMPy session, closed after the test."""
-    from support.fmu_session import Session
+    from support.fmi2_session import Session
 
     sessions = []
 

@@ -11,7 +11,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from support.fmu_session import wrap_misbehaving
+from support.fmi2_session import wrap_misbehaving
 from tiltload.master.app.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]

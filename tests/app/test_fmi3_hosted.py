@@ -7,8 +7,8 @@ from __future__ import annotations
 import re
 
 import pytest
+from support.fmi2_session import foreign_copy
 from support.fmi3_misbehaving import misbehaving_fmi3
-from support.fmu_session import foreign_copy
 from support.remote import ServerProcess, token_file
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import fmu_folder, is_foreign

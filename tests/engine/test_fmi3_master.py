@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from support import HOSTS, T
 from support.fmi3_plan import host_plan
-from support.fmu3_session import Session3
+from support.fmi3_session import Session3
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import connections
 from tiltload.master.engine import system as sysdesc

@@ -9,7 +9,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from support.fmu_session import foreign_copy, wrap_misbehaving
+from support.fmi2_session import foreign_copy, wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics

@@ -10,7 +10,7 @@ import time
 import zipfile
 
 import pytest
-from support.fmu_session import wrap_misbehaving
+from support.fmi2_session import wrap_misbehaving
 from support.remote import Namespace, ServerProcess, board_copy, connect, netns_available, token_file
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine.binaries import library_member

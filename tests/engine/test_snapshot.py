@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
-from support.fmu_session import foreign_copy
+from support.fmi2_session import foreign_copy
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics

@@ -14,7 +14,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 from support import HOSTS, T
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.controller_fmu.design import feedforward as ff
 from tiltload.controller_fmu.fmu.build import bundle
 from tiltload.controller_fmu.reference.runtime import ControllerRuntime

@@ -16,7 +16,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import fmi3Float64, fmi3IntervalQualifier, fmi3UInt64, fmi3ValueReference
 from fmpy.validation import validate_fmu
 from support import T
-from support.fmu3_session import Session3, session3
+from support.fmi3_session import Session3, session3
 from tiltload.controller_fmu.fmu.build import TC
 from tiltload.sensor_fmu.fmu_variables import channel_names
 from tiltload.sensor_fmu.suite import GROUPS

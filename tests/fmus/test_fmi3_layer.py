@@ -15,7 +15,7 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 from support import T
-from support.fmu3_session import Session3, session3
+from support.fmi3_session import Session3, session3
 from tiltload.native_fmu.package import fmi_header_dir
 
 LOOP = ("TiltloadPlant", "TiltloadSensors", "TiltloadScenario", "TiltloadController")

@@ -9,7 +9,7 @@ from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 from support import TUMBLE, T
 from support import physics_oracle as ref
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.plant_fmu import codegen
 from tiltload.plant_fmu import parameters as P
 from tiltload.plant_fmu.interface import STATE_NAMES

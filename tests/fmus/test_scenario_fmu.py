@@ -12,7 +12,7 @@ import pytest
 from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
 from support import trajectory_oracle as ref_traj
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.master.app.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
 from tiltload.plant_fmu.trim import hover_trim

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from support import TUMBLE, T
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.plant_fmu import parameters as P
 from tiltload.plant_fmu.interface import STATE_NAMES
 from tiltload.plant_fmu.parameters import default_vector

@@ -1,4 +1,4 @@
-"""Helpers of the test suite: FMU sessions on FMPy (fmu_session), independent references (physics_oracle,
+"""Helpers of the test suite: FMU sessions on FMPy (fmi2_session), independent references (physics_oracle,
 trajectory_oracle), a third-party controller FMU, C and Python hosts (hosts/), old logs (data/)."""
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.formation import dualquat as dq
 from tiltload.formation import kinematics as kin
 from tiltload.master.engine import log_reader

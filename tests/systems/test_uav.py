@@ -8,7 +8,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from support import ROOT
 from support import physics_oracle as ref
-from support.fmu_session import session
+from support.fmi2_session import session
 from tiltload.master.app.cli import main
 from tiltload.master.engine import log_reader
 from tiltload.plant_fmu.trim import hover_trim

@@ -20,7 +20,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import fmi2Terminated
 from fmpy.validation import validate_fmu
 from support import HOSTS, NATIVE, TUMBLE, T
-from support.fmu_session import Session, session
+from support.fmi2_session import Session, session
 from tiltload.plant_fmu.interface import STATE_NAMES
 from tiltload.sensor_fmu.fmu_variables import channel_names
 from tiltload.sensor_fmu.suite import GROUPS
