@@ -6,7 +6,7 @@
    line) and set with the FMU's own fmi2Set<type>; then fmi2DoStep(t_k, n T) and fmi2Get<type> of its
    outputs. At the end of a tick every instance's outputs enter its delay line. An FMI 3.0 FMU the kernel
    calls through its fmi3 functions; one with clocks goes through Event Mode at the ticks that need one
-   (tl_clocks below). Instances the kernel cannot call directly (an FMU in a worker process or on another
+   (tl_clocks below), and a Scheduled Execution one has its due partitions activated in rank order instead. Instances the kernel cannot call directly (an FMU in a worker process or on another
    machine) are stepped by a callback into Python; manipulators (faults) are callbacks too, before the inputs are set and after the outputs
    are read. Every step can be recorded (its outputs copied into the instance's record rows) for the
    observers, which read the records after the call. The caller owns every array; the kernel keeps no
