@@ -1,10 +1,10 @@
 """The twelve reproduction cases with the Scheduled Execution controller, beside the co-simulation clocked one.
 
 For each case (full length, seed 1): our master with TiltloadControllerClocked, our master with TiltloadControllerSE
-(the Python scheduler path, master/engine/fmi3_scheduled.py), and the C host tests/support/hosts/fmi3_se_host.c
-(written from the standard) with TiltloadControllerSE. Printed: whether the SE runs' metrics (master) and plant
-trajectory (C host, every tick, all 20 states) are the same bits as the clocked run's, the wall time of each, and
-the C host's CPU time. Exit 1 if any case differs.
+(scheduled by the C tick loop, master/engine/native/tl_loop.c; benchmarks/fmi3.py runs the Python path too), and the
+C host tests/support/hosts/fmi3_se_host.c (written from the standard) with TiltloadControllerSE. Printed: whether
+the SE runs' metrics (master) and plant trajectory (C host, every tick, all 20 states) are the same bits as the
+clocked run's, the wall time of each, and the C host's CPU time. Exit 1 if any case differs.
 
 Run: python benchmarks/fmi3_scheduled.py [FMU3_FOLDER]   (default: the FMI 3.0 FMUs built into a temporary folder)
 """

@@ -10,7 +10,9 @@ fmi3DoStep; it activates the partitions due at k one after the other, in the ord
     -> fmi3ActivateModelPartition(clock, t) -> get the outputs it clocks
 
 This path never preempts (one partition runs at a time, to its end); the preemption lock callbacks it hands the FMU
-count the calls and check that they balance. The C tick loop steps it through its Python callback.
+count the calls and check that they balance. The C tick loop runs this same sequence itself (native/clocks.py,
+tl_loop.c's activate_partitions), reading the lock count the callbacks keep; do_step here is the path of the loop's
+Python callback (asked for, to hold the two side by side).
 """
 
 from __future__ import annotations
@@ -37,20 +39,23 @@ class Fmu3ScheduledSlave(Fmu3Slave):
     """One instantiated FMI 3.0 Scheduled Execution FMU; tick: the execution's, which places the activations."""
 
     scheduled = True
+    count_locks = True
 
     def _instantiate(self, md, name: str):
         self.locks = 0  # lock callbacks received
-        self._depth = 0
+        self.lock_depth = ctypes.c_int(0)  # locks held: a C int, so the C tick loop checks it after an activation
 
         def lock() -> None:
             self.locks += 1
-            self._depth += 1
+            self.lock_depth.value += 1
 
         def unlock() -> None:
-            self._depth -= 1
-        # FMPy's instantiate hands the FMU no-op lock callbacks; these count (kept on the slave: the FMU holds them)
-        self._callbacks = (fmi3LogMessageCallback(self._log_message), fmi3ClockUpdateCallback(lambda env: None),
-                           fmi3LockPreemptionCallback(lock), fmi3UnlockPreemptionCallback(unlock))
+            self.lock_depth.value -= 1
+        # FMPy's instantiate hands the FMU no-op lock callbacks; these count (kept on the slave: the FMU holds them).
+        # count_locks False (benchmarks/fmi3.py, to price them): none given, which the FMU takes as no-ops
+        locking = (fmi3LockPreemptionCallback(lock), fmi3UnlockPreemptionCallback(unlock)) if self.count_locks else \
+            (fmi3LockPreemptionCallback(), fmi3UnlockPreemptionCallback())
+        self._callbacks = (fmi3LogMessageCallback(self._log_message), fmi3ClockUpdateCallback(lambda env: None), *locking)
 
         def instantiate(fmu) -> None:
             resources = os.path.join(self.dir, "resources") + os.path.sep
@@ -70,6 +75,7 @@ class Fmu3ScheduledSlave(Fmu3Slave):
         self._activate.argtypes = [ctypes.c_void_p, ctypes.c_uint, ctypes.c_double]
         self._activate.restype = ctypes.c_int
         self._rank = {j: (k.priority, j) for j, k in enumerate(self.clocks)}
+        self.rank_order = sorted(self._rank, key=self._rank.__getitem__)  # every clock, smaller priority first
         self._order: dict[tuple[int, ...], list[int]] = {}  # due clocks -> them in priority order
 
     @property
@@ -101,6 +107,6 @@ class Fmu3ScheduledSlave(Fmu3Slave):
         self.fmi_seconds += time.perf_counter() - started
         if status > 1:
             raise self.failed(f"activateModelPartition({name}) at t={t:.6g} s", status)
-        if self._depth != 0:
-            raise ExecutionError(f"{self.name}: partition {name} returned at t={t:.6g} s with {self._depth} preemption "
-                                 "lock(s) held")
+        if self.lock_depth.value != 0:
+            raise ExecutionError(f"{self.name}: partition {name} returned at t={t:.6g} s with {self.lock_depth.value} "
+                                 "preemption lock(s) held")

@@ -406,16 +406,17 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
     assert "runtime error" not in proc.stderr and "AddressSanitizer" not in proc.stderr and "LeakSanitizer" not in proc.stderr
 
 
-def test_a_scheduled_execution_slave_keeps_the_callback():
+def test_a_scheduled_execution_slave_takes_its_own_kernel_path():
     """It is an Fmu3Slave (it reuses the clocked slave's staging) but runs partitions, no Event Mode and no step: the
-    kernel must not take it for a clocked co-simulation FMU."""
+    kernel must not take it for a clocked co-simulation FMU, and says so in its path."""
     from tiltload.master.engine.fmi3 import Fmu3Slave
     from tiltload.master.engine.fmi3_scheduled import Fmu3ScheduledSlave
     from tiltload.master.engine.native.loop import path_of
 
     scheduled, clocked = object.__new__(Fmu3ScheduledSlave), object.__new__(Fmu3Slave)
     scheduled.clocked = clocked.clocked = True
-    assert path_of(scheduled) == "callback: Scheduled Execution" and path_of(clocked) == "kernel: FMI 3.0 with clocks"
+    assert path_of(scheduled) == "kernel: FMI 3.0 Scheduled Execution"
+    assert path_of(clocked) == "kernel: FMI 3.0 with clocks"
 
 
 def test_the_kernel_s_event_mode_makes_the_calls_fmi3_py_makes(tmp_path, monkeypatch):

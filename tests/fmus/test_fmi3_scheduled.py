@@ -163,31 +163,99 @@ def test_the_se_controller_refuses_co_simulation(se_fmu, fmi3_set, tmp_path):
     assert any("is a Scheduled Execution FMU only (fmi3InstantiateScheduledExecution)" in m for m in log)
 
 
-# ---- our master as its scheduler (the Python path: master/engine/fmi3_scheduled.py) ---------------------------------
-def test_our_master_schedules_the_se_controller_as_it_runs_the_clocked_one_bit_for_bit(fmi3_set, se_fmu):
-    """The loop with the SE controller in place of the clocked one: the plant's trajectory the same bits; each
-    partition activated exactly at its clock's ticks (the GPS every 10th, the camera every 2nd, the law every tick)."""
-    clocked = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
-    scheduled = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
-    scheduled.instance("controller").fmu = se_fmu
-    ticks = round(2.0 / T)
+# ---- our master as its scheduler: the C tick loop's path (tl_loop.c) and the Python one (fmi3_scheduled.py) ----------
+def _se_system(folder: Path, se_fmu: Path, case=("zse", 1, "mixed")):
+    system = default_system(folder, *case, SEED, fmi=3, clocked=True)
+    system.instance("controller").fmu = se_fmu
+    return system
+
+
+def _se_run(system, ticks: int, path: str, before=lambda ex: None):
+    """Our master with the SE controller, scheduled by the C tick loop ("kernel") or through its Python callback
+    ("python"): every instance's Real outputs after every step, the activations, the lock count, the paths."""
+    from tiltload.master.engine.native.loop import NativeLoop
+
     rec = Record()
-    ex = Execution(scheduled, [rec])
+    ex = Execution(system, [rec])
     try:
         ex.instantiate()
+        if path == "python":
+            ex.loop = NativeLoop(ex, by_callback={"controller"})
+        before(ex)
         ex.run(ticks * T)
         slave = ex.instances["controller"]
-        activations, locks = dict(slave.activations), slave.locks
+        return rec.rows, dict(slave.activations), slave.locks, dict(ex.loop.paths)
     finally:
         ex.close()
-    md = read_fmu(fmi3_set / "TiltloadPlant.fmu", "plant")
+
+
+def _same_three_ways(folder: Path, se_fmu: Path, case, ticks: int) -> dict:
+    """The SE controller on the C path and on the Python path against the clocked co-simulation controller: the plant's
+    20 states at every tick; the two SE paths: every instance's outputs, the activations, the lock callbacks."""
+    kernel = _se_run(_se_system(folder, se_fmu, case), ticks, "kernel")
+    python = _se_run(_se_system(folder, se_fmu, case), ticks, "python")
+    assert kernel[3]["controller"] == "kernel: FMI 3.0 Scheduled Execution"
+    assert python[3]["controller"] == "callback: asked for"
+    md = read_fmu(folder / "TiltloadPlant.fmu", "plant")
     outputs = [v.name for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
-    ours = np.array(rec.rows["plant"])[:, [outputs.index(n) for n in STATE_NAMES]]
-    assert np.array_equal(ours, _ours(clocked, ticks, fmi3_set))
+    states = np.array(kernel[0]["plant"])[:, [outputs.index(n) for n in STATE_NAMES]]
+    assert np.array_equal(states, _ours(default_system(folder, *case, SEED, fmi=3, clocked=True), ticks, folder))
+    for name, rows in kernel[0].items():
+        assert np.array_equal(np.array(rows), np.array(python[0][name])), name
+    assert kernel[1:3] == python[1:3]
+    return kernel[1]
+
+
+def test_our_master_schedules_the_se_controller_on_both_paths_as_it_runs_the_clocked_one_bit_for_bit(fmi3_set, se_fmu):
+    """The loop with the SE controller in place of the clocked one, its partitions activated by the C tick loop and by
+    the Python path: the plant's trajectory the clocked run's bits; each partition activated exactly at its clock's
+    ticks (the GPS every 10th, the camera every 2nd, the law every tick); the lock callbacks called alike."""
+    ticks = round(2.0 / T)
+    activations = _same_three_ways(fmi3_set, se_fmu, ("zse", 1, "mixed"), ticks)
     every = {"gps_clock": 10, "cam_xy_clock": 2, "cam_z_clock": 2, "control_clock": 1, "baro_clock": 1}
     for clock, n in every.items():
         assert activations[clock] == list(range(0, ticks, n)), clock
-    assert locks > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", CASES, ids=[case_name(*c) for c in CASES])
+def test_the_twelve_cases_with_the_se_controller_on_both_paths_equal_the_clocked_runs_bit_for_bit(fmi3_set, se_fmu, case):
+    """Every reproduction case at its full length (the thesis's ch. 5), seed 1."""
+    _same_three_ways(fmi3_set, se_fmu, case, round(default_stop(case[1]) / T))
+
+
+def _failure(fmi3_set, se_fmu, path: str, before) -> str:
+    from tiltload.master.engine.errors import ExecutionError
+
+    with pytest.raises(ExecutionError) as caught:
+        _se_run(_se_system(fmi3_set, se_fmu), 3, path, before)
+    return str(caught.value)
+
+
+def test_a_refused_activation_ends_the_run_in_the_same_line_on_both_paths(fmi3_set, se_fmu):
+    """The GPS partition activated at t = 0 before the run: the loop's own activation at t = 0 is a repeat, which the
+    FMU refuses (fmi3Error); the C loop stops with the line the Python path says, the FMU's reason in it."""
+    def activate_gps(ex) -> None:
+        slave = ex.instances["controller"]
+        gps = next(k for k in slave.clocks if k.name == "gps_clock")
+        assert slave._activate(slave.component, gps.value_reference, 0.0) == 0
+
+    kernel = _failure(fmi3_set, se_fmu, "kernel", activate_gps)
+    assert kernel == _failure(fmi3_set, se_fmu, "python", activate_gps)
+    assert kernel.startswith("controller: activateModelPartition(gps_clock) at t=0 s failed (")
+    assert "\n" not in kernel
+
+
+def test_a_partition_returning_with_a_lock_held_ends_the_run_on_both_paths(fmi3_set, se_fmu):
+    """One lock counted as held before the run (as a partition that locked and never unlocked would leave it): the
+    first partition to return is caught, in the same line on both paths."""
+    def hold_a_lock(ex) -> None:
+        ex.instances["controller"].lock_depth.value = 1
+
+    kernel = _failure(fmi3_set, se_fmu, "kernel", hold_a_lock)
+    assert kernel == _failure(fmi3_set, se_fmu, "python", hold_a_lock)
+    first = min(read_fmu(se_fmu, "controller").clocks, key=lambda k: k.priority).name  # ties: the first declared
+    assert kernel == f"controller: partition {first} returned at t=0 s with 1 preemption lock(s) held"
 
 
 def test_a_se_fmu_runs_in_this_process_only(se_fmu):

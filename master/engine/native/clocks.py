@@ -8,6 +8,11 @@ after every step, each clock's at its ticks). The clocked outputs are held in th
 initialization, snapshots and restored states see what the kernel read. The state between steps (in the Event Mode
 after initialization, an event asked for, the next event time) goes into the plan before each call and back into
 the slave after it, with the clock ticks the call activated. The function pointers are looked up once, here.
+
+A Scheduled Execution slave (fmi3_scheduled.py) gets the same plan with its partitions' rank order (computed once:
+a due set's order is the total order with the clocks not due left out) and fmi3ActivateModelPartition: the kernel
+then activates the due partitions instead of Event Mode and fmi3DoStep, and checks after each that the slave's lock
+callbacks (Python ctypes callbacks, counting into a C int the kernel reads) hold no lock.
 """
 
 from __future__ import annotations
@@ -35,8 +40,9 @@ class ClockedPlan:
         self._keep: list = []
         c = self.c = kernel.Clocks(max_iterations=MAX_EVENT_ITERATIONS)
         dll = slave.fmu.dll
-        c.enter_event_mode, c.enter_step_mode = _function(dll, "fmi3EnterEventMode"), _function(dll, "fmi3EnterStepMode")
-        c.set_clock, c.update_discrete_states = _function(dll, "fmi3SetClock"), _function(dll, "fmi3UpdateDiscreteStates")
+        if not getattr(slave, "scheduled", False):  # a Scheduled Execution FMU has no Event Mode (and need not export it)
+            c.enter_event_mode, c.enter_step_mode = _function(dll, "fmi3EnterEventMode"), _function(dll, "fmi3EnterStepMode")
+            c.set_clock, c.update_discrete_states = _function(dll, "fmi3SetClock"), _function(dll, "fmi3UpdateDiscreteStates")
         n = len(slave.schedule)
         c.n_clocks = n
         c.clock_vrs = self._array(ctypes.c_uint, [slave.clocks[j].value_reference for j, *_ in slave.schedule])
@@ -58,6 +64,10 @@ class ClockedPlan:
         c.n_reads, c.reads = len(reads), self.reads
         clocks = [r.clock for r in reads]
         c.read_first = self._array(ctypes.c_int, [sum(k < j for k in clocks) for j in range(-1, n + 1)])
+        if getattr(slave, "scheduled", False):
+            c.activate = _function(dll, "fmi3ActivateModelPartition")
+            c.order = self._array(ctypes.c_int, slave.rank_order)
+            c.lock_depth = ctypes.addressof(slave.lock_depth)
 
     def _array(self, ctype, values) -> int:
         array = (ctype * max(len(values), 1))(*values)

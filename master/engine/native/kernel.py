@@ -78,7 +78,8 @@ class Clocks(ctypes.Structure):
                 ("event_asked", ctypes.c_int), ("next_event_defined", ctypes.c_int), ("next_event", ctypes.c_double),
                 ("due", ctypes.c_void_p), ("due_vrs", ctypes.c_void_p), ("due_on", ctypes.c_void_p),
                 ("activation_capacity", ctypes.c_int64), ("activations", ctypes.c_int64),
-                ("activation_clock", ctypes.c_void_p), ("activation_tick", ctypes.c_void_p)]
+                ("activation_clock", ctypes.c_void_p), ("activation_tick", ctypes.c_void_p),
+                ("activate", ctypes.c_void_p), ("order", ctypes.c_void_p), ("lock_depth", ctypes.c_void_p)]
 
 
 class Instance(ctypes.Structure):

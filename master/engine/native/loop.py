@@ -4,10 +4,10 @@ The plan points at the arrays the engine already has: each slave's output arrays
 fills), each connection group's value-reference and value arrays, the delay line; so Python and C
 read and write the same memory, and a manipulator (a fault) that the kernel calls back acts on the
 same values it did when Python stepped. An FMU in this process the kernel calls itself: FMI 2.0 through its fmi2
-functions, FMI 3.0 co-simulation through its fmi3 ones, with clocks through Event Mode as well (clocks.py plans it).
+functions, FMI 3.0 co-simulation through its fmi3 ones, with clocks through Event Mode as well (clocks.py plans it),
+and a Scheduled Execution FMU as the scheduler of its partitions (the same plan, with their rank order).
 The Python callback steps a slave hosted elsewhere (a worker process of its own, a `tiltload serve`: its calls are
-messages to its host, where the in-process slave runs them) and a Scheduled Execution FMU (its partitions are
-activated by fmi3_scheduled.py). `paths` says which each instance takes.
+messages to its host, where the in-process slave runs them). `paths` says which each instance takes.
 After each call the kernel's records of every step are handed to the observers as one Batch.
 """
 
@@ -43,19 +43,19 @@ class _EventQueue:
 
 
 def _native_fmi3(slave) -> bool:
-    """An FMI 3.0 co-simulation FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event
-    Mode too). A Scheduled Execution one (fmi3_scheduled.py: partitions activated, no step) keeps the callback."""
-    return isinstance(slave, Fmu3Slave) and not getattr(slave, "scheduled", False)
+    """An FMI 3.0 FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event Mode too; a
+    Scheduled Execution one's partitions, fmi3_scheduled.py's sequence)."""
+    return isinstance(slave, Fmu3Slave)
 
 
 def path_of(slave) -> str:
     """How the loop steps this slave (NativeLoop.paths): the kernel's own calls, or the callback and why."""
     if _native_fmi3(slave):
+        if getattr(slave, "scheduled", False):
+            return "kernel: FMI 3.0 Scheduled Execution"
         return "kernel: FMI 3.0 with clocks" if slave.clocked else "kernel: FMI 3.0"
     if isinstance(slave, InProcessFmu):
         return "kernel: FMI 2.0"
-    if getattr(slave, "scheduled", False):
-        return "callback: Scheduled Execution"
     host = getattr(slave, "host", None)  # isolation.process.IsolatedFmu: a worker process, or a remote host's `where`
     if host is not None:
         return f"callback: {getattr(host, 'where', 'worker process')}"
@@ -114,7 +114,8 @@ class NativeLoop:
                 c.do_step = slave.function_pointer("fmi2DoStep")
             elif fmi3:
                 c.component = slave.component
-                c.do_step3 = _fmi3_function(slave, "fmi3DoStep")
+                if not getattr(slave, "scheduled", False):  # no fmi3DoStep in Scheduled Execution
+                    c.do_step3 = _fmi3_function(slave, "fmi3DoStep")
 
             history, record = {}, {}
             for t, typ in enumerate(TYPES):
@@ -328,6 +329,8 @@ class NativeLoop:
             return err if err is not None else RuntimeError("a callback of the tick loop failed")
         slave, t = self.slaves[p.error_instance], p.error_time
         name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
+        if getattr(slave, "scheduled", False) and p.error_kind in (2, 3, 13, 14, 15):  # worded as fmi3_scheduled.py's
+            return self._scheduled_error(slave, p.error_kind, t)
         if p.error_kind == 1:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
         if p.error_kind == 2:
@@ -347,6 +350,21 @@ class NativeLoop:
             clock = slave.clocks[p.error_group].name
             return slave.failed(f"get{name(TYPES[p.error_type])} of {clock}'s outputs at t={t:.6g} s", p.error_status)
         return slave.failed(f"get{name(TYPES[p.error_type])}", p.error_status)
+
+    def _scheduled_error(self, slave, kind: int, t: float) -> BaseException:
+        p = self.plan
+        if kind == 2:
+            group = self.ex.groups[self.names[p.error_instance]][p.error_group]
+            return slave.failed(f"set{FMI3_NAME[group.type]} at t={t:.6g} s", p.error_status)
+        if kind == 3:
+            return slave.failed("get", p.error_status)
+        if kind == 13:
+            return slave.failed(f"get clocked outputs at t={t:.6g} s", p.error_status)
+        clock = slave.clocks[p.error_group].name
+        if kind == 14:
+            return slave.failed(f"activateModelPartition({clock}) at t={t:.6g} s", p.error_status)
+        return ExecutionError(f"{slave.name}: partition {clock} returned at t={t:.6g} s with {p.error_status} preemption "
+                              "lock(s) held")
 
     def delay_line(self) -> list[dict[str, np.ndarray]]:
         """The delay line's slots per instance and type (a snapshot saves them)."""

@@ -241,26 +241,31 @@ static int is_due(const tl_clocks *c, int n_due, int clock) {
     return 0;
 }
 
+/* Set one part. Returns 0, or stops the run. */
+static int set_part(tl_plan *plan, int i, tl_part *p, double t) {
+    tl_instance *in = &plan->instances[i];
+    int type = in->groups[p->group].type;
+    int status = in->set3[type](in->component, p->vrs, (size_t)p->n, p->buffer, (size_t)p->n);
+    if (status > 1) {
+        fail(plan, 2, i, status, p->group, type, t);
+        return 1;
+    }
+    if (p->kind == TL_DISCRETE) {
+        memcpy(p->applied, p->buffer, (size_t)p->n * fmu_width(type));
+        p->has_applied = 1;
+    }
+    return 0;
+}
+
 /* Set the parts of the instance whose kind is selected: unclocked (continuous; discrete too with discrete set), or
    clocked by a due clock. Returns 0, or stops the run. */
 static int set_parts(tl_plan *plan, int i, double t, int discrete, int clocked, int n_due) {
-    tl_instance *in = &plan->instances[i];
-    tl_clocks *c = in->clocks;
+    tl_clocks *c = plan->instances[i].clocks;
     for (int q = 0; q < c->n_parts; q++) {
         tl_part *p = &c->parts[q];
         int take = p->kind >= 0 ? clocked && is_due(c, n_due, p->kind)
                                 : !clocked && (p->kind == TL_CONTINUOUS || discrete);
-        if (!take) continue;
-        int type = in->groups[p->group].type;
-        int status = in->set3[type](in->component, p->vrs, (size_t)p->n, p->buffer, (size_t)p->n);
-        if (status > 1) {
-            fail(plan, 2, i, status, p->group, type, t);
-            return 1;
-        }
-        if (p->kind == TL_DISCRETE) {
-            memcpy(p->applied, p->buffer, (size_t)p->n * fmu_width(type));
-            p->has_applied = 1;
-        }
+        if (take && set_part(plan, i, p, t) != 0) return 1;
     }
     return 0;
 }
@@ -378,6 +383,37 @@ static int clocked_inputs(tl_plan *plan, int i, int64_t k, double t, int event, 
     return 0;
 }
 
+/* ---- a Scheduled Execution FMU's partitions (tl_clocks with activate) ---------------------------------------- */
+/* Its step at tick k, after clocked_event staged the inputs and found the n_due clocks due: the inputs of no clock,
+   then each due partition in rank order (its clocked inputs, its activation, its clocked outputs), then the outputs of
+   no clock. Returns 0, or stops the run. */
+static int activate_partitions(tl_plan *plan, int i, int64_t k, double t, int n_due) {
+    tl_instance *in = &plan->instances[i];
+    tl_clocks *c = in->clocks;
+    if (set_parts(plan, i, t, 1, 0, 0) != 0) return 1;
+    for (int r = 0; r < c->n_clocks && n_due > 0; r++) {
+        int j = c->order[r];
+        if (!is_due(c, n_due, j)) continue;
+        for (int q = 0; q < c->n_parts; q++)
+            if (c->parts[q].kind == j && set_part(plan, i, &c->parts[q], t) != 0) return 1;
+        int status = c->activate(in->component, c->clock_vrs[j], t);
+        if (status > 1) {
+            fail(plan, 14, i, status, j, -1, t);
+            return 1;
+        }
+        if (c->lock_depth != NULL && *c->lock_depth != 0) { /* one partition at a time: none may return locked */
+            fail(plan, 15, i, *c->lock_depth, j, -1, t);
+            return 1;
+        }
+        if (c->activations < c->activation_capacity) {
+            c->activation_clock[c->activations] = j;
+            c->activation_tick[c->activations++] = k;
+        }
+        if (read_clock(plan, i, j, t) != 0) return 1;
+    }
+    return read_clock(plan, i, -1, t);
+}
+
 /* A clocked FMU's clocked outputs after its step, as held since their clock's last tick (again each step: what a fault
    or an observer wrote into the outputs since is not the FMU's). */
 static void held_outputs(tl_instance *in) {
@@ -458,7 +494,8 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         int event = 0, n_due = 0;
         if (in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
         int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
-        int failed = call_fmu(plan, i, k, t, h, event, n_due);
+        int failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
+                                                                        : call_fmu(plan, i, k, t, h, event, n_due);
         if (plan->profile) in->seconds += (double)(profile_ns(plan->profile) - started) * 1e-9;
         if (failed) return 1;
         if (in->clocks != NULL) held_outputs(in);

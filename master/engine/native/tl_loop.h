@@ -6,7 +6,7 @@
    line) and set with the FMU's own fmi2Set<type>; then fmi2DoStep(t_k, n T) and fmi2Get<type> of its
    outputs. At the end of a tick every instance's outputs enter its delay line. An FMI 3.0 FMU the kernel
    calls through its fmi3 functions; one with clocks goes through Event Mode at the ticks that need one
-   (tl_clocks below). Instances the kernel cannot call directly (an FMU in a worker process or on another
+   (tl_clocks below), and a Scheduled Execution one has its due partitions activated in rank order instead. Instances the kernel cannot call directly (an FMU in a worker process or on another
    machine) are stepped by a callback into Python; manipulators (faults) are callbacks too, before the inputs are set and after the outputs
    are read. Every step can be recorded (its outputs copied into the instance's record rows) for the
    observers, which read the records after the call. The caller owns every array; the kernel keeps no
@@ -35,6 +35,8 @@ typedef int (*tl_mode3_fn)(void *instance); /* fmi3EnterEventMode, fmi3EnterStep
 typedef int (*tl_set_clock3_fn)(void *instance, const unsigned int *vrs, size_t n, const bool *values);
 typedef int (*tl_update3_fn)(void *instance, bool *need_update, bool *terminate, bool *nominals_changed,
                              bool *values_changed, bool *next_event_defined, double *next_event_time);
+/* FMI 3.0 Scheduled Execution: fmi3ActivateModelPartition */
+typedef int (*tl_activate3_fn)(void *instance, unsigned int clock, double t);
 /* Python callbacks: return 0 when done; any other value stops the run (the Python side keeps the reason). */
 typedef int (*tl_step_callback)(int instance, double t, double h);
 typedef int (*tl_hook_callback)(int instance, int side, double t); /* side 0: inputs about to be set, 1: outputs read */
@@ -134,6 +136,13 @@ typedef struct {
     int64_t activation_capacity, activations;
     int32_t *activation_clock;
     int64_t *activation_tick;
+    /* A Scheduled Execution FMU (activate set): no Event Mode and no fmi3DoStep. At a step: the inputs of no clock,
+       then for each due clock in rank order its clocked inputs, fmi3ActivateModelPartition(clock, t), its clocked
+       outputs; then the outputs of no clock and the held clocked ones, as above. One partition runs at a time. */
+    tl_activate3_fn activate;
+    const int *order;           /* the n_clocks clocks by rank (priority, then declaration): a due set's order is this
+                                   one with the clocks not due left out */
+    const int *lock_depth;      /* the locks the importer's lock callbacks count as held (NULL: not checked) */
 } tl_clocks;
 
 typedef struct {
@@ -183,7 +192,9 @@ typedef struct {
     /* 0 none, 1 doStep, 2 set, 3 get, 4 step callback, 5 hook callback, 6 terminateSimulation from fmi3DoStep;
        a clocked FMU's: 7 fmi3EnterEventMode, 8 fmi3SetClock, 9 fmi3UpdateDiscreteStates, 10 fmi3EnterStepMode,
        11 terminateSimulation from fmi3UpdateDiscreteStates, 12 discrete states unsettled after max_iterations
-       updates, 13 get of a clock's outputs (error_group: the clock) */
+       updates, 13 get of a clock's outputs (error_group: the clock); a Scheduled Execution FMU's: 14
+       fmi3ActivateModelPartition (error_group: the clock), 15 a partition returned with preemption locks held
+       (error_group: the clock, error_status: how many) */
     int error_kind;
     int error_instance, error_status, error_group, error_type;
     double error_time;
