@@ -165,7 +165,7 @@ def parse_entries(data, where: str) -> list[Requirement]:
 
 def load(path: Path) -> list[Requirement]:
     """A requirement file (YAML, or JSON: YAML reads it), read as every user file is (engine/user_files.py)."""
-    from master.engine.user_files import UserFileError, read_yaml
+    from .user_files import UserFileError, read_yaml
 
     try:
         data = read_yaml(Path(path), MAX_BYTES)
