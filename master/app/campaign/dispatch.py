@@ -164,6 +164,17 @@ class Dispatch:
         except Exception:
             return None
 
+    def _result(self, future):
+        """future.result(), waited for while a worker is left: Dask computes again an outcome whose worker died before
+        it was fetched, and with no worker left that wait would never end."""
+        while True:
+            try:
+                return future.result(timeout=HEALTH)
+            except TimeoutError:
+                if self.client.status != "running" or self._workers_or_none() == set():
+                    future.cancel()
+                    raise RuntimeError("its worker is gone and no worker is left to run it again") from None
+
     def _settle(self, future, runs: int, started: float) -> list:
         """Store the outcomes of a finished future; the futures of the next tries of the runs whose environment
         failed."""
@@ -180,7 +191,7 @@ class Dispatch:
                                           None, final=True)
             return self._environments(attempts, f"{type(err).__name__}: {first_line(err)}", None)
         try:
-            results = future.result()
+            results = self._result(future)
         except CancelledError:
             self._lost(future)
         except Exception as err:  # the outcome could not be fetched (its worker went away meanwhile)
