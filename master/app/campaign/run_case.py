@@ -27,7 +27,7 @@ import numpy as np
 from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
-from ...engine.observers import Metrics
+from ...engine.observers import Metrics, real_outputs
 from ...engine.requirement_observer import RequirementObserver
 from ..feasibility import check_system
 from ..fmus import is_foreign
@@ -65,7 +65,7 @@ class CampaignMetrics(Metrics):
         super().start(execution)
         plant, ctrl = self._p, self._a
         names = [v.name for v in plant.outputs["Real"]][:20]
-        ctrl_names = {v.name: i for i, v in enumerate(ctrl.outputs["Real"])}
+        ctrl_names = real_outputs(ctrl)
         self._state_index = np.arange(20)
         has_bounds = self.bounds and all(f"est_{n}_lo" in ctrl_names and f"est_{n}_hi" in ctrl_names for n in names)
         self._lo = np.array([ctrl_names[f"est_{n}_lo"] for n in names]) if has_bounds else None
