@@ -178,10 +178,10 @@ class NativeLoop:
         self.plan.hook_callback = kernel.HOOK_CALLBACK(self._hook)
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
 
-    def _binding(self) -> tuple:
-        """What the plan points into that a restart could change: the instances, their components and output arrays."""
-        return tuple((id(s), s.component, *(s.values[t].__array_interface__["data"][0] for t in TYPES))
-                     for s in (self.ex.instances.get(n) for n in self.names) if s is not None)
+    def _binding(self) -> list:
+        """What the plan points into that a restart could change: the instances, their components and output arrays
+        (the same array object holds the same memory)."""
+        return [(s, s.component, *(s.values[t] for t in TYPES)) for s in self.slaves]
 
     def _plan_faults(self, manipulator) -> None:
         """The faults' part of the plan: the kernel's own (_native_faults) and the callbacks for those Python applies."""
@@ -195,9 +195,10 @@ class NativeLoop:
     def reusable(self) -> bool:
         """Can the execution's next run use this plan (restart()) rather than a new one: the same instances, bound to
         the same arrays, nothing stepped by the callback on request, as many instances."""
-        return (not self.by_callback and [s.name for s in self.ex.system.instances] == self.names
-                and all(self.ex.instances.get(n) is s for n, s in zip(self.names, self.slaves))
-                and self._binding() == self._bound)
+        if self.by_callback or [s.name for s in self.ex.system.instances] != self.names or \
+                any(self.ex.instances.get(n) is not s for n, s in zip(self.names, self.slaves)):
+            return False
+        return all(a[1] == b[1] and all(x is y for x, y in zip(a[2:], b[2:])) for a, b in zip(self._binding(), self._bound))
 
     def _native_faults(self, manipulator, index: dict[str, int]) -> None:
         """The faults the kernel applies itself (manipulator.native_faults), one entry per target and flag."""
