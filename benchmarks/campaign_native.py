@@ -19,7 +19,12 @@ messages, (de)serialization; after its last); the worker processes' CPU outside 
 comms); the machine's busy CPU over the campaign (/proc/stat), ours and others'. Load-independent figures: the
 workers' busy fraction = sum of in-simulation CPU / (workers x wall), and the CPU per run (all our processes).
 
+First, per tree (and round, the trees in turn), a worker's per-run set-up in one process: --setup-runs of the
+campaign's cases run one after the other on one execution restarted each time, and this thread's CPU per run in
+Execution.restart (fmi2Reset/fmi3Reset, initialization, the tick loop's plan) and in the task outside Execution.run.
+
 Run: python benchmarks/campaign_native.py [--runs 48] [--stop 40] [--workers 1 2] [--before main] [--quick]
+     [--setup-runs 40] [--setup-only]
 """
 
 from __future__ import annotations
@@ -130,6 +135,41 @@ def _serial(spec: Path, fmus: Path, n: int) -> list[tuple[float, float]]:
     return out
 
 
+def measure_setup(spec: str, fmus: str, n: int) -> dict:
+    """The per-run set-up of a worker, serially here: n of the campaign's cases after a warm-up run, each on the one
+    execution restarted (as a worker runs them); per run, this thread's CPU in Execution.restart and in the task
+    outside Execution.run (describing the case, checking it, the restart, the observers' finish, the row)."""
+    from tiltload.master.app.campaign import run_case as module
+    from tiltload.master.app.campaign.spec import load
+    from tiltload.master.app.fmus import build_all
+    from tiltload.master.engine.execution import Execution
+
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    build_all(Path(fmus), progress=lambda _: None)
+    _patch_execution()
+    restart, spent = Execution.restart, []
+
+    def timed_restart(self, *args, **kwargs):
+        c = time.thread_time()
+        try:
+            return restart(self, *args, **kwargs)
+        finally:
+            spent.append(time.thread_time() - c)
+    Execution.restart = timed_restart
+    c = load(Path(spec))
+    cases = [asdict(x) for x in c.cases]
+    module.run_case(c.base(), cases[0], str(Path(fmus).resolve()), None)  # the warm-up: instantiation, imports
+    spent.clear()
+    outside = []
+    for k in range(n):
+        c0, s0 = time.thread_time(), Execution._probe_cpu
+        result = module.run_case(c.base(), cases[1 + k % (len(cases) - 1)], str(Path(fmus).resolve()), None)
+        if not result["row"]["completed"]:
+            raise SystemExit(f"run {result['row']['run_id']} failed: {result['row']['error']}")
+        outside.append(time.thread_time() - c0 - (Execution._probe_cpu - s0))
+    return {"restart": spent, "outside": outside}
+
+
 def measure(spec: str, out: str, fmus: str, workers: int, alone: int) -> dict:
     """One campaign on `workers` local workers with the probe, and the serial runs around it: the figures, a dict."""
     from tiltload.master.app.campaign import dispatch, runner
@@ -221,6 +261,35 @@ def _one(label: str, path: Path | None, spec: Path, out: Path, fmus: Path, worke
     return json.loads(line[7:])
 
 
+def _setup(label: str, path: Path | None, spec: Path, fmus: Path, n: int) -> dict:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), *([str(path)] if path else [])]))
+    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure_setup({str(spec)!r}, "
+            f"{str(fmus)!r}, {n})))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=str(spec.parent))
+    line = next((x for x in done.stdout.splitlines() if x.startswith("RESULT ")), None)
+    if done.returncode or line is None:
+        raise SystemExit(f"{label}: the set-up measurement failed:\n{done.stderr[-3000:]}")
+    return json.loads(line[7:])
+
+
+def setup_report(scenario: str, measured: list[tuple[str, dict]]) -> str:
+    """Per tree, the median and mean per-run CPU of Execution.restart and of the task outside the simulation."""
+    import statistics
+
+    lines = [f"{scenario.upper()}, per-run set-up of a worker (serially, one process; thread CPU, median / mean of "
+             f"{len(measured[0][1]['restart'])} runs x {len(measured) // len(dict(measured))} rounds):"]
+    by_tree: dict[str, dict] = {}
+    for label, r in measured:
+        tree = by_tree.setdefault(label, {"restart": [], "outside": []})
+        tree["restart"] += r["restart"]
+        tree["outside"] += r["outside"]
+    for label, r in by_tree.items():
+        lines.append(f"  {label}: Execution.restart {statistics.median(r['restart']) * 1e6:.0f} / "
+                     f"{_mean(r['restart']) * 1e6:.0f} us; the task outside the simulation "
+                     f"{statistics.median(r['outside']) * 1e6:.0f} / {_mean(r['outside']) * 1e6:.0f} us")
+    return "\n".join(lines)
+
+
 def _mean(values) -> float:
     values = list(values)
     return sum(values) / len(values) if values else float("nan")
@@ -278,10 +347,16 @@ def main() -> None:
     p.add_argument("--before", default=None, help="a commit (e.g. main) measured side by side with this tree")
     p.add_argument("--rounds", type=int, default=1, help="times each measurement is taken (in turn), default 1")
     p.add_argument("--quick", action="store_true", help="6 runs of 10 s, 2 timed serially: shows the script works")
+    p.add_argument("--setup-runs", type=int, default=40,
+                   help="runs whose set-up (restart, the task outside the simulation) is timed serially per tree and "
+                        "round before the campaigns, default 40; 0: none")
+    p.add_argument("--setup-only", action="store_true", help="only the set-up measurement, no campaigns")
     args = p.parse_args()
     runs, stop, alone = (6, 10.0, 2) if args.quick else (args.runs, args.stop, args.alone)
-    if runs < 1 or stop <= 0 or alone < 1 or args.rounds < 1 or min(args.workers) < 1:
-        p.error("--runs, --alone, --rounds and --workers must be >= 1 and --stop > 0")
+    if runs < 1 or stop <= 0 or alone < 1 or args.rounds < 1 or min(args.workers) < 1 or args.setup_runs < 0:
+        p.error("--runs, --alone, --rounds and --workers must be >= 1, --setup-runs >= 0 and --stop > 0")
+    if args.setup_only and not args.setup_runs:
+        p.error("--setup-only needs --setup-runs >= 1")
     sys.path.insert(0, str(HERE))
     from timing import machine
 
@@ -297,6 +372,13 @@ def main() -> None:
         for scenario in args.scenarios:
             spec = tmp / f"{scenario}.toml"
             spec.write_text(SPEC.format(scenario=scenario, stop=stop, seeds=", ".join(str(s) for s in range(1, runs + 1))))
+            if args.setup_runs:  # the trees in turn, round after round (a shared machine's load drifts)
+                measured = [(label, _setup(label, path, spec, fmus, args.setup_runs))
+                            for _ in range(args.rounds) for label, path, fmus in trees]
+                print(setup_report(scenario, measured), flush=True)
+                if args.setup_only:
+                    print()
+                    continue
             for workers in args.workers:
                 for k in range(args.rounds):
                     for label, path, fmus in trees:

@@ -35,13 +35,23 @@ from .system import System, validate
 IsolationPolicy = Callable[[Path, object], bool]
 
 
-def _check_parameters(system: System, mds: dict, links) -> None:
-    """Every given value fits its variable, and none is for an input a connection overwrites every step."""
-    fed = {(link.target, link.type, link.target_vr): link for link in links}
+def _variables(mds: dict) -> dict[str, dict]:
+    """{instance: {variable name: variable}}, looked up by _check_parameters (built once an execution)."""
+    return {name: {v.name: v for v in md.modelVariables} for name, md in mds.items()}
+
+
+def _fed(links) -> dict:
+    """The inputs connections set every step, by (target, type, value reference)."""
+    return {(link.target, link.type, link.target_vr): link for link in links}
+
+
+def _check_parameters(system: System, variables: dict[str, dict], fed: dict) -> None:
+    """Every given value fits its variable, and none is for an input a connection overwrites every step (variables:
+    _variables, fed: _fed)."""
     for spec in system.instances:
-        variables = {v.name: v for v in mds[spec.name].modelVariables}
+        variables_of = variables[spec.name]
         for key, value in spec.parameters.items():
-            v = variables.get(key)
+            v = variables_of.get(key)
             checked_value(spec.name, v, key, value)
             link = fed.get((spec.name, v.type, v.valueReference)) if v.causality == "input" else None
             if link is not None:
@@ -80,7 +90,8 @@ class Execution:
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
         self.links = connections.resolve(system, mds)
-        _check_parameters(system, mds, self.links)
+        self._variables, self._fed = _variables(mds), _fed(self.links)  # what every run's parameters are checked against
+        _check_parameters(system, self._variables, self._fed)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
         self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
         groups: dict[tuple, list] = {}
@@ -109,6 +120,7 @@ class Execution:
         connections, initialize; with resume (a snapshot.Snapshot of this system), continue from where it was taken."""
         from .isolation.hosting import slave_for
 
+        self.loop = None  # new instances: a new plan
         for spec in self.system.instances:  # on a tiltload serve, in a worker process or in this one (hosting.py)
             self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout, self.system.tick)
         for (src, dst, typ, delay), links in self._raw_groups.items():
@@ -135,7 +147,10 @@ class Execution:
             self.resumed_at = resume.time
         for obs in self.observers:
             obs.start(self)
-        self.loop = NativeLoop(self)  # the plan of the C tick loop over these instances, groups and faults
+        if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
+            self.loop.restart()
+        else:
+            self.loop = NativeLoop(self)  # the plan of the C tick loop over these instances, groups and faults
         if resume is not None:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)
@@ -147,7 +162,7 @@ class Execution:
         runs on one set of FMUs per worker)."""
         for name, values in (parameters or {}).items():
             self.system.instance(name).parameters = dict(values)
-        _check_parameters(self.system, self._mds, self.links)
+        _check_parameters(self.system, self._variables, self._fed)
         if observers is not None:
             self.observers = list(observers)
         if faults is not None:  # a new fault schedule (a list, possibly empty)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 import time
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -152,11 +153,23 @@ def _replay(execution, batch: Batch, observers) -> None:
                 slave.values[typ][:] = v
 
 
+_REAL_OUTPUTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # slave -> real_outputs(slave), built once
+
+
+def real_outputs(instance) -> dict[str, int]:
+    """{name: index in values["Real"]} of an instance's Real outputs: looked up by every run's observers as they
+    start, built once per instance (a campaign restarts one set of instances for many runs)."""
+    names = _REAL_OUTPUTS.get(instance)
+    if names is None:
+        names = _REAL_OUTPUTS[instance] = {v.name: i for i, v in reversed(list(enumerate(instance.outputs["Real"])))}
+    return names
+
+
 def _real(instance, name: str) -> int:
-    for i, v in enumerate(instance.outputs["Real"]):
-        if v.name == name:
-            return i
-    raise KeyError(f"{instance.name} has no Real output '{name}'")
+    i = real_outputs(instance).get(name)
+    if i is None:
+        raise KeyError(f"{instance.name} has no Real output '{name}'")
+    return i
 
 
 class Metrics(Observer):

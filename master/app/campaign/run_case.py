@@ -15,7 +15,9 @@ from __future__ import annotations
 import copy
 import hashlib
 import math
+import os
 import socket
+import stat
 import time
 import zipfile
 from pathlib import Path
@@ -25,7 +27,7 @@ import numpy as np
 from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.execution import Execution
 from ...engine.mcap_log import McapLogger
-from ...engine.observers import Metrics
+from ...engine.observers import Metrics, real_outputs
 from ...engine.requirement_observer import RequirementObserver
 from ..feasibility import check_system
 from ..fmus import is_foreign
@@ -63,7 +65,7 @@ class CampaignMetrics(Metrics):
         super().start(execution)
         plant, ctrl = self._p, self._a
         names = [v.name for v in plant.outputs["Real"]][:20]
-        ctrl_names = {v.name: i for i, v in enumerate(ctrl.outputs["Real"])}
+        ctrl_names = real_outputs(ctrl)
         self._state_index = np.arange(20)
         has_bounds = self.bounds and all(f"est_{n}_lo" in ctrl_names and f"est_{n}_hi" in ctrl_names for n in names)
         self._lo = np.array([ctrl_names[f"est_{n}_lo"] for n in names]) if has_bounds else None
@@ -293,12 +295,26 @@ def _monitor(base: dict) -> list:
     return [RequirementObserver([requirement(name, text) for name, text in base["requirements"]])]
 
 
+_WHOLE: dict[str, tuple] = {}  # per worker process: FMU path -> its (size, mtime, inode) when last found whole
+
+
 def check_fmus(system) -> None:
+    """Every FMU of the system is a file on this worker and a whole zip archive (read again only when the file
+    changed: a stat a run, not an archive's directory)."""
     for spec in system.instances:
-        if not Path(spec.fmu).is_file():
+        path = str(spec.fmu)
+        try:
+            st = os.stat(path)
+        except OSError:
+            st = None
+        if st is None or not stat.S_ISREG(st.st_mode):
             raise MissingFmu(f"no FMU at {spec.fmu}")
-        if not zipfile.is_zipfile(spec.fmu):
+        seen = (st.st_size, st.st_mtime_ns, st.st_ino)
+        if _WHOLE.get(path) == seen:
+            continue
+        if not zipfile.is_zipfile(path):
             raise MissingFmu(f"{spec.fmu} is not a whole FMU (not a zip archive)")
+        _WHOLE[path] = seen
 
 
 def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:

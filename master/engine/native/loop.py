@@ -80,13 +80,15 @@ def _address(array) -> int:
 
 
 class NativeLoop:
-    """The plan of one execution (rebuilt when it restarts) and its runs. by_callback: instances to step through the
-    Python callback although the kernel could call them (to hold the two paths side by side)."""
+    """The plan of one execution and its runs; kept when the execution restarts on the same instances (restart()).
+    by_callback: instances to step through the Python callback although the kernel could call them (to hold the two
+    paths side by side)."""
 
     def __init__(self, execution, chunk: int = CHUNK, by_callback=frozenset()) -> None:
         self.lib = kernel.library()
         self.ex = execution
         self.chunk = chunk
+        self.by_callback = frozenset(by_callback)
         specs = execution.system.instances
         self.names = [s.name for s in specs]
         self.slaves = [execution.instances[n] for n in self.names]
@@ -165,10 +167,9 @@ class NativeLoop:
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
                                 ticks_done=execution.ticks_done, slots=self.slots, profile=int(execution.profile),
                                 record_capacity=chunk)
-        self._native_faults(manipulator, index)
-        for spec, c in zip(specs, self.instances):  # the faults Python applies: a callback at that instance's side
-            c.hook_inputs = bool(manipulator and manipulator.python_entries(spec.name, "input"))
-            c.hook_outputs = bool(manipulator and manipulator.python_entries(spec.name, "output"))
+        self._index = index
+        self._bound = self._binding()
+        self._plan_faults(manipulator)
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
         self._pending: BaseException | None = None
@@ -176,6 +177,28 @@ class NativeLoop:
         self.plan.step_callback = kernel.STEP_CALLBACK(self._step)
         self.plan.hook_callback = kernel.HOOK_CALLBACK(self._hook)
         self.lib.tl_store_history(ctypes.byref(self.plan), 0)  # the delay line starts with the values at t = 0
+
+    def _binding(self) -> list:
+        """What the plan points into that a restart could change: the instances, their components and output arrays
+        (the same array object holds the same memory)."""
+        return [(s, s.component, *(s.values[t] for t in TYPES)) for s in self.slaves]
+
+    def _plan_faults(self, manipulator) -> None:
+        """The faults' part of the plan: the kernel's own (_native_faults) and the callbacks for those Python applies."""
+        self._faulted = manipulator is not None
+        self._fault_keep: list = []  # the delay rings of these faults: replaced with them
+        self._native_faults(manipulator, self._index)
+        for spec, c in zip(self.ex.system.instances, self.instances):  # the faults Python applies: a callback there
+            c.hook_inputs = bool(manipulator and manipulator.python_entries(spec.name, "input"))
+            c.hook_outputs = bool(manipulator and manipulator.python_entries(spec.name, "output"))
+
+    def reusable(self) -> bool:
+        """Can the execution's next run use this plan (restart()) rather than a new one: the same instances, bound to
+        the same arrays, nothing stepped by the callback on request, as many instances."""
+        if self.by_callback or [s.name for s in self.ex.system.instances] != self.names or \
+                any(self.ex.instances.get(n) is not s for n, s in zip(self.names, self.slaves)):
+            return False
+        return all(a[1] == b[1] and all(x is y for x, y in zip(a[2:], b[2:])) for a, b in zip(self._binding(), self._bound))
 
     def _native_faults(self, manipulator, index: dict[str, int]) -> None:
         """The faults the kernel applies itself (manipulator.native_faults), one entry per target and flag."""
@@ -215,7 +238,7 @@ class NativeLoop:
         if fault.action not in ("delay", "stale", "jitter", "dropout"):
             return {}
         ring = np.zeros(lag + 1, dtype=np.float64)
-        self._keep.append(ring)
+        self._fault_keep.append(ring)
         return {"history": ring.ctypes.data, "history_capacity": ring.size}
 
     def sync_faults(self) -> None:
@@ -266,9 +289,19 @@ class NativeLoop:
 
     # --- runs ---------------------------------------------------------------------------------------------------------
     def restart(self) -> None:
-        """After the execution's instances were reset and initialized: tick 0, the delay line at its start."""
-        self.plan.ticks_done = self.ex.ticks_done
-        self.lib.tl_store_history(ctypes.byref(self.plan), 0)
+        """After the execution's instances were reset and initialized (reusable()): the plan as a new one would be,
+        without building it again (tables, buffers, function pointers: a campaign's runs differ in parameters and
+        faults only). Tick 0, the delay line at its start, no pacing, the faults of the execution's manipulator."""
+        p = self.plan
+        p.ticks_done, p.profile = self.ex.ticks_done, int(self.ex.profile)
+        p.realtime_factor, p.realtime_start_ns, p.realtime_first_tick, p.lateness, p.overrun = 0.0, 0, 0, None, None
+        self._pending = None
+        for history in self.history:
+            for array in history.values():
+                array[:] = 0
+        if self._faulted or self.ex.manipulator is not None:
+            self._plan_faults(self.ex.manipulator)
+        self.lib.tl_store_history(ctypes.byref(p), 0)  # the delay line starts with the values at t = 0
         for clocked in self.clocked:
             clocked.forget_inputs()
 
