@@ -23,8 +23,12 @@ First, per tree (and round, the trees in turn), a worker's per-run set-up in one
 campaign's cases run one after the other on one execution restarted each time, and this thread's CPU per run in
 Execution.restart (fmi2Reset/fmi3Reset, initialization, the tick loop's plan) and in the task outside Execution.run.
 
+With --ceiling R, first, per scenario: R rounds of one process running warm runs alone, then two processes running as
+many each at the same time (no Dask, no scheduler): alone / at-once CPU per run is the most a 2-worker campaign's
+efficiency can reach on this machine, whose two cores slow each other's runs down (shared caches, memory, the host).
+
 Run: python benchmarks/campaign_native.py [--runs 48] [--stop 40] [--workers 1 2] [--before main] [--quick]
-     [--setup-runs 40] [--setup-only]
+     [--setup-runs 40] [--setup-only] [--ceiling 5]
 """
 
 from __future__ import annotations
@@ -133,6 +137,18 @@ def _serial(spec: Path, fmus: Path, n: int) -> list[tuple[float, float]]:
         if k:
             out.append((time.perf_counter() - t0, time.thread_time() - c0))
     return out
+
+
+def measure_serial(spec: str, fmus: str, n: int, start_at: float) -> list[tuple[float, float]]:
+    """_serial's (wall, CPU) of n runs here, begun at the epoch start_at (after the imports and the warm-up run), so that
+    two processes given the same start_at run theirs at the same time."""
+    from tiltload.master.app.campaign import run_case as module
+    from tiltload.master.app.campaign.spec import load
+
+    c = load(Path(spec))
+    module.run_case(c.base(), asdict(c.cases[0]), str(Path(fmus).resolve()), None)  # the warm-up
+    time.sleep(max(0.0, start_at - time.time()))
+    return _serial(Path(spec), Path(fmus), n)
 
 
 def measure_setup(spec: str, fmus: str, n: int) -> dict:
@@ -272,6 +288,45 @@ def _setup(label: str, path: Path | None, spec: Path, fmus: Path, n: int) -> dic
     return json.loads(line[7:])
 
 
+def _at_once(spec: Path, fmus: Path, n: int, processes: int) -> list[list[tuple[float, float]]]:
+    """Each of `processes` processes' (wall, CPU) of n runs, the processes running theirs at the same time."""
+    env = dict(os.environ, PYTHONPATH=str(HERE))
+    start_at = time.time() + 6.0  # past the imports and the warm-up run of every process
+    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure_serial({str(spec)!r}, "
+            f"{str(fmus)!r}, {n}, {start_at!r})))")
+    procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              env=env, cwd=str(spec.parent)) for _ in range(processes)]
+    out = []
+    for proc in procs:
+        stdout, stderr = proc.communicate()
+        line = next((x for x in stdout.splitlines() if x.startswith("RESULT ")), None)
+        if proc.returncode or line is None:
+            raise SystemExit(f"the runs at once failed:\n{stderr[-3000:]}")
+        out.append(json.loads(line[7:]))
+    return out
+
+
+def ceiling_report(scenario: str, spec: Path, fmus: Path, n: int, rounds: int) -> str:
+    """What two runs at once cost each, against one alone, with no Dask: rounds of one process running n of the
+    campaign's runs alone, then two processes running n each at the same time. Alone/at-once CPU per run is the most a
+    2-worker campaign's parallel efficiency can reach on this machine (its cores slow each other down)."""
+    import statistics
+
+    lines, ratios = [f"{scenario.upper()}, two runs at once against one alone (no Dask; {n} warm runs a process, "
+                     f"{rounds} rounds, thread CPU per run, median):"], []
+    for k in range(rounds):
+        (alone,) = _at_once(spec, fmus, n, 1)
+        pair = _at_once(spec, fmus, n, 2)
+        one = statistics.median(c for _, c in alone)
+        each = [statistics.median(c for _, c in runs) for runs in pair]
+        ratios.append(one / _mean(each))
+        lines.append(f"  round {k + 1}: alone {one * 1e3:.1f} ms; at once {' and '.join(f'{e * 1e3:.1f}' for e in each)}"
+                     f" ms -> {ratios[-1]:.2f}; load {os.getloadavg()[0]:.1f}")
+    lines.append(f"  the ceiling of a 2-worker campaign's efficiency here: {statistics.median(ratios):.2f} (median of "
+                 f"{len(ratios)}, range {min(ratios):.2f}-{max(ratios):.2f})")
+    return "\n".join(lines)
+
+
 def setup_report(scenario: str, measured: list[tuple[str, dict]]) -> str:
     """Per tree, the median and mean per-run CPU of Execution.restart and of the task outside the simulation."""
     import statistics
@@ -351,10 +406,14 @@ def main() -> None:
                    help="runs whose set-up (restart, the task outside the simulation) is timed serially per tree and "
                         "round before the campaigns, default 40; 0: none")
     p.add_argument("--setup-only", action="store_true", help="only the set-up measurement, no campaigns")
+    p.add_argument("--ceiling", type=int, default=0, metavar="ROUNDS",
+                   help="first, ROUNDS rounds of two processes running runs at once against one alone (no Dask): the "
+                        "most a 2-worker campaign's efficiency can reach on this machine; default 0: not measured")
     args = p.parse_args()
     runs, stop, alone = (6, 10.0, 2) if args.quick else (args.runs, args.stop, args.alone)
-    if runs < 1 or stop <= 0 or alone < 1 or args.rounds < 1 or min(args.workers) < 1 or args.setup_runs < 0:
-        p.error("--runs, --alone, --rounds and --workers must be >= 1, --setup-runs >= 0 and --stop > 0")
+    if (runs < 1 or stop <= 0 or alone < 1 or args.rounds < 1 or min(args.workers) < 1 or args.setup_runs < 0
+            or args.ceiling < 0):
+        p.error("--runs, --alone, --rounds and --workers must be >= 1, --setup-runs and --ceiling >= 0 and --stop > 0")
     if args.setup_only and not args.setup_runs:
         p.error("--setup-only needs --setup-runs >= 1")
     sys.path.insert(0, str(HERE))
@@ -372,6 +431,11 @@ def main() -> None:
         for scenario in args.scenarios:
             spec = tmp / f"{scenario}.toml"
             spec.write_text(SPEC.format(scenario=scenario, stop=stop, seeds=", ".join(str(s) for s in range(1, runs + 1))))
+            if args.ceiling:
+                from tiltload.master.app.fmus import build_all
+
+                build_all(trees[-1][2], progress=lambda _: None)
+                print(ceiling_report(scenario, spec, trees[-1][2], max(alone, 8), args.ceiling), flush=True)
             if args.setup_runs:  # the trees in turn, round after round (a shared machine's load drifts)
                 measured = [(label, _setup(label, path, spec, fmus, args.setup_runs))
                             for _ in range(args.rounds) for label, path, fmus in trees]

@@ -181,13 +181,28 @@ void tl_begin_event(TlInstance* c) {
   c->s.event_ran = 0;
 }
 
+#if TL_EVENT_PARTITION
+/* The model state but its unsaved region into pre_event (restore 0), or back (restore 1). */
+static void event_copy(TlInstance* c, int restore) {
+  unsigned char* model = (unsigned char*)&c->s.model;
+  const size_t head = TL_MODEL_EVENT_UNSAVED_OFFSET, skip = TL_MODEL_EVENT_UNSAVED_SIZE;
+  const size_t tail = sizeof(TlModelState) - head - skip;
+  if (restore) {
+    memcpy(model, c->s.pre_event, head);
+    memcpy(model + head + skip, c->s.pre_event + head, tail);
+  } else {
+    memcpy(c->s.pre_event, model, head);
+    memcpy(c->s.pre_event + head, model + head + skip, tail);
+  }
+}
+#endif
+
 /* The first run keeps the model state it starts from (one copy per event), so that a later change runs it again from there. */
 TlStatus tl_run_event(TlInstance* c) {
 #if TL_EVENT_PARTITION
   TlStatus status;
   if (!c->s.event_dirty) return TL_OK;
-  if (c->s.event_ran) c->s.model = c->s.pre_event; /* inputs or clocks changed: run again from the event's start */
-  else c->s.pre_event = c->s.model;
+  event_copy(c, c->s.event_ran); /* ran already: inputs or clocks changed, so run again from the event's start */
   status = tl_model_event(c, c->s.time);
   c->s.event_ran = 1;
   c->s.event_dirty = 0;

@@ -21,6 +21,15 @@
 #endif
 /* Event Mode's lazy partition: the co-simulation builds with clocks (a Scheduled Execution build runs partitions instead) */
 #define TL_EVENT_PARTITION (TL_N_CLOCK > 0 && !TL_SCHEDULED)
+/* A rerun of the partition in the same Event Mode restores the model state the event began with. A model may leave a
+   region of its state out of that copy (in its header: TL_MODEL_EVENT_UNSAVED_OFFSET and _SIZE, in bytes), one its
+   partition either leaves as it found it or writes before it reads: the controller's ZSE generator buffers, 680 kB
+   (controller_model.h). */
+#ifndef TL_MODEL_EVENT_UNSAVED_SIZE
+#define TL_MODEL_EVENT_UNSAVED_OFFSET sizeof(TlModelState)
+#define TL_MODEL_EVENT_UNSAVED_SIZE 0
+#endif
+#define TL_EVENT_SAVED (sizeof(TlModelState) - TL_MODEL_EVENT_UNSAVED_SIZE + 1) /* + 1: never an empty array */
 
 /* The result of a hook or a call, in the order and with the values of fmi2Status and fmi3Status (each layer checks). */
 typedef enum { TL_OK, TL_WARNING, TL_DISCARD, TL_ERROR, TL_FATAL } TlStatus;
@@ -66,7 +75,7 @@ typedef struct {
   int event_ran;                  /* the partition ran in this Event Mode: a rerun starts again from pre_event */
   double next_event_time;         /* a time event the model asks for (< 0: none): DoStep reports it as an event */
 #if TL_EVENT_PARTITION
-  TlModelState pre_event; /* the model state when this Event Mode began */
+  unsigned char pre_event[TL_EVENT_SAVED]; /* the model state when this Event Mode began, less its unsaved region */
 #endif
 #if TL_SCHEDULED
   long long activation[TL_CAP_CLOCK]; /* each partition's last activation, in its clock's intervals from the start (-1: none) */

@@ -2,6 +2,8 @@
 #ifndef CONTROLLER_MODEL_H
 #define CONTROLLER_MODEL_H
 
+#include <stddef.h>
+
 #include "tl_lkf.h"
 #include "tl_zse.h"
 
@@ -26,5 +28,10 @@ typedef struct {
   double latched_q[2][TL_NY_LKF];    /* the LKF's q */
 #endif
 } TlModelState;
+
+/* Left out of Event Mode's copy for a rerun (tl_fmu.h): the ZSE's two generator buffers. A step reads the current one
+   and writes only the other (tl_zse.h); its initialization writes them from X0 alone. */
+#define TL_MODEL_EVENT_UNSAVED_OFFSET (offsetof(TlModelState, zse) + offsetof(TlZse, G))
+#define TL_MODEL_EVENT_UNSAVED_SIZE sizeof(((TlModelState*)0)->zse.G)
 
 #endif

@@ -4,7 +4,9 @@
    reduction (Combastel, Girard or PCA) to r_max generators.
 
    The estimator's state is a plain struct (a state snapshot copies it); the model is constant data
-   passed with every call. Generators are rows of TL_ZSE_LD doubles (the last padding entry is 0). */
+   passed with every call. Generators are rows of TL_ZSE_LD doubles (the last padding entry is 0). A step reads the
+   generators of G[cur] and writes only those of G[1 - cur], then flips cur: the clocked controller relies on it to
+   rerun a step from its scalars alone (controller_model.h). */
 #ifndef TL_ZSE_H
 #define TL_ZSE_H
 
