@@ -126,6 +126,55 @@ static inline int is_due(const Fmu* f, fmi3ValueReference clock, const int* due)
 /* A periodic clock ticks at shift, shift + interval, ... (in ticks). */
 static inline int due_at(const Clock* k, long tick) { return tick >= k->shift && (tick - k->shift) % k->interval == 0; }
 
+/* Which of f's clocks are due at tick (due[j] for its j-th), and whether f needs Event Mode then: a clock due, the
+   Event Mode that follows initialization, or eventHandlingNeeded at its last step. */
+static inline int needs_event_mode(const Fmu* f, long tick, int* due) {
+  int j, any = 0;
+  for (j = 0; j < f->n_clocks; ++j) {
+    due[j] = due_at(&f->clocks[j], tick);
+    any |= due[j];
+  }
+  return f->n_clocks && (any || f->in_event || f->event_asked);
+}
+
+/* In Event Mode: the due clocks set active (fmi3SetClock). */
+static inline int set_due_clocks(Fmu* f, const int* due) {
+  fmi3ValueReference vrs[MAX_CLOCKS];
+  fmi3Clock on[MAX_CLOCKS];
+  int j, n = 0;
+  for (j = 0; j < f->n_clocks; ++j)
+    if (due[j]) {
+      vrs[n] = f->clocks[j].vr;
+      on[n++] = fmi3ClockActive;
+    }
+  return n ? f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK : 0;
+}
+
+/* The end of Event Mode: fmi3UpdateDiscreteStates until no further update (none after a failure: failed, the Event
+   Mode's calls so far; at most 100 rounds), then fmi3EnterStepMode. */
+static inline int leave_event_mode(Fmu* f, int failed) {
+  fmi3Boolean need = fmi3True, terminate = fmi3False, nominals, values, next_defined;
+  fmi3Float64 next_time;
+  int rounds = 0;
+  while (need && !failed && rounds++ < 100)
+    failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
+  failed |= need || terminate;
+  failed |= f->enter_step(f->c) != fmi3OK;
+  f->in_event = 0;
+  return failed;
+}
+
+/* fmi3DoStep(t, h): a request to terminate or an early return fails the run; eventHandlingNeeded asks for Event Mode
+   at the next tick. */
+static inline int step_fmu(Fmu* f, double t, double h) {
+  fmi3Boolean event_needed, terminate, early;
+  fmi3Float64 last;
+  int failed = f->do_step(f->c, t, h, fmi3True, &event_needed, &terminate, &early, &last) != fmi3OK;
+  failed |= terminate || early;
+  f->event_asked = event_needed;
+  return failed;
+}
+
 #define SYM(f, field, name) ((f)->field = (void*)LIB_SYMBOL((f)->lib, name)) == NULL
 
 /* Open the binary and look up the fmi3 functions the hosts call (with scheduled_execution, the two of Scheduled

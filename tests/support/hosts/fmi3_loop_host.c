@@ -60,19 +60,10 @@ static int set_inputs(Fmu* fmus, int fi, Link* links, int n_links, int which, co
 /* Event Mode at tick k for the due clocks (the FMU is in Step Mode unless this is the first event). */
 static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, Outputs* out, const int* due) {
   Fmu* f = &fmus[fi];
-  fmi3ValueReference vrs[MAX_CLOCKS];
-  fmi3Clock on[MAX_CLOCKS];
-  fmi3Boolean need = fmi3True, terminate = fmi3False, nominals, values, next_defined;
-  fmi3Float64 next_time;
-  int j, n = 0, failed = 0, rounds = 0;
+  int j, failed = 0;
   if (!f->in_event) failed |= f->enter_event(f->c) != fmi3OK;
   failed |= set_inputs(fmus, fi, links, n_links, 0, due);
-  for (j = 0; j < f->n_clocks; ++j)
-    if (due[j]) {
-      vrs[n] = f->clocks[j].vr;
-      on[n++] = fmi3ClockActive;
-    }
-  if (n) failed |= f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK;
+  failed |= set_due_clocks(f, due);
   failed |= set_inputs(fmus, fi, links, n_links, 1, due);
   failed |= read_outputs(fmus, fi, links, n_links, 1, due); /* before the update: it deactivates the clocks */
   for (j = 0; j < out->n; ++j) {
@@ -80,12 +71,7 @@ static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, Outputs* out,
     if (out->fmu[j] == fi && clock && is_due(f, clock, due))
       failed |= f->get_float64(f->c, &out->vr[j], 1, &out->held[j], 1) != fmi3OK;
   }
-  while (need && !failed && rounds++ < 100)
-    failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
-  failed |= need || terminate;
-  failed |= f->enter_step(f->c) != fmi3OK;
-  f->in_event = 0;
-  return failed;
+  return leave_event_mode(f, failed);
 }
 
 int main(int argc, char** argv) {
@@ -159,18 +145,10 @@ int main(int argc, char** argv) {
     const double t = (double)k * tick;
     for (i = 0; i < n_fmus && !failed; ++i) {
       Fmu* f = &fmus[i];
-      int due[MAX_CLOCKS], j, any = 0;
-      fmi3Boolean event_needed, terminate, early;
-      fmi3Float64 last;
-      for (j = 0; j < f->n_clocks; ++j) {
-        due[j] = due_at(&f->clocks[j], k);
-        any |= due[j];
-      }
-      if (f->n_clocks && (any || f->in_event || f->event_asked)) failed |= event_mode(fmus, i, links, n_links, &out, due);
+      int due[MAX_CLOCKS];
+      if (needs_event_mode(f, k, due)) failed |= event_mode(fmus, i, links, n_links, &out, due);
       else failed |= set_inputs(fmus, i, links, n_links, 0, due);
-      failed |= f->do_step(f->c, t, tick, fmi3True, &event_needed, &terminate, &early, &last) != fmi3OK;
-      failed |= terminate || early;
-      f->event_asked = event_needed;
+      failed |= step_fmu(f, t, tick);
       failed |= read_outputs(fmus, i, links, n_links, 0, due);
       failed |= print_outputs(&out, f, i, k);
     }

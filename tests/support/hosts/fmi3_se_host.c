@@ -246,43 +246,21 @@ static int schedule(Host* h, int fi, long tick) {
 /* ---- co-simulation FMUs, as in fmi3_loop_host.c ------------------------------------------------------------------- */
 static int event_mode(Host* h, int fi, const int* due) {
   Fmu* f = &h->fmus[fi];
-  fmi3ValueReference vrs[MAX_CLOCKS];
-  fmi3Clock on[MAX_CLOCKS];
-  fmi3Boolean need = fmi3True, terminate = fmi3False, nominals, values, next_defined;
-  fmi3Float64 next_time;
-  int j, n = 0, failed = 0, rounds = 0;
+  int failed = 0;
   if (!f->in_event) failed |= f->enter_event(f->c) != fmi3OK;
   failed |= set_inputs(h, fi, 0, due, 0, 0);
-  for (j = 0; j < f->n_clocks; ++j)
-    if (due[j]) {
-      vrs[n] = f->clocks[j].vr;
-      on[n++] = fmi3ClockActive;
-    }
-  if (n) failed |= f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK;
+  failed |= set_due_clocks(f, due);
   failed |= set_inputs(h, fi, 1, due, 0, 0);
   failed |= read_outputs(h, fi, 1, due, 0); /* before the update: it deactivates the clocks */
-  while (need && !failed && rounds++ < 100)
-    failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
-  failed |= need || terminate;
-  failed |= f->enter_step(f->c) != fmi3OK;
-  f->in_event = 0;
-  return failed;
+  return leave_event_mode(f, failed);
 }
 
 static int step(Host* h, int fi, long tick) {
   Fmu* f = &h->fmus[fi];
-  int due[MAX_CLOCKS], j, any = 0, failed = 0;
-  fmi3Boolean event_needed, terminate, early;
-  fmi3Float64 last;
-  for (j = 0; j < f->n_clocks; ++j) {
-    due[j] = due_at(&f->clocks[j], tick);
-    any |= due[j];
-  }
-  if (f->n_clocks && (any || f->in_event || f->event_asked)) failed |= event_mode(h, fi, due);
+  int due[MAX_CLOCKS], failed = 0;
+  if (needs_event_mode(f, tick, due)) failed |= event_mode(h, fi, due);
   else failed |= set_inputs(h, fi, 0, due, 0, 0);
-  failed |= f->do_step(f->c, (double)tick * h->tick, h->tick, fmi3True, &event_needed, &terminate, &early, &last) != fmi3OK;
-  failed |= terminate || early;
-  f->event_asked = event_needed;
+  failed |= step_fmu(f, (double)tick * h->tick, h->tick);
   return failed | read_outputs(h, fi, 0, due, 0);
 }
 
