@@ -1,9 +1,9 @@
 /* What the two FMI 3.0 C hosts share (fmi3_loop_host.c, the co-simulation loop; fmi3_se_host.c, the Scheduled
    Execution scheduler): loading a binary and its fmi3 functions, the plan's instances, clocks, connections and
-   printed outputs, and the small look-ups on them. Each host is one .c file built with one compiler call, so this is
-   a header of static inline functions (inline: a host that leaves one unused gets no -Wunused-function), found
-   beside the .c by #include "...". Portable: dlopen on POSIX, LoadLibrary on Windows (the loop host runs under wine
-   in the platform tests). No state of its own. */
+   printed outputs, the look-ups on them, and a co-simulation FMU's Event Mode and step. Each host is one .c file
+   built with one compiler call, so this is a header of static inline functions (inline: a host that leaves one
+   unused gets no -Wunused-function), found beside the .c by #include "...". Portable: dlopen on POSIX, LoadLibrary
+   on Windows (the loop host runs under wine in the platform tests). No state of its own. */
 #ifndef FMI3_HOST_COMMON_H
 #define FMI3_HOST_COMMON_H
 
