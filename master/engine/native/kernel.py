@@ -20,7 +20,7 @@ from functools import cache
 from pathlib import Path
 
 HERE = Path(__file__).parent
-SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h", HERE / "tl_draw.h")
+SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h", HERE / "tl_mcap.h", HERE / "tl_draw.h")
 DRAWS = (HERE / "tl_draw.c",)
 ENTROPY_WORDS = 16  # tl_draw.h's TL_ENTROPY_WORDS
 # The floating-point results that depend on these flags: t_k = k * tick (one product, exact in IEEE double) and the

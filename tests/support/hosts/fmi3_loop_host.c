@@ -21,102 +21,7 @@
      O name vr                     a Float64 output printed after every tick ("k name vr value", C99 hex float); a
                                    clocked one as read at its clock's last tick
    Exit 0 when every call succeeded. Portable: dlopen on POSIX, LoadLibrary on Windows (run under wine here). */
-#if defined(_WIN32)
-#include <windows.h>
-#define LIB_OPEN(path) ((void*)LoadLibraryA(path))
-#define LIB_SYMBOL(lib, name) ((void*)GetProcAddress((HMODULE)(lib), name))
-#define LIB_CLOSE(lib) FreeLibrary((HMODULE)(lib))
-#define LIB_ERROR() "LoadLibrary failed"
-#else
-#include <dlfcn.h>
-#define LIB_OPEN(path) dlopen(path, RTLD_NOW | RTLD_LOCAL)
-#define LIB_SYMBOL(lib, name) dlsym(lib, name)
-#define LIB_CLOSE(lib) dlclose(lib)
-#define LIB_ERROR() dlerror()
-#endif
-#include <math.h>
-#include <stdbool.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
-#include "fmi3Functions.h"
-
-#define MAX_FMUS 8
-#define MAX_LINKS 512
-#define MAX_CLOCKS 16
-#define MAX_CLOCKED 512
-#define MAX_OUT 64
-#define MAX_PARAMS 256
-
-typedef struct {
-  fmi3ValueReference vr;
-  long interval, shift;
-} Clock;
-
-typedef struct {
-  char name[64], token[128];
-  void* lib;
-  fmi3Instance c;
-  int n_clocks, n_clocked, in_event, event_asked;
-  Clock clocks[MAX_CLOCKS];
-  fmi3ValueReference clocked_vr[MAX_CLOCKED], clocked_by[MAX_CLOCKED];
-  fmi3InstantiateCoSimulationTYPE* instantiate;
-  fmi3EnterInitializationModeTYPE* enter_init;
-  fmi3ExitInitializationModeTYPE* exit_init;
-  fmi3EnterEventModeTYPE* enter_event;
-  fmi3EnterStepModeTYPE* enter_step;
-  fmi3SetClockTYPE* set_clock;
-  fmi3UpdateDiscreteStatesTYPE* update;
-  fmi3SetFloat64TYPE* set_float64;
-  fmi3SetInt32TYPE* set_int32;
-  fmi3SetBooleanTYPE* set_boolean;
-  fmi3SetStringTYPE* set_string;
-  fmi3GetFloat64TYPE* get_float64;
-  fmi3GetInt32TYPE* get_int32;
-  fmi3GetBooleanTYPE* get_boolean;
-  fmi3DoStepTYPE* do_step;
-  fmi3TerminateTYPE* terminate;
-  fmi3FreeInstanceTYPE* free_instance;
-} Fmu;
-
-/* A connection, with the source output's latest value (read by the host when the source computed it). */
-typedef struct {
-  int src, dst;
-  char type;
-  fmi3ValueReference src_vr, dst_vr;
-  double real;
-  fmi3Int32 integer;
-  fmi3Boolean boolean;
-} Link;
-
-static void log_message(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
-  (void)category;
-  if (status >= fmi3Warning) fprintf(stderr, "[%s] %s\n", (const char*)env, message);
-}
-
-static int find(Fmu* fmus, int n, const char* name) {
-  int i;
-  for (i = 0; i < n; ++i)
-    if (strcmp(fmus[i].name, name) == 0) return i;
-  fprintf(stderr, "unknown instance %s\n", name);
-  exit(2);
-}
-
-/* The clock of a variable of f (its value reference), or 0 when it is not clocked. */
-static fmi3ValueReference clock_of(const Fmu* f, fmi3ValueReference vr) {
-  int i;
-  for (i = 0; i < f->n_clocked; ++i)
-    if (f->clocked_vr[i] == vr) return f->clocked_by[i];
-  return 0;
-}
-
-static int is_due(const Fmu* f, fmi3ValueReference clock, const int* due) {
-  int j;
-  for (j = 0; j < f->n_clocks; ++j)
-    if (f->clocks[j].vr == clock) return due[j];
-  return 0;
-}
+#include "fmi3_host_common.h"
 
 /* Read the sources' outputs of the links from f: which = 0 the non-clocked, 1 the clocked ones of due clocks, 2 all. */
 static int read_outputs(Fmu* fmus, int fi, Link* links, int n_links, int which, const int* due) {
@@ -152,97 +57,27 @@ static int set_inputs(Fmu* fmus, int fi, Link* links, int n_links, int which, co
   return failed;
 }
 
-#define SYM(f, field, name) ((f)->field = (void*)LIB_SYMBOL((f)->lib, name)) == NULL
-
-static int load(Fmu* f, const char* binary) {
-  f->lib = LIB_OPEN(binary);
-  if (f->lib == NULL) {
-    fprintf(stderr, "loading %s: %s\n", binary, LIB_ERROR());
-    return 1;
-  }
-  if (SYM(f, instantiate, "fmi3InstantiateCoSimulation") || SYM(f, enter_init, "fmi3EnterInitializationMode") ||
-      SYM(f, exit_init, "fmi3ExitInitializationMode") || SYM(f, enter_event, "fmi3EnterEventMode") ||
-      SYM(f, enter_step, "fmi3EnterStepMode") || SYM(f, set_clock, "fmi3SetClock") ||
-      SYM(f, update, "fmi3UpdateDiscreteStates") || SYM(f, set_float64, "fmi3SetFloat64") ||
-      SYM(f, set_int32, "fmi3SetInt32") || SYM(f, set_boolean, "fmi3SetBoolean") || SYM(f, set_string, "fmi3SetString") ||
-      SYM(f, get_float64, "fmi3GetFloat64") || SYM(f, get_int32, "fmi3GetInt32") || SYM(f, get_boolean, "fmi3GetBoolean") ||
-      SYM(f, do_step, "fmi3DoStep") || SYM(f, terminate, "fmi3Terminate") || SYM(f, free_instance, "fmi3FreeInstance")) {
-    fprintf(stderr, "%s: missing fmi3 symbol\n", f->name);
-    return 1;
-  }
-  return 0;
-}
-
-
-/* The recorded outputs (O lines): instance, value reference, the value a clocked one had at its clock's last tick. */
-static int n_out, out_fmu[MAX_OUT];
-static fmi3ValueReference out_vr[MAX_OUT];
-static fmi3Float64 out_held[MAX_OUT];
-
 /* Event Mode at tick k for the due clocks (the FMU is in Step Mode unless this is the first event). */
-static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, const int* due) {
+static int event_mode(Fmu* fmus, int fi, Link* links, int n_links, Outputs* out, const int* due) {
   Fmu* f = &fmus[fi];
-  fmi3ValueReference vrs[MAX_CLOCKS];
-  fmi3Clock on[MAX_CLOCKS];
-  fmi3Boolean need = fmi3True, terminate = fmi3False, nominals, values, next_defined;
-  fmi3Float64 next_time;
-  int j, n = 0, failed = 0, rounds = 0;
+  int j, failed = 0;
   if (!f->in_event) failed |= f->enter_event(f->c) != fmi3OK;
   failed |= set_inputs(fmus, fi, links, n_links, 0, due);
-  for (j = 0; j < f->n_clocks; ++j)
-    if (due[j]) {
-      vrs[n] = f->clocks[j].vr;
-      on[n++] = fmi3ClockActive;
-    }
-  if (n) failed |= f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK;
+  failed |= set_due_clocks(f, due);
   failed |= set_inputs(fmus, fi, links, n_links, 1, due);
   failed |= read_outputs(fmus, fi, links, n_links, 1, due); /* before the update: it deactivates the clocks */
-  for (j = 0; j < n_out; ++j) {
-    fmi3ValueReference clock = clock_of(f, out_vr[j]);
-    if (out_fmu[j] == fi && clock && is_due(f, clock, due))
-      failed |= f->get_float64(f->c, &out_vr[j], 1, &out_held[j], 1) != fmi3OK;
+  for (j = 0; j < out->n; ++j) {
+    fmi3ValueReference clock = clock_of(f, out->vr[j]);
+    if (out->fmu[j] == fi && clock && is_due(f, clock, due))
+      failed |= f->get_float64(f->c, &out->vr[j], 1, &out->held[j], 1) != fmi3OK;
   }
-  while (need && !failed && rounds++ < 100)
-    failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
-  failed |= need || terminate;
-  failed |= f->enter_step(f->c) != fmi3OK;
-  f->in_event = 0;
-  return failed;
-}
-
-/* Set one parameter line "P name R|I|B|S vr value" (in Initialization Mode). */
-static int set_parameter(Fmu* fmus, int n_fmus, const char* line) {
-  char name[64], type;
-  unsigned a;
-  const char* value = line;
-  int spaces = 0;
-  Fmu* f;
-  fmi3ValueReference vr;
-  if (sscanf(line, "P %63s %c %u", name, &type, &a) != 3) return 1;
-  f = &fmus[find(fmus, n_fmus, name)];
-  vr = a;
-  while (*value && spaces < 4) spaces += *value++ == ' ';
-  if (type == 'R') {
-    fmi3Float64 v = strtod(value, NULL);
-    return f->set_float64(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  if (type == 'I') {
-    fmi3Int32 v = (fmi3Int32)strtol(value, NULL, 10);
-    return f->set_int32(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  if (type == 'B') {
-    fmi3Boolean v = atoi(value) != 0;
-    return f->set_boolean(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  {
-    fmi3String v = value;
-    return f->set_string(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
+  return leave_event_mode(f, failed);
 }
 
 int main(int argc, char** argv) {
   static Fmu fmus[MAX_FMUS];
   static Link links[MAX_LINKS];
+  static Outputs out;
   static char params[MAX_PARAMS][512];
   char line[4096], name[64], other[64], binary[2048], type;
   int n_fmus = 0, n_links = 0, n_params = 0, failed = 0, i;
@@ -259,7 +94,7 @@ int main(int argc, char** argv) {
     line[strcspn(line, "\n")] = '\0';
     if (line[0] == 'F' && n_fmus < MAX_FMUS) {
       Fmu* f = &fmus[n_fmus];
-      if (sscanf(line, "F %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary)) return 1;
+      if (sscanf(line, "F %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary, false)) return 1;
       ++n_fmus;
     } else if (line[0] == 'K' && sscanf(line, "K %63s %u %ld %ld", name, &a, &p, &q) == 4) {
       Fmu* f = &fmus[find(fmus, n_fmus, name)];
@@ -282,9 +117,9 @@ int main(int argc, char** argv) {
     } else if (line[0] == 'T') {
       if (sscanf(line, "T %lf %ld", &tick, &ticks) != 2) return 2;
     } else if (line[0] == 'O' && sscanf(line, "O %63s %u", name, &a) == 2) {
-      out_fmu[n_out] = find(fmus, n_fmus, name);
-      out_held[n_out] = NAN;
-      out_vr[n_out++] = a;
+      out.fmu[out.n] = find(fmus, n_fmus, name);
+      out.held[out.n] = NAN;
+      out.vr[out.n++] = a;
     }
   }
   fclose(plan);
@@ -310,25 +145,12 @@ int main(int argc, char** argv) {
     const double t = (double)k * tick;
     for (i = 0; i < n_fmus && !failed; ++i) {
       Fmu* f = &fmus[i];
-      int due[MAX_CLOCKS], j, any = 0;
-      fmi3Boolean event_needed, terminate, early;
-      fmi3Float64 last;
-      for (j = 0; j < f->n_clocks; ++j) {
-        due[j] = k >= f->clocks[j].shift && (k - f->clocks[j].shift) % f->clocks[j].interval == 0;
-        any |= due[j];
-      }
-      if (f->n_clocks && (any || f->in_event || f->event_asked)) failed |= event_mode(fmus, i, links, n_links, due);
+      int due[MAX_CLOCKS];
+      if (needs_event_mode(f, k, due)) failed |= event_mode(fmus, i, links, n_links, &out, due);
       else failed |= set_inputs(fmus, i, links, n_links, 0, due);
-      failed |= f->do_step(f->c, t, tick, fmi3True, &event_needed, &terminate, &early, &last) != fmi3OK;
-      failed |= terminate || early;
-      f->event_asked = event_needed;
+      failed |= step_fmu(f, t, tick);
       failed |= read_outputs(fmus, i, links, n_links, 0, due);
-      for (j = 0; j < n_out; ++j)
-        if (out_fmu[j] == i) {
-          fmi3Float64 v = out_held[j];
-          if (clock_of(f, out_vr[j]) == 0) failed |= f->get_float64(f->c, &out_vr[j], 1, &v, 1) != fmi3OK;
-          printf("%ld %s %u %a\n", k, f->name, out_vr[j], v);
-        }
+      failed |= print_outputs(&out, f, i, k);
     }
   }
   for (i = 0; i < n_fmus; ++i) {

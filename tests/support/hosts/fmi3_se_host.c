@@ -33,70 +33,9 @@
      T tick ticks                  the tick (s) and how many to run
      O name vr                     a Float64 output printed after every tick ("k name vr value", C99 hex float)
    Exit 0 when every call succeeded. */
-#include <dlfcn.h>
-#include <math.h>
-#include <stdbool.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
+#include "fmi3_host_common.h"
 
-#include "fmi3Functions.h"
-
-#define MAX_FMUS 8
-#define MAX_LINKS 512
-#define MAX_CLOCKS 16
-#define MAX_CLOCKED 512
-#define MAX_DEPS 256
-#define MAX_OUT 64
-#define MAX_PARAMS 256
 #define MAX_NEST 16
-
-typedef struct {
-  fmi3ValueReference vr;
-  long interval, shift;
-  unsigned declared; /* the FMU's priority attribute */
-  int level;         /* the host's: smaller runs first */
-  long ran_at;       /* the tick of its last activation (-1: none) */
-} Clock;
-
-typedef struct {
-  char name[64], token[128];
-  int scheduled; /* Scheduled Execution (S) or co-simulation (F) */
-  void* lib;
-  fmi3Instance c;
-  int n_clocks, n_clocked, n_deps, in_event, event_asked;
-  Clock clocks[MAX_CLOCKS];
-  fmi3ValueReference clocked_vr[MAX_CLOCKED], clocked_by[MAX_CLOCKED];
-  fmi3ValueReference dep_consumer[MAX_DEPS], dep_producer[MAX_DEPS];
-  fmi3InstantiateCoSimulationTYPE* instantiate;
-  fmi3InstantiateScheduledExecutionTYPE* instantiate_se;
-  fmi3EnterInitializationModeTYPE* enter_init;
-  fmi3ExitInitializationModeTYPE* exit_init;
-  fmi3EnterEventModeTYPE* enter_event;
-  fmi3EnterStepModeTYPE* enter_step;
-  fmi3SetClockTYPE* set_clock;
-  fmi3UpdateDiscreteStatesTYPE* update;
-  fmi3ActivateModelPartitionTYPE* activate;
-  fmi3SetFloat64TYPE* set_float64;
-  fmi3SetInt32TYPE* set_int32;
-  fmi3SetBooleanTYPE* set_boolean;
-  fmi3SetStringTYPE* set_string;
-  fmi3GetFloat64TYPE* get_float64;
-  fmi3GetInt32TYPE* get_int32;
-  fmi3GetBooleanTYPE* get_boolean;
-  fmi3DoStepTYPE* do_step;
-  fmi3TerminateTYPE* terminate;
-  fmi3FreeInstanceTYPE* free_instance;
-} Fmu;
-
-typedef struct {
-  int src, dst;
-  char type;
-  fmi3ValueReference src_vr, dst_vr;
-  double real;
-  fmi3Int32 integer;
-  fmi3Boolean boolean;
-} Link;
 
 /* A recorded input of the Scheduled Execution FMU: set at tick k before the partition that clocks it. */
 typedef struct {
@@ -112,9 +51,7 @@ typedef struct {
   Link links[MAX_LINKS];
   int n_fmus, n_links, failed;
   double tick;
-  int n_out, out_fmu[MAX_OUT];
-  fmi3ValueReference out_vr[MAX_OUT];
-  fmi3Float64 out_held[MAX_OUT];
+  Outputs out;
   FILE* record;
   Recorded* replay;
   long n_replay;
@@ -126,36 +63,9 @@ typedef struct {
   long locks, preemptions;
 } Host;
 
+/* The one file-scope mutable state: fmi3LockPreemptionCallback and fmi3UnlockPreemptionCallback take no argument,
+   so they reach the run here. */
 static Host host_run;
-
-static void log_message(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
-  (void)category;
-  if (status >= fmi3Warning) fprintf(stderr, "[%s] %s\n", (const char*)env, message);
-}
-
-static int find(Host* h, const char* name) {
-  int i;
-  for (i = 0; i < h->n_fmus; ++i)
-    if (strcmp(h->fmus[i].name, name) == 0) return i;
-  fprintf(stderr, "unknown instance %s\n", name);
-  exit(2);
-}
-
-static fmi3ValueReference clock_of(const Fmu* f, fmi3ValueReference vr) {
-  int i;
-  for (i = 0; i < f->n_clocked; ++i)
-    if (f->clocked_vr[i] == vr) return f->clocked_by[i];
-  return 0;
-}
-
-static int is_due(const Fmu* f, fmi3ValueReference clock, const int* due) {
-  int j;
-  for (j = 0; j < f->n_clocks; ++j)
-    if (f->clocks[j].vr == clock) return due[j];
-  return 0;
-}
-
-static int due_at(const Clock* k, long tick) { return tick >= k->shift && (tick - k->shift) % k->interval == 0; }
 
 /* ---- data exchange ---------------------------------------------------------------------------------------------- */
 /* Read fi's outputs into its links: which = 0 the non-clocked, 1 the clocked ones of due clocks, 2 all; or, with
@@ -173,10 +83,10 @@ static int read_outputs(Host* h, int fi, int which, const int* due, fmi3ValueRef
     else if (l->type == 'I') failed |= f->get_int32(f->c, &l->src_vr, 1, &l->integer, 1) != fmi3OK;
     else failed |= f->get_boolean(f->c, &l->src_vr, 1, &l->boolean, 1) != fmi3OK;
   }
-  for (j = 0; j < h->n_out; ++j) { /* the printed outputs a partition or an Event Mode computed */
-    fmi3ValueReference clock = clock_of(f, h->out_vr[j]);
-    if (h->out_fmu[j] == fi && clock && (only ? clock == only : which == 1 && is_due(f, clock, due)))
-      failed |= f->get_float64(f->c, &h->out_vr[j], 1, &h->out_held[j], 1) != fmi3OK;
+  for (j = 0; j < h->out.n; ++j) { /* the printed outputs a partition or an Event Mode computed */
+    fmi3ValueReference clock = clock_of(f, h->out.vr[j]);
+    if (h->out.fmu[j] == fi && clock && (only ? clock == only : which == 1 && is_due(f, clock, due)))
+      failed |= f->get_float64(f->c, &h->out.vr[j], 1, &h->out.held[j], 1) != fmi3OK;
   }
   return failed;
 }
@@ -336,98 +246,25 @@ static int schedule(Host* h, int fi, long tick) {
 /* ---- co-simulation FMUs, as in fmi3_loop_host.c ------------------------------------------------------------------- */
 static int event_mode(Host* h, int fi, const int* due) {
   Fmu* f = &h->fmus[fi];
-  fmi3ValueReference vrs[MAX_CLOCKS];
-  fmi3Clock on[MAX_CLOCKS];
-  fmi3Boolean need = fmi3True, terminate = fmi3False, nominals, values, next_defined;
-  fmi3Float64 next_time;
-  int j, n = 0, failed = 0, rounds = 0;
+  int failed = 0;
   if (!f->in_event) failed |= f->enter_event(f->c) != fmi3OK;
   failed |= set_inputs(h, fi, 0, due, 0, 0);
-  for (j = 0; j < f->n_clocks; ++j)
-    if (due[j]) {
-      vrs[n] = f->clocks[j].vr;
-      on[n++] = fmi3ClockActive;
-    }
-  if (n) failed |= f->set_clock(f->c, vrs, (size_t)n, on) != fmi3OK;
+  failed |= set_due_clocks(f, due);
   failed |= set_inputs(h, fi, 1, due, 0, 0);
   failed |= read_outputs(h, fi, 1, due, 0); /* before the update: it deactivates the clocks */
-  while (need && !failed && rounds++ < 100)
-    failed |= f->update(f->c, &need, &terminate, &nominals, &values, &next_defined, &next_time) != fmi3OK;
-  failed |= need || terminate;
-  failed |= f->enter_step(f->c) != fmi3OK;
-  f->in_event = 0;
-  return failed;
+  return leave_event_mode(f, failed);
 }
 
 static int step(Host* h, int fi, long tick) {
   Fmu* f = &h->fmus[fi];
-  int due[MAX_CLOCKS], j, any = 0, failed = 0;
-  fmi3Boolean event_needed, terminate, early;
-  fmi3Float64 last;
-  for (j = 0; j < f->n_clocks; ++j) {
-    due[j] = due_at(&f->clocks[j], tick);
-    any |= due[j];
-  }
-  if (f->n_clocks && (any || f->in_event || f->event_asked)) failed |= event_mode(h, fi, due);
+  int due[MAX_CLOCKS], failed = 0;
+  if (needs_event_mode(f, tick, due)) failed |= event_mode(h, fi, due);
   else failed |= set_inputs(h, fi, 0, due, 0, 0);
-  failed |= f->do_step(f->c, (double)tick * h->tick, h->tick, fmi3True, &event_needed, &terminate, &early, &last) != fmi3OK;
-  failed |= terminate || early;
-  f->event_asked = event_needed;
+  failed |= step_fmu(f, (double)tick * h->tick, h->tick);
   return failed | read_outputs(h, fi, 0, due, 0);
 }
 
-/* ---- loading and the plan ------------------------------------------------------------------------------------------ */
-#define SYM(f, field, name) ((f)->field = (void*)dlsym((f)->lib, name)) == NULL
-
-static int load(Fmu* f, const char* binary) {
-  f->lib = dlopen(binary, RTLD_NOW | RTLD_LOCAL);
-  if (f->lib == NULL) {
-    fprintf(stderr, "loading %s: %s\n", binary, dlerror());
-    return 1;
-  }
-  if (SYM(f, instantiate, "fmi3InstantiateCoSimulation") || SYM(f, instantiate_se, "fmi3InstantiateScheduledExecution") ||
-      SYM(f, enter_init, "fmi3EnterInitializationMode") || SYM(f, exit_init, "fmi3ExitInitializationMode") ||
-      SYM(f, enter_event, "fmi3EnterEventMode") || SYM(f, enter_step, "fmi3EnterStepMode") ||
-      SYM(f, set_clock, "fmi3SetClock") || SYM(f, update, "fmi3UpdateDiscreteStates") ||
-      SYM(f, activate, "fmi3ActivateModelPartition") || SYM(f, set_float64, "fmi3SetFloat64") ||
-      SYM(f, set_int32, "fmi3SetInt32") || SYM(f, set_boolean, "fmi3SetBoolean") || SYM(f, set_string, "fmi3SetString") ||
-      SYM(f, get_float64, "fmi3GetFloat64") || SYM(f, get_int32, "fmi3GetInt32") || SYM(f, get_boolean, "fmi3GetBoolean") ||
-      SYM(f, do_step, "fmi3DoStep") || SYM(f, terminate, "fmi3Terminate") || SYM(f, free_instance, "fmi3FreeInstance")) {
-    fprintf(stderr, "%s: missing fmi3 symbol\n", f->name);
-    return 1;
-  }
-  return 0;
-}
-
-static int set_parameter(Host* h, const char* line) {
-  char name[64], type;
-  unsigned a;
-  const char* value = line;
-  int spaces = 0;
-  Fmu* f;
-  fmi3ValueReference vr;
-  if (sscanf(line, "P %63s %c %u", name, &type, &a) != 3) return 1;
-  f = &h->fmus[find(h, name)];
-  vr = a;
-  while (*value && spaces < 4) spaces += *value++ == ' ';
-  if (type == 'R') {
-    fmi3Float64 v = strtod(value, NULL);
-    return f->set_float64(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  if (type == 'I') {
-    fmi3Int32 v = (fmi3Int32)strtol(value, NULL, 10);
-    return f->set_int32(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  if (type == 'B') {
-    fmi3Boolean v = atoi(value) != 0;
-    return f->set_boolean(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-  {
-    fmi3String v = value;
-    return f->set_string(f->c, &vr, 1, &v, 1) != fmi3OK;
-  }
-}
-
+/* ---- the replay file and the plan --------------------------------------------------------------------------------- */
 static long read_replay(Host* h, const char* path) {
   FILE* in = fopen(path, "r");
   long cap = 1 << 16;
@@ -480,11 +317,11 @@ int main(int argc, char** argv) {
     line[strcspn(line, "\n")] = '\0';
     if ((line[0] == 'F' || line[0] == 'S') && h->n_fmus < MAX_FMUS) {
       Fmu* f = &h->fmus[h->n_fmus];
-      if (sscanf(line + 1, " %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary)) return 1;
+      if (sscanf(line + 1, " %63s %2047s %127s", f->name, binary, f->token) != 3 || load(f, binary, true)) return 1;
       f->scheduled = line[0] == 'S';
       ++h->n_fmus;
     } else if (line[0] == 'K' && sscanf(line, "K %63s %u %ld %ld %u", name, &a, &p, &q, &prio) == 5) {
-      Fmu* f = &h->fmus[find(h, name)];
+      Fmu* f = &h->fmus[find(h->fmus, h->n_fmus, name)];
       Clock* c = &f->clocks[f->n_clocks++];
       c->vr = a;
       c->interval = p;
@@ -492,28 +329,28 @@ int main(int argc, char** argv) {
       c->declared = prio;
       c->ran_at = -1;
     } else if (line[0] == 'V' && sscanf(line, "V %63s %u %u", name, &a, &b) == 3) {
-      Fmu* f = &h->fmus[find(h, name)];
+      Fmu* f = &h->fmus[find(h->fmus, h->n_fmus, name)];
       f->clocked_vr[f->n_clocked] = a;
       f->clocked_by[f->n_clocked++] = b;
     } else if (line[0] == 'D' && sscanf(line, "D %63s %u %u", name, &a, &b) == 3) {
-      Fmu* f = &h->fmus[find(h, name)];
+      Fmu* f = &h->fmus[find(h->fmus, h->n_fmus, name)];
       f->dep_consumer[f->n_deps] = a;
       f->dep_producer[f->n_deps++] = b;
     } else if (line[0] == 'P' && n_params < MAX_PARAMS) {
       memcpy(params[n_params++], line, sizeof line); /* set in Initialization Mode, below */
     } else if (line[0] == 'C' && h->replay == NULL && sscanf(line, "C %63s %c %u %63s %u", name, &type, &a, other, &b) == 5) {
       Link* l = &h->links[h->n_links++];
-      l->src = find(h, name);
-      l->dst = find(h, other);
+      l->src = find(h->fmus, h->n_fmus, name);
+      l->dst = find(h->fmus, h->n_fmus, other);
       l->type = type;
       l->src_vr = a;
       l->dst_vr = b;
     } else if (line[0] == 'T') {
       if (sscanf(line, "T %lf %ld", &h->tick, &ticks) != 2) return 2;
     } else if (line[0] == 'O' && sscanf(line, "O %63s %u", name, &a) == 2) {
-      h->out_fmu[h->n_out] = find(h, name);
-      h->out_held[h->n_out] = NAN;
-      h->out_vr[h->n_out++] = a;
+      h->out.fmu[h->out.n] = find(h->fmus, h->n_fmus, name);
+      h->out.held[h->out.n] = NAN;
+      h->out.vr[h->out.n++] = a;
     }
   }
   fclose(plan);
@@ -536,7 +373,7 @@ int main(int argc, char** argv) {
   }
   for (i = 0; i < n_params; ++i) {
     sscanf(params[i], "P %63s", name);
-    if (h->fmus[find(h, name)].c != NULL) h->failed |= set_parameter(h, params[i]);
+    if (h->fmus[find(h->fmus, h->n_fmus, name)].c != NULL) h->failed |= set_parameter(h->fmus, h->n_fmus, params[i]);
   }
   for (i = 0; i < h->n_fmus; ++i) {
     Fmu* f = &h->fmus[i];
@@ -549,15 +386,9 @@ int main(int argc, char** argv) {
   for (k = 0; k < ticks && !h->failed; ++k) {
     for (i = 0; i < h->n_fmus && !h->failed; ++i) {
       Fmu* f = &h->fmus[i];
-      int j;
       if (f->c == NULL) continue;
       h->failed |= f->scheduled ? schedule(h, i, k) : step(h, i, k);
-      for (j = 0; j < h->n_out; ++j)
-        if (h->out_fmu[j] == i) {
-          fmi3Float64 v = h->out_held[j];
-          if (clock_of(f, h->out_vr[j]) == 0) h->failed |= f->get_float64(f->c, &h->out_vr[j], 1, &v, 1) != fmi3OK;
-          printf("%ld %s %u %a\n", k, f->name, h->out_vr[j], v);
-        }
+      h->failed |= print_outputs(&h->out, f, i, k);
     }
   }
   for (i = 0; i < h->n_fmus; ++i) {
@@ -565,7 +396,7 @@ int main(int argc, char** argv) {
       h->fmus[i].terminate(h->fmus[i].c);
       h->fmus[i].free_instance(h->fmus[i].c);
     }
-    dlclose(h->fmus[i].lib);
+    LIB_CLOSE(h->fmus[i].lib);
   }
   if (h->record != NULL) fclose(h->record);
   free(h->replay);
