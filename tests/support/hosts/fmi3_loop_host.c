@@ -106,7 +106,12 @@ int main(int argc, char** argv) {
       f->clocked_vr[f->n_clocked] = a;
       f->clocked_by[f->n_clocked++] = b;
     } else if (line[0] == 'P' && n_params < MAX_PARAMS) {
-      strncpy(params[n_params++], line, sizeof params[0] - 1); /* set in Initialization Mode, below */
+      const size_t len = strlen(line);
+      if (len >= sizeof params[0]) {
+        fprintf(stderr, "plan line too long: %.40s...\n", line);
+        return 2;
+      }
+      memcpy(params[n_params++], line, len + 1); /* set in Initialization Mode, below */
     } else if (line[0] == 'C' && sscanf(line, "C %63s %c %u %63s %u", name, &type, &a, other, &b) == 5) {
       Link* l = &links[n_links++];
       l->src = find(fmus, n_fmus, name);
