@@ -51,6 +51,10 @@ class Binding(Slave):
         self._unpacked = None  # fmu_cache.Cached or extraction.Unpacked, from _load
         self._fmpy = None
 
+    def function_pointer(self, name: str) -> int:
+        """The address of one of the FMU's own functions (fmi2DoStep, fmi3SetClock, ...), for the C tick loop."""
+        return ctypes.cast(getattr(self._fmpy.dll, name), ctypes.c_void_p).value
+
     def _load(self, make, instantiate):
         """FMPy's object for the FMU, make(its extracted folder), instantiated by instantiate(that object). Nothing of a
         failed instantiation stays behind; the extracted copy goes with close(), or with its reaper if this process

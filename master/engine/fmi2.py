@@ -67,10 +67,6 @@ class InProcessFmu(Binding):
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
         self.component = self.slave.component
 
-    def function_pointer(self, name: str) -> int:
-        """The address of one of the FMU's own functions (fmi2DoStep, fmi2SetReal, ...), for the C tick loop."""
-        return ctypes.cast(getattr(self.slave.dll, name), ctypes.c_void_p).value
-
     def initialize(self, parameters: dict) -> None:
         self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
         self.call("enterInitializationMode", self.slave.enterInitializationMode)

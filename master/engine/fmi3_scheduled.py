@@ -86,6 +86,7 @@ class Fmu3ScheduledSlave(Fmu3Slave):
     def initialize(self, parameters: dict) -> None:
         super().initialize(parameters)
         self._in_event = False  # Clock Activation Mode: no Event Mode here
+        self.lock_depth.value = 0  # a run ended by a partition that returned locked leaves nothing held to the next
 
     def do_step(self, t: float, h: float) -> None:
         k = round(t / self.tick)

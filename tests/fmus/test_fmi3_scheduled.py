@@ -258,6 +258,28 @@ def test_a_partition_returning_with_a_lock_held_ends_the_run_on_both_paths(fmi3_
     assert kernel == f"controller: partition {first} returned at t=0 s with 1 preemption lock(s) held"
 
 
+def test_a_restart_after_a_run_ended_by_a_held_lock_holds_none(fmi3_set, se_fmu):
+    """The lock count belongs to a run: after one ended by a lock held, Execution.restart (fmi3Reset, initialization)
+    starts the next with none, on both paths, and it runs."""
+    from tiltload.master.engine.errors import ExecutionError
+    from tiltload.master.engine.native.loop import NativeLoop
+
+    for path in ("kernel", "python"):
+        ex = Execution(_se_system(fmi3_set, se_fmu), [])
+        try:
+            ex.instantiate()
+            if path == "python":
+                ex.loop = NativeLoop(ex, by_callback={"controller"})
+            ex.instances["controller"].lock_depth.value = 1
+            with pytest.raises(ExecutionError, match="preemption lock"):
+                ex.run(3 * T)
+            ex.restart()
+            ex.run(3 * T)
+            assert ex.time == pytest.approx(3 * T) and ex.instances["controller"].lock_depth.value == 0
+        finally:
+            ex.close()
+
+
 def test_a_se_fmu_runs_in_this_process_only(se_fmu):
     from tiltload.master.engine.errors import ExecutionError
     from tiltload.master.engine.isolation.hosting import slave_for

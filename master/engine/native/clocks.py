@@ -26,10 +26,6 @@ from ..slave import TYPES
 from . import kernel
 
 
-def _function(dll, name: str) -> int:
-    return ctypes.cast(getattr(dll, name), ctypes.c_void_p).value
-
-
 class ClockedPlan:
     """The kernel's tl_clocks of one clocked slave; groups: the execution's connection groups into it (in the order
     the kernel gathers them), chunk: the most ticks one call runs."""
@@ -39,10 +35,10 @@ class ClockedPlan:
         self.names = [k.name for k in slave.clocks]
         self._keep: list = []
         c = self.c = kernel.Clocks(max_iterations=MAX_EVENT_ITERATIONS)
-        dll = slave.fmu.dll
+        address = slave.function_pointer
         if not getattr(slave, "scheduled", False):  # a Scheduled Execution FMU has no Event Mode (and need not export it)
-            c.enter_event_mode, c.enter_step_mode = _function(dll, "fmi3EnterEventMode"), _function(dll, "fmi3EnterStepMode")
-            c.set_clock, c.update_discrete_states = _function(dll, "fmi3SetClock"), _function(dll, "fmi3UpdateDiscreteStates")
+            c.enter_event_mode, c.enter_step_mode = address("fmi3EnterEventMode"), address("fmi3EnterStepMode")
+            c.set_clock, c.update_discrete_states = address("fmi3SetClock"), address("fmi3UpdateDiscreteStates")
         n = len(slave.schedule)
         c.n_clocks = n
         c.clock_vrs = self._array(ctypes.c_uint, [slave.clocks[j].value_reference for j, *_ in slave.schedule])
@@ -65,7 +61,7 @@ class ClockedPlan:
         clocks = [r.clock for r in reads]
         c.read_first = self._array(ctypes.c_int, [sum(k < j for k in clocks) for j in range(-1, n + 1)])
         if getattr(slave, "scheduled", False):
-            c.activate = _function(dll, "fmi3ActivateModelPartition")
+            c.activate = address("fmi3ActivateModelPartition")
             c.order = self._array(ctypes.c_int, slave.rank_order)
             c.lock_depth = ctypes.addressof(slave.lock_depth)
 

@@ -62,10 +62,6 @@ def path_of(slave) -> str:
     return f"callback: {type(slave).__name__}"
 
 
-def _fmi3_function(slave, name: str) -> int:
-    return ctypes.cast(getattr(slave.fmu.dll, name), ctypes.c_void_p).value
-
-
 def _entropy(fault, k: int) -> dict:
     """The noise or jitter fault's seed words: [seed, k] as numpy's SeedSequence reads them (faults/draw.py draws
     from default_rng([seed, k, tick]))."""
@@ -117,7 +113,7 @@ class NativeLoop:
             elif fmi3:
                 c.component = slave.component
                 if not getattr(slave, "scheduled", False):  # no fmi3DoStep in Scheduled Execution
-                    c.do_step3 = _fmi3_function(slave, "fmi3DoStep")
+                    c.do_step3 = slave.function_pointer("fmi3DoStep")
 
             history, record = {}, {}
             for t, typ in enumerate(TYPES):
@@ -131,8 +127,8 @@ class NativeLoop:
                     c.set[t] = slave.function_pointer(f"fmi2Set{typ}")
                     c.get[t] = slave.function_pointer(f"fmi2Get{typ}")
                 elif fmi3:
-                    c.set3[t] = _fmi3_function(slave, f"fmi3Set{FMI3_NAME[typ]}")
-                    c.get3[t] = _fmi3_function(slave, f"fmi3Get{FMI3_NAME[typ]}")
+                    c.set3[t] = slave.function_pointer(f"fmi3Set{FMI3_NAME[typ]}")
+                    c.get3[t] = slave.function_pointer(f"fmi3Get{FMI3_NAME[typ]}")
                 if self.slots:
                     history[typ] = np.zeros((self.slots, values.size), dtype=_DTYPE[typ])
                     c.history[t] = history[typ].ctypes.data
