@@ -61,6 +61,37 @@ def test_runs_on_reset_fmus_give_the_rows_of_fresh_instances_bit_for_bit(fmus, t
     assert all(_same(a, b) for a, b in zip(reused[:len(cases)][::-1], reused[len(cases):]))  # and each run twice alike
 
 
+def test_the_first_run_restarts_the_prepared_execution_and_gives_a_fresh_instances_row(fmus, tmp_path):
+    """run_case.prepare instantiates a case's system before the runs come (each worker does it while the client checks
+    the feasibility): the first run restarts that execution, and its row is the row of fresh instances, bit for bit. A
+    system that cannot be instantiated is not prepared, and prepare says so rather than raise."""
+    spec = tmp_path / "reuse.toml"
+    spec.write_text(SPEC.format(scenario="fsi"))
+    campaign = load(spec)
+    base, cases = campaign.base(), [asdict(c) for c in campaign.cases]
+    first, later = cases[0], next(c for c in cases[1:] if c["controller"] == cases[0]["controller"])
+
+    def close_all() -> None:
+        for execution in run_case._EXECUTIONS.values():
+            execution.close()
+        run_case._EXECUTIONS.clear()
+
+    close_all()
+    try:
+        fresh = run_case.run_case(base, later, str(fmus), None)["row"]
+        close_all()
+        assert run_case.prepare(base, first, str(fmus))
+        (prepared,) = run_case._EXECUTIONS.values()
+        row = run_case.run_case(base, later, str(fmus), None)["row"]
+        assert list(run_case._EXECUTIONS.values()) == [prepared]  # restarted, not instantiated again
+        assert row["completed"] and _same(row, fresh)
+        assert run_case.prepare(base, first, str(fmus))  # prepared already: nothing more
+        assert not run_case.prepare(base, first, str(tmp_path / "no_fmus_here"))
+        assert list(run_case._EXECUTIONS.values()) == [prepared]
+    finally:
+        close_all()
+
+
 @pytest.mark.parametrize("runs, workers", [(1, 1), (12, 1), (48, 2), (1000, 2), (7, 8)])
 def test_chunks_shrink_to_single_runs_and_carry_every_run_once(runs, workers):
     sizes = dispatch.chunk_sizes(runs, workers)

@@ -146,6 +146,34 @@ def ready() -> bool:
     return True
 
 
+def prepare(base: dict, case: dict, fmu_dir: str) -> bool:
+    """Instantiate a case's system on this worker before its runs come (the FMUs unpacked, loaded and instantiated, as
+    its first run would), while the client checks the cases' feasibility: the first run then restarts it. Never
+    raises (False: not prepared; the run meets the problem again and reports it)."""
+    key = execution_key(base, case, fmu_dir)
+    if key in _EXECUTIONS:
+        return True
+    execution = None
+    try:
+        system = case_system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
+        execution = Execution(system, [], isolate=is_foreign)
+        execution.instantiate()
+    except Exception:
+        if execution is not None:
+            try:
+                execution.close()
+            except Exception:
+                pass
+        return False
+    _EXECUTIONS[key] = execution
+    return True
+
+
+def execution_key(base: dict, case: dict, fmu_dir: str) -> tuple:
+    """The systems whose runs share one execution on a worker: the same structure (parameters aside)."""
+    return base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir
+
+
 def worker_address() -> str | None:
     """The address of the Dask worker running this (None outside a worker: called directly)."""
     try:
@@ -336,8 +364,7 @@ def _run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict
     if log_dir:
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
                                        metadata={"run_id": case["run_id"], **case["parameters"]}))
-    key = (base["scenario"], base["trajectory"], base["gusts"], case["controller"], fmu_dir)
-    return _execute(key, system, observers, metrics, base, case, started,
+    return _execute(execution_key(base, case, fmu_dir), system, observers, metrics, base, case, started,
                     lambda ex: ex.restart({i.name: i.parameters for i in system.instances}, observers, system.faults))
 
 

@@ -125,6 +125,19 @@ def held(results: Path) -> dict[str, int]:
             "diverged": sum(bool(d) for d in diverged)}
 
 
+def _prepare_workers(client, base: dict, case: Case, fmu_dir: str) -> list:
+    """A task on each worker there is now that instantiates the first case's system (run_case.prepare): their futures.
+    The workers do it while this process checks the cases' feasibility, rather than in their first run."""
+    from .run_case import prepare
+
+    try:
+        workers = sorted(client.scheduler_info()["workers"])
+    except Exception:  # the dispatch says what is wrong with the scheduler
+        return []
+    return [client.submit(prepare, base, asdict(case), fmu_dir, workers=[w], allow_other_workers=False, pure=False,
+                          key=f"prepare-{k}-{time.time_ns()}") for k, w in enumerate(workers)]
+
+
 def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress=None, **options) -> tuple[Path, dict]:
     """Run what is missing of a campaign (options: the fields of Options); returns results.parquet and counts: total
     (the spec's runs), what the results hold (stored, completed, failed, diverged), skipped (stored before), ran
@@ -157,6 +170,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                            # a chunk until work stealing moved it: benchmarks/campaign_native.py)
                            "distributed.scheduler.worker-saturation": 1.1})):
         client = cluster = None
+        prepared: list = []
         if scheduler is not None:
             parse(scheduler)  # a malformed address is refused even with nothing to run
             if todo:
@@ -184,7 +198,9 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 base = campaign.base()
-                if campaign.snapshot is None:  # checked once here, not once per worker (seconds each)
+                if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
+                    # workers instantiate the first case's system
+                    prepared = _prepare_workers(client, dict(base), todo[0], str(Path(fmus).resolve()))
                     base["feasibility"] = feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve()))
                 task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 shared = {}
@@ -205,6 +221,11 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 counts["seconds"] = time.perf_counter() - started  # submitting to the last result: no cluster start or stop
                 counts["ran"], counts["retried"] = dispatch.stored, dispatch.retried
         finally:
+            if prepared:  # one whose worker died would wait for it for ever
+                try:
+                    client.cancel(prepared)
+                except Exception:
+                    pass
             if client is not None:
                 client.close()
             if cluster is not None:
