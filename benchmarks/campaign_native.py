@@ -265,45 +265,40 @@ def _tree(rev: str, folder: Path) -> Path:
     return folder / "shim"
 
 
-def _one(label: str, path: Path | None, spec: Path, out: Path, fmus: Path, workers: int, alone: int) -> dict:
+def _start(call: str, path: Path | None, cwd: Path) -> subprocess.Popen:
+    """A fresh Python process printing 'RESULT <json>' of campaign_native.<call>, with the tree at path (None: the
+    installed one) importable as tiltload; cwd not the repository, whose tiltload/ folder would shadow the tree."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), *([str(path)] if path else [])]))
-    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure({str(spec)!r}, {str(out)!r}, "
-            f"{str(fmus)!r}, {workers}, {alone})))")
-    # not run from the repository: its tiltload/ folder would shadow the tree under test
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=str(out.parent))
-    line = next((x for x in done.stdout.splitlines() if x.startswith("RESULT ")), None)
-    if done.returncode or line is None:
-        raise SystemExit(f"{label}: the measurement failed:\n{done.stderr[-3000:]}")
+    code = f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.{call}))"
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, cwd=str(cwd))
+
+
+def _result(what: str, proc: subprocess.Popen):
+    """The JSON a process of _start printed; the end of its stderr if it failed."""
+    stdout, stderr = proc.communicate()
+    line = next((x for x in stdout.splitlines() if x.startswith("RESULT ")), None)
+    if proc.returncode or line is None:
+        raise SystemExit(f"{what} failed:\n{stderr[-3000:]}")
     return json.loads(line[7:])
+
+
+def _one(label: str, path: Path | None, spec: Path, out: Path, fmus: Path, workers: int, alone: int) -> dict:
+    call = f"measure({str(spec)!r}, {str(out)!r}, {str(fmus)!r}, {workers}, {alone})"
+    return _result(f"{label}: the measurement", _start(call, path, out.parent))
 
 
 def _setup(label: str, path: Path | None, spec: Path, fmus: Path, n: int) -> dict:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), *([str(path)] if path else [])]))
-    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure_setup({str(spec)!r}, "
-            f"{str(fmus)!r}, {n})))")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=str(spec.parent))
-    line = next((x for x in done.stdout.splitlines() if x.startswith("RESULT ")), None)
-    if done.returncode or line is None:
-        raise SystemExit(f"{label}: the set-up measurement failed:\n{done.stderr[-3000:]}")
-    return json.loads(line[7:])
+    call = f"measure_setup({str(spec)!r}, {str(fmus)!r}, {n})"
+    return _result(f"{label}: the set-up measurement", _start(call, path, spec.parent))
 
 
 def _at_once(spec: Path, fmus: Path, n: int, processes: int) -> list[list[tuple[float, float]]]:
     """Each of `processes` processes' (wall, CPU) of n runs, the processes running theirs at the same time."""
-    env = dict(os.environ, PYTHONPATH=str(HERE))
     start_at = time.time() + 6.0  # past the imports and the warm-up run of every process
-    code = (f"import json, campaign_native as b; print('RESULT ' + json.dumps(b.measure_serial({str(spec)!r}, "
-            f"{str(fmus)!r}, {n}, {start_at!r})))")
-    procs = [subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              env=env, cwd=str(spec.parent)) for _ in range(processes)]
-    out = []
-    for proc in procs:
-        stdout, stderr = proc.communicate()
-        line = next((x for x in stdout.splitlines() if x.startswith("RESULT ")), None)
-        if proc.returncode or line is None:
-            raise SystemExit(f"the runs at once failed:\n{stderr[-3000:]}")
-        out.append(json.loads(line[7:]))
-    return out
+    call = f"measure_serial({str(spec)!r}, {str(fmus)!r}, {n}, {start_at!r})"
+    procs = [_start(call, None, spec.parent) for _ in range(processes)]
+    return [_result("the runs at once", proc) for proc in procs]
 
 
 def ceiling_report(scenario: str, spec: Path, fmus: Path, n: int, rounds: int) -> str:
