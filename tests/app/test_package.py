@@ -86,7 +86,9 @@ def _venv_with_dependencies(folder: Path) -> Path:
     subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
     purelib = subprocess.run([str(folder / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                              capture_output=True, text=True, check=True).stdout.strip()
-    dirs = [d for d in [*site.getsitepackages(), site.getusersitepackages()] if Path(d).is_dir()]
+    # and the site-packages folders this interpreter reaches through a .pth of its own (a venv layered on another)
+    layered = [p for p in sys.path if Path(p).name == "site-packages"]
+    dirs = [d for d in dict.fromkeys([*site.getsitepackages(), site.getusersitepackages(), *layered]) if Path(d).is_dir()]
     Path(purelib, "tiltload_test_dependencies.pth").write_text("\n".join(dirs) + "\n")
     return folder / "bin" / "python"
 
