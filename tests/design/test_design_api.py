@@ -190,3 +190,13 @@ def test_import_tiltload_loads_neither_namespace_until_used():
             "tl.plant.TICK; assert 'tiltload.plant' in sys.modules and tl.plant is sys.modules['tiltload.plant']")
     ran = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert ran.returncode == 0, ran.stderr
+
+
+@pytest.mark.parametrize("ticks", [0, 1, 2])
+def test_the_public_dlqr_is_the_gain_the_controller_fmu_embeds(ticks):
+    """docs/design_api.md says a gain designed here on the default parameters is the shipped controller's: bit for bit."""
+    from tiltload.controller_fmu.design.synthesize import design
+
+    ours = tl.design.dlqr(tl.plant.linearize(dt=tl.plant.TICK, integral=True, delay_ticks=ticks))
+    embedded = design("dlqr", tl.plant.TICK, loop_delay=ticks)
+    assert np.array_equal(ours.K, embedded.K) and np.array_equal(ours.model.A, embedded.A)
