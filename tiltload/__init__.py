@@ -9,6 +9,7 @@ The public API (docs/api.md)::
     tl.compare(result, "baselines/lkf_traj2.json").ok              # the case first, then the metrics
     tl.check(result, "docs/requirements/thesis.yaml")                # each requirement's verdict and robustness
     tl.campaign("docs/campaigns/robustness.toml", workers=2)
+    tl.plant.trim(), tl.plant.linearize(dt=tl.plant.TICK), tl.design.dlqr(), tl.design.mixed()   # docs/design_api.md
 
 Errors the user can fix raise TiltloadError, its message the line the `tiltload` command prints. Everything else
 (tiltload.master, tiltload.plant_fmu, ...) is the implementation, not the API. The names load on first use, so
@@ -23,6 +24,7 @@ from importlib.machinery import ModuleSpec
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from . import design, plant
     from .master.app.api.campaigns import CampaignResult, campaign
     from .master.app.api.checking import check
     from .master.app.api.comparing import compare, save_baseline
@@ -38,8 +40,9 @@ _PUBLIC = {  # name: the module it is defined in
     "TiltloadError": _API + "errors", "Comparison": "tiltload.master.app.regression.compare",
     "MetricRow": "tiltload.master.app.regression.compare",
 }
+_NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
 __all__ = ["CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "check", "compare", "run",
-           "save_baseline"]
+           "save_baseline", "plant", "design"]
 
 
 if "grimp" in sys.modules:  # import-linter is building its graph (pyproject.toml [tool.importlinter])
@@ -50,6 +53,8 @@ if "grimp" in sys.modules:  # import-linter is building its graph (pyproject.tom
 
 
 def __getattr__(name: str) -> object:
+    if name in _NAMESPACES:
+        return import_module(f"{__name__}.{name}")  # the import binds it here too
     where = _PUBLIC.get(name)
     if where is None:
         raise AttributeError(f"module 'tiltload' has no attribute {name!r}")

@@ -27,7 +27,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
     assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "Signals", "TiltloadError", "campaign", "check",
-                               "compare", "run", "save_baseline"}
+                               "compare", "run", "save_baseline", "plant", "design"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
 
 

@@ -86,7 +86,9 @@ def _venv_with_dependencies(folder: Path) -> Path:
     subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
     purelib = subprocess.run([str(folder / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                              capture_output=True, text=True, check=True).stdout.strip()
-    dirs = [d for d in [*site.getsitepackages(), site.getusersitepackages()] if Path(d).is_dir()]
+    # and the site-packages folders this interpreter reaches through a .pth of its own (a venv layered on another)
+    layered = [p for p in sys.path if Path(p).name == "site-packages"]
+    dirs = [d for d in dict.fromkeys([*site.getsitepackages(), site.getusersitepackages(), *layered]) if Path(d).is_dir()]
     Path(purelib, "tiltload_test_dependencies.pth").write_text("\n".join(dirs) + "\n")
     return folder / "bin" / "python"
 
@@ -154,3 +156,23 @@ def test_the_example_repository_s_suite_runs_on_the_wheel(installed, fmus, tmp_p
         for words in example_repo.REPORT_WORDS[:4]:
             assert words in message or "seed 2" in message, message
     (tmp_path / "failure.txt").write_text(next(iter(failed.values())))
+
+
+@pytest.mark.slow
+def test_the_example_repository_s_suite_passes_on_the_wheel_as_written(installed, fmus, tmp_path):
+    """The example controller repository as shipped (its controller designed with tl.plant and tl.design) passes its
+    suite on the wheel in a fresh virtual environment, outside the repository: its imports reach only what installs."""
+    from support import example_repo
+
+    repo = example_repo.copy(tmp_path / "repo")
+    built = shutil.copytree(fmus, tmp_path / "fmus")
+    junit = tmp_path / "junit.xml"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    ran = example_repo.run_suite(installed, repo, built, junit, env)
+    assert ran.returncode == 0, ran.stdout[-3000:] + ran.stderr[-2000:]
+    results = example_repo.outcomes(junit)
+    assert len(results) == 3 and all(failure is None for failure in results.values()), results
+    where = subprocess.run([str(installed), "-c", "import tiltload as tl; print(tl.plant.__file__, tl.design.__file__)"],
+                           capture_output=True, text=True, cwd=repo, env=env)
+    assert where.returncode == 0, where.stderr
+    assert all(Path(f).is_relative_to(installed.parents[1]) for f in where.stdout.split()), where.stdout  # the wheel's

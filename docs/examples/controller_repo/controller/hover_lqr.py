@@ -3,15 +3,15 @@
 Its tests (tests/test_hover_lqr.py) run it against tiltload's loop through the tiltload pytest plugin, which wraps
 it as an FMU (as `tiltload wrap controller/hover_lqr.py` does) once per session.
 
-The gain is computed once, when the FMU is initialized, from tiltload's own linearization (so
-this example needs tiltload in the Python that runs the FMU); any controller of yours can do
-anything in __init__ and step.
+The gain is computed once, when the FMU is initialized, with tiltload's public design namespace
+(tl.plant, tl.design: docs/design_api.md), so this example needs tiltload in the Python that runs
+the FMU; any controller of yours can do anything in __init__ and step.
 """
 
 import numpy as np
+import tiltload as tl
 
-STATES = ["x", "y", "z", "phi", "theta", "psi", "gamma_1", "gamma_2", "alpha_R", "alpha_L"]
-STATES += [f"{s}_dot" for s in STATES]
+STATES = tl.plant.trim().state_names  # x, y, z, phi, ..., alpha_L, then their rates x_dot, ...
 
 
 class HoverLQR:
@@ -22,19 +22,15 @@ class HoverLQR:
     period = 0.012
 
     def __init__(self, position_weight=10.0):
-        from scipy.linalg import solve_discrete_are
-        from tiltload.controller_fmu.design.estimator_setup import augmented_model
-
-        m = augmented_model(self.period)
-        A, B = m.A[:20, :20], m.B[:20]
+        model = tl.plant.linearize(dt=self.period)  # at the hover trim, zero-order hold at the controller's period
         Q = np.eye(20)
         Q[:3, :3] *= position_weight
-        P = solve_discrete_are(A, B, Q, np.eye(4))
-        self.K = np.linalg.solve(B.T @ P @ B + np.eye(4), B.T @ P @ A)
-        self.x_eq, self.u_eq = m.trim.x, m.trim.u
+        self.K = tl.design.dlqr(model, Q, np.eye(4)).K
+        self.x_eq, self.u_eq = model.trim.x, model.trim.u
+        self.limits = tl.plant.limits()  # Table 5.2: what the plant saturates to
 
     def step(self, t, inputs):
         x = np.array([inputs[f"exact_{s}"] for s in STATES]) - self.x_eq
         x[:3] -= [inputs["x_ref"], inputs["y_ref"], inputs["z_ref"]]
         u = self.u_eq - self.K @ x
-        return np.clip(u[:2], 0.0, 30.0).tolist() + np.clip(u[2:], -2.0, 2.0).tolist()
+        return self.limits.clip(u).tolist()

@@ -1,4 +1,4 @@
-"""The figures and numbers of docs/test_bench.md: run from the repository, `python docs/examples/test_bench_figures.py`.
+"""The figures and numbers of docs/test_bench.md: run from the repository, `python benchmarks/test_bench_figures.py`.
 
 Flies docs/examples/mission.csv with both designs (FSI, with docs/examples/gusty_wind.yaml), plots the reference and the
 flown paths, checks docs/examples/sprint.csv, and measures the Dryden turbulence of the scenario FMU over a long run
@@ -19,7 +19,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 FIGURES = ROOT / "docs" / "figures"
 EXAMPLES = ROOT / "docs" / "examples"
 TICK = 0.012
