@@ -57,16 +57,30 @@ class Test:
     environment: Environment | None = None  # a test's own, where the tests ran on different FMUs (else the report's)
 
 
+@dataclass(frozen=True)
+class Table:
+    """A table of the report's own (a campaign's pass rates, its worst runs): a title, a header and rows of text."""
+
+    title: str
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    note: str = ""
+
+
 @dataclass
 class Report:
     """The tests of one report, under a title; `declared` lists the requirements that should have been checked (those
-    of the requirement files), so that one no test checked shows as not exercised."""
+    of the requirement files), so that one no test checked shows as not exercised. `figures` (title, data: URI) and
+    `tables` are the report's own (a campaign's maps, a search's convergence), shown before the tests."""
 
     title: str
     kind: str  # run, check, campaign, falsification, pytest
     tests: list[Test]
     environment: Environment
     declared: list = field(default_factory=list)  # engine.requirements.Requirement
+    figures: list[tuple[str, str]] = field(default_factory=list)
+    tables: list[Table] = field(default_factory=list)
+    summary: str = ""  # a paragraph under the title
 
 
 def verdict_of(result) -> str:
@@ -110,6 +124,13 @@ def counts(report: Report) -> dict[str, int]:
                 tally[cell] += 1
     tally[ERROR] += sum(1 for t in report.tests if t.error and not requirement_ids(report))
     return tally
+
+
+def png_uri(path: Path) -> str:
+    """A PNG file as a data: URI, for a figure already written beside the results."""
+    import base64
+
+    return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode()
 
 
 def this_environment(fmus=(), controller_parameters=()) -> Environment:

@@ -15,6 +15,7 @@ import jinja2
 from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
 
 _TEMPLATE = Path(__file__).with_name("report.html.j2")
+WIDE = 12  # more tests than this: the traceability matrix has a row per test (a column each would not fit)
 
 
 def _number(x):
@@ -85,14 +86,17 @@ def render(report: Report, standard_figures: bool = True) -> str:
     data = {"title": report.title, "kind": report.kind, "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
             "counts": counts(report), "matrix": matrix(report),
             "requirements": [{"name": n, "source": s} for n, s in requirement_ids(report)],
-            "environment": report.environment.to_json(),
+            "environment": report.environment.to_json(), "summary": report.summary,
+            "tables": [{"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
+                       for t in report.tables],
             "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
                       | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
     env.filters["num"] = lambda x: "" if x is None else f"{x:.6g}"
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
-    return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED,
+    return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
+                       wide=len(tests) > WIDE,
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
 
 
