@@ -167,3 +167,54 @@ def test_the_page_in_headless_chromium(check_report, tmp_path):
     data = _page_data(page)
     assert dom.summary == data["counts"]  # what the reader sees is what the JSON says
     assert sorted(dom.cells) == sorted(c for row in data["matrix"].values() for c in row.values())
+
+
+USER_TESTS = '''
+import pytest
+
+REQS = {reqs!r}
+
+
+def test_the_loop_holds(tiltload_run):
+    run = tiltload_run(controller="dlqr", scenario="fsi", stop_time=1.5, requirements=REQS)
+    assert run.verdicts["thrust"] == "PASS"
+
+
+def test_that_fails(tiltload_run):
+    run = tiltload_run(controller="dlqr", scenario="fsi", stop_time=1.5, requirements=REQS)
+    assert run.verdicts["x_close"] == "PASS", "x not close"
+
+
+def test_without_runs():
+    assert 1 + 1 == 2
+'''
+
+
+def test_the_plugin_s_report_has_a_section_per_test_and_junit_links_it(fmus, tmp_path):
+    """A user's repository of three tests (two runs judged against requirements, one test without a run): the report
+    counts what the runs' verdicts are (from the JSON the runs themselves give to pytest), the JUnit XML links it."""
+    import sys
+    import xml.etree.ElementTree as ET
+
+    reqs = tmp_path / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: thrust\n    formula: always (controller.f_R >= 0 and controller.f_R <= 30)\n"
+                    "  - name: x_close\n    formula: always (abs(plant.x - scenario.x_ref) < 0.2)\n")
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    (repo / "test_user.py").write_text(USER_TESTS.format(reqs=str(reqs)))
+    page, junit = tmp_path / "session.html", tmp_path / "junit.xml"
+    run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--tiltload-fmus={fmus}",
+                          f"--tiltload-report={page}", f"--junitxml={junit}", str(repo)],
+                         cwd=repo, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 1, run.stdout[-3000:]  # one test fails
+    data = _page_data(page)
+    by_name = {t["name"].split("::")[-1]: t for t in data["tests"]}
+    assert set(by_name) == {"test_the_loop_holds", "test_that_fails", "test_without_runs"}
+    assert by_name["test_the_loop_holds"]["outcome"] == "PASS" and by_name["test_that_fails"]["outcome"] == "FAIL"
+    assert "x not close" in by_name["test_that_fails"]["error"]
+    # the load starts 0.3 m off in x (the thesis's initial offset): x_close fails in both runs, thrust passes in both;
+    # the test without a run counts its own PASS
+    assert data["counts"]["FAIL"] == 2 and data["counts"]["PASS"] == 3
+    assert all(t["command"].startswith("tiltload run ") for t in data["tests"] if t["name"] != by_name["test_without_runs"]["name"])
+    properties = {p.get("name"): p.get("value") for p in ET.parse(junit).iter("property")}
+    assert properties["tiltload_report"].startswith(str(page) + "#test-")

@@ -55,6 +55,7 @@ class Test:
     metrics: dict[str, float] = field(default_factory=dict)
     error: str | None = None
     environment: Environment | None = None  # a test's own, where the tests ran on different FMUs (else the report's)
+    outcome: str | None = None  # the test's own verdict (a pytest test: PASS, FAIL, ERROR), counted if it judged no requirement
 
 
 @dataclass(frozen=True)
@@ -115,14 +116,21 @@ def matrix(report: Report) -> dict[str, dict[str, str]]:
 
 
 def counts(report: Report) -> dict[str, int]:
-    """How many cells of the matrix are PASS, FAIL, INCONCLUSIVE, vacuous PASS, ZERO and ERROR; a test that failed with
-    no requirement to judge counts one ERROR."""
+    """How many cells of the matrix are PASS, FAIL, INCONCLUSIVE, vacuous PASS, ZERO and ERROR; and a test that judged no
+    requirement counts once: its own outcome, else ERROR if its run failed (unless the matrix has its ERROR cells)."""
     tally = dict.fromkeys(COUNTED, 0)
     for row in matrix(report).values():
         for cell in row.values():
             if cell in tally:
                 tally[cell] += 1
-    tally[ERROR] += sum(1 for t in report.tests if t.error and not requirement_ids(report))
+    judged_any = bool(requirement_ids(report))
+    for t in report.tests:
+        if t.results:
+            continue
+        if t.outcome in tally:
+            tally[t.outcome] += 1
+        elif t.error and not judged_any:
+            tally[ERROR] += 1
     return tally
 
 
