@@ -218,3 +218,27 @@ def test_the_plugin_s_report_has_a_section_per_test_and_junit_links_it(fmus, tmp
     assert all(t["command"].startswith("tiltload run ") for t in data["tests"] if t["name"] != by_name["test_without_runs"]["name"])
     properties = {p.get("name"): p.get("value") for p in ET.parse(junit).iter("property")}
     assert properties["tiltload_report"].startswith(str(page) + "#test-")
+
+
+def test_a_diverged_signal_is_drawn_where_it_was_sane_and_the_divergence_marked():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from tiltload.master.app.plot import scale_to_sane
+
+    t = np.linspace(0, 2.2, 221)
+    y = np.sin(3 * t)
+    y[-3:] = [1e30, 1e60, 1e90]  # the plant's blow-up in its last steps
+    fig, ax = plt.subplots()
+    ax.plot(t, y)
+    ax.plot(t, 0.5 * np.cos(t))
+    assert scale_to_sane(ax) == pytest.approx(t[-3])
+    lo, hi = ax.get_ylim()
+    assert -1.2 < lo < -0.9 and 0.9 < hi < 1.2  # the sine's own range, padded
+    fig2, ax2 = plt.subplots()
+    ax2.plot(t, 5 * t)  # a ramp grows, it does not diverge
+    before = ax2.get_ylim()
+    assert scale_to_sane(ax2) is None and ax2.get_ylim() == before
+    plt.close(fig)
+    plt.close(fig2)
