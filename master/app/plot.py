@@ -112,10 +112,19 @@ def case_title(run: dict) -> str:
                  "1-tick delay" if run.get("delay") == "True" else "", "no gusts" if run.get("gusts") == "False" else "",
                  "FMI 3.0" + (" clocks" if run.get("clocks") == "True" else "") if run.get("fmi") == "3" else ""]
     if run.get("set"):
-        parts.append(f"set {run['set']}")
+        parts.append(settings_brief(str(run["set"])))
     if run.get("faults"):
         parts.append(f"faults {Path(run['faults']).name}")
     return ", ".join(p for p in parts if p)
+
+
+def settings_brief(settings: str, most: int = 2, width: int = 60) -> str:
+    """--set values for a title: the first `most` whole (each cut at width), then how many more; a title never runs off
+    the figure's sides."""
+    items = settings.split()
+    shown = [item if len(item) <= width else item[:width - 1] + "…" for item in items[:most]]
+    more = len(items) - len(shown)
+    return "set " + ", ".join(shown) + (f" (+{more} more)" if more else "")
 
 
 def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None, case: str = "") -> list[Path]:

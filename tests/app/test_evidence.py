@@ -242,3 +242,13 @@ def test_a_diverged_signal_is_drawn_where_it_was_sane_and_the_divergence_marked(
     assert scale_to_sane(ax2) is None and ax2.get_ylim() == before
     plt.close(fig)
     plt.close(fig2)
+
+
+def test_a_title_names_the_set_values_briefly():
+    from tiltload.master.app.plot import case_title
+
+    many = " ".join(f"plant.p{k}={k / 10}" for k in range(9))
+    title = case_title({"vehicle": "load", "scenario": "fsi", "trajectory": "1", "controller": "dlqr", "seed": "1", "set": many})
+    assert title.endswith("set plant.p0=0.0, plant.p1=0.1 (+7 more)")
+    long = "plant.m_L=" + "9" * 200
+    assert len(case_title({"vehicle": "load", "set": long})) < 90
