@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
+from . import cache as machine_cache
 from . import compile as cc
 from .package import LAYER_FILES, read_build_info, write_fmu
 from .variables import FmuDefinition
@@ -62,6 +63,7 @@ class BuildResult:
     rebuilt: bool
     seconds: float
     warnings: list[str] = field(default_factory=list)  # the compiler's warnings on our own sources (the tests want none)
+    from_cache: bool = False  # copied from the machine's FMU cache (built before, from the same inputs, in another folder)
 
 
 def digest(recipe: Recipe, toolchains: tuple[cc.Toolchain, ...], fmi_version: int = 2) -> str:
@@ -149,10 +151,13 @@ def build(recipe: Recipe, dest: Path, force: bool = False, progress: Callable[[s
     source_digest = digest(recipe, toolchains, fmi_version)
     if not force and is_current(target, source_digest):
         return BuildResult(target, False, time.perf_counter() - started)
+    if not force and machine_cache.fetch(recipe.fmu_name, source_digest, target) and is_current(target, source_digest):
+        return BuildResult(target, False, time.perf_counter() - started, from_cache=True)
     with tempfile.TemporaryDirectory(prefix="tiltload_prepare_") as tmp:
         prepared = recipe.prepare(Path(tmp), progress)
         info = {"version": tiltload_version(), **prepared.info, "inputs": inputs_record(recipe, toolchains, fmi_version)}
         warnings = write_fmu(prepared.definition, prepared.sources, target, source_digest, info, toolchains, fmi_version)
+    machine_cache.keep(target, source_digest)
     return BuildResult(target, True, time.perf_counter() - started, warnings)
 
 

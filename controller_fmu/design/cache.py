@@ -14,20 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ...native_fmu.cache import cache_root
 from . import artifact
 from .artifact import Design
+
+__all__ = ["cache_root"]  # the machine's cache (native_fmu.cache), where designs and FMUs are kept
 
 _HERE, _PLANT = Path(__file__).parent, Path(__file__).parents[2] / "plant_fmu"
 # the code a gain depends on: the design modules and the model they linearize (not the FMU run-time code)
 _CODE = [_HERE / f for f in ("error_dynamics.py", "weights.py", "dlqr.py", "lmi.py", "lmi_check.py", "problems.py", "synthesize.py",
                               "artifact.py", "control_law.py")] + \
         [_PLANT / f for f in ("model.py", "kinematics.py", "parameters.py", "trim.py", "linearize.py")]
-
-
-def cache_root() -> Path:
-    """$TILTLOAD_CACHE, else $XDG_CACHE_HOME/tiltload or ~/.cache/tiltload: designs and compiled libraries."""
-    root = os.environ.get("TILTLOAD_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "tiltload"
-    return Path(root)
 
 
 def default_dir() -> Path:

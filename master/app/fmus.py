@@ -11,6 +11,7 @@ from pathlib import Path
 from ...controller_fmu.fmu import build as controller
 from ...formation import build as formation
 from ...native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
+from ...native_fmu.cache import cache_root, cached_fmu
 from ...native_fmu.compile import choose
 from ...native_fmu.package import read_build_info
 from ...plant_fmu import build as plant
@@ -85,8 +86,14 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:
         return [BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
-    progress(f"building {', '.join(r.fmu_name for r in stale)} into {dest}/ (C compiled side by side): "
-             f"{why(stale, dest, force, toolchains, fmi_version)} ...")
+    cached = [r for r in stale if not force and cached_fmu(r.fmu_name, digest(r, toolchains, fmi_version)).is_file()]
+    if cached:
+        progress(f"reusing {', '.join(r.fmu_name for r in cached)} from this machine's FMU cache ({cache_root() / 'fmus'}/: "
+                 "built before from the same sources, compilers and options)")
+    if len(cached) < len(stale):
+        building = [r for r in stale if r not in cached]
+        progress(f"building {', '.join(r.fmu_name for r in building)} into {dest}/ (C compiled side by side): "
+                 f"{why(building, dest, force, toolchains, fmi_version)} ...")
     one_at_a_time = threading.Lock()
 
     def alone(prepare):

@@ -112,10 +112,19 @@ def case_title(run: dict) -> str:
                  "1-tick delay" if run.get("delay") == "True" else "", "no gusts" if run.get("gusts") == "False" else "",
                  "FMI 3.0" + (" clocks" if run.get("clocks") == "True" else "") if run.get("fmi") == "3" else ""]
     if run.get("set"):
-        parts.append(f"set {run['set']}")
+        parts.append(settings_brief(str(run["set"])))
     if run.get("faults"):
         parts.append(f"faults {Path(run['faults']).name}")
     return ", ".join(p for p in parts if p)
+
+
+def settings_brief(settings: str, most: int = 2, width: int = 60) -> str:
+    """--set values for a title: the first `most` whole (each cut at width), then how many more; a title never runs off
+    the figure's sides."""
+    items = settings.split()
+    shown = [item if len(item) <= width else item[:width - 1] + "…" for item in items[:most]]
+    more = len(items) - len(shown)
+    return "set " + ", ".join(shown) + (f" (+{more} more)" if more else "")
 
 
 def plot_messages(data: dict[str, list[dict]], log: Path, out: Path | None = None, case: str = "") -> list[Path]:
@@ -150,6 +159,60 @@ TITLES = {"trajectory3d": "trajectory", "tracking_error": "tracking error (refer
           "estimation_error_rest": "estimation error, the other states", "zse_frobenius": "the ZSE's zonotope size"}
 
 
+BLOWUP = 1e6  # a value this many times the signal's usual size (or past any finite value) is a divergence, not data
+
+
+def sane_part(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, float | None]:
+    """(the samples before a divergence, its time or None). A signal's usual size is the 99th percentile of |v| over
+    its first 80 % of finite samples (at least 1e-6); a divergence is the first sample beyond BLOWUP times that, or not
+    finite. A signal that does not diverge is kept whole."""
+    values = np.asarray(values, dtype=float)
+    finite = np.isfinite(values)
+    if not len(values):
+        return np.ones(0, bool), None
+    usual = np.abs(values[finite][: max(1, int(0.8 * finite.sum()))]) if finite.any() else np.zeros(1)
+    size = max(float(np.percentile(usual, 99)) if len(usual) else 0.0, 1e-6)
+    wild = ~finite | (np.abs(np.where(finite, values, 0.0)) > BLOWUP * size)
+    if not wild.any():
+        return np.ones(len(values), bool), None
+    first = int(np.argmax(wild))
+    keep = np.zeros(len(values), bool)
+    keep[:first] = True
+    return keep, float(times[first])
+
+
+def scale_to_sane(ax) -> float | None:
+    """Scale an axis to its lines' samples before any divergence and mark the divergence's time (the earliest of its
+    lines'); a figure of a diverged run then shows the run, not one spike to 1e90. Returns that time or None."""
+    spans, when = [], []
+    for line in ax.get_lines():
+        x, y = np.asarray(line.get_xdata(), dtype=float), np.asarray(line.get_ydata(), dtype=float)
+        if len(x) != len(y) or len(y) < 2:
+            continue
+        keep, t = sane_part(x, y)
+        if t is None:
+            continue
+        when.append(t)
+        if keep.any():
+            spans.append((float(np.min(y[keep])), float(np.max(y[keep]))))
+    if not when:
+        return None
+    for line in ax.get_lines():  # the other lines' ranges count too
+        y = np.asarray(line.get_ydata(), dtype=float)
+        keep, _ = sane_part(np.arange(len(y)), y)
+        if keep.any():
+            spans.append((float(np.min(y[keep])), float(np.max(y[keep]))))
+    if spans:
+        lo, hi = min(a for a, _ in spans), max(b for _, b in spans)
+        pad = 0.08 * max(hi - lo, 1e-9)
+        ax.set_ylim(lo - pad, hi + pad)
+    t = min(when)
+    ax.axvline(t, color="m", lw=1.0, ls=":")
+    ax.text(t, 0.97, f" diverged at {t:.3f} s", transform=ax.get_xaxis_transform(), fontsize=7, color="m", va="top",
+            ha="right" if t > np.mean(ax.get_xlim()) else "left")
+    return t
+
+
 def limit_view(values: np.ndarray, limits: tuple[float, float], near: float = 0.5) -> tuple[tuple[float, float], list[float],
                                                                                          list[float]]:
     """The y range of a trace with actuator limits: (ylim, the limits to draw, the limits left out).
@@ -180,6 +243,7 @@ def figures(data: dict[str, list[dict]], case: str = ""):
     def done(fig, name):
         for ax in fig.axes:  # faults as shaded intervals on every time axis
             if ax.name != "3d":
+                scale_to_sane(ax)
                 for k, (t0, t1, label) in enumerate(intervals):
                     ax.axvspan(t0, t1, color=f"C{3 + k % 6}", alpha=0.15, lw=0, label=label if ax is fig.axes[0] else None)
         if intervals and fig.axes and fig.axes[0].name != "3d":

@@ -541,6 +541,22 @@ def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_resu
     assert ise_x == pytest.approx(row["ISE(x)"], rel=1e-5)  # the printed table has 6 digits
 
 
+def test_the_html_report_counts_what_the_results_hold(local_results):
+    import json
+    import re
+
+    assert main(["campaign-report", str(local_results)]) == 0
+    page = (local_results.parent / "report.html").read_text(encoding="utf-8")
+    data = json.loads(re.search(r'id="tiltload-results">(.*?)</script>', page, re.S).group(1).replace("<\\/", "</"))
+    stored = rows(local_results)
+    failed = [r for r in stored if r["error"] or not r["completed"]]
+    assert len(data["tests"]) == len(stored) and failed
+    assert data["counts"]["ERROR"] == len(failed)  # no keep.requirements here: a failed run is one ERROR
+    assert 'src="data:image/png;base64,' in page  # the distributions inline
+    commands = {t["command"] for t in data["tests"]}
+    assert all(c.startswith("tiltload run ") for c in commands) and len(commands) == len(stored)
+
+
 BRANCHES = """
 name = "branches"
 [base]

@@ -250,6 +250,10 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     lines += requirement_section(rows, varied, spec)
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
+    from ..evidence.campaign_page import write_campaign_report
+
+    write_campaign_report(results.parent.name, rows, varied, [rerun_command(r, spec) for r in rows],
+                          [folder / f for f in figures], folder / "report.html")
     return path
 
 

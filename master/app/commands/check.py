@@ -23,6 +23,8 @@ def add_parser(sub) -> None:
                    help="a requirement without a file, e.g. 'alt: always[0:40] plant.z < 0' (repeatable)")
     c.add_argument("--explain", action="store_true", help="show each requirement's STL (the sugar expanded) and stop")
     c.add_argument("--json", action="store_true", help="the results as JSON on stdout")
+    c.add_argument("--report", type=Path, default=None, metavar="FILE",
+                   help="also write a self-contained HTML report: verdicts, traceability, plots (docs/reports.md)")
     c.set_defaults(func=run)
 
 
@@ -104,7 +106,20 @@ def run(args: argparse.Namespace) -> int:
             print("\n".join(table(results)))
     if args.json:
         print(json.dumps({"logs": report}, indent=1))
+    if args.report is not None:
+        _write_report(args.report, reqs, per_log, args.files[0] if args.files and not _is_log(args.files[0]) else None)
     verdicts = {r.verdict for r in everything}
     if "FAIL" in verdicts:
         return FAILED
     return PASSED if verdicts == {"PASS"} else UNDECIDED
+
+
+def _write_report(path: Path, reqs, per_log: dict, requirement_file: Path | None) -> None:
+    """The HTML report of the logs judged: a test per log, its replay command with the requirement file."""
+    from ..evidence import Report, test_of_log, write_report
+    from ..evidence.model import this_environment
+
+    tests = [test_of_log(log, results, requirement_file) for log, results in per_log.items()]
+    title = f"Requirements {requirement_file.name if requirement_file else '(--formula)'} on {len(tests)} log" + "s" * (len(tests) != 1)
+    write_report(Report(title, "check", tests, this_environment(), declared=list(reqs)), path)
+    print(f"report: {path}")

@@ -23,12 +23,16 @@ if TYPE_CHECKING:
 
 UPDATE = "--tiltload-update-baselines"
 MARKER = "tiltload_cases"
+REPORT = "--tiltload-report"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("tiltload", "tiltload: runs of the tilt-rotor loop and their baselines")
     group.addoption(UPDATE, action="store_true", default=False,
                     help="record each tiltload_baseline from this run's metrics instead of checking against it")
+    group.addoption(REPORT, default=None, metavar="FILE",
+                    help="write a self-contained HTML report of the session: a section per test, its runs' requirements "
+                         "and figures (linked from the JUnit XML as the property tiltload_report)")
     group.addoption("--tiltload-fmus", default=None, metavar="DIR",
                     help="folder of the loop's FMUs, built there when missing or stale (default: the ini's tiltload_fmus)")
     parser.addini("tiltload_fmus", "folder of the loop's FMUs, relative to the rootdir (default: fmus)", default="fmus")
@@ -39,6 +43,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    if config.getoption(REPORT, None):
+        config.pluginmanager.register(SessionReport(Path(config.getoption(REPORT)).resolve()), "tiltload-report")
     config.addinivalue_line("markers", f"{MARKER}(**axes): run the test once per combination of the axes' values "
                             "(e.g. scenario=['zse', 'lkf'], trajectory=[1, 2], seed=[1, 2]), each given to the test as "
                             "the tiltload_case fixture: the options of tiltload.run")
@@ -110,7 +116,8 @@ def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.Te
 
 
 @pytest.fixture
-def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path) -> Callable[..., Result]:
+def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path,
+                 request: pytest.FixtureRequest) -> Callable[..., Result]:
     """run(controller=..., **options) -> tiltload.Result: a run of the loop with the session's FMUs into this test's
     own folder, no figures; controller a .fmu, a Python file or class (wrapped), or dlqr / mixed."""
     from ..api.running import run
@@ -119,8 +126,49 @@ def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], 
         if controller is not None and not (isinstance(controller, str) and controller in ("dlqr", "mixed")):
             controller = tiltload_controller(controller)
         options = {"fmus": tiltload_fmus, "out": tmp_path, "no_plots": True, **options}
-        return run(controller=controller, **options)
+        result = run(controller=controller, **options)
+        request.node.stash.setdefault(RUNS, []).append(result)  # for --tiltload-report
+        return result
     return run_case
+
+
+RUNS = pytest.StashKey[list]()
+
+
+class SessionReport:
+    """--tiltload-report FILE: each test's runs and outcome, written as one HTML report when the session ends."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.records: dict[str, object] = {}
+
+    def _record(self, item: pytest.Item):
+        from ..evidence.pytest_report import TestRecord
+
+        if item.nodeid not in self.records:
+            self.records[item.nodeid] = TestRecord(item.nodeid)
+            item.user_properties.append(("tiltload_report", f"{self.path}#test-{len(self.records)}"))  # the JUnit XML's link
+        return self.records[item.nodeid]
+
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_makereport(self, item: pytest.Item, call):
+        outcome = yield
+        report = outcome.get_result()
+        rec = self._record(item)
+        rec.runs = list(item.stash.get(RUNS, []))
+        if report.failed:
+            rec.outcome = "FAIL" if report.when == "call" else "ERROR"
+            said = call.excinfo.exconly() if call.excinfo is not None else str(report.longreprtext)
+            rec.failure = (said.strip().splitlines() or [""])[0][:500]
+        elif report.when == "call" and rec.outcome is None:
+            rec.outcome = "PASS" if report.passed else None
+
+    def pytest_sessionfinish(self, session: pytest.Session) -> None:
+        from ..evidence.pytest_report import write_pytest_report
+
+        if self.records:
+            write_pytest_report(list(self.records.values()), self.path, f"pytest session in {session.config.rootpath.name}")
+            session.config.get_terminal_writer().line(f"tiltload report: {self.path}")
 
 
 def _baseline_name(node: pytest.Item) -> str:

@@ -1,0 +1,87 @@
+"""A campaign's results as a report: a test per run (its rerun command, its varied values, metrics and the verdicts
+of keep.requirements), the pass rate of each requirement, the worst runs, and the campaign's figures inline."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from .model import Report, Table, Test, png_uri, this_environment
+from .page import write_report
+
+
+@dataclass(frozen=True)
+class StoredVerdict:
+    """A requirement's verdict as a campaign row keeps it (NAME_verdict, NAME_robustness, NAME_vacuous)."""
+
+    name: str
+    verdict: str
+    robustness: float | None
+    vacuous: bool = False
+    first_violation: float | None = None
+    formula: str = ""
+    source: str = ""
+    description: str = ""
+    why: str = ""
+    values: tuple = ()
+
+
+def requirement_names(row: dict) -> list[str]:
+    return [k[:-len("_verdict")] for k in row if k.endswith("_verdict") and f"{k[:-8]}_robustness" in row]
+
+
+def _number(x) -> float | None:
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _test(row: dict, varied: list[str], names: list[str], command: str, formulas: dict[str, str]) -> Test:
+    failed = bool(row.get("error")) or not row.get("completed", True)
+    results = [] if failed else [StoredVerdict(n, str(row[f"{n}_verdict"]), _number(row[f"{n}_robustness"]),
+                                               bool(row.get(f"{n}_vacuous", False)), formula=formulas.get(n, ""))
+                                 for n in names]
+    metrics = {k: v for k, v in row.items() if k.startswith(("ISE(", "IADU(")) or k in (
+        "max_tracking_error", "time_saturated", "zse_containment")}
+    case = {"controller": row.get("controller"), "seed": row.get("seed"), **{k: row.get(k) for k in varied}}
+    error = (row.get("error") or "the run did not complete") if failed else None
+    return Test(f"run {row.get('run_id')}", command, case, None, results, {k: _number(v) for k, v in metrics.items()}, error)
+
+
+def write_campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
+                          out: Path, formulas: dict[str, str] | None = None) -> Path:
+    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results)."""
+    names = requirement_names(rows[0]) if rows else []
+    tests = [_test(r, varied, names, c, formulas or {}) for r, c in zip(rows, commands)]
+    tables = []
+    if names:
+        body = []
+        for n in names:
+            verdicts = [t for t in tests if not t.error]
+            cells = [next(r for r in t.results if r.name == n) for t in verdicts]
+            plain = [c for c in cells if not c.vacuous]
+            robust = [c.robustness for c in cells if c.robustness is not None]
+            tally = {v: sum(1 for c in plain if c.verdict == v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
+            vacuous = sum(1 for c in cells if c.vacuous)
+            body.append((n, str(tally["PASS"]), str(vacuous), str(tally["FAIL"]), str(tally["INCONCLUSIVE"]), str(tally["ZERO"]),
+                         str(len(tests) - len(verdicts)), f"{100 * (tally['PASS'] + vacuous) / max(len(tests), 1):.0f} %",
+                         f"{min(robust):.4g}" if robust else "—"))
+        tables.append(Table("Pass rate per requirement", ("requirement", "PASS", "PASS (vacuous)", "FAIL", "INCONCLUSIVE",
+                                                          "ZERO", "ERROR (run failed)", "pass rate", "least robustness"),
+                            tuple(body), "A run that failed or diverged judged no requirement: it counts as ERROR."))
+    worst = sorted(range(len(rows)), key=lambda i: (not tests[i].error, -(_number(rows[i].get("max_tracking_error")) or 0.0)))[:10]
+    tables.append(Table("Worst runs", ("run", "controller", "seed", *varied, "outcome", "rerun"), tuple(
+        (str(rows[i].get("run_id")), str(rows[i].get("controller")), str(rows[i].get("seed")),
+         *(f"{_number(rows[i].get(k)) or 0:.4g}" for k in varied),
+         tests[i].error or f"max tracking error {_number(rows[i].get('max_tracking_error')) or math.nan:.3g} m", commands[i])
+        for i in worst), "Failed or diverged runs first, then the largest tracking error."))
+    completed = sum(1 for t in tests if not t.error)
+    summary = (f"{len(rows)} runs, {completed} completed without an error; varied: {', '.join(varied) or 'seeds only'}; "
+               f"controllers: {', '.join(dict.fromkeys(str(r.get('controller')) for r in rows))}.")
+    report = Report(f"Campaign {name}", "campaign", tests, this_environment(), declared=[],
+                    figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()], tables=tables,
+                    summary=summary)
+    return write_report(report, Path(out), standard_figures=False)

@@ -1,0 +1,118 @@
+"""The report as one HTML file: styles, figures (inline SVG, PNG as data: URIs) and the results as JSON inside it, no
+script and nothing fetched (its Content-Security-Policy forbids it), so it opens from a CI artifact or an e-mail.
+
+Jinja2 renders it (autoescaped); the figures are matplotlib's, static, so the page needs no plotting script."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import jinja2
+
+from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
+
+_TEMPLATE = Path(__file__).with_name("report.html.j2")
+WIDE = 12  # more tests than this: the traceability matrix has a row per test (a column each would not fit)
+
+
+def _number(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _result_json(r) -> dict:
+    return {"name": r.name, "verdict": verdict_of(r), "vacuous": bool(getattr(r, "vacuous", False)),
+            "robustness": _number(r.robustness), "first_violation": _number(r.first_violation),
+            "values": {k: _number(v) for k, v in r.values.items()}, "source": r.source, "formula": r.formula,
+            "description": r.description, "why": r.why}
+
+
+def _figures_of(test, reqs_by_name) -> dict[str, dict]:
+    """Requirement name -> {"svg": ..., "curves": [...]} for each result judged on the test's log."""
+    from ...engine import log_reader
+    from ...engine.requirement_check import build_trace
+    from ...engine.requirements import requirement
+    from ..plot import unit
+    from .figures import requirement_figure
+
+    if test.log is None or not Path(test.log).is_file() or not test.results:
+        return {}
+    reqs = [reqs_by_name.get(r.name) or requirement(r.name, r.formula) for r in test.results if r.formula]
+    topics = sorted({f"/{n.split('.')[0]}" for q in reqs for n in q.signals})
+    columns, state = log_reader.read_columns(Path(test.log), topics)
+    series = {topic.lstrip("/"): c for topic, c in columns.items()}
+    final = not state.torn and "error" not in log_reader.read_metadata(Path(test.log))
+    out, cache = {}, {}
+    for req, result in zip(reqs, [r for r in test.results if r.formula]):
+        if any(n.split(".")[0] not in series or n.split(".", 1)[1] not in series[n.split(".")[0]][1] for n in req.signals):
+            continue  # INCONCLUSIVE for a signal the log lacks: nothing to draw
+        trace = build_trace(series, req.signals, cache)
+        svg, curves = requirement_figure(req, trace, result, _unit_of(unit), final)
+        out[req.name] = {"svg": svg, "curves": [vars(c) for c in curves]}
+    return out
+
+
+def _unit_of(unit):
+    """A signal's unit by its name: a reference (x_ref) has its state's, a number the loop does not know none."""
+    def of(name: str) -> str:
+        base = name.split(".", 1)[-1]
+        base = base[:-4] if base.endswith("_ref") else base
+        known = base in ("f_R", "f_L", "d_x", "d_y", "d_z", "tau_R", "tau_L") or base.removesuffix("_dot") in (
+            "x", "y", "z", "x_B", "y_B", "z_B", "phi", "theta", "psi", "alpha_R", "alpha_L", "gamma_1", "gamma_2")
+        return unit(base) if known else "1"
+    return of
+
+
+def render(report: Report, standard_figures: bool = True) -> str:
+    """The report's HTML."""
+    from .figures import standard_figures as figures_of_log
+
+    reqs_by_name = {r.name: r for r in report.declared}
+    tests = []
+    for test in report.tests:
+        figures = _figures_of(test, reqs_by_name)
+        tests.append({
+            "name": test.name, "command": test.command, "case": {k: str(v) for k, v in test.case.items()},
+            "log": str(test.log) if test.log else "", "metrics": {k: _number(v) for k, v in test.metrics.items()},
+            "error": test.error, "outcome": test.outcome, "results": [_result_json(r) for r in test.results], "figures": figures,
+            "standard": figures_of_log(test.log) if standard_figures and test.log and Path(test.log).is_file() else [],
+            "environment": test.environment.to_json() if test.environment else None,
+        })
+    data = {"title": report.title, "kind": report.kind, "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+            "counts": counts(report), "matrix": matrix(report),
+            "requirements": [{"name": n, "source": s} for n, s in requirement_ids(report)],
+            "environment": report.environment.to_json(), "summary": report.summary,
+            "tables": [{"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
+                       for t in report.tables],
+            "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
+                      | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
+    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env.filters["num"] = lambda x: "" if x is None else f"{x:.6g}"
+    env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
+    page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
+    return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
+                       wide=len(tests) > WIDE,
+                       data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
+
+
+def _script_safe(text: str) -> str:
+    """JSON inside <script type="application/json">: no '</' can end the element early."""
+    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+def write_report(report: Report, path: Path, standard_figures: bool = True) -> Path:
+    """Write the report to path (a folder is made as needed); returns path."""
+    path = Path(path)
+    text = render(report, standard_figures)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return path
+
+

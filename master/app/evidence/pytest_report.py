@@ -1,0 +1,39 @@
+"""The pytest plugin's report (--tiltload-report FILE): a section per test, with the runs it made through the
+tiltload_run fixture (their requirements judged, their logs' figures) and its own outcome."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .model import ERROR, FAIL, PASS, Report, Test, this_environment
+from .page import write_report
+
+
+@dataclass
+class TestRecord:
+    """What one pytest test did: its runs (tiltload.Result) and its outcome with the failure's first line."""
+
+    nodeid: str
+    runs: list = field(default_factory=list)
+    outcome: str | None = None  # PASS, FAIL (the test body failed), ERROR (its set-up or tear-down failed)
+    failure: str | None = None
+
+
+def tests_of(records: list[TestRecord]) -> list[Test]:
+    tests = []
+    for rec in records:
+        if not rec.runs:
+            tests.append(Test(rec.nodeid, outcome=rec.outcome, error=rec.failure))
+            continue
+        for k, run in enumerate(rec.runs):
+            name = rec.nodeid if len(rec.runs) == 1 else f"{rec.nodeid} (run {k + 1})"
+            tests.append(Test(name, run.command, dict(run.case), run.log, list(run.requirements), dict(run.metrics),
+                              error=rec.failure, outcome=rec.outcome))
+    return tests
+
+
+def write_pytest_report(records: list[TestRecord], path: Path, title: str) -> Path:
+    counts = {o: sum(1 for r in records if r.outcome == o) for o in (PASS, FAIL, ERROR)}
+    summary = f"{len(records)} tests: {counts[PASS]} passed, {counts[FAIL]} failed, {counts[ERROR]} errors."
+    return write_report(Report(title, "pytest", tests_of(records), this_environment(), summary=summary), path)
