@@ -54,6 +54,15 @@ def timed(fmu: Path, where: Path, values: np.ndarray, period: float) -> tuple[fl
     return best, np.array(out)
 
 
+def machine() -> str:
+    try:
+        name = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                    if line.startswith("model name"))
+    except (OSError, StopIteration):
+        name = platform.processor()
+    return f"{platform.machine()} {name}".strip()
+
+
 def run(source: Path, steps: int) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -64,7 +73,7 @@ def run(source: Path, steps: int) -> None:
         values = 0.05 * rng.normal(size=(steps, n_in))
         native, a = timed(tmp / "native.fmu", tmp / "n", values, 0.012)
         python, b = timed(tmp / "python.fmu", tmp / "p", values, 0.012)
-    print(f"{source.name} on {platform.machine()} {platform.processor() or ''} ({steps} steps, least of {ROUNDS} rounds)")
+    print(f"{source.name} on {machine()} ({steps} steps, least of {ROUNDS} rounds)")
     print(f"  native C FMU (wrap --native): {native * 1e6:8.2f} µs a step (FMPy's call included)")
     print(f"  pythonfmu FMU (wrap):         {python * 1e6:8.2f} µs a step")
     print(f"  ratio: {python / native:.1f}x; largest difference of the commands {np.max(np.abs(a - b)):.3g}")

@@ -156,6 +156,7 @@ def test_in_the_closed_loop_every_platform_equals_linux_and_the_python_class(tmp
         need_platform(platform)
         binary = folders[CONTROLLER] / "binaries" / platform.folder
         assert any(binary.iterdir()), f"no {platform.folder} binary in the traced FMU"
+        (tmp_path / platform.folder).mkdir()
         env = wine_environment(tmp_path / "wine") if platform is WIN64 else None
         host = Host(platform, compile_host(platform, sources, tmp_path / platform.folder), env)
         plan, tracked = loop_plan(system, folders, platform, tmp_path / platform.folder, seconds, every=25)
