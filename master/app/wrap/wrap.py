@@ -70,6 +70,11 @@ def _find_class(module, path: Path, class_name: str | None):
     return next(iter(candidates.items()))
 
 
+def load_class(path: Path, class_name: str | None = None) -> type:
+    """The controller class of a file (the one with a step method, or the one named)."""
+    return _find_class(_load(Path(path)), Path(path), class_name)[1]
+
+
 def describe(path: Path, class_name: str | None = None) -> dict:
     """Check the user's controller against the contract; the ports, parameters and period it declares."""
     from ....plant_fmu import parameters as P

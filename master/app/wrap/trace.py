@@ -1,0 +1,175 @@
+"""A Python controller traced into one CasADi function, so its step can be generated as C (DESIGN §17).
+
+The class's __init__ runs here, in Python, once: its numbers (floats, ints, numpy arrays of numbers) become the FMU's
+parameters, each element a Real named after the attribute (K_0_3 for K[0, 3]). Then `step(t, inputs)` runs once on
+symbols: every input, t and every such number is a CasADi SX symbol (arrays as numpy arrays of symbols, so numpy's
+arithmetic, `@`, indexing and slicing work on them), and what it returns is the command. An attribute that step
+assigns is a discrete state, held between ticks, starting from its value after __init__.
+
+What can be traced: arithmetic, matrix products, elementwise functions of CasADi (`ca.sin`, `ca.sqrt`, ...),
+`ca.fmin` / `ca.fmax` for saturations, `ca.if_else(cond, a, b)` for choices. What cannot: Python control flow on a
+value (`if x > 0:`, `min(x, y)`, `np.clip`, `float(x)`), which needs the number; tracing refuses it in one line
+naming the line of the class."""
+
+from __future__ import annotations
+
+import linecache
+import math
+import traceback
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from .wrap import WrapError
+
+
+class TraceError(WrapError):
+    """A controller that cannot be traced; the message names the class, the line and the operation."""
+
+
+@dataclass
+class Traced:
+    """The controller as one function: step(t, inputs, parameters, states) -> (command[4], next states)."""
+
+    function: ca.Function
+    inputs: list[str]
+    parameters: list[tuple[str, float]]  # flattened numbers kept from __init__: (FMU name, value)
+    states: list[tuple[str, float]]  # flattened attributes step assigns: (name, initial value)
+
+
+def _numbers(value) -> np.ndarray | None:
+    """The value as a float array, if it is a number or an array (or nested list) of numbers; else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return np.array(float(value))
+    if isinstance(value, np.ndarray) and value.dtype.kind in "fiu" and value.size <= 100_000:
+        return value.astype(float)
+    if isinstance(value, (list, tuple)) and value and all(
+            isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) for v in value):
+        return np.array(value, dtype=float)
+    return None
+
+
+def _element_names(name: str, shape: tuple[int, ...]) -> list[str]:
+    if not shape:
+        return [name]
+    return [f"{name}_{'_'.join(map(str, idx))}" for idx in np.ndindex(*shape)]
+
+
+def _symbols(name: str, shape: tuple[int, ...]):
+    """A scalar SX symbol, or a numpy array of them with the attribute's shape."""
+    names = _element_names(name, shape)
+    if not shape:
+        return ca.SX.sym(names[0])
+    return np.array([ca.SX.sym(n) for n in names], dtype=object).reshape(shape)
+
+
+def _flat(value) -> list:
+    """The SX scalars of a traced value (a scalar, an SX vector or a numpy array of them)."""
+    if isinstance(value, np.ndarray):
+        return [_flat(v)[0] if not isinstance(v, np.ndarray) else v for v in value.ravel()]
+    if isinstance(value, (ca.SX, ca.DM)):
+        return [value[i] for i in range(value.numel())]
+    return [value]
+
+
+@contextmanager
+def _no_numbers_of_symbols():
+    """float() of a symbol gives NaN in CasADi, silently: while tracing it is refused, where it happens."""
+    original = ca.SX.__float__
+
+    def refuse(value):
+        if value.is_constant():
+            return original(value)
+        raise TypeError("a traced value turned into a number (float(), np.asarray(..., dtype=float), np.clip, "
+                        "math.*)")
+    ca.SX.__float__ = refuse
+    try:
+        yield
+    finally:
+        ca.SX.__float__ = original
+
+
+def _operation(err: BaseException) -> str:
+    """What the traced code did that needs a number, in the user's words, and what to write instead."""
+    text = str(err)
+    if "truth value" in text:
+        return ("a Python decision on a traced value (if, while, and/or, min, max, sorted); write it with "
+                "ca.if_else(condition, a, b), ca.fmin, ca.fmax (docs/ports.md)")
+    if "turned into a number" in text or "setting an array element with a sequence" in text or "to_int" in text:
+        return ("a traced value turned into a number (float(), int(), np.asarray(..., dtype=float), np.clip, math.*); "
+                "keep it symbolic: ca.fmin/ca.fmax for a saturation, ca.sin and the like for math (docs/ports.md)")
+    return f"{type(err).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
+
+
+def _where(err: BaseException, source: Path) -> str:
+    """'line N (`code`)' of the innermost frame in the user's file, or ''."""
+    frames = [f for f in traceback.extract_tb(err.__traceback__) if Path(f.filename).resolve() == source.resolve()]
+    if not frames:
+        return ""
+    f = frames[-1]
+    code = (f.line or linecache.getline(f.filename, f.lineno)).strip()
+    return f"line {f.lineno} (`{code}`)"
+
+
+def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
+    """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
+    name = cls.__name__
+    try:
+        controller = cls(**parameters) if parameters else cls()
+    except Exception as err:
+        raise TraceError(f"{name}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
+    numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
+    initial = {k: v.copy() for k, v in numbers.items()}
+    symbols = {k: _symbols(k, v.shape) for k, v in numbers.items()}
+    for k, s in symbols.items():
+        setattr(controller, k, s)
+    t = ca.SX.sym("t")
+    u = {n: ca.SX.sym(n) for n in inputs}
+    try:
+        with _no_numbers_of_symbols():
+            command = controller.step(t, dict(u))
+    except Exception as err:
+        where = _where(err, source) or f"a line outside {source.name}"
+        raise TraceError(f"{name}.step cannot be traced at {where}: {_operation(err)}") from None
+    out = _flat(np.asarray(command, dtype=object)) if not isinstance(command, (ca.SX, ca.DM)) else _flat(command)
+    if len(out) != 4:
+        raise TraceError(f"{name}.step returns {len(out)} values; it must return (f_R, f_L, tau_R, tau_L)")
+    changed = [k for k in numbers if getattr(controller, k) is not symbols[k]]
+    for k in changed:
+        now = np.asarray(getattr(controller, k), dtype=object)
+        if now.shape != numbers[k].shape:
+            raise TraceError(f"{name}.step changes the shape of self.{k} ({numbers[k].shape} -> {now.shape}): a state "
+                             "keeps its shape")
+    fixed = [k for k in numbers if k not in changed]
+    par_sx = [s for k in fixed for s in _flat(symbols[k])] if fixed else []
+    state_sx = [s for k in changed for s in _flat(symbols[k])]
+    next_sx = [s for k in changed for s in _flat(np.asarray(getattr(controller, k), dtype=object))]
+    try:
+        fn = ca.Function("tl_traced_step", [t, ca.vertcat(*u.values()), ca.vertcat(*par_sx), ca.vertcat(*state_sx)],
+                         [ca.vertcat(*[ca.SX(v) for v in out]), ca.vertcat(*[ca.SX(v) for v in next_sx])],
+                         ["t", "u", "p", "s"], ["y", "s_next"])
+    except Exception as err:  # a value that is not a number or a symbol (a string, None) in the command or a state
+        raise TraceError(f"{name}.step: its command or a state is not a number ({str(err).splitlines()[0]})") from None
+    if fn.has_free():
+        raise TraceError(f"{name}.step uses symbols that are neither inputs nor numbers of the controller: "
+                         f"{', '.join(fn.get_free())}")
+    params = [(n, float(x)) for k in fixed for n, x in zip(_element_names(k, numbers[k].shape), initial[k].ravel())]
+    states = [(n, float(x)) for k in changed for n, x in zip(_element_names(k, numbers[k].shape), initial[k].ravel())]
+    bad = [n for n, x in params + states if not math.isfinite(x)]
+    if bad:
+        raise TraceError(f"{name}: self.{bad[0]} is not finite after __init__")
+    return Traced(fn, list(inputs), params, states)
+
+
+def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: np.ndarray, states: np.ndarray):
+    """One step of the traced function in Python (the reference the C is compared with)."""
+    y, s = traced.function(t, [float(inputs[n]) for n in traced.inputs], parameters, states)
+    return np.array(y).ravel(), np.array(s).ravel()
+
+
+__all__ = ["TraceError", "Traced", "run_traced", "trace"]
