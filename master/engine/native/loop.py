@@ -30,6 +30,9 @@ _EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOC
                 ErrorKind.UPDATE_DISCRETE_STATES: "updateDiscreteStates", ErrorKind.ENTER_STEP_MODE: "enterStepMode"}
 # a Scheduled Execution FMU's failures, worded as fmi3_scheduled.py's
 _SCHEDULED = (ErrorKind.SET, ErrorKind.GET, ErrorKind.GET_CLOCKED, ErrorKind.ACTIVATE, ErrorKind.LOCKS_HELD)
+_NO_ERROR = int(ErrorKind.NONE)  # looked at after every call of the loop (a tick's, for per-step observers): a plain int
+_SIDE = {"input": Side.INPUTS, "output": Side.OUTPUTS}  # the manipulator's sides
+_SIDE_NAME = {int(code): name for name, code in _SIDE.items()}  # per hook call: a plain int key, no enum compared
 CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
 REALTIME_BATCH = 0.25  # s of wall time between two batches of a paced run
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
@@ -73,9 +76,6 @@ def _entropy(fault, k: int) -> dict:
         return {}
     words = kernel.entropy_words(fault.seed, k)
     return {"n_entropy": len(words), "entropy": (ctypes.c_uint32 * kernel.ENTROPY_WORDS)(*words)}
-
-
-_SIDE = {"input": Side.INPUTS, "output": Side.OUTPUTS}  # the manipulator's sides
 
 
 def _address(array) -> int:
@@ -285,7 +285,7 @@ class NativeLoop:
     def _hook(self, i: int, side: int, t: float) -> int:
         try:
             self._queue.side = side
-            self.ex.manipulator.apply(self.names[i], "input" if side == Side.INPUTS else "output", t, [self._queue])
+            self.ex.manipulator.apply(self.names[i], _SIDE_NAME[side], t, [self._queue])
             return 0
         except BaseException as err:
             self._pending = err
@@ -331,7 +331,7 @@ class NativeLoop:
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
-            failure = self._error() if self.plan.error_kind != ErrorKind.NONE else None
+            failure = self._error() if self.plan.error_kind != _NO_ERROR else None
             try:
                 self.ex.deliver(self._batch(first, done))
             except Exception as err:
