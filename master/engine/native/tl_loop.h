@@ -222,7 +222,7 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(int8_t *, overrun)            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
 typedef struct { TL_PLAN_FIELDS(TL_FIELD, TL_ARRAY) } tl_plan;
 
-/* Run up to n ticks; stop early after an error (error_kind != 0). Returns the ticks run. */
+/* Run up to n ticks; stop early after an error (error_kind != TL_ERROR_NONE). Returns the ticks run. */
 int64_t tl_run(tl_plan *plan, int64_t n);
 /* Copy every instance's outputs into its delay-line slot for the entry j (the values after tick j - 1). */
 void tl_store_history(tl_plan *plan, int64_t j);
