@@ -33,6 +33,7 @@ from tiltload.master.app.loop import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
 from tiltload.master.engine import execution, fmi3, fmi3_scheduled
 from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.native.codes import Profile
 from tiltload.master.engine.native.loop import NativeLoop
 
 CLOCKED = frozenset({"sensors", "controller"})
@@ -48,7 +49,7 @@ def timed(system, stop: float, by_callback=frozenset(), locks: bool = True) -> t
         fmi3_scheduled.Fmu3ScheduledSlave.count_locks = True
     if by_callback:  # the same instances, their clocked FMUs stepped through the Python callback
         ex.loop = NativeLoop(ex, by_callback=by_callback)
-    ex.loop.plan.profile = 2  # the kernel times the FMUs' calls in this thread's CPU time (tl_loop.h)
+    ex.loop.plan.profile = Profile.CPU  # the kernel times the FMUs' calls in this thread's CPU time (tl_codes.h)
     paths = dict(ex.loop.paths)
     for inst in ex.instances.values():
         inst.fmi_seconds = 0.0

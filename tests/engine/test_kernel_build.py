@@ -44,9 +44,9 @@ def test_a_numpy_random_library_that_does_not_link_leaves_the_draws_to_numpy(tmp
 
 
 def test_the_tick_loop_compiles_as_c99_with_every_warning_an_error():
-    """tl_loop.c (the clocked FMUs' Event Mode included) and tl_mcap.c: C99, -pedantic -Wall -Wextra -Wshadow, and
-    -Wmissing-prototypes (an exported function is declared in its header, any other is static)."""
-    for source in (kernel.HERE / "tl_loop.c", kernel.HERE / "tl_mcap.c"):
+    """tl_loop.c (the clocked FMUs' Event Mode included), tl_mcap.c and tl_layout.c: C99, -pedantic -Wall -Wextra
+    -Wshadow, and -Wmissing-prototypes (an exported function is declared in its header, any other is static)."""
+    for source in (kernel.HERE / "tl_loop.c", kernel.HERE / "tl_mcap.c", kernel.HERE / "tl_layout.c"):
         proc = subprocess.run(["cc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wshadow", "-Wmissing-prototypes", "-Werror",
                                "-O2", "-fsyntax-only", str(source)], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr

@@ -22,8 +22,8 @@ import ctypes
 import numpy as np
 
 from ..fmi3 import FMI3_C, MAX_EVENT_ITERATIONS
-from ..slave import TYPES
 from . import kernel
+from .codes import PartKind, value_type
 
 
 class ClockedPlan:
@@ -80,7 +80,7 @@ class ClockedPlan:
         kinds: dict[int, list[int]] = {}
         for i, vr in enumerate(group.dst_vrs[:len(group.view)]):
             kind = self.slave.input_kind.get((group.type, vr), "continuous")
-            code = kernel.CONTINUOUS if kind == "continuous" else kernel.DISCRETE if kind == "discrete" else kind
+            code = PartKind.CONTINUOUS if kind == "continuous" else PartKind.DISCRETE if kind == "discrete" else kind
             kinds.setdefault(code, []).append(i)
         parts = []
         for code, index in kinds.items():
@@ -93,7 +93,7 @@ class ClockedPlan:
 
     def _read(self, clock, typ: str, vrs, n: int, buffer, idx) -> kernel.Read:
         index = np.arange(n) if isinstance(idx, slice) else idx  # buffers and vrs are the slave's, alive as long
-        return kernel.Read(type=TYPES.index(typ), clock=-1 if clock is None else clock, n=n, vrs=ctypes.addressof(vrs),
+        return kernel.Read(type=value_type(typ), clock=-1 if clock is None else clock, n=n, vrs=ctypes.addressof(vrs),
                            index=self._ints(index), whole=isinstance(idx, slice), buffer=ctypes.addressof(buffer))
 
     def push(self) -> None:

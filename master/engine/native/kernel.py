@@ -4,7 +4,8 @@
 A library is built into $TILTLOAD_CACHE/kernels/<digest of sources, compiler and flags>/ (else
 $XDG_CACHE_HOME/tiltload or ~/.cache/tiltload; a temporary folder if none is writable), so a
 second process loads it in microseconds. compiled() builds any such library (the application's
-scene encoder is one). The structures below mirror tl_loop.h field by field.
+scene encoder is one). The structures below mirror tl_loop.h field by field; library() checks them against the
+layout the compiled kernel reports (layout.py), and the codes they carry are codes.py's, read from tl_codes.h.
 """
 
 from __future__ import annotations
@@ -19,14 +20,18 @@ import threading
 from functools import cache
 from pathlib import Path
 
+from . import layout
+from .codes import Dimension, FaultAction
+
 HERE = Path(__file__).parent
-SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_loop.h", HERE / "tl_mcap.h", HERE / "tl_draw.h")
+SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_layout.c", HERE / "tl_loop.h", HERE / "tl_mcap.h", HERE / "tl_draw.h",
+           HERE / "tl_codes.h")
 DRAWS = (HERE / "tl_draw.c",)
-ENTROPY_WORDS = 16  # tl_draw.h's TL_ENTROPY_WORDS
+ENTROPY_WORDS = int(Dimension.ENTROPY_WORDS)
 # The floating-point results that depend on these flags: t_k = k * tick (one product, exact in IEEE double) and the
 # faults' arithmetic, kept operation for operation as Python's by -ffp-contract=off.
 CFLAGS = ("-std=c11", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-Wall", "-Wextra")
-TYPES = 3
+TYPES = int(Dimension.TYPES)
 
 STEP_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_double, ctypes.c_double)
 HOOK_CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_double)
@@ -50,9 +55,8 @@ class Fault(ctypes.Structure):
                 ("history_capacity", ctypes.c_int64), ("history_count", ctypes.c_int64), ("history_next", ctypes.c_int64)]
 
 
-# the faults the loop can apply, by their code in tl_loop.h's enum (delay and stale read the history alike)
-FAULT_ACTIONS = {"override": 0, "bias": 1, "scale": 2, "ramp": 3, "clamp": 4, "hold": 5, "noise": 6, "delay": 7,
-                 "stale": 7, "jitter": 8, "dropout": 9}
+# the faults the loop can apply, by the schedule's names (delay and stale read the history alike)
+FAULT_ACTIONS = {action.name.lower(): action for action in FaultAction} | {"stale": FaultAction.DELAY}
 
 
 class Part(ctypes.Structure):
@@ -64,9 +68,6 @@ class Part(ctypes.Structure):
 class Read(ctypes.Structure):
     _fields_ = [("type", ctypes.c_int), ("clock", ctypes.c_int), ("n", ctypes.c_int), ("vrs", ctypes.c_void_p),
                 ("index", ctypes.c_void_p), ("whole", ctypes.c_int), ("buffer", ctypes.c_void_p)]
-
-
-CONTINUOUS, DISCRETE = -1, -2  # tl_loop.h: a part's kind (else its clock's index)
 
 
 class Clocks(ctypes.Structure):
@@ -107,6 +108,11 @@ class Plan(ctypes.Structure):
                 ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
                 ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
                 ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
+
+
+# the structs tl_loop.h shares, by their C names (layout.check compares each with the library's layout)
+STRUCTURES = {"tl_group": Group, "tl_fault": Fault, "tl_part": Part, "tl_read": Read, "tl_clocks": Clocks,
+              "tl_instance": Instance, "tl_plan": Plan}
 
 
 def _cache_root() -> Path:
@@ -158,7 +164,8 @@ def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) 
 
 @cache
 def library() -> ctypes.CDLL:
-    """The compiled kernel, with its functions' signatures set."""
+    """The compiled kernel, with its functions' signatures set and its structs' layout checked against the ctypes
+    structures above (layout.LayoutError naming the struct and field that differ)."""
     lib = _with_draws()
     if lib is None:  # noise and jitter are then drawn by numpy in Python (draws_in_c() is False)
         lib = compiled("tl_loop", SOURCES, libraries=("m",))
@@ -168,6 +175,7 @@ def library() -> ctypes.CDLL:
         lib.tl_draw_normal.restype = ctypes.c_double
         lib.tl_draw_bounded.argtypes = [words, ctypes.c_int, ctypes.c_uint64, ctypes.c_uint64]
         lib.tl_draw_bounded.restype = ctypes.c_uint64
+    layout.check(lib, STRUCTURES)
     lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_run.restype = ctypes.c_int64
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]

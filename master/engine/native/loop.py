@@ -24,8 +24,15 @@ from ..observers import Batch
 from ..slave import TYPES
 from . import kernel
 from .clocks import ClockedPlan
+from .codes import ErrorKind, Profile, Side, type_name, value_type
 
-_EVENT_CALLS = {7: "enterEventMode", 8: "setClock", 9: "updateDiscreteStates", 10: "enterStepMode"}  # tl_loop.h's kinds
+_EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOCK: "setClock",
+                ErrorKind.UPDATE_DISCRETE_STATES: "updateDiscreteStates", ErrorKind.ENTER_STEP_MODE: "enterStepMode"}
+# a Scheduled Execution FMU's failures, worded as fmi3_scheduled.py's
+_SCHEDULED = (ErrorKind.SET, ErrorKind.GET, ErrorKind.GET_CLOCKED, ErrorKind.ACTIVATE, ErrorKind.LOCKS_HELD)
+_NO_ERROR = int(ErrorKind.NONE)  # looked at after every call of the loop (a tick's, for per-step observers): a plain int
+_SIDE = {"input": Side.INPUTS, "output": Side.OUTPUTS}  # the manipulator's sides
+_SIDE_NAME = {int(code): name for name, code in _SIDE.items()}  # per hook call: a plain int key, no enum compared
 CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
 REALTIME_BATCH = 0.25  # s of wall time between two batches of a paced run
 _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
@@ -33,10 +40,10 @@ _DTYPE = {"Real": np.float64, "Integer": np.int32, "Boolean": np.int32}
 
 class _EventQueue:
     """Stands for the observers while the kernel runs: fault events wait, with their place among the steps (the
-    record they precede, and the side of the step: 0 inputs, 1 outputs)."""
+    record they precede, and the side of the step)."""
 
     def __init__(self, plan) -> None:
-        self.plan, self.events, self.side = plan, [], 0
+        self.plan, self.events, self.side = plan, [], Side.INPUTS
 
     def on_fault(self, t, fault, what) -> None:
         self.events.append((int(self.plan.records), self.side, t, fault, what))
@@ -116,7 +123,8 @@ class NativeLoop:
                     c.do_step3 = slave.function_pointer("fmi3DoStep")
 
             history, record = {}, {}
-            for t, typ in enumerate(TYPES):
+            for typ in TYPES:
+                t = value_type(typ)
                 values = slave.values[typ]
                 c.n_out[t] = values.size
                 c.out[t] = values.ctypes.data
@@ -141,7 +149,7 @@ class NativeLoop:
             for g, group in zip(c_groups, groups):
                 src_index = np.ascontiguousarray(group.src_index, dtype=np.int64)
                 self._keep.append(src_index)
-                g.source, g.type, g.delay, g.n = index[group.source], TYPES.index(group.type), group.delay, len(group.view)
+                g.source, g.type, g.delay, g.n = index[group.source], value_type(group.type), group.delay, len(group.view)
                 g.src_index, g.dst_vrs, g.values = src_index.ctypes.data, _address(group.dst_vrs), _address(group.values)
             self._keep.append(c_groups)
             c.n_groups, c.groups = len(groups), c_groups
@@ -161,7 +169,7 @@ class NativeLoop:
         self.lateness = np.zeros(chunk, dtype=np.float64)
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
-                                ticks_done=execution.ticks_done, slots=self.slots, profile=int(execution.profile),
+                                ticks_done=execution.ticks_done, slots=self.slots, profile=Profile(int(execution.profile)),
                                 record_capacity=chunk)
         self._index = index
         self._bound = self._binding()
@@ -207,8 +215,8 @@ class NativeLoop:
                     side, array, i, typ = manipulator.target(target)
                     action = "override" if target == f.flag else f.action  # dropout: its flag held false
                     value = 0.0 if target == f.flag else f.value if f.action != "clamp" else f.value[0]
-                    ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=0 if side == "input" else 1,
-                                            action=kernel.FAULT_ACTIONS[action], type=TYPES.index(typ),
+                    ops.append(kernel.Fault(instance=index[target.partition(".")[0]], side=_SIDE[side],
+                                            action=kernel.FAULT_ACTIONS[action], type=value_type(typ),
                                             array=array.ctypes.data, index=i,
                                             value=float(value) if value is not None else 0.0,
                                             high=float(f.value[1]) if f.action == "clamp" else 0.0, start=f.start,
@@ -216,7 +224,7 @@ class NativeLoop:
                                             **_entropy(f, k),
                                             **self._history(f, manipulator.lag(target)) if target != f.flag else {}))
                     self._fault_targets.append((k, target))
-                    self._report_side.setdefault(k, 0 if side == "input" else 1)
+                    self._report_side.setdefault(k, _SIDE[side])
         self.faults = (kernel.Fault * max(len(ops), 1))(*ops)
         self.fault_on = np.zeros(max(len(manipulator.faults) if manipulator else 0, 1), dtype=np.int8)
         capacity = self.chunk * 2 * max(len(ops), 1)
@@ -277,7 +285,7 @@ class NativeLoop:
     def _hook(self, i: int, side: int, t: float) -> int:
         try:
             self._queue.side = side
-            self.ex.manipulator.apply(self.names[i], "input" if side == 0 else "output", t, [self._queue])
+            self.ex.manipulator.apply(self.names[i], _SIDE_NAME[side], t, [self._queue])
             return 0
         except BaseException as err:
             self._pending = err
@@ -289,7 +297,7 @@ class NativeLoop:
         without building it again (tables, buffers, function pointers: a campaign's runs differ in parameters and
         faults only). Tick 0, the delay line at its start, no pacing, the faults of the execution's manipulator."""
         p = self.plan
-        p.ticks_done, p.profile = self.ex.ticks_done, int(self.ex.profile)
+        p.ticks_done, p.profile = self.ex.ticks_done, Profile(int(self.ex.profile))
         p.realtime_factor, p.realtime_start_ns, p.realtime_first_tick, p.lateness, p.overrun = 0.0, 0, 0, None, None
         self._pending = None
         for history in self.history:
@@ -323,7 +331,7 @@ class NativeLoop:
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
-            failure = self._error() if self.plan.error_kind else None
+            failure = self._error() if self.plan.error_kind != _NO_ERROR else None
             try:
                 self.ex.deliver(self._batch(first, done))
             except Exception as err:
@@ -353,44 +361,45 @@ class NativeLoop:
 
     def _error(self) -> BaseException:
         p = self.plan
-        if p.error_kind in (4, 5):
+        kind = ErrorKind(p.error_kind)
+        if kind in (ErrorKind.STEP_CALLBACK, ErrorKind.HOOK_CALLBACK):
             err, self._pending = self._pending, None
             return err if err is not None else RuntimeError("a callback of the tick loop failed")
         slave, t = self.slaves[p.error_instance], p.error_time
         name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
-        if getattr(slave, "scheduled", False) and p.error_kind in (2, 3, 13, 14, 15):  # worded as fmi3_scheduled.py's
-            return self._scheduled_error(slave, p.error_kind, t)
-        if p.error_kind == 1:
+        if getattr(slave, "scheduled", False) and kind in _SCHEDULED:
+            return self._scheduled_error(slave, kind, t)
+        if kind == ErrorKind.DO_STEP:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
-        if p.error_kind == 2:
+        if kind == ErrorKind.SET:
             group = self.ex.groups[self.names[p.error_instance]][p.error_group]
             return slave.failed(f"set{name(group.type)} from {group.source} at t={t:.6g} s", p.error_status)
-        if p.error_kind == 6:
+        if kind == ErrorKind.TERMINATED_IN_STEP:
             h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
             return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
-        if p.error_kind in _EVENT_CALLS:
-            return slave.failed(f"{_EVENT_CALLS[p.error_kind]} at t={t:.6g} s", p.error_status)
-        if p.error_kind == 11:
+        if kind in _EVENT_CALLS:
+            return slave.failed(f"{_EVENT_CALLS[kind]} at t={t:.6g} s", p.error_status)
+        if kind == ErrorKind.TERMINATED_IN_EVENT:
             return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t:.6g} s")
-        if p.error_kind == 12:
+        if kind == ErrorKind.UNSETTLED:
             return ExecutionError(f"{slave.name}: its discrete states still needed an update after {MAX_EVENT_ITERATIONS} "
                                   f"iterations at t={t:.6g} s")
-        if p.error_kind == 13:
+        if kind == ErrorKind.GET_CLOCKED:
             clock = slave.clocks[p.error_group].name
-            return slave.failed(f"get{name(TYPES[p.error_type])} of {clock}'s outputs at t={t:.6g} s", p.error_status)
-        return slave.failed(f"get{name(TYPES[p.error_type])}", p.error_status)
+            return slave.failed(f"get{name(type_name(p.error_type))} of {clock}'s outputs at t={t:.6g} s", p.error_status)
+        return slave.failed(f"get{name(type_name(p.error_type))}", p.error_status)
 
-    def _scheduled_error(self, slave, kind: int, t: float) -> BaseException:
+    def _scheduled_error(self, slave, kind: ErrorKind, t: float) -> BaseException:
         p = self.plan
-        if kind == 2:
+        if kind == ErrorKind.SET:
             group = self.ex.groups[self.names[p.error_instance]][p.error_group]
             return slave.failed(f"set{FMI3_NAME[group.type]} at t={t:.6g} s", p.error_status)
-        if kind == 3:
+        if kind == ErrorKind.GET:
             return slave.failed("get", p.error_status)
-        if kind == 13:
+        if kind == ErrorKind.GET_CLOCKED:
             return slave.failed(f"get clocked outputs at t={t:.6g} s", p.error_status)
         clock = slave.clocks[p.error_group].name
-        if kind == 14:
+        if kind == ErrorKind.ACTIVATE:
             return slave.failed(f"activateModelPartition({clock}) at t={t:.6g} s", p.error_status)
         return ExecutionError(f"{slave.name}: partition {clock} returned at t={t:.6g} s with {p.error_status} preemption "
                               "lock(s) held")

@@ -7,7 +7,7 @@
 
 #include <stdint.h>
 
-#define TL_ENTROPY_WORDS 16 /* the fault's own words (seed, place) at most; the tick's are added per draw */
+#include "tl_codes.h" /* TL_ENTROPY_WORDS: the fault's own words (seed, place) at most */
 
 /* The standard normal of numpy's default_rng(entropy + [tick]), the entropy given as numpy's uint32 words. */
 double tl_draw_normal(const uint32_t *entropy, int n_entropy, uint64_t tick);

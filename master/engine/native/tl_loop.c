@@ -16,7 +16,7 @@
 #define TL_EXPORT
 #endif
 
-static size_t width(int type) { return type == 0 ? sizeof(double) : sizeof(int); }
+static size_t width(int type) { return type == TL_REAL ? sizeof(double) : sizeof(int); }
 
 TL_EXPORT int64_t tl_monotonic_ns(void) {
     struct timespec ts;
@@ -27,7 +27,7 @@ TL_EXPORT int64_t tl_monotonic_ns(void) {
 /* The profile's clock: wall time, or (profile 2) the calling thread's CPU time. */
 static int64_t profile_ns(int profile) {
 #if defined(CLOCK_THREAD_CPUTIME_ID)
-    if (profile == 2) {
+    if (profile == TL_PROFILE_CPU) {
         struct timespec ts;
         clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
         return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
@@ -74,7 +74,7 @@ static const void *group_source(const tl_plan *plan, const tl_group *g, int64_t 
 }
 
 static void gather(const tl_group *g, const void *src) {
-    if (g->type == 0) {
+    if (g->type == TL_REAL) {
         const double *s = (const double *)src;
         double *d = (double *)g->values;
         for (int i = 0; i < g->n; i++) d[i] = s[g->src_index[i]];
@@ -85,7 +85,7 @@ static void gather(const tl_group *g, const void *src) {
     }
 }
 
-static void fail(tl_plan *plan, int kind, int instance, int status, int group, int type, double t) {
+static void fail(tl_plan *plan, enum tl_error_kind kind, int instance, int status, int group, int type, double t) {
     plan->error_kind = kind;
     plan->error_instance = instance;
     plan->error_status = status;
@@ -139,7 +139,7 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
             }
         }
         if (!on) continue;
-        if (q->type != 0) { /* Integer and Boolean targets take an override only (checked before the run) */
+        if (q->type != TL_REAL) { /* Integer and Boolean targets take an override only (checked before the run) */
             ((int *)q->array)[q->index] = (int)q->value;
             continue;
         }
@@ -185,14 +185,14 @@ static void apply_faults(tl_plan *plan, int i, int side, double t) {
 
 /* FMI 3.0 sets and gets: the values' length passed; Booleans through the instance's bool buffer (int in the arrays). */
 static int set3(tl_instance *in, int type, const unsigned int *vrs, int n, const void *values) {
-    if (type != 2) return in->set3[type](in->component, vrs, (size_t)n, values, (size_t)n);
+    if (type != TL_BOOLEAN) return in->set3[type](in->component, vrs, (size_t)n, values, (size_t)n);
     const int *ints = values;
     for (int j = 0; j < n; j++) in->booleans[j] = ints[j] != 0;
     return in->set3[type](in->component, vrs, (size_t)n, in->booleans, (size_t)n);
 }
 
 static int get3(tl_instance *in, int type, const unsigned int *vrs, int n, void *values) {
-    if (type != 2) return in->get3[type](in->component, vrs, (size_t)n, values, (size_t)n);
+    if (type != TL_BOOLEAN) return in->get3[type](in->component, vrs, (size_t)n, values, (size_t)n);
     int status = in->get3[type](in->component, vrs, (size_t)n, in->booleans, (size_t)n);
     int *ints = values;
     for (int j = 0; j < n; j++) ints[j] = in->booleans[j] ? 1 : 0;
@@ -200,18 +200,18 @@ static int get3(tl_instance *in, int type, const unsigned int *vrs, int n, void 
 }
 
 /* ---- a clocked FMU's Event Mode (tl_clocks) ---------------------------------------------------------------- */
-static size_t fmu_width(int type) { return type == 0 ? sizeof(double) : type == 1 ? sizeof(int) : sizeof(bool); }
+static size_t fmu_width(int type) { return type == TL_REAL ? sizeof(double) : type == TL_INTEGER ? sizeof(int) : sizeof(bool); }
 
 /* The part's values from its group's (the kernel's types) into its buffer (the FMU's). */
 static void stage(const tl_instance *in, tl_part *p) {
     const tl_group *g = &in->groups[p->group];
-    if (p->whole && g->type != 2) {
+    if (p->whole && g->type != TL_BOOLEAN) {
         memcpy(p->buffer, g->values, (size_t)p->n * width(g->type));
-    } else if (g->type == 0) {
+    } else if (g->type == TL_REAL) {
         const double *s = g->values;
         double *d = p->buffer;
         for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]];
-    } else if (g->type == 1) {
+    } else if (g->type == TL_INTEGER) {
         const int *s = g->values;
         int *d = p->buffer;
         for (int j = 0; j < p->n; j++) d[j] = s[p->index[j]];
@@ -227,8 +227,8 @@ static int changed(const tl_instance *in, const tl_part *p) {
     if (!p->has_applied) return 1;
     int type = in->groups[p->group].type;
     for (int j = 0; j < p->n; j++) {
-        int same = type == 0 ? ((const double *)p->buffer)[j] == ((const double *)p->applied)[j]
-                 : type == 1 ? ((const int *)p->buffer)[j] == ((const int *)p->applied)[j]
+        int same = type == TL_REAL ? ((const double *)p->buffer)[j] == ((const double *)p->applied)[j]
+                 : type == TL_INTEGER ? ((const int *)p->buffer)[j] == ((const int *)p->applied)[j]
                              : ((const bool *)p->buffer)[j] == ((const bool *)p->applied)[j];
         if (!same) return 1;
     }
@@ -247,7 +247,7 @@ static int set_part(tl_plan *plan, int i, tl_part *p, double t) {
     int type = in->groups[p->group].type;
     int status = in->set3[type](in->component, p->vrs, (size_t)p->n, p->buffer, (size_t)p->n);
     if (status > 1) {
-        fail(plan, 2, i, status, p->group, type, t);
+        fail(plan, TL_ERROR_SET, i, status, p->group, type, t);
         return 1;
     }
     if (p->kind == TL_DISCRETE) {
@@ -272,13 +272,13 @@ static int set_parts(tl_plan *plan, int i, double t, int discrete, int clocked, 
 
 /* The read's buffer (the FMU's types) into the instance's outputs (the kernel's). */
 static void scatter(tl_instance *in, const tl_read *r) {
-    if (r->whole && r->type != 2) { /* fmi3Float64 is a double, fmi3Int32 an int here: the same bytes */
+    if (r->whole && r->type != TL_BOOLEAN) { /* fmi3Float64 is a double, fmi3Int32 an int here: the same bytes */
         memcpy(in->out[r->type], r->buffer, (size_t)r->n * width(r->type));
-    } else if (r->type == 0) {
+    } else if (r->type == TL_REAL) {
         const double *s = r->buffer;
         double *d = in->out[0];
         for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j];
-    } else if (r->type == 1) {
+    } else if (r->type == TL_INTEGER) {
         const int *s = r->buffer;
         int *d = in->out[1];
         for (int j = 0; j < r->n; j++) d[r->index[j]] = s[j];
@@ -297,8 +297,8 @@ static int read_clock(tl_plan *plan, int i, int clock, double t) {
         tl_read *r = &c->reads[q];
         int status = in->get3[r->type](in->component, r->vrs, (size_t)r->n, r->buffer, (size_t)r->n);
         if (status > 1) {
-            if (clock < 0) fail(plan, 3, i, status, -1, r->type, t);
-            else fail(plan, 13, i, status, clock, r->type, t);
+            if (clock < 0) fail(plan, TL_ERROR_GET, i, status, -1, r->type, t);
+            else fail(plan, TL_ERROR_GET_CLOCKED, i, status, clock, r->type, t);
             return 1;
         }
         scatter(in, r);
@@ -333,13 +333,13 @@ static int clocked_inputs(tl_plan *plan, int i, int64_t k, double t, int event, 
     c->event_asked = 0;
     int status;
     if (!c->in_event && (status = c->enter_event_mode(in->component)) > 1) {
-        fail(plan, 7, i, status, -1, -1, t);
+        fail(plan, TL_ERROR_ENTER_EVENT_MODE, i, status, -1, -1, t);
         return 1;
     }
     if (set_parts(plan, i, t, 1, 0, 0) != 0) return 1;
     if (n_due > 0) {
         if ((status = c->set_clock(in->component, c->due_vrs, (size_t)n_due, c->due_on)) > 1) {
-            fail(plan, 8, i, status, -1, -1, t);
+            fail(plan, TL_ERROR_SET_CLOCK, i, status, -1, -1, t);
             return 1;
         }
         if (set_parts(plan, i, t, 1, 1, n_due) != 0) return 1;
@@ -360,23 +360,23 @@ static int clocked_inputs(tl_plan *plan, int i, int64_t k, double t, int event, 
     for (int it = 0; it < c->max_iterations && !settled; it++) {
         status = c->update_discrete_states(in->component, &need, &terminate, &nominals, &values, &defined, &next);
         if (status > 1) {
-            fail(plan, 9, i, status, -1, -1, t);
+            fail(plan, TL_ERROR_UPDATE_DISCRETE_STATES, i, status, -1, -1, t);
             return 1;
         }
         if (terminate) {
-            fail(plan, 11, i, status, -1, -1, t);
+            fail(plan, TL_ERROR_TERMINATED_IN_EVENT, i, status, -1, -1, t);
             return 1;
         }
         settled = !need;
     }
     if (!settled) {
-        fail(plan, 12, i, 0, -1, -1, t);
+        fail(plan, TL_ERROR_UNSETTLED, i, 0, -1, -1, t);
         return 1;
     }
     c->next_event_defined = defined;
     c->next_event = next;
     if ((status = c->enter_step_mode(in->component)) > 1) {
-        fail(plan, 10, i, status, -1, -1, t);
+        fail(plan, TL_ERROR_ENTER_STEP_MODE, i, status, -1, -1, t);
         return 1;
     }
     c->in_event = 0;
@@ -398,11 +398,11 @@ static int activate_partitions(tl_plan *plan, int i, int64_t k, double t, int n_
             if (c->parts[q].kind == j && set_part(plan, i, &c->parts[q], t) != 0) return 1;
         int status = c->activate(in->component, c->clock_vrs[j], t);
         if (status > 1) {
-            fail(plan, 14, i, status, j, -1, t);
+            fail(plan, TL_ERROR_ACTIVATE, i, status, j, -1, t);
             return 1;
         }
         if (c->lock_depth != NULL && *c->lock_depth != 0) { /* one partition at a time: none may return locked */
-            fail(plan, 15, i, *c->lock_depth, j, -1, t);
+            fail(plan, TL_ERROR_LOCKS_HELD, i, *c->lock_depth, j, -1, t);
             return 1;
         }
         if (c->activations < c->activation_capacity) {
@@ -429,7 +429,7 @@ static int set_inputs(tl_plan *plan, int i, double t) {
         int status = in->fmi3 ? set3(in, gr->type, gr->dst_vrs, gr->n, gr->values)
                               : in->set[gr->type](in->component, gr->dst_vrs, (size_t)gr->n, gr->values);
         if (status > 1) {
-            fail(plan, 2, i, status, g, gr->type, t);
+            fail(plan, TL_ERROR_SET, i, status, g, gr->type, t);
             return 1;
         }
     }
@@ -443,7 +443,7 @@ static int get_outputs(tl_plan *plan, int i, double t) {
         int status = in->fmi3 ? get3(in, ty, in->out_vrs[ty], in->n_out[ty], in->out[ty])
                               : in->get[ty](in->component, in->out_vrs[ty], (size_t)in->n_out[ty], in->out[ty]);
         if (status > 1) {
-            fail(plan, 3, i, status, -1, ty, t);
+            fail(plan, TL_ERROR_GET, i, status, -1, ty, t);
             return 1;
         }
     }
@@ -461,7 +461,7 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
         double last_time = t;
         status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
         if (status <= 1 && terminate) {
-            fail(plan, 6, i, status, -1, -1, t);
+            fail(plan, TL_ERROR_TERMINATED_IN_STEP, i, status, -1, -1, t);
             return 1;
         }
         if (in->clocks != NULL) in->clocks->event_asked = event_needed;
@@ -469,7 +469,7 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
         status = in->do_step(in->component, t, h, 1);
     }
     if (status > 1) {
-        fail(plan, 1, i, status, -1, -1, t);
+        fail(plan, TL_ERROR_DO_STEP, i, status, -1, -1, t);
         return 1;
     }
     return in->clocks != NULL ? read_clock(plan, i, -1, t) : get_outputs(plan, i, t);
@@ -480,14 +480,14 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
     double h = in->every * plan->tick;
     for (int g = 0; g < in->n_groups; g++) gather(&in->groups[g], group_source(plan, &in->groups[g], k));
-    if (plan->n_faults) apply_faults(plan, i, 0, t);
-    if (in->hook_inputs && plan->hook_callback(i, 0, t) != 0) {
-        fail(plan, 5, i, 0, -1, -1, t);
+    if (plan->n_faults) apply_faults(plan, i, TL_INPUTS, t);
+    if (in->hook_inputs && plan->hook_callback(i, TL_INPUTS, t) != 0) {
+        fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
     if (in->by_callback) {
         if (plan->step_callback(i, t, h) != 0) {
-            fail(plan, 4, i, 0, -1, -1, t);
+            fail(plan, TL_ERROR_STEP_CALLBACK, i, 0, -1, -1, t);
             return 1;
         }
     } else { /* the profile times the FMU's calls; a clocked FMU's staging and held outputs are the master's work */
@@ -500,9 +500,9 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         if (failed) return 1;
         if (in->clocks != NULL) held_outputs(in);
     }
-    if (plan->n_faults) apply_faults(plan, i, 1, t);
-    if (in->hook_outputs && plan->hook_callback(i, 1, t) != 0) {
-        fail(plan, 5, i, 0, -1, -1, t);
+    if (plan->n_faults) apply_faults(plan, i, TL_OUTPUTS, t);
+    if (in->hook_outputs && plan->hook_callback(i, TL_OUTPUTS, t) != 0) {
+        fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
     if (plan->record_capacity > 0) record(plan, i, k, in->continuous ? t + h : t);
@@ -510,7 +510,7 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
 }
 
 TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
-    plan->error_kind = 0;
+    plan->error_kind = TL_ERROR_NONE;
     plan->records = 0;
     plan->events = 0;
     for (int i = 0; i < plan->n_instances; i++) {
