@@ -126,9 +126,9 @@ def held(results: Path) -> dict[str, int]:
 
 
 def _prepare_workers(client, base: dict, case: Case, fmu_dir: str) -> list:
-    """A task on each worker there is now that instantiates the first case's system (run_case.prepare): their futures.
+    """A task on each worker there is now that instantiates the first case's system (worker.prepare): their futures.
     The workers do it while this process checks the cases' feasibility, rather than in their first run."""
-    from .run_case import prepare
+    from .worker import prepare
 
     try:
         workers = sorted(client.scheduler_info()["workers"])
@@ -188,7 +188,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 f"{len(todo)} to run")
             if todo:
                 from ..fmus import build_all  # these import the controller's design tools: seconds, so only now
-                from .run_case import feasibility_verdicts, run_case
+                from .run_case import run_case
+                from .worker import feasibility_verdicts
 
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
@@ -244,7 +245,7 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
     from ...engine import snapshot
     from ...engine.errors import DescriptionError
     from ...engine.execution import Execution
-    from .run_case import branch_system
+    from .case_system import branch_system
 
     snap = snapshot.read(campaign.snapshot)
     for case in campaign.cases[:1]:
