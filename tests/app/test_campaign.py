@@ -11,7 +11,7 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import psutil
@@ -622,9 +622,9 @@ def test_the_client_s_feasibility_verdicts_are_the_check_s_and_a_worker_uses_the
     flight = flight_of(base)
     for case in cases[:: len(cases) // 3]:  # the check itself, on the case's own system
         system = case_system(fmus, base, case["controller"], case["seed"], case["parameters"])
-        report = check_system(system, base["stop_time"], flight.max_tilt)
-        key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance("plant").parameters.items())), base["stop_time"])
+        report = check_system(system, base.stop_time, flight.max_tilt)
+        key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance("plant").parameters.items())), base.stop_time)
         assert verdicts[key] == (report.problems[0] if report is not None and report.problems else None)
     planted = {key: "planted by the client" for key in verdicts}  # a worker takes the client's word, not its own check
-    outcome = run_case({**base, "feasibility": planted}, cases[0], str(fmus), None, worker=CaseWorker(keep=False))
+    outcome = run_case(replace(base, feasibility=planted), cases[0], str(fmus), None, worker=CaseWorker(keep=False))
     assert outcome["row"]["error"] == "the reference is infeasible: planted by the client"

@@ -5,14 +5,25 @@ from __future__ import annotations
 
 import copy
 from pathlib import Path
+from typing import Protocol
 
 from ..loop import default_stop, default_system
 from .spec import Flight
 
 
-def flight_of(base: dict) -> Flight:
-    """base["trajectory"]: the spec's Flight, or a thesis trajectory's number."""
-    flight = base["trajectory"]
+class LoopBase(Protocol):
+    """What a case's loop is built from: a campaign's base (spec.CampaignBase) or a falsification's (SearchBase)."""
+
+    scenario: str
+    trajectory: Flight
+    stop_time: float | None
+    gusts: bool
+    faults: list | None
+
+
+def flight_of(base: LoopBase) -> Flight:
+    """base.trajectory: the spec's Flight, or a thesis trajectory's number."""
+    flight = base.trajectory
     if isinstance(flight, Flight):
         return flight
     from ..inputs import trajectory as as_trajectory
@@ -20,19 +31,21 @@ def flight_of(base: dict) -> Flight:
     return Flight(as_trajectory(flight))
 
 
-def stop_of(base: dict) -> float:
+def stop_of(base: LoopBase) -> float:
     """The run's stop time: the spec's, else the trajectory's own."""
-    return base["stop_time"] or default_stop(flight_of(base).trajectory)
+    return base.stop_time or default_stop(flight_of(base).trajectory)
 
 
-def case_system(fmu_dir: Path, base: dict, controller: str, seed: int, parameters: dict):
+def case_system(fmu_dir: Path, base: LoopBase, controller: str, seed: int, parameters: dict):
+    """The loop of the base (scenario, trajectory, gusts, faults) with a case's controller, seed and parameters (an
+    instance.name or a faults.N.field each)."""
     from ...engine.faults.parse import parse
 
     is_fmu = controller not in ("dlqr", "mixed")
     flight = flight_of(base)
-    system = default_system(fmu_dir, base["scenario"], flight.trajectory, "mixed" if is_fmu else controller, seed,
-                            Path(controller) if is_fmu else None, gusts=base["gusts"], wind=dict(flight.wind))
-    faults = copy.deepcopy(base.get("faults", []))
+    system = default_system(fmu_dir, base.scenario, flight.trajectory, "mixed" if is_fmu else controller, seed,
+                            Path(controller) if is_fmu else None, gusts=base.gusts, wind=dict(flight.wind))
+    faults = copy.deepcopy(base.faults or [])
     for key, value in parameters.items():
         if key.startswith("faults."):
             _, index, field = key.split(".")

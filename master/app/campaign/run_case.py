@@ -16,6 +16,7 @@ from ..loop import PLANT
 from ..scene import scene_channels
 from .case_system import branch_system, case_system, flight_of, stop_of
 from .metrics import CampaignMetrics
+from .spec import CampaignBase
 from .worker import RUN_FAILURES, CaseWorker, MissingFmu, environment_failure, this_worker
 
 
@@ -32,7 +33,7 @@ def error_row(case: dict, error: str) -> dict:
             "diverged": False, "diverged_at": math.nan, "error": error}
 
 
-def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot: bytes | None = None,
+def run_case(base: CampaignBase, case: dict, fmu_dir: str, log_dir: str | None, snapshot: bytes | None = None,
              worker: CaseWorker | None = None) -> dict:
     """Run one case (with snapshot, the bytes of a snapshot file: from there) on the worker's executions (None: this
     Dask worker's, worker.this_worker). Its outcome: {"row", "wall", "setup", "sim_time"}, the row holding the metrics
@@ -47,12 +48,12 @@ def run_case(base: dict, case: dict, fmu_dir: str, log_dir: str | None, snapshot
         return environment_failure(err)
 
 
-def _run_branch(worker: CaseWorker, base: dict, case: dict, fmu_dir: str, log_dir: str | None, data: bytes) -> dict:
+def _run_branch(worker: CaseWorker, base: CampaignBase, case: dict, fmu_dir: str, log_dir: str | None, data: bytes) -> dict:
     started = time.perf_counter()
     _, snap = worker.snapshot(data)
-    system, snap = branch_system(Path(fmu_dir), snap, base["faults"], case["parameters"], case["controller"])
+    system, snap = branch_system(Path(fmu_dir), snap, base.faults, case["parameters"], case["controller"])
     worker.check_fmus(system)
-    metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=snap.time)  # the branch's own: from the snapshot
+    metrics = CampaignMetrics(bounds=base.scenario == "zse", settle=snap.time)  # the branch's own: from the snapshot
     observers = [metrics, *_monitor(base)]
     if log_dir:
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
@@ -61,18 +62,18 @@ def _run_branch(worker: CaseWorker, base: dict, case: dict, fmu_dir: str, log_di
     return _execute(worker, system, observers, metrics, base, case, started, snap)
 
 
-def _monitor(base: dict) -> list:
+def _monitor(base: CampaignBase) -> list:
     """The requirements' observer of keep.requirements (a fresh one a run), or none."""
-    if not base.get("requirements"):
+    if not base.requirements:
         return []
     from ...engine.requirements import requirement
 
-    return [RequirementObserver([requirement(name, text) for name, text in base["requirements"]])]
+    return [RequirementObserver([requirement(name, text) for name, text in base.requirements])]
 
 
-def _run_case(worker: CaseWorker, base: dict, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
+def _run_case(worker: CaseWorker, base: CampaignBase, case: dict, fmu_dir: str, log_dir: str | None) -> dict:
     started = time.perf_counter()
-    worker.verdicts.update(base.get("feasibility", {}))  # the client's verdicts (worker.feasibility_verdicts)
+    worker.verdicts.update(base.feasibility)  # the client's verdicts (worker.feasibility_verdicts)
     if case["controller"] not in ("dlqr", "mixed") and not Path(case["controller"]).is_file():
         raise MissingFmu(f"no controller FMU at {case['controller']}")  # read while the system is described
     try:
@@ -84,7 +85,7 @@ def _run_case(worker: CaseWorker, base: dict, case: dict, fmu_dir: str, log_dir:
     refused = worker.infeasible(system, stop, flight_of(base))
     if refused:  # before the first step, as tiltload run refuses it
         return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
-    metrics = CampaignMetrics(bounds=base["scenario"] == "zse", settle=min(5.0, stop / 2))
+    metrics = CampaignMetrics(bounds=base.scenario == "zse", settle=min(5.0, stop / 2))
     observers = [metrics, *_monitor(base)]
     if log_dir:
         observers.insert(0, McapLogger(Path(log_dir) / f"{case['run_id']}.mcap", derived=scene_channels(PLANT),
@@ -106,12 +107,12 @@ def _execute(worker: CaseWorker, system, observers, metrics, base, case, started
     diverged = error is not None and ("diverged" in error or "non-finite" in error)
     row = {"run_id": case["run_id"], "controller": Path(case["controller"]).stem if case["controller"] not in ("dlqr", "mixed")
            else case["controller"], "seed": case["seed"], **case["values"],
-           **metrics.row(tuple(base["keep_metrics"])), "completed": error is None, "diverged": diverged,
+           **metrics.row(base.keep_metrics), "completed": error is None, "diverged": diverged,
            "diverged_at": sim_time if diverged else math.nan, "error": error or ""}
     for obs in observers:
         if isinstance(obs, RequirementObserver):  # NAME_verdict, NAME_robustness (NaN: undecided)
             results = {r.name: r for r in obs.results}
-            for name, _ in base.get("requirements", ()):
+            for name, _ in base.requirements:
                 r = results.get(name)
                 row[f"{name}_verdict"] = r.verdict if r is not None else "INCONCLUSIVE"
                 row[f"{name}_robustness"] = r.robustness if r is not None and r.robustness is not None else math.nan

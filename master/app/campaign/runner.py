@@ -18,13 +18,13 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from functools import partial
 from pathlib import Path
 
 from .errors import CampaignIncomplete
 from .logs import LOG, LOGGER, campaign_log
-from .spec import Campaign, Case, SpecError, load
+from .spec import Campaign, CampaignBase, Case, SpecError, load
 
 RESULTS, TIMINGS = "results.parquet", "timings.parquet"
 
@@ -125,7 +125,7 @@ def held(results: Path) -> dict[str, int]:
             "diverged": sum(bool(d) for d in diverged)}
 
 
-def _prepare_workers(client, base: dict, case: Case, fmu_dir: str) -> list:
+def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str) -> list:
     """A task on each worker there is now that instantiates the first case's system (worker.prepare): their futures.
     The workers do it while this process checks the cases' feasibility, rather than in their first run."""
     from .worker import prepare
@@ -201,8 +201,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 base = campaign.base()
                 if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
                     # workers instantiate the first case's system
-                    prepared = _prepare_workers(client, dict(base), todo[0], str(Path(fmus).resolve()))
-                    base["feasibility"] = feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve()))
+                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()))
+                    base = replace(base, feasibility=feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve())))
                 task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 shared = {}
                 if campaign.snapshot is not None:  # to every worker once, not with every run

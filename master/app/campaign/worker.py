@@ -26,7 +26,7 @@ from ..feasibility import check_system
 from ..fmus import is_foreign
 from ..loop import PLANT
 from .case_system import case_system, flight_of, stop_of
-from .spec import Flight
+from .spec import CampaignBase, Flight
 
 RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
 ATTRIBUTE = "tiltload_cases"  # the Dask worker's attribute that holds its CaseWorker
@@ -95,7 +95,7 @@ class CaseWorker:
             self.formulas[text] = parse(text)
         return self.formulas[text]
 
-    def prepare(self, base: dict, case: dict, fmu_dir: str) -> bool:
+    def prepare(self, base: CampaignBase, case: dict, fmu_dir: str) -> bool:
         """Instantiate a case's system before its runs come (the FMUs unpacked, loaded and instantiated, as its first
         run would), while the client checks the cases' feasibility: the first run then restarts it. Never raises
         (False: not prepared; the run meets the problem again and reports it)."""
@@ -122,14 +122,14 @@ def this_worker() -> CaseWorker:
     return state
 
 
-def prepare(base: dict, case: dict, fmu_dir: str) -> bool:
+def prepare(base: CampaignBase, case: dict, fmu_dir: str) -> bool:
     """The Dask task: this worker prepares a case's system (CaseWorker.prepare)."""
     return this_worker().prepare(base, case, fmu_dir)
 
 
-def feasibility_verdicts(base: dict, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
+def feasibility_verdicts(base: CampaignBase, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
     """The feasibility check's verdicts of the first case of each set of plant parameters the cases vary (at most
-    `most` sets), for the client to compute once and hand to every worker in base["feasibility"]: each worker would
+    `most` sets), for the client to compute once and hand to every worker in base.feasibility: each worker would
     otherwise check them itself (seconds each). A case this cannot describe is left to its worker, and so is any verdict
     missed here (looked up by the same key, computed where missing)."""
     checker = CaseWorker()

@@ -19,9 +19,12 @@ import json
 import math
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+
+from .spec import BranchPoint, SearchBase
 
 LOOKS_BACK = ("delay", "stale", "jitter", "noise")
 MIN_TICKS = 16  # a prefix shorter than this (0.19 s) is not worth a snapshot
@@ -41,15 +44,15 @@ def branch_tick(dimensions, faults: list, tick: float) -> int | None:
     return k if k >= MIN_TICKS else None
 
 
-def with_branch(base: dict, ticks: int) -> dict:
+def with_branch(base: SearchBase, ticks: int) -> SearchBase:
     """base with its branch point (the key tells workers' snapshots of different bases apart)."""
-    what = json.dumps({k: base[k] for k in ("scenario", "stop_time", "gusts", "faults", "parameters", "controller", "seed",
-                                            "signals")} | {"trajectory": str(base["trajectory"]), "ticks": ticks},
+    what = json.dumps({k: getattr(base, k) for k in ("scenario", "stop_time", "gusts", "faults", "parameters", "controller",
+                                                     "seed", "signals")} | {"trajectory": str(base.trajectory), "ticks": ticks},
                       sort_keys=True, default=str)
-    return {**base, "branch": {"ticks": ticks, "key": hashlib.sha256(what.encode()).hexdigest()[:16]}}
+    return replace(base, branch=BranchPoint(ticks, hashlib.sha256(what.encode()).hexdigest()[:16]))
 
 
-def choose(base: dict, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> tuple[bool, str]:
+def choose(base: SearchBase, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> tuple[bool, str]:
     """Measure whole runs against branches on the spec's midpoint and a corner: (branch?, the line that says why)."""
     from ..campaign.worker import CaseWorker
     from .evaluate import evaluate

@@ -10,12 +10,12 @@ an FMU's error) is judged on what it got: its robustness is the highest any cont
 library's upper bound), negative only when every continuation violates; a case the feasibility check refuses has none.
 
 Cheaper evaluations (docs/falsification.md, "Cheaper evaluations"):
-- early stop (base["early_stop"]): the run stops at the first check (every signals.CHECK_TICKS ticks) where a
+- early stop (base.early_stop): the run stops at the first check (every signals.CHECK_TICKS ticks) where a
   requirement's FAIL is decided; its robustness is then the upper bound over every continuation of the trace so far
   (for always[a:b] p: the lowest margin of p so far), which is below 0 and at least the whole run's robustness. A run
   that does not fail runs to its end: its robustness is exact. So the sign, and the order of every passing run, are
   those of whole runs; rows say `stopped_at`.
-- branching (base["branch"]): when every searched input acts only after a tick k0 (faults that start later), each
+- branching (base.branch): when every searched input acts only after a tick k0 (faults that start later), each
   worker runs the base case to k0 once, keeps a snapshot (master/engine/snapshot.py) and runs every evaluation from
   it with the case's faults; the recorder's records up to k0 come with the snapshot, so the trace is the whole run's.
 """
@@ -36,6 +36,7 @@ from ..campaign.worker import RUN_FAILURES, CaseWorker, environment_failure, thi
 from ..fmus import is_foreign
 from .signals import CHECK_TICKS, SignalRecorder
 from .space import case_flight
+from .spec import SearchBase
 
 
 def robustness(formulas: list[str], trace, final: bool, worker: CaseWorker | None = None) -> tuple[list[float], list[str]]:
@@ -51,18 +52,18 @@ def robustness(formulas: list[str], trace, final: bool, worker: CaseWorker | Non
     return rho, verdicts
 
 
-def _branch_point(worker: CaseWorker, base: dict, fmu_dir: Path):
+def _branch_point(worker: CaseWorker, base: SearchBase, fmu_dir: Path):
     """The snapshot of the base case at tick k0, made once by this worker (its execution goes back to the pool)."""
     from ...engine import snapshot
 
-    key = ("branch", base["branch"]["key"], str(fmu_dir))
+    key = ("branch", base.branch.key, str(fmu_dir))
     if key in worker.branch_points:
         return worker.branch_points[key]
-    system = case_system(fmu_dir, base, base["controller"], base["seed"], base["parameters"])
+    system = case_system(fmu_dir, base, base.controller, base.seed, base.parameters)
     worker.check_fmus(system)
     taken = []
-    at = base["branch"]["ticks"] * system.tick
-    plan = RunPlan(system, at, observers=(SignalRecorder(base["signals"]),), isolate=is_foreign,
+    at = base.branch.ticks * system.tick
+    plan = RunPlan(system, at, observers=(SignalRecorder(base.signals),), isolate=is_foreign,
                    checkpoints=((at, lambda execution: taken.append(snapshot.take(execution))),), outcomes=())
     run_plan(plan, worker.pool)
     worker.branch_points.clear()  # one base at a time per worker
@@ -70,20 +71,20 @@ def _branch_point(worker: CaseWorker, base: dict, fmu_dir: Path):
     return taken[0]
 
 
-def run_loop(base: dict, parameters: dict, fmu_dir: Path, observers: list, branch: bool = False,
+def run_loop(base: SearchBase, parameters: dict, fmu_dir: Path, observers: list, branch: bool = False,
              worker: CaseWorker | None = None) -> tuple[str | None, float, str | None, bool]:
     """Run the loop of a case once on the worker's executions: (refused: the feasibility check's line, sim_time
     reached, error line, stopped early by an observer). branch: from the worker's snapshot of the base case
-    (base["branch"]). The same FMUs whatever the reference (a moved mission too): a restart sets every parameter.
+    (base.branch). The same FMUs whatever the reference (a moved mission too): a restart sets every parameter.
     worker: whose executions (None: an execution for this run only)."""
     worker = worker if worker is not None else CaseWorker(keep=False)
-    system = case_system(fmu_dir, base, base["controller"], base["seed"], parameters)
+    system = case_system(fmu_dir, base, base.controller, base.seed, parameters)
     worker.check_fmus(system)
-    refused = worker.infeasible(system, base["stop_time"], base["trajectory"])
+    refused = worker.infeasible(system, base.stop_time, base.trajectory)
     if refused:
         return refused, 0.0, None, False
     segmented = any(getattr(o, "stop_on", None) for o in observers)
-    plan = RunPlan(system, base["stop_time"], observers=tuple(observers), isolate=is_foreign,
+    plan = RunPlan(system, base.stop_time, observers=tuple(observers), isolate=is_foreign,
                    resume=_branch_point(worker, base, fmu_dir) if branch else None, segment=CHECK_TICKS if segmented else None,
                    outcomes=(*RUN_FAILURES, StopRun), when=False)
     result = run_plan(plan, worker.pool)
@@ -91,29 +92,29 @@ def run_loop(base: dict, parameters: dict, fmu_dir: Path, observers: list, branc
     return None, float(result.sim_time), None if stopped else result.error, stopped
 
 
-def evaluate(base: dict, case: dict, fmu_dir: str, worker: CaseWorker | None = None) -> dict:
+def evaluate(base: SearchBase, case: dict, fmu_dir: str, worker: CaseWorker | None = None) -> dict:
     """The outcome of one point, as campaign/dispatch.py expects it: {"row", "wall", "setup", "sim_time"}; or, when its
     environment failed (not the run), {"environment": line, "worker": address}. Never raises. worker: whose executions
     (None: this Dask worker's, campaign/worker.this_worker)."""
     started, cpu = time.perf_counter(), time.thread_time()
     try:
         worker = worker if worker is not None else this_worker()
-        early = base.get("early_stop", False)
-        recorder = SignalRecorder(base["signals"], [worker.formula(f) for f in base["requirements"]] if early else None)
+        early = base.early_stop
+        recorder = SignalRecorder(base.signals, [worker.formula(f) for f in base.requirements] if early else None)
         try:
             run_base, parameters = case_flight(base, case["parameters"])
         except ScenarioFileError as err:  # the moved mission is no mission (waypoints out of order): the case's own
             refused, sim_time, error, stopped = f"the moved mission: {err}", 0.0, None, False
         else:
             refused, sim_time, error, stopped = run_loop(run_base, parameters, Path(fmu_dir), [recorder],
-                                                         branch=base.get("branch") is not None, worker=worker)
+                                                         branch=base.branch is not None, worker=worker)
         row = {"run_id": case["run_id"], **case["values"], "completed": refused is None and error is None and not stopped,
                "error": refused or error or "", "sim_time": sim_time, "worker": worker_address() or socket.gethostname(),
                "stopped_at": recorder.stopped_at if stopped else math.nan}
-        names = base.get("requirement_names") or [f"r{i}" for i in range(len(base["requirements"]))]
+        names = base.requirement_names or [f"r{i}" for i in range(len(base.requirements))]
         if refused is None:
             trace = recorder.trace(common=True) if stopped else recorder.trace()  # stopped: the exact prefix it judged
-            rho, verdicts = robustness(base["requirements"], trace, error is None and not stopped, worker)
+            rho, verdicts = robustness(base.requirements, trace, error is None and not stopped, worker)
         else:
             rho, verdicts = [math.nan] * len(names), ["REFUSED"] * len(names)
         for name, r, v in zip(names, rho, verdicts):
