@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from tiltload.master.app.campaign import dispatch, run_case
 from tiltload.master.app.campaign.spec import load
-from tiltload.master.app.campaign.worker import CaseWorker
+from tiltload.master.app.campaign.worker import CaseWorker, this_worker
 
 SPEC = """
 name = "reuse"
@@ -119,3 +119,26 @@ def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path
     assert sorted(r for part in stored for r in part) == [f"r{i}" for i in range(6)]
     assert ["r1"] in stored and ["r0"] in stored  # r1 stored with its task, r0 after its second try, alone
     assert d.retried == 1 and d.stored == 6 and not d.failures
+
+
+def _worker_state(n: int) -> tuple[bool, int, bool]:
+    """(the state is the Dask worker's own, how many tasks it has seen, whether it keeps executions)."""
+    from distributed import get_worker
+    from tiltload.master.app.campaign.worker import ATTRIBUTE
+
+    state = this_worker()
+    state.branch_points[("task", n)] = None  # a mark each task leaves on the state it got
+    return getattr(get_worker(), ATTRIBUTE) is state, len(state.branch_points), state.pool.keep
+
+
+@pytest.mark.slow
+def test_a_dask_worker_keeps_one_case_worker_across_its_tasks_and_a_plain_caller_keeps_none():
+    """The executions a Dask worker reuses hang off the worker (one CaseWorker for all its tasks); a call outside a
+    worker gets one that keeps no execution (nothing of it outlives the call)."""
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        states = [client.submit(_worker_state, n, pure=False).result() for n in range(3)]
+    assert states == [(True, 1, True), (True, 2, True), (True, 3, True)]  # one state, marked by every task in turn
+    assert this_worker() is not this_worker() and not this_worker().pool.keep
