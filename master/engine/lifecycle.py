@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from .execution import Execution, IsolationPolicy
@@ -63,7 +63,7 @@ class RunPlan:
     checkpoints: tuple = ()
     announce: Callable | None = None
     segment: int | None = None
-    outcomes: tuple[type[BaseException], ...] = field(default=(KeyboardInterrupt, Exception))
+    outcomes: tuple[type[BaseException], ...] = (KeyboardInterrupt, Exception)
     when: bool = True
 
 
