@@ -25,6 +25,7 @@ import subprocess
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -169,7 +170,7 @@ def _cost_in_worker(base, case, fmus, tmp, repeat):
         t = time.perf_counter()
         log = Path(tmp) / f"cost{k}.mcap"
         run_loop(base, case["parameters"], Path(fmus), [McapLogger(log)])
-        rho, _ = robustness(base["requirements"], trace_from_log(log, base["signals"], 0.012), True)
+        rho, _ = robustness(base.requirements, trace_from_log(log, base.signals, 0.012), True)
         best_log = min(best_log, time.perf_counter() - t)
         log.unlink()
     return {"observer": best_obs, "log": best_log, "same": min(rho) == row["robustness"]}
@@ -203,7 +204,7 @@ def throughput(client, fmus, tmp, n: int, names, rounds: int = 4) -> None:
             got = {c: {"sims": 0, "s": 0.0, "stopped": 0, "simulated": 0.0, "cpu": 0.0} for c in configs}
             for r in range(-1, rounds):  # round -1: a warm-up (the workers' executions and snapshots made), not counted
                 for early, branch in configs:
-                    base = {**base0, "early_stop": early}
+                    base = replace(base0, early_stop=early)
                     if branch:
                         base = with_branch(base, ticks)
                     started = time.perf_counter()

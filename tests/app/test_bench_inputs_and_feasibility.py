@@ -167,9 +167,7 @@ def test_a_campaign_flies_a_waypoint_file_and_refuses_the_case_it_cannot(fmus, t
                     'targets = ["plant.m_L"]\nvalues = [0.05, 5.0]\n')
     c = campaign_spec.load(spec)
     assert c.trajectory.trajectory.code == 4 and dict(c.trajectory.wind)["dryden"] == 1
-    base = {"scenario": c.scenario, "trajectory": c.trajectory, "stop_time": c.stop_time, "gusts": c.gusts,
-            "keep_metrics": list(c.keep_metrics), "faults": c.faults}
-    rows = {case.values["m_L"]: run_case(base, asdict(case), str(fmus), None)["row"] for case in c.cases}
+    rows = {case.values["m_L"]: run_case(c.base(), asdict(case), str(fmus), None)["row"] for case in c.cases}
     assert rows[0.05]["completed"] and rows[0.05]["error"] == "" and rows[0.05]["ISE(x)"] < 1e-3
     assert not rows[5.0]["completed"]
     assert re.match(r"the reference is infeasible: the trim's f_[RL] would need 3\d\.\d N at t = ", rows[5.0]["error"])

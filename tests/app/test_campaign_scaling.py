@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from tiltload.master.app.campaign import dispatch, run_case
 from tiltload.master.app.campaign.spec import load
+from tiltload.master.app.campaign.worker import CaseWorker, this_worker
 
 SPEC = """
 name = "reuse"
@@ -42,27 +43,22 @@ def test_runs_on_reset_fmus_give_the_rows_of_fresh_instances_bit_for_bit(fmus, t
     campaign = load(spec)
     base, cases = campaign.base(), [asdict(c) for c in campaign.cases]
     order = cases[::-1] + cases  # each case after a different one: the reset leaves nothing of the run before
-    reused = []
-    run_case._EXECUTIONS.clear()
-    for case in order:
-        reused.append(run_case.run_case(base, case, str(fmus), None)["row"])
-    assert len(run_case._EXECUTIONS) == 2  # one execution per structure (controller), restarted for every other run
-    fresh = []
-    for case in order:
-        for execution in run_case._EXECUTIONS.values():
-            execution.close()
-        run_case._EXECUTIONS.clear()  # instantiated anew for this run
-        fresh.append(run_case.run_case(base, case, str(fmus), None)["row"])
-    for execution in run_case._EXECUTIONS.values():
-        execution.close()
-    run_case._EXECUTIONS.clear()
+    worker = CaseWorker()
+    try:
+        reused = [run_case.run_case(base, case, str(fmus), None, worker=worker)["row"] for case in order]
+        # dlqr and mixed are one controller FMU with other parameters: one structure, one execution restarted for
+        # every other run, whichever controller it ran before
+        assert len(worker.pool) == 1 and worker.pool.instantiated == 1
+    finally:
+        worker.close()
+    fresh = [run_case.run_case(base, case, str(fmus), None, worker=CaseWorker(keep=False))["row"] for case in order]
     assert all(r["completed"] for r in fresh)
     assert all(_same(a, b) for a, b in zip(reused, fresh))
     assert all(_same(a, b) for a, b in zip(reused[:len(cases)][::-1], reused[len(cases):]))  # and each run twice alike
 
 
 def test_the_first_run_restarts_the_prepared_execution_and_gives_a_fresh_instances_row(fmus, tmp_path):
-    """run_case.prepare instantiates a case's system before the runs come (each worker does it while the client checks
+    """CaseWorker.prepare instantiates a case's system before the runs come (each worker does it while the client checks
     the feasibility): the first run restarts that execution, and its row is the row of fresh instances, bit for bit. A
     system that cannot be instantiated is not prepared, and prepare says so rather than raise."""
     spec = tmp_path / "reuse.toml"
@@ -71,25 +67,19 @@ def test_the_first_run_restarts_the_prepared_execution_and_gives_a_fresh_instanc
     base, cases = campaign.base(), [asdict(c) for c in campaign.cases]
     first, later = cases[0], next(c for c in cases[1:] if c["controller"] == cases[0]["controller"])
 
-    def close_all() -> None:
-        for execution in run_case._EXECUTIONS.values():
-            execution.close()
-        run_case._EXECUTIONS.clear()
-
-    close_all()
+    fresh = run_case.run_case(base, later, str(fmus), None, worker=CaseWorker(keep=False))["row"]
+    worker = CaseWorker()
     try:
-        fresh = run_case.run_case(base, later, str(fmus), None)["row"]
-        close_all()
-        assert run_case.prepare(base, first, str(fmus))
-        (prepared,) = run_case._EXECUTIONS.values()
-        row = run_case.run_case(base, later, str(fmus), None)["row"]
-        assert list(run_case._EXECUTIONS.values()) == [prepared]  # restarted, not instantiated again
+        assert worker.prepare(base, first, str(fmus))
+        (prepared,) = worker.pool.executions()
+        row = run_case.run_case(base, later, str(fmus), None, worker=worker)["row"]
+        assert worker.pool.executions() == [prepared] and worker.pool.instantiated == 1  # restarted, not instantiated again
         assert row["completed"] and _same(row, fresh)
-        assert run_case.prepare(base, first, str(fmus))  # prepared already: nothing more
-        assert not run_case.prepare(base, first, str(tmp_path / "no_fmus_here"))
-        assert list(run_case._EXECUTIONS.values()) == [prepared]
+        assert worker.prepare(base, first, str(fmus))  # prepared already: nothing more
+        assert not worker.prepare(base, first, str(tmp_path / "no_fmus_here"))
+        assert worker.pool.executions() == [prepared]
     finally:
-        close_all()
+        worker.close()
 
 
 @pytest.mark.parametrize("runs, workers", [(1, 1), (12, 1), (48, 2), (1000, 2), (7, 8)])
@@ -129,3 +119,26 @@ def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path
     assert sorted(r for part in stored for r in part) == [f"r{i}" for i in range(6)]
     assert ["r1"] in stored and ["r0"] in stored  # r1 stored with its task, r0 after its second try, alone
     assert d.retried == 1 and d.stored == 6 and not d.failures
+
+
+def _worker_state(n: int) -> tuple[bool, int, bool]:
+    """(the state is the Dask worker's own, how many tasks it has seen, whether it keeps executions)."""
+    from distributed import get_worker
+    from tiltload.master.app.campaign.worker import ATTRIBUTE
+
+    state = this_worker()
+    state.branch_points[("task", n)] = None  # a mark each task leaves on the state it got
+    return getattr(get_worker(), ATTRIBUTE) is state, len(state.branch_points), state.pool.keep
+
+
+@pytest.mark.slow
+def test_a_dask_worker_keeps_one_case_worker_across_its_tasks_and_a_plain_caller_keeps_none():
+    """The executions a Dask worker reuses hang off the worker (one CaseWorker for all its tasks); a call outside a
+    worker gets one that keeps no execution (nothing of it outlives the call)."""
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        states = [client.submit(_worker_state, n, pure=False).result() for n in range(3)]
+    assert states == [(True, 1, True), (True, 2, True), (True, 3, True)]  # one state, marked by every task in turn
+    assert this_worker() is not this_worker() and not this_worker().pool.keep

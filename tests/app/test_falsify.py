@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -393,7 +394,7 @@ def test_an_early_stopped_run_reports_the_bound_of_its_prefix_against_brute_forc
         z, ref = trace.signals["plant.z"], trace.signals["scenario.z_ref"]
         window = (trace.times >= 2.0 - 1e-9) & (trace.times <= 8.0 + 1e-9)
         whole = float(np.min(0.15 - np.abs(z - ref)[window]))
-        early = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+        early = evaluate(replace(base, early_stop=True), case, str(fmus))["row"]
         assert evaluate(base, case, str(fmus))["row"]["robustness"] == pytest.approx(whole, abs=1e-12)
         if math.isnan(early["stopped_at"]):
             assert whole >= 0 and early["robustness"] == evaluate(base, case, str(fmus))["row"]["robustness"]
@@ -417,7 +418,7 @@ def test_a_branch_from_a_snapshot_is_the_whole_run_bit_for_bit(tmp_path):
     fmus = Path("fmus").resolve()
     build_all(fmus)
     spec, base, _ = _thrust_case(tmp_path, [0.5, 0.5, 0.5])
-    ticks = branch_tick(spec.dimensions, base["faults"], TICK)
+    ticks = branch_tick(spec.dimensions, base.faults, TICK)
     assert ticks == 165  # the last tick before 2 s (the earliest start), one tick earlier
     branched = with_branch(base, ticks)
     for unit in ([0.0, 0.0, 1.0], [0.3, 0.7, 0.2], [0.0, 0.1, 1.0]):
@@ -460,7 +461,7 @@ def test_an_early_stopped_counterexample_replays_the_whole_run_the_summary_state
     fmus = Path("fmus").resolve()
     build_all(fmus)
     spec, base, case = _thrust_case(tmp_path, [0.0, 0.1, 1.0])
-    row = evaluate({**base, "early_stop": True}, case, str(fmus))["row"]
+    row = evaluate(replace(base, early_stop=True), case, str(fmus))["row"]
     assert row["stopped_at"] < 8.0
     out = search(spec.dimensions, "uniform", 0, lambda cases: {c["run_id"]: {**row, "run_id": c["run_id"]} for c in cases},
                  lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 1, None, tmp_path / "o", "early")

@@ -18,13 +18,13 @@ from __future__ import annotations
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from functools import partial
 from pathlib import Path
 
 from .errors import CampaignIncomplete
 from .logs import LOG, LOGGER, campaign_log
-from .spec import Campaign, Case, SpecError, load
+from .spec import Campaign, CampaignBase, Case, SpecError, load
 
 RESULTS, TIMINGS = "results.parquet", "timings.parquet"
 
@@ -125,10 +125,10 @@ def held(results: Path) -> dict[str, int]:
             "diverged": sum(bool(d) for d in diverged)}
 
 
-def _prepare_workers(client, base: dict, case: Case, fmu_dir: str) -> list:
-    """A task on each worker there is now that instantiates the first case's system (run_case.prepare): their futures.
+def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str) -> list:
+    """A task on each worker there is now that instantiates the first case's system (worker.prepare): their futures.
     The workers do it while this process checks the cases' feasibility, rather than in their first run."""
-    from .run_case import prepare
+    from .worker import prepare
 
     try:
         workers = sorted(client.scheduler_info()["workers"])
@@ -188,7 +188,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 f"{len(todo)} to run")
             if todo:
                 from ..fmus import build_all  # these import the controller's design tools: seconds, so only now
-                from .run_case import feasibility_verdicts, run_case
+                from .run_case import run_case
+                from .worker import feasibility_verdicts
 
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
@@ -200,8 +201,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 base = campaign.base()
                 if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
                     # workers instantiate the first case's system
-                    prepared = _prepare_workers(client, dict(base), todo[0], str(Path(fmus).resolve()))
-                    base["feasibility"] = feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve()))
+                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()))
+                    base = replace(base, feasibility=feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve())))
                 task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 shared = {}
                 if campaign.snapshot is not None:  # to every worker once, not with every run
@@ -244,7 +245,7 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
     from ...engine import snapshot
     from ...engine.errors import DescriptionError
     from ...engine.execution import Execution
-    from .run_case import branch_system
+    from .case_system import branch_system
 
     snap = snapshot.read(campaign.snapshot)
     for case in campaign.cases[:1]:

@@ -86,6 +86,21 @@ class Flight:
         return self.trajectory.label
 
 
+@dataclass(frozen=True)
+class CampaignBase:
+    """What every run of a campaign shares, as the workers get it (Campaign.base())."""
+
+    scenario: str
+    trajectory: Flight
+    stop_time: float | None  # None: the trajectory's own
+    gusts: bool
+    faults: list | None = None  # their JSON form; None: a branch keeps its run's own
+    keep_metrics: tuple[str, ...] = METRICS
+    branch: bool = False  # the cases branch from a snapshot (base.snapshot)
+    requirements: tuple[tuple[str, str], ...] = ()  # keep.requirements: (name, STL) of each
+    feasibility: dict = field(default_factory=dict)  # the client's verdicts (worker.feasibility_verdicts), by their key
+
+
 @dataclass
 class Campaign:
     name: str
@@ -103,11 +118,10 @@ class Campaign:
     branch_start: float = 0.0  # the snapshot's time (s)
     requirements: tuple = ()  # keep.requirements: (name, STL) of each, judged on every run (columns NAME_verdict, NAME_robustness)
 
-    def base(self) -> dict:
+    def base(self) -> CampaignBase:
         """What every run shares, as the workers get it (run_case's `base`)."""
-        return {"scenario": self.scenario, "trajectory": self.trajectory, "stop_time": self.stop_time, "gusts": self.gusts,
-                "keep_metrics": list(self.keep_metrics), "faults": self.faults, "branch": self.snapshot is not None,
-                "requirements": [list(r) for r in self.requirements]}
+        return CampaignBase(self.scenario, self.trajectory, self.stop_time, self.gusts, self.faults, tuple(self.keep_metrics),
+                            self.snapshot is not None, tuple(tuple(r) for r in self.requirements))
 
 
 def read_spec_file(path: Path) -> dict:

@@ -19,9 +19,12 @@ import json
 import math
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+
+from .spec import BranchPoint, SearchBase
 
 LOOKS_BACK = ("delay", "stale", "jitter", "noise")
 MIN_TICKS = 16  # a prefix shorter than this (0.19 s) is not worth a snapshot
@@ -41,39 +44,44 @@ def branch_tick(dimensions, faults: list, tick: float) -> int | None:
     return k if k >= MIN_TICKS else None
 
 
-def with_branch(base: dict, ticks: int) -> dict:
+def with_branch(base: SearchBase, ticks: int) -> SearchBase:
     """base with its branch point (the key tells workers' snapshots of different bases apart)."""
-    what = json.dumps({k: base[k] for k in ("scenario", "stop_time", "gusts", "faults", "parameters", "controller", "seed",
-                                            "signals")} | {"trajectory": str(base["trajectory"]), "ticks": ticks},
+    what = json.dumps({k: getattr(base, k) for k in ("scenario", "stop_time", "gusts", "faults", "parameters", "controller",
+                                                     "seed", "signals")} | {"trajectory": str(base.trajectory), "ticks": ticks},
                       sort_keys=True, default=str)
-    return {**base, "branch": {"ticks": ticks, "key": hashlib.sha256(what.encode()).hexdigest()[:16]}}
+    return replace(base, branch=BranchPoint(ticks, hashlib.sha256(what.encode()).hexdigest()[:16]))
 
 
-def choose(base: dict, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> tuple[bool, str]:
+def choose(base: SearchBase, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> tuple[bool, str]:
     """Measure whole runs against branches on the spec's midpoint and a corner: (branch?, the line that says why)."""
+    from ..campaign.worker import CaseWorker
     from .evaluate import evaluate
     from .space import case_parameters, values_at
 
-    branched = with_branch(base, ticks)
-    cases = []
-    for u in (0.5, 0.0):
-        values = values_at(dimensions, np.full(len(dimensions), u))
-        cases.append({"run_id": f"calibrate-{u}", "values": values, "parameters": case_parameters(base, values)})
-    for case in cases:  # the same outcome both ways (and the executions, the snapshot made: not timed)
-        whole, branch = evaluate(base, case, str(fmus)).get("row"), evaluate(branched, case, str(fmus)).get("row")
-        if whole is None or branch is None:  # an environment's failure (say, an FMU that cannot serialize its state)
-            return False, "branching from a snapshot: not used (the calibration could not run it here)"
-        same = whole["robustness"] == branch["robustness"] or (math.isnan(whole["robustness"])
-                                                               and math.isnan(branch["robustness"]))
-        if not same:
-            return False, (f"branching from a snapshot: not used (its robustness {branch['robustness']!r} differs from the "
-                           f"whole run's {whole['robustness']!r})")
-    spent: dict[str, list[float]] = {"whole": [], "branch": []}
-    for _ in range(repeat):
-        for label, b in (("whole", base), ("branch", branched)):
-            started = time.process_time()
-            evaluate(b, cases[0], str(fmus))
-            spent[label].append(time.process_time() - started)
+    worker = CaseWorker()  # this process's executions and snapshot for the calibration, closed after it
+    try:
+        branched = with_branch(base, ticks)
+        cases = []
+        for u in (0.5, 0.0):
+            values = values_at(dimensions, np.full(len(dimensions), u))
+            cases.append({"run_id": f"calibrate-{u}", "values": values, "parameters": case_parameters(base, values)})
+        for case in cases:  # the same outcome both ways (and the executions, the snapshot made: not timed)
+            whole, branch = evaluate(base, case, str(fmus), worker).get("row"), evaluate(branched, case, str(fmus), worker).get("row")
+            if whole is None or branch is None:  # an environment's failure (say, an FMU that cannot serialize its state)
+                return False, "branching from a snapshot: not used (the calibration could not run it here)"
+            same = whole["robustness"] == branch["robustness"] or (math.isnan(whole["robustness"])
+                                                                   and math.isnan(branch["robustness"]))
+            if not same:
+                return False, (f"branching from a snapshot: not used (its robustness {branch['robustness']!r} differs from the "
+                               f"whole run's {whole['robustness']!r})")
+        spent: dict[str, list[float]] = {"whole": [], "branch": []}
+        for _ in range(repeat):
+            for label, b in (("whole", base), ("branch", branched)):
+                started = time.process_time()
+                evaluate(b, cases[0], str(fmus), worker)
+                spent[label].append(time.process_time() - started)
+    finally:
+        worker.close()
     whole, branch = statistics.median(spent["whole"]), statistics.median(spent["branch"])
     use = branch < whole
     from ..loop import TICK

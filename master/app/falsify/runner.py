@@ -15,7 +15,7 @@ from pathlib import Path
 from ..campaign.errors import CampaignIncomplete
 from ..campaign.spec import Case, SpecError
 from .search import Outcome, search
-from .spec import Falsification, load
+from .spec import Falsification, SearchBase, load
 
 
 def identity(spec: Falsification, early_stop: bool = True) -> str:
@@ -33,7 +33,7 @@ def check_names(spec: Falsification, fmus: Path) -> None:
     """Before any run, against the built FMUs: each requirement's signal is an output of its instance, each searched
     instance.name a parameter of it."""
     from ...engine.model_description import read_fmu
-    from ..campaign.run_case import case_system
+    from ..campaign.case_system import case_system
 
     system = case_system(fmus, spec.base(), spec.controller, spec.loop_seed, dict(spec.parameters))
     outputs, parameters = {}, {}
@@ -59,7 +59,7 @@ def check_names(spec: Falsification, fmus: Path) -> None:
             raise SpecError(f"{spec.source}: requirements: {s} is not an output of {instance}{hint}")
 
 
-def cluster_batch(client, where: str, base: dict, fmus: Path, retries: int = 2):
+def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2):
     """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster."""
     from ..campaign.dispatch import Dispatch, Policy
     from .evaluate import evaluate
@@ -70,20 +70,20 @@ def cluster_batch(client, where: str, base: dict, fmus: Path, retries: int = 2):
         got: dict[str, dict] = {}
         dispatch = Dispatch(client, task, lambda result: got.__setitem__(result["row"]["run_id"], result["row"]), where,
                             len(cases), 0, Policy(retries=retries))
-        dispatch.run([Case(c["run_id"], base["controller"], base["seed"], c["values"], c["parameters"]) for c in cases])
+        dispatch.run([Case(c["run_id"], base.controller, base.seed, c["values"], c["parameters"]) for c in cases])
         return got
     return run
 
 
-def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[dict, list[str]]:
+def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[SearchBase, list[str]]:
     """The workers' base with the cheaper evaluations it can have (evaluate.py): early stop, and branching from a
     snapshot when the searched inputs all act late and (auto) it measured faster here; the lines that say what."""
     from ..loop import TICK
     from .branching import branch_tick, choose, with_branch
 
-    base = {**spec.base(), "early_stop": early_stop}
+    base = replace(spec.base(), early_stop=early_stop)
     notes = ["early stop at the first decided violation: " + ("on" if early_stop else "off")]
-    ticks = branch_tick(spec.dimensions, base["faults"], TICK) if branch != "off" else None
+    ticks = branch_tick(spec.dimensions, base.faults, TICK) if branch != "off" else None
     if branch == "off":
         notes.append("branching from a snapshot: off")
     elif ticks is None:
@@ -99,7 +99,7 @@ def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branc
     return base, notes
 
 
-def make_case(base: dict):
+def make_case(base: SearchBase):
     from .space import case_parameters
 
     def make(rid: str, values: dict) -> dict:

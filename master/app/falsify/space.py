@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from .spec import Dimension
+from .spec import Dimension, SearchBase
 
 
 def values_at(dimensions: list[Dimension], unit: np.ndarray) -> dict[str, float | int]:
@@ -41,13 +41,13 @@ def gust_profile(gust: dict) -> dict[str, float | int]:
     return out
 
 
-def case_parameters(base: dict, values: dict[str, float | int]) -> dict[str, object]:
+def case_parameters(base: SearchBase, values: dict[str, float | int]) -> dict[str, object]:
     """The run's parameters: base.parameters, then the point's (instance.name and faults.N.field keys)."""
-    parameters: dict[str, object] = dict(base["parameters"])
-    gust = dict(base["gust"]) if base.get("gust") is not None else None
-    start = base["trajectory"].trajectory.start
+    parameters: dict[str, object] = dict(base.parameters)
+    gust = dict(base.gust) if base.gust is not None else None
+    start = base.trajectory.trajectory.start
     durations = []
-    for dim in base["dimensions"]:
+    for dim in base.dimensions:
         v, target = values[dim.name], dim.target
         kind, _, rest = target.partition(".")
         if kind == "gust":
@@ -61,18 +61,18 @@ def case_parameters(base: dict, values: dict[str, float | int]) -> dict[str, obj
         else:
             parameters[target] = v
     for n, duration in durations:  # after the starts: a duration counts from the fault's (searched) start
-        begin = parameters.get(f"faults.{n}.start", base["faults"][n].get("start", 0.0))
+        begin = parameters.get(f"faults.{n}.start", base.faults[n].get("start", 0.0))
         parameters[f"faults.{n}.end"] = float(begin) + duration
     if gust is not None:
         parameters.update(gust_profile(gust))
     return parameters
 
 
-def case_faults(base: dict, parameters: dict) -> list:
+def case_faults(base: SearchBase, parameters: dict) -> list:
     """base.faults with the point's faults.N.field values (for a replay's fault file)."""
     import copy
 
-    faults = copy.deepcopy(base["faults"])
+    faults = copy.deepcopy(base.faults)
     for key, value in parameters.items():
         if key.startswith("faults."):
             _, index, field = key.split(".")
@@ -80,19 +80,19 @@ def case_faults(base: dict, parameters: dict) -> list:
     return faults
 
 
-def moved_waypoints(base: dict, parameters: dict) -> list[dict] | None:
+def moved_waypoints(base: SearchBase, parameters: dict) -> list[dict] | None:
     """The mission's waypoints with the point's offsets (None: no waypoint moves)."""
     offsets = {k: v for k, v in parameters.items() if k.startswith("waypoints.")}
     if not offsets:
         return None
-    rows = [dict(r) for r in base["waypoints"]]
+    rows = [dict(r) for r in base.waypoints]
     for key, offset in offsets.items():
         _, k, field = key.split(".")
         rows[int(k)][field] = rows[int(k)].get(field, 0.0) + float(offset)
     return rows
 
 
-def case_flight(base: dict, parameters: dict) -> tuple[dict, dict]:
+def case_flight(base: SearchBase, parameters: dict) -> tuple[SearchBase, dict]:
     """(base with the moved mission's flight, the parameters without the waypoint offsets); unchanged without any.
     A moved mission that is no mission (waypoints out of time order) raises ScenarioFileError: the case's own."""
     rows = moved_waypoints(base, parameters)
@@ -104,14 +104,14 @@ def case_flight(base: dict, parameters: dict) -> tuple[dict, dict]:
     from ....scenario_fmu import twin, waypoints
     from ....scenario_fmu.choice import Trajectory
 
-    flight = base["trajectory"]
+    flight = base.trajectory
     source = Path(flight.trajectory.source)
     waypoints.check(rows, [f"waypoint {i}" for i in range(len(rows))], f"{source.name} (moved)")
     ref = waypoints.minimum_jerk(rows)  # as choice.read_file makes a mission file's reference
     trajectory = Trajectory(source.stem, twin.WAYPOINTS, (), ref.start, ref.duration, str(source),
                             tuple(tuple(float(v) for v in k) for k in ref.knots()))
     moved = dataclasses.replace(flight, trajectory=trajectory)
-    return {**base, "trajectory": moved}, {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
+    return dataclasses.replace(base, trajectory=moved), {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
 
 
 def mission_csv(rows: list[dict]) -> str:

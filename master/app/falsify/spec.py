@@ -84,6 +84,37 @@ class Requirement:
     description: str = ""
 
 
+@dataclass(frozen=True)
+class BranchPoint:
+    """Where every evaluation branches from (branching.py): the tick of the base case's snapshot, and a key that tells
+    the snapshots of different bases apart."""
+
+    ticks: int
+    key: str
+
+
+@dataclass(frozen=True)
+class SearchBase:
+    """What every evaluation of a falsification shares, as the workers get it (Falsification.base())."""
+
+    scenario: str
+    trajectory: Flight
+    stop_time: float
+    gusts: bool
+    faults: list  # base.faults, their JSON form
+    parameters: dict  # base.parameters (instance.name -> value)
+    requirements: tuple[str, ...]  # the formulas
+    requirement_names: tuple[str, ...]
+    signals: tuple[str, ...]
+    dimensions: tuple[Dimension, ...]
+    gust: dict | None  # the gust's fixed fields, when a dimension targets gust.*
+    controller: str
+    seed: int
+    waypoints: list | None  # the mission's waypoints, when a dimension moves one
+    early_stop: bool = False  # an evaluation stops at its first decided violation (evaluate.py)
+    branch: BranchPoint | None = None  # every evaluation goes on from the base case's snapshot (branching.py)
+
+
 @dataclass
 class Falsification:
     name: str
@@ -113,13 +144,12 @@ class Falsification:
     def has_gust(self) -> bool:
         return any(d.target.startswith("gust.") for d in self.dimensions)
 
-    def base(self) -> dict:
+    def base(self) -> SearchBase:
         """What every evaluation shares, as the workers get it."""
-        return {"scenario": self.scenario, "trajectory": self.flight, "stop_time": self.stop_time, "gusts": self.gusts,
-                "faults": self.faults, "parameters": self.parameters, "requirements": [r.formula for r in self.requirements],
-                "requirement_names": [r.name for r in self.requirements],
-                "signals": list(self.signals), "dimensions": self.dimensions, "gust": self.gust if self.has_gust else None,
-                "controller": self.controller, "seed": self.loop_seed, "waypoints": self.waypoints or None}
+        return SearchBase(self.scenario, self.flight, self.stop_time, self.gusts, self.faults, self.parameters,
+                          tuple(r.formula for r in self.requirements), tuple(r.name for r in self.requirements),
+                          tuple(self.signals), tuple(self.dimensions), self.gust if self.has_gust else None, self.controller,
+                          self.loop_seed, self.waypoints or None)
 
 
 def _validate(data: dict, path: Path) -> None:

@@ -34,7 +34,7 @@ def case_name(scenario: str, trajectory: int, controller: str) -> str:
 def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: str, stop: float | None, fmi: int = 2,
              clocked: bool = False) -> dict:
     """Worker: one case, its log and its figures (fmi, clocked: the FMU set of fmus, docs/fmi3.md)."""
-    from ...engine.run import run_system
+    from ...engine.lifecycle import RunPlan, run_plan
     from ..loop import default_stop, default_system, loop_metrics
     from ..plot import plot_run
     from ..scene import scene_channels
@@ -43,10 +43,11 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
     name = case_name(scenario, trajectory, controller)
     stop = default_stop(trajectory) if stop is None else stop
     log = Path(out) / f"{name}.mcap"
-    res = run_system(default_system(Path(fmus), scenario, trajectory, controller, SEED, fmi=fmi, clocked=clocked), stop, log,
-                     loop_metrics(), progress=False, channels=scene_channels("plant"),
-                     metadata=record(scenario=scenario, trajectory=trajectory, controller=controller, seed=SEED,
-                                     stop_time=stop, fmi=fmi, clocks=clocked))
+    system = default_system(Path(fmus), scenario, trajectory, controller, SEED, fmi=fmi, clocked=clocked)
+    meta = record(scenario=scenario, trajectory=trajectory, controller=controller, seed=SEED, stop_time=stop, fmi=fmi,
+                  clocks=clocked)
+    # one case a call, each on a new execution: its log is the fresh run's, whichever process runs which cases
+    res = run_plan(RunPlan(system, stop, log, meta, scene_channels("plant"), metrics=loop_metrics()))
     figures = [str(f) for f in plot_run(log, Path(out) / "figures")] if res.error is None else []
     return {"case": name, "scenario": scenario, "trajectory": trajectory, "controller": controller, "metrics": res.metrics,
             "error": res.error, "wall": res.wall, "log": str(log), "figures": figures, "stop": stop}
