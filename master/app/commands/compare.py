@@ -33,6 +33,8 @@ def run(args: argparse.Namespace) -> int:
     from ..regression.compare import compare_files
 
     result = compare_files(args.run, args.baseline, args.rtol, args.atol, args.any_case)
+    if result.changed_line():
+        print(result.changed_line())
     for note in result.notes:
         print(f"note: {note}")
     print(result.table())
