@@ -29,10 +29,14 @@ def write(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], header:
         "t": pa.array(np.concatenate([np.asarray(signals[n][0], dtype=float) for n in names])),
         "value": pa.array(np.concatenate([np.asarray(signals[n][1], dtype=float) for n in names])),
     })
-    table = table.replace_schema_metadata({KEY: json.dumps({"format": FORMAT, **header}).encode()})
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    pq.write_table(table, path, compression="zstd", compression_level=9)
+    # the header once, in the file's key-value metadata (store_schema would copy it again, base64, into the Arrow
+    # schema); floats split by byte, which zstd compresses better
+    with pq.ParquetWriter(path, table.schema, compression="zstd", compression_level=9, store_schema=False,
+                          use_byte_stream_split=["t", "value"]) as writer:
+        writer.write_table(table)
+        writer.add_key_value_metadata({KEY.decode(): json.dumps({"format": FORMAT, **header})})
     return path
 
 
@@ -70,7 +74,7 @@ def read(path: Path) -> tuple[dict, dict[str, tuple[np.ndarray, np.ndarray]]]:
     header = read_header(path)
     try:
         table = pq.read_table(path)
-        codes = table.column("signal").combine_chunks()
+        codes = table.column("signal").combine_chunks().dictionary_encode()
         names = [str(n) for n in codes.dictionary.to_pylist()]
         index = codes.indices.to_numpy(zero_copy_only=False)
         t = table.column("t").to_numpy()

@@ -32,7 +32,7 @@ def tolerance_from(data: object, where: str, base: Tolerance = DEFAULT) -> Toler
         if key not in KEYS:
             raise DescriptionError(f"{where}: unknown tolerance {key!r} (abs, rel, lead, lag)")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise DescriptionError(f"{where}.{key} = {value!r}: a tolerance must be a finite number >= 0")
+            raise DescriptionError(f"{where}: {key} = {value!r} must be a finite number >= 0")
         values[KEYS[key]] = float(value)
     return replace(base, **values)
 
@@ -218,8 +218,10 @@ class SignalComparison:
         return "\n".join(lines)
 
 
-def load_reference(path: Path, names: list[str] | None) -> tuple[Signals, Tolerances, dict, dict | None, dict | None]:
-    """(signals, tolerances, units, case, fmus) of a signal baseline (.parquet) or a log (.mcap)."""
+def load_reference(path: Path, names: list[str] | None, named_by: Path | str | None = None
+                   ) -> tuple[Signals, Tolerances, dict, dict | None, dict | None]:
+    """(signals, tolerances, units, case, fmus) of a signal baseline (.parquet) or a log (.mcap); named_by: where the
+    names come from, when not from --signals (a name the baseline lacks is that file's error)."""
     from . import signal_baseline
 
     path = Path(path)
@@ -230,7 +232,8 @@ def load_reference(path: Path, names: list[str] | None) -> tuple[Signals, Tolera
         if names:
             missing = [n for n in names if n not in signals]
             if missing:
-                raise DescriptionError(f"{path} holds no signal {missing[0]} (it holds {', '.join(signals)})")
+                raise DescriptionError((f"{named_by}: {missing[0]} names no signal of {path}" if named_by else
+                                        f"{path} holds no signal {missing[0]}") + f" (it holds {', '.join(signals)})")
             signals = {n: signals[n] for n in names}
         return signals, tolerances, header.get("units", {}), header.get("run") or None, header.get("fmus") or None
     _check_log(path)
@@ -239,7 +242,10 @@ def load_reference(path: Path, names: list[str] | None) -> tuple[Signals, Tolera
                                "file's signals)")
     from ...engine.log_reader import read_metadata
 
-    signals, units = log_signals(path, names)
+    try:
+        signals, units = log_signals(path, names)
+    except DescriptionError as err:
+        raise DescriptionError(f"{named_by}: {err}" if named_by else str(err)) from None
     meta = read_metadata(path)
     return signals, Tolerances(), units, meta.get("run") or None, meta.get("fmus") or None
 
@@ -253,18 +259,27 @@ def _check_log(path: Path) -> None:
 
 
 def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = None, tolerance_file: Path | None = None,
-                         flags: dict[str, float | None] | None = None, any_case: bool = False) -> SignalComparison:
-    """`tiltload compare RUN BASELINE --signals ...`: the case, what changed, then each signal in its tube."""
+                         flags: dict[str, float | None] | None = None, any_case: bool = False,
+                         given: Tolerances | None = None) -> SignalComparison:
+    """`tiltload compare RUN BASELINE --signals ...`: the case, what changed, then each signal in its tube. Tolerances:
+    a tolerance file's, or given ones, over the baseline's own; flags replace one of them for every signal."""
     from ...engine.log_reader import read_metadata
     from .changes import between
     from .compare import compare_cases
 
-    given = load_tolerances(tolerance_file) if tolerance_file is not None else None
-    names = check_names(signals, "--signals") if signals else (list(given.signals) if given and given.signals else None)
-    base, recorded, units, base_case, base_fmus = load_reference(baseline, names)
+    for flag, value in (flags or {}).items():
+        if value is not None:
+            tolerance_from({flag: value}, "tolerance for every signal")  # one line for a bad one, not Tolerance's ValueError
+    if tolerance_file is not None:
+        given = load_tolerances(tolerance_file)
+    names = check_names(signals, "--signals") if signals else None
+    from_tolerances = names is None and given is not None and bool(given.signals)
+    base, recorded, units, base_case, base_fmus = load_reference(baseline, list(given.signals) if from_tolerances else names,
+                                                                 tolerance_file or "the tolerances" if from_tolerances else None)
     names = list(base)
+    if given is not None:
+        _check_known(given, names, tolerance_file or "the tolerances")
     tolerances = (given.over(recorded) if given else recorded).with_flags(flags or {})
-    _check_known(tolerances, names, tolerance_file)
     _check_log(Path(run))
     notes: list[str] = []
     meta = read_metadata(Path(run))
@@ -276,10 +291,10 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
     return SignalComparison(all(r.passed for r in rows), rows, what, notes, changes, dict(run_case or {}))
 
 
-def _check_known(tolerances: Tolerances, names: list[str], source: Path | None) -> None:
+def _check_known(tolerances: Tolerances, names: list[str], source: Path | str) -> None:
     """A tolerance for a signal that is not compared names no logged signal: refused, as a typo would go unnoticed."""
     unknown = [n for n in tolerances.signals if n not in names]
-    if unknown and source is not None:
+    if unknown:
         raise DescriptionError(f"{source}: {unknown[0]} names no compared signal (the signals compared: {', '.join(names)})")
 
 
@@ -291,7 +306,7 @@ def record(log: Path, path: Path, signals: list[str], tolerances: Tolerances = T
     names = check_names(signals, "signals")
     if not names:
         raise DescriptionError("a signal baseline needs at least one signal (instance.variable)")
-    _check_known(tolerances, names, Path("the tolerances"))
+    _check_known(tolerances, names, "the tolerances")
     values, units = log_signals(Path(log), names)
     meta = read_metadata(Path(log))
     header = {"run": meta.get("run", {}), "fmus": meta.get("fmus", {}), "tolerances": tolerances.to_header(),
