@@ -5,7 +5,10 @@ settings), and the units of its outputs. Flat text records (MCAP metadata): "con
 
 from __future__ import annotations
 
+import hashlib
 import os
+import re
+import zipfile
 from pathlib import Path
 
 _DIGESTS: dict[tuple[str, int, int], str] = {}  # (path, size, mtime) -> SHA-256: a campaign's restarts hash nothing again
@@ -19,6 +22,27 @@ def fmu_digest(path: Path) -> str:
     key = (str(Path(path).resolve()), st.st_size, st.st_mtime_ns)
     if key not in _DIGESTS:
         _DIGESTS[key] = digest(path)
+    return _DIGESTS[key]
+
+
+_STAMPS = re.compile(rb'\b(guid|instantiationToken|generationDateAndTime)="[^"]*"')
+
+
+def content_digest(path: Path) -> str:
+    """SHA-256 of an FMU's members (names and bytes, in name order) with its build stamps blanked (the model
+    description's GUID or instantiation token and generation time): two builds of the same sources that differ only by
+    those (a pythonfmu wrap stamps both anew each time) have the same content digest."""
+    st = os.stat(path)
+    key = ("content:" + str(Path(path).resolve()), st.st_size, st.st_mtime_ns)
+    if key not in _DIGESTS:
+        h = hashlib.sha256()
+        with zipfile.ZipFile(path) as z:
+            for name in sorted(z.namelist()):
+                data = z.read(name)
+                if name == "modelDescription.xml":
+                    data = _STAMPS.sub(rb'\1=""', data)
+                h.update(name.encode() + b"\0" + len(data).to_bytes(8, "little") + data)
+        _DIGESTS[key] = h.hexdigest()
     return _DIGESTS[key]
 
 
@@ -51,6 +75,10 @@ def fmus_record(instances, model_descriptions: dict) -> dict[str, str]:
         path = Path(spec.fmu)
         out[f"{spec.name}.fmu"] = path.name
         out[f"{spec.name}.sha256"] = fmu_digest(path) if path.is_file() else ""
+        try:
+            out[f"{spec.name}.content"] = content_digest(path) if path.is_file() else ""
+        except (OSError, zipfile.BadZipFile):  # FMPy read it, so it is an archive; a race with a rebuild says nothing
+            out[f"{spec.name}.content"] = ""
         out[f"{spec.name}.model"] = str(md.modelName)
         out[f"{spec.name}.guid"] = str(getattr(md, "guid", None) or getattr(md, "instantiationToken", "") or "")
         for v in md.modelVariables:

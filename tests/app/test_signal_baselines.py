@@ -5,6 +5,7 @@ first, then the signals in their tubes; bad input is one line and exit 2."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -155,3 +156,39 @@ def test_a_log_baseline_needs_signals_and_a_baseline_of_another_case_is_refused(
     (tmp_path / "junk.parquet").write_bytes(b"PAR1 not really")
     assert main(["compare", str(runs["again"].log), str(tmp_path / "junk.parquet")]) == 2
     assert "is not a signal baseline" in capsys.readouterr().err
+
+
+def _fmu(path: Path, guid: str, date: str, code: bytes) -> Path:
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", f'<fmiModelDescription guid="{guid}" generationDateAndTime="{date}"/>')
+        z.writestr("resources/controller.py", code)
+    return path
+
+
+def test_a_rewrapped_fmu_is_the_same_content_and_what_changed_is_told_in_order(tmp_path):
+    from tiltload.master.app.regression.changes import what_changed
+    from tiltload.master.engine.provenance import content_digest, fmu_digest
+
+    one = _fmu(tmp_path / "a.fmu", "g1", "2026-12-04T14:41:58", b"kp = 1.0")
+    again = _fmu(tmp_path / "b.fmu", "g2", "2026-12-04T14:42:03", b"kp = 1.0")  # a wrap stamps a new GUID and date
+    edited = _fmu(tmp_path / "c.fmu", "g3", "2026-12-04T14:42:09", b"kp = 1.5")
+    assert fmu_digest(one) != fmu_digest(again) and content_digest(one) == content_digest(again) != content_digest(edited)
+
+    def record(fmu: Path, guid: str, **params: str) -> dict[str, str]:
+        rec = {}
+        for name in ("scenario", "plant", "controller"):
+            path = fmu if name == "controller" else tmp_path / "a.fmu"
+            rec.update({f"{name}.fmu": path.name, f"{name}.sha256": fmu_digest(path), f"{name}.content": content_digest(path),
+                        f"{name}.model": name.title(), f"{name}.guid": guid if name == "controller" else "g"})
+        return {**rec, **{f"controller.param.{k}": v for k, v in params.items()}}
+
+    base = record(one, "g1", kp="1.0", ki="0.1")
+    assert what_changed(base, record(again, "g2", kp="1.0", ki="0.1")) == []
+    assert what_changed(base, record(one, "g1", kp="1.5", ki="0.1")) == ["controller parameter kp 1.0 -> 1.5",
+                                                                          "scenario and plant unchanged"]
+    changed = what_changed(base, record(edited, "g3", kp="1.0", ki="0.1", kd="2"))
+    assert changed[0].startswith("controller FMU's content changed (a.fmu -> c.fmu, sha256 ") and changed[0].endswith(", GUID changed)")
+    assert changed[1:] == ["controller parameter kd unset -> 2", "scenario and plant unchanged"]
+    assert what_changed(base, None) == [] and what_changed({**base, "wind.fmu": "w.fmu"}, base)[0] == "wind removed"

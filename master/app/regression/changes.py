@@ -36,13 +36,13 @@ def _fmu_change(name: str, base: dict[str, str], run: dict[str, str]) -> str | N
     b, r = (base.get(f"{name}.{k}", "") for k in ("model", "guid", "sha256", "fmu")), \
         (run.get(f"{name}.{k}", "") for k in ("model", "guid", "sha256", "fmu"))
     (bm, bg, bd, bf), (rm, rg, rd, rf) = b, r
-    if bd == rd:
+    bc, rc = base.get(f"{name}.content"), run.get(f"{name}.content")
+    if bd == rd or (bc and bc == rc):  # the same file, or the same content but for its build stamps (GUID, date)
         return None
     if bm != rm:
         return f"{name} FMU replaced: {bm} ({bf}) -> {rm} ({rf})"
-    if bg != rg:
-        return f"{name} FMU rebuilt with another interface: GUID {bg} -> {rg}, sha256 {bd[:12]} -> {rd[:12]}"
-    return f"{name} FMU rebuilt: sha256 {bd[:12]} -> {rd[:12]}"
+    files = bf if bf == rf else f"{bf} -> {rf}"
+    return f"{name} FMU's content changed ({files}, sha256 {bd[:12]} -> {rd[:12]}" + (", GUID changed)" if bg != rg else ")")
 
 
 def _parameter_changes(name: str, base: dict[str, str], run: dict[str, str]) -> list[str]:
