@@ -250,12 +250,13 @@ def load_reference(path: Path, names: list[str] | None, named_by: Path | str | N
     return signals, Tolerances(), units, meta.get("run") or None, meta.get("fmus") or None
 
 
-def _check_log(path: Path) -> None:
+def _check_log(path: Path, role: str = "baseline") -> None:
     if not path.is_file():
         raise DescriptionError(f"{path} does not exist")
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
-            raise DescriptionError(f"{path} is neither a signal baseline (.parquet) nor an MCAP log")
+            raise DescriptionError(f"{path} is not an MCAP log (the {role} is "
+                                   + ("a run's log)" if role == "run" else "a signal baseline, .parquet, or a run's log)"))
 
 
 def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = None, tolerance_file: Path | None = None,
@@ -280,7 +281,7 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
     if given is not None:
         _check_known(given, names, tolerance_file or "the tolerances")
     tolerances = (given.over(recorded) if given else recorded).with_flags(flags or {})
-    _check_log(Path(run))
+    _check_log(Path(run), "run")
     notes: list[str] = []
     meta = read_metadata(Path(run))
     run_case = meta.get("run") or None
