@@ -255,8 +255,8 @@ def _check_log(path: Path, role: str = "baseline") -> None:
         raise DescriptionError(f"{path} does not exist")
     with open(path, "rb") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
-            raise DescriptionError(f"{path} is not an MCAP log (the {role} is "
-                                   + ("a run's log)" if role == "run" else "a signal baseline, .parquet, or a run's log)"))
+            raise DescriptionError(f"{path} is not an MCAP log (the {role} must be "
+                                   + ("one)" if role == "run" else "one or a signal baseline, .parquet)"))
 
 
 def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = None, tolerance_file: Path | None = None,
