@@ -33,16 +33,15 @@ def load_fmus(path: Path) -> dict[str, str] | None:
 
 
 def _fmu_change(name: str, base: dict[str, str], run: dict[str, str]) -> str | None:
-    b, r = (base.get(f"{name}.{k}", "") for k in ("model", "guid", "sha256", "fmu")), \
-        (run.get(f"{name}.{k}", "") for k in ("model", "guid", "sha256", "fmu"))
-    (bm, bg, bd, bf), (rm, rg, rd, rf) = b, r
+    bm, bd, bf = (base.get(f"{name}.{k}", "") for k in ("model", "sha256", "fmu"))
+    rm, rd, rf = (run.get(f"{name}.{k}", "") for k in ("model", "sha256", "fmu"))
     bc, rc = base.get(f"{name}.content"), run.get(f"{name}.content")
     if bd == rd or (bc and bc == rc):  # the same file, or the same content but for its build stamps (GUID, date)
         return None
     if bm != rm:
         return f"{name} FMU replaced: {bm} ({bf}) -> {rm} ({rf})"
     files = bf if bf == rf else f"{bf} -> {rf}"
-    return f"{name} FMU's content changed ({files}, sha256 {bd[:12]} -> {rd[:12]}" + (", GUID changed)" if bg != rg else ")")
+    return f"{name} FMU's content changed ({files}, sha256 {bd[:12]} -> {rd[:12]})"
 
 
 def _parameter_changes(name: str, base: dict[str, str], run: dict[str, str]) -> list[str]:
@@ -72,7 +71,8 @@ def what_changed(base: dict[str, str] | None, run: dict[str, str] | None) -> lis
         if f"{name}.fmu" not in base:
             items.append(f"{name} added ({run.get(f'{name}.model', '?')})")
             continue
-        mine = [c for c in (_fmu_change(name, base, run),) if c] + _parameter_changes(name, base, run)
+        # its parameters first: a changed gain is what a user looks for; the FMU's content changes with it
+        mine = _parameter_changes(name, base, run) + [c for c in (_fmu_change(name, base, run),) if c]
         items += mine
         if not mine:
             unchanged.append(name)
