@@ -78,7 +78,7 @@ def parse_tolerances(data: object, where: str) -> Tolerances:
         raise DescriptionError(f"{where}: signals must be a table keyed by instance.variable")
     out = {}
     for name, entry in signals.items():
-        if name.count(".") != 1:
+        if not _is_signal_name(name):
             raise DescriptionError(f"{where}: signal {name!r} is not named instance.variable (plant.x, controller.f_R)")
         out[name] = tolerance_from(entry, f"{where}: signals.{name}", default)
     return Tolerances(default, out)
@@ -116,9 +116,15 @@ def log_signals(log: Path, names: list[str]) -> tuple[Signals, dict[str, str]]:
     return out, read_metadata(Path(log)).get("units", {})
 
 
+def _is_signal_name(name: str) -> bool:
+    """instance.variable: an instance (no dot) and a variable (which may hold dots, FMI's structured names)."""
+    instance, dot, variable = name.partition(".")
+    return bool(instance and dot and variable)
+
+
 def check_names(names: list[str], where: str) -> list[str]:
     for name in names:
-        if name.count(".") != 1 or not all(name.split(".")):
+        if not _is_signal_name(name):
             raise DescriptionError(f"{where}: signal {name!r} is not named instance.variable (plant.x, controller.f_R)")
     return list(dict.fromkeys(names))
 
