@@ -58,6 +58,9 @@ def test_a_signal_baseline_passes_the_same_run_and_reports_the_changed_one(runs,
     assert not comparison.ok and comparison.changed_line() == CHANGED
     row = {r.signal: r for r in comparison.rows}["plant.x"]
     assert row.first_outside == _first_outside(ref, runs["changed"].signals("/plant"), "x", 1e-4)
+    assert row.tolerance.absolute == 1e-4  # the baseline's recorded tolerance; a given one replaces them all:
+    assert tl.compare_signals(runs["changed"], path, tolerances={"default": {"abs": 1.0}}).ok
+    assert not tl.compare_signals(runs["changed"], path, tolerances={"default": {"abs": 1.0}}, abs=1e-4).ok
     report = comparison.report(path, runs["changed"].command).splitlines()
     assert report[0] == f"the run differs from its signal baseline; {CHANGED}"
     assert any(line.split()[:6] == ["plant.x", "first", "outside", "at", "t", "="] for line in report)

@@ -3,8 +3,8 @@
 signal's verdict, first time outside, largest excess and share of time outside.
 
 Tolerances per signal: "abs", "rel", "lead", "lag" (s) from a tolerance file (TOML, YAML or JSON: a "default" table and
-a "signals" table keyed by "instance.variable"), else the baseline's own, else DEFAULT; a flag replaces that one
-tolerance for every signal.
+a "signals" table keyed by "instance.variable"; the file's default for a signal it does not name), else the baseline's
+own, else DEFAULT; a flag replaces that one tolerance for every signal.
 """
 
 from __future__ import annotations
@@ -50,10 +50,6 @@ class Tolerances:
 
     def of(self, name: str) -> Tolerance:
         return self.signals.get(name, self.default)
-
-    def over(self, other: Tolerances) -> Tolerances:
-        """These, falling back on other's for the signals these do not name."""
-        return Tolerances(self.default, {**other.signals, **self.signals})
 
     def with_flags(self, flags: dict[str, float | None]) -> Tolerances:
         """Each given flag (abs, rel, lead, lag) in place of that tolerance, for every signal."""
@@ -269,7 +265,7 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
                          flags: dict[str, float | None] | None = None, any_case: bool = False,
                          given: Tolerances | None = None) -> SignalComparison:
     """`tiltload compare RUN BASELINE --signals ...`: the case, what changed, then each signal in its tube. Tolerances:
-    a tolerance file's, or given ones, over the baseline's own; flags replace one of them for every signal."""
+    a tolerance file's, or given ones, in place of the baseline's own; flags replace one of them for every signal."""
     from ...engine.log_reader import read_metadata
     from .changes import between
     from .compare import compare_cases
@@ -286,7 +282,7 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
     names = list(base)
     if given is not None:
         _check_known(given, names, tolerance_file or "the tolerances")
-    tolerances = (given.over(recorded) if given else recorded).with_flags(flags or {})
+    tolerances = (given if given is not None else recorded).with_flags(flags or {})  # a file replaces the recorded ones
     _check_log(Path(run), "run")
     notes: list[str] = []
     meta = read_metadata(Path(run))
