@@ -100,13 +100,16 @@ def test_a_run_that_ends_early_is_outside_from_its_end(runs):
     assert short.largest_excess == math.inf and "a NaN, infinite or missing value" in short.words()
 
 
-def test_a_diverging_candidate_is_reported_from_its_first_nan_not_raised():
+def test_a_diverging_candidate_is_reported_from_its_first_nan_not_raised(tmp_path):
     t = np.linspace(0, 1, 101)
     ref = {"plant.x": (t, np.sin(t))}
     run_y = np.sin(t)
     run_y[40:] = np.where(np.arange(61) % 2, np.inf, np.nan)
     row = compare_signals({"plant.x": (t, run_y)}, ref, Tolerances(Tolerance(absolute=1e-3)), {"plant.x": "m"})[0]
     assert not row.passed and row.first_outside == t[40] and row.share_outside == pytest.approx(0.6)
+    from tiltload.master.app.regression.tube_plot import tube_figures
+
+    assert [p.name for p in tube_figures([row], tmp_path, "diverged")] == ["diverged_tube_plant.x.png"]  # drawn, not raised
 
 
 TOML_BAD = {
