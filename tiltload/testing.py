@@ -7,6 +7,7 @@ from .master.app.testing.assertions import (
     assert_matches_baseline,
     assert_metrics_below,
     assert_requirements_hold,
+    assert_signals_match,
 )
 
-__all__ = ["TiltloadAssertionError", "assert_matches_baseline", "assert_metrics_below", "assert_requirements_hold"]
+__all__ = ["TiltloadAssertionError", "assert_matches_baseline", "assert_metrics_below", "assert_requirements_hold", "assert_signals_match"]

@@ -7,6 +7,7 @@ import os
 import sys
 
 from .commands import (
+    b2b,
     build,
     bundle,
     campaign,
@@ -26,8 +27,8 @@ from .commands import (
 )
 
 # in the help's order
-COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, check, campaign, campaign_report, falsify, layout,
-            plot)
+COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, b2b, check, campaign, campaign_report, falsify,
+            layout, plot)
 
 
 class OneLineParser(argparse.ArgumentParser):

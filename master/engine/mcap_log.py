@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import provenance
 from .log_encoding import LAYOUT, FixedMessage, fits
 from .mcap_writer import McapWriter, MessageBatch
 from .observers import Observer
@@ -85,6 +86,9 @@ class McapLogger(Observer):
         chunk = self.chunk_size or (CHUNK_TICK_BY_TICK if execution.stepwise_observers() else CHUNK)
         self._writer = w = McapWriter(self.partial, chunk)
         w.add_metadata("run", {k: str(v) for k, v in self.metadata.items()} or {"library": "tiltload"})
+        # what ran (each FMU's digest, its parameters) and the outputs' units: a baseline says what changed from them
+        w.add_metadata("fmus", provenance.fmus_record(execution.system.instances, execution.model_descriptions))
+        w.add_metadata("units", provenance.units_record(execution.system.instances, execution.model_descriptions))
         self._channels, self._encoders, self._steps = {}, {}, {}
         self._outputs = {name: inst.outputs for name, inst in execution.instances.items()}
         for name, inst in execution.instances.items():

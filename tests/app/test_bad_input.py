@@ -247,6 +247,20 @@ def _files(folder: Path, fmus: Path, misbehaving: dict[str, Path]) -> list[tuple
                         "corrupt log": some_log, "empty log": folder / "empty.fmu"}.items():
         cases.append((f"compare {label}", ["compare", str(path), str(folder / "baseline_nan_metric.json")]))
         cases.append((f"plot {label}", ["plot", str(path), "--out", str(folder / "plots")]))
+    # issue 51: signals in tolerance tubes (the tolerance file is read first, then the baseline, then the run)
+    (folder / "fake.parquet").write_bytes(b"PAR1 not a parquet file PAR1")
+    tolerance_files = {"negative": b"[default]\nabs = -1\n", "infinite": b'[signals."plant.x"]\nlag = inf\n',
+                       "unknown key": b"[default]\nabsolute = 1\n", "not instance.variable": b"[signals.x]\nabs = 1\n",
+                       "extra table": b"[defaults]\nabs = 1\n"}
+    for label, data in tolerance_files.items():
+        path = folder / f"tolerances_{label.replace(' ', '_').replace('.', '_')}.toml"
+        path.write_bytes(data)
+        cases.append((f"compare tolerances {label}", ["compare", str(some_log), str(folder / "fake.parquet"), "--tolerances", str(path)]))
+    cases += [("compare signal baseline missing", ["compare", str(some_log), str(folder / "nope.parquet")]),
+              ("compare signal baseline not parquet", ["compare", str(some_log), str(folder / "fake.parquet")]),
+              ("compare --signals empty", ["compare", str(some_log), str(some_log), "--signals", ","]),
+              ("compare --lead negative", ["compare", str(some_log), str(some_log), "--lead", "-0.1"]),
+              ("compare --abs inf", ["compare", str(some_log), str(some_log), "--abs", "inf"])]
     for label, source in {"missing": folder / "nope.py", "not python": folder / "raw_binary.json",
                           "no class": folder / "noclass.py", "syntax error": folder / "syntax.py"}.items():
         if label == "no class":

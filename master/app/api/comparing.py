@@ -53,8 +53,23 @@ def compare(run: Source, baseline: Source, *, rtol: float | None = None, atol: f
         run_metrics, _, run_case, run_name = _load(run, notes)
         base, tol, base_case, base_name = _load(baseline, notes)
         what = compare_cases(run_case, base_case, run_name, base_name, any_case, notes)
+        changes = _changes(run, baseline, run_case, base_case)
     ok, rows = compare_metrics(run_metrics, base, DEFAULT_RTOL, DEFAULT_ATOL, overridden(tol, rtol, atol))
-    return Comparison(ok, rows, what, notes)
+    return Comparison(ok, rows, what, notes, changes)
+
+
+def _fmus(source: Source) -> dict | None:
+    """The FMUs' record (digests, parameters: engine.provenance) of a Result's log, a log or a baseline file."""
+    from ..regression.changes import load_fmus
+
+    path = source.log if isinstance(source, Result) else Path(source)
+    return load_fmus(path) if path is not None and Path(path).is_file() else None
+
+
+def _changes(run: Source, baseline: Source, run_case: dict | None, base_case: dict | None) -> list[str]:
+    from ..regression.changes import between
+
+    return between(_fmus(baseline), _fmus(run), base_case, run_case)
 
 
 def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol: float = 1e-12) -> Path:
@@ -67,5 +82,8 @@ def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol:
     path.parent.mkdir(parents=True, exist_ok=True)
     data = {"run": dict(result.case), "metrics": dict(result.metrics),
             "tolerances": {"rtol": rtol, "atol": atol}}
+    fmus = _fmus(result)
+    if fmus is not None:  # what ran, so that a failing comparison can say what changed
+        data["fmus"] = fmus
     path.write_text(json.dumps(data, indent=1) + "\n")
     return path

@@ -1,4 +1,5 @@
-"""`tiltload compare RUN BASELINE`: a run's metrics against a baseline, for the same case; exit 0 same, 1 different."""
+"""`tiltload compare RUN BASELINE`: a run's metrics, or its signals in tolerance tubes, against a baseline of the same case;
+exit 0 same, 1 different."""
 
 from __future__ import annotations
 
@@ -26,13 +27,66 @@ def add_parser(sub) -> None:
     cp.add_argument("--any-case", action="store_true",
                     help="compare the metrics even if the two are different cases (scenario, trajectory, controller, seed, "
                          "stop time, --set, faults, wind, ...); by default that is refused with one line saying what differs")
+    sg = cp.add_argument_group("signals in tolerance tubes (docs/back_to_back.md): with a signal baseline (.parquet), "
+                               "--signals or --tolerances")
+    sg.add_argument("--signals", type=_names, default=None, metavar="LIST",
+                    help="signals to compare, instance.variable, comma-separated (default: the tolerance file's, else "
+                         "the signal baseline's)")
+    sg.add_argument("--tolerances", type=Path, default=None, metavar="FILE",
+                    help="tolerances per signal: TOML, YAML or JSON with a 'default' and a 'signals' table of abs, rel, "
+                         "lead, lag (default: the signal baseline's own, else abs 1e-12, rel 1e-6)")
+    for flag, what in (("abs", "absolute tolerance, in the signal's unit"), ("rel", "relative tolerance, of |reference|"),
+                       ("lead", "time the run may be early, s"), ("lag", "time the run may be late, s")):
+        sg.add_argument(f"--{flag}", type=arguments.tolerance, default=None, help=f"{what}, for every signal")
+    sg.add_argument("--figures", type=Path, default=None, metavar="DIR",
+                    help="a figure of each signal outside its tube into DIR")
     cp.set_defaults(func=run)
+
+
+def _names(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("name at least one signal (instance.variable)")
+    return names
+
+
+def _signal_mode(args: argparse.Namespace) -> bool:
+    return (args.baseline.suffix == ".parquet" or args.signals is not None or args.tolerances is not None
+            or any(getattr(args, f) is not None for f in ("abs", "rel", "lead", "lag")))
+
+
+def _run_signals(args: argparse.Namespace) -> int:
+    from ..regression.signal_compare import compare_signal_files
+
+    if args.requirements is not None or args.rtol is not None or args.atol is not None:
+        from ..errors import UserError
+
+        raise UserError("--requirements, --rtol and --atol compare metrics: give them without the signal options")
+    result = compare_signal_files(args.run, args.baseline, args.signals, args.tolerances,
+                                  {f: getattr(args, f) for f in ("abs", "rel", "lead", "lag")}, args.any_case)
+    if result.changed_line():
+        print(result.changed_line())
+    for note in result.notes:
+        print(f"note: {note}")
+    print(result.table())
+    if args.figures is not None and not result.ok:
+        from ..plot import case_title
+        from ..regression.tube_plot import tube_figures
+
+        for path in tube_figures(result.rows, args.figures, args.run.stem, case_title(result.case)):
+            print(f"figure: {path}")
+    print("same within tolerance" if result.ok else "DIFFERENT: at least one signal leaves its tolerance tube")
+    return 0 if result.ok else 1
 
 
 def run(args: argparse.Namespace) -> int:
     from ..regression.compare import compare_files
 
+    if _signal_mode(args):
+        return _run_signals(args)
     result = compare_files(args.run, args.baseline, args.rtol, args.atol, args.any_case)
+    if result.changed_line():
+        print(result.changed_line())
     for note in result.notes:
         print(f"note: {note}")
     print(result.table())

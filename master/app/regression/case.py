@@ -5,7 +5,8 @@ A case is what decides a run's metrics: the vehicle, scenario, trajectory, contr
 --set parameters, the faults, the wind, the delay, the gusts and the schedule (or a system file). Where the FMUs
 ran (in process, isolated, remote), the FMI version (the same metrics bit for bit, docs/fmi3.md) and what is
 logged are not. A user's controller FMU is named by its file stem, not its path: the same controller checked out
-elsewhere is the same case (and a changed controller is exactly what a regression test compares). A faults or
+elsewhere is the same case (and a changed controller is exactly what a regression test compares): so is a --set of
+the controller's own parameters (changes.py says what changed in the controller before the comparison). A faults or
 wind file is named by its stem and a digest of its content, so an edited file is another case.
 """
 
@@ -20,6 +21,7 @@ CASE_KEYS: dict[str, str | None] = {
     "system": "", "vehicle": "load", "scenario": None, "trajectory": None, "controller": None, "seed": None,
     "stop_time": None, "set": "", "faults": "", "wind": "", "delay": "False", "gusts": "True", "schedule": "ordered",
 }
+UNDER_TEST = "controller"  # the instance a regression test changes: its settings are not the case
 _LABELS = {"stop_time": "stop time", "set": "--set", "gusts": "gusts", "delay": "delay"}
 
 
@@ -64,10 +66,17 @@ def identity(rec: dict) -> dict[str, str]:
         elif key in ("faults", "wind", "system") and value:
             digest = rec.get(f"{key}_sha256")
             value = Path(value).stem + (f" ({digest})" if digest else "")
+        elif key == "set":
+            value = " ".join(s for s in value.split() if not s.startswith(f"{UNDER_TEST}."))
         elif key == "stop_time":
             value = f"{float(value):g}"
         out[key] = value
     return out
+
+
+def instance_settings(rec: dict, instance: str) -> str:
+    """An instance's --set values in a record ("x_0=1.75 kp=2"), empty for none."""
+    return " ".join(s.removeprefix(f"{instance}.") for s in str(rec.get("set", "")).split() if s.startswith(f"{instance}."))
 
 
 def differences(a: dict, b: dict) -> list[str]:

@@ -148,9 +148,16 @@ class Comparison:
     rows: list[MetricRow]
     case_differences: list[str] = field(default_factory=list)  # what differs between the cases (compared with any_case)
     notes: list[str] = field(default_factory=list)  # recomputed metrics, a side that names no case
+    changes: list[str] = field(default_factory=list)  # what changed in the FMUs and their parameters (changes.py), told first
 
     def table(self) -> str:
         return format_rows(self.rows)
+
+    def changed_line(self) -> str | None:
+        """"what changed: controller parameter x_0 1.7 -> 1.75; plant, scenario and sensors unchanged", or None."""
+        from .changes import summary
+
+        return summary(self.changes) if self.changes else None
 
 
 def different_cases(run_name: str, base_name: str, what: list[str]) -> str:
@@ -182,9 +189,12 @@ def compare_files(run: Path, baseline: Path, rtol: float | None = None, atol: fl
     notes: list[str] = []
     run_metrics, _ = load_metrics(run, notes)
     base, tol = load_metrics(baseline, notes)
-    what = compare_cases(load_case(run), load_case(baseline), str(run), str(baseline), any_case, notes)
+    run_case, base_case = load_case(run), load_case(baseline)
+    what = compare_cases(run_case, base_case, str(run), str(baseline), any_case, notes)
     ok, rows = compare(run_metrics, base, DEFAULT_RTOL, DEFAULT_ATOL, overridden(tol, rtol, atol))
-    return Comparison(ok, rows, what, notes)
+    from .changes import between, load_fmus
+
+    return Comparison(ok, rows, what, notes, between(load_fmus(baseline), load_fmus(run), base_case, run_case))
 
 
 def format_rows(rows) -> str:

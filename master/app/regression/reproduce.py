@@ -84,7 +84,18 @@ def write_baselines(results: list[dict], folder: Path) -> None:
             kept = {}
         data = {"case": r["case"], "seed": SEED, "stop_time": r["stop"], "run": baseline_case(r), "metrics": r["metrics"],
                 "tolerances": {"rtol": BASELINE_RTOL, "atol": 1e-12}, **kept}
+        fmus = _fmus(r)
+        if fmus is not None:  # what ran: a later check says what changed before the metrics
+            data["fmus"] = fmus
         path.write_text(json.dumps(data, indent=1) + "\n")
+
+
+def _fmus(r: dict) -> dict | None:
+    """The FMUs' record of a case's log (or of a baseline file), None without one."""
+    from .changes import load_fmus
+
+    path = Path(r.get("log") or "")
+    return load_fmus(path) if path.is_file() else None
 
 
 def baseline_case(r: dict) -> dict[str, str]:
@@ -102,7 +113,11 @@ def check_baselines(results: list[dict], folder: Path, echo=print) -> bool:
         passed, rows = cmp.compare(r["metrics"], base, BASELINE_RTOL, 1e-12, tol)
         ok &= passed
         if not passed:
-            echo(f"{r['case']}: differs from its baseline\n{cmp.format_rows(rows)}")
+            from .changes import summary, what_changed
+
+            changed = what_changed(_fmus({"log": folder / f"{r['case']}.json"}), _fmus(r))
+            echo(f"{r['case']}: differs from its baseline" + (f"; {summary(changed)}" if changed else "")
+                 + f"\n{cmp.format_rows(rows)}")
     return ok
 
 

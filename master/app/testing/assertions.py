@@ -31,6 +31,23 @@ def assert_matches_baseline(result: Result, baseline: str | Path, *, rtol: float
         raise TiltloadAssertionError(baseline_report(comparison, result.case, result.command, baseline, update_hint=update_hint))
 
 
+def assert_signals_match(result: Result, baseline: str | Path, *, signals=None, tolerances=None, update_hint: str | None = None,
+                         **flags: float | None) -> None:
+    """Each signal of the run inside its tolerance tube around the signal baseline's (tiltload.compare_signals: the same
+    case, else the one line saying what differs). The message starts with what changed in the FMUs and their
+    parameters, then names each signal outside: when it left first, by how much at most, for how long."""
+    __tracebackhide__ = True
+    from ..api.signal_comparing import compare_signals
+
+    try:
+        comparison = compare_signals(result, baseline, signals=signals, tolerances=tolerances, **flags)
+    except TiltloadError as err:
+        raise TiltloadAssertionError(f"{err}\n  rerun: {result.command}"
+                                     + (f"\n  to record it again: {update_hint}" if update_hint else "")) from None
+    if not comparison.ok:
+        raise TiltloadAssertionError(comparison.report(baseline, result.command, update_hint=update_hint))
+
+
 def assert_metrics_below(result: Result, limits: Mapping[str, float]) -> None:
     """Each named metric at most its limit (e.g. {"ISE(x)": 0.05})."""
     __tracebackhide__ = True

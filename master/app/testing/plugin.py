@@ -199,10 +199,36 @@ class Baseline:
         except AssertionError as err:
             pytest.fail(str(err), pytrace=False)
 
+    @property
+    def signals_path(self) -> Path:
+        """The test's signal baseline: beside its metrics baseline, .parquet."""
+        return self.path.with_suffix(".parquet")
+
+    def check_signals(self, result: Result, signals, tolerances=None, **flags: float | None) -> None:
+        """Record these signals (with --tiltload-update-baselines) or check each inside its tolerance tube around the
+        recorded ones (tolerances: a file or {"default": ..., "signals": ...}; abs, rel, lead, lag for every signal)."""
+        __tracebackhide__ = True
+        from ..api.signal_comparing import save_signal_baseline
+        from .assertions import assert_signals_match
+
+        hint = f'pytest {UPDATE} "{self.nodeid}"'
+        if self.update:
+            save_signal_baseline(result, self.signals_path, signals, tolerances=tolerances)
+            return
+        if not self.signals_path.is_file():
+            pytest.fail(f"no signal baseline recorded for {self.nodeid} ({self.signals_path}): record it with {hint}",
+                        pytrace=False)
+        try:
+            assert_signals_match(result, self.signals_path, signals=None if isinstance(signals, str) else signals,
+                                 tolerances=tolerances, update_hint=hint, **flags)
+        except AssertionError as err:
+            pytest.fail(str(err), pytrace=False)
+
 
 @pytest.fixture
 def tiltload_baseline(request: pytest.FixtureRequest) -> Baseline:
-    """This test's baseline file: <tiltload_baselines>/<test file's stem>/<test name>.json."""
+    """This test's baseline file: <tiltload_baselines>/<test file's stem>/<test name>.json (its signal baseline, .parquet
+    beside it)."""
     config = request.config
     folder = config.rootpath / config.getini("tiltload_baselines") / Path(request.node.path).stem
     return Baseline(folder / f"{_baseline_name(request.node)}.json", config.getoption(UPDATE), request.node.nodeid,

@@ -21,8 +21,12 @@ def baseline_report(comparison: Comparison, case: Mapping[str, str], command: st
     bad = [r for r in comparison.rows if r.status != "ok"]
     good = [r.metric for r in comparison.rows if r.status == "ok"]
     width = max(len(r.metric) for r in bad)
-    lines = [f"{what} differs from its baseline: {len(bad)} of {len(comparison.rows)} metrics out of tolerance",
-             f"  case:     {case_words(case)}", f"  baseline: {baseline}"]
+    counted = f"{len(bad)} of {len(comparison.rows)} metrics out of tolerance"
+    if comparison.changes:  # what changed in the controller (or any FMU) first, then what it did to the metrics
+        lines = [f"{what} differs from its baseline; {comparison.changed_line()}", f"  {counted}"]
+    else:
+        lines = [f"{what} differs from its baseline: {counted}"]
+    lines += [f"  case:     {case_words(case)}", f"  baseline: {baseline}"]
     for r in bad:
         if r.status == "MISSING":
             lines.append(f"    {r.metric:<{width}}  missing from the run (baseline {r.baseline:.6g})")

@@ -1,0 +1,70 @@
+"""`tiltload b2b`: back-to-back runs of a case list, a reference and a candidate compared signal by signal in tolerance
+tubes; exit 0 when every signal of every case stays in its tube, 1 when one leaves it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from .. import arguments
+
+
+def add_parser(sub) -> None:
+    bp = sub.add_parser("b2b", help="run a case list with a reference and a candidate (controllers, FMU builds, parameters) "
+                                    "and compare them signal by signal in tolerance tubes; exit 0 same, 1 different")
+    bp.add_argument("--cases", default="reproduction", metavar="LIST",
+                    help="'reproduction' (the twelve cases of ch. 5) or a case list file (TOML, YAML, JSON: "
+                         "cases = [{scenario, trajectory, controller, seed, stop_time}]); default: reproduction")
+    for side in ("reference", "candidate"):
+        bp.add_argument(f"--{side}-fmus", type=Path, default=Path("fmus"), metavar="DIR",
+                        help=f"the {side}'s FMU folder (default: fmus)")
+        bp.add_argument(f"--{side}-controller", default=None, metavar="C",
+                        help=f"the {side}'s controller: dlqr, mixed or a controller FMU (default: the case's)")
+        bp.add_argument(f"--{side}-set", type=arguments.assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
+                        help=f"set a parameter on the {side}'s side only (repeatable)")
+    bp.add_argument("--signals", type=_names, default=None, metavar="LIST",
+                    help="signals compared, instance.variable, comma-separated (default: plant x, y, z, psi and the four "
+                         "controller outputs)")
+    bp.add_argument("--tolerances", type=Path, default=None, metavar="FILE",
+                    help="tolerances per signal (docs/back_to_back.md; default abs 1e-12, rel 1e-6)")
+    for flag in ("abs", "rel", "lead", "lag"):
+        bp.add_argument(f"--{flag}", type=arguments.tolerance, default=None, help=f"{flag} tolerance for every signal")
+    bp.add_argument("--stop-time", type=arguments.positive_time, default=None,
+                    help="simulated seconds of every case (default: each case's own, its trajectory's duration)")
+    bp.add_argument("--out", type=Path, default=Path("runs/b2b"), help="folder of the logs and figures (default: runs/b2b)")
+    bp.add_argument("--figures", action="store_true", help="a figure of each signal outside its tube, into OUT")
+    bp.set_defaults(func=run)
+
+
+def _names(text: str) -> list[str]:
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("name at least one signal (instance.variable)")
+    return names
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..regression import back_to_back as b2b
+    from ..regression.signal_compare import Tolerances, check_names, load_tolerances
+
+    cases = b2b.reproduction_cases() if args.cases == "reproduction" else b2b.load_cases(Path(args.cases))
+    signals = check_names(args.signals, "--signals") if args.signals else None
+    given = load_tolerances(args.tolerances) if args.tolerances is not None else Tolerances()
+    if signals is None and given.signals:
+        signals = list(given.signals)
+    tolerances = given.with_flags({f: getattr(args, f) for f in ("abs", "rel", "lead", "lag")})
+    sides = [b2b.Side(getattr(args, f"{s}_fmus"), getattr(args, f"{s}_controller"), tuple(getattr(args, f"{s}_set")))
+             for s in ("reference", "candidate")]
+    print(f"back to back: {len(cases)} cases, each run as the reference and as the candidate (logs in {args.out}/)")
+    result = b2b.back_to_back(cases, *sides, args.out, signals, tolerances, args.stop_time)
+    print(("what changed: " + "; ".join(result.changes)) if result.changes else
+          "what changed: nothing in the FMUs or their parameters (the same run twice?)")
+    print(result.table())
+    if args.figures:
+        from ..regression.tube_plot import tube_figures
+
+        for r in result.results:
+            for path in tube_figures(r.rows, args.out, r.case.name, r.case.name):
+                print(f"figure: {path}")
+    print("same within tolerance" if result.ok else "DIFFERENT: at least one signal leaves its tolerance tube")
+    return 0 if result.ok else 1
