@@ -28,7 +28,7 @@ def _load(source: Source, notes: list[str]) -> tuple[dict[str, float], dict, dic
     from ..regression.compare import load_case, load_metrics
 
     if isinstance(source, Result):
-        return dict(source.metrics), {}, dict(source.case), str(source.log or "the run")
+        return dict(source.metrics), {}, dict(source.record), str(source.log or "the run")
     if not isinstance(source, (str, Path)):
         raise TypeError(f"compare() takes a Result, a log (.mcap) or a baseline file (.json), got {type(source).__name__}")
     metrics, tolerances = load_metrics(Path(source), notes)
@@ -65,7 +65,7 @@ def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol:
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"run": dict(result.case), "metrics": dict(result.metrics),
+    data = {"run": dict(result.record), "metrics": dict(result.metrics),
             "tolerances": {"rtol": rtol, "atol": atol}}
     path.write_text(json.dumps(data, indent=1) + "\n")
     return path
