@@ -116,6 +116,16 @@ def checked(parse, flag: str, value: object, command: str = "run"):
         raise usage_error(command, f"argument {flag}: {err}") from None
 
 
+def named(parse, name: str, value: object):
+    """A value of the Python API checked by an option's type, refused as "NAME: the type's line" (a TiltloadError)."""
+    from .user_error import TiltloadError
+
+    try:
+        return parse(repr(value) if isinstance(value, float) else str(value))
+    except argparse.ArgumentTypeError as err:
+        raise TiltloadError(f"{name}: {err}") from None
+
+
 def chosen(flag: str, value: object, choices: tuple, command: str = "run") -> None:
     """A value of the Python API among an option's choices, refused with the parser's line."""
     from .user_error import usage_error

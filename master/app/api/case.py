@@ -4,12 +4,12 @@ options.resolve_loop fills in its defaults (a LoopOptions, what the system is bu
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 from .. import arguments
 from . import fields as kinds
+from .command_line import text_of
 
 CONTROLLERS = ("dlqr", "mixed")
 
@@ -77,6 +77,8 @@ class Case:
     def _trajectory_and_controller(self) -> None:
         if isinstance(self.trajectory, Path):
             self._fix("trajectory", str(self.trajectory))
+        if isinstance(self.trajectory, str) and self.trajectory.isdecimal():  # the command line's "2" is trajectory 2
+            self._fix("trajectory", int(self.trajectory))
         if self.trajectory is not None and (isinstance(self.trajectory, bool) or not isinstance(self.trajectory, (int, str))):
             raise TypeError(f"Case.trajectory must be a number 0-3, a shape or a file (int, str or Path), got "
                             f"{type(self.trajectory).__name__} {self.trajectory!r:.80}")
@@ -90,45 +92,7 @@ class Case:
     def _settings_and_remotes(self) -> None:
         settings = kinds.pairs("Case", "set", self.set, (int, float, bool, str), "a number, bool or str")
         for key, value in settings:  # the command's check, on the text the command would have been given
-            arguments.checked(arguments.assignment, "--set", f"{key}={_text(value)}")
+            arguments.checked(arguments.assignment, "--set", f"{key}={text_of(value)}")
         self._fix("set", settings)
         remotes = kinds.pairs("Case", "remote", self.remote, (str,), "a str host:port")
         self._fix("remote", tuple(arguments.checked(arguments.remote, "--remote", f"{k}={v}") for k, v in remotes))
-
-    def to_argv(self) -> list[str]:
-        """This case as `tiltload run`'s options (what differs from the defaults)."""
-        return options_argv(self)
-
-
-def _text(value: object) -> str:
-    """A value as the command line writes it (and reads it back: loop.parse_value)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return repr(value) if isinstance(value, float) else str(value)  # 1.0 stays a float when read back
-
-
-def _number(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() and abs(value) < 1e16 else repr(value)
-
-
-def options_argv(request: object) -> list[str]:
-    """The options of a request object (Case, RunOptions) that differ from its defaults, as the command line that
-    gives them: --stop-time 3, a flag alone, --set once per parameter."""
-    argv: list[str] = []
-    for f in fields(request):
-        value, flag = getattr(request, f.name), "--" + f.name.replace("_", "-")
-        if value == f.default or (value == () and f.default == ()):
-            continue
-        if value is True:
-            argv.append(flag)
-        elif f.name in ("set", "remote"):
-            for key, item in value:
-                argv += [flag, f"{key}={_text(item)}"]
-        elif isinstance(value, tuple):  # --snapshot-at T FILE
-            argv += [flag, *(_number(v) if isinstance(v, (int, float)) else str(v) for v in value)]
-        elif isinstance(value, float):
-            argv += [flag, _number(value)]
-        else:
-            argv += [flag, Path(value).as_posix() if isinstance(value, Path) else str(value)]
-    return argv
-

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from ..regression.compare import Comparison
@@ -14,13 +13,9 @@ Source = Result | str | Path
 
 def _tolerance(name: str, value: float | None) -> float | None:
     from ...engine.argument_types import tolerance
+    from ..arguments import named
 
-    if value is None:
-        return None
-    try:
-        return tolerance(str(value))
-    except argparse.ArgumentTypeError as err:
-        raise TiltloadError(f"{name}: {err}") from None
+    return None if value is None else named(tolerance, name, value)
 
 
 def _load(source: Source, notes: list[str]) -> tuple[dict[str, float], dict, dict | None, str]:

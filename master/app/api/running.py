@@ -10,7 +10,8 @@ from collections.abc import Mapping
 from dataclasses import fields, replace
 
 from .. import arguments
-from .case import Case, options_argv
+from .case import Case
+from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 from .run_options import RunOptions
