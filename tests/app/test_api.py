@@ -141,13 +141,23 @@ def test_a_case_the_keywords_and_the_command_give_the_same_metrics_bit_for_bit(f
     assert "running fsi_traj1_dlqr_seed1_t2s: 2 s of simulated time" in out and "running fsi_traj1_dlqr_seed1_t2s" in typed.transcript
 
 
+def test_the_api_s_log_name_is_the_command_s(fmus, tmp_path, capsys):
+    """The schedule is the Case's, the rest of what names a log the RunOptions': both reach the name as the command's do."""
+    options = ["--scenario", "fsi", "--controller", "dlqr", "--stop-time", "0.5", "--schedule", "jacobi", "--log-every", "2"]
+    assert main(["run", *options, "--fmus", str(fmus), "--out", str(tmp_path), "--no-plots", "--quiet"]) == 0
+    command = [line for line in capsys.readouterr().out.splitlines() if line.startswith("running ")]
+    result = tl.run(scenario="fsi", controller="dlqr", stop_time=0.5, schedule="jacobi", log_every=2, fmus=fmus, no_log=True)
+    said = [line for line in result.transcript.splitlines() if line.startswith("running ")]
+    assert said == command == ["running fsi_traj1_dlqr_seed1_t0.5s_jacobi_every2: 0.5 s of simulated time"]
+
+
 def test_a_parameter_of_the_wrong_type_is_the_user_s_to_fix(fmus, tmp_path, capsys):
     """--set plant.m_L=abc: text for a Real is one line and exit 2 (it was "unexpected failure, a bug")."""
     with pytest.raises(tl.TiltloadError) as err:
         tl.run(set={"plant.m_L": "abc"}, stop_time=1, fmus=fmus, no_log=True)
     assert str(err.value) == "--set plant.m_L=abc: m_L is a Real parameter of plant, got text"
     code, lines = _cli_error(["--set", "plant.m_L=abc", "--stop-time", "1", "--fmus", str(fmus)], capsys)
-    assert code == 2 and lines == [err.value.cli_line] == ["tiltload: error: --set plant.m_L=abc: m_L is a Real parameter of plant, got text"]
+    assert code == 2 and lines == [err.value.cli_line] == [f"tiltload: error: {err.value}"]
 
 
 FALSIFY = """

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..regression.compare import Comparison
-from .errors import TiltloadError, as_tiltload_errors
+from .errors import as_tiltload_errors
 from .result import Result
 
 Source = Result | str | Path

@@ -60,7 +60,7 @@ def execute(case: Case, options: RunOptions, say: Say) -> Outcome:
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
     _with_token(system, options.token_file)
     system, schedule = _scheduled(case, loop, system, snap, say)
-    label, log = _log_path(options, opts, loop, snap, say)
+    label, log = _log_path(case, options, opts, loop, snap, say)
     metrics = loop_metrics() if is_loop(system) else None
     meta = _metadata(opts, stop, schedule)
     checkpoints = _checkpoints(checkpoint, opts, schedule, stop, say)
@@ -149,11 +149,12 @@ def _scheduled(case: Case, loop, system, snap, say: Say):
     return system, schedule
 
 
-def _log_path(options: RunOptions, opts, loop, snap, say: Say) -> tuple[str, Path | None]:
+def _log_path(case: Case, options: RunOptions, opts, loop, snap, say: Say) -> tuple[str, Path | None]:
     """(the run's label, its log or None with no_log); a log replaced is said."""
     from ..log_name import default_log_name
 
-    label = options.name or default_log_name(options, opts, loop.natural_stop, loop.schedule, snap.time if snap else None)
+    label = options.name or default_log_name(options, opts, loop.natural_stop, loop.schedule, snap.time if snap else None,
+                                             case.schedule)
     log = None if options.no_log else options.out / f"{label}.mcap"
     if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
         say(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
