@@ -6,12 +6,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .. import arguments
 from . import fields as kinds
 from .command_line import text_of
 
-CONTROLLERS = ("dlqr", "mixed")
+if TYPE_CHECKING:
+    from ..options import LoopOptions
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -68,7 +70,12 @@ class Case:
         self._settings_and_remotes()
         from ..options import resolve_loop
 
-        resolve_loop(self)  # what needs the vehicle's choices or a file: the same lines as the command's
+        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown)
+        object.__setattr__(self, "_resolved", resolve_loop(self))
+
+    def loop_options(self) -> LoopOptions:
+        """The case with every default filled in (what the system is built from and a snapshot records)."""
+        return self._resolved
 
     def _fix(self, name: str, value: object) -> object:
         object.__setattr__(self, name, value)  # frozen: normalized once, while built

@@ -128,13 +128,11 @@ def _pacer(options: RunOptions):
 
 def _options(case: Case, options: RunOptions):
     """(the snapshot continued or None, the loop's options: the snapshot's, or the case's)."""
-    from ..options import resolve_loop
-
     if options.from_snapshot is not None:
         from .continued import continued
 
         return continued(case, options)
-    return None, resolve_loop(case)
+    return None, case.loop_options()
 
 
 def _scheduled(case: Case, loop, system, snap, say: Say):
