@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import arguments
-from . import fields as kinds
+from . import field_types as kinds
 from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .. import arguments
-from . import fields as kinds
+from . import field_types as kinds
 
 
 @dataclass(frozen=True, kw_only=True)
