@@ -68,6 +68,21 @@ def test_a_wrong_value_is_one_tiltload_error_with_the_command_s_line(options, ar
     assert str(err.value) in err.value.cli_line and "\n" not in err.value.cli_line
 
 
+@pytest.mark.parametrize(("command", "call", "argv"), [
+    ("campaign", lambda spec: tl.campaign(spec, workers=0), ["--workers", "0"]),
+    ("campaign", lambda spec: tl.campaign(spec, tl.CampaignOptions(retries=101)), ["--retries", "101"]),
+    ("falsify", lambda spec: tl.falsify(spec, simulations=0), ["--simulations", "0"]),
+    ("falsify", lambda spec: tl.falsify(spec, tl.FalsifyOptions(optimizer="annealing")), ["--optimizer", "annealing"]),
+])
+def test_campaign_and_falsify_options_say_their_command_s_line(command, call, argv, tmp_path, capsys):
+    spec = tmp_path / "spec.toml"  # never read: the options are refused first
+    with pytest.raises(tl.TiltloadError) as err:
+        call(spec)
+    with pytest.raises(SystemExit) as stop:
+        main([command, str(spec), *argv])
+    assert stop.value.code == 2 and capsys.readouterr().err.strip().splitlines() == [err.value.cli_line]
+
+
 def test_the_documented_line_of_a_seed_out_of_range():
     with pytest.raises(tl.TiltloadError) as err:
         tl.Case(seed=-1)
