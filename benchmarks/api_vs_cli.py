@@ -12,10 +12,11 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import tiltload as tl
-from tiltload.master.app.api.keywords import to_argv
+from tiltload.master.app.api.command_line import options_argv
 from tiltload.master.app.regression.compare import load_metrics
 from tiltload.master.app.regression.reproduce import CASES, case_name
 from timing import machine
@@ -41,7 +42,8 @@ def main() -> int:
             result = tl.run(out=Path(tmp) / "api", **options)
             api_wall = time.perf_counter() - started
             started = time.perf_counter()
-            subprocess.run([tiltload, "run", *to_argv("run", {**options, "out": Path(tmp) / "cli"}, "run"), "--quiet"],
+            cli_options = replace(result.options, out=Path(tmp) / "cli", quiet=False)  # the same objects, as a command line
+            subprocess.run([tiltload, "run", *options_argv(result.case), *options_argv(cli_options), "--quiet"],
                            check=True, capture_output=True)
             cli_wall = time.perf_counter() - started
             cli_metrics = load_metrics(Path(tmp) / "cli" / result.log.name)[0]

@@ -4,12 +4,13 @@ The public API (docs/api.md)::
 
     import tiltload as tl
 
-    result = tl.run(scenario="lkf", trajectory=2, stop_time=10)   # the options of `tiltload run`, as keywords
+    result = tl.run(tl.Case(scenario="lkf", trajectory=2, stop_time=10))   # or the same as keywords: tl.run(scenario=...)
     result.metrics["ISE(x)"], result.signals("/plant")["x"], result.to_dataframe("/plant"), result.command
     tl.compare(result, "baselines/lkf_traj2.json").ok              # the case first, then the metrics
     tl.compare_signals(result, "baselines/lkf_traj2.parquet").ok   # each signal in its tolerance tube
     tl.check(result, "docs/requirements/thesis.yaml")                # each requirement's verdict and robustness
     tl.campaign("docs/campaigns/robustness.toml", workers=2)
+    tl.falsify("docs/falsification/swing_gust.toml", simulations=20).best
     tl.plant.trim(), tl.plant.linearize(dt=tl.plant.TICK), tl.design.dlqr(), tl.design.mixed()   # docs/design_api.md
 
 Errors the user can fix raise TiltloadError, its message the line the `tiltload` command prints. Everything else
@@ -26,11 +27,14 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from . import design, plant
-    from .master.app.api.campaigns import CampaignResult, campaign
+    from .master.app.api.campaigns import CampaignOptions, CampaignResult, campaign
+    from .master.app.api.case import Case
     from .master.app.api.checking import check
     from .master.app.api.comparing import compare, save_baseline
     from .master.app.api.errors import TiltloadError
+    from .master.app.api.falsifying import FalsifyOptions, FalsifyResult, falsify
     from .master.app.api.result import Result, Signals
+    from .master.app.api.run_options import RunOptions
     from .master.app.api.running import run
     from .master.app.api.signal_comparing import compare_signals, save_signal_baseline
     from .master.app.regression.compare import Comparison, MetricRow
@@ -40,13 +44,16 @@ _API = "tiltload.master.app.api."
 _PUBLIC = {  # name: the module it is defined in
     "run": _API + "running", "Result": _API + "result", "Signals": _API + "result", "compare": _API + "comparing",
     "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns", "check": _API + "checking",
-    "TiltloadError": _API + "errors", "Comparison": "tiltload.master.app.regression.compare",
+    "TiltloadError": _API + "errors", "Case": _API + "case", "RunOptions": _API + "run_options",
+    "CampaignOptions": _API + "campaigns", "falsify": _API + "falsifying", "FalsifyOptions": _API + "falsifying",
+    "FalsifyResult": _API + "falsifying", "Comparison": "tiltload.master.app.regression.compare",
     "MetricRow": "tiltload.master.app.regression.compare", "compare_signals": _API + "signal_comparing",
     "save_signal_baseline": _API + "signal_comparing", "SignalComparison": "tiltload.master.app.regression.signal_compare",
 }
 _NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
-__all__ = ["CampaignResult", "Comparison", "MetricRow", "Result", "SignalComparison", "Signals", "TiltloadError", "campaign", "check",
-           "compare", "compare_signals", "run", "save_baseline", "save_signal_baseline", "plant", "design"]
+__all__ = ["CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow", "Result",
+           "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare", "compare_signals", "falsify",
+           "run", "save_baseline", "save_signal_baseline", "plant", "design"]
 
 
 if "grimp" in sys.modules:  # import-linter is building its graph (pyproject.toml [tool.importlinter])

@@ -102,3 +102,43 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--remote", type=remote, action="append", default=[], metavar="INSTANCE=HOST:PORT",
                    help="run that instance's FMU on the tiltload serve at HOST:PORT (the same FMU, picked there by model "
                         "identifier and GUID; docs/remote.md); repeatable")
+
+
+def checked(parse, flag: str, value: object, command: str = "run"):
+    """A value of the Python API checked by the option's own type, as its text: the same value, the same line (a
+    TiltloadError carrying `tiltload COMMAND`'s usage line) as the command's parser."""
+    from .user_error import usage_error
+
+    text = repr(value) if isinstance(value, float) else str(value)
+    try:
+        return parse(text)
+    except argparse.ArgumentTypeError as err:
+        raise usage_error(command, f"argument {flag}: {err}") from None
+
+
+def named(parse, name: str, value: object):
+    """A value of the Python API checked by an option's type, refused as "NAME: the type's line" (a TiltloadError)."""
+    from .user_error import TiltloadError
+
+    try:
+        return parse(repr(value) if isinstance(value, float) else str(value))
+    except argparse.ArgumentTypeError as err:
+        raise TiltloadError(f"{name}: {err}") from None
+
+
+def chosen(flag: str, value: object, choices: tuple, command: str = "run") -> None:
+    """A value of the Python API among an option's choices, refused with the parser's line."""
+    from .user_error import usage_error
+
+    if value is not None and value not in choices:
+        raise usage_error(command, f"argument {flag}: invalid choice: {value!r} (choose from {', '.join(map(repr, choices))})")
+
+
+def snapshot_time(at: object) -> float:
+    """--snapshot-at's T (text from the command line, a number from the API), its line as the command says it."""
+    from .user_error import UserError
+
+    try:
+        return positive_time(repr(at) if isinstance(at, float) else str(at))
+    except argparse.ArgumentTypeError as err:
+        raise UserError(f"--snapshot-at {at}: {err}") from None

@@ -71,7 +71,7 @@ def version() -> str:
 
 
 def parser(cls: type[argparse.ArgumentParser] = OneLineParser) -> argparse.ArgumentParser:
-    """The command's parser (cls: its class, inherited by the subcommands'; the public API's raises its errors)."""
+    """The command's parser (cls: its class, inherited by the subcommands')."""
     p = cls(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
     p.add_argument("--version", action="version", version=f"tiltload {version()}", help="print tiltload's version and exit")
     sub = p.add_subparsers(dest="command", required=True)
@@ -98,7 +98,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as err:
         from ...native_fmu.compile import BuildError
         from .errors import USER_ERRORS
+        from .user_error import TiltloadError
 
+        if isinstance(err, TiltloadError):  # the API's checks too: the line the command's own parser would print
+            print(err.cli_line, file=sys.stderr)
+            return 2
         if isinstance(err, USER_ERRORS):
             print(f"tiltload: error: {err}", file=sys.stderr)
             return 2

@@ -10,12 +10,13 @@ from .options import LoopOptions, file_safe
 
 
 def default_log_name(args: argparse.Namespace, opts: LoopOptions, natural_stop: float | None,
-                     own_schedule: str | None = None, resumed_at: float | None = None) -> str:
+                     own_schedule: str | None = None, resumed_at: float | None = None, schedule: str | None = None) -> str:
     """opts.run_name, then: a schedule other than the system's own (jacobi), real-time pacing (and its overrun
     limit), a log of every N-th step, requirements monitored (and a run stopped at their first FAIL), a snapshot
-    taken, a run continued from a snapshot at resumed_at."""
+    taken, a run continued from a snapshot at resumed_at. args: the command's options (or the API's RunOptions);
+    schedule: the one asked for, if args has none (the API's is the Case's)."""
     parts = [opts.run_name(natural_stop)]
-    schedule = getattr(args, "schedule", None)
+    schedule = schedule or getattr(args, "schedule", None)
     if schedule is not None and schedule != (own_schedule or "ordered"):
         parts.append(schedule)
     if getattr(args, "realtime", None) is not None:  # paced: the log holds the overrun statistics, a limit may stop it

@@ -22,11 +22,12 @@ class LoopSystem:
     natural_stop: float  # the stop time without --stop-time: the trajectory's duration, or the package's
 
 
-def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, build: bool = True) -> LoopSystem:
+def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, build: bool = True, say=print) -> LoopSystem:
     """The system the options describe: the thesis's loop (FMUs built when stale), with the user's controller FMU,
     parameters set and faults added; or the system a --system file describes (SSP packages unpacked into unpack_into).
     prepared: the FMUs are built and the reference was checked already (a campaign's branches from a snapshot). build:
-    build what is stale (a run continued from a snapshot builds nothing: it runs the build the snapshot was taken with)."""
+    build what is stale (a run continued from a snapshot builds nothing: it runs the build the snapshot was taken with).
+    say: where the feasibility check's summary and notes go (the build's progress goes to stderr)."""
     from ..engine.faults.parse import load as load_faults
     from .fmus import build_all, fmu_folder
 
@@ -44,6 +45,10 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, bu
                                 opts.delay, opts.gusts, opts.vehicle, read_wind(opts.wind) if opts.wind else None,
                                 opts.fmi, opts.clocks)
         set_parameters(system, dict(opts.settings))
+        if not prepared:
+            from .parameter_types import check_settings
+
+            check_settings(system, opts.settings)
         if opts.controller_fmu is not None and not prepared:
             from ..engine.model_description import read_fmu
             from .ports import check_controller
@@ -59,7 +64,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, bu
     if opts.system is None and not prepared:
         from .feasibility import enforce
 
-        enforce(system, stop, opts.allow_infeasible, opts.max_tilt)  # before the first step: refuses what cannot be flown
+        enforce(system, stop, opts.allow_infeasible, opts.max_tilt, say)  # before the first step: refuses what cannot be flown
     return LoopSystem(system, stop, schedule, natural)
 
 

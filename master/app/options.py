@@ -170,7 +170,7 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
     if clocks and fmi != 3:
         raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
     if args.system is not None:
-        given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [])]
+        given = [flag for attr, flag in LOOP_ONLY if getattr(args, attr, None) not in (None, False, [], ())]
         if given:
             one = len(given) == 1
             raise UserError(f"--system {args.system} runs the system as its file describes it: {', '.join(given)} "

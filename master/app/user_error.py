@@ -4,5 +4,24 @@ the option parsing included, without importing errors.py's gathering of every er
 from __future__ import annotations
 
 
-class UserError(Exception):
-    """A problem the user can fix; reported as one line, exit code 2."""
+class TiltloadError(Exception):
+    """A problem the user can fix: a bad option, file, spec or baseline, two different cases compared, a run that
+    ended early. ``str(err)`` is the message; ``err.cli_line`` is the line the `tiltload` command prints for it (exit 2).
+    Public as tiltload.TiltloadError."""
+
+    def __init__(self, message: str, cli_line: str | None = None) -> None:
+        super().__init__(message)
+        self.cli_line = cli_line if cli_line is not None else f"tiltload: error: {message}"
+
+
+class UserError(TiltloadError):
+    """A problem the user can fix, raised by the application's own checks; reported as one line, exit code 2."""
+
+    def __init__(self, message: str) -> None:
+        super().__init__(message)
+
+
+def usage_error(command: str, message: str) -> TiltloadError:
+    """A bad option's value as `tiltload COMMAND` says it when its parser refuses it (the usage line, exit 2)."""
+    prog = f"tiltload {command}"
+    return TiltloadError(message, f"{prog}: error: {message} (see: {prog} --help)")

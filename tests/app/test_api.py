@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -26,34 +27,191 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     code = "import sys, tiltload; print(sorted(m for m in ('numpy', 'casadi', 'fmpy', 'pandas') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
-    assert set(tl.__all__) == {"CampaignResult", "Comparison", "MetricRow", "Result", "SignalComparison", "Signals", "TiltloadError",
-                               "campaign", "check", "compare", "compare_signals", "run", "save_baseline", "save_signal_baseline",
-                               "plant", "design"}
+    assert set(tl.__all__) == {"CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow",
+                               "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare",
+                               "compare_signals", "falsify", "run", "save_baseline", "save_signal_baseline", "plant", "design"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
 
 
-@pytest.mark.parametrize("options", [{"seed": -1}, {"stop_time": "soon"}, {"scenario": "kalman"}, {"vehicle": "uav", "scenario": "lkf"},
-                                     {"clocks": True}, {"set": {"plant": 1}}])
-@pytest.mark.slow
-def test_an_error_is_the_command_s_line(options, tmp_path):
-    """The same options through the command and the API: its stderr line is the exception's cli_line, exit 2."""
-    from tiltload.master.app.api.keywords import to_argv
+def test_the_api_holds_no_second_command_line():
+    """The API builds objects and calls the core: no argv, no parser, no redirected stdout under master/app/api."""
+    api = ROOT / "master" / "app" / "api"
+    words = re.compile(r"argparse|redirect_stdout|to_argv|parse_args")
+    assert [f"{f.name}:{n}" for f in sorted(api.glob("*.py")) for n, line in enumerate(f.read_text().splitlines(), 1)
+            if words.search(line)] == []
 
-    argv = to_argv("run", options, "run")
-    cli = _cli("run", *argv, "--no-log", cwd=tmp_path)
+
+# a wrong value: the keywords, and the command line that says the same (the CLI's line must be the exception's)
+WRONG_VALUES = [({"seed": -1}, ["--seed=-1"]), ({"stop_time": -1}, ["--stop-time=-1"]), ({"scenario": "kalman"}, ["--scenario", "kalman"]),
+                ({"vehicle": "uav", "scenario": "lkf"}, ["--vehicle", "uav", "--scenario", "lkf"]), ({"clocks": True}, ["--clocks"]),
+                ({"set": {"plant": 1}}, ["--set", "plant=1"]), ({"fmi": 4}, ["--fmi", "4"]),
+                ({"controller": "missing.fmu"}, ["--controller", "missing.fmu"]), ({"log_every": 0}, ["--log-every", "0"]),
+                ({"snapshot_at": ("soon", "s.snap")}, ["--snapshot-at", "soon", "s.snap"])]
+
+
+def _cli_error(argv: list[str], capsys) -> tuple[int, list[str]]:
+    capsys.readouterr()
+    try:
+        code = main(["run", *argv, "--no-log", "--quiet"])
+    except SystemExit as stop:  # the parser's own refusal
+        code = stop.code
+    return code, capsys.readouterr().err.strip().splitlines()
+
+
+@pytest.mark.parametrize(("options", "argv"), WRONG_VALUES, ids=[" ".join(a) for _, a in WRONG_VALUES])
+def test_a_wrong_value_is_one_tiltload_error_with_the_command_s_line(options, argv, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # nothing is written, and missing.fmu is missing
     with pytest.raises(tl.TiltloadError) as err:
         tl.run(no_log=True, **options)
-    assert cli.returncode == 2 and cli.stderr.strip().splitlines()[-1] == err.value.cli_line
+    code, lines = _cli_error(argv, capsys)
+    assert code == 2 and lines == [err.value.cli_line]
     assert str(err.value) in err.value.cli_line and "\n" not in err.value.cli_line
 
 
-def test_an_unknown_keyword_or_a_flag_s_wrong_value_is_named():
+@pytest.mark.parametrize(("command", "call", "argv"), [
+    ("campaign", lambda spec: tl.campaign(spec, workers=0), ["--workers", "0"]),
+    ("campaign", lambda spec: tl.campaign(spec, tl.CampaignOptions(retries=101)), ["--retries", "101"]),
+    ("falsify", lambda spec: tl.falsify(spec, simulations=0), ["--simulations", "0"]),
+    ("falsify", lambda spec: tl.falsify(spec, tl.FalsifyOptions(optimizer="annealing")), ["--optimizer", "annealing"]),
+])
+def test_campaign_and_falsify_options_say_their_command_s_line(command, call, argv, tmp_path, capsys):
+    spec = tmp_path / "spec.toml"  # never read: the options are refused first
+    with pytest.raises(tl.TiltloadError) as err:
+        call(spec)
+    with pytest.raises(SystemExit) as stop:
+        main([command, str(spec), *argv])
+    assert stop.value.code == 2 and capsys.readouterr().err.strip().splitlines() == [err.value.cli_line]
+
+
+def test_the_documented_line_of_a_seed_out_of_range():
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.Case(seed=-1)
+    assert err.value.cli_line == ("tiltload run: error: argument --seed: must be a whole number from 0 to 2147483647, got -1 "
+                                  "(see: tiltload run --help)")
+
+
+@pytest.mark.parametrize(("make", "field"), [
+    (lambda: tl.Case(stop_time="soon"), "Case.stop_time"), (lambda: tl.Case(seed=1.5), "Case.seed"),
+    (lambda: tl.Case(seed=True), "Case.seed"), (lambda: tl.Case(delay="yes"), "Case.delay"),
+    (lambda: tl.Case(trajectory=[1]), "Case.trajectory"), (lambda: tl.Case(set={"plant.m_L": [0.2]}), "Case.set['plant.m_L']"),
+    (lambda: tl.Case(set=["plant.m_L=0.2"]), "Case.set"), (lambda: tl.Case(fmus=3), "Case.fmus"),
+    (lambda: tl.RunOptions(log_every="2"), "RunOptions.log_every"), (lambda: tl.RunOptions(no_plots=1), "RunOptions.no_plots"),
+    (lambda: tl.run(stop_time="3"), "Case.stop_time"), (lambda: tl.CampaignOptions(workers="2"), "CampaignOptions.workers"),
+    (lambda: tl.FalsifyOptions(simulations=4.0), "FalsifyOptions.simulations"),
+])
+def test_a_wrong_type_is_a_type_error_naming_the_field(make, field):
+    with pytest.raises(TypeError) as err:
+        make()
+    assert str(err.value).startswith(f"{field} must be ") and "\n" not in str(err.value)
+
+
+def test_an_unknown_keyword_is_named():
     with pytest.raises(TypeError, match=r"unexpected keyword argument 'stop_tme' \(did you mean 'stop_time'\?\)"):
         tl.run(stop_tme=3)
     with pytest.raises(TypeError, match="'stop'"):  # argparse would take --stop as --stop-time: the API does not
         tl.run(stop=3)
-    with pytest.raises(tl.TiltloadError, match="argument --delay: a flag takes True or False, got 'yes'"):
-        tl.run(delay="yes")
+    with pytest.raises(TypeError, match="'simulation'"):
+        tl.falsify("spec.toml", simulation=4)
+
+
+def test_the_request_objects_are_frozen_and_say_their_command_line(tmp_path):
+    from dataclasses import FrozenInstanceError
+
+    case = tl.Case(scenario="lkf", trajectory=2, seed=3, stop_time=2.5, set={"plant.m_L": 0.2, "controller.x": True},
+                   remote={"controller": "10.0.0.2:7390"})
+    with pytest.raises(FrozenInstanceError):
+        case.seed = 4  # type: ignore[misc]
+    assert case.set == (("plant.m_L", 0.2), ("controller.x", True)) and case.stop_time == 2.5
+    from tiltload.master.app.api.running import command_line
+
+    line = command_line(case, tl.RunOptions(out=tmp_path / "my runs", no_plots=True, realtime=True))
+    assert shlex.split(line) == ["tiltload", "run", "--scenario", "lkf", "--trajectory", "2", "--seed", "3", "--stop-time", "2.5",
+                                 "--set", "plant.m_L=0.2", "--set", "controller.x=true", "--remote", "controller=10.0.0.2:7390",
+                                 "--out", str(tmp_path / "my runs"), "--no-plots", "--realtime", "1"]
+    # the command line read back by the command's own parser is the same case
+    from tiltload.master.app.cli import parser
+    from tiltload.master.app.commands.run import case_of
+
+    assert case_of(parser().parse_args(shlex.split(line)[1:])) == case
+
+
+def test_a_case_the_keywords_and_the_command_give_the_same_metrics_bit_for_bit(fmus, tmp_path, capsys):
+    """tl.run(Case(...)), tl.run(**keywords) and `tiltload run` (the result's own command line, replayed) on 2 s of a case."""
+    from tiltload.master.app.regression.compare import load_metrics
+
+    case = tl.Case(scenario="fsi", controller="dlqr", stop_time=2, fmus=fmus)
+    typed = tl.run(case, tl.RunOptions(out=tmp_path, no_plots=True))
+    keywords = tl.run(scenario="fsi", controller="dlqr", stop_time=2, fmus=fmus, no_log=True)
+    assert keywords.case == typed.case == case and keywords.log is None and keywords.options.no_log
+    assert len(typed.metrics) == 8 and all(type(v) is float for v in typed.metrics.values())
+    assert keywords.metrics == typed.metrics  # dict equality of floats: bit for bit
+    argv = shlex.split(typed.command)
+    assert argv[:2] == ["tiltload", "run"] and "--quiet" not in argv
+    logged = load_metrics(typed.log)[0]
+    typed.log.unlink()
+    assert main([*argv[1:], "--quiet"]) == 0  # runnable as printed
+    assert load_metrics(typed.log)[0] == logged == typed.metrics
+    assert typed.record["scenario"] == "fsi" and float(typed.record["stop_time"]) == 2.0
+    out = capsys.readouterr().out
+    assert "running fsi_traj1_dlqr_seed1_t2s: 2 s of simulated time" in out and "running fsi_traj1_dlqr_seed1_t2s" in typed.transcript
+
+
+def test_the_api_s_log_name_is_the_command_s(fmus, tmp_path, capsys):
+    """The schedule is the Case's, the rest of what names a log the RunOptions': both reach the name as the command's do."""
+    options = ["--scenario", "fsi", "--controller", "dlqr", "--stop-time", "0.5", "--schedule", "jacobi", "--log-every", "2"]
+    assert main(["run", *options, "--fmus", str(fmus), "--out", str(tmp_path), "--no-plots", "--quiet"]) == 0
+    command = [line for line in capsys.readouterr().out.splitlines() if line.startswith("running ")]
+    result = tl.run(scenario="fsi", controller="dlqr", stop_time=0.5, schedule="jacobi", log_every=2, fmus=fmus, no_log=True)
+    said = [line for line in result.transcript.splitlines() if line.startswith("running ")]
+    assert said == command == ["running fsi_traj1_dlqr_seed1_t0.5s_jacobi_every2: 0.5 s of simulated time"]
+
+
+def test_a_parameter_of_the_wrong_type_is_the_user_s_to_fix(fmus, tmp_path, capsys):
+    """--set plant.m_L=abc: text for a Real is one line and exit 2 (it was "unexpected failure, a bug")."""
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.run(set={"plant.m_L": "abc"}, stop_time=1, fmus=fmus, no_log=True)
+    assert str(err.value) == "--set plant.m_L=abc: m_L is a Real parameter of plant, got text"
+    code, lines = _cli_error(["--set", "plant.m_L=abc", "--stop-time", "1", "--fmus", str(fmus)], capsys)
+    assert code == 2 and lines == [err.value.cli_line] == [f"tiltload: error: {err.value}"]
+
+
+FALSIFY = """
+name = "tiny"
+optimizer = "uniform"
+seed = 0
+[base]
+scenario = "fsi"
+trajectory = 1
+controller = "dlqr"
+stop_time = 1.5
+gusts = false
+[[requirements]]
+name = "swing"
+formula = "always[0.5:1.5] (abs(plant.gamma_1) < 0.445)"
+[[search]]
+name = "gust_speed"
+target = "gust.amplitude"
+range = [0.0, 8.0]
+[[search]]
+name = "gust_start"
+target = "gust.start"
+range = [0.2, 1.0]
+[budget]
+simulations = 50
+"""
+
+
+@pytest.mark.slow
+def test_falsify_returns_its_result(fmus, tmp_path):
+    spec = tmp_path / "tiny.toml"
+    spec.write_text(FALSIFY)
+    found = tl.falsify(spec, simulations=4, workers=1, fmus=fmus, out=tmp_path / "out")
+    assert isinstance(found, tl.FalsifyResult) and found.simulations == 4 and len(found.rows) == 4
+    assert found.results.is_file() and len(found.to_dataframe()) == 4
+    assert found.command == shlex.join(["tiltload", "falsify", str(spec), "--out", str(tmp_path / "out"), "--simulations", "4",
+                                        "--workers", "1", "--fmus", str(fmus)])
+    scored = [r["robustness"] for r in found.rows]
+    assert found.robustness == min(scored) and found.falsified == (min(scored) < 0)
 
 
 def _record(**changes) -> dict:
@@ -107,10 +265,11 @@ def test_the_api_s_metrics_are_the_command_s_bit_for_bit(case, fmus, tmp_path):
     options = {"scenario": scenario, "trajectory": trajectory, "controller": controller, "stop_time": 5, "fmus": fmus,
                "no_plots": True}
     result = tl.run(out=tmp_path / "api", **options)
-    from tiltload.master.app.api.keywords import to_argv
     from tiltload.master.app.regression.compare import load_metrics
 
-    cli = _cli("run", *to_argv("run", {**options, "out": tmp_path / "cli"}, "run"), "--quiet", cwd=tmp_path)
+    argv = shlex.split(result.command)[2:]
+    argv[argv.index("--out") + 1] = str(tmp_path / "cli")
+    cli = _cli("run", *argv, "--quiet", cwd=tmp_path)
     assert cli.returncode == 0, cli.stderr
     log = tmp_path / "cli" / result.log.name
     assert load_metrics(log)[0] == result.metrics  # dict equality of floats: bit for bit
@@ -211,7 +370,7 @@ def test_a_changed_plant_is_said_to_run_the_nominal_controller(fmus, tmp_path):
 
 def _result(metrics: dict, **case) -> tl.Result:
     """A Result as tiltload.run returns it, without running (the plugin's paths on known numbers)."""
-    return tl.Result(metrics=metrics, case=_record(**case), log=None, command="tiltload run --stop-time 40", options={},
+    return tl.Result(metrics=metrics, case=None, options=None, record=_record(**case), log=None, command="tiltload run --stop-time 40",
                      stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)
 
 

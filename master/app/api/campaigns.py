@@ -1,16 +1,56 @@
-"""tiltload.campaign: `tiltload campaign SPEC` from Python, the same options as keywords."""
+"""tiltload.campaign: a campaign spec run with its CampaignOptions by the same core as `tiltload campaign SPEC`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import shlex
+from collections.abc import Callable
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from . import keywords
+from .. import arguments
+from . import field_types as kinds
+from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
 
 if TYPE_CHECKING:
     import pandas as pd
+
+HOUR = 3600.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class CampaignOptions:
+    """How a campaign runs, field names as `tiltload campaign`'s options: out (default runs/campaigns/<name>), the FMU
+    folder, an existing Dask scheduler or a local cluster of workers, how patiently, what again."""
+
+    out: Path | None = None
+    scheduler: str | None = None  # tcp://HOST:PORT or tls://HOST:PORT; None: a local cluster
+    workers: int | None = None  # the local cluster's size; with a scheduler, how many to wait for
+    connect_timeout: float = 5.0  # s
+    worker_timeout: float = 30.0  # s
+    retries: int = 2  # further tries of a run whose environment failed
+    retry_failed: bool = False  # run again the stored runs that failed
+    verbose: bool = False  # Dask's log on the terminal too
+    fmus: Path = Path("fmus")
+
+    def __post_init__(self) -> None:
+        owner, fix = "CampaignOptions", self._fix
+        fix("out", kinds.path(owner, "out", self.out))
+        fix("fmus", kinds.path(owner, "fmus", self.fmus, False))
+        kinds.text(owner, "scheduler", self.scheduler)
+        if kinds.whole(owner, "workers", self.workers) is not None:
+            arguments.checked(arguments.whole_number, "--workers", self.workers, "campaign")
+        for name, high in (("connect_timeout", HOUR), ("worker_timeout", arguments.DAY)):
+            kinds.number(owner, name, getattr(self, name), False)
+            fix(name, arguments.checked(arguments.time_span(high), f"--{name.replace('_', '-')}", getattr(self, name), "campaign"))
+        arguments.checked(arguments.integer(0, 100), "--retries", kinds.whole(owner, "retries", self.retries, False), "campaign")
+        kinds.flag(owner, "retry_failed", self.retry_failed)
+        kinds.flag(owner, "verbose", self.verbose)
+
+    def _fix(self, name: str, value: object) -> object:
+        object.__setattr__(self, name, value)  # frozen: normalized once, while built
+        return value
 
 
 @dataclass(frozen=True)
@@ -29,20 +69,41 @@ class CampaignResult:
         return pd.read_parquet(self.results)
 
 
-def campaign(spec: str | Path, **options: object) -> CampaignResult:
-    """Run what is missing of a campaign spec (TOML/YAML: docs/campaigns.md) as `tiltload campaign SPEC` does, its
-    options as keywords (out=, workers=, scheduler=, retries=, fmus=, ...). A campaign that ends with runs still
-    missing raises TiltloadError (the results hold the others)."""
-    from ..campaign.errors import CampaignIncomplete
-    from ..commands.campaign import execute
+def run_campaign(spec: Path, options: CampaignOptions, progress: Callable[[str], None] | None = None) -> tuple[Path, dict]:
+    """The core of `tiltload campaign SPEC` and tiltload.campaign: (results file, counts). progress: where the
+    campaign's lines go (default stderr). CampaignIncomplete when runs are still missing at the end."""
+    from ..campaign.errors import ClusterError
+    from ..campaign.runner import run
+    from ..user_error import UserError
 
+    how = {f.name: getattr(options, f.name) for f in fields(options) if f.name not in ("out", "fmus")}
+    try:
+        return run(Path(spec), options.out, options.fmus, progress=progress, **how)
+    except ClusterError as err:
+        raise UserError(str(err)) from None
+
+
+def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, progress: Callable[[str], None] | None = None,
+             **keywords: object) -> CampaignResult:
+    """Run what is missing of a campaign spec (TOML/YAML: docs/campaigns.md) as `tiltload campaign SPEC` does; its
+    options a CampaignOptions or keywords (out=, workers=, scheduler=, retries=, fmus=, ...). A campaign that ends with
+    runs still missing raises TiltloadError (the results hold the others)."""
+    from ..campaign.errors import CampaignIncomplete
+
+    if not isinstance(spec, (str, Path)):
+        raise TypeError(f"campaign() takes the spec's path (str or pathlib.Path), got {type(spec).__name__}")
     if str(spec) == "report":
-        raise TiltloadError("campaign: 'report' is not a spec (the report is `tiltload campaign report RESULTS`)")
-    argv = [str(spec), *keywords.to_argv("campaign", options, "campaign")]
-    args = keywords.parse("campaign", argv)
+        raise TiltloadError("campaign: 'report' is not a spec (the report is `tiltload campaign-report RESULTS`)")
+    known = {f.name for f in fields(CampaignOptions)}
+    for key in keywords:
+        if key not in known:
+            raise TypeError(f"campaign() got an unexpected keyword argument {key!r}; the options are {', '.join(sorted(known))}")
+    given = {k: v for k, v in keywords.items() if v is not None}
     with as_tiltload_errors():
+        options = replace(options, **given) if options is not None else CampaignOptions(**given)
         try:
-            results, counts = execute(args)
+            results, counts = run_campaign(Path(spec), options, progress)
         except CampaignIncomplete as err:
             raise TiltloadError(str(err)) from None
-    return CampaignResult(Path(results), dict(counts), keywords.command_line("campaign", argv))
+    command = shlex.join(["tiltload", "campaign", Path(spec).as_posix(), *options_argv(options)])
+    return CampaignResult(Path(results), dict(counts), command)

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from ..regression.compare import Comparison
-from .errors import TiltloadError, as_tiltload_errors
+from .errors import as_tiltload_errors
 from .result import Result
 
 Source = Result | str | Path
@@ -14,13 +13,9 @@ Source = Result | str | Path
 
 def _tolerance(name: str, value: float | None) -> float | None:
     from ...engine.argument_types import tolerance
+    from ..arguments import named
 
-    if value is None:
-        return None
-    try:
-        return tolerance(str(value))
-    except argparse.ArgumentTypeError as err:
-        raise TiltloadError(f"{name}: {err}") from None
+    return None if value is None else named(tolerance, name, value)
 
 
 def _load(source: Source, notes: list[str]) -> tuple[dict[str, float], dict, dict | None, str]:
@@ -28,7 +23,7 @@ def _load(source: Source, notes: list[str]) -> tuple[dict[str, float], dict, dic
     from ..regression.compare import load_case, load_metrics
 
     if isinstance(source, Result):
-        return dict(source.metrics), {}, dict(source.case), str(source.log or "the run")
+        return dict(source.metrics), {}, dict(source.record), str(source.log or "the run")
     if not isinstance(source, (str, Path)):
         raise TypeError(f"compare() takes a Result, a log (.mcap) or a baseline file (.json), got {type(source).__name__}")
     metrics, tolerances = load_metrics(Path(source), notes)
@@ -80,7 +75,7 @@ def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol:
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"run": dict(result.case), "metrics": dict(result.metrics),
+    data = {"run": dict(result.record), "metrics": dict(result.metrics),
             "tolerances": {"rtol": rtol, "atol": atol}}
     fmus = _fmus(result)
     if fmus is not None:  # what ran, so that a failing comparison can say what changed

@@ -13,6 +13,10 @@ if TYPE_CHECKING:
     import numpy as np
     import pandas as pd
 
+    from ...engine.requirement_check import Result as RequirementResult
+    from .case import Case
+    from .run_options import RunOptions
+
 
 @dataclass(frozen=True, eq=False)  # arrays: no elementwise == for the whole
 class Signals(Mapping[str, "np.ndarray"]):
@@ -59,23 +63,26 @@ def read_signals(log: Path, topic: str) -> Signals:
 class Result:
     """A run of the loop (or of a system file) made by tiltload.run.
 
-    metrics: ISE and IADU by name, as the `tiltload run` table and the log's metrics record have them.
-    case: the log's "run" record (what `tiltload compare` checks before the metrics), values as text.
-    log: the MCAP log (None with no_log=True). command: the `tiltload run` command line that makes the same run.
+    metrics: ISE and IADU by name (floats), as the `tiltload run` table and the log's metrics record have them.
+    case, options: the Case and RunOptions it ran. record: the log's "run" record (what `tiltload compare` checks
+    before the metrics), values as text. log: the MCAP log (None with no_log=True). command: the `tiltload run`
+    command line that makes the same run. requirements: each monitored requirement's result (name, verdict,
+    robustness, first_violation, values).
     """
 
     metrics: dict[str, float]
-    case: dict[str, str]
+    case: Case | None
+    options: RunOptions | None
+    record: dict[str, str]
     log: Path | None
     command: str
-    options: dict[str, object]  # the keywords it was run with
     stop_time: float
     sim_time: float
     wall_time: float  # s
     ticks: int
     plots: tuple[Path, ...] = ()
-    transcript: str = ""  # what the command printed
-    requirements: tuple = ()  # with requirements=FILE: each requirement's verdict (name, verdict, robustness, first_violation)
+    transcript: str = ""  # what the command would have printed on stdout
+    requirements: tuple[RequirementResult, ...] = ()
     _cache: dict[str, Signals] = field(default_factory=dict, repr=False, compare=False)
 
     @property

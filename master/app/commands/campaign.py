@@ -8,9 +8,8 @@ import sys
 from pathlib import Path
 
 from .. import arguments
+from ..api.campaigns import HOUR
 from ..errors import UserError
-
-HOUR = 3600.0
 
 
 def add_parser(sub) -> None:
@@ -69,18 +68,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def execute(args: argparse.Namespace) -> tuple[Path, dict]:
-    """Run the campaign the arguments name: its results file and counts (tiltload.campaign returns them)."""
-    from ..campaign.errors import ClusterError
-    from ..campaign.runner import run as run_campaign
+    """Run the campaign the arguments name (the API's core): its results file and counts."""
+    from ..api.campaigns import CampaignOptions, run_campaign
 
     if args.results is not None:
         raise UserError(f"campaign: unexpected argument {args.results} (to report: tiltload campaign-report RESULTS)")
-    try:
-        return run_campaign(Path(args.what), args.out, args.fmus, scheduler=args.scheduler, workers=args.workers,
-                            connect_timeout=args.connect_timeout, worker_timeout=args.worker_timeout, retries=args.retries,
-                            retry_failed=args.retry_failed, verbose=args.verbose)
-    except ClusterError as err:
-        raise UserError(str(err)) from None
+    options = CampaignOptions(out=args.out, scheduler=args.scheduler, workers=args.workers, connect_timeout=args.connect_timeout,
+                              worker_timeout=args.worker_timeout, retries=args.retries, retry_failed=args.retry_failed,
+                              verbose=args.verbose, fmus=args.fmus)
+    return run_campaign(Path(args.what), options)
 
 
 def summary(counts: dict) -> str:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
 
+from ..api.verdict_table import table
 from ..errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -57,23 +57,6 @@ def gather(files: list[Path], formulas: list[str]):
         if not _is_log(log):
             raise UserError(f"{log} is not an MCAP log (no MCAP magic at its start)")
     return reqs, files
-
-
-def _fmt(x: float | None) -> str:
-    if x is None:
-        return "-"
-    return f"{x:.6g}" if math.isfinite(x) else ("inf" if x > 0 else "-inf")
-
-
-def table(results) -> list[str]:
-    width = max([11] + [len(r.name) for r in results])
-    lines = [f"  {'requirement':<{width}}  {'verdict':<12} {'robustness':>12}  {'first violation':<16} values there"]
-    for r in results:
-        rob = _fmt(r.robustness) if r.robustness is not None else (f"<= {_fmt(r.bounds[1])}" if r.verdict == "FAIL" else "-")
-        at = f"t = {r.first_violation:.3f} s" if r.first_violation is not None else ""
-        there = ", ".join(f"{k} = {v:.6g}" for k, v in r.values.items()) or r.why
-        lines.append(f"  {r.name:<{width}}  {r.verdict:<12} {rob:>12}  {at:<16} {there}".rstrip())
-    return lines
 
 
 def run(args: argparse.Namespace) -> int:

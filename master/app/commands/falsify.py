@@ -7,14 +7,14 @@ import sys
 from pathlib import Path
 
 from .. import arguments
-from ..errors import UserError
+from ..api.falsifying import OPTIMIZERS
 
 
 def add_parser(sub) -> None:
     f = sub.add_parser("falsify", help="search wind, faults and parameters for a case that breaks a requirement (STL)")
     f.add_argument("spec", type=Path, help="the falsification spec (TOML/YAML): docs/falsification.md")
     f.add_argument("--out", type=Path, default=None, help="results folder (default runs/falsify/<name>-<optimizer>-<seed>)")
-    f.add_argument("--optimizer", choices=("uniform", "cmaes", "tpe", "neldermead"), default=None, help="instead of the spec's")
+    f.add_argument("--optimizer", choices=OPTIMIZERS, default=None, help="instead of the spec's")
     f.add_argument("--seed", type=arguments.integer(0, 2**32 - 1), default=None, help="the optimizer's seed, instead of the spec's")
     f.add_argument("--simulations", type=arguments.integer(1, 1000000), default=None, help="budget, instead of the spec's")
     f.add_argument("--seconds", type=arguments.positive_time, default=None, help="wall-time budget, instead of the spec's")
@@ -34,17 +34,21 @@ def add_parser(sub) -> None:
     f.set_defaults(func=run)
 
 
+def options_of(args: argparse.Namespace):
+    """The FalsifyOptions of the command line (the object tiltload.falsify builds from its keywords)."""
+    from dataclasses import fields
+
+    from ..api.falsifying import FalsifyOptions
+
+    return FalsifyOptions(**{f.name: getattr(args, f.name) for f in fields(FalsifyOptions)})
+
+
 def run(args: argparse.Namespace) -> int:
-    from ..campaign.errors import CampaignIncomplete, ClusterError
-    from ..falsify.runner import falsify
+    from ..api.falsifying import run_falsification
+    from ..campaign.errors import CampaignIncomplete
 
     try:
-        spec, outcome, out = falsify(args.spec, args.out, args.fmus, args.optimizer, args.seed, args.simulations,
-                                     args.seconds, args.scheduler, args.workers, early_stop=not args.no_early_stop,
-                                     branch=args.branch, neighbourhood=args.neighbourhood,
-                                     fraction=args.neighbourhood_fraction, points=args.neighbourhood_points)
-    except ClusterError as err:
-        raise UserError(str(err)) from None
+        _, _, out = run_falsification(args.spec, options_of(args))
     except CampaignIncomplete as err:
         print(f"tiltload: error: {err}", file=sys.stderr)
         return 1

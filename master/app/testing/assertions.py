@@ -28,7 +28,7 @@ def assert_matches_baseline(result: Result, baseline: str | Path, *, rtol: float
         raise TiltloadAssertionError(f"{err}\n  rerun: {result.command}"
                                      + (f"\n  to record it again: {update_hint}" if update_hint else "")) from None
     if not comparison.ok:
-        raise TiltloadAssertionError(baseline_report(comparison, result.case, result.command, baseline, update_hint=update_hint))
+        raise TiltloadAssertionError(baseline_report(comparison, result.record, result.command, baseline, update_hint=update_hint))
 
 
 def assert_signals_match(result: Result, baseline: str | Path, *, signals=None, tolerances=None, update_hint: str | None = None,
@@ -51,7 +51,7 @@ def assert_signals_match(result: Result, baseline: str | Path, *, signals=None, 
 def assert_metrics_below(result: Result, limits: Mapping[str, float]) -> None:
     """Each named metric at most its limit (e.g. {"ISE(x)": 0.05})."""
     __tracebackhide__ = True
-    message = limits_report(result.metrics, limits, result.case, result.command)
+    message = limits_report(result.metrics, limits, result.record, result.command)
     if message is not None:
         raise TiltloadAssertionError(message)
 
@@ -66,6 +66,6 @@ def assert_requirements_hold(result: Result, requirements: str | Path | None = N
     results = result.requirements if requirements is None and not formulas else check(result, requirements, formulas=formulas)
     if not results:
         raise TiltloadAssertionError(f"no requirement to check: run with requirements=FILE or name one here\n  rerun: {result.command}")
-    message = requirements_report(results, result.case, result.command)
+    message = requirements_report(results, result.record, result.command)
     if message is not None:
         raise TiltloadAssertionError(message)

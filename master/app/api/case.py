@@ -1,0 +1,105 @@
+"""Case: what one run of the loop (or of a system file) is, as the user says it; checked when built. The command line
+(`tiltload run`'s loop options) and the Python API (`tiltload.Case`, `tiltload.run(**keywords)`) build the same object;
+options.resolve_loop fills in its defaults (a LoopOptions, what the system is built from and a snapshot records)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from .. import arguments
+from . import field_types as kinds
+from .command_line import text_of
+
+if TYPE_CHECKING:
+    from ..options import LoopOptions
+
+
+@dataclass(frozen=True, kw_only=True)
+class Case:
+    """One run: the field names are `tiltload run`'s options (``--stop-time`` is ``stop_time``); None is the
+    option's default (the vehicle's trajectory and controller, seed 1, the trajectory's duration, ...).
+
+    controller: dlqr, mixed or a controller FMU's path. set: FMU parameters {"instance.name": number, bool or text}
+    (checked against the FMU's type when the system is built). remote: {"instance": "host:port"} of a tiltload serve.
+    A wrong type raises TypeError naming the field; a wrong value TiltloadError with the command's line."""
+
+    vehicle: str | None = None  # load (default) or uav
+    scenario: str | None = None  # fsi, lkf, zse (default)
+    trajectory: int | str | None = None  # 0-3, a shape ("step-z:size=0.5") or a waypoint file
+    controller: str | None = None
+    seed: int | None = None
+    stop_time: float | None = None  # s
+    delay: bool = False
+    no_gusts: bool = False
+    wind: Path | None = None
+    faults: Path | None = None
+    set: tuple[tuple[str, object], ...] = ()
+    system: Path | None = None  # an SSP package or JSON system description instead of the loop
+    schedule: str | None = None  # ordered (tiltload's) or jacobi
+    fmi: int | None = None  # 2 (default) or 3
+    clocks: bool = False
+    fmus: Path | None = None  # default: fmus
+    remote: tuple[tuple[str, str], ...] = ()
+    allow_infeasible: bool = False
+    max_tilt: float = 30.0  # degrees
+    allow_unknown_inputs: bool = False
+    allow_external_fmus: bool = False
+
+    def __post_init__(self) -> None:
+        fix = self._fix
+        for name in ("vehicle", "scenario", "schedule"):
+            fix(name, kinds.text("Case", name, getattr(self, name)))
+        arguments.chosen("--vehicle", self.vehicle, ("load", "uav"))
+        arguments.chosen("--scenario", self.scenario, ("fsi", "lkf", "zse"))
+        arguments.chosen("--schedule", self.schedule, ("ordered", "jacobi"))
+        self._trajectory_and_controller()
+        if kinds.whole("Case", "seed", self.seed) is not None:
+            arguments.checked(arguments.seed, "--seed", self.seed)
+        if kinds.number("Case", "stop_time", self.stop_time) is not None:
+            fix("stop_time", arguments.checked(arguments.positive_time, "--stop-time", self.stop_time))
+        for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):
+            kinds.flag("Case", name, getattr(self, name))
+        for name in ("wind", "faults", "system", "fmus"):
+            fix(name, kinds.path("Case", name, getattr(self, name)))
+        if kinds.whole("Case", "fmi", self.fmi) is not None:
+            arguments.chosen("--fmi", self.fmi, (2, 3))
+        kinds.number("Case", "max_tilt", self.max_tilt, False)
+        fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", self.max_tilt))
+        self._settings_and_remotes()
+        from ..options import resolve_loop
+
+        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown)
+        object.__setattr__(self, "_resolved", resolve_loop(self))
+
+    def loop_options(self) -> LoopOptions:
+        """The case with every default filled in (what the system is built from and a snapshot records)."""
+        return self._resolved
+
+    def _fix(self, name: str, value: object) -> object:
+        object.__setattr__(self, name, value)  # frozen: normalized once, while built
+        return value
+
+    def _trajectory_and_controller(self) -> None:
+        if isinstance(self.trajectory, Path):
+            self._fix("trajectory", str(self.trajectory))
+        if isinstance(self.trajectory, str) and self.trajectory.isdecimal():  # the command line's "2" is trajectory 2
+            self._fix("trajectory", int(self.trajectory))
+        if self.trajectory is not None and (isinstance(self.trajectory, bool) or not isinstance(self.trajectory, (int, str))):
+            raise TypeError(f"Case.trajectory must be a number 0-3, a shape or a file (int, str or Path), got "
+                            f"{type(self.trajectory).__name__} {self.trajectory!r:.80}")
+        if isinstance(self.controller, Path):
+            self._fix("controller", str(self.controller))
+        if isinstance(self.controller, type):
+            raise TypeError("Case.controller takes dlqr, mixed or a controller FMU's path; wrap a Python class first "
+                            "(tiltload wrap FILE.py, or the pytest plugin's tiltload_controller)")
+        kinds.text("Case", "controller", self.controller)
+
+    def _settings_and_remotes(self) -> None:
+        settings = kinds.pairs("Case", "set", self.set, (int, float, bool, str), "a number, bool or str")
+        for key, value in settings:  # the command's check, on the text the command would have been given
+            arguments.checked(arguments.assignment, "--set", f"{key}={text_of(value)}")
+        self._fix("set", settings)
+        remotes = kinds.pairs("Case", "remote", self.remote, (str,), "a str host:port")
+        self._fix("remote", tuple(arguments.checked(arguments.remote, "--remote", f"{k}={v}") for k, v in remotes))

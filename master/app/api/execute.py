@@ -1,0 +1,232 @@
+"""The core of `tiltload run` and tiltload.run: a Case run with its RunOptions, from the options to the outcome. It
+prints nothing: every line it has to say goes to the report callback (the command prints them, the API keeps them)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..user_error import UserError
+from .case import Case
+from .run_options import RunOptions
+
+if TYPE_CHECKING:
+    from ...engine.run import RunResult
+    from ..options import LoopOptions
+
+Say = Callable[[str], None]
+
+
+@dataclass
+class Outcome:
+    """What a run did: its exit code (0, 1 on a FAIL or a run ended early, 128 + a signal) and what ran."""
+
+    code: int
+    opts: LoopOptions  # the case resolved (a continued run's: the snapshot's)
+    metadata: dict  # the log's "run" record
+    result: RunResult
+    log: Path | None
+    plots: list[Path]
+    failure: str | None  # the one line of a run that ended early
+    requirements: tuple = ()  # the requirements' results (engine.requirement_check.Result) when requirements were given
+
+
+def preparing(case: Case, options: RunOptions) -> str:
+    """The first line, said before the imports (numpy, CasADi, FMPy: seconds), so the user sees at once that it started."""
+    return ("tiltload run: preparing " + (f"the run continued from {options.from_snapshot}" if options.from_snapshot else
+                                          f"the system {case.system}" if case.system else
+                                          f"the loop (FMUs missing or stale in {case.fmus or 'fmus'}/ are built first)")
+            + " ...")
+
+
+def execute(case: Case, options: RunOptions, say: Say) -> Outcome:
+    """The run in its steps: the options (or a snapshot's), the system built, its schedule, the log's name, the run,
+    its results said and its outcome."""
+    from ....controller_fmu.design.cache import cache_root
+    from ...engine.run import run_system
+    from ..fmus import is_foreign
+    from ..loop import is_loop, loop_metrics
+    from ..loop_system import loop_system
+    from ..scene import scene_channels
+
+    pacer = _pacer(options)
+    snap, opts = _options(case, options)
+    checkpoint = None if options.snapshot_at is None else (options.snapshot_time, options.snapshot_at[1])
+    loop = loop_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
+    system, stop = loop.system, loop.stop
+    if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
+        raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
+    _with_token(system, options.token_file)
+    system, schedule = _scheduled(case, loop, system, snap, say)
+    label, log = _log_path(case, options, opts, loop, snap, say)
+    metrics = loop_metrics() if is_loop(system) else None
+    meta = _metadata(opts, stop, schedule)
+    checkpoints = _checkpoints(checkpoint, opts, schedule, stop, say)
+    if snap is not None:
+        meta["from_snapshot"] = f"{options.from_snapshot} (t = {snap.time:.3f} s)"
+        say(f"continuing from {options.from_snapshot}: t = {snap.time:.3f} s")
+    monitor = _monitor(options, system)
+    scene = "plant" if "plant" in {i.name for i in system.instances} else None
+    say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
+    result = run_system(system, stop, log, metrics, progress=not options.quiet, metadata=meta, log_every=options.log_every,
+                        channels=scene_channels(scene) if scene else (), isolate=None if options.trust_fmus else is_foreign,
+                        step_timeout=options.step_timeout, announce=lambda execution: _announce(execution, say),
+                        realtime=pacer, resume=snap, checkpoints=checkpoints, observers_extra=[monitor] if monitor else ())
+    _say_results(result, snap, monitor, pacer, log, say)
+    return _outcome(options, opts, meta, result, log, monitor, say)
+
+
+def _announce(execution, say: Say) -> None:
+    """Before the first step: the inputs nothing feeds (a misspelt port shows up here), the instances run elsewhere."""
+    if execution.unconnected:
+        say(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
+    remote = [i for i in execution.system.instances if i.remote]
+    if remote:
+        say(f"remote: {', '.join(f'{i.name} on tiltload serve at {i.remote}' for i in remote)}")
+
+
+def _with_token(system, token_file: Path | None) -> None:
+    """The run's secret for every instance that runs on a tiltload serve: read now, so a bad file is one line."""
+    from ...engine.isolation.handshake import read_token
+
+    remote = [i.name for i in system.instances if i.remote]
+    if remote and token_file is None:
+        raise UserError(f"{', '.join(remote)} run on tiltload serve: give its shared secret with --token-file")
+    if remote:
+        read_token(token_file)
+    for inst in system.instances:
+        if inst.remote:
+            inst.token_file = token_file
+
+
+def _metadata(opts, stop: float, schedule: str | None) -> dict:
+    """The log's "run" record: which case this run was, as it ran (a system file's own settings are in the file)."""
+    from ..regression.case import file_digest, record
+
+    if opts.system is not None:
+        meta = {"system": str(opts.system), "system_sha256": file_digest(opts.system), "stop_time": stop}
+        if opts.faults is not None:
+            meta["faults"], meta["faults_sha256"] = str(opts.faults), file_digest(opts.faults)
+        return meta
+    return record(vehicle=opts.vehicle, scenario=opts.scenario, trajectory=opts.trajectory, controller=opts.controller,
+                  seed=opts.seed, delay=opts.delay, gusts=opts.gusts, fmi=opts.fmi, clocks=opts.clocks, settings=opts.settings,
+                  faults=opts.faults, wind=opts.wind, schedule=schedule or "ordered", stop_time=stop)
+
+
+def _pacer(options: RunOptions):
+    """The real-time pacer of realtime, or None."""
+    if options.realtime is not None:
+        from ...engine.realtime import Pacer
+
+        return Pacer(options.realtime, options.max_overruns)
+    if options.max_overruns is not None:
+        raise UserError("--max-overruns needs --realtime")
+    return None
+
+
+def _options(case: Case, options: RunOptions):
+    """(the snapshot continued or None, the loop's options: the snapshot's, or the case's)."""
+    if options.from_snapshot is not None:
+        from .continued import continued
+
+        return continued(case, options)
+    return None, case.loop_options()
+
+
+def _scheduled(case: Case, loop, system, snap, say: Say):
+    """(the system as its schedule runs it, the schedule): the snapshot's, the case's or the loop's own."""
+    from ...engine import jacobi
+    from ...engine.model_description import read_fmu
+
+    schedule = (snap.application.get("schedule") if snap else None) or case.schedule or loop.schedule
+    if schedule == "jacobi":
+        system = jacobi.explicit(system, {i.name: read_fmu(i.fmu, i.name) for i in system.instances}, jacobi=True)
+        say("schedule: jacobi (every output reaches its inputs one step late, as libcosim and Ecos pass them)")
+    return system, schedule
+
+
+def _log_path(case: Case, options: RunOptions, opts, loop, snap, say: Say) -> tuple[str, Path | None]:
+    """(the run's label, its log or None with no_log); a log replaced is said."""
+    from ..log_name import default_log_name
+
+    label = options.name or default_log_name(options, opts, loop.natural_stop, loop.schedule, snap.time if snap else None,
+                                             case.schedule)
+    log = None if options.no_log else options.out / f"{label}.mcap"
+    if log is not None and log.exists():  # never replaced without a word (a different run gets a different default name)
+        say(f"note: {log} exists (an earlier run of the same options, or --name): it and its figures are replaced")
+    return label, log
+
+
+def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) -> list:
+    """snapshot_at as the engine's (time, action) checkpoint."""
+    if checkpoint is None:
+        return []
+    from ...engine import snapshot
+
+    at, path = checkpoint
+    if not 0 < at < stop:
+        raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
+    application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
+
+    def save(execution) -> None:
+        say(f"snapshot at t = {execution.time:.3f} s: {snapshot.write(snapshot.take(execution, application), path)}")
+    return [(at, save)]
+
+
+def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say) -> None:
+    """The speed, the metrics, the requirements' verdicts, the pacer's overruns and where the log went."""
+    simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
+    say(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
+        + (f", from t = {snap.time:.3f} s" if snap else ""))
+    if result.metrics and result.ticks:
+        say(f"{'metric':>14} {'value':>12}")
+        for k, v in result.metrics.items():
+            say(f"{k:>14} {v:>12.6g}")
+    if monitor is not None and monitor.results:
+        from .verdict_table import table
+
+        say("requirements:")
+        say("\n".join(table(monitor.results)))
+    if pacer is not None:
+        say(pacer.summary())
+    if log is None or log.is_file():
+        say(f"log: {log}" if log else "log: none (--no-log)")
+
+
+def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, monitor, say: Say) -> Outcome:
+    """A failed run's one line (exit 1, or 128 + the signal), else the plots and the requirements' verdicts (exit 1 on a
+    FAIL)."""
+    from ..errors import failure_line
+    from ..plot import plot_run
+
+    if result.error:
+        failure = failure_line(result.error, log, result.sim_time)
+        return Outcome(128 + result.signal if result.signal else 1, opts, meta, result, log, [], failure)
+    files = []
+    if not options.no_plots and log is not None:
+        files = plot_run(log)
+        say(f"plots: {', '.join(str(f) for f in files)}")
+    verdicts = tuple(monitor.results) if monitor is not None else ()
+    return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
+
+
+def _monitor(options: RunOptions, system):
+    """The requirements' observer, its signals checked against the FMUs' outputs before anything runs."""
+    if options.requirements is None:
+        if options.stop_on_violation:
+            raise UserError("--stop-on-violation needs --requirements")
+        return None
+    from ...engine.model_description import read_fmu
+    from ...engine.requirement_observer import RequirementObserver
+    from ...engine.requirements import check_signals, load
+
+    reqs = load(options.requirements)
+    available = {}
+    for inst in system.instances:
+        for v in read_fmu(inst.fmu, inst.name).modelVariables:
+            if v.causality == "output":
+                available[f"{inst.name}.{v.name}"] = "number" if v.type in ("Real", "Integer", "Boolean") else f"a {v.type}"
+    check_signals(reqs, available, "the run's outputs")
+    return RequirementObserver(reqs, stop_on_violation=options.stop_on_violation, log_every=options.log_every)

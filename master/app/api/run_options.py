@@ -1,0 +1,73 @@
+"""RunOptions: how a case is run and what is kept of it (log, figures, requirements, snapshots, pacing, where FMUs
+run), beside the Case itself; checked when built, as `tiltload run`'s parser checks the same options."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from .. import arguments
+from . import field_types as kinds
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunOptions:
+    """The options of `tiltload run` that are not the case: field names as the options' (``--no-plots`` is
+    ``no_plots``). snapshot_at: (T, FILE). realtime: a factor (``True`` is 1). quiet: no progress bar."""
+
+    out: Path = Path("runs")
+    name: str | None = None  # the log's file stem (default: what sets the run apart)
+    no_log: bool = False  # metrics only; implies no_plots
+    no_plots: bool = False
+    log_every: int = 1
+    requirements: Path | None = None  # monitored while the run goes
+    stop_on_violation: bool = False
+    snapshot_at: tuple[float | str, Path] | None = None
+    from_snapshot: Path | None = None
+    realtime: float | None = None
+    max_overruns: int | None = None
+    trust_fmus: bool = False
+    step_timeout: float | None = None  # s
+    token_file: Path | None = None
+    quiet: bool = False
+
+    def __post_init__(self) -> None:
+        fix = self._fix
+        fix("out", kinds.path("RunOptions", "out", self.out, False))
+        if kinds.text("RunOptions", "name", self.name) is not None:
+            arguments.checked(arguments.file_stem, "--name", self.name)
+        for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet"):
+            kinds.flag("RunOptions", name, getattr(self, name))
+        arguments.checked(arguments.whole_number, "--log-every", kinds.whole("RunOptions", "log_every", self.log_every, False))
+        for name in ("requirements", "from_snapshot", "token_file"):
+            fix(name, kinds.path("RunOptions", name, getattr(self, name)))
+        self._snapshot_at()
+        if self.realtime is True:
+            fix("realtime", 1.0)
+        if kinds.number("RunOptions", "realtime", self.realtime) is not None:
+            fix("realtime", arguments.checked(arguments.realtime_factor, "--realtime", self.realtime))
+        if kinds.whole("RunOptions", "max_overruns", self.max_overruns) is not None:
+            arguments.checked(arguments.integer(0), "--max-overruns", self.max_overruns)
+        if kinds.number("RunOptions", "step_timeout", self.step_timeout) is not None:
+            fix("step_timeout", arguments.checked(arguments.time_span(arguments.DAY), "--step-timeout", self.step_timeout))
+
+    def _fix(self, name: str, value: object) -> object:
+        object.__setattr__(self, name, value)  # frozen: normalized once, while built
+        return value
+
+    def _snapshot_at(self) -> None:
+        """(T, FILE): T a number of seconds (the command line's text is kept: the log's name has it as typed)."""
+        if self.snapshot_at is None:
+            return
+        if not isinstance(self.snapshot_at, (tuple, list)) or len(self.snapshot_at) != 2:
+            raise TypeError(f"RunOptions.snapshot_at must be (T, FILE), got {self.snapshot_at!r:.80}")
+        at, where = self.snapshot_at
+        if isinstance(at, bool) or not isinstance(at, (int, float, str)):
+            raise TypeError(f"RunOptions.snapshot_at's T must be a number of seconds, got {type(at).__name__} {at!r:.80}")
+        arguments.snapshot_time(at)
+        self._fix("snapshot_at", (at, kinds.path("RunOptions", "snapshot_at's FILE", where, False)))
+
+    @property
+    def snapshot_time(self) -> float | None:
+        """snapshot_at's T in seconds."""
+        return None if self.snapshot_at is None else float(self.snapshot_at[0])
