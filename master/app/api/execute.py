@@ -41,11 +41,12 @@ def preparing(case: Case, options: RunOptions) -> str:
             + " ...")
 
 
-def execute(case: Case, options: RunOptions, say: Say) -> Outcome:
+def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     """The run in its steps: the options (or a snapshot's), the system built, its schedule, the log's name, the run,
-    its results said and its outcome."""
+    its results said and its outcome. pool (engine.lifecycle.ExecutionPool): whoever runs many cases keeps the
+    executions between them (restarted, not instantiated again); None: the run's own, closed after it."""
     from ....controller_fmu.design.cache import cache_root
-    from ...engine.run import run_system
+    from ...engine.lifecycle import RunPlan, run_plan
     from ..fmus import is_foreign
     from ..loop import is_loop, loop_metrics
     from ..loop_system import loop_system
@@ -70,10 +71,10 @@ def execute(case: Case, options: RunOptions, say: Say) -> Outcome:
     monitor = _monitor(options, system)
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
-    result = run_system(system, stop, log, metrics, progress=not options.quiet, metadata=meta, log_every=options.log_every,
-                        channels=scene_channels(scene) if scene else (), isolate=None if options.trust_fmus else is_foreign,
-                        step_timeout=options.step_timeout, announce=lambda execution: _announce(execution, say),
-                        realtime=pacer, resume=snap, checkpoints=checkpoints, observers_extra=[monitor] if monitor else ())
+    plan = RunPlan(system, stop, log, meta, tuple(scene_channels(scene)) if scene else (), options.log_every, metrics,
+                   (monitor,) if monitor else (), not options.quiet, None if options.trust_fmus else is_foreign,
+                   options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say))
+    result = run_plan(plan, pool)
     _say_results(result, snap, monitor, pacer, log, say)
     return _outcome(options, opts, meta, result, log, monitor, say)
 

@@ -28,7 +28,7 @@ def tests_of(records: list[TestRecord]) -> list[Test]:
             continue
         for k, run in enumerate(rec.runs):
             name = rec.nodeid if len(rec.runs) == 1 else f"{rec.nodeid} (run {k + 1})"
-            tests.append(Test(name, run.command, dict(run.case), run.log, list(run.requirements), dict(run.metrics),
+            tests.append(Test(name, run.command, dict(run.record), run.log, list(run.requirements), dict(run.metrics),
                               error=rec.failure, outcome=rec.outcome))
     return tests
 
