@@ -111,7 +111,7 @@ def test_not_exercised_and_error_cells():
     failed = Test("failed", error="the plant diverged (at t = 3.000 s)")
     report = Report("t", "check", [judged, failed], this_environment(), declared)
     assert matrix(report) == {"a": {"judged": "PASS", "failed": "ERROR"}, "b": {"judged": "not exercised", "failed": "ERROR"}}
-    assert counts(report)["ERROR"] == 2 and counts(report)["PASS"] == 1
+    assert counts(report)["ERROR"] == 1 and counts(report)["PASS"] == 1  # a test whose run failed counts once
 
 
 def test_a_one_sample_spike_reaches_the_page(check_report):
@@ -211,7 +211,7 @@ def test_the_plugin_s_report_has_a_section_per_test_and_junit_links_it(fmus, tmp
     by_name = {t["name"].split("::")[-1]: t for t in data["tests"]}
     assert set(by_name) == {"test_the_loop_holds", "test_that_fails", "test_without_runs"}
     assert by_name["test_the_loop_holds"]["outcome"] == "PASS" and by_name["test_that_fails"]["outcome"] == "FAIL"
-    assert "x not close" in by_name["test_that_fails"]["error"]
+    assert "x not close" in by_name["test_that_fails"]["failure"] and not by_name["test_that_fails"]["error"]
     # the load starts 0.3 m off in x (the thesis's initial offset): x_close fails in both runs, thrust passes in both;
     # the test without a run counts its own PASS
     assert data["counts"]["FAIL"] == 2 and data["counts"]["PASS"] == 3
@@ -252,3 +252,39 @@ def test_a_title_names_the_set_values_briefly():
     assert title.endswith("set plant.p0=0.0, plant.p1=0.1 (+7 more)")
     long = "plant.m_L=" + "9" * 200
     assert len(case_title({"vehicle": "load", "set": long})) < 90
+
+
+def test_a_run_s_report_names_its_fmus_and_its_verdicts(fmus, tmp_path):
+    """tiltload run --report: the verdicts are the run's own (the API's result objects), each FMU's SHA-256 is the file's,
+    the replay command reruns the case."""
+    import hashlib
+
+    import tiltload as tl
+
+    reqs = tmp_path / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: thrust\n    formula: always (controller.f_R >= 0 and controller.f_R <= 30)\n"
+                    "  - name: x_close\n    formula: always (abs(plant.x - scenario.x_ref) < 0.2)\n")
+    page = tmp_path / "run.html"
+    result = tl.run(scenario="fsi", controller="dlqr", stop_time=2, fmus=fmus, out=tmp_path, no_plots=True, requirements=reqs,
+                    report=page)
+    data = _page_data(page)
+    assert {r["name"]: r["verdict"] for r in data["tests"][0]["results"]} == result.verdicts == {"thrust": "PASS", "x_close": "FAIL"}
+    shown = {f["instance"]: f["sha256"] for f in data["environment"]["fmus"]}
+    assert set(shown) == {"plant", "sensors", "scenario", "controller"}
+    for inst in ("plant", "controller"):
+        path = next(f["path"] for f in data["environment"]["fmus"] if f["instance"] == inst)
+        assert shown[inst] == hashlib.sha256(open(path, "rb").read()).hexdigest()
+    assert data["tests"][0]["command"].startswith("tiltload run --scenario fsi --controller dlqr --stop-time 2")
+    assert "--report" not in data["tests"][0]["command"]
+    assert data["counts"]["FAIL"] == 1 and data["counts"]["PASS"] == 1
+
+
+def test_a_diverged_run_gets_its_figures_and_an_error_in_its_report(fmus, tmp_path, capsys):
+    page = tmp_path / "div.html"
+    code = main(["run", "--fmus", str(fmus), "--scenario", "fsi", "--controller", "dlqr", "--set", "plant.m_L=4",
+                 "--allow-infeasible", "--stop-time", "4", "--out", str(tmp_path), "--quiet", "--report", str(page)])
+    assert code == 1
+    out = capsys.readouterr().out
+    assert "plots: " in out and list(tmp_path.glob("*_remaining_dof.png"))  # the figures of what the log holds
+    data = _page_data(page)
+    assert data["counts"]["ERROR"] == 1 and "diverged" in data["tests"][0]["error"]

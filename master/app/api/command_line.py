@@ -3,7 +3,8 @@ request: each field that differs from its default as its option (the field's nam
 
 from __future__ import annotations
 
-from dataclasses import fields
+import shlex
+from dataclasses import fields, replace
 from pathlib import Path
 
 
@@ -42,3 +43,8 @@ def options_argv(request: object) -> list[str]:
 def _option(flag: str, text: str) -> list[str]:
     return [f"{flag}={text}"] if text.startswith("-") else [flag, text]  # a value like -1 is no option
 
+
+
+def run_command(case: object, options: object) -> str:
+    """The `tiltload run` command that makes the same run (quiet and the report aside: they change no run)."""
+    return shlex.join(["tiltload", "run", *options_argv(case), *options_argv(replace(options, quiet=False, report=None))])

@@ -76,7 +76,10 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
                    options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say))
     result = run_plan(plan, pool)
     _say_results(result, snap, monitor, pacer, log, say)
-    return _outcome(options, opts, meta, result, log, monitor, say)
+    outcome = _outcome(options, opts, meta, result, log, monitor, say)
+    if options.report is not None:
+        _report(case, options, system, outcome, monitor, say)
+    return outcome
 
 
 def _announce(execution, say: Say) -> None:
@@ -204,13 +207,50 @@ def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, mo
 
     if result.error:
         failure = failure_line(result.error, log, result.sim_time)
-        return Outcome(128 + result.signal if result.signal else 1, opts, meta, result, log, [], failure)
+        files = _failed_run_plots(options, log, say)
+        return Outcome(128 + result.signal if result.signal else 1, opts, meta, result, log, files, failure)
     files = []
     if not options.no_plots and log is not None:
         files = plot_run(log)
         say(f"plots: {', '.join(str(f) for f in files)}")
     verdicts = tuple(monitor.results) if monitor is not None else ()
     return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
+
+
+def _failed_run_plots(options: RunOptions, log: Path | None, say: Say) -> list[Path]:
+    """A run that ended early still gets its figures, of what its log holds (a diverged one scaled to where its signals
+    were sane: plot.scale_to_sane); a log too damaged to draw gets none, said in one line."""
+    from ...engine.log_reader import DamagedLog
+    from ..plot import plot_intact
+
+    if options.no_plots or log is None or not log.is_file():
+        return []
+    try:
+        files, _ = plot_intact(log)
+    except (DamagedLog, ValueError, OSError) as err:
+        say(f"plots: none ({str(err).splitlines()[0]})")
+        return []
+    say(f"plots: {', '.join(str(f) for f in files)}")
+    return files
+
+
+def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, say: Say) -> None:
+    """--report FILE: the run as a one-test report (its requirements, figures, environment, replay command)."""
+    from ..evidence import Report, environment_of_system, test_of_log, write_report
+    from ..evidence.model import Test
+    from .command_line import run_command
+
+    command = run_command(case, options)
+    results = list(monitor.results) if monitor is not None else []
+    if outcome.log is not None and outcome.log.is_file():
+        test = test_of_log(outcome.log, results, options.requirements)
+        test.command, test.error = command, outcome.failure
+    else:
+        test = Test(outcome.opts.run_name(), command, dict(outcome.metadata), None, results,
+                    dict(outcome.result.metrics), outcome.failure)
+    declared = list(monitor.requirements) if monitor is not None else []
+    report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared)
+    say(f"report: {write_report(report, options.report)}")
 
 
 def _monitor(options: RunOptions, system):

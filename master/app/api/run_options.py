@@ -30,6 +30,7 @@ class RunOptions:
     step_timeout: float | None = None  # s
     token_file: Path | None = None
     quiet: bool = False
+    report: Path | None = None  # a self-contained HTML report of the run (docs/reports.md)
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -39,7 +40,7 @@ class RunOptions:
         for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet"):
             kinds.flag("RunOptions", name, getattr(self, name))
         arguments.checked(arguments.whole_number, "--log-every", kinds.whole("RunOptions", "log_every", self.log_every, False))
-        for name in ("requirements", "from_snapshot", "token_file"):
+        for name in ("requirements", "from_snapshot", "token_file", "report"):
             fix(name, kinds.path("RunOptions", name, getattr(self, name)))
         self._snapshot_at()
         if self.realtime is True:

@@ -4,14 +4,13 @@ same objects."""
 from __future__ import annotations
 
 import difflib
-import shlex
 import sys
 from collections.abc import Mapping
 from dataclasses import fields, replace
 
 from .. import arguments
 from .case import Case
-from .command_line import options_argv
+from .command_line import run_command
 from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 from .run_options import RunOptions
@@ -64,7 +63,7 @@ def requests(case: Case | None, options: RunOptions | None, keywords: Mapping[st
 
 def command_line(case: Case, options: RunOptions) -> str:
     """The `tiltload run` command that makes the same run (quiet aside: it changes no run)."""
-    return shlex.join(["tiltload", "run", *options_argv(case), *options_argv(replace(options, quiet=False))])
+    return run_command(case, options)
 
 
 def run(case: Case | None = None, options: RunOptions | None = None, /, *, progress: bool | None = None,

@@ -34,6 +34,10 @@ def add_parser(sub) -> None:
     r.add_argument("--requirements", type=Path, default=None, metavar="REQS",
                    help="monitor these requirements (STL, YAML: docs/requirements.md) while the run goes: verdicts in the "
                         "table and the log")
+    r.add_argument("--report", type=Path, default=None, metavar="FILE",
+                   help="write a self-contained HTML report of the run: its requirements' verdicts with their signals "
+                        "plotted, the environment (FMU digests, the controller's parameters), the command that replays it "
+                        "(docs/reports.md)")
     r.add_argument("--stop-on-violation", action="store_true",
                    help="with --requirements: end the run once a requirement's FAIL can no longer change")
     r.add_argument("--snapshot-at", nargs=2, metavar=("T", "FILE"), default=None,
@@ -50,7 +54,7 @@ def add_parser(sub) -> None:
 
 # the options of `tiltload run` that say how the case runs (the rest of its options are the Case's)
 RUN_OPTIONS = ("out", "name", "no_log", "no_plots", "log_every", "requirements", "stop_on_violation", "snapshot_at",
-               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet")
+               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet", "report")
 
 
 def case_of(args: argparse.Namespace):

@@ -14,6 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..plot import scale_to_sane  # noqa: E402
 from .decimate import envelope  # noqa: E402
 
 COLUMNS = 800  # pixel columns of a figure's plot area (10 in at 96 dpi, less the margins): the decimation's resolution
@@ -70,14 +71,16 @@ def requirement_figure(req, trace, result, unit_of, final: bool = True) -> tuple
             diverged.append(_finite_until(trace.times, values))
         ax.set_ylabel(f"({unit})", fontsize=7)
         ax.legend(fontsize=6, loc="best", framealpha=0.6)
-        _mark(ax, bad, first, min((d for d in diverged if d is not None), default=None))
+        blown = scale_to_sane(ax)  # a diverged run: scaled to its samples before the divergence, which it marks
+        _mark(ax, bad, first, None if blown is not None else min((d for d in diverged if d is not None), default=None))
     ax = axes[-1, 0]
     c = decimated("margin", times, np.asarray(margin, dtype=float))
     curves.append(c)
     ax.plot(c.times, [np.nan if v is None else v for v in c.values], lw=0.9, color="C2", label="margin")
     ax.axhline(0.0, color="k", lw=0.8, ls="--", label="bound (margin 0)")
     ax.set_ylabel("margin", fontsize=7)
-    _mark(ax, bad, first, _finite_until(times, np.asarray(margin, dtype=float)))
+    blown = scale_to_sane(ax)
+    _mark(ax, bad, first, None if blown is not None else _finite_until(times, np.asarray(margin, dtype=float)))
     if bad:
         ax.axvspan(0, 0, color="C3", alpha=0.22, lw=0, label="violated")
     ax.legend(fontsize=6, loc="best", framealpha=0.6)

@@ -56,6 +56,7 @@ class Test:
     error: str | None = None
     environment: Environment | None = None  # a test's own, where the tests ran on different FMUs (else the report's)
     outcome: str | None = None  # the test's own verdict (a pytest test: PASS, FAIL, ERROR), counted if it judged no requirement
+    failure: str | None = None  # why a test failed (its assertion's first line): not an error of its run
 
 
 @dataclass(frozen=True)
@@ -116,21 +117,19 @@ def matrix(report: Report) -> dict[str, dict[str, str]]:
 
 
 def counts(report: Report) -> dict[str, int]:
-    """How many cells of the matrix are PASS, FAIL, INCONCLUSIVE, vacuous PASS, ZERO and ERROR; and a test that judged no
-    requirement counts once: its own outcome, else ERROR if its run failed (unless the matrix has its ERROR cells)."""
+    """How many cells of the matrix are PASS, FAIL, INCONCLUSIVE, vacuous PASS and ZERO; ERROR counts the tests whose
+    run ended in an error (once each, whatever their cells); a test that judged no requirement and ran to its end
+    counts once by its own outcome (a pytest test's PASS or FAIL)."""
     tally = dict.fromkeys(COUNTED, 0)
     for row in matrix(report).values():
         for cell in row.values():
-            if cell in tally:
+            if cell in tally and cell != ERROR:
                 tally[cell] += 1
-    judged_any = bool(requirement_ids(report))
     for t in report.tests:
-        if t.results:
-            continue
-        if t.outcome in tally:
-            tally[t.outcome] += 1
-        elif t.error and not judged_any:
+        if t.error or t.outcome == ERROR:
             tally[ERROR] += 1
+        elif not t.results and t.outcome in tally:
+            tally[t.outcome] += 1
     return tally
 
 

@@ -79,7 +79,8 @@ def render(report: Report, standard_figures: bool = True) -> str:
         tests.append({
             "name": test.name, "command": test.command, "case": {k: str(v) for k, v in test.case.items()},
             "log": str(test.log) if test.log else "", "metrics": {k: _number(v) for k, v in test.metrics.items()},
-            "error": test.error, "outcome": test.outcome, "results": [_result_json(r) for r in test.results], "figures": figures,
+            "error": test.error, "outcome": test.outcome, "failure": test.failure,
+            "results": [_result_json(r) for r in test.results], "figures": figures,
             "standard": figures_of_log(test.log) if standard_figures and test.log and Path(test.log).is_file() else [],
             "environment": test.environment.to_json() if test.environment else None,
         })

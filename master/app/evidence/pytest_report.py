@@ -23,13 +23,15 @@ class TestRecord:
 def tests_of(records: list[TestRecord]) -> list[Test]:
     tests = []
     for rec in records:
+        error = rec.failure if rec.outcome == ERROR else None
+        failure = rec.failure if rec.outcome == FAIL else None
         if not rec.runs:
-            tests.append(Test(rec.nodeid, outcome=rec.outcome, error=rec.failure))
+            tests.append(Test(rec.nodeid, outcome=rec.outcome, error=error, failure=failure))
             continue
         for k, run in enumerate(rec.runs):
             name = rec.nodeid if len(rec.runs) == 1 else f"{rec.nodeid} (run {k + 1})"
             tests.append(Test(name, run.command, dict(run.record), run.log, list(run.requirements), dict(run.metrics),
-                              error=rec.failure, outcome=rec.outcome))
+                              error=error, outcome=rec.outcome, failure=failure))
     return tests
 
 
