@@ -10,6 +10,7 @@ import json
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from tiltload.master.app.cli import main
 from tiltload.master.app.evidence import envelope
 
 TICK = 0.01
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _page_data(path) -> dict:
@@ -288,3 +290,24 @@ def test_a_diverged_run_gets_its_figures_and_an_error_in_its_report(fmus, tmp_pa
     assert "plots: " in out and list(tmp_path.glob("*_remaining_dof.png"))  # the figures of what the log holds
     data = _page_data(page)
     assert data["counts"]["ERROR"] == 1 and "diverged" in data["tests"][0]["error"]
+
+
+@pytest.mark.slow
+def test_a_falsification_s_report_shows_its_counterexample_replayed(fmus, tmp_path):
+    """altitude_thrust_loss, 20 CMA-ES simulations run to their stop time: the report's counterexample is the least
+    robust row of falsification.parquet, replayed with a log: the same robustness, FAIL exactly when it is negative."""
+    import pandas as pd
+    import tiltload as tl
+
+    spec = ROOT / "docs" / "falsification" / "altitude_thrust_loss.toml"
+    out = tmp_path / "search"
+    tl.falsify(spec, out=out, simulations=20, fmus=fmus, no_early_stop=True, branch="off", workers=1)
+    rows = pd.read_parquet(out / "falsification.parquet")
+    least = float(rows["robustness"].min())
+    data = _page_data(out / "report.html")
+    case = data["tests"][0]
+    assert case["name"] == ("counterexample" if least < 0 else "least robust case")
+    result = case["results"][0]
+    assert result["robustness"] == pytest.approx(least, abs=1e-12)  # the replay is the evaluation, bit for bit
+    assert result["verdict"] == ("FAIL" if least < 0 else "PASS") and data["counts"][result["verdict"]] == 1
+    assert case["curves"] and case["command"].startswith("tiltload run ")

@@ -149,4 +149,33 @@ def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = 
         figure(curves, out / FIGURE, f"{spec.name}: best robustness against simulations")
     text = summary(spec, outcome, command, notes, whole)
     (out / SUMMARY).write_text(text + "\n")
+    html_report(spec, outcome, out, command, text)
     return text
+
+
+def html_report(spec: Falsification, outcome: Outcome, out: Path, command: list[str] | None, text: str) -> Path:
+    """report.html: the search, and its best case replayed (into out/counterexample/) and judged with its figures."""
+    from ..evidence.falsification_page import write_falsification_report
+
+    log = _replayed(command) if command else None
+    figures = [out / FIGURE, out / "neighbourhood" / "neighbourhood.png", out / "neighbourhood.png"]
+    dims = [(d.name, d.target, float(d.low), float(d.high)) for d in spec.dimensions]
+    from ...engine.requirements import requirement
+
+    reqs = [requirement(r.name, r.formula, description=r.description) for r in spec.requirements]
+    return write_falsification_report(spec.name, text, reqs, dims, outcome.rows, outcome.falsified_at, command, log, figures, out)
+
+
+def _replayed(command: list[str]) -> Path | None:
+    """Run the replay command's case with a log (its figures are the report's); the log, or None if it could not run."""
+    from ..api.execute import execute
+    from ..cli import parser
+    from ..commands.run import case_of, run_options_of
+    from ..errors import USER_ERRORS
+
+    args = parser().parse_args(["run", *command[2:], "--quiet", "--no-plots"])
+    try:
+        outcome = execute(case_of(args), run_options_of(args), lambda line: None)
+    except USER_ERRORS:
+        return None
+    return outcome.log

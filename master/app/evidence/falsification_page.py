@@ -1,0 +1,43 @@
+"""A falsification's report.html: the search (its space, budget, convergence), the counterexample (or the least robust
+case) replayed with a log, each requirement on it with its bound drawn and the violation shaded, the neighbourhood."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .model import Report, Table, png_uri, this_environment
+from .page import write_report
+from .tests_from_logs import test_of_log
+
+
+def write_falsification_report(name: str, summary: str, requirements: list, dimensions: list[tuple[str, str, float, float]],
+                               rows: list[dict], falsified_at: int | None, replay: list[str] | None, log: Path | None,
+                               figures: list[Path], out: Path) -> Path:
+    """report.html in out: dimensions (name, target, low, high); rows the evaluations in order; replay the command that
+    replays the best case and log that replay's log (None: no case had a robustness)."""
+    import shlex
+
+    from ...engine.requirement_check import check_log
+
+    tests = []
+    if log is not None and Path(log).is_file():
+        test = test_of_log(Path(log), check_log(Path(log), requirements, missing="inconclusive"), name="counterexample"
+                           if falsified_at is not None else "least robust case")
+        test.command = shlex.join(replay) if replay else test.command
+        tests.append(test)
+    best = min((r for r in rows if _finite(r.get("robustness"))), key=lambda r: r["robustness"], default=None)
+    space = Table("Search space", ("dimension", "target", "low", "high", "best case"), tuple(
+        (n, t, f"{lo:g}", f"{hi:g}", f"{best[n]:.6g}" if best is not None and n in best else "—") for n, t, lo, hi in dimensions))
+    found = ("falsified after " + str(falsified_at + 1) + " simulations") if falsified_at is not None else \
+        f"not falsified in {len(rows)} simulations (a search is no proof)"
+    search = Table("The search", ("simulations", "outcome", "least robustness"), (
+        (str(len(rows)), found, f"{best['robustness']:.6g}" if best is not None else "—"),))
+    report = Report(f"Falsification {name}", "falsification", tests, this_environment(), declared=list(requirements),
+                    figures=[(Path(p).stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()],
+                    tables=[search, space], summary=summary.splitlines()[0] if summary else "")
+    return write_report(report, Path(out) / "report.html")
+
+
+def _finite(x) -> bool:
+    return x is not None and isinstance(x, (int, float)) and math.isfinite(x)
