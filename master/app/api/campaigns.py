@@ -78,9 +78,27 @@ def run_campaign(spec: Path, options: CampaignOptions, progress: Callable[[str],
 
     how = {f.name: getattr(options, f.name) for f in fields(options) if f.name not in ("out", "fmus")}
     try:
-        return run(Path(spec), options.out, options.fmus, progress=progress, **how)
+        results, counts = run(Path(spec), options.out, options.fmus, progress=progress, **how)
     except ClusterError as err:
         raise UserError(str(err)) from None
+    _report(Path(results), progress)
+    return results, counts
+
+
+def _report(results: Path, progress: Callable[[str], None] | None) -> None:
+    """The campaign's report beside its results (report.md, its figures, report.html); results it cannot report are
+    said in one line, the results kept."""
+    import sys
+
+    from ..campaign.report import ReportError, report
+
+    say = progress or (lambda line: print(line, file=sys.stderr))
+    try:
+        path = report(results)
+    except ReportError as err:
+        say(f"report: none ({err})")
+        return
+    say(f"report: {path.with_name('report.html')} (and {path.name})")
 
 
 def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, progress: Callable[[str], None] | None = None,
