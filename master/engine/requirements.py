@@ -21,9 +21,11 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
+from .stl.syntax import KEYWORDS
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_SIGNAL = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)+$")  # instance.variable, as the grammar's
 _KEYS = {"name", "description", "source", "formula", "bounds", "response"}
 _BOUNDS = {"signal", "min", "max", "from", "to"}
 _RESPONSE = {"trigger", "response", "within", "hold", "from", "to"}
@@ -98,8 +100,9 @@ def _expand_bounds(b, where: str) -> str:
     if not isinstance(b, dict) or set(b) - _BOUNDS or "signal" not in b:
         raise RequirementError(f"{where}bounds is a mapping of signal, min, max, from, to (got {b!r:.80})")
     sig = b["signal"]
-    if not isinstance(sig, str):
-        raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r}")
+    if not isinstance(sig, str) or not _SIGNAL.match(sig) or sig.split(".")[0] in KEYWORDS:
+        # checked before it is spliced into the expansion: a formula or a parenthesis here would change its meaning
+        raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r:.80}")
     parts = []
     if b.get("min") is not None:
         parts.append(f"{sig} >= {_number(b['min'], 'bounds.min', where)!r}")
@@ -123,6 +126,10 @@ def _expand_response(r, where: str) -> str:
     for key in ("trigger", "response"):
         if not isinstance(r[key], str):
             raise RequirementError(f"{where}response.{key} must be an STL formula (text)")
+        try:  # a whole formula on its own before it is spliced in: unbalanced parentheses would change the expansion
+            parse(r[key])
+        except StlError as err:
+            raise RequirementError(f"{where}response.{key}: {err}") from None
     held = f"always[0:{hold:g}] ({r['response']})" if hold > 0 else f"({r['response']})"
     return f"always{_interval(r, where)} (({r['trigger']}) implies eventually[0:{within:g}] {held})"
 

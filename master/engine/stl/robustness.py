@@ -258,6 +258,11 @@ class Verdict:
     vacuous: bool = False
     unknown: bool = False  # a NaN (a NaN sample, 0 / 0) where the formula reads: the verdict is what holds for any value
 
+    @property
+    def shown(self) -> str:
+        """The verdict as tables and stored verdict columns show it: "PASS (vacuous)" for a vacuous pass."""
+        return f"{self.verdict} (vacuous)" if self.vacuous else self.verdict
+
 
 def verdict(formula, trace: Trace, final: bool = True, evaluator: Evaluator | None = None) -> Verdict:
     """PASS (robustness > 0), FAIL (< 0), ZERO (exactly 0: neither) when the trace covers the formula's horizon;
