@@ -181,6 +181,15 @@ def load(path: Path) -> list[Requirement]:
     return parse_entries(data, f"{path}: ")
 
 
+def check_horizons(reqs: list[Requirement], span: float, what: str) -> None:
+    """Every requirement can be decided by a run of `span` s: one that looks further ahead (always[0:1e308]) is refused
+    before it runs, as `tiltload check` refuses it for its logs."""
+    for req in reqs:
+        if req.horizon > span + 1e-9:
+            raise RequirementError(f"requirement '{req.name}' looks {req.horizon:g} s ahead, longer than {what} ({span:g} s): "
+                                   "no such run can decide it")
+
+
 def check_signals(reqs: list[Requirement], available: dict[str, str], where: str) -> None:
     """Every signal a requirement reads is among the available ones (name -> kind: "number" or what it is instead)."""
     for req in reqs:

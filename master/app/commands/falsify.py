@@ -52,4 +52,4 @@ def run(args: argparse.Namespace) -> int:
     print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}")
     if args.neighbourhood and (out / "neighbourhood" / "neighbourhood.txt").is_file():
         print((out / "neighbourhood" / "neighbourhood.txt").read_text(), end="")
-    return 0
+    return 1 if outcome.falsified_at is not None else 0  # a counterexample is a failing test (docs/exit_codes.md)

@@ -217,7 +217,7 @@ def execute(args: argparse.Namespace) -> Outcome:
     if snap is not None:
         meta["from_snapshot"] = f"{args.from_snapshot} (t = {snap.time:.3f} s)"
         print(f"continuing from {args.from_snapshot}: t = {snap.time:.3f} s")
-    monitor = _monitor(args, system)
+    monitor = _monitor(args, system, stop - (snap.time if snap else 0.0))
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     print(f"running {label}: {stop:g} s of simulated time" + (f", paced at {args.realtime:g}x real time" if pacer else ""))
     result = run_system(system, stop, log, metrics, progress=not args.quiet, metadata=meta, log_every=args.log_every,
@@ -333,7 +333,7 @@ def _outcome(args: argparse.Namespace, opts, meta: dict, result, log: Path | Non
     return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
 
 
-def _monitor(args: argparse.Namespace, system):
+def _monitor(args: argparse.Namespace, system, span: float):
     """The requirements' observer, its signals checked against the FMUs' outputs before anything runs."""
     if args.requirements is None:
         if args.stop_on_violation:
@@ -341,9 +341,10 @@ def _monitor(args: argparse.Namespace, system):
         return None
     from ...engine.model_description import read_fmu
     from ...engine.requirement_observer import RequirementObserver
-    from ...engine.requirements import check_signals, load
+    from ...engine.requirements import check_horizons, check_signals, load
 
     reqs = load(args.requirements)
+    check_horizons(reqs, span, "this run")  # as check refuses it: a window past the run's end can never be decided
     available = {}
     for inst in system.instances:
         for v in read_fmu(inst.fmu, inst.name).modelVariables:
