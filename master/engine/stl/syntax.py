@@ -31,7 +31,7 @@ class StlError(ValueError):
 
 
 MAX_CHARS = 65536  # a formula is text a person writes; the whole requirement file is at most 1 MiB
-MAX_DEPTH = 100  # levels of nesting: each costs the parser at most 5 Python frames, well inside the recursion limit
+MAX_DEPTH = 50  # levels of nesting: each costs the parser 5 Python frames at most, 250 of the 1000 Python allows
 MAX_NODES = 10000  # signals, numbers and operators: the monitor keeps one array of the run's length per operator
 
 
@@ -338,7 +338,11 @@ def parse(text: str):
                        "split it into several requirements)")
     if not text.strip():
         raise StlError("empty formula")
-    tree = _Parser(text).formula()
+    try:
+        tree = _Parser(text).formula()
+    except RecursionError:  # only a caller already deep in its stack: still one line, naming the limit
+        raise StlError(f"formula nested too deeply for the room left on Python's stack (at most {MAX_DEPTH} levels "
+                       "of parentheses, not, always, eventually, -, abs)") from None
     count = sum(1 for _ in postorder(tree))
     if count > MAX_NODES:
         raise StlError(f"formula of {count} nodes (signals, numbers, operators): at most {MAX_NODES}; split it into "
@@ -401,8 +405,25 @@ def unparse(node) -> str:
     """rtamt's textual form of a tree (fully parenthesized): what --explain shows. Bottom up, without recursion."""
     done: dict[int, str] = {}
     for n in postorder(node):
-        done[id(n)] = _unparse_one(n, [done.pop(id(c)) for c in children(n)])
+        parts = [done.pop(id(c)) for c in children(n)]
+        if _chained(n):  # a chain (a and b and c, a + b - c) without a parenthesis a level: it reads back however long
+            parts[0] = parts[0][1:-1]
+        done[id(n)] = _unparse_one(n, parts)
     return done[id(node)]
+
+
+_GROUPS = ({"+", "-"}, {"*", "/"})
+
+
+def _chained(n) -> bool:
+    """Whether n continues its left operand's chain: the same left-associative operator (and, or) or level (+ -, * /),
+    whose text is parenthesized whole; implies, right-associative, continues its right operand's (see _unparse_one)."""
+    if isinstance(n, (And, Or)):
+        return type(n.left) is type(n)
+    if isinstance(n, Arith) and n.op in "+-*/" and len(n.op) == 1:
+        left = n.args[0]
+        return isinstance(left, Arith) and any(n.op in g and left.op in g for g in _GROUPS)
+    return False
 
 
 def _unparse_one(node, parts: list[str]) -> str:
@@ -423,9 +444,12 @@ def _unparse_one(node, parts: list[str]) -> str:
         return f"{parts[0]} {node.op} {parts[1]}"
     if isinstance(node, Not):
         return f"not ({parts[0]})"
-    if isinstance(node, (And, Or, Implies)):
-        word = {And: "and", Or: "or", Implies: "implies"}[type(node)]
+    if isinstance(node, (And, Or)):
+        word = "and" if isinstance(node, And) else "or"
         return f"({parts[0]}) {word} ({parts[1]})"
+    if isinstance(node, Implies):  # right-associative: a chain's right side needs no parenthesis of its own
+        right = parts[1] if isinstance(node.right, Implies) else f"({parts[1]})"
+        return f"({parts[0]}) implies {right}"
     if isinstance(node, Always):
         return f"always{iv(node)} ({parts[0]})"
     if isinstance(node, Eventually):
