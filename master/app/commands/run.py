@@ -317,7 +317,7 @@ def _print_results(result, snap, monitor, pacer, log: Path | None) -> None:
 
 def _outcome(args: argparse.Namespace, opts, meta: dict, result, log: Path | None, monitor) -> Outcome:
     """A failed run's one line (exit 1, or 128 + the signal), else the plots and the requirements' verdicts (exit 1 on a
-    FAIL)."""
+    FAIL, 3 on an INCONCLUSIVE or ZERO without a FAIL)."""
     from ..errors import failure_line
     from ..plot import plot_run
 
@@ -330,7 +330,9 @@ def _outcome(args: argparse.Namespace, opts, meta: dict, result, log: Path | Non
         files = plot_run(log)
         print(f"plots: {', '.join(str(f) for f in files)}")
     verdicts = tuple(monitor.results) if monitor is not None else ()
-    return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
+    judged = {r.verdict for r in verdicts}  # as check's exit: 1 a FAIL, 3 none failed but not all passed (docs/exit_codes.md)
+    code = 1 if "FAIL" in judged else 3 if judged - {"PASS"} else 0
+    return Outcome(code, opts, meta, result, log, files, None, verdicts)
 
 
 def _monitor(args: argparse.Namespace, system, span: float):
