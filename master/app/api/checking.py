@@ -26,6 +26,9 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
         reqs = [*(load(Path(requirements)) if requirements is not None else []), *(from_option(f) for f in formulas)]
         if not reqs:
             raise TiltloadError("check: name a requirement file or give formulas")
-        from ...engine.requirement_check import check_log
+        from ...engine.requirement_check import check_log, log_span
+        from ...engine.requirements import check_horizons
 
+        if Path(log).is_file():  # as `tiltload check` refuses it: a window past the run's end can never be decided
+            check_horizons(reqs, log_span(log), f"the run in {Path(log).name}")
         return check_log(log, reqs)
