@@ -417,7 +417,7 @@ _GROUPS = ({"+", "-"}, {"*", "/"})
 
 def _chained(n) -> bool:
     """Whether n continues its left operand's chain: the same left-associative operator (and, or) or level (+ -, * /),
-    whose text is parenthesized whole; implies, right-associative, continues its right operand's (see _unparse_one)."""
+    read the same way by rtamt's grammar."""
     if isinstance(n, (And, Or)):
         return type(n.left) is type(n)
     if isinstance(n, Arith) and n.op in "+-*/" and len(n.op) == 1:
@@ -444,12 +444,9 @@ def _unparse_one(node, parts: list[str]) -> str:
         return f"{parts[0]} {node.op} {parts[1]}"
     if isinstance(node, Not):
         return f"not ({parts[0]})"
-    if isinstance(node, (And, Or)):
-        word = "and" if isinstance(node, And) else "or"
+    if isinstance(node, (And, Or, Implies)):  # implies keeps its parentheses: rtamt's grammar reads a chain of them
+        word = {And: "and", Or: "or", Implies: "implies"}[type(node)]  # from the left, tiltload's from the right
         return f"({parts[0]}) {word} ({parts[1]})"
-    if isinstance(node, Implies):  # right-associative: a chain's right side needs no parenthesis of its own
-        right = parts[1] if isinstance(node.right, Implies) else f"({parts[1]})"
-        return f"({parts[0]}) implies {right}"
     if isinstance(node, Always):
         return f"always{iv(node)} ({parts[0]})"
     if isinstance(node, Eventually):
