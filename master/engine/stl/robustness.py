@@ -118,6 +118,8 @@ class Evaluator:
 
     def value(self, node) -> np.ndarray:
         """An expression's values at every sample (IEEE arithmetic: x / 0 is infinite, 0 / 0 NaN), bottom up."""
+        if isinstance(node, (Signal, Const)):  # the common side of a comparison: no walk
+            return self._arith(node, [])
         done: dict[int, np.ndarray] = {}
         for n in postorder(node):
             done[id(n)] = self._arith(n, [done.pop(id(c)) for c in children(n)])

@@ -380,19 +380,34 @@ def children(node) -> tuple:
 def _fold(root, own) -> float:
     """own(node) plus the largest of its children's folds (0 for none), bottom up without recursion."""
     done: dict[int, float] = {}
-    for n in postorder(root):
-        done[id(n)] = own(n) + max((done.pop(id(c), 0.0) for c in children(n)), default=0.0)
+    stack = [(root, False)]
+    while stack:  # postorder's walk inline: it runs at every verdict, on the online monitor's path
+        node, expanded = stack.pop()
+        kids = children(node)
+        if expanded or not kids:
+            done[id(node)] = own(node) + (max(done.pop(id(c)) for c in kids) if kids else 0.0)
+        else:
+            stack.append((node, True))
+            stack.extend((c, False) for c in kids)
     return done[id(root)]
 
 
 def horizon(node) -> float:
     """How far past the evaluation time the formula looks (s); inf for an operator to the end of the run."""
-    return _fold(node, lambda n: n.b if isinstance(n, TEMPORAL) else 0.0)
+    return _fold(node, _own_horizon)
 
 
 def bounded_horizon(node) -> float:
     """The horizon counting only bounded intervals (an unbounded operator runs to the end of whatever trace there is)."""
-    return _fold(node, lambda n: (n.b if math.isfinite(n.b) else n.a) if isinstance(n, TEMPORAL) else 0.0)
+    return _fold(node, _own_bounded_horizon)
+
+
+def _own_horizon(n) -> float:
+    return n.b if isinstance(n, TEMPORAL) else 0.0
+
+
+def _own_bounded_horizon(n) -> float:
+    return (n.b if math.isfinite(n.b) else n.a) if isinstance(n, TEMPORAL) else 0.0
 
 
 def _num(v: float) -> str:
