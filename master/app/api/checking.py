@@ -15,8 +15,9 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
     """The verdicts of a requirement file (YAML, docs/requirements.md) and of one-off formulas ("NAME: STL", as
     `tiltload check --formula` takes them) on a run (a Result of tiltload.run, or an MCAP log's path).
 
-    Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), robustness, first_violation (s) and the signals'
-    values there. Raises TiltloadError for a missing or damaged log, a formula that does not parse, an unknown signal."""
+    Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), vacuous (a PASS whose trigger never held), robustness,
+    first_violation (s) and the signals' values there; to_json() is valid JSON. Raises TiltloadError for a missing or
+    damaged log, a formula that does not parse or exceeds a limit, an unknown signal, a window past the run's end."""
     from ...engine.requirements import from_option, load
 
     log = run.log if isinstance(run, Result) else Path(run)
