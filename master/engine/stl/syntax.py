@@ -158,6 +158,7 @@ def _error(text: str, pos: int, why: str) -> StlError:
 class _Parser:
     def __init__(self, text: str) -> None:
         self.text, self.toks, self.i, self.depth = text, _tokens(text), 0, 0
+        self.failed: dict[int, StlError] = {}  # token index of a '(' -> how the arithmetic in it failed
 
     @property
     def tok(self) -> _Tok:
@@ -324,9 +325,16 @@ class _Parser:
             self.expect("op", ")", "')' closing abs(")
             return Arith("abs", (e,))
         if t := self.accept("op", "("):
-            with self.nested(t):
-                e = self.expr()
-            self.expect("op", ")", "')'")
+            start = self.i - 1
+            if start in self.failed:  # tried before, from an outer parenthesis's attempt at a comparison
+                raise self.failed[start].with_traceback(None)
+            try:
+                with self.nested(t):
+                    e = self.expr()
+                self.expect("op", ")", "')'")
+            except StlError as err:  # the same tokens fail the same way: nested parentheses stay linear, not quadratic
+                self.failed[start] = err
+                raise
             return e
         raise self.fail("expected a number, a signal (instance.variable), abs( or '('")
 
