@@ -68,7 +68,7 @@ stop_time = 1.0
 gusts = false
 [[requirements]]
 name = "r"
-formula = "always[0:0.9] plant.z {bound}"
+formula = "always[0:0.9] {body}"
 [[search]]
 name = "amp"
 target = "gust.amplitude"
@@ -84,11 +84,15 @@ simulations = 1
 @pytest.mark.slow
 def test_falsify_a_counterexample_is_a_failing_test(fmus, tmp_path, capsys):
     codes = {}
-    for label, bound in (("holds", "< 100"), ("falsified", "> 100")):
+    for label, body in (("holds", "(plant.z > 100 implies plant.z < -100)"), ("falsified", "plant.z > 100")):
         spec = tmp_path / f"{label}.toml"
-        spec.write_text(FALSIFY.replace("{bound}", bound))
+        spec.write_text(FALSIFY.replace("{body}", body))
         codes[label] = _code(["falsify", str(spec), "--out", str(tmp_path / label), "--fmus", str(fmus), "--workers", "1"])
-    (tmp_path / "bad.toml").write_text(FALSIFY.replace("{bound}", "> 1e999"))
+    import pyarrow.parquet as pq
+
+    (row,) = pq.read_table(tmp_path / "holds" / "falsification.parquet").to_pylist()
+    assert row["verdict_r"] == "PASS (vacuous)"  # its trigger never held: stored as such
+    (tmp_path / "bad.toml").write_text(FALSIFY.replace("{body}", "plant.z > 1e999"))
     codes["bad spec"] = _code(["falsify", str(tmp_path / "bad.toml"), "--out", str(tmp_path / "bad"), "--fmus", str(fmus)])
     assert codes == {"holds": 0, "falsified": 1, "bad spec": 2}
 
@@ -113,7 +117,7 @@ def test_campaign_a_failed_requirement_fails_it_unless_allowed(fmus, runs, tmp_p
     for label in ("pass", "fail"):
         folder = tmp_path / label
         folder.mkdir()
-        (folder / "reqs.yaml").write_text((runs / f"{label}.yaml").read_text())
+        (folder / "reqs.yaml").write_text((runs / f"{'vacuous' if label == 'pass' else label}.yaml").read_text())
         (folder / "c.toml").write_text(CAMPAIGN)
         argv = ["campaign", str(folder / "c.toml"), "--fmus", str(fmus), "--out", str(folder / "out"), "--workers", "1"]
         codes[label] = _code(argv)
@@ -123,4 +127,10 @@ def test_campaign_a_failed_requirement_fails_it_unless_allowed(fmus, runs, tmp_p
     (tmp_path / "bad.toml").write_text(CAMPAIGN + "bogus = 1\n")
     codes["bad spec"] = _code(["campaign", str(tmp_path / "bad.toml"), "--fmus", str(fmus), "--out", str(tmp_path / "o")])
     assert codes == {"pass": 0, "fail": 1, "fail, allowed": 0, "bad spec": 2}
-    assert _code(["campaign-report", str(tmp_path / "fail" / "out" / "results.parquet")]) == 0
+    import pyarrow.parquet as pq
+
+    (row,) = pq.read_table(tmp_path / "pass" / "out" / "results.parquet").to_pylist()
+    assert row["r_verdict"] == "PASS (vacuous)"  # a vacuous pass passes the campaign, and its column says so
+    assert _code(["campaign-report", str(tmp_path / "pass" / "out" / "results.parquet")]) == 0
+    report = next((tmp_path / "pass" / "out").rglob("*.md")).read_text()
+    assert "| r | 1 (1 vacuous) | 0 | 0 | 0 | 100 % |" in report
