@@ -21,7 +21,7 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
-from .stl.syntax import KEYWORDS
+from .stl.syntax import KEYWORDS, number_text
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -89,11 +89,11 @@ def _interval(entry: dict, where: str) -> str:
     if a < 0:
         raise RequirementError(f"{where}from = {a:g} s: a negative time (the run starts at 0)")
     if end is None:
-        return "" if a == 0 else f"[{a:g}:inf]"
+        return "" if a == 0 else f"[{number_text(a)}:inf]"  # every digit: :g would move a bound of 12.3456789 s
     b = _number(end, "to", where)
     if b < a:
         raise RequirementError(f"{where}reversed interval from {a:g} to {b:g} s")
-    return f"[{a:g}:{b:g}]"
+    return f"[{number_text(a)}:{number_text(b)}]"
 
 
 def _expand_bounds(b, where: str) -> str:
@@ -130,8 +130,8 @@ def _expand_response(r, where: str) -> str:
             parse(r[key])
         except StlError as err:
             raise RequirementError(f"{where}response.{key}: {err}") from None
-    held = f"always[0:{hold:g}] ({r['response']})" if hold > 0 else f"({r['response']})"
-    return f"always{_interval(r, where)} (({r['trigger']}) implies eventually[0:{within:g}] {held})"
+    held = f"always[0:{number_text(hold)}] ({r['response']})" if hold > 0 else f"({r['response']})"
+    return f"always{_interval(r, where)} (({r['trigger']}) implies eventually[0:{number_text(within)}] {held})"
 
 
 def parse_entries(data, where: str) -> list[Requirement]:

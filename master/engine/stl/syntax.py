@@ -418,6 +418,11 @@ def _own_bounded_horizon(n) -> float:
     return (n.b if math.isfinite(n.b) else n.a) if isinstance(n, TEMPORAL) else 0.0
 
 
+def number_text(v: float) -> str:
+    """The shortest text that reads back as the same float ("5" for 5.0, all the digits where :g would drop some)."""
+    return _num(v)
+
+
 def _num(v: float) -> str:
     """The shortest text that reads back as the same float."""
     short = f"{v:g}"
