@@ -21,7 +21,7 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
-from .stl.syntax import KEYWORDS, number_text
+from .stl.syntax import number_text
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
@@ -100,7 +100,7 @@ def _expand_bounds(b, where: str) -> str:
     if not isinstance(b, dict) or set(b) - _BOUNDS or "signal" not in b:
         raise RequirementError(f"{where}bounds is a mapping of signal, min, max, from, to (got {b!r:.80})")
     sig = b["signal"]
-    if not isinstance(sig, str) or not _SIGNAL.match(sig) or sig.split(".")[0] in KEYWORDS:
+    if not isinstance(sig, str) or not _SIGNAL.match(sig):
         # checked before it is spliced into the expansion: a formula or a parenthesis here would change its meaning
         raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r:.80}")
     parts = []

@@ -40,7 +40,7 @@ def bad_formulas() -> list[tuple[str, str]]:
 
 def bad_sugar() -> list[tuple[str, str, str]]:
     """(label, YAML entry, the field the line must name): a sugar field that is not what it says."""
-    signals = ["plant.x) or (plant.z", "plant.x > 0", "x", "plant.x and plant.z", "always.x", "plant.x)", "(plant.x",
+    signals = ["plant.x) or (plant.z", "plant.x > 0", "x", "plant.x and plant.z", "always", "plant.x)", "(plant.x",
                "plant.x; rm -rf", "", "plant.", ".x", "plant.x + 1"]
     out = [(f"bounds.signal {s!r}", f'{{name: a, bounds: {{signal: {json.dumps(s)}, max: 1}}}}', "bounds.signal") for s in signals]
     out += [("bounds.signal a list", "{name: a, bounds: {signal: [plant.x], max: 1}}", "bounds.signal"),
@@ -230,3 +230,13 @@ def test_vacuous_pass_in_the_table_json_and_the_api(tmp_path, capsys):
     assert [(r["name"], r["vacuous"]) for r in results] == [("gust", True), ("used", False)]
     api = {r.name: r for r in tl.check(log, reqs)}
     assert api["gust"].vacuous and api["gust"].shown == "PASS (vacuous)" and not api["used"].vacuous
+
+
+def test_sugar_times_keep_every_digit_and_a_checked_field_is_spliced_as_given():
+    from tiltload.master.engine.requirements import parse_entries
+
+    (r,) = parse_entries({"requirements": [{"name": "a", "bounds": {"signal": "plant.x", "max": 1, "from": 0.1, "to": 12.3456789}}]}, "")
+    assert r.formula.a == 0.1 and r.formula.b == 12.3456789  # not 12.3457, as :g wrote it
+    (g,) = parse_entries({"requirements": [{"name": "g", "response": {"trigger": "plant.x > 0 or plant.z > 1",
+                                                                       "response": "plant.z < 0", "within": 0.25}}]}, "")
+    assert g.text == "always ((plant.x > 0 or plant.z > 1) implies eventually[0:0.25] (plant.z < 0))"
