@@ -434,24 +434,17 @@ def unparse(node) -> str:
     done: dict[int, str] = {}
     for n in postorder(node):
         parts = [done.pop(id(c)) for c in children(n)]
-        if _chained(n):  # a chain (a and b and c, a + b - c) without a parenthesis a level: it reads back however long
+        if _chained(n):  # a chain (a and b and c) without a parenthesis a level: it reads back however long
             parts[0] = parts[0][1:-1]
         done[id(n)] = _unparse_one(n, parts)
     return done[id(node)]
 
 
-_GROUPS = ({"+", "-"}, {"*", "/"})
-
-
 def _chained(n) -> bool:
-    """Whether n continues its left operand's chain: the same left-associative operator (and, or) or level (+ -, * /),
-    read the same way by rtamt's grammar."""
-    if isinstance(n, (And, Or)):
-        return type(n.left) is type(n)
-    if isinstance(n, Arith) and n.op in "+-*/" and len(n.op) == 1:
-        left = n.args[0]
-        return isinstance(left, Arith) and any(n.op in g and left.op in g for g in _GROUPS)
-    return False
+    """Whether n continues its left operand's chain of the same operator, and or or: min and max are associative, so
+    any tool reads the chain to the same value; arithmetic and implies keep their parentheses (rtamt's grammar may group
+    a - b + c or a -> b -> c otherwise than tiltload's)."""
+    return isinstance(n, (And, Or)) and type(n.left) is type(n)
 
 
 def _unparse_one(node, parts: list[str]) -> str:
