@@ -11,6 +11,8 @@ import re
 import numpy as np
 import pytest
 import tiltload as tl
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from support.synthetic_log import write_log
 from tiltload.master.app.cli import main
 
@@ -240,3 +242,35 @@ def test_sugar_times_keep_every_digit_and_a_checked_field_is_spliced_as_given():
     (g,) = parse_entries({"requirements": [{"name": "g", "response": {"trigger": "plant.x > 0 or plant.z > 1",
                                                                        "response": "plant.z < 0", "within": 0.25}}]}, "")
     assert g.text == "always ((plant.x > 0 or plant.z > 1) implies eventually[0:0.25] (plant.z < 0))"
+
+
+_PIECES = ["plant.x > 0", "plant.z < 1", "(", ")", " and ", " or ", " -> ", "not ", "always[0:1] ", "eventually ", " until ",
+           "plant.x", " + ", "1e999", "abs(", "[0:1]", ":", "!", "plant.x)", "(plant.z"]
+
+
+@settings(max_examples=150, deadline=None)
+@given(trigger=st.lists(st.sampled_from(_PIECES), min_size=1, max_size=12).map("".join),
+       response=st.lists(st.sampled_from(_PIECES), min_size=1, max_size=12).map("".join),
+       signal=st.lists(st.sampled_from(["plant", ".", "x", " ", ")", "(", "or", "_1", ">"]), min_size=1, max_size=6).map("".join))
+def test_a_sugar_field_is_refused_naming_it_or_is_exactly_its_own_formula(trigger, response, signal):
+    """Whatever the text: refused with one line naming the field, or the expansion holds the field's own tree where the
+    field goes (never a text spliced in that changes the meaning around it)."""
+    from tiltload.master.engine.requirements import RequirementError, parse_entries
+    from tiltload.master.engine.stl import parse
+    from tiltload.master.engine.stl import syntax as S
+
+    entry = {"name": "r", "response": {"trigger": trigger, "response": response, "within": 1}}
+    try:
+        (r,) = parse_entries({"requirements": [entry]}, "")
+    except RequirementError as err:
+        assert "\n" not in str(err) and ("response.trigger" in str(err) or "response.response" in str(err)), str(err)
+    else:
+        implies = r.formula.arg
+        assert isinstance(r.formula, S.Always) and isinstance(implies, S.Implies)
+        assert implies.left == parse(trigger) and implies.right.arg == parse(response)
+    try:
+        (b,) = parse_entries({"requirements": [{"name": "b", "bounds": {"signal": signal, "min": 0}}]}, "")
+    except RequirementError as err:
+        assert "bounds.signal" in str(err) and "\n" not in str(err)
+    else:
+        assert b.formula.arg == S.Compare(">=", S.Signal(signal), S.Const(0.0))
