@@ -189,13 +189,11 @@ class Evaluator:
             return np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
         out = np.full(n, -np.inf)
         run = np.full(n, np.inf)  # min of p over [i, i + d)
-        last = min(hi, n)  # past d = n every shift is all padding: one more pass says what the rest of the window adds
-        for d in range(last + 1):  # O(n w): w vector passes (Donzé et al. 2013 give O(n); the windows here are short)
+        # O(n w): w vector passes, w <= n + 1 (ticks_end stops at the trace's end; Donzé et al. 2013 give O(n))
+        for d in range(hi + 1):
             if d >= lo:
                 out = np.maximum(out, np.minimum(_shifted(q, d, pad_q), run))
             run = np.minimum(run, _shifted(p, d, pad_p))
-        if hi > last and max(lo, last + 1) <= hi:
-            out = np.maximum(out, np.minimum(np.full(n, pad_q), run))
         return out
 
 
