@@ -100,7 +100,7 @@ def _expand_bounds(b, where: str) -> str:
     if not isinstance(b, dict) or set(b) - _BOUNDS or "signal" not in b:
         raise RequirementError(f"{where}bounds is a mapping of signal, min, max, from, to (got {b!r:.80})")
     sig = b["signal"]
-    if not isinstance(sig, str) or not _SIGNAL.match(sig):
+    if not isinstance(sig, str) or not _SIGNAL.fullmatch(sig):
         # checked before it is spliced into the expansion: a formula or a parenthesis here would change its meaning
         raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r:.80}")
     parts = []
