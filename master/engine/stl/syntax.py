@@ -278,8 +278,8 @@ class _Parser:
         """A number's value; one that overflows a double (1e999) is refused, not read as infinity."""
         value = float(t.text)
         if math.isinf(value):
-            raise _error(self.text, t.pos, f"number {t.text} is beyond a double's range (at most about 1.8e308); "
-                                           "for the end of the run write inf as an interval's end")
+            raise _error(self.text, t.pos, f"number {t.text:.30} is beyond a double's range (at most about 1.8e308; "
+                                           "to the end of the run is [a:inf])")
         return value
 
     def comparison(self):
