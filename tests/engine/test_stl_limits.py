@@ -178,3 +178,26 @@ def test_vacuity_only_of_implies_at_the_top():
     assert not verdict(parse("always[0:4] (a.x > 1.5 implies a.x > 0)"), tr).vacuous  # held from 2.6 s
     assert not verdict(parse("always[0:4] (not a.x > 5 or a.x < 0)"), tr).vacuous  # the same, not written as implies
     assert verdict(parse("always[0:4] (a.x > 5 implies a.x < 0)"), tr).shown == "PASS (vacuous)"
+
+
+# --- a long bounded until: O(n), the same values as the window's passes and as the definition -------------------------
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_long_until_window_equals_the_passes_and_the_definition(seed, monkeypatch):
+    from tiltload.master.engine.stl import robustness as R
+
+    rng = random.Random(9000 + seed)
+    period = rng.choice([1.0, 0.25])
+    trace = rand_trace(rng, rng.randint(1, 40), period)
+    a = rng.randint(0, 5) * period
+    f = S.Until(a, a + rng.randint(0, 45) * period + rng.choice([0, 0.4]) * period, rand_formula(rng, 1, period),
+                rand_formula(rng, 1, period))
+    f = S.Not(S.Always(0, 3 * period, f)) if rng.random() < 0.3 else f
+    for final in (True, False):
+        for mode in ("value", "lower", "upper"):
+            monkeypatch.setattr(R, "UNTIL_PASSES", 10**9)  # every window by its passes
+            passes = Evaluator(trace, final)(f, mode)
+            monkeypatch.setattr(R, "UNTIL_PASSES", -1)  # every window by _until_long
+            assert np.array_equal(Evaluator(trace, final)(f, mode), passes), (unparse(f), final, mode)
+    want = np.array([brute(f, trace, i) for i in range(len(trace))])
+    assert np.array_equal(Evaluator(trace)(f), want), unparse(f)

@@ -10,7 +10,7 @@ Three evaluations of the same tree: "value" treats the samples past the end of t
 semantics: a truncated window is the min/max of what there is); "lower" and "upper" bound the robustness over every
 way the trace could go on (an unknown sample is -inf, resp. +inf; `not` swaps the bounds). A run that covers the
 formula's horizon has value = lower = upper at its start. Windowed min/max are O(n) (windows.py); bounded until is
-O(n w) in vectorized passes (w: its window in ticks); unbounded until is O(n).
+O(n w) in vectorized passes (w: its window in ticks) up to UNTIL_PASSES ticks, O(n) past it; unbounded until is O(n).
 """
 
 from __future__ import annotations
@@ -187,14 +187,34 @@ class Evaluator:
             if lo == 0:
                 return first
             return np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
+        if hi - lo > UNTIL_PASSES and not (np.isnan(p).any() or np.isnan(q).any()):
+            return _until_long(p, q, lo, hi, pad_p, pad_q)
         out = np.full(n, -np.inf)
         run = np.full(n, np.inf)  # min of p over [i, i + d)
-        # O(n w): w vector passes, w <= n + 1 (ticks_end stops at the trace's end; Donzé et al. 2013 give O(n))
+        # O(n w): w vector passes, w <= n + 1 (ticks_end stops at the trace's end); a longer window: _until_long, O(n)
         for d in range(hi + 1):
             if d >= lo:
                 out = np.maximum(out, np.minimum(_shifted(q, d, pad_q), run))
             run = np.minimum(run, _shifted(p, d, pad_p))
         return out
+
+
+UNTIL_PASSES = 256  # a bounded until's window (ticks) up to which it is w vector passes; past it, O(n) (_until_long)
+
+
+def _until_long(p: np.ndarray, q: np.ndarray, lo: int, hi: int, pad_p: float, pad_q: float) -> np.ndarray:
+    """Bounded until in O(n) for a long window. With w = hi - lo, V(m) = max over j in [m, m + w] of min(q[j], min of p
+    over [m, j)) equals min(U(m), max of q over [m, m + w]), U the until to the end (U >= V; and where U's best j lies
+    past the window, p's running minimum only falls, so the window's largest q bounds it): min and max only select, so
+    the values are the definition's, bit for bit but for the sign of a zero. Then the start shifted by lo, as the
+    unbounded until does. Samples without NaN only (numpy carries a NaN through more of them than the window)."""
+    n = len(p)
+    if lo > hi:
+        return np.full(n, -np.inf)
+    v = np.minimum(_until_to_end(p.tolist(), q.tolist(), pad_q), -sliding_min(-q, 0, hi - lo, -pad_q))
+    first = np.full(n, pad_q)  # V at i + lo: past the end nothing but pad_q
+    first[:max(0, n - lo)] = v[lo:]
+    return first if lo == 0 else np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
 
 
 def _shifted(x: np.ndarray, d: int, pad: float) -> np.ndarray:
