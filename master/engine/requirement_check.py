@@ -32,15 +32,25 @@ class Result:
     formula: str = ""
     description: str = ""
     source: str = ""
+    vacuous: bool = False  # a PASS (or ZERO) of `always[a:b] (p implies q)` whose p never held: nothing was tested
+
+    @property
+    def shown(self) -> str:
+        """The verdict as tables and stored verdict columns show it: "PASS (vacuous)" for a vacuous pass."""
+        return f"{self.verdict} (vacuous)" if self.vacuous else self.verdict
 
     def to_json(self) -> dict:
+        """Valid JSON (RFC 8259 has no NaN or Infinity): a number that is not finite is the text "inf", "-inf", "nan"."""
         d = asdict(self)
-        d["bounds"] = [_finite(b) for b in self.bounds]
+        d["bounds"] = [json_number(b) for b in self.bounds]
+        d["robustness"] = None if self.robustness is None else json_number(self.robustness)
+        d["values"] = {k: json_number(v) for k, v in self.values.items()}
         return d
 
 
-def _finite(x: float):
-    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+def json_number(x: float):
+    """x, or for a value JSON cannot hold, its name: "inf", "-inf", "nan"."""
+    return x if math.isfinite(x) else "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
 
 
 def split(name: str) -> tuple[str, str]:
@@ -126,12 +136,24 @@ def check_trace(reqs: list[Requirement], trace_for, final: bool = True, evaluato
             raise RequirementError(f"requirement '{req.name}': {err}") from None
         why = ""
         span = trace.times[-1] - trace.times[0]
-        if v.verdict == "INCONCLUSIVE":
+        if v.unknown:
+            why = _not_a_number(req, trace)
+        elif v.verdict == "INCONCLUSIVE":
             why = (f"the run covers {span:g} s of the {req.horizon:g} s the requirement looks at" if span < req.horizon
                    else f"the run ended early, at {trace.times[-1]:g} s: what holds to the end of the run is open")
         out.append(Result(req.name, v.verdict, v.robustness, v.violation_time, v.violation_values, v.bounds, why, req.text,
-                          req.description, req.source))
+                          req.description, req.source, v.vacuous))
     return out
+
+
+def _not_a_number(req: Requirement, trace: Trace) -> str:
+    """Why a verdict was judged over values not known: the first NaN sample of the requirement's signals."""
+    firsts = [(float(trace.times[int(np.argmax(np.isnan(trace.signals[n])))]), n) for n in req.signals
+              if n in trace.signals and np.isnan(trace.signals[n]).any()]
+    if firsts:
+        t, name = min(firsts)
+        return f"{name} is NaN from t = {t:g} s: judged for any value it could have had"
+    return "the formula computes NaN (0 / 0, inf - inf): judged for any value it could have had"
 
 
 def log_series(messages: dict[str, list[dict]]) -> tuple[dict, dict[str, str]]:

@@ -164,7 +164,7 @@ def _identifiers(names: list[str]) -> list[str]:
 
 def _summary(r: Result) -> str:
     """One metadata value: the verdict, the robustness, the first violation."""
-    text = r.verdict + ("" if r.robustness is None else f" {r.robustness!r}")
+    text = r.shown + ("" if r.robustness is None else f" {r.robustness!r}")  # "PASS (vacuous) 0.5" for a vacuous pass
     if r.first_violation is not None:
         text += f" at {r.first_violation!r}"
     return text

@@ -21,9 +21,11 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
+from .stl.syntax import number_text
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_SIGNAL = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)+$")  # instance.variable, as the grammar's
 _KEYS = {"name", "description", "source", "formula", "bounds", "response"}
 _BOUNDS = {"signal", "min", "max", "from", "to"}
 _RESPONSE = {"trigger", "response", "within", "hold", "from", "to"}
@@ -87,19 +89,20 @@ def _interval(entry: dict, where: str) -> str:
     if a < 0:
         raise RequirementError(f"{where}from = {a:g} s: a negative time (the run starts at 0)")
     if end is None:
-        return "" if a == 0 else f"[{a:g}:inf]"
+        return "" if a == 0 else f"[{number_text(a)}:inf]"  # every digit: :g would move a bound of 12.3456789 s
     b = _number(end, "to", where)
     if b < a:
         raise RequirementError(f"{where}reversed interval from {a:g} to {b:g} s")
-    return f"[{a:g}:{b:g}]"
+    return f"[{number_text(a)}:{number_text(b)}]"
 
 
 def _expand_bounds(b, where: str) -> str:
     if not isinstance(b, dict) or set(b) - _BOUNDS or "signal" not in b:
         raise RequirementError(f"{where}bounds is a mapping of signal, min, max, from, to (got {b!r:.80})")
     sig = b["signal"]
-    if not isinstance(sig, str):
-        raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r}")
+    if not isinstance(sig, str) or not _SIGNAL.fullmatch(sig):
+        # checked before it is spliced into the expansion: a formula or a parenthesis here would change its meaning
+        raise RequirementError(f"{where}bounds.signal must be a signal name (instance.variable), got {sig!r:.80}")
     parts = []
     if b.get("min") is not None:
         parts.append(f"{sig} >= {_number(b['min'], 'bounds.min', where)!r}")
@@ -123,8 +126,12 @@ def _expand_response(r, where: str) -> str:
     for key in ("trigger", "response"):
         if not isinstance(r[key], str):
             raise RequirementError(f"{where}response.{key} must be an STL formula (text)")
-    held = f"always[0:{hold:g}] ({r['response']})" if hold > 0 else f"({r['response']})"
-    return f"always{_interval(r, where)} (({r['trigger']}) implies eventually[0:{within:g}] {held})"
+        try:  # a whole formula on its own before it is spliced in: unbalanced parentheses would change the expansion
+            parse(r[key])
+        except StlError as err:
+            raise RequirementError(f"{where}response.{key}: {err}") from None
+    held = f"always[0:{number_text(hold)}] ({r['response']})" if hold > 0 else f"({r['response']})"
+    return f"always{_interval(r, where)} (({r['trigger']}) implies eventually[0:{number_text(within)}] {held})"
 
 
 def parse_entries(data, where: str) -> list[Requirement]:
@@ -172,6 +179,15 @@ def load(path: Path) -> list[Requirement]:
     except UserFileError as err:
         raise RequirementError(str(err)) from None
     return parse_entries(data, f"{path}: ")
+
+
+def check_horizons(reqs: list[Requirement], span: float, what: str) -> None:
+    """Every requirement can be decided by a run of `span` s: one that looks further ahead (always[0:1e308]) is refused
+    before it runs, as `tiltload check` refuses it for its logs."""
+    for req in reqs:
+        if req.horizon > span + 1e-9:
+            raise RequirementError(f"requirement '{req.name}' looks {req.horizon:g} s ahead, longer than {what} ({span:g} s): "
+                                   "no such run can decide it")
 
 
 def check_signals(reqs: list[Requirement], available: dict[str, str], where: str) -> None:

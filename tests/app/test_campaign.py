@@ -306,7 +306,8 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
     cluster.add_worker()
     cluster.wait_for_workers(2)
     capfd.readouterr()
-    assert main(args) == 0  # the same command (in this process: a second start of the command is seconds)
+    assert main(args) == 1  # the same command (in this process: a second start of the command is seconds); 4 runs
+    # were refused (load_mass -1): a campaign with failed runs exits 1 (docs/exit_codes.md)
     rerun = capfd.readouterr()
     assert f"12 runs, {done} already done, {12 - done} to run" in rerun.err
     assert (f"12 runs: 12 in the results, 8 completed, 4 failed (0 diverged); {done} were done before, {12 - done} ran now"
@@ -460,7 +461,7 @@ def test_a_tls_cluster_takes_the_campaigns_of_clients_with_its_certificates_only
            "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT": str(tls["cert"]),
            "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY": str(tls["key"])}
     done = subprocess.run(_cli(*args, "--scheduler", cluster.address), capture_output=True, text=True, env=env, timeout=300)
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == 1 and "4 run(s) failed" in done.stderr, done.stderr  # the refused ones: exit 1
     assert identical(rows(out / "results.parquet"), rows(local_results))
 
 
@@ -498,10 +499,10 @@ def test_retry_failed_reruns_stored_failures_and_the_summary_counts_what_the_res
                              error="worker lost: FutureCancelledError: cancelled for reason: scheduler-connection-lost.")
         campaign.write_part(out / "parts", {"row": false_failure, "wall": 0.0, "setup": 0.0, "sim_time": 0.0})
     args = ["campaign", str(write_spec(tmp_path, bad=-1.0)), "--out", str(out), "--fmus", str(fmus), "--workers", "1"]
-    assert main(args) == 0
+    assert main(args) == 1  # failed runs in the results: exit 1 (docs/exit_codes.md)
     assert "12 runs: 12 in the results, 6 completed, 6 failed (0 diverged); 12 were done before, 0 ran now" in \
         capsys.readouterr().out
-    assert main([*args, "--retry-failed"]) == 0
+    assert main([*args, "--retry-failed"]) == 1  # the 4 refused ones fail again
     assert "12 runs: 12 in the results, 8 completed, 4 failed (0 diverged); 6 were done before, 6 ran now" in \
         capsys.readouterr().out
     assert identical(rows(out / "results.parquet"), rows(local_results))

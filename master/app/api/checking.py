@@ -15,8 +15,9 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
     """The verdicts of a requirement file (YAML, docs/requirements.md) and of one-off formulas ("NAME: STL", as
     `tiltload check --formula` takes them) on a run (a Result of tiltload.run, or an MCAP log's path).
 
-    Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), robustness, first_violation (s) and the signals'
-    values there. Raises TiltloadError for a missing or damaged log, a formula that does not parse, an unknown signal."""
+    Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), vacuous (a PASS whose trigger never held), robustness,
+    first_violation (s) and the signals' values there; to_json() is valid JSON. Raises TiltloadError for a missing or
+    damaged log, a formula that does not parse or exceeds a limit, an unknown signal, a window past the run's end."""
     from ...engine.requirements import from_option, load
 
     log = run.log if isinstance(run, Result) else Path(run)
@@ -26,6 +27,9 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
         reqs = [*(load(Path(requirements)) if requirements is not None else []), *(from_option(f) for f in formulas)]
         if not reqs:
             raise TiltloadError("check: name a requirement file or give formulas")
-        from ...engine.requirement_check import check_log
+        from ...engine.requirement_check import check_log, log_span
+        from ...engine.requirements import check_horizons
 
+        if Path(log).is_file():  # as `tiltload check` refuses it: a window past the run's end can never be decided
+            check_horizons(reqs, log_span(log), f"the run in {Path(log).name}")
         return check_log(log, reqs)

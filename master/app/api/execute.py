@@ -68,7 +68,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     if snap is not None:
         meta["from_snapshot"] = f"{options.from_snapshot} (t = {snap.time:.3f} s)"
         say(f"continuing from {options.from_snapshot}: t = {snap.time:.3f} s")
-    monitor = _monitor(options, system)
+    monitor = _monitor(options, system, stop - (snap.time if snap else 0.0))
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
     say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
     plan = RunPlan(system, stop, log, meta, tuple(scene_channels(scene)) if scene else (), options.log_every, metrics,
@@ -201,7 +201,7 @@ def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say) -> No
 
 def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, monitor, say: Say) -> Outcome:
     """A failed run's one line (exit 1, or 128 + the signal), else the plots and the requirements' verdicts (exit 1 on a
-    FAIL)."""
+    FAIL, 3 on an INCONCLUSIVE or ZERO without a FAIL)."""
     from ..errors import failure_line
     from ..plot import plot_run
 
@@ -214,7 +214,9 @@ def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, mo
         files = plot_run(log)
         say(f"plots: {', '.join(str(f) for f in files)}")
     verdicts = tuple(monitor.results) if monitor is not None else ()
-    return Outcome(1 if any(r.verdict == "FAIL" for r in verdicts) else 0, opts, meta, result, log, files, None, verdicts)
+    judged = {r.verdict for r in verdicts}  # as check's exit: 1 a FAIL, 3 none failed but not all passed (docs/exit_codes.md)
+    code = 1 if "FAIL" in judged else 3 if judged - {"PASS"} else 0
+    return Outcome(code, opts, meta, result, log, files, None, verdicts)
 
 
 def _failed_run_plots(options: RunOptions, log: Path | None, say: Say) -> list[Path]:
@@ -253,7 +255,7 @@ def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, 
     say(f"report: {write_report(report, options.report)}")
 
 
-def _monitor(options: RunOptions, system):
+def _monitor(options: RunOptions, system, span: float):
     """The requirements' observer, its signals checked against the FMUs' outputs before anything runs."""
     if options.requirements is None:
         if options.stop_on_violation:
@@ -261,9 +263,10 @@ def _monitor(options: RunOptions, system):
         return None
     from ...engine.model_description import read_fmu
     from ...engine.requirement_observer import RequirementObserver
-    from ...engine.requirements import check_signals, load
+    from ...engine.requirements import check_horizons, check_signals, load
 
     reqs = load(options.requirements)
+    check_horizons(reqs, span, "this run")  # as check refuses it: a window past the run's end can never be decided
     available = {}
     for inst in system.instances:
         for v in read_fmu(inst.fmu, inst.name).modelVariables:

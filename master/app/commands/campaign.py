@@ -32,6 +32,8 @@ def add_parser(sub) -> None:
     ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")
     ca.add_argument("--verbose", action="store_true", help="Dask's log on the terminal too (it is always in <out>/campaign.log)")
     ca.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    ca.add_argument("--allow-failures", action="store_true",
+                    help="exit 0 even when a run failed or a requirement FAILed (default: exit 1 then, docs/exit_codes.md)")
     for name in ("--spec", "--x", "--y"):  # the older report form's options, hidden: campaign-report lists them
         ca.add_argument(name, type=Path if name == "--spec" else str, default=None, help=argparse.SUPPRESS)
     ca.set_defaults(func=run)
@@ -64,7 +66,28 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(summary(counts))
     print(f"results: {results}")
+    failing = failures(results, counts)
+    if failing and not args.allow_failures:
+        print(f"tiltload: campaign: {failing} (exit 1; --allow-failures exits 0)", file=sys.stderr)
+        return 1
     return 0
+
+
+def failures(results: Path, counts: dict) -> str:
+    """What in the results fails the campaign as a test: runs that failed, requirements' FAILs ("" for none)."""
+    import pyarrow.parquet as pq
+
+    said = [f"{counts['failed']} run(s) failed"] if counts.get("failed") else []
+    try:
+        table = pq.read_table(results, columns=None)
+    except (OSError, ValueError):
+        return "; ".join(said)
+    for name in table.column_names:
+        if name.endswith("_verdict"):
+            n = table.column(name).to_pylist().count("FAIL")
+            if n:
+                said.append(f"requirement {name[:-len('_verdict')]} FAILed in {n} run(s)")
+    return "; ".join(said)
 
 
 def execute(args: argparse.Namespace) -> tuple[Path, dict]:

@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{log}:")
             print("\n".join(table(results)))
     if args.json:
-        print(json.dumps({"logs": report}, indent=1))
+        print(json.dumps({"logs": report}, indent=1, allow_nan=False))  # RFC 8259: to_json names what is not finite
     if args.report is not None:
         _write_report(args.report, reqs, per_log, args.files[0] if args.files and not _is_log(args.files[0]) else None)
     verdicts = {r.verdict for r in everything}

@@ -48,12 +48,12 @@ def run(args: argparse.Namespace) -> int:
     from ..campaign.errors import CampaignIncomplete
 
     try:
-        _, _, out = run_falsification(args.spec, options_of(args))
+        _, outcome, out = run_falsification(args.spec, options_of(args))
     except CampaignIncomplete as err:
         print(f"tiltload: error: {err}", file=sys.stderr)
         return 1
     print((out / "summary.txt").read_text(), end="")
-    print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}")
+    print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}; report: {out / 'report.html'}")
     if args.neighbourhood and (out / "neighbourhood" / "neighbourhood.txt").is_file():
         print((out / "neighbourhood" / "neighbourhood.txt").read_text(), end="")
-    return 0
+    return 1 if outcome.falsified_at is not None else 0  # a counterexample is a failing test (docs/exit_codes.md)

@@ -48,7 +48,7 @@ def robustness(formulas: list[str], trace, final: bool, worker: CaseWorker | Non
     for text in formulas:
         v = verdict(worker.formula(text), trace, final, ev)
         rho.append(v.robustness if v.robustness is not None else v.bounds[1])
-        verdicts.append(v.verdict)
+        verdicts.append(v.shown)  # "PASS (vacuous)": its trigger never held (docs/requirements.md, Vacuity)
     return rho, verdicts
 
 

@@ -10,7 +10,7 @@ Three evaluations of the same tree: "value" treats the samples past the end of t
 semantics: a truncated window is the min/max of what there is); "lower" and "upper" bound the robustness over every
 way the trace could go on (an unknown sample is -inf, resp. +inf; `not` swaps the bounds). A run that covers the
 formula's horizon has value = lower = upper at its start. Windowed min/max are O(n) (windows.py); bounded until is
-O(n w) in vectorized passes (w: its window in ticks); unbounded until is O(n).
+O(n w) in vectorized passes (w: its window in ticks) up to UNTIL_PASSES ticks, O(n) past it; unbounded until is O(n).
 """
 
 from __future__ import annotations
@@ -20,7 +20,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .syntax import Always, And, Compare, Const, Eventually, Implies, Not, Or, Signal, StlError, Until, bounded_horizon, signals
+from .syntax import (
+    Always,
+    And,
+    Arith,
+    Compare,
+    Const,
+    Eventually,
+    Implies,
+    Not,
+    Or,
+    Signal,
+    StlError,
+    Until,
+    bounded_horizon,
+    children,
+    postorder,
+    signals,
+)
 from .windows import sliding_min
 
 _SLACK = 1e-9  # of a tick: a time bound this close to a whole number of ticks is that number
@@ -53,12 +70,14 @@ class Trace:
         return len(self.times)
 
     def ticks(self, seconds: float) -> int:
-        """A window's start in ticks: the first tick at or after the bound."""
-        return max(0, math.ceil(seconds / self.period - _SLACK))
+        """A window's start in ticks: the first tick at or after the bound (any bound past the trace is len + 1: the same
+        window, none of its samples there, and no float too large for an int)."""
+        return max(0, min(len(self) + 1, math.ceil(min(seconds / self.period, len(self) + 1.0) - _SLACK)))
 
     def ticks_end(self, seconds: float) -> int:
-        """A window's end in ticks: the last tick at or before the bound (len(self) for no bound: the end of the trace)."""
-        return len(self) if math.isinf(seconds) else math.floor(seconds / self.period + _SLACK)
+        """A window's end in ticks: the last tick at or before the bound (len(self) for no bound: the end of the trace;
+        a bound past the trace is len(self) too, for the same reason as ticks)."""
+        return len(self) if math.isinf(seconds) else min(len(self), math.floor(min(seconds / self.period, len(self) + 1.0) + _SLACK))
 
 
 _FLIP = {"value": "value", "lower": "upper", "upper": "lower"}
@@ -75,10 +94,20 @@ class Evaluator:
 
     def __call__(self, node, mode: str = "value") -> np.ndarray:
         key = (id(node), mode)
-        hit = self._memo.get(key)
-        if hit is None:  # the node is kept with its value: a freed tree's id, reused by a new node, must not hit
-            hit = self._memo[key] = (node, self._eval(node, mode))
-        return hit[1]
+        if key not in self._memo:  # children first, on an explicit stack: a chain thousands deep is no recursion
+            stack = [(node, mode)]
+            while stack:
+                n, m = stack[-1]
+                if (id(n), m) in self._memo:
+                    stack.pop()
+                    continue
+                missing = [(c, cm) for c, cm in _operands(n, m) if (id(c), cm) not in self._memo]
+                if missing:
+                    stack.extend(reversed(missing))
+                    continue
+                stack.pop()  # the node is kept with its value: a freed tree's id, reused by a new node, must not hit
+                self._memo[(id(n), m)] = (n, self._eval(n, m))
+        return self._memo[key][1]
 
     def _pads(self, mode: str, unbounded: bool) -> tuple[float, float]:
         """(what an absent sample is for a min, for a max): neutral for the value, unknown for a bound."""
@@ -88,6 +117,15 @@ class Evaluator:
         return v, v
 
     def value(self, node) -> np.ndarray:
+        """An expression's values at every sample (IEEE arithmetic: x / 0 is infinite, 0 / 0 NaN), bottom up."""
+        if isinstance(node, (Signal, Const)):  # the common side of a comparison: no walk
+            return self._arith(node, [])
+        done: dict[int, np.ndarray] = {}
+        for n in postorder(node):
+            done[id(n)] = self._arith(n, [done.pop(id(c)) for c in children(n)])
+        return done[id(node)]
+
+    def _arith(self, node, args: list) -> np.ndarray:
         if isinstance(node, Signal):
             try:
                 return self.trace.signals[node.name]
@@ -95,8 +133,9 @@ class Evaluator:
                 raise StlError(f"no signal {node.name} in the trace") from None
         if isinstance(node, Const):
             return np.full(len(self.trace), node.value)
-        args = [self.value(a) for a in node.args]
-        with np.errstate(divide="ignore", invalid="ignore"):
+        if not isinstance(node, Arith):
+            raise StlError("a formula where a value goes: compare values, and combine formulas with and, or, not")
+        with np.errstate(all="ignore"):
             if node.op == "+":
                 return args[0] + args[1]
             if node.op == "-":
@@ -105,20 +144,16 @@ class Evaluator:
                 return args[0] * args[1]
             if node.op == "/":
                 return args[0] / args[1]
-        if node.op == "neg":
-            return -args[0]
-        return np.abs(args[0])
+            if node.op == "neg":
+                return -args[0]
+            return np.abs(args[0])
 
     def _eval(self, node, mode: str) -> np.ndarray:
         if isinstance(node, Compare):
-            left, right = self.value(node.left), self.value(node.right)
-            if node.op in ("<", "<="):
-                return right - left
-            if node.op in (">", ">="):
-                return left - right
-            if node.op == "==":
-                return -np.abs(left - right)
-            return np.abs(left - right)
+            rho = _compare(node.op, self.value(node.left), self.value(node.right))
+            if mode != "value":  # NaN (a NaN sample, 0 / 0, inf - inf): a value not known, bounded as one past the end
+                rho = np.where(np.isnan(rho), -np.inf if mode == "lower" else np.inf, rho)
+            return rho
         if isinstance(node, Not):
             return -self(node.arg, _FLIP[mode])
         if isinstance(node, And):
@@ -152,13 +187,34 @@ class Evaluator:
             if lo == 0:
                 return first
             return np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
+        if hi - lo > UNTIL_PASSES and not (np.isnan(p).any() or np.isnan(q).any()):
+            return _until_long(p, q, lo, hi, pad_p, pad_q)
         out = np.full(n, -np.inf)
         run = np.full(n, np.inf)  # min of p over [i, i + d)
-        for d in range(hi + 1):  # O(n w): w vector passes (Donzé et al. 2013 give O(n); the windows here are short)
+        # O(n w): w vector passes, w <= n + 1 (ticks_end stops at the trace's end); a longer window: _until_long, O(n)
+        for d in range(hi + 1):
             if d >= lo:
                 out = np.maximum(out, np.minimum(_shifted(q, d, pad_q), run))
             run = np.minimum(run, _shifted(p, d, pad_p))
         return out
+
+
+UNTIL_PASSES = 256  # a bounded until's window (ticks) up to which it is w vector passes; past it, O(n) (_until_long)
+
+
+def _until_long(p: np.ndarray, q: np.ndarray, lo: int, hi: int, pad_p: float, pad_q: float) -> np.ndarray:
+    """Bounded until in O(n) for a long window. With w = hi - lo, V(m) = max over j in [m, m + w] of min(q[j], min of p
+    over [m, j)) equals min(U(m), max of q over [m, m + w]), U the until to the end (U >= V; and where U's best j lies
+    past the window, p's running minimum only falls, so the window's largest q bounds it): min and max only select, so
+    the values are the definition's, bit for bit but for the sign of a zero. Then the start shifted by lo, as the
+    unbounded until does. Samples without NaN only (numpy carries a NaN through more of them than the window)."""
+    n = len(p)
+    if lo > hi:
+        return np.full(n, -np.inf)
+    v = np.minimum(_until_to_end(p.tolist(), q.tolist(), pad_q), -sliding_min(-q, 0, hi - lo, -pad_q))
+    first = np.full(n, pad_q)  # V at i + lo: past the end nothing but pad_q
+    first[:max(0, n - lo)] = v[lo:]
+    return first if lo == 0 else np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
 
 
 def _shifted(x: np.ndarray, d: int, pad: float) -> np.ndarray:
@@ -172,9 +228,35 @@ def _shifted(x: np.ndarray, d: int, pad: float) -> np.ndarray:
 def _until_to_end(p: list, q: list, tail: float) -> np.ndarray:
     out, nxt = [0.0] * len(p), tail
     for i in range(len(p) - 1, -1, -1):
-        nxt = max(q[i], min(p[i], nxt))
+        low = nxt if nxt < p[i] or nxt != nxt else p[i]  # min and max as Python's, but NaN carried as numpy carries it
+        nxt = low if low > q[i] or low != low else q[i]
         out[i] = nxt
     return np.array(out)
+
+
+def _compare(op: str, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):  # inf - inf is NaN: a value not known (see Evaluator._eval)
+        if op in ("<", "<="):
+            return right - left
+        if op in (">", ">="):
+            return left - right
+        if op == "==":
+            return -np.abs(left - right)
+        return np.abs(left - right)
+
+
+def _operands(node, mode: str) -> list[tuple[object, str]]:
+    """The formula nodes a node's robustness in a mode reads, each with its mode (not and implies' left side swap the
+    bounds); a comparison reads expressions, evaluated apart (Evaluator.value)."""
+    if isinstance(node, Not):
+        return [(node.arg, _FLIP[mode])]
+    if isinstance(node, Implies):
+        return [(node.left, _FLIP[mode]), (node.right, mode)]
+    if isinstance(node, (And, Or, Until)):
+        return [(node.left, mode), (node.right, mode)]
+    if isinstance(node, (Always, Eventually)):
+        return [(node.arg, mode)]
+    return []
 
 
 PASS, FAIL, INCONCLUSIVE, ZERO = "PASS", "FAIL", "INCONCLUSIVE", "ZERO"
@@ -183,7 +265,9 @@ PASS, FAIL, INCONCLUSIVE, ZERO = "PASS", "FAIL", "INCONCLUSIVE", "ZERO"
 @dataclass(frozen=True)
 class Verdict:
     """The verdict at the trace's start. robustness: the value when decided, else None (bounds: what is known).
-    violation: the sample of the first violation (FAIL), its time and the formula's signals there."""
+    violation: the sample of the first violation (FAIL), its time and the formula's signals there.
+    vacuous: a PASS or ZERO of `[always[a:b]] (p implies q)` whose antecedent p never held (robustness never > 0) at a
+    judged sample: nothing was tested (see vacuity)."""
 
     verdict: str
     robustness: float | None
@@ -191,11 +275,22 @@ class Verdict:
     violation_time: float | None
     violation_values: dict[str, float]
     decided_early: bool = False  # FAIL before the run covered the horizon: no continuation can make it pass
+    vacuous: bool = False
+    unknown: bool = False  # a NaN (a NaN sample, 0 / 0) where the formula reads: the verdict is what holds for any value
+
+    @property
+    def shown(self) -> str:
+        """The verdict as tables and stored verdict columns show it: "PASS (vacuous)" for a vacuous pass."""
+        return f"{self.verdict} (vacuous)" if self.vacuous else self.verdict
 
 
 def verdict(formula, trace: Trace, final: bool = True, evaluator: Evaluator | None = None) -> Verdict:
     """PASS (robustness > 0), FAIL (< 0), ZERO (exactly 0: neither) when the trace covers the formula's horizon;
-    before that, FAIL if no continuation of the trace can satisfy it, else INCONCLUSIVE (never a pass)."""
+    before that, FAIL if no continuation of the trace can satisfy it, else INCONCLUSIVE (never a pass).
+
+    A NaN robustness (a NaN sample or 0 / 0 where the formula reads) is a value not known, as a sample past the end:
+    FAIL if no value could make it pass, PASS (its robustness the lower bound: the margin any value leaves) if none could
+    make it fail, else INCONCLUSIVE: never a NaN verdict."""
     ev = evaluator or Evaluator(trace, final)
     if len(trace) == 0:
         return Verdict(INCONCLUSIVE, None, (-math.inf, math.inf), None, {})
@@ -205,26 +300,54 @@ def verdict(formula, trace: Trace, final: bool = True, evaluator: Evaluator | No
         if rho < 0:
             j = first_violation(formula, ev, 0, "value")
             return Verdict(FAIL, rho, (rho, rho), float(trace.times[j]), _values(formula, trace, j))
-        return Verdict(PASS if rho > 0 else ZERO, rho, (rho, rho), None, {})
+        if rho >= 0:
+            return Verdict(PASS if rho > 0 else ZERO, rho, (rho, rho), None, {}, vacuous=vacuity(formula, ev))
     low, high = float(ev(formula, "lower")[0]), float(ev(formula, "upper")[0])
+    unknown = covered  # a NaN where the formula reads, not the run's end
     if high < 0:
         j = first_violation(formula, ev, 0, "upper")
-        return Verdict(FAIL, None, (low, high), float(trace.times[j]), _values(formula, trace, j), decided_early=True)
-    return Verdict(INCONCLUSIVE, None, (low, high), None, {})
+        return Verdict(FAIL, None, (low, high), float(trace.times[j]), _values(formula, trace, j), decided_early=not unknown,
+                       unknown=unknown)
+    if unknown and low > 0:
+        return Verdict(PASS, low, (low, high), None, {}, vacuous=vacuity(formula, ev), unknown=True)
+    return Verdict(INCONCLUSIVE, None, (low, high), None, {}, unknown=unknown)
+
+
+def vacuity(formula, ev: Evaluator) -> bool:
+    """Whether `always[a:b] (p implies q)` (or `p implies q`) at the trace's start is vacuous: p's robustness is a
+    number <= 0 at every judged sample (the samples of [a, b] in the trace; the start alone without always). A NaN
+    antecedent might have held: not vacuous. Any other top-level form: False."""
+    node, lo, hi = formula, 0, 0
+    if isinstance(node, Always):
+        lo, hi = ev.trace.ticks(node.a), min(len(ev.trace) - 1, ev.trace.ticks_end(node.b))
+        node = node.arg
+    if not isinstance(node, Implies) or lo > hi:
+        return False
+    return bool(np.all(ev(node.left, "value")[lo:hi + 1] <= 0))
 
 
 def first_violation(node, ev: Evaluator, i: int, mode: str) -> int:
     """The first sample where the formula, violated at sample i, is seen violated: through always (its first violating
-    sample in the window) and and (the earliest of its violated sides); any other operator is violated at i."""
-    if isinstance(node, Always):
-        x = ev(node.arg, mode)
-        lo, hi = i + ev.trace.ticks(node.a), min(len(x) - 1, i + ev.trace.ticks_end(node.b))
-        bad = np.flatnonzero(x[lo:hi + 1] < 0) if lo <= hi else []
-        return first_violation(node.arg, ev, lo + int(bad[0]), mode) if len(bad) else i
-    if isinstance(node, And):
-        sides = [first_violation(s, ev, i, mode) for s in (node.left, node.right) if ev(s, mode)[i] < 0]
-        return min(sides) if sides else i
-    return i
+    sample in the window) and and (the earliest of its violated sides); any other operator is violated at i. On an
+    explicit stack: the answer is the earliest of the samples where the descent stops."""
+    best, stack = None, [(node, i)]
+    while stack:
+        n, k = stack.pop()
+        found = k
+        if isinstance(n, Always):
+            x = ev(n.arg, mode)
+            lo, hi = k + ev.trace.ticks(n.a), min(len(x) - 1, k + ev.trace.ticks_end(n.b))
+            bad = np.flatnonzero(x[lo:hi + 1] < 0) if lo <= hi else []
+            if len(bad):
+                stack.append((n.arg, lo + int(bad[0])))
+                continue
+        elif isinstance(n, And):
+            sides = [(s, k) for s in (n.left, n.right) if ev(s, mode)[k] < 0]
+            if sides:
+                stack.extend(sides)
+                continue
+        best = found if best is None else min(best, found)
+    return best
 
 
 def _values(formula, trace: Trace, j: int) -> dict[str, float]:

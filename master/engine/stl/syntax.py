@@ -13,6 +13,10 @@
     interval  := '[' NUMBER ':' (NUMBER | 'inf') ']'           seconds, closed; inf or no interval: to the end of the run
 
 A signal is `instance.variable` (letters, digits, _ and dots). A parse error is one line with the position marked.
+
+Bounded (docs/requirements.md, "Limits"): at most MAX_CHARS characters, MAX_DEPTH levels of nesting (parentheses and
+prefix operators: the only recursion of the parser; chains of and, or, implies, + are loops) and MAX_NODES nodes. Every
+walk of a tree (signals, horizon, unparse, the evaluation) uses an explicit stack, so a chain thousands long is fine.
 """
 
 from __future__ import annotations
@@ -24,6 +28,11 @@ from dataclasses import dataclass
 
 class StlError(ValueError):
     """A formula that does not parse or does not fit: the message is one line for the user."""
+
+
+MAX_CHARS = 65536  # a formula is text a person writes; the whole requirement file is at most 1 MiB
+MAX_DEPTH = 50  # levels of nesting: each costs the parser 5 Python frames at most, 250 of the 1000 Python allows
+MAX_NODES = 10000  # signals, numbers and operators: the monitor keeps one array of the run's length per operator
 
 
 # --- the syntax tree: expressions give values, formulas give robustness -------------------------------------------
@@ -138,13 +147,18 @@ def _tokens(text: str) -> list[_Tok]:
 
 
 def _error(text: str, pos: int, why: str) -> StlError:
-    """One line: the problem, then the formula with a marker before the offending position."""
-    return StlError(f"{why} at column {pos + 1}: {text[:pos]}\u2192{text[pos:]}".rstrip())
+    """One line: the problem, then the formula with a marker before the offending position (a long formula cut to the
+    60 characters either side of it)."""
+    before, after = text[max(0, pos - 60):pos], text[pos:pos + 60]
+    before = before if pos <= 60 else "\u2026" + before
+    after = after if pos + 60 >= len(text) else after + "\u2026"
+    return StlError(f"{why} at column {pos + 1}: {before}\u2192{after}".rstrip())
 
 
 class _Parser:
     def __init__(self, text: str) -> None:
-        self.text, self.toks, self.i = text, _tokens(text), 0
+        self.text, self.toks, self.i, self.depth = text, _tokens(text), 0, 0
+        self.failed: dict[int, StlError] = {}  # token index of a '(' -> how the arithmetic in it failed
 
     @property
     def tok(self) -> _Tok:
@@ -175,10 +189,28 @@ class _Parser:
         return f
 
     def implies(self):
-        left = self.disjunction()
-        if self.accept("keyword", "implies"):
-            return Implies(left, self.implies())
-        return left
+        parts = [self.disjunction()]  # a loop (a chain of thousands is no recursion), folded to the right
+        while self.accept("keyword", "implies"):
+            parts.append(self.disjunction())
+        f = parts.pop()
+        while parts:
+            f = Implies(parts.pop(), f)
+        return f
+
+    def nested(self, tok: _Tok) -> _Parser:
+        """`with self.nested(tok):` one level of nesting deeper (no Python frame of its own), refused past MAX_DEPTH
+        long before the recursion limit."""
+        if self.depth >= MAX_DEPTH:
+            raise _error(self.text, tok.pos, f"nested deeper than {MAX_DEPTH} levels (parentheses, not, always, eventually, "
+                                             f"-, abs): the limit of a formula")
+        self.depth += 1
+        return self
+
+    def __enter__(self) -> None:
+        pass
+
+    def __exit__(self, *exc) -> None:
+        self.depth -= 1
 
     def disjunction(self):
         f = self.conjunction()
@@ -200,12 +232,14 @@ class _Parser:
         return left
 
     def unary(self):
-        if self.accept("keyword", "not"):
-            return Not(self.unary())
+        if t := self.accept("keyword", "not"):
+            with self.nested(t):
+                return Not(self.unary())
         for word, node in (("always", Always), ("eventually", Eventually)):
-            if self.accept("keyword", word):
+            if t := self.accept("keyword", word):
                 a, b = self.interval()
-                return node(a, b, self.unary())
+                with self.nested(t):
+                    return node(a, b, self.unary())
         if self.tok.kind == "op" and self.tok.text == "(":
             start = self.i  # a parenthesis opens a formula or an arithmetic expression: try the comparison first
             try:
@@ -213,7 +247,8 @@ class _Parser:
             except StlError:
                 self.i = start
             self.i += 1
-            f = self.implies()
+            with self.nested(self.toks[start]):
+                f = self.implies()
             self.expect("op", ")", "')'")
             return f
         return self.comparison()
@@ -237,7 +272,15 @@ class _Parser:
             raise self.fail(f"expected {what}")
         if neg:
             raise _error(self.text, neg.pos, f"negative time bound -{t.text}: STL's intervals look forward, from 0 up")
-        return float(t.text)
+        return self.finite(t)
+
+    def finite(self, t: _Tok) -> float:
+        """A number's value; one that overflows a double (1e999) is refused, not read as infinity."""
+        value = float(t.text)
+        if math.isinf(value):
+            raise _error(self.text, t.pos, f"number {t.text:.30} is beyond a double's range (at most about 1.8e308; "
+                                           "to the end of the run is [a:inf])")
+        return value
 
     def comparison(self):
         left = self.expr()
@@ -264,46 +307,72 @@ class _Parser:
         return e
 
     def factor(self):
-        if self.accept("op", "-"):
-            if t := self.accept("number"):  # a negative constant is one number
-                return Const(-float(t.text))
-            return Arith("neg", (self.factor(),))
+        if t := self.accept("op", "-"):
+            if n := self.accept("number"):  # a negative constant is one number
+                return Const(-self.finite(n))
+            with self.nested(t):
+                return Arith("neg", (self.factor(),))
         if t := self.accept("number"):
-            return Const(float(t.text))
+            return Const(self.finite(t))
         if t := self.accept("name"):
             if "." not in t.text:
                 raise _error(self.text, t.pos, f"signal '{t.text}' is not instance.variable (e.g. plant.x)")
             return Signal(t.text)
-        if self.accept("keyword", "abs"):
+        if t := self.accept("keyword", "abs"):
             self.expect("op", "(", "'(' after abs")
-            e = self.expr()
+            with self.nested(t):
+                e = self.expr()
             self.expect("op", ")", "')' closing abs(")
             return Arith("abs", (e,))
-        if self.accept("op", "("):
-            e = self.expr()
-            self.expect("op", ")", "')'")
+        if t := self.accept("op", "("):
+            start = self.i - 1
+            if start in self.failed:  # tried before, from an outer parenthesis's attempt at a comparison
+                raise self.failed[start].with_traceback(None)
+            try:
+                with self.nested(t):
+                    e = self.expr()
+                self.expect("op", ")", "')'")
+            except StlError as err:  # the same tokens fail the same way: nested parentheses stay linear, not quadratic
+                self.failed[start] = err
+                raise
             return e
         raise self.fail("expected a number, a signal (instance.variable), abs( or '('")
 
 
 def parse(text: str):
-    """The formula's syntax tree; StlError (one line, the position marked) if it does not parse."""
+    """The formula's syntax tree; StlError (one line, the position marked) if it does not parse or exceeds a limit."""
+    if len(text) > MAX_CHARS:
+        raise StlError(f"formula of {len(text)} characters: at most {MAX_CHARS} (a formula is text a person writes; "
+                       "split it into several requirements)")
     if not text.strip():
         raise StlError("empty formula")
-    return _Parser(text).formula()
+    try:
+        tree = _Parser(text).formula()
+    except RecursionError:  # only a caller already deep in its stack: still one line, naming the limit
+        raise StlError(f"formula nested too deeply for the room left on Python's stack (at most {MAX_DEPTH} levels "
+                       "of parentheses, not, always, eventually, -, abs)") from None
+    count = sum(1 for _ in postorder(tree))
+    if count > MAX_NODES:
+        raise StlError(f"formula of {count} nodes (signals, numbers, operators): at most {MAX_NODES}; split it into "
+                       "several requirements")
+    return tree
+
+
+def postorder(root):
+    """Every node of a tree, each after its children (left to right): an explicit stack, for a tree of any depth."""
+    stack = [(root, False)]
+    while stack:
+        node, expanded = stack.pop()
+        if expanded:
+            yield node
+            continue
+        stack.append((node, True))
+        stack.extend((child, False) for child in reversed(children(node)))
 
 
 def signals(node) -> list[str]:
     """The signal names a formula reads, in order of first appearance."""
-    out: dict[str, None] = {}
-
-    def walk(n) -> None:
-        if isinstance(n, Signal):
-            out[n.name] = None
-        for child in children(n):
-            walk(child)
-    walk(node)
-    return list(out)
+    return list(dict.fromkeys(n.name for n in postorder(node) if isinstance(n, Signal)))
 
 
 def children(node) -> tuple:
@@ -316,21 +385,42 @@ def children(node) -> tuple:
     return ()
 
 
+def _fold(root, own) -> float:
+    """own(node) plus the largest of its children's folds (0 for none), bottom up without recursion."""
+    done: dict[int, float] = {}
+    stack = [(root, False)]
+    while stack:  # postorder's walk inline: it runs at every verdict, on the online monitor's path
+        node, expanded = stack.pop()
+        kids = children(node)
+        if expanded or not kids:
+            done[id(node)] = own(node) + (max(done.pop(id(c)) for c in kids) if kids else 0.0)
+        else:
+            stack.append((node, True))
+            stack.extend((c, False) for c in kids)
+    return done[id(root)]
+
+
 def horizon(node) -> float:
     """How far past the evaluation time the formula looks (s); inf for an operator to the end of the run."""
-    if isinstance(node, (Always, Eventually)):
-        return node.b + horizon(node.arg)
-    if isinstance(node, Until):
-        return node.b + max(horizon(node.left), horizon(node.right))
-    return max((horizon(c) for c in children(node)), default=0.0)
+    return _fold(node, _own_horizon)
 
 
 def bounded_horizon(node) -> float:
     """The horizon counting only bounded intervals (an unbounded operator runs to the end of whatever trace there is)."""
-    if isinstance(node, (Always, Eventually, Until)):
-        own = node.b if math.isfinite(node.b) else node.a
-        return own + max((bounded_horizon(c) for c in children(node)), default=0.0)
-    return max((bounded_horizon(c) for c in children(node)), default=0.0)
+    return _fold(node, _own_bounded_horizon)
+
+
+def _own_horizon(n) -> float:
+    return n.b if isinstance(n, TEMPORAL) else 0.0
+
+
+def _own_bounded_horizon(n) -> float:
+    return (n.b if math.isfinite(n.b) else n.a) if isinstance(n, TEMPORAL) else 0.0
+
+
+def number_text(v: float) -> str:
+    """The shortest text that reads back as the same float ("5" for 5.0, all the digits where :g would drop some)."""
+    return _num(v)
 
 
 def _num(v: float) -> str:
@@ -340,7 +430,25 @@ def _num(v: float) -> str:
 
 
 def unparse(node) -> str:
-    """rtamt's textual form of a tree (fully parenthesized): what --explain shows."""
+    """rtamt's textual form of a tree (fully parenthesized): what --explain shows. Bottom up, without recursion."""
+    done: dict[int, str] = {}
+    for n in postorder(node):
+        parts = [done.pop(id(c)) for c in children(n)]
+        if _chained(n):  # a chain (a and b and c) without a parenthesis a level: it reads back however long
+            parts[0] = parts[0][1:-1]
+        done[id(n)] = _unparse_one(n, parts)
+    return done[id(node)]
+
+
+def _chained(n) -> bool:
+    """Whether n continues its left operand's chain of the same operator, and or or: min and max are associative, so
+    any tool reads the chain to the same value; arithmetic and implies keep their parentheses (rtamt's grammar may group
+    a - b + c or a -> b -> c otherwise than tiltload's)."""
+    return isinstance(n, (And, Or)) and type(n.left) is type(n)
+
+
+def _unparse_one(node, parts: list[str]) -> str:
+    """One node's text, its children's texts given."""
     def iv(n) -> str:
         return "" if n.a == 0 and math.isinf(n.b) else f"[{_num(n.a)}:{'inf' if math.isinf(n.b) else _num(n.b)}]"
     if isinstance(node, Signal):
@@ -349,21 +457,21 @@ def unparse(node) -> str:
         return _num(node.value) if node.value >= 0 else f"({_num(node.value)})"
     if isinstance(node, Arith):
         if node.op == "neg":
-            return f"-({unparse(node.args[0])})"
+            return f"-({parts[0]})"
         if node.op == "abs":
-            return f"abs({unparse(node.args[0])})"
-        return f"({unparse(node.args[0])} {node.op} {unparse(node.args[1])})"
+            return f"abs({parts[0]})"
+        return f"({parts[0]} {node.op} {parts[1]})"
     if isinstance(node, Compare):
-        return f"{unparse(node.left)} {node.op} {unparse(node.right)}"
+        return f"{parts[0]} {node.op} {parts[1]}"
     if isinstance(node, Not):
-        return f"not ({unparse(node.arg)})"
-    if isinstance(node, (And, Or, Implies)):
-        word = {And: "and", Or: "or", Implies: "implies"}[type(node)]
-        return f"({unparse(node.left)}) {word} ({unparse(node.right)})"
+        return f"not ({parts[0]})"
+    if isinstance(node, (And, Or, Implies)):  # implies keeps its parentheses: rtamt's grammar reads a chain of them
+        word = {And: "and", Or: "or", Implies: "implies"}[type(node)]  # from the left, tiltload's from the right
+        return f"({parts[0]}) {word} ({parts[1]})"
     if isinstance(node, Always):
-        return f"always{iv(node)} ({unparse(node.arg)})"
+        return f"always{iv(node)} ({parts[0]})"
     if isinstance(node, Eventually):
-        return f"eventually{iv(node)} ({unparse(node.arg)})"
+        return f"eventually{iv(node)} ({parts[0]})"
     if isinstance(node, Until):
-        return f"({unparse(node.left)}) until{iv(node)} ({unparse(node.right)})"
+        return f"({parts[0]}) until{iv(node)} ({parts[1]})"
     raise TypeError(node)
