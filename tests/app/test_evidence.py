@@ -311,3 +311,20 @@ def test_a_falsification_s_report_shows_its_counterexample_replayed(fmus, tmp_pa
     assert result["robustness"] == pytest.approx(least, abs=1e-12)  # the replay is the evaluation, bit for bit
     assert result["verdict"] == ("FAIL" if least < 0 else "PASS") and data["counts"][result["verdict"]] == 1
     assert case["curves"] and case["command"].startswith("tiltload run ")
+
+
+def test_a_vacuous_pass_is_named_in_the_report(tmp_path):
+    """always (x > 5 implies x < 10) on an x that never exceeds 1: its trigger never held, the pass is vacuous (by the
+    definition: the antecedent's robustness 1 - 5 < 0 at every sample); one whose trigger held passes plainly."""
+    t = np.arange(2000) * TICK
+    x = np.sin(t)
+    log = write_log(tmp_path / "x.mcap", {"plant": (t, {"x": x})}, stop_time=float(t[-1]))
+    assert (x - 5 <= 0).all() and (x - 0.5 > 0).any()
+    reqs = tmp_path / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: never_triggered\n    formula: always (plant.x > 5 implies plant.x < 10)\n"
+                    "  - name: triggered\n    formula: always (plant.x > 0.5 implies plant.x < 10)\n")
+    page = tmp_path / "v.html"
+    assert main(["check", str(reqs), str(log), "--report", str(page)]) == 0
+    data = _page_data(page)
+    assert data["matrix"] == {"never_triggered": {"x": "PASS (vacuous)"}, "triggered": {"x": "PASS"}}
+    assert data["counts"]["PASS (vacuous)"] == 1 and data["counts"]["PASS"] == 1

@@ -39,11 +39,17 @@ def _number(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _stored(name: str, row: dict, formulas: dict[str, str]) -> StoredVerdict:
+    """A requirement's stored verdict; the column says "PASS (vacuous)" for a vacuous pass."""
+    shown = str(row[f"{name}_verdict"])
+    vacuous = shown.endswith("(vacuous)")
+    return StoredVerdict(name, shown.split(" ")[0] if vacuous else shown, _number(row[f"{name}_robustness"]), vacuous,
+                         formula=formulas.get(name, ""))
+
+
 def _test(row: dict, varied: list[str], names: list[str], command: str, formulas: dict[str, str]) -> Test:
     failed = bool(row.get("error")) or not row.get("completed", True)
-    results = [] if failed else [StoredVerdict(n, str(row[f"{n}_verdict"]), _number(row[f"{n}_robustness"]),
-                                               bool(row.get(f"{n}_vacuous", False)), formula=formulas.get(n, ""))
-                                 for n in names]
+    results = [] if failed else [_stored(n, row, formulas) for n in names]
     metrics = {k: v for k, v in row.items() if k.startswith(("ISE(", "IADU(")) or k in (
         "max_tracking_error", "time_saturated", "zse_containment")}
     case = {"controller": row.get("controller"), "seed": row.get("seed"), **{k: row.get(k) for k in varied}}
