@@ -440,3 +440,20 @@ def test_requirements_through_the_api_are_the_command_s(fmus, tmp_path):
     assert (before.size == 0 or before.max() < 0.2) and err[np.searchsorted(x.time, fail.first_violation)] >= 0.2
     with pytest.raises(tl.TiltloadError, match="did you mean"):
         tl.check(result, formulas=["bad: always plant.xx > 0"])
+
+
+def test_runs_on_a_pool_restart_its_execution_and_equal_fresh_runs(fmus, tmp_path):
+    """tl.run(..., pool=): the pytest plugin's session pool. Two runs of one loop structure share one execution (the
+    second restarts it) and give the fresh run's metrics bit for bit; another controller FMU is another structure."""
+    from tiltload.master.engine.lifecycle import ExecutionPool
+
+    common = {"scenario": "fsi", "stop_time": 1.2, "fmus": fmus, "out": tmp_path, "no_log": True}
+    fresh = tl.run(controller="dlqr", seed=3, **common)
+    pool = ExecutionPool()
+    try:
+        first = tl.run(controller="dlqr", seed=3, pool=pool, **common)
+        again = tl.run(controller="dlqr", seed=3, pool=pool, **common)
+        assert len(pool) == 1
+        assert first.metrics == again.metrics == fresh.metrics
+    finally:
+        pool.close()

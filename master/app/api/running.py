@@ -67,7 +67,7 @@ def command_line(case: Case, options: RunOptions) -> str:
 
 
 def run(case: Case | None = None, options: RunOptions | None = None, /, *, progress: bool | None = None,
-        echo: bool = False, **keywords: object) -> Result:
+        echo: bool = False, pool=None, **keywords: object) -> Result:
     """Run a case as `tiltload run` does: ``run(Case(scenario="lkf", stop_time=5), RunOptions(no_plots=True))``, or
     the same as keywords, ``run(scenario="lkf", stop_time=5, no_plots=True)`` (keywords also change the objects given).
 
@@ -75,6 +75,8 @@ def run(case: Case | None = None, options: RunOptions | None = None, /, *, progr
     FAIL does not raise (assert on it, or use tiltload.testing.assert_requirements_hold).
     progress: the terminal's progress bar (default: only if stderr is a terminal, so never in Jupyter).
     echo: print the lines the command prints (they are in ``result.transcript`` either way).
+    pool: for a harness that runs many cases (the pytest plugin's session): an engine ExecutionPool keeping the FMU
+    instances between runs, a run of the same structure restarting them (fmi2Reset) instead of loading them again.
     Raises TiltloadError for what the user can fix (its message the command's one line), TypeError for a wrong type
     or an unknown keyword, KeyboardInterrupt if interrupted (the log is finalized first)."""
     from .execute import execute, preparing
@@ -92,7 +94,7 @@ def run(case: Case | None = None, options: RunOptions | None = None, /, *, progr
     if not options.quiet:
         say(preparing(case, options))
     with as_tiltload_errors():
-        outcome = execute(case, options, say)
+        outcome = execute(case, options, say, pool)
     if outcome.failure is not None:
         if outcome.result.signal == 2:
             raise KeyboardInterrupt(outcome.failure)

@@ -115,9 +115,19 @@ def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.Te
     return controller
 
 
+@pytest.fixture(scope="session")
+def tiltload_pool():
+    """The session's executions (engine.lifecycle.ExecutionPool): tests running the same loop restart its FMUs."""
+    from ...engine.lifecycle import ExecutionPool
+
+    pool = ExecutionPool()
+    yield pool
+    pool.close()
+
+
 @pytest.fixture
 def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path,
-                 request: pytest.FixtureRequest) -> Callable[..., Result]:
+                 request: pytest.FixtureRequest, tiltload_pool) -> Callable[..., Result]:
     """run(controller=..., **options) -> tiltload.Result: a run of the loop with the session's FMUs into this test's
     own folder, no figures; controller a .fmu, a Python file or class (wrapped), or dlqr / mixed."""
     from ..api.running import run
@@ -126,7 +136,7 @@ def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], 
         if controller is not None and not (isinstance(controller, str) and controller in ("dlqr", "mixed")):
             controller = tiltload_controller(controller)
         options = {"fmus": tiltload_fmus, "out": tmp_path, "no_plots": True, **options}
-        result = run(controller=controller, **options)
+        result = run(controller=controller, pool=tiltload_pool, **options)
         request.node.stash.setdefault(RUNS, []).append(result)  # for --tiltload-report
         return result
     return run_case
