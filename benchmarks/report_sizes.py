@@ -98,7 +98,7 @@ def pytest_session(fmus: Path, tmp: Path) -> str:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--campaign", type=Path, required=True, help="a campaign's results.parquet")
     p.add_argument("--falsification", type=Path, required=True, help="a falsification's output folder")
     p.add_argument("--fmus", type=Path, default=ROOT / "fmus")

@@ -80,7 +80,7 @@ def run(source: Path, steps: int) -> None:
 
 
 if __name__ == "__main__":
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("source", nargs="?", type=Path, default=Path(__file__).parents[1] / "docs/examples/hover_lqr_traced.py")
     p.add_argument("--steps", type=int, default=3000)
     a = p.parse_args()

@@ -27,6 +27,7 @@ SAME_RUN = {
     "no_plots": "no figures; the log is the same",
     "no_log": "no log at all",
     "quiet": "no progress bar",
+    "report": "an HTML report beside the log; the run is the same",
 }
 # an option -> (the command line without it, the command line with it): the two must be named apart
 CHANGES = {

@@ -4,7 +4,7 @@ of keep.requirements), the pass rate of each requirement, the worst runs, and th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .model import Report, Table, Test, png_uri, this_environment
@@ -24,7 +24,7 @@ class StoredVerdict:
     source: str = ""
     description: str = ""
     why: str = ""
-    values: tuple = ()
+    values: dict = field(default_factory=dict)  # a row keeps no signal values
 
 
 def requirement_names(row: dict) -> list[str]:

@@ -63,19 +63,23 @@ def what_changed(base: dict[str, str] | None, run: dict[str, str] | None) -> lis
     if base is None or run is None:
         return []
     names = list(dict.fromkeys([*instance_names(base), *instance_names(run)]))
-    items, unchanged = [], []
+    parameters, contents, unchanged = [], [], []
     for name in names:
         if f"{name}.fmu" not in run:
-            items.append(f"{name} removed")
+            contents.append(f"{name} removed")
             continue
         if f"{name}.fmu" not in base:
-            items.append(f"{name} added ({run.get(f'{name}.model', '?')})")
+            contents.append(f"{name} added ({run.get(f'{name}.model', '?')})")
             continue
-        # its parameters first: a changed gain is what a user looks for; the FMU's content changes with it
-        mine = _parameter_changes(name, base, run) + [c for c in (_fmu_change(name, base, run),) if c]
-        items += mine
-        if not mine:
+        mine = _parameter_changes(name, base, run)
+        content = _fmu_change(name, base, run)
+        parameters += mine
+        contents += [content] if content else []
+        if not mine and not content:
             unchanged.append(name)
+    # every parameter first, whichever instance it is of: a changed gain is what a user looks for; the FMUs' contents
+    # change with any rebuild (a new tiltload rebuilds every FMU), so they come after
+    items = parameters + contents
     if not items:
         return []
     if unchanged:
