@@ -30,7 +30,8 @@ NAMED = re.compile(r"(?<![\w./:@*<>-])((?:[\w.-]+/)*[\w-]+(?:\.[\w-]+)*\.(?:py|c
 EXTERNAL = {"math.h", "Python.h", "bitgen.h", "numpy/random/distributions.h", "fmi2Functions.h", "fmi2FunctionTypes.h",
             "fmi2TypesPlatform.h", "fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h", "src/cosimulation.c",
             "include/model.h", "cosimulation.c", "model.h"}
-BUILDERS = ("native_fmu/package.py", "*/build.py", "*/*/build.py", "*/codegen.py", "master/app/wrap/native.py")  # what writes an FMU's generated C
+# what writes an FMU's generated C
+BUILDERS = ("native_fmu/package.py", "*/build.py", "*/*/build.py", "*/codegen.py", "master/app/wrap/native.py")
 
 
 def tracked() -> list[Path]:
