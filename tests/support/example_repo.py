@@ -47,5 +47,6 @@ def outcomes(junit: Path) -> dict[str, str | None]:
 # what the failure of a baseline test says (docs/api.md): which metrics, by how much, the tolerance, the rerun command
 REPORT_WORDS = ("differs from its baseline; what changed: controller parameter position_weight 10.0 -> 3.0; ",
                 "controller FMU's content changed (hover_lqr.fmu, sha256 ", "metrics out of tolerance",
-                "case:     fsi, trajectory 1, controller hover_lqr, seed 1, stop time 3 s", " run ", " baseline ", "change ", "allowed +/-", "(rtol 1e-06, atol 1e-12)",
+                "case:     fsi, trajectory 1, controller hover_lqr, seed 1, stop time 3 s", " run ", " baseline ", "change ",
+                "allowed +/-", "(rtol 1e-06, atol 1e-12)",
                 "rerun:    tiltload run --scenario fsi --trajectory 1 --controller", "pytest --tiltload-update-baselines")
