@@ -153,11 +153,46 @@ class _Cells(html.parser.HTMLParser):
             self._count = None
 
 
-def test_the_page_in_headless_chromium(check_report, tmp_path):
+@pytest.fixture(scope="module")
+def pages(check_report, fmus, tmp_path_factory):
+    """One page of each kind: check (the module's logs), run, campaign, falsification and pytest; the last three from
+    their page writers on real results (a run's Result and log; campaign rows; a search's rows and its replayed log)."""
+    import tiltload as tl
+    from tiltload.master.app.evidence.campaign_page import write_campaign_report
+    from tiltload.master.app.evidence.falsification_page import write_falsification_report
+    from tiltload.master.app.evidence.pytest_report import TestRecord, write_pytest_report
+    from tiltload.master.engine.requirements import load
+
+    tmp = tmp_path_factory.mktemp("pages")
+    reqs = tmp / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: thrust\n    formula: always (controller.f_R >= 0 and controller.f_R <= 30)\n"
+                    "  - name: x_close\n    formula: always (abs(plant.x - scenario.x_ref) < 0.2)\n")
+    run = tl.run(scenario="fsi", controller="dlqr", stop_time=1.5, fmus=fmus, out=tmp, no_plots=True, requirements=reqs,
+                 report=tmp / "run.html")
+    rows = [{"run_id": k, "controller": "dlqr", "seed": k, "mass": 0.1 * k, "completed": k != 2, "diverged": k == 2,
+             "diverged_at": None, "error": "plant: diverged" if k == 2 else None, "ISE(x)": 0.1 * k,
+             "max_tracking_error": 0.2, "thrust_verdict": "PASS", "thrust_robustness": 1.0,
+             "x_close_verdict": "FAIL" if k == 1 else "PASS (vacuous)", "x_close_robustness": -0.1 if k == 1 else 0.5}
+            for k in range(4)]
+    write_campaign_report("c", rows, ["mass"], ["tiltload run --seed 1"] * 4, [], tmp / "campaign.html")
+    folder = tmp / "search"
+    folder.mkdir()
+    write_falsification_report("s", "falsification s", load(reqs), [("mass", "plant.m_L", 0.0, 1.0)],
+                               [{"robustness": 0.3, "mass": 0.2}, {"robustness": -0.1, "mass": 0.7}], 1,
+                               ["tiltload", "run"], run.log, [], folder)
+    write_pytest_report([TestRecord("t.py::test_a", [run], "PASS"), TestRecord("t.py::test_b", [], "FAIL", "assert 0")],
+                        tmp / "pytest.html", "a session")
+    return {"check": check_report[1], "run": tmp / "run.html", "campaign": tmp / "campaign.html",
+            "falsification": folder / "report.html", "pytest": tmp / "pytest.html"}
+
+
+@pytest.mark.parametrize("kind", ["check", "run", "campaign", "falsification", "pytest"])
+def test_each_kind_of_page_in_headless_chromium(pages, kind, tmp_path):
+    """Chromium renders the page with no console message, and the counts and matrix cells it shows equal the JSON."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("needs Debian's chromium (apt-get install chromium; .ci/run installs it)")
-    _, page, *_ = check_report
+    page = pages[kind]
     run = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-logging=stderr", "--v=0",
                           f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom", page.as_uri()],
                          capture_output=True, text=True, timeout=120)
@@ -169,6 +204,7 @@ def test_the_page_in_headless_chromium(check_report, tmp_path):
     data = _page_data(page)
     assert dom.summary == data["counts"]  # what the reader sees is what the JSON says
     assert sorted(dom.cells) == sorted(c for row in data["matrix"].values() for c in row.values())
+    assert sum(data["counts"].values()) > 0
 
 
 USER_TESTS = '''

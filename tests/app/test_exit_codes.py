@@ -134,3 +134,35 @@ def test_campaign_a_failed_requirement_fails_it_unless_allowed(fmus, runs, tmp_p
     assert _code(["campaign-report", str(tmp_path / "pass" / "out" / "results.parquet")]) == 0
     report = next((tmp_path / "pass" / "out").rglob("*.md")).read_text()
     assert "| r | 1 (1 vacuous) | 0 | 0 | 0 | 100 % |" in report
+
+
+def test_the_builders_exit_0_when_done_and_2_on_bad_input(fmus, tmp_path):
+    """layout, wrap: 0 once done; wrap and build: 2 for what the user can fix (a missing file, an untraceable class, an
+    output folder under a file). A build that runs is tested where the FMUs are (tests/fmus)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    assert _code(["layout", str(tmp_path / "layout.json")]) == 0 and (tmp_path / "layout.json").is_file()
+    assert _code(["wrap", str(root / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "c.fmu")]) == 0
+    assert _code(["wrap", str(tmp_path / "missing.py")]) == 2
+    assert _code(["wrap", "--native", str(root / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "n.fmu")]) == 2
+    (tmp_path / "a_file").write_text("")
+    assert _code(["build", "--out", str(tmp_path / "a_file" / "fmus")]) == 2
+
+
+@pytest.mark.slow
+def test_reproduce_fails_when_a_case_differs_from_its_baseline(fmus, tmp_path):
+    """reproduce --check: 0 with the committed baselines; 1 once one baseline's metric is moved out of its tolerance."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    baselines = shutil.copytree(root / "baselines", tmp_path / "baselines")
+    common = ["reproduce", "--fmus", str(fmus), "--out", str(tmp_path / "out"), "--baselines", str(baselines), "--check"]
+    assert _code(common) == 0
+    moved = baselines / "fsi_traj1_dlqr.json"
+    data = json.loads(moved.read_text())
+    data["metrics"]["ISE(x)"] = float(data["metrics"]["ISE(x)"]) * 1.5
+    moved.write_text(json.dumps(data))
+    assert _code(common) == 1
