@@ -62,7 +62,7 @@ def campaign(results: Path) -> str:
 
 def falsification(out: Path, fmus: Path) -> str:
     import pandas as pd
-    from tiltload.master.app.falsify.report import html_report, replay_command
+    from tiltload.master.app.api.falsifying import report
     from tiltload.master.app.falsify.search import Outcome
     from tiltload.master.app.falsify.spec import load
 
@@ -70,9 +70,7 @@ def falsification(out: Path, fmus: Path) -> str:
     rows = pd.read_parquet(out / "falsification.parquet").to_dict("records")
     negative = [i for i, r in enumerate(rows) if r.get("robustness") is not None and r["robustness"] < 0]
     outcome = Outcome(rows, negative[0] if negative else None, 0.0)
-    command = replay_command(spec, outcome.best, out, fmus)
-    text = (out / "summary.txt").read_text()
-    page, seconds = timed(lambda: html_report(spec, outcome, out, command, text))
+    page, seconds = timed(lambda: report(spec, outcome, out, fmus))
     return f"falsification ({len(rows)} simulations): {size(page)}, {seconds:.1f} s (the best case replayed with a log)"
 
 

@@ -112,11 +112,34 @@ def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[s
 
     o = options
     try:
-        return search(Path(spec), o.out, o.fmus, o.optimizer, o.seed, o.simulations, o.seconds, o.scheduler, o.workers,
-                      progress=progress, early_stop=not o.no_early_stop, branch=o.branch, neighbourhood=o.neighbourhood,
-                      fraction=o.neighbourhood_fraction, points=o.neighbourhood_points)
+        found = search(Path(spec), o.out, o.fmus, o.optimizer, o.seed, o.simulations, o.seconds, o.scheduler, o.workers,
+                       progress=progress, early_stop=not o.no_early_stop, branch=o.branch, neighbourhood=o.neighbourhood,
+                       fraction=o.neighbourhood_fraction, points=o.neighbourhood_points)
     except ClusterError as err:
         raise UserError(str(err)) from None
+    report(*found, o.fmus)
+    return found
+
+
+def report(spec, outcome, out: Path, fmus: Path) -> Path:
+    """The search's report.html: its best case replayed with a log (as replay.sh runs it) and judged on it."""
+    from ..falsify.report import REPLAY_OUT, SUMMARY, html_report, replay_case, replay_command
+    from .case import Case
+    from .execute import execute
+    from .run_options import RunOptions
+
+    log, command = None, None
+    if outcome.best is not None:
+        command = replay_command(spec, outcome.best, out, fmus)
+        fields = replay_case(spec, outcome.best, out, fmus)
+        options = RunOptions(out=out / REPLAY_OUT[0], name=REPLAY_OUT[1], quiet=True, no_plots=True)
+        try:
+            with as_tiltload_errors():
+                log = execute(Case(**fields), options, lambda line: None).log
+        except TiltloadError:
+            log = None  # the page says the case; its figures need the log
+    text = (out / SUMMARY).read_text() if (out / SUMMARY).is_file() else ""
+    return html_report(spec, outcome, out, command, text, log)
 
 
 def falsify(spec: str | Path, options: FalsifyOptions | None = None, /, *, progress: Callable[[str], None] | None = None,

@@ -27,8 +27,9 @@ def _number(value) -> str:
     return text if ("." in text or "e" in text or "inf" in text or "nan" in text) else text + ".0"
 
 
-def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
-    """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
+def replay_case(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> dict[str, object]:
+    """The row's case as the fields of a tiltload.Case (in the order `tiltload run` prints them): the case as the
+    evaluation ran it; writes its fault file (and a moved mission) in out."""
     from .space import case_faults, case_parameters, mission_csv, moved_waypoints
 
     base = spec.base()
@@ -41,26 +42,42 @@ def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None 
         (out / MISSION).write_text(mission_csv(moved))
         trajectory = str((out / MISSION).resolve())
         parameters = {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
-    args = ["tiltload", "run", "--scenario", spec.scenario, "--trajectory", trajectory,
-            "--controller", spec.controller, "--seed", str(spec.loop_seed), "--stop-time", _number(spec.stop_time)]
-    if not spec.gusts:
-        args.append("--no-gusts")
-    if spec.wind_file is not None:
-        args += ["--wind", str(spec.wind_file)]
-    if spec.flight.allow_infeasible:
-        args.append("--allow-infeasible")
-    if spec.flight.max_tilt != 30.0:
-        args += ["--max-tilt", _number(spec.flight.max_tilt)]
+    case: dict[str, object] = {"scenario": spec.scenario, "trajectory": trajectory, "controller": spec.controller,
+                               "seed": spec.loop_seed, "stop_time": spec.stop_time, "no_gusts": not spec.gusts,
+                               "wind": spec.wind_file, "allow_infeasible": spec.flight.allow_infeasible,
+                               "max_tilt": spec.flight.max_tilt}
     faults = case_faults(base, parameters)
     if faults:
         (out / FAULTS).write_text(json.dumps({"faults": faults}, indent=1))
-        args += ["--faults", str((out / FAULTS).resolve())]
-    for key, value in parameters.items():
-        if not key.startswith("faults."):
-            args += ["--set", f"{key}={_number(value)}"]
+        case["faults"] = (out / FAULTS).resolve()
+    case["set"] = tuple((k, v) for k, v in parameters.items() if not k.startswith("faults."))
+    case["fmus"] = fmus
+    return case
+
+
+REPLAY_OUT = ("counterexample", "counterexample")  # the replay's log: <out>/counterexample/counterexample.mcap
+
+
+def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
+    """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
+    case = replay_case(spec, row, out, fmus)
+    args = ["tiltload", "run", "--scenario", str(case["scenario"]), "--trajectory", str(case["trajectory"]),
+            "--controller", str(case["controller"]), "--seed", str(case["seed"]), "--stop-time", _number(case["stop_time"])]
+    if case["no_gusts"]:
+        args.append("--no-gusts")
+    if case["wind"] is not None:
+        args += ["--wind", str(case["wind"])]
+    if case["allow_infeasible"]:
+        args.append("--allow-infeasible")
+    if case["max_tilt"] != 30.0:
+        args += ["--max-tilt", _number(case["max_tilt"])]
+    if "faults" in case:
+        args += ["--faults", str(case["faults"])]
+    for key, value in case["set"]:
+        args += ["--set", f"{key}={_number(value)}"]
     if fmus is not None:
         args += ["--fmus", str(fmus)]
-    args += ["--out", str((out / "counterexample").resolve()), "--name", "counterexample"]
+    args += ["--out", str((out / REPLAY_OUT[0]).resolve()), "--name", REPLAY_OUT[1]]
     return args
 
 
@@ -149,33 +166,16 @@ def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = 
         figure(curves, out / FIGURE, f"{spec.name}: best robustness against simulations")
     text = summary(spec, outcome, command, notes, whole)
     (out / SUMMARY).write_text(text + "\n")
-    html_report(spec, outcome, out, command, text)
     return text
 
 
-def html_report(spec: Falsification, outcome: Outcome, out: Path, command: list[str] | None, text: str) -> Path:
-    """report.html: the search, and its best case replayed (into out/counterexample/) and judged with its figures."""
+def html_report(spec: Falsification, outcome: Outcome, out: Path, command: list[str] | None, text: str,
+                log: Path | None) -> Path:
+    """report.html: the search, and its best case (log: that case replayed with a log) judged with its figures."""
+    from ...engine.requirements import requirement
     from ..evidence.falsification_page import write_falsification_report
 
-    log = _replayed(command) if command else None
     figures = [out / FIGURE, out / "neighbourhood" / "neighbourhood.png", out / "neighbourhood.png"]
     dims = [(d.name, d.target, float(d.low), float(d.high)) for d in spec.dimensions]
-    from ...engine.requirements import requirement
-
     reqs = [requirement(r.name, r.formula, description=r.description) for r in spec.requirements]
     return write_falsification_report(spec.name, text, reqs, dims, outcome.rows, outcome.falsified_at, command, log, figures, out)
-
-
-def _replayed(command: list[str]) -> Path | None:
-    """Run the replay command's case with a log (its figures are the report's); the log, or None if it could not run."""
-    from ..api.execute import execute
-    from ..cli import parser
-    from ..commands.run import case_of, run_options_of
-    from ..errors import USER_ERRORS
-
-    args = parser().parse_args(["run", *command[2:], "--quiet", "--no-plots"])
-    try:
-        outcome = execute(case_of(args), run_options_of(args), lambda line: None)
-    except USER_ERRORS:
-        return None
-    return outcome.log
