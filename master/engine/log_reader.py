@@ -18,6 +18,7 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .log_encoding import LAYOUT, FixedMessage
+from .user_files import open_binary
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -120,7 +121,7 @@ def _scan(path: Path, topics: list[str] | None, want_messages: bool = True, raw:
                     decode = decoders[channel.id] = bytes
             messages.setdefault(channel.topic, []).append(decode(record.data))
 
-    with open(path, "rb") as f:
+    with open_binary(path, "log") as f:
         ends_well = _has_footer(f)
         records = StreamReader(f, emit_chunks=True, validate_crcs=True, record_size_limit=1 << 31).records
         chunk_no = 0
@@ -176,7 +177,7 @@ def _declared_duration(path: Path) -> float | None:
     from mcap.reader import make_reader
 
     try:
-        with open(path, "rb") as f:
+        with open_binary(path, "log") as f:
             stats = make_reader(f).get_summary().statistics
         return stats.message_end_time / 1e9 if stats is not None and stats.message_count else None
     except Exception:
@@ -250,9 +251,9 @@ def check(path: Path) -> LogState:
 
 def is_truncated(path: Path) -> bool:
     try:
-        with open(path, "rb") as f:
+        with open_binary(path, "log") as f:
             return not _has_footer(f)
-    except OSError:
+    except (OSError, ValueError):  # ValueError: UserFileError
         return True
 
 
@@ -261,7 +262,7 @@ def read_metadata(path: Path) -> dict[str, dict]:
     read finds before the torn end or the damage. (Whether the messages are intact is check's job.)"""
     from mcap.reader import make_reader
 
-    with open(path, "rb") as f:
+    with open_binary(path, "log") as f:
         if _has_footer(f):
             try:
                 return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}

@@ -598,3 +598,70 @@ def test_trust_boundary_bad_inputs_each_get_one_line_and_exit_2(fmus, fmi3_fmus,
         elif "error" not in lines[0] or "SECRET" in err:
             problems.append(f"{label}: not an error line, or a secret echoed: {lines[0]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, every file opened as a file (user_files.open_binary / regular_file): each command that reads a file the
+# user names, given a FIFO, a folder, a device, a missing path or one whose open is refused, answers one line naming
+# what it is, exit 2, before anything blocks (a FIFO with no writer would block an ordinary open forever).
+# ====================================================================================================================
+
+def _not_a_file_kinds(folder: Path, suffix: str) -> dict[str, tuple[Path, str]]:
+    """label -> (path, what the line must say)."""
+    fifo, sub = folder / f"pipe{suffix}", folder / f"folder{suffix}"
+    if not fifo.exists():
+        os.mkfifo(fifo)
+        sub.mkdir()
+        (folder / f"locked{suffix}").write_bytes(b"\x89MCAP0\r\n" if suffix == ".mcap" else b"x: 1\n")
+    return {"a FIFO": (fifo, "a FIFO, not a regular file"), "a folder": (sub, "a folder, not a regular file"),
+            "a device": (Path("/dev/zero"), "a character device, not a regular file"),
+            "missing": (folder / f"none{suffix}", "no such file"),
+            "unreadable": (folder / f"locked{suffix}", "permission denied")}
+
+
+def _file_commands(folder: Path) -> list[tuple[str, str, list[str]]]:
+    """(label, the bad file's suffix, argv with {} where it goes)."""
+    log = folder / "real.mcap"
+    log.write_bytes(b"\x89MCAP0\r\n")  # only its magic: the bad file beside it is refused before this one is read
+    reqs = folder / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: a\n    formula: always[0:1] plant.z < 1\n")
+    return [("check's requirement file", ".yaml", ["check", "{}", str(log)]),
+            ("check's log", ".mcap", ["check", str(reqs), "{}"]),
+            ("check --formula's log", ".mcap", ["check", "--formula", "a: always[0:1] plant.z < 1", "{}"]),
+            ("plot's log", ".mcap", ["plot", "{}", "--out", str(folder / "plots")]),
+            ("compare's log", ".mcap", ["compare", "{}", str(folder / "b.json")]),
+            ("campaign's spec", ".toml", ["campaign", "{}", "--out", str(folder / "camp")]),
+            ("falsify's spec", ".yaml", ["falsify", "{}", "--out", str(folder / "fals")]),
+            ("campaign-report's results", ".parquet", ["campaign-report", "{}"]),
+            ("a snapshot", ".snapshot", ["run", "--from-snapshot", "{}", "--no-log", "--quiet", "--no-plots"]),
+            ("wrap's controller", ".py", ["wrap", "{}", "--out", str(folder / "w.fmu")])]
+
+
+def test_every_file_a_command_reads_is_opened_as_a_file(tmp_path, capsys, monkeypatch):
+    """Generated: 10 file arguments x 5 kinds of not-a-file = 50 cases, each one line naming what the path is."""
+    import errno
+
+    real_open = os.open
+
+    def refusing_open(path, flags, *args, **kwargs):  # we run as root, who reads every file: refuse these opens instead
+        if Path(path).name.startswith("locked"):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refusing_open)
+    monkeypatch.chdir(tmp_path)
+    cases = []
+    for label, suffix, argv in _file_commands(tmp_path):
+        for kind, (path, says) in _not_a_file_kinds(tmp_path, suffix).items():
+            cases.append((f"{label}: {kind}", [str(path) if a == "{}" else a for a in argv], says))
+    assert len(cases) == 50
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith("tiltload run: ")]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]):
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)

@@ -103,10 +103,15 @@ class ReportError(ValueError):
 def _load(results: Path) -> tuple[list[dict], list[str]]:
     import pyarrow.parquet as pq
 
-    if not results.is_file():
-        raise ReportError(f"{results} does not exist (run the campaign first: tiltload campaign SPEC)")
+    from ...engine.user_files import UserFileError, open_binary
+
     try:
-        rows = pq.read_table(results).to_pylist()
+        f = open_binary(results)
+    except UserFileError as err:
+        raise ReportError(f"{err} (the results of a campaign: tiltload campaign SPEC writes them)") from None
+    try:
+        with f:
+            rows = pq.read_table(f).to_pylist()
     except Exception as err:  # pyarrow's many error types: one line
         raise ReportError(f"{results} is not a campaign's results file: {str(err).splitlines()[0]}") from None
     if not rows or "run_id" not in rows[0] or "controller" not in rows[0]:

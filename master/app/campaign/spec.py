@@ -111,10 +111,12 @@ class Campaign:
 
 
 def read_spec_file(path: Path) -> dict:
-    from ...engine.user_files import UserFileError, read_toml, read_yaml
+    from ...engine.user_files import UserFileError, read_toml, read_yaml, regular_file
 
-    if not path.exists():
-        raise SpecError(f"campaign spec {path} does not exist")
+    try:
+        regular_file(path, "spec")
+    except UserFileError as err:
+        raise SpecError(str(err)) from None
     if path.suffix not in (".toml", ".yaml", ".yml"):
         raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
     try:
