@@ -665,3 +665,115 @@ def test_every_file_a_command_reads_is_opened_as_a_file(tmp_path, capsys, monkey
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]):
             problems.append(f"{label}: exit {code}: {lines[:3]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, logs from other tools (engine/log_reader.py): MCAPs written by the mcap package's own writer the way other
+# tools write them, and chunks that declare or inflate to more than a chunk may hold. Each is one line naming the
+# channel and what tiltload expected there (or the chunk, as damage), exit 2, never a traceback nor a decompression
+# of gigabytes.
+# ====================================================================================================================
+
+def _foreign_log(path: Path, encoding: str, messages: list[bytes], schema: tuple[str, str, bytes] | None = None,
+                 metadata: dict | None = None) -> Path:
+    """An MCAP of one channel /plant, written by the mcap package (as another tool would write it)."""
+    from mcap.writer import Writer
+
+    with open(path, "wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2" if encoding == "cdr" else "", library="another-tool 1.0")
+        schema_id = writer.register_schema(*schema) if schema else 0
+        channel = writer.register_channel("/plant", encoding, schema_id, metadata or {})
+        for i, data in enumerate(messages):
+            writer.add_message(channel, log_time=i * 12_000_000, data=data, publish_time=i * 12_000_000, sequence=i)
+        writer.finish()
+    return path
+
+
+def _raw_chunk_log(path: Path, declared: int, payload: bytes) -> Path:
+    """An MCAP whose one chunk declares `declared` uncompressed bytes and holds payload, zstd-compressed (written
+    record by record: no writer makes such a chunk)."""
+    import zlib
+
+    import zstandard
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message
+
+    inner = RecordBuilder()
+    Channel(id=1, topic="/plant", message_encoding="json", metadata={}, schema_id=0).write(inner)
+    Message(channel_id=1, log_time=0, data=b'{"t": 0.0, "x": 1.0}', publish_time=0, sequence=0).write(inner)
+    records = inner.end() + payload
+    out = RecordBuilder()
+    Header(profile="", library="another-tool").write(out)
+    Chunk(compression="zstd", data=zstandard.ZstdCompressor(level=1).compress(records), message_start_time=0,
+          message_end_time=0, uncompressed_crc=zlib.crc32(records), uncompressed_size=declared).write(out)
+    DataEnd(data_section_crc=0).write(out)
+    Footer(summary_start=0, summary_offset_start=0, summary_crc=0).write(out)
+    magic = b"\x89MCAP0\r\n"
+    path.write_bytes(magic + out.end() + magic)
+    return path
+
+
+def _foreign_logs(folder: Path) -> dict[str, tuple[Path, str]]:
+    """label -> (log, a word the line must hold)."""
+    from google.protobuf import descriptor_pb2 as d
+
+    fds = d.FileDescriptorSet()
+    proto = fds.file.add(name="pose.proto", package="geometry")
+    message = proto.message_type.add(name="Pose")
+    message.field.add(name="position", number=1, type=d.FieldDescriptorProto.TYPE_STRING)
+    foreign_schema = fds.SerializeToString()
+    number = b'{"t": 0.0, "x": 1.0}'
+    logs = {
+        "ROS 2 CDR": (_foreign_log(folder / "ros2.mcap", "cdr", [b"\x00\x01\x00\x00" + bytes(24)] * 3,
+                                   ("geometry_msgs/msg/Pose", "ros2msg", b"float64 x")), "cdr"),
+        "ROS 1": (_foreign_log(folder / "ros1.mcap", "ros1", [bytes(24)] * 3, ("geometry_msgs/Pose", "ros1msg", b"float64 x")),
+                  "ros1"),
+        "CBOR": (_foreign_log(folder / "cbor.mcap", "cbor", [b"\xa1\x61x\x01"] * 3), "cbor"),
+        "flatbuffer": (_foreign_log(folder / "fb.mcap", "flatbuffer", [bytes(16)] * 3, ("Pose", "flatbuffer", b"\x00" * 8)),
+                       "flatbuffer"),
+        "a foreign protobuf schema": (_foreign_log(folder / "proto.mcap", "protobuf", [b"\x0a\x03abc"] * 3,
+                                                   ("geometry.Pose", "protobuf", foreign_schema)), "geometry.Pose"),
+        "a protobuf schema that claims tiltload's layout": (
+            _foreign_log(folder / "claims.mcap", "protobuf", [b"\x0a\x03abc"] * 3, ("geometry.Pose", "protobuf", foreign_schema),
+                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+            "fixed layout"),
+        "a protobuf schema that is garbage": (
+            _foreign_log(folder / "garbage.mcap", "protobuf", [b"\x00"] * 3, ("x", "protobuf", b"\xff\xff\xff"),
+                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+            "fixed layout"),
+        "JSON text where a number goes": (_foreign_log(folder / "text.mcap", "json", [number, b'{"t": 0.012, "x": "high"}']),
+                                          "where a number goes"),
+        "JSON text where its schema says number": (
+            _foreign_log(folder / "typed.mcap", "json", [b'{"t": 0.0, "x": "high"}'],
+                         ("pose", "jsonschema", b'{"type": "object", "properties": {"x": {"type": "number"}}}')),
+            "where a number goes"),
+        "JSON text as the time": (_foreign_log(folder / "time.mcap", "json", [b'{"t": "noon", "x": 1.0}']), "where a number"),
+        "JSON arrays": (_foreign_log(folder / "array.mcap", "json", [b"[1, 2]"] * 2), "an object"),
+        "JSON not JSON": (_foreign_log(folder / "notjson.mcap", "json", [b"\xff\xfe x"] * 2), "not JSON"),
+        "JSON nested 100000 deep": (_foreign_log(folder / "deep.mcap", "json", [b"[" * 100_000]), "not JSON"),
+        "a chunk declaring a terabyte": (_raw_chunk_log(folder / "tera.mcap", 2**40, b""), "refused unread"),
+        "a chunk inflating beyond its size": (_raw_chunk_log(folder / "bomb.mcap", 60, bytes(64 * 2**20)), "inflates to more"),
+    }
+    return logs
+
+
+def test_logs_from_other_tools_are_one_line_naming_the_channel(tmp_path, capsys):
+    """Generated: 15 foreign logs x 3 commands (check, plot, compare) = 45 cases."""
+    (tmp_path / "b.json").write_text('{"metrics": {"ISE_x": 1.0}}')
+    cases = []
+    for label, (log, says) in _foreign_logs(tmp_path).items():
+        cases += [(f"check, {label}", ["check", "--formula", "a: plant.x < 5", str(log)], says),
+                  (f"plot, {label}", ["plot", str(log), "--out", str(tmp_path / "plots")], says),
+                  (f"compare, {label}", ["compare", str(log), str(tmp_path / "b.json")], says)]
+    assert len(cases) == 45
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
