@@ -777,3 +777,149 @@ def test_logs_from_other_tools_are_one_line_naming_the_channel(tmp_path, capsys)
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, output folders and resumed state (app/output_folder.py, app/stored_parts.py): campaign, falsify and
+# campaign-report refuse an output folder they could not write, and stored parts that are not parts, in one line
+# before any FMU is built or any cluster started (local_cluster is replaced by a tripwire here).
+# ====================================================================================================================
+
+CAMPAIGN_SPEC = """name = "small"
+[base]
+scenario = "fsi"
+controllers = ["dlqr"]
+stop_time = 0.5
+[vary]
+seeds = [1, 2]
+"""
+
+FALSIFY_SPEC = """name = "t"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+stop_time = 2.5
+gusts = false
+[[requirements]]
+name = "swing"
+formula = "always[0:2] (abs(plant.gamma_1) < 0.2)"
+[[search]]
+name = "amp"
+target = "gust.amplitude"
+range = [0.0, 20.0]
+[gust]
+start = 0.5
+duration = 0.5
+[budget]
+simulations = 2
+"""
+
+
+@pytest.fixture
+def small_mounts(tmp_path):
+    """(a read-only folder, a full folder) as tmpfs mounts of 64 KiB, each holding a results.parquet; None where this
+    machine does not let us mount (then those cases are left out)."""
+    import subprocess
+
+    made, mounted = [], []
+    try:
+        yield _mount_both(tmp_path, made, mounted)
+    finally:
+        for where in mounted:
+            subprocess.run(["umount", str(where)], capture_output=True)
+
+
+def _mount_both(tmp_path: Path, made: list, mounted: list) -> tuple:
+    import subprocess
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    for name in ("readonly", "full"):
+        where = tmp_path / name
+        where.mkdir()
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(where)], capture_output=True).returncode:
+            made.append(None)
+            continue
+        mounted.append(where)
+        pq.write_table(pa.Table.from_pylist([{"run_id": "r0", "controller": "dlqr", "seed": 1, "completed": True}]),
+                       where / "results.parquet")
+        if name == "full":
+            fd = os.open(where / "filler", os.O_WRONLY | os.O_CREAT)
+            try:
+                while os.write(fd, b"\0" * 4096):
+                    pass
+            except OSError:  # ENOSPC: the disk is full
+                pass
+            finally:
+                os.close(fd)
+        else:
+            subprocess.run(["mount", "-o", "remount,ro", str(where)], check=True)
+        made.append(where)
+    return tuple(made)
+
+
+def _bad_parts() -> dict[str, bytes | list[dict]]:
+    """label -> a part's bytes, or its rows (written as Parquet)."""
+    return {"garbage": b"PAR1 not parquet at all", "empty": b"", "a Parquet of no rows": [],
+            "another tool's Parquet": [{"a": 1, "b": "x"}], "a run id that is a number": [{"run_id": 7, "index": 0,
+                                                                                           "completed": True}],
+            "an index that is text": [{"run_id": "r", "index": "first", "completed": True}]}
+
+
+def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, capsys, monkeypatch, small_mounts):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from tiltload.master.app.campaign import cluster
+    from tiltload.master.app import output_folder
+
+    def tripwire(*args, **kwargs):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(cluster, "local_cluster", tripwire)
+    monkeypatch.chdir(tmp_path)
+    camp, fals = tmp_path / "c.toml", tmp_path / "f.toml"
+    camp.write_text(CAMPAIGN_SPEC)
+    fals.write_text(FALSIFY_SPEC)
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    readonly, full = small_mounts
+    outs = {"a file": (a_file, "is a file, not a folder"), "under a file": (a_file / "out", "is a file, so no folder"),
+            "a disk that says 1 KiB free": (tmp_path / "tiny", "KiB free")}
+    if readonly is not None:
+        outs |= {"read-only": (readonly / "out", "read-only"), "full": (full / "out", "disk is full")}
+    cases = []
+    for label, (out, says) in outs.items():
+        cases.append((f"campaign --out {label}", ["campaign", str(camp), "--out", str(out), "--workers", "1"], says))
+        cases.append((f"falsify --out {label}", ["falsify", str(fals), "--out", str(out), "--workers", "1"], says))
+    if readonly is not None:
+        cases += [("campaign-report in a read-only folder", ["campaign-report", str(readonly / "results.parquet")], "read-only"),
+                  ("campaign-report on a full disk", ["campaign-report", str(full / "results.parquet")], "disk is full")]
+    for i, (label, part) in enumerate(_bad_parts().items()):
+        for command, spec in (("campaign", camp), ("falsify", fals)):
+            if command == "campaign" and "index" in label:  # a campaign's parts have no index: that part is one
+                continue
+            out = tmp_path / f"{command}_{i}"
+            (out / "parts").mkdir(parents=True)
+            name = out / "parts" / ("000000.parquet" if command == "falsify" else "r0+1-abc.parquet")
+            if isinstance(part, bytes):
+                name.write_bytes(part)
+            else:
+                pq.write_table(pa.Table.from_pylist(part) if part else pa.table({"run_id": pa.array([], pa.string())}), name)
+            cases.append((f"{command}, a stored part: {label}", [command, str(spec), "--out", str(out), "--workers", "1"],
+                          f"stored part {name}"))
+    assert len(cases) >= 18, len(cases)
+    problems = []
+    real_usage = output_folder.shutil.disk_usage
+    for label, argv, says in cases:
+        tiny = "1 KiB" in label
+        monkeypatch.setattr(output_folder.shutil, "disk_usage",
+                            (lambda p: real_usage(p)._replace(free=1024)) if tiny else real_usage)
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)

@@ -151,8 +151,11 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..output_folder import writable_folder
+
     results = Path(results)
     rows, varied = _load(results)
+    writable_folder(results.parent, "the results' folder (report.md goes there)")
     spec = None
     if spec_path is None:  # the campaign keeps a copy of its spec next to the results
         spec_path = next((p for p in (results.parent / n for n in ("spec.toml", "spec.yaml", "spec.yml")) if p.is_file()), None)

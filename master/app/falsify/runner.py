@@ -8,6 +8,7 @@ import hashlib
 import json
 import os
 import sys
+import tempfile
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -118,12 +119,16 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     grid around the best case (neighbourhood.py: ±fraction of each range, points values each)."""
     from ..campaign.cluster import connect, local_cluster
     from ..fmus import build_all
+    from ..output_folder import writable_folder
+    from .search import read_parts
 
     spec = load(spec_path)
     changes = {k: v for k, v in (("optimizer", optimizer), ("seed", seed), ("simulations", simulations),
                                  ("seconds", seconds)) if v is not None}
     spec = replace(spec, **changes)
-    out = Path(out) if out else Path("runs") / "falsify" / f"{spec.name}-{spec.optimizer}-{spec.seed}"
+    out = writable_folder(Path(out) if out else Path("runs") / "falsify" / f"{spec.name}-{spec.optimizer}-{spec.seed}",
+                          "--out")
+    read_parts(out / "parts")  # what a rerun goes on from: a part that is not one is refused now, before any cluster
     say = progress or (lambda text: print(text, file=sys.stderr))
     fmus = Path(fmus).resolve()
     build_all(fmus, progress=say)
@@ -132,18 +137,23 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     cluster = None
     own = client is None
     where = scheduler or "the local cluster"
-    if own:
-        if scheduler is not None:
-            client = connect(scheduler, workers or 1, 5.0, 30.0)
-        else:
-            client, cluster = local_cluster(workers)
-            where = f"{cluster.scheduler_address} (the local cluster's)"
-    out.mkdir(parents=True, exist_ok=True)
-    (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
-    base, notes = cheaper_base(spec, fmus, early_stop, branch)
-    for line in notes:
-        say(line)
+    # the workers' scratch folder (Dask's lock files): one this search owns and removes, as a campaign's, not $TMPDIR's
+    scratch = tempfile.TemporaryDirectory(prefix="tiltload-falsify-")
     try:
+        if own:
+            if scheduler is not None:
+                client = connect(scheduler, workers or 1, 5.0, 30.0)
+            else:
+                client, cluster = local_cluster(workers, scratch=Path(scratch.name))
+                where = f"{cluster.scheduler_address} (the local cluster's)"
+    except BaseException:
+        scratch.cleanup()
+        raise
+    try:
+        (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
+        base, notes = cheaper_base(spec, fmus, early_stop, branch)
+        for line in notes:
+            say(line)
         outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
                          make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
         if neighbourhood and outcome.best is not None and not outcome.failures:
@@ -155,6 +165,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
             client.close()
             if cluster is not None:
                 cluster.close()
+        scratch.cleanup()
     if write_report:
         from .report import write
 
