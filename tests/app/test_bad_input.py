@@ -870,8 +870,8 @@ def _bad_parts() -> dict[str, bytes | list[dict]]:
 def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, capsys, monkeypatch, small_mounts):
     import pyarrow as pa
     import pyarrow.parquet as pq
-    from tiltload.master.app.campaign import cluster
     from tiltload.master.app import output_folder
+    from tiltload.master.app.campaign import cluster
 
     def tripwire(*args, **kwargs):
         raise AssertionError("a cluster was started")
