@@ -923,3 +923,81 @@ def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, 
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+def _interrupt_when(proc, ready, deadline_s: float = 300.0) -> None:
+    """SIGINT to the process group (what Ctrl-C at a terminal does) once ready() holds (polled), or at the deadline."""
+    import signal
+    import time
+
+    end = time.monotonic() + deadline_s
+    while proc.poll() is None and not ready() and time.monotonic() < end:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("when", ["while the workers start", "while the runs run"])
+def test_ctrl_c_in_a_campaign_is_one_line_with_nothing_left(fmus, tmp_path, when):
+    """Ctrl-C reaches every process of the group; only `tiltload: interrupted` (after the campaign's own first line)
+    reaches the terminal: no worker's traceback, no Dask log line; no process and no scratch folder stays behind."""
+    import signal
+    import subprocess
+    import sys
+
+    import psutil
+
+    spec = tmp_path / "c.toml"
+    spec.write_text(CAMPAIGN_SPEC.replace("stop_time = 0.5", "stop_time = 40").replace("seeds = [1, 2]", "seeds = [1, 2, 3, 4, 5, 6]"))
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    err = tmp_path / "stderr"
+    with open(err, "wb") as stderr:
+        proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.app.cli", "campaign", str(spec), "--out", str(tmp_path / "out"),
+                                 "--workers", "2", "--fmus", str(fmus)], stdout=subprocess.DEVNULL, stderr=stderr,
+                                start_new_session=True, env={**os.environ, "TMPDIR": str(scratch)},
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+        def spawned() -> bool:  # a worker process exists (it may still be importing)
+            try:
+                return any("multiprocessing" in " ".join(c.cmdline()) for c in psutil.Process(proc.pid).children(recursive=True))
+            except psutil.Error:
+                return False
+
+        def running() -> bool:  # a run is stored
+            return any((tmp_path / "out" / "parts").glob("*.parquet"))
+
+        _interrupt_when(proc, spawned if when == "while the workers start" else running)
+        code = proc.wait(timeout=120)
+    lines = [ln for ln in err.read_text().splitlines() if ln.strip()]
+    alive = _group_left(proc.pid)
+    assert code in (130, 0), lines  # 0: the campaign had finished before the signal came
+    assert not [ln for ln in lines if "Traceback" in ln or "KeyboardInterrupt" in ln or "distributed." in ln], lines
+    assert code == 0 or lines[-1] == "tiltload: interrupted", lines
+    assert not alive, alive
+    assert not list(scratch.iterdir()), list(scratch.iterdir())
+
+
+def _group_left(pgid: int, grace_s: float = 10.0) -> list:
+    """The group's live processes once they have had grace_s to finish exiting (the resource tracker ends when its
+    pipe closes, a moment after the command)."""
+    import time
+
+    import psutil
+
+    end = time.monotonic() + grace_s
+    while True:
+        alive = [p for p in psutil.process_iter(["pid"]) if _in_group(p, pgid)]
+        if not alive or time.monotonic() > end:
+            return alive
+        time.sleep(0.2)
+
+
+def _in_group(p, pgid: int) -> bool:
+    """p is a live process of the group (a zombie has ended: whoever inherits it reaps it)."""
+    import psutil
+
+    try:
+        return os.getpgid(p.pid) == pgid and p.status() != psutil.STATUS_ZOMBIE
+    except (OSError, psutil.Error):
+        return False
