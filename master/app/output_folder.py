@@ -30,33 +30,43 @@ def _free(path: Path) -> int | None:
         return None
 
 
-def writable_folder(path: Path, what: str, min_free: int = MIN_FREE) -> Path:
-    """path as a folder this process can write files into (made, with its parents, if missing), with at least min_free
-    bytes free on its disk; else UserError naming the folder and the problem. what: the option or role ("--out")."""
+def folder_problem(path: Path) -> str | None:
+    """Why path cannot be (or become) a folder: it is a file, or lies under one; None if it can."""
     path = Path(path)
     blocker = _blocker(path)
     if blocker == path:
-        raise UserError(f"{what} {path} is a file, not a folder")
+        return f"{path} is a file, not a folder"
     if blocker is not None:
-        raise UserError(f"{what} {path}: {blocker} is a file, so no folder can be made under it")
+        return f"{path}: {blocker} is a file, so no folder can be made under it"
+    return None
+
+
+def writable_folder(path: Path, what: str, min_free: int = MIN_FREE) -> Path:
+    """path, if it is a folder this process can write files into, or one it could make (its nearest existing ancestor
+    is such a folder), with at least min_free bytes free on its disk; else UserError naming the folder and the problem.
+    Nothing is made: the command makes the folder when it first writes (after its other checks). what: the option."""
+    path = Path(path)
+    problem = folder_problem(path)
+    if problem is not None:
+        raise UserError(f"{what} {problem}")
+    existing = next(p for p in (path, *path.parents, Path(".")) if p.exists())
+    probe = existing / f".tiltload-probe-{os.getpid()}"
     try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / f".tiltload-probe-{os.getpid()}"
         with open(probe, "wb") as f:  # a real write: a read-only mount or a folder of another user refuses it here
             f.write(b"\0" * 4096)
             f.flush()
             os.fsync(f.fileno())
-        probe.unlink()
     except OSError as err:
         reason = {errno.EACCES: "permission denied", errno.EPERM: "permission denied", errno.EROFS: "on a read-only disk",
                   errno.ENOSPC: "its disk is full", errno.EDQUOT: "its disk quota is used up"}.get(err.errno,
                                                                                               err.strerror or str(err))
+        raise UserError(f"{what} {path} cannot be written: {reason}") from None
+    finally:
         try:
-            (path / f".tiltload-probe-{os.getpid()}").unlink(missing_ok=True)
+            probe.unlink(missing_ok=True)
         except OSError:
             pass
-        raise UserError(f"{what} {path} cannot be written: {reason}") from None
-    free = _free(path)
+    free = _free(existing)
     if free is not None and free < min_free:
         raise UserError(f"{what} {path}: its disk has {free // 1024} KiB free, less than the {min_free // 2**20} MiB the "
                         "results need: make room or choose another --out")

@@ -1001,3 +1001,31 @@ def _in_group(p, pgid: int) -> bool:
         return os.getpgid(p.pid) == pgid and p.status() != psutil.STATUS_ZOMBIE
     except (OSError, psutil.Error):
         return False
+
+
+def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, monkeypatch):
+    """Generated: 7 commands x 3 paths that cannot be a folder (a file, under a file, empty) = 21 cases, each refused
+    by the option's type (arguments.folder) before the command prepares anything."""
+    monkeypatch.chdir(tmp_path)
+    a_file = tmp_path / "fmus.zip"
+    a_file.write_bytes(b"PK")
+    (tmp_path / "c.toml").write_text(CAMPAIGN_SPEC)
+    (tmp_path / "f.toml").write_text(FALSIFY_SPEC)
+    commands = {"run": ["run", "--stop-time", "0.1"], "bundle": ["bundle", str(tmp_path / "b.zip")],
+                "campaign": ["campaign", "c.toml"], "falsify": ["falsify", "f.toml"], "formation": ["formation"],
+                "reproduce": ["reproduce"], "ssp": ["ssp", "export", str(tmp_path / "x.ssp")]}
+    paths = {"a file": (str(a_file), "is a file, not a folder"), "under a file": (str(a_file / "fmus"), "is a file, so no folder"),
+             "empty": ("", "an empty path")}
+    cases = [(f"{c} --fmus {label}", [*argv, f"--fmus={path}"], says) for c, argv in commands.items()
+             for label, (path, says) in paths.items()]
+    assert len(cases) == 21
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or "--fmus" not in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)

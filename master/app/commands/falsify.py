@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
     f.add_argument("--seconds", type=arguments.positive_time, default=None, help="wall-time budget, instead of the spec's")
     f.add_argument("--scheduler", default=None, help="an existing Dask scheduler (default: a local cluster on 127.0.0.1)")
     f.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
-    f.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    f.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     f.add_argument("--no-early-stop", action="store_true",
                    help="run every evaluation to the stop time (default: stop at the first violation that cannot change)")
     f.add_argument("--branch", choices=("auto", "on", "off"), default="auto",

@@ -150,6 +150,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
         scratch.cleanup()
         raise
     try:
+        out.mkdir(parents=True, exist_ok=True)
         (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
         base, notes = cheaper_base(spec, fmus, early_stop, branch)
         for line in notes:
