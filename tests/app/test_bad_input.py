@@ -1029,3 +1029,118 @@ def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, mo
         if code != 2 or len(lines) != 1 or says not in lines[0] or "--fmus" not in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, campaign-report (campaign/report.py): every keep option, results of other writers, the spec beside them,
+# the rerun commands of a user's controller FMU.
+# ====================================================================================================================
+
+REPORT_SPEC = """name = "rep"
+[base]
+scenario = "fsi"
+controllers = ["dlqr", "ctrl/mine.fmu"]
+stop_time = 0.5
+[vary]
+seeds = [1, 2]
+[[vary.parameters]]
+name = "load_mass"
+targets = ["plant.m_L"]
+values = [0.05, 0.1]
+"""
+KEPT = {"ISE": ("ISE(",), "IADU": ("IADU(",), "max_tracking_error": ("max_tracking_error",),
+        "time_saturated": ("time_saturated",), "zse_containment": ("zse_containment",)}
+
+
+@pytest.fixture(scope="module")
+def user_campaign(fmus, tmp_path_factory) -> Path:
+    """The results of a small campaign over dlqr and a user's controller FMU (a copy of ours, under another name),
+    every metric kept."""
+    folder = tmp_path_factory.mktemp("user_campaign")
+    (folder / "ctrl").mkdir()
+    shutil.copy(fmus / "TiltloadController.fmu", folder / "ctrl" / "mine.fmu")
+    (folder / "spec.toml").write_text(REPORT_SPEC)
+    assert main(["campaign", str(folder / "spec.toml"), "--out", str(folder / "out"), "--workers", "1", "--fmus", str(fmus)]) == 0
+    return folder / "out" / "results.parquet"
+
+
+def _results_with(results: Path, dest: Path, edit) -> Path:
+    """A copy of the campaign's folder whose results.parquet holds edit(rows)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    shutil.copytree(results.parent, dest)
+    rows = edit(pq.read_table(results).to_pylist())
+    pq.write_table(pa.Table.from_pylist(rows), dest / "results.parquet")
+    return dest / "results.parquet"
+
+
+@pytest.mark.slow
+def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path, capsys):
+    """Generated: each keep.metrics (alone, and all but it) and each older writer's missing column is reported (exit 0);
+    text in each numeric column, a missing controller or run id, a spec beside the results that is not a spec: one
+    line, exit 2."""
+    import pyarrow.parquet as pq
+
+    columns = pq.read_table(user_campaign).column_names
+    metric_columns = [c for c in columns if c.startswith(("ISE(", "IADU(")) or c in ("max_tracking_error", "time_saturated",
+                                                                                    "zse_containment")]
+    good, bad = [], []
+    for keep, prefixes in KEPT.items():  # what keep.metrics = [keep] writes: the other metrics' columns absent
+        alone = [c for c in metric_columns if not c.startswith(prefixes)]
+        good.append((f"keep.metrics = [{keep}]", lambda rows, drop=alone: [{k: v for k, v in r.items() if k not in drop}
+                                                                            for r in rows]))
+        good.append((f"keep.metrics without {keep}", lambda rows, p=prefixes: [{k: v for k, v in r.items()
+                                                                                if not k.startswith(p)} for r in rows]))
+    for column in ("seed", "diverged", "diverged_at", "error"):  # an older writer's rows without it
+        good.append((f"no column {column}", lambda rows, c=column: [{k: v for k, v in r.items() if k != c} for r in rows]))
+    good.append(("metrics renamed (ISE_x)", lambda rows: [{k.replace("(", "_").rstrip(")"): v for k, v in r.items()}
+                                                          for r in rows]))
+    for column in [*metric_columns, "load_mass"]:
+        bad.append((f"text in {column}", lambda rows, c=column: [{**r, c: "high"} for r in rows], "where a number goes"))
+    for value in (None, ""):
+        bad.append((f"controller {value!r}", lambda rows, v=value: [{**r, "controller": v} for r in rows], "no controller"))
+    bad.append(("run id None", lambda rows: [{**r, "run_id": None} for r in rows], "no run id"))
+    bad.append(("completed text", lambda rows: [{**r, "completed": "yes"} for r in rows], "not true or false"))
+    bad.append(("no column completed", lambda rows: [{k: v for k, v in r.items() if k != "completed"} for r in rows],
+                "no column completed"))
+    problems = []
+    for i, (label, edit) in enumerate(good):
+        results = _results_with(user_campaign, tmp_path / f"good_{i}", edit)
+        code = main(["campaign-report", str(results)])
+        err = capsys.readouterr().err
+        if code != 0 or not (results.parent / "report.md").is_file():
+            problems.append(f"{label}: exit {code}: {err.strip()[:300]}")
+    cases = [(label, _results_with(user_campaign, tmp_path / f"bad_{i}", edit), says) for i, (label, edit, says) in enumerate(bad)]
+    for i, (label, text, says) in enumerate([("a spec that is not TOML", "name = ", "not valid TOML"),
+                                             ("a spec of another tool", "[tool.poetry]\nname = 'x'\n", "spec.toml: (top level)"),
+                                             ("a spec of a wrong type", REPORT_SPEC.replace("stop_time = 0.5", "stop_time = 'long'"),
+                                              "base.stop_time")]):
+        results = _results_with(user_campaign, tmp_path / f"spec_{i}", lambda rows: rows)
+        (results.parent / "spec.toml").write_text(text)
+        cases.append((label, results, says))
+    for label, results, says in cases:
+        code = main(["campaign-report", str(results)])
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert len(good) + len(cases) >= 30, len(good) + len(cases)
+    assert not problems, f"{len(problems)} of {len(good) + len(cases)} cases:\n" + "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_the_reports_rerun_commands_name_a_users_controller_fmu_by_its_path(user_campaign, fmus, tmp_path, capsys):
+    """The report's commands rerun a run of the user's FMU: its path (from the spec the campaign ran), and the command
+    runs as printed (from another folder)."""
+    import shlex
+
+    assert main(["campaign-report", str(user_campaign)]) == 0
+    capsys.readouterr()
+    report = (user_campaign.parent / "report.md").read_text()
+    commands = [ln.strip().strip("`") for ln in report.splitlines() if ln.strip().startswith("`tiltload run")]
+    mine = [c for c in commands if "mine" in c]
+    fmu = (user_campaign.parent.parent / "ctrl" / "mine.fmu").resolve()
+    assert mine and all(f"--controller {fmu}" in c for c in mine), commands
+    os.chdir(tmp_path)
+    argv = shlex.split(mine[0])[1:] + ["--fmus", str(fmus), "--no-log", "--quiet", "--no-plots"]
+    assert main(argv) == 0, capsys.readouterr().err

@@ -148,6 +148,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     from .address import parse
     from .cluster import connect, local_cluster
     from .dispatch import Dispatch, Policy
+    from .report import ORIGIN
 
     opts = Options(**options)
     scheduler, workers = opts.scheduler, opts.workers
@@ -183,6 +184,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
             LOGGER.info("campaign %s (%s): %d runs, %d stored, %d to run", campaign.name, Path(spec).resolve(),
                         len(campaign.cases), len(campaign.cases) - len(todo), len(todo))
             (out / f"spec{Path(spec).suffix}").write_bytes(Path(spec).read_bytes())  # the report's rerun commands read it
+            (out / ORIGIN).write_text(f"{Path(spec).resolve()}\n")  # and find its relative paths (controllers) from there
             logs = out / "logs" if campaign.keep_logs else None
             if logs:
                 logs.mkdir(exist_ok=True)

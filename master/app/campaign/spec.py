@@ -128,7 +128,7 @@ def read_spec_file(path: Path) -> dict:
     return data
 
 
-def _validate(data: dict, path: Path) -> None:
+def validate(data: dict, path: Path) -> None:
     from ...engine.user_files import schema_problem
 
     problem = schema_problem(data, SCHEMA)
@@ -261,7 +261,7 @@ def load(path: Path) -> Campaign:
     """Read, validate and expand a campaign spec into its runs."""
     path = Path(path)
     data = read_spec_file(path)
-    _validate(data, path)
+    validate(data, path)
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     if "snapshot" in base:
         return dataclasses.replace(_load_branches(data, path, _branching(base, path)), requirements=_requirements(keep, path))
