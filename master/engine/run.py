@@ -56,7 +56,7 @@ def run_system(system: System, stop: float, log: Path | None, metrics: Metrics |
     try:
         ex.instantiate(resume)
         for t, fn in sorted(checkpoints, key=lambda c: c[0]):
-            if t < stop:
+            if t <= stop:  # at the stop time: the run's end state (the final run below then has nothing left to do)
                 ex.run(t, realtime)
                 fn(ex)
         ex.run(stop, realtime)

@@ -1144,3 +1144,28 @@ def test_the_reports_rerun_commands_name_a_users_controller_fmu_by_its_path(user
     os.chdir(tmp_path)
     argv = shlex.split(mine[0])[1:] + ["--fmus", str(fmus), "--no-log", "--quiet", "--no-plots"]
     assert main(argv) == 0, capsys.readouterr().err
+
+
+# ====================================================================================================================
+# Issue 49, what a new user hit.
+# ====================================================================================================================
+
+def _metric_lines(out: str) -> list[str]:
+    return [ln for ln in out.splitlines() if ln.strip().startswith(("ISE(", "IADU("))]
+
+
+@pytest.mark.slow
+def test_a_snapshot_at_the_stop_time_saves_the_end_state_and_continues_as_the_whole_run(fmus, tmp_path, capsys):
+    """--stop-time 1 --snapshot-at 1 (the run's end state) is taken; continued to 1.5 s, its metrics are the
+    uninterrupted 1.5 s run's, digit for digit."""
+    common = ["--fmus", str(fmus), "--no-log", "--no-plots", "--scenario", "fsi", "--controller", "dlqr"]
+    end = tmp_path / "end.snapshot"
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "1", str(end), *common]) == 0
+    assert end.is_file() and "snapshot at t = 0.996 s:" in capsys.readouterr().out  # the last tick, 83 x 12 ms
+    assert main(["run", "--from-snapshot", str(end), "--stop-time", "1.5", "--fmus", str(fmus), "--no-log", "--no-plots"]) == 0
+    continued = _metric_lines(capsys.readouterr().out)
+    assert main(["run", "--stop-time", "1.5", *common]) == 0
+    whole = _metric_lines(capsys.readouterr().out)
+    assert continued and continued == whole
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "1.012", str(tmp_path / "late.snapshot"), *common]) == 2
+    assert "0 < T <= 1 s" in capsys.readouterr().err

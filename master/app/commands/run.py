@@ -286,8 +286,8 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float) -> list:
     from ...engine import snapshot
 
     at, path = checkpoint
-    if not 0 < at < stop:
-        raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
+    if not 0 < at <= stop:  # at the stop time: the run's end state, to continue later with a later --stop-time
+        raise UserError(f"--snapshot-at {at:g}: must fall inside the run or at its end (0 < T <= {stop:g} s)")
     application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
 
     def save(execution) -> None:
