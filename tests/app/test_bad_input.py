@@ -1169,3 +1169,22 @@ def test_a_snapshot_at_the_stop_time_saves_the_end_state_and_continues_as_the_wh
     assert continued and continued == whole
     assert main(["run", "--stop-time", "1", "--snapshot-at", "1.012", str(tmp_path / "late.snapshot"), *common]) == 2
     assert "0 < T <= 1 s" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_falsify_with_a_controller_whose_init_raises_shows_its_error_once(fmus, tmp_path, capfd):
+    """A wrapped controller whose __init__ raises: every evaluation ends in the controller's own line (not an
+    environment fault: no retry), the command says so and exits 1, and the Dask log it keeps is in the output folder."""
+    src = tmp_path / "initbad.py"
+    src.write_text("class InitBad:\n    inputs = ['x_ref']\n\n    def __init__(self):\n        raise KeyError('x_ref_gain')\n\n"
+                   "    def step(self, t, i):\n        return 10.0, 10.0, 0.0, 0.0\n")
+    assert main(["wrap", str(src), "--out", str(tmp_path / "initbad.fmu")]) == 0
+    spec = tmp_path / "f.toml"
+    spec.write_text(FALSIFY_SPEC.replace('scenario = "fsi"', 'scenario = "fsi"\ncontroller = "initbad.fmu"'))
+    capfd.readouterr()
+    code = main(["falsify", str(spec), "--out", str(tmp_path / "out"), "--workers", "1", "--fmus", str(fmus)])
+    err = capfd.readouterr().err
+    assert code == 1, err
+    assert "InitBad() raised KeyError ('x_ref_gain')" in err.splitlines()[-1], err
+    assert "environment failed" not in err and "trying again" not in err and "Traceback" not in err, err
+    assert (tmp_path / "out" / "falsify.log").is_file()

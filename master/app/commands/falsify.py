@@ -52,4 +52,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}")
     if args.neighbourhood and (out / "neighbourhood" / "neighbourhood.txt").is_file():
         print((out / "neighbourhood" / "neighbourhood.txt").read_text(), end="")
+    failed = [r for r in outcome.rows if r.get("error")]
+    if failed and len(failed) == len(outcome.rows):  # nothing was judged: no search happened, say why (the runs' words)
+        print(f"tiltload: error: every simulation ended in an error, none was judged; the first: {failed[0]['error']}",
+              file=sys.stderr)
+        return 1
     return 0
