@@ -1188,3 +1188,28 @@ def test_falsify_with_a_controller_whose_init_raises_shows_its_error_once(fmus, 
     assert "InitBad() raised KeyError ('x_ref_gain')" in err.splitlines()[-1], err
     assert "environment failed" not in err and "trying again" not in err and "Traceback" not in err, err
     assert (tmp_path / "out" / "falsify.log").is_file()
+
+
+def test_the_pytest_plugin_prints_a_baseline_report_once(tmp_path):
+    """A user's test whose run is off its baseline fails with the report printed once: pytest's own output of that
+    test holds the report's first line once and no "During handling of the above exception"."""
+    import subprocess
+    import sys
+
+    (tmp_path / "baselines" / "test_user").mkdir(parents=True)
+    (tmp_path / "baselines" / "test_user" / "test_off.json").write_text(
+        json.dumps({"metrics": {"ISE(x)": 0.5, "IADU(f_R)": 2.0}, "tolerances": {"rtol": 1e-6, "atol": 1e-12}}))
+    (tmp_path / "pytest.ini").write_text("[pytest]\ntiltload_baselines = baselines\n")
+    (tmp_path / "test_user.py").write_text(
+        "import tiltload as tl\nfrom tiltload.master.app.regression.case import record\n\n"
+        "def test_off(tiltload_baseline):\n"
+        "    case = {k: str(v) for k, v in record(scenario='zse', trajectory=1, controller='mixed', seed=1, stop_time=40.0).items()}\n"
+        "    result = tl.Result(metrics={'ISE(x)': 0.55, 'IADU(f_R)': 2.0}, case=case, log=None, command='tiltload run',\n"
+        "                       options={}, stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)\n"
+        "    tiltload_baseline.check(result)\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 1, done.stdout[-3000:]
+    assert done.stdout.count("the run differs from its baseline: 1 of 2 metrics out of tolerance\n") == 1, done.stdout
+    assert "During handling of the above exception" not in done.stdout, done.stdout
