@@ -1213,3 +1213,20 @@ def test_the_pytest_plugin_prints_a_baseline_report_once(tmp_path):
     assert done.returncode == 1, done.stdout[-3000:]
     assert done.stdout.count("the run differs from its baseline: 1 of 2 metrics out of tolerance\n") == 1, done.stdout
     assert "During handling of the above exception" not in done.stdout, done.stdout
+
+
+@pytest.mark.slow
+def test_run_prints_the_thesis_values_beside_its_metrics_as_readme_says(fmus, tmp_path, capsys):
+    """FSI, trajectory 1, DLQR, 40 s: the column of the thesis's Table 5.4 (values typed from the thesis); cut short, a
+    note; another case (a --set), no column."""
+    common = ["--fmus", str(fmus), "--no-log", "--no-plots", "--quiet", "--scenario", "fsi", "--controller", "dlqr"]
+    assert main(["run", *common]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert any(ln.split() == ["metric", "value", "thesis", "(Table", "5.4)"] for ln in out), out
+    rows = {ln.split()[0]: ln.split()[1:] for ln in out if ln.strip().startswith(("ISE(", "IADU("))}
+    assert float(rows["ISE(x)"][1]) == 0.1571 and float(rows["IADU(tau_L)"][1]) == 0.1982, rows
+    assert main(["run", *common, "--stop-time", "2"]) == 0
+    assert "note: the thesis's values (Table 5.4) are of the whole 40 s run" in capsys.readouterr().out
+    assert main(["run", *common, "--stop-time", "40", "--set", "plant.m_L=0.06"]) == 0
+    out = capsys.readouterr().out
+    assert "thesis (" not in out and "note: the thesis" not in out

@@ -199,6 +199,7 @@ def execute(args: argparse.Namespace) -> Outcome:
     from ..fmus import is_foreign
     from ..loop import is_loop, loop_metrics
     from ..loop_system import loop_system
+    from ..regression.thesis_values import beside_run
     from ..scene import scene_channels
 
     pacer = _pacer(args)
@@ -224,7 +225,7 @@ def execute(args: argparse.Namespace) -> Outcome:
                         channels=scene_channels(scene) if scene else (), isolate=None if args.trust_fmus else is_foreign,
                         step_timeout=args.step_timeout, announce=_announce, realtime=pacer, resume=snap,
                         checkpoints=checkpoints, observers_extra=[monitor] if monitor else ())
-    _print_results(result, snap, monitor, pacer, log)
+    _print_results(result, snap, monitor, pacer, log, beside_run(opts, stop))
     return _outcome(args, opts, meta, result, log, monitor)
 
 
@@ -295,15 +296,19 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float) -> list:
     return [(at, save)]
 
 
-def _print_results(result, snap, monitor, pacer, log: Path | None) -> None:
-    """The speed, the metrics, the requirements' verdicts, the pacer's overruns and where the log went."""
+def _print_results(result, snap, monitor, pacer, log: Path | None, thesis: tuple = ("", None)) -> None:
+    """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
+    verdicts, the pacer's overruns and where the log went."""
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
     print(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
           + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
-        print(f"{'metric':>14} {'value':>12}")
+        what, values = thesis
+        print(f"{'metric':>14} {'value':>12}" + (f"  thesis ({what})" if values else ""))
         for k, v in result.metrics.items():
-            print(f"{k:>14} {v:>12.6g}")
+            print(f"{k:>14} {v:>12.6g}" + (f"  {values[k]:>10.6g}" if values and k in values else ""))
+        if what and values is None:
+            print(f"note: {what}")
     if monitor is not None and monitor.results:
         from .check import table
 
