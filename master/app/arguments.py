@@ -37,6 +37,18 @@ seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
 
+def folder(text: str) -> Path:
+    """A folder option (--fmus): a folder, or a path where one can be made; a file, or a path under one, is refused
+    here, before the command prepares anything."""
+    from .output_folder import folder_problem
+
+    path = Path(text)
+    problem = folder_problem(path) if text else "an empty path"
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
+    return path
+
+
 def file_stem(text: str) -> str:
     if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
         raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")
@@ -91,7 +103,7 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                         "not apply to it; --faults and --stop-time do)")
     p.add_argument("--allow-external-fmus", action="store_true",
                    help="--system: let a component's FMU lie outside the package or the system file's folder")
-    p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus)")
+    p.add_argument("--fmus", type=folder, default=None, help="FMU folder (default: fmus)")
     p.add_argument("--fmi", type=int, choices=(2, 3), default=None,
                    help="the loop's FMUs as FMI 2.0 (default; in FMUS/) or FMI 3.0 co-simulation FMUs (in FMUS/fmi3/)")
     p.add_argument("--clocks", action="store_true",

@@ -6,28 +6,31 @@ import argparse
 import os
 import sys
 
-from .commands import (
-    b2b,
-    build,
-    bundle,
-    campaign,
-    campaign_report,
-    check,
-    compare,
-    design,
-    falsify,
-    formation,
-    layout,
-    plot,
-    reproduce,
-    run,
-    serve,
-    ssp,
-    wrap,
-)
 
-# in the help's order
-COMMANDS = (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, b2b, check, campaign, campaign_report, falsify,
+def commands() -> tuple:
+    """The subcommands' modules, in the help's order. Imported when the parser is built, not with this module: their
+    imports take a second or more, and a Ctrl-C in that second must reach entry()'s handler, not print a traceback."""
+    from .commands import (
+        b2b,
+        build,
+        bundle,
+        campaign,
+        campaign_report,
+        check,
+        compare,
+        design,
+        falsify,
+        formation,
+        layout,
+        plot,
+        reproduce,
+        run,
+        serve,
+        ssp,
+        wrap,
+    )
+
+    return (build, bundle, design, wrap, run, serve, ssp, formation, reproduce, compare, b2b, check, campaign, campaign_report, falsify,
             layout, plot)
 
 
@@ -75,7 +78,7 @@ def parser(cls: type[argparse.ArgumentParser] = OneLineParser) -> argparse.Argum
     p = cls(prog="tiltload", description="Build the tiltload FMUs, run the thesis's loop and more.")
     p.add_argument("--version", action="version", version=f"tiltload {version()}", help="print tiltload's version and exit")
     sub = p.add_subparsers(dest="command", required=True)
-    for command in COMMANDS:
+    for command in commands():
         command.add_parser(sub)
     return p
 
@@ -117,11 +120,15 @@ def main(argv: list[str] | None = None) -> int:
 
 def entry() -> None:
     """The `tiltload` command: main(), then an exit that a loaded pythonfmu controller cannot crash."""
-    from ..engine.pythonfmu_guard import exit_now, pinned
-    from ..engine.run import terminate_like_interrupt
+    try:  # from the first import: a Ctrl-C while the command's modules load is as quiet as one while it runs
+        from ..engine.pythonfmu_guard import exit_now, pinned
+        from ..engine.run import terminate_like_interrupt
 
-    terminate_like_interrupt()
-    code = main()
+        terminate_like_interrupt()
+        code = main()
+    except KeyboardInterrupt:
+        print("tiltload: interrupted", file=sys.stderr)
+        sys.exit(130)
     if pinned():
         exit_now(code)
     sys.exit(code)

@@ -81,7 +81,13 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     """Every stale FMU of recipes rebuilt into dest (as FMI 2.0 or 3.0), in the order given. The C compiler runs for several FMUs side by
     side (a first build is mostly compiling: ~20 s in a row on 2 cores, ~11 s side by side); their Python preparation
     (CasADi code generation, the designs) runs one at a time, as CasADi is not known to be thread-safe."""
+    from .output_folder import folder_problem
+    from .user_error import UserError
+
     dest = Path(dest)
+    problem = folder_problem(dest)
+    if problem is not None:  # the API's fmus= too, not only --fmus
+        raise UserError(f"the FMU folder {problem}")
     toolchains = toolchains or choose()[0]
     stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:

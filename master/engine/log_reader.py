@@ -18,12 +18,53 @@ from pathlib import Path
 
 from .errors import DescriptionError
 from .log_encoding import LAYOUT, FixedMessage
+from .user_files import open_binary
 
 MAGIC = b"\x89MCAP0\r\n"
+MAX_CHUNK_BYTES = 64 * 2**20  # a chunk's declared size, uncompressed (tiltload writes 32-128 KiB; other tools' about 1-4 MiB)
 
 
 class DamagedLog(DescriptionError):
     """A log whose bytes are damaged inside (not merely cut short); the message says where it stops being intact."""
+
+
+class ForeignLog(DescriptionError):
+    """A log another tool wrote, with a channel whose messages tiltload cannot read: the message names the channel and
+    what tiltload expected there."""
+
+
+def _json_decoder(topic: str, schema=None):
+    """bytes -> dict for a JSON channel: an object whose "t", if any, is a number, and whose numeric fields (those its
+    JSON schema types as numbers, and any that held a number in an earlier message) hold numbers or null in every
+    message: text where a number goes names the channel and the field here, not in whichever reader meets it."""
+    numeric = set()
+    if schema is not None and schema.encoding == "jsonschema":
+        try:
+            properties = json.loads(schema.data).get("properties", {})
+            numeric = {k for k, v in properties.items() if isinstance(v, dict) and v.get("type") in ("number", "integer")}
+        except (ValueError, AttributeError, RecursionError):  # a schema that is not JSON: the messages still speak
+            pass
+
+    def decode(data: bytes) -> dict:
+        try:
+            msg = json.loads(data)
+        except (ValueError, RecursionError) as err:  # ValueError: not UTF-8 or not JSON
+            raise ForeignLog(f"channel {topic[:80]}: a message that is not JSON ({str(err)[:80]}); tiltload's JSON "
+                             "channels hold one object per message") from None
+        if not isinstance(msg, dict):
+            raise ForeignLog(f"channel {topic[:80]}: a JSON {type(msg).__name__} where tiltload expects an object of "
+                             "named values")
+        t = msg.get("t", 0.0)
+        if isinstance(t, bool) or not isinstance(t, (int, float)):
+            raise ForeignLog(f"channel {topic[:80]}: its time t holds {str(t)[:40]!r} where a number of seconds goes")
+        for key, value in msg.items():
+            if value is None or isinstance(value, (int, float)):
+                numeric.add(key)
+            elif key in numeric:
+                raise ForeignLog(f"channel {topic[:80]}: field {key[:80]} holds {str(value)[:40]!r} where a number goes")
+        return msg
+
+    return decode
 
 
 @dataclass(frozen=True)
@@ -55,20 +96,71 @@ def _decoder(schema, channel, raw: bool = False):
     """A function bytes -> dict for one channel: JSON, or the fixed-layout protobuf (rebuilt from its schema). raw: a
     fixed-layout channel's messages stay bytes (read_columns decodes them all at once), and this returns its layout."""
     if channel.message_encoding == "json":
-        return json.loads
+        return _json_decoder(channel.topic, schema)
     if channel.message_encoding == "protobuf" and channel.metadata.get("layout") == LAYOUT and schema is not None:
-        from google.protobuf import descriptor_pb2 as d
-
-        fds = d.FileDescriptorSet.FromString(schema.data)
-        fields = fds.file[0].message_type[0].field
-        kinds = {d.FieldDescriptorProto.TYPE_DOUBLE: "Real", d.FieldDescriptorProto.TYPE_SFIXED32: "Integer",
-                 d.FieldDescriptorProto.TYPE_BOOL: "Boolean"}
-        by = {"Real": [], "Integer": [], "Boolean": []}
-        for f in fields[1:]:  # fields[0] is t
-            by[kinds[f.type]].append(f.name)
-        layout = FixedMessage(channel.topic.lstrip("/"), by["Real"], by["Integer"], by["Boolean"])
+        layout = _fixed_layout(schema, channel)
         return layout if raw else layout.decode
-    raise ValueError(f"{channel.topic}: cannot decode {channel.message_encoding} messages")
+    what = (f"protobuf messages of schema {schema.name if schema is not None else '(none)'} without tiltload's fixed layout"
+            if channel.message_encoding == "protobuf" else f"{channel.message_encoding or 'unnamed'}-encoded messages")
+    raise ForeignLog(f"channel {channel.topic[:80]}: {what[:120]}; tiltload reads JSON channels and its own fixed-layout "
+                     "protobuf (written by tiltload run)")
+
+
+def _fixed_layout(schema, channel) -> FixedMessage:
+    """The fixed layout a tiltload protobuf channel's schema declares (t, then doubles, sfixed32s and bools)."""
+    from google.protobuf import descriptor_pb2 as d
+    from google.protobuf.message import DecodeError
+
+    kinds = {d.FieldDescriptorProto.TYPE_DOUBLE: "Real", d.FieldDescriptorProto.TYPE_SFIXED32: "Integer",
+             d.FieldDescriptorProto.TYPE_BOOL: "Boolean"}
+    try:
+        fields = d.FileDescriptorSet.FromString(schema.data).file[0].message_type[0].field
+    except (DecodeError, IndexError):
+        fields = None
+    if not fields or fields[0].name != "t" or any(f.type not in kinds for f in fields):
+        raise ForeignLog(f"channel {channel.topic[:80]}: its schema {schema.name[:80]} claims tiltload's fixed layout but "
+                         "is not one (a message of t, then double, sfixed32 and bool fields)")
+    by = {"Real": [], "Integer": [], "Boolean": []}
+    for f in fields[1:]:  # fields[0] is t
+        by[kinds[f.type]].append(f.name)
+    return FixedMessage(channel.topic.lstrip("/"), by["Real"], by["Integer"], by["Boolean"])
+
+
+def _inflated(chunk):
+    """The chunk with its records uncompressed, refused by its declared size before anything is decompressed, and
+    decompressed no further than that size (a chunk that inflates beyond what it declares is damaged, not read)."""
+    from dataclasses import replace
+
+    if chunk.uncompressed_size > MAX_CHUNK_BYTES:
+        raise _Refused(f"declares {chunk.uncompressed_size} bytes uncompressed, more than the {MAX_CHUNK_BYTES} a chunk "
+                       "may have: refused unread")
+    if chunk.compression == "":
+        return chunk
+    if chunk.compression == "zstd":
+        import zstandard
+
+        parts, left = [], chunk.uncompressed_size + 1  # one byte more than declared tells a chunk that inflates further
+        with zstandard.ZstdDecompressor().stream_reader(chunk.data, read_across_frames=True) as reader:
+            while left > 0 and (part := reader.read(left)):
+                parts.append(part)
+                left -= len(part)
+        data = b"".join(parts)
+    elif chunk.compression == "lz4":
+        try:
+            import lz4.frame
+        except ImportError:
+            raise _Refused("is lz4-compressed (tiltload writes zstd; pip install lz4 to read it)") from None
+        data = lz4.frame.LZ4FrameDecompressor().decompress(chunk.data, max_length=chunk.uncompressed_size + 1)
+    else:
+        raise _Refused(f"uses the compression {chunk.compression[:40]!r} (MCAP's are zstd and lz4)")
+    if len(data) != chunk.uncompressed_size:
+        raise _Refused(f"inflates to {'more than ' if len(data) > chunk.uncompressed_size else ''}{len(data)} bytes, not "
+                       f"the {chunk.uncompressed_size} it declares")
+    return replace(chunk, compression="", data=data)
+
+
+class _Refused(Exception):
+    """A chunk not decompressed: why, for LogState.damage."""
 
 
 @dataclass
@@ -120,9 +212,9 @@ def _scan(path: Path, topics: list[str] | None, want_messages: bool = True, raw:
                     decode = decoders[channel.id] = bytes
             messages.setdefault(channel.topic, []).append(decode(record.data))
 
-    with open(path, "rb") as f:
+    with open_binary(path, "log") as f:
         ends_well = _has_footer(f)
-        records = StreamReader(f, emit_chunks=True, validate_crcs=True, record_size_limit=1 << 31).records
+        records = StreamReader(f, emit_chunks=True, validate_crcs=True, record_size_limit=MAX_CHUNK_BYTES).records
         chunk_no = 0
         while True:
             try:
@@ -137,6 +229,7 @@ def _scan(path: Path, topics: list[str] | None, want_messages: bool = True, raw:
             if isinstance(record, Chunk):
                 chunk_no += 1
                 try:
+                    record = _inflated(record)
                     if want_messages:
                         inner = breakup_chunk(record, validate_crc=True)
                     else:  # decompressed and its CRC checked, its records not parsed
@@ -176,7 +269,7 @@ def _declared_duration(path: Path) -> float | None:
     from mcap.reader import make_reader
 
     try:
-        with open(path, "rb") as f:
+        with open_binary(path, "log") as f:
             stats = make_reader(f).get_summary().statistics
         return stats.message_end_time / 1e9 if stats is not None and stats.message_count else None
     except Exception:
@@ -188,6 +281,8 @@ def _why(err: Exception) -> str:
 
     if isinstance(err, CRCValidationError):
         return "fails its CRC check"
+    if isinstance(err, _Refused):
+        return str(err)
     text = str(err).strip() or type(err).__name__
     if type(err).__name__ == "ZstdError":
         return f"does not decompress: {text}"
@@ -215,13 +310,23 @@ def read_columns(path: Path, topics: list[str] | None = None) -> tuple[dict[str,
         else:
             msgs = [m for m in msgs if isinstance(m, dict) and "t" in m]
             keys = [k for k, v in (msgs[0].items() if msgs else ()) if v is None or isinstance(v, (bool, int, float))]
-            columns = {k: np.array([np.nan if m.get(k) is None else float(m[k]) for m in msgs]) for k in keys}
+            columns = {k: _numbers(topic, k, [m.get(k) for m in msgs]) for k in keys}
         if "t" not in columns:
             continue
         order = np.argsort(columns["t"], kind="stable")
         times = columns.pop("t")[order]
         out[topic] = (times, {k: v[order] for k, v in columns.items()})
     return out, scan.state
+
+
+def _numbers(topic: str, field: str, values: list):
+    """A JSON channel's field as floats (null: NaN); text or a structure where a number goes names the channel."""
+    import numpy as np
+
+    for v in values:
+        if v is not None and not isinstance(v, (bool, int, float)):
+            raise ForeignLog(f"channel {topic[:80]}: field {field[:80]} holds {str(v)[:40]!r} where a number goes")
+    return np.array([np.nan if v is None else float(v) for v in values])
 
 
 def read(path: Path, topics: list[str] | None = None) -> dict[str, list[dict]]:
@@ -250,9 +355,9 @@ def check(path: Path) -> LogState:
 
 def is_truncated(path: Path) -> bool:
     try:
-        with open(path, "rb") as f:
+        with open_binary(path, "log") as f:
             return not _has_footer(f)
-    except OSError:
+    except (OSError, ValueError):  # ValueError: UserFileError
         return True
 
 
@@ -261,7 +366,7 @@ def read_metadata(path: Path) -> dict[str, dict]:
     read finds before the torn end or the damage. (Whether the messages are intact is check's job.)"""
     from mcap.reader import make_reader
 
-    with open(path, "rb") as f:
+    with open_binary(path, "log") as f:
         if _has_footer(f):
             try:
                 return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}

@@ -58,9 +58,13 @@ def is_scheduled(md) -> bool:
 
 def read_fmu(path: Path, instance: str):
     """Model description of a co-simulation FMU (FMI 2.0 or 3.0), or a DescriptionError saying what the file is not."""
+    from .user_files import UserFileError, regular_file
+
     path = Path(path)
-    if not path.is_file():
-        raise DescriptionError(f"{instance}: FMU file {path} does not exist")
+    try:
+        regular_file(path, "FMU file")
+    except UserFileError as err:
+        raise DescriptionError(f"{instance}: {err}") from None
     if not zipfile.is_zipfile(path):
         raise DescriptionError(f"{instance}: {path} is not an FMU (not a zip archive)")
     try:

@@ -204,9 +204,13 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     from . import log_reader
 
     reqs = as_requirements(requirements)
+    from .user_files import UserFileError, regular_file
+
     path = Path(log_path)
-    if not path.is_file():
-        raise RequirementError(f"log {path} does not exist")
+    try:
+        regular_file(path, "log")
+    except UserFileError as err:
+        raise RequirementError(str(err)) from None
     topics = sorted({f"/{split(n)[0]}" for r in reqs for n in r.signals})
     columns, state = log_reader.read_columns(path, topics)
     if state.damage is not None:

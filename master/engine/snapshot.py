@@ -310,11 +310,15 @@ def _read_member(z: zipfile.ZipFile, name: str, limit: int, where) -> bytes:
 
 
 def read(path: Path) -> Snapshot:
+    from .user_files import UserFileError, open_binary
+
     path = Path(path)
-    if not path.is_file():
-        raise SnapshotError(f"snapshot {path} does not exist")
     try:
-        with open(path, "rb") as f:
+        f = open_binary(path, "snapshot")
+    except UserFileError as err:
+        raise SnapshotError(str(err)) from None
+    try:
+        with f:
             return _read_open(f, path)
     except OSError as err:
         raise SnapshotError(f"{path} cannot be read: {err.strerror or err}") from None

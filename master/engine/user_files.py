@@ -36,24 +36,70 @@ class _Refused:
         self.why = why
 
 
-def read_text(path: Path, max_bytes: int = MAX_BYTES) -> str:
-    """The file's text: a regular file (stat first: a FIFO or a device is never opened) of at most max_bytes, UTF-8."""
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def _why(err: OSError) -> str:
+    if isinstance(err, PermissionError):
+        return "permission denied"
+    if isinstance(err, FileNotFoundError):
+        return "no such file"
+    if isinstance(err, NotADirectoryError):
+        return "a part of its path is not a folder"
+    return f"cannot read it: {err.strerror or err}"
+
+
+def regular_file(path: Path, what: str = "") -> Path:
+    """The path, if it names a regular file (stat only: nothing is opened); else UserFileError, one line saying what it
+    is instead (missing, a folder, a FIFO, a device, behind a permission). what: a word for the file ("log", "snapshot")."""
     path = Path(path)
+    named = f"{what} {path}" if what else str(path)
     try:
         info = path.stat()
-    except FileNotFoundError:
-        raise UserFileError(f"{path}: no such file") from None
     except OSError as err:
-        raise UserFileError(f"{path}: cannot read it: {err.strerror or err}") from None
+        raise UserFileError(f"{named}: {_why(err)}") from None
     if not stat.S_ISREG(info.st_mode):
-        raise UserFileError(f"{path}: not a regular file")
-    if info.st_size > max_bytes:
-        raise UserFileError(f"{path}: {info.st_size} bytes, more than the {max_bytes} a file given to tiltload may have")
+        kind = _kind(info.st_mode)
+        raise UserFileError(f"{named}: {kind}, not a regular file" if kind != "not a regular file" else f"{named}: {kind}")
+    return path
+
+
+def open_binary(path: Path, what: str = ""):
+    """The user's file opened for reading (binary), never blocking: checked by regular_file, opened with O_NONBLOCK
+    (a FIFO swapped in after the stat opens at once instead of waiting for a writer) and checked again on the open
+    descriptor. Every way the open fails is one UserFileError line (permission denied, not "not a log")."""
+    path = regular_file(path, what)
+    named = f"{what} {path}" if what else str(path)
     try:
-        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
-            data = f.read(max_bytes + 1)  # the file may have grown since stat
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
-        raise UserFileError(f"{path}: cannot read it: {err.strerror or err}") from None
+        raise UserFileError(f"{named}: {_why(err)}") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise UserFileError(f"{named}: {_kind(mode)}, not a regular file")
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+def read_text(path: Path, max_bytes: int = MAX_BYTES) -> str:
+    """The file's text: a regular file (open_binary: a FIFO or a device is never read) of at most max_bytes, UTF-8."""
+    path = Path(path)
+    with open_binary(path) as f:
+        size = os.fstat(f.fileno()).st_size
+        if size > max_bytes:
+            raise UserFileError(f"{path}: {size} bytes, more than the {max_bytes} a file given to tiltload may have")
+        try:
+            data = f.read(max_bytes + 1)  # the file may have grown since fstat
+        except OSError as err:
+            raise UserFileError(f"{path}: {_why(err)}") from None
     if len(data) > max_bytes:
         raise UserFileError(f"{path}: more than the {max_bytes} bytes a file given to tiltload may have")
     try:

@@ -238,16 +238,24 @@ TlStatus tl_activate(TlInstance* c, const char* call, int k, double t) {
     return tl_fail(c, "%s: t=%.9g s is not an activation time of %s (every %.9g s from %.9g s)", call, t, tl_clock_name[k],
                    tl_clock_interval[k], c->s.start_time);
   tl_lock_preemption(c); /* the activation record and the time are shared by every partition */
+  if (c->running[k] != 0) { /* from a lock callback of its own run: it would run on its own half-written state */
+    const double at = c->s.start_time + (double)(c->running[k] - 1) * tl_clock_interval[k];
+    tl_unlock_preemption(c);
+    return tl_fail(c, "%s: %s activated at t=%.9g s while its partition is still running for t=%.9g s (a partition "
+                   "cannot preempt itself: activate it again after it returns)", call, tl_clock_name[k], t, at);
+  }
   if (n <= c->s.activation[k]) {
     tl_unlock_preemption(c);
     return tl_fail(c, "%s: %s activated at t=%.9g s, but its last activation was at t=%.9g s (activation times must "
                    "increase)", call, tl_clock_name[k], t, c->s.start_time + (double)c->s.activation[k] * tl_clock_interval[k]);
   }
   c->partitions_running += 1;
+  c->running[k] = n + 1;
   tl_unlock_preemption(c);
   status = tl_model_partition(c, k, t);
   tl_lock_preemption(c);
   c->partitions_running -= 1;
+  c->running[k] = 0;
   if (status <= TL_WARNING) {
     c->s.activation[k] = n;
     if (t > c->s.time) c->s.time = t;

@@ -90,6 +90,9 @@ typedef struct TlInstance {
   int logging_on;
   int event_mode_used; /* FMI 3.0: the importer runs Event Mode (clocked FMUs require it) */
   int partitions_running; /* Scheduled Execution: activations in progress (preempted ones too) */
+#if TL_SCHEDULED
+  long long running[TL_CAP_CLOCK]; /* each partition's activation in progress, in its clock's intervals plus 1 (0: none) */
+#endif
 } TlInstance;
 
 /* Log a formatted message through the host's logger (errors and discards always; others when

@@ -612,3 +612,635 @@ def test_trust_boundary_bad_inputs_each_get_one_line_and_exit_2(fmus, fmi3_fmus,
         elif "error" not in lines[0] or "SECRET" in err:
             problems.append(f"{label}: not an error line, or a secret echoed: {lines[0]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, every file opened as a file (user_files.open_binary / regular_file): each command that reads a file the
+# user names, given a FIFO, a folder, a device, a missing path or one whose open is refused, answers one line naming
+# what it is, exit 2, before anything blocks (a FIFO with no writer would block an ordinary open forever).
+# ====================================================================================================================
+
+def _not_a_file_kinds(folder: Path, suffix: str) -> dict[str, tuple[Path, str]]:
+    """label -> (path, what the line must say)."""
+    fifo, sub = folder / f"pipe{suffix}", folder / f"folder{suffix}"
+    if not fifo.exists():
+        os.mkfifo(fifo)
+        sub.mkdir()
+        (folder / f"locked{suffix}").write_bytes(b"\x89MCAP0\r\n" if suffix == ".mcap" else b"x: 1\n")
+    return {"a FIFO": (fifo, "a FIFO, not a regular file"), "a folder": (sub, "a folder, not a regular file"),
+            "a device": (Path("/dev/zero"), "a character device, not a regular file"),
+            "missing": (folder / f"none{suffix}", "no such file"),
+            "unreadable": (folder / f"locked{suffix}", "permission denied")}
+
+
+def _file_commands(folder: Path) -> list[tuple[str, str, list[str]]]:
+    """(label, the bad file's suffix, argv with {} where it goes)."""
+    log = folder / "real.mcap"
+    log.write_bytes(b"\x89MCAP0\r\n")  # only its magic: the bad file beside it is refused before this one is read
+    reqs = folder / "reqs.yaml"
+    reqs.write_text("requirements:\n  - name: a\n    formula: always[0:1] plant.z < 1\n")
+    return [("check's requirement file", ".yaml", ["check", "{}", str(log)]),
+            ("check's log", ".mcap", ["check", str(reqs), "{}"]),
+            ("check --formula's log", ".mcap", ["check", "--formula", "a: always[0:1] plant.z < 1", "{}"]),
+            ("plot's log", ".mcap", ["plot", "{}", "--out", str(folder / "plots")]),
+            ("compare's log", ".mcap", ["compare", "{}", str(folder / "b.json")]),
+            ("campaign's spec", ".toml", ["campaign", "{}", "--out", str(folder / "camp")]),
+            ("falsify's spec", ".yaml", ["falsify", "{}", "--out", str(folder / "fals")]),
+            ("campaign-report's results", ".parquet", ["campaign-report", "{}"]),
+            ("a snapshot", ".snapshot", ["run", "--from-snapshot", "{}", "--no-log", "--quiet", "--no-plots"]),
+            ("wrap's controller", ".py", ["wrap", "{}", "--out", str(folder / "w.fmu")])]
+
+
+def test_every_file_a_command_reads_is_opened_as_a_file(tmp_path, capsys, monkeypatch):
+    """Generated: 10 file arguments x 5 kinds of not-a-file = 50 cases, each one line naming what the path is."""
+    import errno
+
+    real_open = os.open
+
+    def refusing_open(path, flags, *args, **kwargs):  # we run as root, who reads every file: refuse these opens instead
+        if Path(path).name.startswith("locked"):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refusing_open)
+    monkeypatch.chdir(tmp_path)
+    cases = []
+    for label, suffix, argv in _file_commands(tmp_path):
+        for kind, (path, says) in _not_a_file_kinds(tmp_path, suffix).items():
+            cases.append((f"{label}: {kind}", [str(path) if a == "{}" else a for a in argv], says))
+    assert len(cases) == 50
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith("tiltload run: ")]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]):
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, logs from other tools (engine/log_reader.py): MCAPs written by the mcap package's own writer the way other
+# tools write them, and chunks that declare or inflate to more than a chunk may hold. Each is one line naming the
+# channel and what tiltload expected there (or the chunk, as damage), exit 2, never a traceback nor a decompression
+# of gigabytes.
+# ====================================================================================================================
+
+def _foreign_log(path: Path, encoding: str, messages: list[bytes], schema: tuple[str, str, bytes] | None = None,
+                 metadata: dict | None = None) -> Path:
+    """An MCAP of one channel /plant, written by the mcap package (as another tool would write it)."""
+    from mcap.writer import Writer
+
+    with open(path, "wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2" if encoding == "cdr" else "", library="another-tool 1.0")
+        schema_id = writer.register_schema(*schema) if schema else 0
+        channel = writer.register_channel("/plant", encoding, schema_id, metadata or {})
+        for i, data in enumerate(messages):
+            writer.add_message(channel, log_time=i * 12_000_000, data=data, publish_time=i * 12_000_000, sequence=i)
+        writer.finish()
+    return path
+
+
+def _raw_chunk_log(path: Path, declared: int, payload: bytes) -> Path:
+    """An MCAP whose one chunk declares `declared` uncompressed bytes and holds payload, zstd-compressed (written
+    record by record: no writer makes such a chunk)."""
+    import zlib
+
+    import zstandard
+    from mcap.data_stream import RecordBuilder
+    from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message
+
+    inner = RecordBuilder()
+    Channel(id=1, topic="/plant", message_encoding="json", metadata={}, schema_id=0).write(inner)
+    Message(channel_id=1, log_time=0, data=b'{"t": 0.0, "x": 1.0}', publish_time=0, sequence=0).write(inner)
+    records = inner.end() + payload
+    out = RecordBuilder()
+    Header(profile="", library="another-tool").write(out)
+    Chunk(compression="zstd", data=zstandard.ZstdCompressor(level=1).compress(records), message_start_time=0,
+          message_end_time=0, uncompressed_crc=zlib.crc32(records), uncompressed_size=declared).write(out)
+    DataEnd(data_section_crc=0).write(out)
+    Footer(summary_start=0, summary_offset_start=0, summary_crc=0).write(out)
+    magic = b"\x89MCAP0\r\n"
+    path.write_bytes(magic + out.end() + magic)
+    return path
+
+
+def _foreign_logs(folder: Path) -> dict[str, tuple[Path, str]]:
+    """label -> (log, a word the line must hold)."""
+    from google.protobuf import descriptor_pb2 as d
+
+    fds = d.FileDescriptorSet()
+    proto = fds.file.add(name="pose.proto", package="geometry")
+    message = proto.message_type.add(name="Pose")
+    message.field.add(name="position", number=1, type=d.FieldDescriptorProto.TYPE_STRING)
+    foreign_schema = fds.SerializeToString()
+    number = b'{"t": 0.0, "x": 1.0}'
+    logs = {
+        "ROS 2 CDR": (_foreign_log(folder / "ros2.mcap", "cdr", [b"\x00\x01\x00\x00" + bytes(24)] * 3,
+                                   ("geometry_msgs/msg/Pose", "ros2msg", b"float64 x")), "cdr"),
+        "ROS 1": (_foreign_log(folder / "ros1.mcap", "ros1", [bytes(24)] * 3, ("geometry_msgs/Pose", "ros1msg", b"float64 x")),
+                  "ros1"),
+        "CBOR": (_foreign_log(folder / "cbor.mcap", "cbor", [b"\xa1\x61x\x01"] * 3), "cbor"),
+        "flatbuffer": (_foreign_log(folder / "fb.mcap", "flatbuffer", [bytes(16)] * 3, ("Pose", "flatbuffer", b"\x00" * 8)),
+                       "flatbuffer"),
+        "a foreign protobuf schema": (_foreign_log(folder / "proto.mcap", "protobuf", [b"\x0a\x03abc"] * 3,
+                                                   ("geometry.Pose", "protobuf", foreign_schema)), "geometry.Pose"),
+        "a protobuf schema that claims tiltload's layout": (
+            _foreign_log(folder / "claims.mcap", "protobuf", [b"\x0a\x03abc"] * 3, ("geometry.Pose", "protobuf", foreign_schema),
+                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+            "fixed layout"),
+        "a protobuf schema that is garbage": (
+            _foreign_log(folder / "garbage.mcap", "protobuf", [b"\x00"] * 3, ("x", "protobuf", b"\xff\xff\xff"),
+                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+            "fixed layout"),
+        "JSON text where a number goes": (_foreign_log(folder / "text.mcap", "json", [number, b'{"t": 0.012, "x": "high"}']),
+                                          "where a number goes"),
+        "JSON text where its schema says number": (
+            _foreign_log(folder / "typed.mcap", "json", [b'{"t": 0.0, "x": "high"}'],
+                         ("pose", "jsonschema", b'{"type": "object", "properties": {"x": {"type": "number"}}}')),
+            "where a number goes"),
+        "JSON text as the time": (_foreign_log(folder / "time.mcap", "json", [b'{"t": "noon", "x": 1.0}']), "where a number"),
+        "JSON arrays": (_foreign_log(folder / "array.mcap", "json", [b"[1, 2]"] * 2), "an object"),
+        "JSON not JSON": (_foreign_log(folder / "notjson.mcap", "json", [b"\xff\xfe x"] * 2), "not JSON"),
+        "JSON nested 100000 deep": (_foreign_log(folder / "deep.mcap", "json", [b"[" * 100_000]), "not JSON"),
+        "a chunk declaring a terabyte": (_raw_chunk_log(folder / "tera.mcap", 2**40, b""), "refused unread"),
+        "a chunk inflating beyond its size": (_raw_chunk_log(folder / "bomb.mcap", 60, bytes(64 * 2**20)), "inflates to more"),
+    }
+    return logs
+
+
+def test_logs_from_other_tools_are_one_line_naming_the_channel(tmp_path, capsys):
+    """Generated: 15 foreign logs x 3 commands (check, plot, compare) = 45 cases."""
+    (tmp_path / "b.json").write_text('{"metrics": {"ISE_x": 1.0}}')
+    cases = []
+    for label, (log, says) in _foreign_logs(tmp_path).items():
+        cases += [(f"check, {label}", ["check", "--formula", "a: plant.x < 5", str(log)], says),
+                  (f"plot, {label}", ["plot", str(log), "--out", str(tmp_path / "plots")], says),
+                  (f"compare, {label}", ["compare", str(log), str(tmp_path / "b.json")], says)]
+    assert len(cases) == 45
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, output folders and resumed state (app/output_folder.py, app/stored_parts.py): campaign, falsify and
+# campaign-report refuse an output folder they could not write, and stored parts that are not parts, in one line
+# before any FMU is built or any cluster started (local_cluster is replaced by a tripwire here).
+# ====================================================================================================================
+
+CAMPAIGN_SPEC = """name = "small"
+[base]
+scenario = "fsi"
+controllers = ["dlqr"]
+stop_time = 0.5
+[vary]
+seeds = [1, 2]
+"""
+
+FALSIFY_SPEC = """name = "t"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+stop_time = 2.5
+gusts = false
+[[requirements]]
+name = "swing"
+formula = "always[0:2] (abs(plant.gamma_1) < 0.2)"
+[[search]]
+name = "amp"
+target = "gust.amplitude"
+range = [0.0, 20.0]
+[gust]
+start = 0.5
+duration = 0.5
+[budget]
+simulations = 2
+"""
+
+
+@pytest.fixture
+def small_mounts(tmp_path):
+    """(a read-only folder, a full folder) as tmpfs mounts of 64 KiB, each holding a results.parquet; None where this
+    machine does not let us mount (then those cases are left out)."""
+    import subprocess
+
+    made, mounted = [], []
+    try:
+        yield _mount_both(tmp_path, made, mounted)
+    finally:
+        for where in mounted:
+            subprocess.run(["umount", str(where)], capture_output=True)
+
+
+def _mount_both(tmp_path: Path, made: list, mounted: list) -> tuple:
+    import subprocess
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    for name in ("readonly", "full"):
+        where = tmp_path / name
+        where.mkdir()
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(where)], capture_output=True).returncode:
+            made.append(None)
+            continue
+        mounted.append(where)
+        pq.write_table(pa.Table.from_pylist([{"run_id": "r0", "controller": "dlqr", "seed": 1, "completed": True}]),
+                       where / "results.parquet")
+        if name == "full":
+            fd = os.open(where / "filler", os.O_WRONLY | os.O_CREAT)
+            try:
+                while os.write(fd, b"\0" * 4096):
+                    pass
+            except OSError:  # ENOSPC: the disk is full
+                pass
+            finally:
+                os.close(fd)
+        else:
+            subprocess.run(["mount", "-o", "remount,ro", str(where)], check=True)
+        made.append(where)
+    return tuple(made)
+
+
+def _bad_parts() -> dict[str, bytes | list[dict]]:
+    """label -> a part's bytes, or its rows (written as Parquet)."""
+    return {"garbage": b"PAR1 not parquet at all", "empty": b"", "a Parquet of no rows": [],
+            "another tool's Parquet": [{"a": 1, "b": "x"}], "a run id that is a number": [{"run_id": 7, "index": 0,
+                                                                                           "completed": True}],
+            "an index that is text": [{"run_id": "r", "index": "first", "completed": True}]}
+
+
+def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, capsys, monkeypatch, small_mounts):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from tiltload.master.app import output_folder
+    from tiltload.master.app.campaign import cluster
+
+    def tripwire(*args, **kwargs):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(cluster, "local_cluster", tripwire)
+    monkeypatch.chdir(tmp_path)
+    camp, fals = tmp_path / "c.toml", tmp_path / "f.toml"
+    camp.write_text(CAMPAIGN_SPEC)
+    fals.write_text(FALSIFY_SPEC)
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    readonly, full = small_mounts
+    outs = {"a file": (a_file, "is a file, not a folder"), "under a file": (a_file / "out", "is a file, so no folder"),
+            "a disk that says 1 KiB free": (tmp_path / "tiny", "KiB free")}
+    if readonly is not None:
+        outs |= {"read-only": (readonly / "out", "read-only"), "full": (full / "out", "disk is full")}
+    cases = []
+    for label, (out, says) in outs.items():
+        cases.append((f"campaign --out {label}", ["campaign", str(camp), "--out", str(out), "--workers", "1"], says))
+        cases.append((f"falsify --out {label}", ["falsify", str(fals), "--out", str(out), "--workers", "1"], says))
+    if readonly is not None:
+        cases += [("campaign-report in a read-only folder", ["campaign-report", str(readonly / "results.parquet")], "read-only"),
+                  ("campaign-report on a full disk", ["campaign-report", str(full / "results.parquet")], "disk is full")]
+    for i, (label, part) in enumerate(_bad_parts().items()):
+        for command, spec in (("campaign", camp), ("falsify", fals)):
+            if command == "campaign" and "index" in label:  # a campaign's parts have no index: that part is one
+                continue
+            out = tmp_path / f"{command}_{i}"
+            (out / "parts").mkdir(parents=True)
+            name = out / "parts" / ("000000.parquet" if command == "falsify" else "r0+1-abc.parquet")
+            if isinstance(part, bytes):
+                name.write_bytes(part)
+            else:
+                pq.write_table(pa.Table.from_pylist(part) if part else pa.table({"run_id": pa.array([], pa.string())}), name)
+            cases.append((f"{command}, a stored part: {label}", [command, str(spec), "--out", str(out), "--workers", "1"],
+                          f"stored part {name}"))
+    assert len(cases) >= 18, len(cases)
+    problems = []
+    real_usage = output_folder.shutil.disk_usage
+    for label, argv, says in cases:
+        tiny = "1 KiB" in label
+        monkeypatch.setattr(output_folder.shutil, "disk_usage",
+                            (lambda p: real_usage(p)._replace(free=1024)) if tiny else real_usage)
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+def _interrupt_when(proc, ready, deadline_s: float = 300.0) -> None:
+    """SIGINT to the process group (what Ctrl-C at a terminal does) once ready() holds (polled), or at the deadline."""
+    import signal
+    import time
+
+    end = time.monotonic() + deadline_s
+    while proc.poll() is None and not ready() and time.monotonic() < end:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("when", ["while the workers start", "while the runs run"])
+def test_ctrl_c_in_a_campaign_is_one_line_with_nothing_left(fmus, tmp_path, when):
+    """Ctrl-C reaches every process of the group; only `tiltload: interrupted` (after the campaign's own first line)
+    reaches the terminal: no worker's traceback, no Dask log line; no process and no scratch folder stays behind."""
+    import signal
+    import subprocess
+    import sys
+
+    import psutil
+
+    spec = tmp_path / "c.toml"
+    spec.write_text(CAMPAIGN_SPEC.replace("stop_time = 0.5", "stop_time = 40").replace("seeds = [1, 2]", "seeds = [1, 2, 3, 4, 5, 6]"))
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    err = tmp_path / "stderr"
+    with open(err, "wb") as stderr:
+        proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.app.cli", "campaign", str(spec), "--out", str(tmp_path / "out"),
+                                 "--workers", "2", "--fmus", str(fmus)], stdout=subprocess.DEVNULL, stderr=stderr,
+                                start_new_session=True, env={**os.environ, "TMPDIR": str(scratch)},
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+        def spawned() -> bool:  # a worker process exists (it may still be importing)
+            try:
+                return any("multiprocessing" in " ".join(c.cmdline()) for c in psutil.Process(proc.pid).children(recursive=True))
+            except psutil.Error:
+                return False
+
+        def running() -> bool:  # a run is stored
+            return any((tmp_path / "out" / "parts").glob("*.parquet"))
+
+        _interrupt_when(proc, spawned if when == "while the workers start" else running)
+        code = proc.wait(timeout=120)
+    lines = [ln for ln in err.read_text().splitlines() if ln.strip()]
+    alive = _group_left(proc.pid)
+    assert code in (130, 0), lines  # 0: the campaign had finished before the signal came
+    assert not [ln for ln in lines if "Traceback" in ln or "KeyboardInterrupt" in ln or "distributed." in ln], lines
+    assert code == 0 or lines[-1] == "tiltload: interrupted", lines
+    assert not alive, alive
+    assert not list(scratch.iterdir()), list(scratch.iterdir())
+
+
+def _group_left(pgid: int, grace_s: float = 10.0) -> list:
+    """The group's live processes once they have had grace_s to finish exiting (the resource tracker ends when its
+    pipe closes, a moment after the command)."""
+    import time
+
+    import psutil
+
+    end = time.monotonic() + grace_s
+    while True:
+        alive = [p for p in psutil.process_iter(["pid"]) if _in_group(p, pgid)]
+        if not alive or time.monotonic() > end:
+            return alive
+        time.sleep(0.2)
+
+
+def _in_group(p, pgid: int) -> bool:
+    """p is a live process of the group (a zombie has ended: whoever inherits it reaps it)."""
+    import psutil
+
+    try:
+        return os.getpgid(p.pid) == pgid and p.status() != psutil.STATUS_ZOMBIE
+    except (OSError, psutil.Error):
+        return False
+
+
+def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, monkeypatch):
+    """Generated: 7 commands x 3 paths that cannot be a folder (a file, under a file, empty) = 21 cases, each refused
+    by the option's type (arguments.folder) before the command prepares anything."""
+    monkeypatch.chdir(tmp_path)
+    a_file = tmp_path / "fmus.zip"
+    a_file.write_bytes(b"PK")
+    (tmp_path / "c.toml").write_text(CAMPAIGN_SPEC)
+    (tmp_path / "f.toml").write_text(FALSIFY_SPEC)
+    commands = {"run": ["run", "--stop-time", "0.1"], "bundle": ["bundle", str(tmp_path / "b.zip")],
+                "campaign": ["campaign", "c.toml"], "falsify": ["falsify", "f.toml"], "formation": ["formation"],
+                "reproduce": ["reproduce"], "ssp": ["ssp", "export", str(tmp_path / "x.ssp")]}
+    paths = {"a file": (str(a_file), "is a file, not a folder"), "under a file": (str(a_file / "fmus"), "is a file, so no folder"),
+             "empty": ("", "an empty path")}
+    cases = [(f"{c} --fmus {label}", [*argv, f"--fmus={path}"], says) for c, argv in commands.items()
+             for label, (path, says) in paths.items()]
+    assert len(cases) == 21
+    problems = []
+    for label, argv, says in cases:
+        try:
+            code = main(argv)
+        except SystemExit as exit_:
+            code = exit_.code
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or "--fmus" not in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, campaign-report (campaign/report.py): every keep option, results of other writers, the spec beside them,
+# the rerun commands of a user's controller FMU.
+# ====================================================================================================================
+
+REPORT_SPEC = """name = "rep"
+[base]
+scenario = "fsi"
+controllers = ["dlqr", "ctrl/mine.fmu"]
+stop_time = 0.5
+[vary]
+seeds = [1, 2]
+[[vary.parameters]]
+name = "load_mass"
+targets = ["plant.m_L"]
+values = [0.05, 0.1]
+"""
+KEPT = {"ISE": ("ISE(",), "IADU": ("IADU(",), "max_tracking_error": ("max_tracking_error",),
+        "time_saturated": ("time_saturated",), "zse_containment": ("zse_containment",)}
+
+
+@pytest.fixture(scope="module")
+def user_campaign(fmus, tmp_path_factory) -> Path:
+    """The results of a small campaign over dlqr and a user's controller FMU (a copy of ours, under another name),
+    every metric kept."""
+    folder = tmp_path_factory.mktemp("user_campaign")
+    (folder / "ctrl").mkdir()
+    shutil.copy(fmus / "TiltloadController.fmu", folder / "ctrl" / "mine.fmu")
+    (folder / "spec.toml").write_text(REPORT_SPEC)
+    assert main(["campaign", str(folder / "spec.toml"), "--out", str(folder / "out"), "--workers", "1", "--fmus", str(fmus)]) == 0
+    return folder / "out" / "results.parquet"
+
+
+def _results_with(results: Path, dest: Path, edit) -> Path:
+    """A copy of the campaign's folder whose results.parquet holds edit(rows)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    shutil.copytree(results.parent, dest)
+    rows = edit(pq.read_table(results).to_pylist())
+    pq.write_table(pa.Table.from_pylist(rows), dest / "results.parquet")
+    return dest / "results.parquet"
+
+
+@pytest.mark.slow
+def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path, capsys):
+    """Generated: each keep.metrics (alone, and all but it) and each older writer's missing column is reported (exit 0);
+    text in each numeric column, a missing controller or run id, a spec beside the results that is not a spec: one
+    line, exit 2."""
+    import pyarrow.parquet as pq
+
+    columns = pq.read_table(user_campaign).column_names
+    metric_columns = [c for c in columns if c.startswith(("ISE(", "IADU(")) or c in ("max_tracking_error", "time_saturated",
+                                                                                    "zse_containment")]
+    good, bad = [], []
+    for keep, prefixes in KEPT.items():  # what keep.metrics = [keep] writes: the other metrics' columns absent
+        alone = [c for c in metric_columns if not c.startswith(prefixes)]
+        good.append((f"keep.metrics = [{keep}]", lambda rows, drop=alone: [{k: v for k, v in r.items() if k not in drop}
+                                                                            for r in rows]))
+        good.append((f"keep.metrics without {keep}", lambda rows, p=prefixes: [{k: v for k, v in r.items()
+                                                                                if not k.startswith(p)} for r in rows]))
+    for column in ("seed", "diverged", "diverged_at", "error"):  # an older writer's rows without it
+        good.append((f"no column {column}", lambda rows, c=column: [{k: v for k, v in r.items() if k != c} for r in rows]))
+    good.append(("metrics renamed (ISE_x)", lambda rows: [{k.replace("(", "_").rstrip(")"): v for k, v in r.items()}
+                                                          for r in rows]))
+    for column in [*metric_columns, "load_mass"]:
+        bad.append((f"text in {column}", lambda rows, c=column: [{**r, c: "high"} for r in rows], "where a number goes"))
+    for value in (None, ""):
+        bad.append((f"controller {value!r}", lambda rows, v=value: [{**r, "controller": v} for r in rows], "no controller"))
+    bad.append(("run id None", lambda rows: [{**r, "run_id": None} for r in rows], "no run id"))
+    bad.append(("completed text", lambda rows: [{**r, "completed": "yes"} for r in rows], "not true or false"))
+    bad.append(("no column completed", lambda rows: [{k: v for k, v in r.items() if k != "completed"} for r in rows],
+                "no column completed"))
+    problems = []
+    for i, (label, edit) in enumerate(good):
+        results = _results_with(user_campaign, tmp_path / f"good_{i}", edit)
+        code = main(["campaign-report", str(results)])
+        err = capsys.readouterr().err
+        if code != 0 or not (results.parent / "report.md").is_file():
+            problems.append(f"{label}: exit {code}: {err.strip()[:300]}")
+    cases = [(label, _results_with(user_campaign, tmp_path / f"bad_{i}", edit), says) for i, (label, edit, says) in enumerate(bad)]
+    for i, (label, text, says) in enumerate([("a spec that is not TOML", "name = ", "not valid TOML"),
+                                             ("a spec of another tool", "[tool.poetry]\nname = 'x'\n", "spec.toml: (top level)"),
+                                             ("a spec of a wrong type", REPORT_SPEC.replace("stop_time = 0.5", "stop_time = 'long'"),
+                                              "base.stop_time")]):
+        results = _results_with(user_campaign, tmp_path / f"spec_{i}", lambda rows: rows)
+        (results.parent / "spec.toml").write_text(text)
+        cases.append((label, results, says))
+    for label, results, says in cases:
+        code = main(["campaign-report", str(results)])
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert len(good) + len(cases) >= 30, len(good) + len(cases)
+    assert not problems, f"{len(problems)} of {len(good) + len(cases)} cases:\n" + "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_the_reports_rerun_commands_name_a_users_controller_fmu_by_its_path(user_campaign, fmus, tmp_path, capsys):
+    """The report's commands rerun a run of the user's FMU: its path (from the spec the campaign ran), and the command
+    runs as printed (from another folder)."""
+    import shlex
+
+    assert main(["campaign-report", str(user_campaign)]) == 0
+    capsys.readouterr()
+    report = (user_campaign.parent / "report.md").read_text()
+    commands = [ln.strip().strip("`") for ln in report.splitlines() if ln.strip().startswith("`tiltload run")]
+    mine = [c for c in commands if "mine" in c]
+    fmu = (user_campaign.parent.parent / "ctrl" / "mine.fmu").resolve()
+    assert mine and all(f"--controller {fmu}" in c for c in mine), commands
+    os.chdir(tmp_path)
+    argv = shlex.split(mine[0])[1:] + ["--fmus", str(fmus), "--no-log", "--quiet", "--no-plots"]
+    assert main(argv) == 0, capsys.readouterr().err
+
+
+# ====================================================================================================================
+# Issue 49, what a new user hit.
+# ====================================================================================================================
+
+def _metric_lines(out: str) -> list[str]:
+    return [ln for ln in out.splitlines() if ln.strip().startswith(("ISE(", "IADU("))]
+
+
+@pytest.mark.slow
+def test_a_snapshot_at_the_stop_time_saves_the_end_state_and_continues_as_the_whole_run(fmus, tmp_path, capsys):
+    """--stop-time 1 --snapshot-at 1 (the run's end state) is taken; continued to 1.5 s, its metrics are the
+    uninterrupted 1.5 s run's, digit for digit."""
+    common = ["--fmus", str(fmus), "--no-log", "--no-plots", "--scenario", "fsi", "--controller", "dlqr"]
+    end = tmp_path / "end.snapshot"
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "1", str(end), *common]) == 0
+    assert end.is_file() and "snapshot at t = 0.996 s:" in capsys.readouterr().out  # the last tick, 83 x 12 ms
+    assert main(["run", "--from-snapshot", str(end), "--stop-time", "1.5", "--fmus", str(fmus), "--no-log", "--no-plots"]) == 0
+    continued = _metric_lines(capsys.readouterr().out)
+    assert main(["run", "--stop-time", "1.5", *common]) == 0
+    whole = _metric_lines(capsys.readouterr().out)
+    assert continued and continued == whole
+    assert main(["run", "--stop-time", "1", "--snapshot-at", "1.012", str(tmp_path / "late.snapshot"), *common]) == 2
+    assert "0 < T <= 1 s" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_falsify_with_a_controller_whose_init_raises_shows_its_error_once(fmus, tmp_path, capfd):
+    """A wrapped controller whose __init__ raises: every evaluation ends in the controller's own line (not an
+    environment fault: no retry), the command says so and exits 1, and the Dask log it keeps is in the output folder."""
+    src = tmp_path / "initbad.py"
+    src.write_text("class InitBad:\n    inputs = ['x_ref']\n\n    def __init__(self):\n        raise KeyError('x_ref_gain')\n\n"
+                   "    def step(self, t, i):\n        return 10.0, 10.0, 0.0, 0.0\n")
+    assert main(["wrap", str(src), "--out", str(tmp_path / "initbad.fmu")]) == 0
+    spec = tmp_path / "f.toml"
+    spec.write_text(FALSIFY_SPEC.replace('scenario = "fsi"', 'scenario = "fsi"\ncontroller = "initbad.fmu"'))
+    capfd.readouterr()
+    code = main(["falsify", str(spec), "--out", str(tmp_path / "out"), "--workers", "1", "--fmus", str(fmus)])
+    err = capfd.readouterr().err
+    assert code == 1, err
+    assert "InitBad() raised KeyError ('x_ref_gain')" in err.splitlines()[-1], err
+    assert "environment failed" not in err and "trying again" not in err and "Traceback" not in err, err
+    assert (tmp_path / "out" / "falsify.log").is_file()
+
+
+def test_the_pytest_plugin_prints_a_baseline_report_once(tmp_path):
+    """A user's test whose run is off its baseline fails with the report printed once: pytest's own output of that
+    test holds the report's first line once and no "During handling of the above exception"."""
+    import subprocess
+    import sys
+
+    (tmp_path / "baselines" / "test_user").mkdir(parents=True)
+    (tmp_path / "baselines" / "test_user" / "test_off.json").write_text(
+        json.dumps({"metrics": {"ISE(x)": 0.5, "IADU(f_R)": 2.0}, "tolerances": {"rtol": 1e-6, "atol": 1e-12}}))
+    (tmp_path / "pytest.ini").write_text("[pytest]\ntiltload_baselines = baselines\n")
+    (tmp_path / "test_user.py").write_text(
+        "import tiltload as tl\nfrom tiltload.master.app.regression.case import record\n\n"
+        "def test_off(tiltload_baseline):\n"
+        "    case = {k: str(v) for k, v in record(scenario='zse', trajectory=1, controller='mixed', seed=1, stop_time=40.0).items()}\n"
+        "    result = tl.Result(metrics={'ISE(x)': 0.55, 'IADU(f_R)': 2.0}, case=case, log=None, command='tiltload run',\n"
+        "                       options={}, stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)\n"
+        "    tiltload_baseline.check(result)\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 1, done.stdout[-3000:]
+    assert done.stdout.count("the run differs from its baseline: 1 of 2 metrics out of tolerance\n") == 1, done.stdout
+    assert "During handling of the above exception" not in done.stdout, done.stdout
+
+
+@pytest.mark.slow
+def test_run_prints_the_thesis_values_beside_its_metrics_as_readme_says(fmus, tmp_path, capsys):
+    """FSI, trajectory 1, DLQR, 40 s: the column of the thesis's Table 5.4 (values typed from the thesis); cut short, a
+    note; another case (a --set), no column."""
+    common = ["--fmus", str(fmus), "--no-log", "--no-plots", "--quiet", "--scenario", "fsi", "--controller", "dlqr"]
+    assert main(["run", *common]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert any(ln.split() == ["metric", "value", "thesis", "(Table", "5.4)"] for ln in out), out
+    rows = {ln.split()[0]: ln.split()[1:] for ln in out if ln.strip().startswith(("ISE(", "IADU("))}
+    assert float(rows["ISE(x)"][1]) == 0.1571 and float(rows["IADU(tau_L)"][1]) == 0.1982, rows
+    assert main(["run", *common, "--stop-time", "2"]) == 0
+    assert "note: the thesis's values (Table 5.4) are of the whole 40 s run" in capsys.readouterr().out
+    assert main(["run", *common, "--stop-time", "40", "--set", "plant.m_L=0.06"]) == 0
+    out = capsys.readouterr().out
+    assert "thesis (" not in out and "note: the thesis" not in out

@@ -610,7 +610,7 @@ def test_fifty_branches_from_one_snapshot_each_cover_the_rest_of_the_run(fmus, t
     (lambda s: s.replace('targets = ["faults.0.value"]', 'targets = ["plant.m_L"]'),
      "plant.m_L is a fixed parameter: only tunable parameters can change"),
     (lambda s: s.replace("stop_time = 3.0", "stop_time = 1.0"), "base.stop_time: 1.0 s is not after the snapshot's time"),
-    (lambda s: s.replace("at.snapshot", "missing.snapshot"), "missing.snapshot does not exist"),
+    (lambda s: s.replace("at.snapshot", "missing.snapshot"), "missing.snapshot: no such file"),
 ])
 def test_a_bad_branching_spec_is_one_line_before_any_run(fmus, tmp_path, capfd, edit, needle):
     common = ["--fmus", str(fmus), "--out", str(tmp_path), "--quiet", "--no-plots", "--scenario", "fsi", "--controller",

@@ -143,7 +143,7 @@ def test_bad_files_and_options(log, tmp_path, capsys):
              (["check", str(log)], "no requirements"),
              (["check", str(tmp_path / "none.yaml"), str(log)], "no such file"),
              (["check", str(tmp_path), str(log)], "not a regular file"),
-             (["check", "--formula", "a: plant.x > 0", str(tmp_path / "none.mcap")], "does not exist"),
+             (["check", "--formula", "a: plant.x > 0", str(tmp_path / "none.mcap")], "no such file"),
              (["check", "--formula", "a: plant.x > 0", str(fake)], "not an MCAP log")]
     for argv, needle in cases:
         assert main(argv) == 2, argv

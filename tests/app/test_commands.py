@@ -46,10 +46,10 @@ def test_campaign_report_is_a_command_and_the_older_form_says_what_replaced_it(t
     missing = str(tmp_path / "none.parquet")
     assert main(["campaign-report", missing]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "does not exist" in err[0]
+    assert len(err) == 1 and "no such file" in err[0]
     assert main(["campaign", "report", missing]) == 2  # the same report, reached the old way: still one line
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "does not exist" in err[0]
+    assert len(err) == 1 and "no such file" in err[0]
     assert err[0].endswith("(note: `tiltload campaign report RESULTS` is now `tiltload campaign-report RESULTS`)")
 
 

@@ -118,7 +118,7 @@ def test_a_fifo_given_as_a_file_is_refused_without_opening_it(fmus, tmp_path, fl
     done = subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", *RUN, flag, str(fifo), "--fmus", str(fmus)],
                           capture_output=True, text=True, timeout=120, env={**os.environ})
     lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
-    assert done.returncode == 2 and len(lines) == 1 and lines[0].endswith(f"{fifo}: not a regular file"), done.stderr
+    assert done.returncode == 2 and len(lines) == 1 and lines[0].endswith(f"{fifo}: a FIFO, not a regular file"), done.stderr
 
 
 def test_the_banded_minimum_jerk_is_the_dense_solve():

@@ -74,7 +74,7 @@ def test_a_controller_that_breaks_the_contract_is_refused_in_one_line(case, tmp_
     assert not path.with_suffix(".fmu").exists()
 
 
-@pytest.mark.parametrize("name, needle", [("missing.py", "does not exist"), ("notes.txt", "is not a Python file")])
+@pytest.mark.parametrize("name, needle", [("missing.py", "no such file"), ("notes.txt", "is not a Python file")])
 def test_a_missing_or_non_python_file_is_refused(tmp_path, capsys, name, needle):
     path = tmp_path / name
     if name.endswith(".txt"):

@@ -116,7 +116,7 @@ def test_bad_snapshots_are_one_line_each(fmus, tmp_path, capsys):
     def other_system(m):
         m["fingerprint"]["instances"][1]["name"] = "cameras"
         return m
-    cases = {"missing.snapshot": "does not exist", "truncated.snapshot": "truncated", "text.snapshot": "not a snapshot",
+    cases = {"missing.snapshot": "no such file", "truncated.snapshot": "truncated", "text.snapshot": "not a snapshot",
              "flipped.snapshot": "", "build.snapshot": "plant: the snapshot was taken with another build of its FMU",
              "system.snapshot": "the snapshot is of another system",
              "format.snapshot": "is not a tiltload snapshot (format 'x'"}

@@ -214,7 +214,7 @@ def _rewrite(package: Path, out: Path, member: str, edit) -> Path:
     ("missing ssv", "resources/plant.ssv", lambda d: None, "is not in the package"),
     ("bad ssv value", "resources/sensors.ssv", lambda d: d.replace(b'<ssv:Integer value="1"/>', b'<ssv:Integer value="x"/>'),
      "sensors.ssv"),
-    ("missing fmu", "resources/TiltloadPlant.fmu", lambda d: None, "does not exist"),
+    ("missing fmu", "resources/TiltloadPlant.fmu", lambda d: None, "no such file"),
     ("unknown delay", "SystemStructure.ssd",
      lambda d: d.replace(b"</tl:Master>", b'<tl:Delay source="a.b" target="c.d" ticks="1"/></tl:Master>'), "a.b -> c.d"),
 ])

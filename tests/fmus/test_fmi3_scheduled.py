@@ -359,6 +359,18 @@ def test_plain_rate_monotonic_order_runs_the_law_first_and_the_fmu_refuses(fmi3_
     assert "the law at t=0 s needs the gps_clock correction of the same instant first" in proc.stderr
 
 
+def test_a_partition_activated_again_while_it_runs_is_refused_with_a_logged_line(fmi3_set, se_fmu, host, tmp_path):
+    """docs/fmi3.md: the host activates the running partition again, at the instant it is running for, from the
+    partition's own unlock callback (as a scheduler that lost track of it would). The FMU refuses with fmi3Error and
+    logs why, and the host's run ends there (Terminated), instead of the partition running on its half-written state."""
+    system = default_system(fmi3_set, "zse", 1, "mixed", SEED, fmi=3, clocked=True)
+    plan = host_plan(system, tmp_path, 3, [], scheduled={"controller": se_fmu})
+    proc, _ = _host(host, plan, "--reactivate")
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert "from its unlock callback: refused with fmi3Error" in proc.stderr, proc.stderr[-2000:]
+    assert "activated at t=0 s while its partition is still running for t=0 s" in proc.stderr, proc.stderr[-2000:]
+
+
 def test_preemption_at_the_fmu_s_unlock_points_changes_no_output(fmi3_set, se_fmu, host, tmp_path):
     """The loop run records the SE controller's inputs; replayed alone, with every higher-priority partition of the next
     instant run at each preemption point of the one running (its unlock callbacks: as when a partition overruns into

@@ -50,6 +50,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     from ..fmus import is_foreign
     from ..loop import is_loop, loop_metrics
     from ..loop_system import loop_system
+    from ..regression.thesis_values import beside_run
     from ..scene import scene_channels
 
     pacer = _pacer(options)
@@ -75,7 +76,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
                    (monitor,) if monitor else (), not options.quiet, None if options.trust_fmus else is_foreign,
                    options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say))
     result = run_plan(plan, pool)
-    _say_results(result, snap, monitor, pacer, log, say)
+    _say_results(result, snap, monitor, pacer, log, say, beside_run(opts, stop))
     outcome = _outcome(options, opts, meta, result, log, monitor, say)
     if options.report is not None:
         _report(case, options, system, outcome, monitor, say)
@@ -170,8 +171,8 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) 
     from ...engine import snapshot
 
     at, path = checkpoint
-    if not 0 < at < stop:
-        raise UserError(f"--snapshot-at {at:g}: must fall inside the run (0 < T < {stop:g} s)")
+    if not 0 < at <= stop:  # at the stop time: the run's end state, to continue later with a later --stop-time
+        raise UserError(f"--snapshot-at {at:g}: must fall inside the run or at its end (0 < T <= {stop:g} s)")
     application = {"options": opts.to_dict(), "schedule": schedule, "stop": stop}
 
     def save(execution) -> None:
@@ -179,15 +180,19 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) 
     return [(at, save)]
 
 
-def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say) -> None:
-    """The speed, the metrics, the requirements' verdicts, the pacer's overruns and where the log went."""
+def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesis: tuple = ("", None)) -> None:
+    """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
+    verdicts, the pacer's overruns and where the log went."""
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
     say(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
         + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
-        say(f"{'metric':>14} {'value':>12}")
+        what, values = thesis
+        say(f"{'metric':>14} {'value':>12}" + (f"  thesis ({what})" if values else ""))
         for k, v in result.metrics.items():
-            say(f"{k:>14} {v:>12.6g}")
+            say(f"{k:>14} {v:>12.6g}" + (f"  {values[k]:>10.6g}" if values and k in values else ""))
+        if what and values is None:
+            say(f"note: {what}")
     if monitor is not None and monitor.results:
         from .verdict_table import table
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
 from .address import DASHBOARD_PORT, SCHEDULER_PORT, SchedulerAddress, check_reachable, parse
@@ -120,6 +121,49 @@ QUIET = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.in
          "distributed.admin.system-monitor.interval": "5s", "distributed.worker.memory.monitor-interval": "500ms"}
 
 
+@contextmanager
+def _interrupt_deferred():
+    """A Ctrl-C meanwhile is noted, not raised (the caller raises it when the list is not empty): raised inside
+    LocalCluster's constructor it would leave a cluster nobody holds, closed only at exit, its log on the terminal."""
+    import signal
+    import threading
+
+    noted: list[int] = []
+    if threading.current_thread() is not threading.main_thread() or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield noted  # not ours to change (a thread, an ignored SIGINT, a handler of the caller's)
+        return
+    signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    try:
+        yield noted
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@contextmanager
+def _workers_ignore_sigint(scratch: Path | None):
+    """Worker processes started meanwhile ignore SIGINT from their first instruction: they are spawned through a
+    two-line shell script in the scratch folder (trap '' INT, then exec Python; an ignored signal stays ignored across
+    exec and Python keeps it so). A Ctrl-C at the terminal, which reaches the whole process group, then interrupts this
+    process alone, which closes the cluster: no worker prints its KeyboardInterrupt. Without a scratch folder of ours,
+    or on one mounted noexec, the workers start as Dask starts them."""
+    import multiprocessing.spawn as spawn
+    import shlex
+    import sys
+
+    if scratch is None or os.statvfs(scratch).f_flag & getattr(os, "ST_NOEXEC", 0):
+        yield
+        return
+    wrapper = Path(scratch) / "python-ignoring-sigint"
+    wrapper.write_text(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(sys.executable)} \"$@\"\n")
+    wrapper.chmod(0o700)
+    before = spawn.get_executable()
+    spawn.set_executable(str(wrapper))
+    try:
+        yield
+    finally:
+        spawn.set_executable(before)
+
+
 def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | None = None):
     """A LocalCluster on 127.0.0.1 (its scheduler, dashboard, nannies and workers), one single-threaded worker process
     per core unless `workers` says, ready to run; and its client. scratch: the workers' local directory (the caller's
@@ -128,15 +172,26 @@ def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | No
     from dask.distributed import Client, LocalCluster
 
     n = workers or os.cpu_count() or 1
-    with dask.config.set(QUIET):  # the nannies hand their workers the config of this moment
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
-                               local_directory=str(scratch) if scratch is not None else None,
-                               silence_logs=False if verbose else logging.CRITICAL)  # the workers' own logs: quiet
-        client = Client(cluster, set_as_default=False)
-    from .run_case import ready
+    cluster = client = None
+    try:
+        with dask.config.set(QUIET), _workers_ignore_sigint(scratch), _interrupt_deferred() as interrupted:
+            # (the nannies hand their workers the config of this moment)
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
+                                   local_directory=str(scratch) if scratch is not None else None,
+                                   silence_logs=False if verbose else logging.CRITICAL)  # the workers' logs: quiet
+            client = Client(cluster, set_as_default=False)
+        if interrupted:
+            raise KeyboardInterrupt
+        from .run_case import ready
 
-    client.run(ready)  # each new worker imports the runs' module now: part of the start, not of the first run
+        client.run(ready)  # each new worker imports the runs' module now: part of the start, not of the first run
+    except BaseException:  # a Ctrl-C while it starts: closed here, while the campaign's log still takes Dask's records
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+        raise
     LOGGER.info("local cluster: scheduler %s, dashboard %s, %d workers", cluster.scheduler_address,
                 cluster.dashboard_link, n)
     return client, cluster

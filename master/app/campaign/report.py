@@ -100,34 +100,87 @@ class ReportError(ValueError):
     """Results that cannot be reported; the message says why."""
 
 
-def _load(results: Path) -> tuple[list[dict], list[str]]:
+ORIGIN = "spec.origin"  # beside the results: the path of the spec the campaign ran (its relative paths are from there)
+
+
+FIXED = ("run_id", "controller", "seed", "completed", "diverged", "diverged_at", "error")
+
+
+def _is_metric(key: str) -> bool:
+    return key in ("max_tracking_error", "time_saturated", "zse_containment", "diverged_at") or key.startswith(("ISE(", "IADU("))
+
+
+def _load(results: Path, spec: dict | None = None) -> tuple[list[dict], list[str]]:
+    """(rows, the varied parameters) of a results file, every row normalized to what the report reads (rows: _rows)."""
     import pyarrow.parquet as pq
 
-    if not results.is_file():
-        raise ReportError(f"{results} does not exist (run the campaign first: tiltload campaign SPEC)")
+    from ...engine.user_files import UserFileError, open_binary
+
     try:
-        rows = pq.read_table(results).to_pylist()
+        f = open_binary(results)
+    except UserFileError as err:
+        raise ReportError(f"{err} (the results of a campaign: tiltload campaign SPEC writes them)") from None
+    try:
+        with f:
+            rows = pq.read_table(f).to_pylist()
     except Exception as err:  # pyarrow's many error types: one line
         raise ReportError(f"{results} is not a campaign's results file: {str(err).splitlines()[0]}") from None
     if not rows or "run_id" not in rows[0] or "controller" not in rows[0]:
         raise ReportError(f"{results} has no campaign rows")
-    fixed = {"run_id", "controller", "seed", "completed", "diverged", "diverged_at", "error"}
-    metrics = {"max_tracking_error", "time_saturated", "zse_containment", *(k for k in rows[0] if k.startswith(("ISE(", "IADU(")))}
     judged = {k for k in rows[0] for n in [k.rsplit("_", 1)[0]]  # keep.requirements' columns, in pairs
               if {f"{n}_verdict", f"{n}_robustness"} <= set(rows[0]) and k in (f"{n}_verdict", f"{n}_robustness")}
-    varied = [k for k in rows[0] if k not in fixed and k not in metrics and k not in judged]
-    return rows, varied
+    named = [p.get("name") for p in (spec or {}).get("vary", {}).get("parameters", [])]
+    if named and all(n in rows[0] for n in named):  # the spec says which columns are varied parameters
+        varied = named
+    else:  # a column that is neither fixed, a metric nor a requirement's (an older writer's metric is one too)
+        varied = [k for k in rows[0] if k not in FIXED and not _is_metric(k) and k not in judged]
+    return _rows(results, rows, varied, judged), varied
+
+
+def _rows(results: Path, rows: list[dict], varied: list[str], judged: set[str]) -> list[dict]:
+    """Rows as the report reads them, whichever writer wrote them: run_id and controller text (refused if missing),
+    completed a flag (refused if missing), diverged False and error empty where an older writer left them out, seed
+    None where absent; metrics, varied parameters and robustness numbers or None, text in them refused with its
+    column and run named."""
+    if "completed" not in rows[0]:
+        raise ReportError(f"{results}: no column completed: not a campaign's results file")
+    numeric = [k for k in rows[0] if _is_metric(k) or k in varied or k.endswith("_robustness") and k in judged]
+    out = []
+    for i, r in enumerate(rows):
+        where = f"{results}: row {i + 1}"
+        for key in ("run_id", "controller"):
+            if not isinstance(r.get(key), str) or not r[key].strip():
+                raise ReportError(f"{where}: no {key.replace('_', ' ')} (it holds {r.get(key)!r}): not a campaign's results "
+                                  "row")
+        if not isinstance(r["completed"], bool):
+            raise ReportError(f"{where} ({r['run_id']}): completed holds {r['completed']!r}, not true or false")
+        row = {**r, "diverged": bool(r.get("diverged")), "error": str(r.get("error") or ""),
+               "seed": r.get("seed") if isinstance(r.get("seed"), int) and not isinstance(r.get("seed"), bool) else None}
+        for key in numeric:
+            v = r.get(key)
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))):
+                raise ReportError(f"{where} ({r['run_id']}): column {key} holds {str(v)[:40]!r} where a number goes")
+        out.append(row)
+    return out
 
 
 def _ok(r: dict) -> bool:
     return bool(r["completed"]) and not r["diverged"]
 
 
-def rerun_command(row: dict, spec: dict | None) -> str:
-    """The `tiltload run` that repeats one run of a campaign alone (its parameters are in the spec's targets)."""
+def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None) -> str:
+    """The `tiltload run` that repeats one run of a campaign alone (its parameters are in the spec's targets). A user's
+    controller FMU (a row names it by its stem) is named by its path, found in the spec's base.controllers relative to
+    spec_folder (the folder of the spec the campaign ran)."""
+    import shlex
+
     base = (spec or {}).get("base", {})
-    parts = ["tiltload run", f"--scenario {base.get('scenario', 'zse')}", f"--trajectory {base.get('trajectory', 1)}",
-             f"--controller {row['controller']}", f"--seed {row['seed']}"]
+    controller = row["controller"]
+    for c in base.get("controllers", []):
+        if c not in ("dlqr", "mixed") and Path(c).stem == controller:
+            controller = str((spec_folder / c).resolve() if spec_folder is not None else Path(c))
+    parts = ["tiltload run", f"--scenario {base.get('scenario', 'zse')}", f"--trajectory {shlex.quote(str(base.get('trajectory', 1)))}",
+             f"--controller {shlex.quote(controller)}"] + ([f"--seed {row['seed']}"] if row.get("seed") is not None else [])
     if base.get("stop_time"):
         parts.append(f"--stop-time {base['stop_time']:g}")
     if base.get("gusts") is False:
@@ -136,7 +189,8 @@ def rerun_command(row: dict, spec: dict | None) -> str:
         parts.append(f"--set {key}={value}")
     for p in (spec or {}).get("vary", {}).get("parameters", []):
         for target in p["targets"]:
-            parts.append(f"--set {target}={row[p['name']]:.10g}")
+            if row.get(p["name"]) is not None:
+                parts.append(f"--set {target}={row[p['name']]:.10g}")
     return " ".join(parts)
 
 
@@ -146,15 +200,22 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from ..output_folder import writable_folder
+
     results = Path(results)
-    rows, varied = _load(results)
-    spec = None
-    if spec_path is None:  # the campaign keeps a copy of its spec next to the results
+    spec, spec_folder = None, None
+    if spec_path is None:  # the campaign keeps a copy of its spec next to the results, and where it came from
         spec_path = next((p for p in (results.parent / n for n in ("spec.toml", "spec.yaml", "spec.yml")) if p.is_file()), None)
+        origin = results.parent / ORIGIN
+        spec_folder = Path(origin.read_text().strip()).parent if origin.is_file() else None
     if spec_path is not None:
-        from .spec import read_spec_file
+        from .spec import read_spec_file, validate
 
         spec = read_spec_file(Path(spec_path))
+        validate(spec, Path(spec_path))  # checked as any spec is: its rerun commands are built from it
+        spec_folder = spec_folder or Path(spec_path).parent
+    rows, varied = _load(results, spec)
+    writable_folder(results.parent, "the results' folder (report.md goes there)")
     folder = results.parent
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     lines = [f"# Campaign report: {results.parent.name}", "",
@@ -193,8 +254,8 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         if name is not None and name not in varied:
             raise ReportError(f"--x/--y: {name} is not a varied parameter of this campaign (have: {', '.join(varied)})")
     if x and y:
-        xs = sorted({r[x] for r in rows})
-        ys = sorted({r[y] for r in rows})
+        xs = sorted({r[x] for r in rows if r.get(x) is not None})
+        ys = sorted({r[y] for r in rows if r.get(y) is not None})
         if len(xs) * len(ys) <= 400:  # a grid: maps
             # a page: a row per controller, its success beside its ISE
             fig, axes = plt.subplots(len(controllers), 2, figsize=(8.4, 3.2 * len(controllers) + 0.7), squeeze=False)
@@ -207,7 +268,8 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
                         cell = [r for r in rows if r["controller"] == c and r[x] == vx and r[y] == vy]
                         if cell:
                             success[iy, ix] = np.mean([_ok(r) for r in cell])
-                            vals = [sum(r[k] for k in ISE_POSITION) for r in cell if _ok(r)]
+                            vals = [sum(r[k] for k in ISE_POSITION) for r in cell
+                                    if _ok(r) and all(r.get(k) is not None for k in ISE_POSITION)]
                             ise[iy, ix] = np.mean(vals) if vals else np.nan
                 for i, (grid, title, cmap, unit) in enumerate(((success, "share completed, not diverged", "RdYlGn",
                                                                 "share of runs"),
@@ -243,11 +305,14 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     worst = sorted(rows, key=lambda r: (_ok(r), -(r.get("max_tracking_error") or 0.0)))[:5]
     lines += ["## Worst runs", "", "Failed or diverged runs first, then the largest maximum tracking error.", ""]
     for r in worst:
-        what = f"error: {r['error']}" if r["error"] else f"max tracking error {r['max_tracking_error']:.3g} m"
-        values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied)
-        lines += [f"- {r['controller']}, seed {r['seed']}{', ' + values if values else ''}: {what}", "",
-                  f"  `{rerun_command(r, spec)}`", ""]
-    lines += requirement_section(rows, varied, spec)
+        kept = r.get("max_tracking_error")
+        what = (f"error: {r['error']}" if r["error"] else f"max tracking error {kept:.3g} m" if kept is not None
+                else "completed" + (", diverged" if r["diverged"] else ""))
+        values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied if r.get(k) is not None)
+        seed = "" if r["seed"] is None else f", seed {r['seed']}"
+        lines += [f"- {r['controller']}{seed}{', ' + values if values else ''}: {what}", "",
+                  f"  `{rerun_command(r, spec, spec_folder)}`", ""]
+    lines += requirement_section(rows, varied, spec, spec_folder)
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
     from ..evidence.campaign_page import write_campaign_report
@@ -257,7 +322,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     return path
 
 
-def requirement_section(rows: list[dict], varied: list[str], spec: dict | None) -> list[str]:
+def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
     """keep.requirements' columns: the pass rate of each requirement, and its worst runs by robustness with their
     rerun commands (none: no requirement columns)."""
     names = [k[:-len("_verdict")] for k in (rows[0] if rows else {}) if k.endswith("_verdict") and f"{k[:-8]}_robustness" in rows[0]]
@@ -282,7 +347,7 @@ def requirement_section(rows: list[dict], varied: list[str], spec: dict | None) 
             continue
         lines += [f"### {n}: the least robust runs", ""]
         for r in worst:
-            values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied)
+            values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied if r.get(k) is not None)
             lines += [f"- {r['controller']}, seed {r['seed']}{', ' + values if values else ''}: {r[f'{n}_verdict']}, "
-                      f"robustness {r[f'{n}_robustness']:.4g}", "", f"  `{rerun_command(r, spec)}`", ""]
+                      f"robustness {r[f'{n}_robustness']:.4g}", "", f"  `{rerun_command(r, spec, spec_folder)}`", ""]
     return lines

@@ -80,12 +80,13 @@ def _warm_writer() -> None:
 
 
 def _newest(parts: Path) -> dict[str, dict]:
-    """Each stored run's newest row (rows of older versions' parts, one run a part and no _stored_at, count as oldest)."""
-    import pyarrow.parquet as pq
+    """Each stored run's newest row (rows of older versions' parts, one run a part and no _stored_at, count as oldest).
+    A part that is not one (stored_parts.read_part) is refused with its name."""
+    from ..stored_parts import read_part
 
     newest: dict[str, dict] = {}
-    for path in parts.glob("*.parquet") if parts.is_dir() else ():
-        for row in pq.read_table(path).to_pylist():
+    for path in sorted(parts.glob("*.parquet")) if parts.is_dir() else ():
+        for row in read_part(path, {"run_id": str, "completed": bool}):
             old = newest.get(row["run_id"])
             if old is None or (row.get("_stored_at") or 0) >= (old.get("_stored_at") or 0):
                 newest[row["run_id"]] = row
@@ -143,14 +144,16 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
     (the spec's runs), what the results hold (stored, completed, failed, diverged), skipped (stored before), ran
     (stored now), retried, seconds. CampaignIncomplete (with .counts) when runs are still missing at the end (the
     results hold the others); ClusterError, before anything is built or written, when the cluster cannot take it."""
+    from ..output_folder import writable_folder
     from .address import parse
     from .cluster import connect, local_cluster
     from .dispatch import Dispatch, Policy
+    from .report import ORIGIN
 
     opts = Options(**options)
     scheduler, workers = opts.scheduler, opts.workers
     campaign = load(spec)
-    out = Path(out) if out else Path("runs") / "campaigns" / campaign.name
+    out = writable_folder(Path(out) if out else Path("runs") / "campaigns" / campaign.name, "--out")
     done = _stored(out / "parts", campaign.cases, opts.retry_failed)
     todo = [c for c in campaign.cases if c.run_id not in done]
     say = progress or (lambda text: print(text, file=sys.stderr))
@@ -181,6 +184,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
             LOGGER.info("campaign %s (%s): %d runs, %d stored, %d to run", campaign.name, Path(spec).resolve(),
                         len(campaign.cases), len(campaign.cases) - len(todo), len(todo))
             (out / f"spec{Path(spec).suffix}").write_bytes(Path(spec).read_bytes())  # the report's rerun commands read it
+            (out / ORIGIN).write_text(f"{Path(spec).resolve()}\n")  # and find its relative paths (controllers) from there
             logs = out / "logs" if campaign.keep_logs else None
             if logs:
                 logs.mkdir(exist_ok=True)

@@ -125,10 +125,12 @@ class Campaign:
 
 
 def read_spec_file(path: Path) -> dict:
-    from ...engine.user_files import UserFileError, read_toml, read_yaml
+    from ...engine.user_files import UserFileError, read_toml, read_yaml, regular_file
 
-    if not path.exists():
-        raise SpecError(f"campaign spec {path} does not exist")
+    try:
+        regular_file(path, "spec")
+    except UserFileError as err:
+        raise SpecError(str(err)) from None
     if path.suffix not in (".toml", ".yaml", ".yml"):
         raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
     try:
@@ -140,7 +142,7 @@ def read_spec_file(path: Path) -> dict:
     return data
 
 
-def _validate(data: dict, path: Path) -> None:
+def validate(data: dict, path: Path) -> None:
     from ...engine.user_files import schema_problem
 
     problem = schema_problem(data, SCHEMA)
@@ -273,7 +275,7 @@ def load(path: Path) -> Campaign:
     """Read, validate and expand a campaign spec into its runs."""
     path = Path(path)
     data = read_spec_file(path)
-    _validate(data, path)
+    validate(data, path)
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     if "snapshot" in base:
         return dataclasses.replace(_load_branches(data, path, _branching(base, path)), requirements=_requirements(keep, path))

@@ -31,7 +31,7 @@ def add_parser(sub) -> None:
                     help="further tries of a run whose environment failed (a worker without the FMUs...), default 2")
     ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")
     ca.add_argument("--verbose", action="store_true", help="Dask's log on the terminal too (it is always in <out>/campaign.log)")
-    ca.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    ca.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     ca.add_argument("--allow-failures", action="store_true",
                     help="exit 0 even when a run failed or a requirement FAILed (default: exit 1 then, docs/exit_codes.md)")
     for name in ("--spec", "--x", "--y"):  # the older report form's options, hidden: campaign-report lists them

@@ -29,16 +29,20 @@ def add_parser(sub) -> None:
 
 
 def _is_log(path: Path) -> bool:
+    """Whether the file starts with MCAP's magic (opened as every user file is: never blocking on a FIFO)."""
+    from ...engine.user_files import UserFileError, open_binary
+
     try:
-        with open(path, "rb") as f:
+        with open_binary(path) as f:
             return f.read(8) == MAGIC
-    except OSError:
+    except (UserFileError, OSError):
         return False
 
 
 def gather(files: list[Path], formulas: list[str]):
     """(requirements, logs) from the command line."""
     from ...engine.requirements import from_option, load
+    from ...engine.user_files import open_binary
 
     files = list(files)
     reqs = []
@@ -52,9 +56,9 @@ def gather(files: list[Path], formulas: list[str]):
     if twice:
         raise UserError(f"requirement '{twice[0]}' is given twice (a file's and a --formula's names must differ)")
     for log in files:
-        if not log.is_file():
-            raise UserError(f"log {log} does not exist")
-        if not _is_log(log):
+        with open_binary(log, "log") as f:  # a log that cannot be read says why, not "not an MCAP log"
+            is_log = f.read(8) == MAGIC
+        if not is_log:
             raise UserError(f"{log} is not an MCAP log (no MCAP magic at its start)")
     return reqs, files
 

@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
     f.add_argument("--seconds", type=arguments.positive_time, default=None, help="wall-time budget, instead of the spec's")
     f.add_argument("--scheduler", default=None, help="an existing Dask scheduler (default: a local cluster on 127.0.0.1)")
     f.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
-    f.add_argument("--fmus", type=Path, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
+    f.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     f.add_argument("--no-early-stop", action="store_true",
                    help="run every evaluation to the stop time (default: stop at the first violation that cannot change)")
     f.add_argument("--branch", choices=("auto", "on", "off"), default="auto",
@@ -56,4 +56,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"results: {out / 'falsification.parquet'}; figure: {out / 'best_robustness.png'}; report: {out / 'report.html'}")
     if args.neighbourhood and (out / "neighbourhood" / "neighbourhood.txt").is_file():
         print((out / "neighbourhood" / "neighbourhood.txt").read_text(), end="")
+    failed = [r for r in outcome.rows if r.get("error")]
+    if failed and len(failed) == len(outcome.rows):  # nothing was judged: no search happened, say why (the runs' words)
+        print(f"tiltload: error: every simulation ended in an error, none was judged; the first: {failed[0]['error']}",
+              file=sys.stderr)
+        return 1
     return 1 if outcome.falsified_at is not None else 0  # a counterexample is a failing test (docs/exit_codes.md)

@@ -18,11 +18,10 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
+    from ...engine.user_files import open_binary
     from ..plot import plot_intact
 
-    if not args.log.is_file():
-        raise UserError(f"{args.log} does not exist")
-    with open(args.log, "rb") as f:
+    with open_binary(args.log, "log") as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise UserError(f"{args.log} is not an MCAP log (no MCAP magic at its start)")
     try:

@@ -112,11 +112,11 @@ def evaluate(base: SearchBase, case: dict, fmu_dir: str, worker: CaseWorker | No
                "error": refused or error or "", "sim_time": sim_time, "worker": worker_address() or socket.gethostname(),
                "stopped_at": recorder.stopped_at if stopped else math.nan}
         names = base.requirement_names or [f"r{i}" for i in range(len(base.requirements))]
-        if refused is None:
+        if refused is None and recorder.started:
             trace = recorder.trace(common=True) if stopped else recorder.trace()  # stopped: the exact prefix it judged
             rho, verdicts = robustness(base.requirements, trace, error is None and not stopped, worker)
-        else:
-            rho, verdicts = [math.nan] * len(names), ["REFUSED"] * len(names)
+        else:  # refused, or failed before its start (a controller whose instantiation raised): its line is the outcome
+            rho, verdicts = [math.nan] * len(names), ["REFUSED" if refused else "ERROR"] * len(names)
         for name, r, v in zip(names, rho, verdicts):
             row[f"rho_{name}"] = float(r)
             row[f"verdict_{name}"] = v

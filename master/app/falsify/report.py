@@ -132,6 +132,9 @@ def summary(spec: Falsification, outcome: Outcome, command: list[str] | None, no
     else:
         lines.append(f"NOT FALSIFIED in {n} simulations (a search is no proof); lowest robustness "
                      f"{best['robustness']:.6g} at:" if best else f"NOT FALSIFIED in {n} simulations (none had a robustness)")
+    failed = [r for r in outcome.rows if r.get("error")]
+    if failed:  # the run's own line (a controller that raised, a diverged loop): what the user fixes
+        lines.append(f"  {len(failed)} of {n} simulations ended in an error; the first: {failed[0]['error']}")
     if best is not None:
         lines.append("  " + ", ".join(f"{d.name} = {best[d.name]:.6g}" for d in spec.dimensions))
         for r in spec.requirements:

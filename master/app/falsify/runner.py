@@ -8,6 +8,7 @@ import hashlib
 import json
 import os
 import sys
+import tempfile
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -16,6 +17,8 @@ from ..campaign.errors import CampaignIncomplete
 from ..campaign.spec import Case, SpecError
 from .search import Outcome, search
 from .spec import Falsification, SearchBase, load
+
+LOG = "falsify.log"
 
 
 def identity(spec: Falsification, early_stop: bool = True) -> str:
@@ -117,13 +120,18 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     stops at its first decided violation; branch: auto (measured: cheaper_base), on or off; neighbourhood: then run the
     grid around the best case (neighbourhood.py: ±fraction of each range, points values each)."""
     from ..campaign.cluster import connect, local_cluster
+    from ..campaign.logs import campaign_log
     from ..fmus import build_all
+    from ..output_folder import writable_folder
+    from .search import read_parts
 
     spec = load(spec_path)
     changes = {k: v for k, v in (("optimizer", optimizer), ("seed", seed), ("simulations", simulations),
                                  ("seconds", seconds)) if v is not None}
     spec = replace(spec, **changes)
-    out = Path(out) if out else Path("runs") / "falsify" / f"{spec.name}-{spec.optimizer}-{spec.seed}"
+    out = writable_folder(Path(out) if out else Path("runs") / "falsify" / f"{spec.name}-{spec.optimizer}-{spec.seed}",
+                          "--out")
+    read_parts(out / "parts")  # what a rerun goes on from: a part that is not one is refused now, before any cluster
     say = progress or (lambda text: print(text, file=sys.stderr))
     fmus = Path(fmus).resolve()
     build_all(fmus, progress=say)
@@ -132,27 +140,32 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     cluster = None
     own = client is None
     where = scheduler or "the local cluster"
-    if own:
-        if scheduler is not None:
-            client = connect(scheduler, workers or 1, 5.0, 30.0)
-        else:
-            client, cluster = local_cluster(workers)
-            where = f"{cluster.scheduler_address} (the local cluster's)"
     out.mkdir(parents=True, exist_ok=True)
-    (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
-    base, notes = cheaper_base(spec, fmus, early_stop, branch)
-    for line in notes:
-        say(line)
-    try:
-        outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
-                         make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
-        if neighbourhood and outcome.best is not None and not outcome.failures:
-            from . import neighbourhood as nb
+    # Dask's records (a worker's traceback, a retry's cause) go to <out>/falsify.log, as a campaign's to campaign.log,
+    # and the workers' scratch folder (its lock files) is one this search owns and removes, not $TMPDIR's
+    with campaign_log(False) as log, tempfile.TemporaryDirectory(prefix="tiltload-falsify-") as scratch:
+        log.to_file(out / LOG)
+        try:
+            if own:
+                if scheduler is not None:
+                    client = connect(scheduler, workers or 1, 5.0, 30.0)
+                else:
+                    client, cluster = local_cluster(workers, scratch=Path(scratch))
+                    where = f"{cluster.scheduler_address} (the local cluster's)"
+            (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
+            base, notes = cheaper_base(spec, fmus, early_stop, branch)
+            for line in notes:
+                say(line)
+            outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
+                             make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
+            if neighbourhood and outcome.best is not None and not outcome.failures:
+                from . import neighbourhood as nb
 
-            say(nb.run(spec, outcome.best, cluster_batch(client, where, base, fmus), make_case(base), out, fraction, points))
-    finally:
-        if own:
-            client.close()
+                say(nb.run(spec, outcome.best, cluster_batch(client, where, base, fmus), make_case(base), out, fraction,
+                           points))
+        finally:
+            if own and client is not None:
+                client.close()
             if cluster is not None:
                 cluster.close()
     if write_report:
@@ -161,5 +174,5 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
         write(spec, outcome, out, fmus, notes)
     if outcome.failures:
         raise CampaignIncomplete(f"{len(outcome.failures)} evaluations failed for their environment, not for themselves "
-                                 f"(details: Dask's log); what was stored stays: rerun the same command to go on")
+                                 f"(details: {out / LOG}); what was stored stays: rerun the same command to go on")
     return spec, outcome, out

@@ -54,14 +54,15 @@ def run_id(identity: str, index: int, unit: np.ndarray) -> str:
 
 
 def read_parts(folder: Path) -> dict[int, dict]:
-    import pyarrow.parquet as pq
+    """The stored evaluations by index; a part that is not one is refused with its name (stored_parts.read_part)."""
+    from ..stored_parts import read_part
 
     if not folder.is_dir():
         return {}
     out = {}
     for path in sorted(folder.glob("*.parquet")):
-        row = pq.read_table(path).to_pylist()[0]
-        out[int(row["index"])] = row
+        row = read_part(path, {"index": int, "run_id": str})[0]
+        out[row["index"]] = row
     return out
 
 

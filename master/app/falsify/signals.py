@@ -112,6 +112,11 @@ class SignalRecorder(Observer):
         self._times = {n: [np.array(state["times"][n], dtype=float)] for n in self.names}
         self._values = {n: [np.array(state["values"][n], dtype=float)] for n in self.names}
 
+    @property
+    def started(self) -> bool:
+        """The run reached its start (the instances initialized): there is a trace to judge."""
+        return bool(self._times)
+
     def series(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         return {n: (np.concatenate(self._times[n]), np.concatenate(self._values[n])) for n in self.names}
 

@@ -43,9 +43,9 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
 
     A log without a metrics record (a killed run, truncated) gets its metrics recomputed from its
     messages; `notes` (a list) receives a line saying so."""
-    path = Path(path)
-    if not path.is_file():
-        raise DescriptionError(f"{path} does not exist")
+    from ...engine.user_files import open_binary, regular_file
+
+    path = regular_file(path)
     if path.suffix == ".json":
 
         from ...engine.user_files import UserFileError, read_json, schema_problem
@@ -64,7 +64,7 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
             raise DescriptionError(f"{path} holds a non-finite metric")
         _check_tolerances(tolerances, path)
         return metrics, tolerances
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         if f.read(8) != b"\x89MCAP0\r\n":
             raise DescriptionError(f"{path} is not a readable MCAP log (no MCAP magic at its start)")
     state = check(path)

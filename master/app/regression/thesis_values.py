@@ -29,3 +29,22 @@ def table_number(scenario: str, trajectory: int) -> str:
 
 def thesis(scenario: str, trajectory: int, controller: str) -> dict[str, float]:
     return dict(zip(METRICS, _TABLES[(scenario, trajectory)][1][controller]))
+
+
+def beside_run(opts, stop: float) -> tuple[str, dict[str, float] | None]:
+    """What `tiltload run` prints beside its metrics: ("Table 5.x", the thesis's values) for a run of a thesis case as
+    the thesis ran it (the loop, the load, FSI/LKF/ZSE, trajectory 1 or 2, DLQR or mixed, gusts, no delay, fault, wind
+    or --set, the full length); (a note, None) for that case cut short; ("", None) for any other run."""
+    from ..loop import default_stop
+
+    case = (getattr(opts, "system", None) is None and opts.vehicle == "load" and opts.trajectory in (1, 2)
+            and (opts.scenario, opts.trajectory) in _TABLES and opts.controller in ("dlqr", "mixed") and opts.gusts
+            and not opts.delay and opts.faults is None and getattr(opts, "wind", None) is None and not opts.settings)
+    if not case:
+        return "", None
+    full = default_stop(opts.trajectory)
+    table = f"Table {table_number(opts.scenario, opts.trajectory)}"
+    if abs(stop - full) > 1e-9:
+        return (f"the thesis's values ({table}) are of the whole {full:g} s run: run without --stop-time to see them beside "
+                "these"), None
+    return table, thesis(opts.scenario, opts.trajectory, opts.controller)

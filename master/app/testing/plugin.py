@@ -206,8 +206,12 @@ class Baseline:
             pytest.fail(f"no baseline recorded for {self.nodeid} ({self.path}): record it with {hint}", pytrace=False)
         try:
             assert_matches_baseline(result, self.path, rtol=rtol, atol=atol, update_hint=hint)
+            return
         except AssertionError as err:
-            pytest.fail(str(err), pytrace=False)
+            report = str(err)
+        # failed outside the except clause: inside it, pytest would print the report twice ("During handling of the
+        # above exception, another exception occurred")
+        pytest.fail(report, pytrace=False)
 
     @property
     def signals_path(self) -> Path:

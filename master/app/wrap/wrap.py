@@ -40,8 +40,12 @@ class WrapError(ValueError):
 
 
 def _load(path: Path):
-    if not path.is_file():
-        raise WrapError(f"{path} does not exist")
+    from ...engine.user_files import UserFileError, open_binary
+
+    try:
+        open_binary(path).close()  # readable as well as a file: the import below would say less
+    except UserFileError as err:
+        raise WrapError(str(err)) from None
     if path.suffix != ".py":
         raise WrapError(f"{path} is not a Python file (.py)")
     name = f"tiltload_wrap_{hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:8]}"

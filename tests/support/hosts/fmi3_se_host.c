@@ -21,7 +21,9 @@
    next instant that has a higher priority (as a real-time scheduler would when a partition overruns into the next
    period); without --preempt it runs them in order. Lock callbacks are counted and must balance.
 
-   usage: fmi3_se_host PLAN [--rate-monotonic-only] [--record FILE] [--replay FILE [--preempt]]
+   usage: fmi3_se_host PLAN [--rate-monotonic-only] [--record FILE] [--replay FILE [--preempt]] [--reactivate]
+   --reactivate: at the first preemption point, the running partition is activated again at its own instant (the FMU
+   must refuse it with fmi3Error); the host reports which, and exits 1 (the instance is Terminated).
    PLAN is text, one item a line:
      F name binary token           a co-simulation FMU instance (stepping order = file order)
      S name binary token           a Scheduled Execution FMU instance (its partitions run at its place in that order)
@@ -56,6 +58,8 @@ typedef struct {
   Recorded* replay;
   long n_replay;
   int preempt;
+  int reactivate; /* --reactivate: at the first preemption point, the running partition activated again (must be refused) */
+  int reactivated; /* 1 refused with fmi3Error, 2 accepted */
   /* scheduling: the partitions running (innermost last), the lock depth, the counts */
   int running_fmu[MAX_NEST], running_clock[MAX_NEST], n_running;
   long running_tick[MAX_NEST];
@@ -204,6 +208,14 @@ static void unlock_preemption(void) {
     h->failed = 1;
     h->lock_depth = 0;
   }
+  if (h->lock_depth == 0 && h->reactivate && !h->reactivated && h->n_running > 0) { /* the running one, again, at its instant */
+    const int fi = h->running_fmu[h->n_running - 1], j = h->running_clock[h->n_running - 1];
+    Fmu* f = &h->fmus[fi];
+    const fmi3Status status = f->activate(f->c, f->clocks[j].vr, (double)h->running_tick[h->n_running - 1] * h->tick);
+    h->reactivated = status == fmi3Error ? 1 : 2;
+    fprintf(stderr, "reactivation of partition %u from its unlock callback: %s\n", f->clocks[j].vr,
+            status == fmi3Error ? "refused with fmi3Error" : "ACCEPTED");
+  }
   if (h->lock_depth == 0 && h->preempt && h->n_running > 0) preempt_now(h); /* a preemption point */
 }
 
@@ -293,12 +305,14 @@ int main(int argc, char** argv) {
   long ticks = 0, k;
   FILE* plan;
   if (argc < 2 || (plan = fopen(argv[1], "r")) == NULL) {
-    fprintf(stderr, "usage: %s PLAN [--rate-monotonic-only] [--record FILE] [--replay FILE [--preempt]]\n", argv[0]);
+    fprintf(stderr, "usage: %s PLAN [--rate-monotonic-only] [--record FILE] [--replay FILE [--preempt]] [--reactivate]\n",
+            argv[0]);
     return 2;
   }
   for (i = 2; i < argc; ++i) {
     if (strcmp(argv[i], "--rate-monotonic-only") == 0) rm_only = 1;
     else if (strcmp(argv[i], "--preempt") == 0) h->preempt = 1;
+    else if (strcmp(argv[i], "--reactivate") == 0) h->reactivate = 1;
     else if (strcmp(argv[i], "--record") == 0 && i + 1 < argc) h->record = fopen(argv[++i], "w");
     else if (strcmp(argv[i], "--replay") == 0 && i + 1 < argc) {
       if (read_replay(h, argv[++i]) < 0) return 2;
