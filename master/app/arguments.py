@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, time_span, tolerance
+from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
-__all__ = ["DAY", "integer", "positive_number", "positive_time", "time_span", "tolerance"]
+__all__ = ["DAY", "integer", "positive_number", "positive_time", "run_time", "time_span", "tolerance"]
 
 DEFAULT_FMU_DIR = Path("fmus")
 MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
@@ -90,7 +90,7 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--controller", default=None,
                    help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
     p.add_argument("--seed", type=seed, default=None, help="noise seed, 0 .. 2147483647 (default 1)")
-    p.add_argument("--stop-time", type=positive_time, default=None, help="s (default: the trajectory's duration)")
+    p.add_argument("--stop-time", type=run_time, default=None, help="s (default: the trajectory's duration; at most 1e6)")
     p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")
     p.add_argument("--no-gusts", action="store_true", help="no wind gusts")
     p.add_argument("--faults", type=Path, default=None, metavar="FILE",

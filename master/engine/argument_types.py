@@ -39,6 +39,10 @@ def _finite_above_zero(value: float) -> bool:
 positive_number = real_in(_finite_above_zero, "a positive finite number")
 # a span a run covers, not a wait (time_span)
 positive_time = real_in(_finite_above_zero, "a positive finite time in s")
+# the longest a run may cover: 11.6 days of simulated time, 83 million ticks (hours of wall time at the loop's speed);
+# the feasibility check and the log are sized by it, so 1e300 is refused rather than iterated over
+MAX_RUN = 1e6
+run_time = real_in(lambda value: 0 < value <= MAX_RUN, f"a positive time in s, at most {MAX_RUN:g}")
 tolerance = real_in(lambda value: math.isfinite(value) and value >= 0, "a finite number >= 0")
 
 

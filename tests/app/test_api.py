@@ -457,3 +457,16 @@ def test_runs_on_a_pool_restart_its_execution_and_equal_fresh_runs(fmus, tmp_pat
         assert first.metrics == again.metrics == fresh.metrics
     finally:
         pool.close()
+
+
+@pytest.mark.parametrize("stop", [1e300, 1e6 + 1, float("inf")])
+def test_a_stop_time_past_the_longest_run_is_refused_before_anything_runs(stop, tmp_path, capsys):
+    """The feasibility check and the log are sized by the stop time: past 1e6 s it is refused in one line (it used to
+    iterate without end, deaf to SIGTERM)."""
+    with pytest.raises(tl.TiltloadError, match="at most 1e\\+06"):
+        tl.run(stop_time=stop, no_plots=True, out=tmp_path)
+    with pytest.raises(SystemExit) as cli:  # argparse's usage error
+        main(["run", "--stop-time", repr(stop), "--out", str(tmp_path)])
+    assert cli.value.code == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1 and "--stop-time: must be a positive time in s, at most 1e+06" in said[0]

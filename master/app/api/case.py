@@ -58,7 +58,7 @@ class Case:
         if kinds.whole("Case", "seed", self.seed) is not None:
             arguments.checked(arguments.seed, "--seed", self.seed)
         if kinds.number("Case", "stop_time", self.stop_time) is not None:
-            fix("stop_time", arguments.checked(arguments.positive_time, "--stop-time", self.stop_time))
+            fix("stop_time", arguments.checked(arguments.run_time, "--stop-time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):
             kinds.flag("Case", name, getattr(self, name))
         for name in ("wind", "faults", "system", "fmus"):
