@@ -74,3 +74,18 @@ def test_a_report_whose_metrics_are_all_zero_has_no_distributions_figure(tmp_pat
     pq.write_table(pa.Table.from_pylist(rows), tmp_path / "results.parquet")
     text = rp.report(tmp_path / "results.parquet").read_text()
     assert not (tmp_path / "distributions.png").exists() and "distributions.png" not in text
+
+
+def test_each_run_is_a_point_coloured_by_its_varied_value():
+    """With colours, every run is a point over its box, its colour its varied value (the figure's colour bar names it)."""
+    rows = [{"controller": c, "completed": True, "diverged": False, "max_tracking_error": 0.1 * k, "mass": 0.05 * k}
+            for c in ("dlqr", "mixed") for k in range(1, 8)]
+    data = dict(rp.distribution_panels(rows, ["dlqr", "mixed"], keys=("max_tracking_error",)))["max_tracking_error"]
+    colours = rp.panel_colours(rows, ["dlqr", "mixed"], "max_tracking_error", "mass")
+    fig, ax = plt.subplots()
+    assert rp.draw_distribution(ax, "max_tracking_error", data, ["dlqr", "mixed"], colours) == ["box", "box"]
+    drawn = [c for c in ax.collections if c.get_array() is not None]
+    assert len(drawn) == 2
+    for points, expected_y, expected_colour in zip(drawn, data, colours):
+        assert [y for _, y in points.get_offsets()] == expected_y and list(points.get_array()) == expected_colour
+    plt.close(fig)

@@ -64,24 +64,38 @@ def distribution_panels(rows: list[dict], controllers: list[str], keys=DISTRIBUT
     return panels
 
 
+def panel_colours(rows: list[dict], controllers: list[str], key: str, by: str) -> list[list[float]]:
+    """The value of the varied parameter `by` of each point distribution_panels gives for `key`, in the same order."""
+    return [[float(r[by]) for r in rows if r["controller"] == c and _ok(r) and r.get(key) is not None
+             and math.isfinite(r[key])] for c in controllers]
+
+
 def group_kind(values: list[float]) -> str:
     """How a group is drawn: 'strip' (each run a point) below STRIP_BELOW runs, else 'box'."""
     return "strip" if len(values) < STRIP_BELOW else "box"
 
 
-def draw_distribution(ax, key: str, data: list[list[float]], labels: list[str]) -> list[str]:
-    """One metric's panel: a box or a strip per group, plain tick labels, the unit on the axis; the kinds drawn."""
+def draw_distribution(ax, key: str, data: list[list[float]], labels: list[str], colours: list[list[float]] | None = None,
+                      norm=None) -> list[str]:
+    """One metric's panel: a box or a strip per group, plain tick labels, the unit on the axis; the kinds drawn.
+    colours: each point's value of a varied parameter (panel_colours): every run is then drawn as a point over its box,
+    coloured by that value (norm: the colour scale the figure's colour bar shows)."""
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
     kinds = [group_kind(g) for g in data]
     boxes = [i for i, k in enumerate(kinds) if k == "box" and data[i]]
     if boxes:
-        ax.boxplot([data[i] for i in boxes], positions=[i + 1 for i in boxes], widths=0.5, showfliers=True)
+        ax.boxplot([data[i] for i in boxes], positions=[i + 1 for i in boxes], widths=0.5, showfliers=colours is None)
     for i, g in enumerate(data):
-        if kinds[i] == "strip" and g:  # the points side by side, the median as a bar
-            offsets = np.linspace(-0.12, 0.12, len(g)) if len(g) > 1 else np.zeros(1)
+        if not g or (kinds[i] == "box" and colours is None):
+            continue
+        offsets = np.linspace(-0.12, 0.12, len(g)) if len(g) > 1 else np.zeros(1)  # the points side by side
+        if colours is not None:
+            ax.scatter(i + 1 + offsets, g, s=10, c=colours[i], cmap="viridis", norm=norm, zorder=3, linewidths=0)
+        else:
             ax.scatter(i + 1 + offsets, g, s=18, color="C0", zorder=3)
-            ax.hlines(np.median(g), i + 0.75, i + 1.25, color="C1")
+        if kinds[i] == "strip":
+            ax.hlines(np.median(g), i + 0.75, i + 1.25, color="C1")  # the median as a bar
     ax.set_xticks(range(1, len(labels) + 1), [f"{c}\n({len(g)} runs)" for c, g in zip(labels, data)])
     ax.set_xlim(0.4, len(labels) + 0.6)
     values = np.array([v for g in data for v in g])
@@ -238,12 +252,25 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         columns = 1 if len(panels) == 1 else 2  # a page: two panels a row, as many rows as it takes
         n_rows = -(-len(panels) // columns)
         fig, axes = plt.subplots(n_rows, columns, figsize=(4.1 * columns, 2.9 * n_rows + 0.7), squeeze=False)
+        by = varied[0] if varied else None  # each run's point coloured by the first varied value
+        norm = None
+        if by is not None:
+            from matplotlib.colors import Normalize
+
+            values = [float(r[by]) for r in rows]
+            norm = Normalize(min(values), max(values) if max(values) > min(values) else min(values) + 1)
         for ax, (key, data) in zip(axes.ravel(), panels):
-            draw_distribution(ax, key, data, controllers)
+            draw_distribution(ax, key, data, controllers, panel_colours(rows, controllers, key, by) if by else None, norm)
         for ax in axes.ravel()[len(panels):]:
             ax.remove()
-        fig.suptitle(f"Campaign {results.parent.name}: the metrics of the runs completed without diverging", fontsize=10)
+        fig.suptitle(f"Campaign {results.parent.name}: the metrics of the runs completed without diverging"
+                     + (f"; each run a point coloured by its {by}" if by else ""), fontsize=10)
         fig.tight_layout()
+        if by is not None:
+            from matplotlib.cm import ScalarMappable
+
+            fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), ax=list(axes.ravel()[:len(panels)]), shrink=0.6,
+                         label=axis_label(by, parameter_unit(by, spec)))
         fig.savefig(folder / "distributions.png", dpi=110)
         plt.close(fig)
         figures.append("distributions.png")
