@@ -78,7 +78,8 @@ def requirement_figure(req, trace, result, unit_of, final: bool = True) -> tuple
     curves.append(c)
     ax.plot(c.times, [np.nan if v is None else v for v in c.values], lw=0.9, color="C2", label="margin")
     ax.axhline(0.0, color="k", lw=0.8, ls="--", label="bound (margin 0)")
-    ax.set_ylabel("margin", fontsize=7)
+    # the margin is in its signals' unit when they share one (a bound on a difference of positions: m)
+    ax.set_ylabel("margin" + (f" ({next(iter(panels))})" if len(panels) == 1 and next(iter(panels)) != "1" else ""), fontsize=7)
     blown = scale_to_sane(ax)
     _mark(ax, bad, first, None if blown is not None else _finite_until(times, np.asarray(margin, dtype=float)))
     if bad:
