@@ -1218,8 +1218,8 @@ def test_the_pytest_plugin_prints_a_baseline_report_once(tmp_path):
         "import tiltload as tl\nfrom tiltload.master.app.regression.case import record\n\n"
         "def test_off(tiltload_baseline):\n"
         "    case = {k: str(v) for k, v in record(scenario='zse', trajectory=1, controller='mixed', seed=1, stop_time=40.0).items()}\n"
-        "    result = tl.Result(metrics={'ISE(x)': 0.55, 'IADU(f_R)': 2.0}, case=case, log=None, command='tiltload run',\n"
-        "                       options={}, stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)\n"
+        "    result = tl.Result(metrics={'ISE(x)': 0.55, 'IADU(f_R)': 2.0}, case=None, options=None, record=case, log=None,\n"
+        "                       command='tiltload run', stop_time=40.0, sim_time=40.0, wall_time=1.0, ticks=3333)\n"
         "    tiltload_baseline.check(result)\n")
     env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py"], cwd=tmp_path,
