@@ -180,7 +180,7 @@ def test_a_spec_that_is_not_a_file_is_one_line(tmp_path, capsys):
     spec = tmp_path / "spec.toml"
     spec.mkdir()
     code = exit_code(["campaign", str(spec), "--out", str(tmp_path / "out")])
-    assert (code, one_line(capsys.readouterr().err)) == (2, f"tiltload: error: {spec}: a folder, not a regular file")
+    assert (code, one_line(capsys.readouterr().err)) == (2, f"tiltload: error: spec {spec}: a folder, not a regular file")
 
 
 @pytest.mark.slow
