@@ -21,6 +21,7 @@ from .log_encoding import LAYOUT, FixedMessage
 from .user_files import open_binary
 
 MAGIC = b"\x89MCAP0\r\n"
+NON_FINITE = ("inf", "-inf", "nan")  # how tiltload's JSON channels spell a value JSON cannot hold (faults/schedule.py)
 MAX_CHUNK_BYTES = 64 * 2**20  # a chunk's declared size, uncompressed (tiltload writes 32-128 KiB; other tools' about 1-4 MiB)
 
 
@@ -58,9 +59,12 @@ def _json_decoder(topic: str, schema=None):
         if isinstance(t, bool) or not isinstance(t, (int, float)):
             raise ForeignLog(f"channel {topic[:80]}: its time t holds {str(t)[:40]!r} where a number of seconds goes")
         for key, value in msg.items():
-            if value is None or isinstance(value, (int, float)):
+            if value is None:  # null says no type: a fault's flag is null for most faults, a name for a dropout
+                continue
+            if isinstance(value, (int, float)):
                 numeric.add(key)
-            elif key in numeric:
+            elif key in numeric and isinstance(value, str) and value not in NON_FINITE:
+                # text where a number went (a fault's value may also be a list, [lo, hi], or a non-finite spelled out)
                 raise ForeignLog(f"channel {topic[:80]}: field {key[:80]} holds {str(value)[:40]!r} where a number goes")
         return msg
 
