@@ -176,11 +176,16 @@ def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | No
     try:
         with dask.config.set(QUIET), _workers_ignore_sigint(scratch), _interrupt_deferred() as interrupted:
             # (the nannies hand their workers the config of this moment)
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
-                                   local_directory=str(scratch) if scratch is not None else None,
-                                   silence_logs=False if verbose else logging.CRITICAL)  # the workers' logs: quiet
-            client = Client(cluster, set_as_default=False)
+            try:
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                       dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
+                                       local_directory=str(scratch) if scratch is not None else None,
+                                       silence_logs=False if verbose else logging.CRITICAL)  # the workers' logs: quiet
+                client = Client(cluster, set_as_default=False)
+            except Exception:
+                if interrupted:  # the Ctrl-C reached a nanny as it started ("Nanny failed to start"): it is the cause
+                    raise KeyboardInterrupt from None
+                raise
         if interrupted:
             raise KeyboardInterrupt
         from .run_case import ready

@@ -59,7 +59,7 @@ typedef struct {
   long n_replay;
   int preempt;
   int reactivate; /* --reactivate: at the first preemption point, the running partition activated again (must be refused) */
-  int reactivated; /* 1 refused with fmi3Error, 2 accepted */
+  int reactivated; /* 1 refused with fmi3Error, 2 accepted, 3 being tried */
   /* scheduling: the partitions running (innermost last), the lock depth, the counts */
   int running_fmu[MAX_NEST], running_clock[MAX_NEST], n_running;
   long running_tick[MAX_NEST];
@@ -211,7 +211,9 @@ static void unlock_preemption(void) {
   if (h->lock_depth == 0 && h->reactivate && !h->reactivated && h->n_running > 0) { /* the running one, again, at its instant */
     const int fi = h->running_fmu[h->n_running - 1], j = h->running_clock[h->n_running - 1];
     Fmu* f = &h->fmus[fi];
-    const fmi3Status status = f->activate(f->c, f->clocks[j].vr, (double)h->running_tick[h->n_running - 1] * h->tick);
+    fmi3Status status;
+    h->reactivated = 3; /* in progress: the refusal's own unlock comes back here, and must not reactivate again */
+    status = f->activate(f->c, f->clocks[j].vr, (double)h->running_tick[h->n_running - 1] * h->tick);
     h->reactivated = status == fmi3Error ? 1 : 2;
     fprintf(stderr, "reactivation of partition %u from its unlock callback: %s\n", f->clocks[j].vr,
             status == fmi3Error ? "refused with fmi3Error" : "ACCEPTED");
