@@ -108,8 +108,9 @@ class McapWriter:
         self._queue: queue.Queue = queue.Queue(maxsize=64)
         # batches handed to the writing thread and not yet in the chunks: one at most, so a killed run loses at most the
         # chunk being filled and the last batch (not a backlog)
-        self._in_flight = 0
-        self._room = threading.Condition()
+        # the last batch handed to the writing thread, set once laid out: set only after its put, so a signal raised
+        # between two statements here (SIGTERM as KeyboardInterrupt) never leaves a wait for a batch that was not queued
+        self._last_laid_out: threading.Event | None = None
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._drain, name="mcap-writer", daemon=True)
         self._thread.start()
@@ -176,23 +177,22 @@ class McapWriter:
             return
         if wait:
             self._wait_for_room()
-        with self._room:
-            self._in_flight += 1
-        self._put(lambda: self._lay_out(batch, fill))
+        laid_out = threading.Event()
+        self._put(lambda: self._lay_out(batch, fill, laid_out))
+        self._last_laid_out = laid_out
 
     def _wait_for_room(self) -> None:
-        with self._room:
-            while self._in_flight and self._error is None and self._thread.is_alive():
-                self._room.wait(0.1)
+        previous = self._last_laid_out
+        while previous is not None and not previous.wait(0.1):
+            if self._error is not None or not self._thread.is_alive():
+                break
 
-    def _lay_out(self, batch: MessageBatch, fill) -> None:
+    def _lay_out(self, batch: MessageBatch, fill, laid_out: threading.Event) -> None:
         """The batch's Message records in key order, into the chunks (the writing thread only)."""
         try:
             self._lay_out_records(batch, fill)
         finally:
-            with self._room:
-                self._in_flight -= 1
-                self._room.notify_all()
+            laid_out.set()
 
     def _lay_out_records(self, batch: MessageBatch, fill) -> None:
         for f in fill:
