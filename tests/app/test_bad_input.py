@@ -20,6 +20,14 @@ BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5",
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
 
 
+def exit_code(argv: list[str]) -> int:
+    """The command's exit code; argparse's usage errors raise SystemExit with theirs."""
+    try:
+        return main(argv)
+    except SystemExit as exit_:
+        return exit_.code
+
+
 def _cli_cases() -> list[tuple[str, list[str]]]:
     cases = []
     run = ["run", "--stop-time", "0.1", "--quiet", "--no-plots"]
@@ -370,10 +378,7 @@ def test_over_300_bad_inputs_each_get_one_line_and_a_non_zero_exit(fmus, misbeha
     for label, argv in cases:
         if argv[:1] == ["run"] and "--fmus" not in argv:
             argv = [*argv, "--fmus", str(fmus), "--out", str(tmp_path / "runs")]
-        try:
-            code = main(argv)
-        except SystemExit as exit_:  # argparse
-            code = exit_.code
+        code = exit_code(argv)
         out, err = capsys.readouterr()
         lines = [ln for ln in err.splitlines() if ln.strip()]
         if code in (0, None):
@@ -597,10 +602,7 @@ def test_trust_boundary_bad_inputs_each_get_one_line_and_exit_2(fmus, fmi3_fmus,
                     "--no-log"] if "--stop-time" not in argv else [*argv, "--fmus", str(fmus), "--quiet", "--no-log"]
         if argv[:1] == ["campaign"]:
             argv = [*argv, "--fmus", str(fmus), "--out", str(tmp_path / "camp"), "--workers", "1"]
-        try:
-            code = main(argv)
-        except SystemExit as exit_:  # argparse
-            code = exit_.code
+        code = exit_code(argv)
         out, err = capsys.readouterr()
         lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("campaign ")]
         if code != 2:
@@ -671,10 +673,7 @@ def test_every_file_a_command_reads_is_opened_as_a_file(tmp_path, capsys, monkey
     assert len(cases) == 50
     problems = []
     for label, argv, says in cases:
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
+        code = exit_code(argv)
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip() and not ln.startswith("tiltload run: ")]
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]):
             problems.append(f"{label}: exit {code}: {lines[:3]}")
@@ -783,10 +782,7 @@ def test_logs_from_other_tools_are_one_line_naming_the_channel(tmp_path, capsys)
     assert len(cases) == 45
     problems = []
     for label, argv, says in cases:
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
+        code = exit_code(argv)
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
@@ -929,10 +925,7 @@ def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, 
         tiny = "1 KiB" in label
         monkeypatch.setattr(output_folder.shutil, "disk_usage",
                             (lambda p: real_usage(p)._replace(free=1024)) if tiny else real_usage)
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
+        code = exit_code(argv)
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
@@ -1035,10 +1028,7 @@ def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, mo
     assert len(cases) == 21
     problems = []
     for label, argv, says in cases:
-        try:
-            code = main(argv)
-        except SystemExit as exit_:
-            code = exit_.code
+        code = exit_code(argv)
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or "--fmus" not in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
