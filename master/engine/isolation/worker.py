@@ -42,9 +42,11 @@ def model_inputs(md) -> dict[str, frozenset]:
             for t in wire.TYPES}
 
 
-def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None, tick: float | None = None) -> int:
+def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None, tick: float | None = None,
+          loader=None) -> int:
     """Instantiate the FMU (FMI 2.0 or 3.0; tick: the master's, for an FMU with clocks), answer the master's requests
-    until it closes the link or asks to close."""
+    until it closes the link or asks to close. loader(name, fmu, md, tick): the slave that answers (default: the FMU
+    loaded in this process; another model of the same ports, e.g. a controller's prototype in Python)."""
     from ..errors import DescriptionError, ExecutionError
     from ..in_process import load
     from ..model_description import read_fmu
@@ -74,7 +76,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
 
     try:
         md = read_fmu(fmu, name)
-        inst = load(name, fmu, md, tick)
+        inst = (loader or load)(name, fmu, md, tick)
         channel.send(wire.ok(new_log()))
     except (ExecutionError, DescriptionError) as err:
         channel.send(wire.error("execution", str(err), False, new_log()))
