@@ -9,6 +9,7 @@ The public API (docs/api.md)::
     tl.compare(result, "baselines/lkf_traj2.json").ok              # the case first, then the metrics
     tl.compare_signals(result, "baselines/lkf_traj2.parquet").ok   # each signal in its tolerance tube
     tl.check(result, "docs/requirements/thesis.yaml")                # each requirement's verdict and robustness
+    tl.b2b("reproduction", candidate=tl.B2BSide(stage="pil")).table()  # back to back: SIL against PIL, in tubes
     tl.campaign("docs/campaigns/robustness.toml", workers=2)
     tl.falsify("docs/falsification/swing_gust.toml", simulations=20).best
     tl.plant.trim(), tl.plant.linearize(dt=tl.plant.TICK), tl.design.dlqr(), tl.design.mixed()   # docs/design_api.md
@@ -27,6 +28,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from . import design, plant
+    from .master.app.api.back_to_back import B2BCase, B2BSide, BackToBack, b2b
     from .master.app.api.campaigns import CampaignOptions, CampaignResult, campaign
     from .master.app.api.case import Case
     from .master.app.api.checking import check
@@ -49,10 +51,13 @@ _PUBLIC = {  # name: the module it is defined in
     "FalsifyResult": _API + "falsifying", "Comparison": "tiltload.master.app.regression.compare",
     "MetricRow": "tiltload.master.app.regression.compare", "compare_signals": _API + "signal_comparing",
     "save_signal_baseline": _API + "signal_comparing", "SignalComparison": "tiltload.master.app.regression.signal_compare",
+    "b2b": _API + "back_to_back", "B2BSide": _API + "back_to_back", "B2BCase": _API + "back_to_back",
+    "BackToBack": _API + "back_to_back",
 }
 _NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
-__all__ = ["CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow", "Result",
-           "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare", "compare_signals", "falsify",
+__all__ = ["B2BCase", "B2BSide", "BackToBack", "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions",
+           "FalsifyResult", "MetricRow", "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "b2b", "campaign",
+           "check", "compare", "compare_signals", "falsify",
            "run", "save_baseline", "save_signal_baseline", "plant", "design"]
 
 

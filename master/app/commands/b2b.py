@@ -22,6 +22,10 @@ def add_parser(sub) -> None:
                         help=f"the {side}'s controller: dlqr, mixed or a controller FMU (default: the case's)")
         bp.add_argument(f"--{side}-set", type=arguments.assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                         help=f"set a parameter on the {side}'s side only (repeatable)")
+        bp.add_argument(f"--{side}-stage", choices=("sil", "mil", "pil"), default="sil",
+                        help=f"the {side}'s controller as sil (its FMU in this process, the default), mil (the thesis's "
+                             "controller as its numpy reference, in Python) or pil (the FMU's aarch64 binary on tl_serve "
+                             "under qemu-user); docs/mil_sil_pil.md")
     bp.add_argument("--signals", type=_names, default=None, metavar="LIST",
                     help="signals compared, instance.variable, comma-separated (default: plant x, y, z, psi and the four "
                          "controller outputs)")
@@ -44,19 +48,18 @@ def _names(text: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..regression import back_to_back as b2b
-    from ..regression.signal_compare import Tolerances, check_names, load_tolerances
+    from ..api.back_to_back import B2BSide, b2b, case_list
+    from ..regression.signal_compare import check_names
 
-    cases = b2b.reproduction_cases() if args.cases == "reproduction" else b2b.load_cases(Path(args.cases))
     signals = check_names(args.signals, "--signals") if args.signals else None
-    given = load_tolerances(args.tolerances) if args.tolerances is not None else Tolerances()
-    if signals is None and given.signals:
-        signals = list(given.signals)
-    tolerances = given.with_flags({f: getattr(args, f) for f in ("abs", "rel", "lead", "lag")})
-    sides = [b2b.Side(getattr(args, f"{s}_fmus"), getattr(args, f"{s}_controller"), tuple(getattr(args, f"{s}_set")))
-             for s in ("reference", "candidate")]
-    print(f"back to back: {len(cases)} cases, each run as the reference and as the candidate (logs in {args.out}/)")
-    result = b2b.back_to_back(cases, *sides, args.out, signals, tolerances, args.stop_time)
+    sides = [B2BSide(getattr(args, f"{s}_fmus"), getattr(args, f"{s}_controller"), tuple(getattr(args, f"{s}_set")),
+                     getattr(args, f"{s}_stage")) for s in ("reference", "candidate")]
+    cases = case_list(args.cases)
+    print(f"back to back: {len(cases)} cases, each run as the reference ({sides[0].label}) and as the candidate "
+          f"({sides[1].label}) (logs in {args.out}/)", flush=True)
+    result = b2b(cases, reference=sides[0], candidate=sides[1], signals=signals, tolerances=args.tolerances,
+                 **{f: getattr(args, f) for f in ("abs", "rel", "lead", "lag")}, stop_time=args.stop_time, out=args.out,
+                 progress=lambda line: print(line, flush=True))
     print(("what changed: " + "; ".join(result.changes)) if result.changes else
           "what changed: nothing in the FMUs or their parameters (the same run twice?)")
     print(result.table())

@@ -2,20 +2,29 @@
 parameter changed), compared signal by signal in tolerance tubes (docs/back_to_back.md): a table, a case a row.
 
 A side is what differs between the two: the FMU folder, the controller (dlqr, mixed or a controller FMU; by default
-the case's) and --set values. Both sides of a case run the same scenario, trajectory, seed and stop time.
+the case's), --set values and the controller's stage (docs/mil_sil_pil.md): sil, its FMU in this process; mil, the
+thesis's controller as its numpy reference in a Python process (mil.py); pil, the FMU's aarch64 binary on tl_serve under
+qemu-user (pil.py). A mil or pil controller is the remote instance of the run: the master is the same for all three.
+Both sides of a case run the same scenario, trajectory, seed and stop time; the runs go through one ExecutionPool (a
+case after the first restarts its side's execution: fmi2Reset and the case's parameters, as a campaign's runs do).
 """
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ...engine.errors import DescriptionError
+from ...engine.observers import Observer
 from ...engine.user_files import UserFileError, read_document, schema_problem
 from .signal_compare import SignalRow, Tolerances, compare_signals, log_signals
 
 SIGNALS = ["plant.x", "plant.y", "plant.z", "plant.psi", "controller.f_R", "controller.f_L", "controller.tau_R",
            "controller.tau_L"]
+STAGES = ("sil", "mil", "pil")
 CASES_SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["cases"],
     "properties": {"cases": {"type": "array", "minItems": 1, "items": {
@@ -41,11 +50,67 @@ class Case:
 
 @dataclass(frozen=True)
 class Side:
-    """One of the two: its FMU folder, its controller (None: the case's; dlqr, mixed, or a controller .fmu), its --set."""
+    """One of the two: its FMU folder, its controller (None: the case's; dlqr, mixed, or a controller .fmu), its --set,
+    the controller's stage (sil, mil, pil) and, for mil, gain (i, j, factor): the entry K[i, j] of the gain scaled (a
+    deliberately broken candidate)."""
 
-    fmus: Path
+    fmus: Path = Path("fmus")
     controller: str | None = None
     settings: tuple[tuple[str, object], ...] = ()
+    stage: str = "sil"
+    gain: tuple[int, int, float] | None = None
+
+    @property
+    def label(self) -> str:
+        gain = f", K[{self.gain[0]},{self.gain[1]}] x {self.gain[2]:g}" if self.gain else ""
+        return f"{self.stage.upper()}{gain}"
+
+
+def check_side(side: Side, role: str) -> None:
+    """A side that cannot run, refused before anything runs: one line."""
+    if side.stage not in STAGES:
+        raise DescriptionError(f"the {role}'s stage {side.stage!r} is none of {', '.join(STAGES)}")
+    if side.controller and side.controller.endswith(".fmu") and not Path(side.controller).is_file():
+        raise DescriptionError(f"controller {side.controller} does not exist")
+    if side.stage == "mil" and side.controller and side.controller.endswith(".fmu"):
+        raise DescriptionError(f"the {role} runs as mil, the thesis's controller in Python: a controller FMU has no Python "
+                               "form here (its pythonfmu or native wrap is the same class run as sil)")
+    if side.gain is not None and side.stage != "mil":
+        raise DescriptionError(f"the {role}'s gain change applies to the mil stage (the numpy reference) only")
+
+
+@contextlib.contextmanager
+def hosted(side: Side, controller_fmu: Path):
+    """Where a side's controller runs while the block runs: None (in this process), or the server (pil.Served) of its
+    mil or pil stage."""
+    if side.stage == "mil":
+        from .mil import served as serving
+    elif side.stage == "pil":
+        from .pil import served as serving
+    else:
+        yield None
+        return
+    with serving(controller_fmu, side.gain) if side.stage == "mil" else serving(controller_fmu, "aarch64-linux") as host:
+        yield host
+
+
+class ControllerTime(Observer):
+    """The wall time the controller's calls took per tick in a run (a remote controller: the round trip, its own
+    computation included; in this process the loop does not time its calls, so 0)."""
+
+    def __init__(self) -> None:
+        self.per_tick: float | None = None
+
+    def start(self, execution) -> None:
+        self._started = (execution.instances["controller"].fmi_seconds, execution.ticks_done)
+
+    def on_batch(self, execution, batch) -> None:
+        """Nothing a step: the time is read at the end."""
+
+    def finish(self, execution, error) -> None:
+        seconds, ticks = execution.instances["controller"].fmi_seconds, execution.ticks_done
+        if ticks > self._started[1]:
+            self.per_tick = (seconds - self._started[0]) / (ticks - self._started[1])
 
 
 def reproduction_cases() -> list[Case]:
@@ -66,25 +131,54 @@ def load_cases(path: Path) -> list[Case]:
     return [Case(**c) for c in data["cases"]]
 
 
-def run_side(case: Case, side: Side, log: Path, stop: float | None) -> tuple[Path, str | None]:
-    """One run of the case on this side: (its log, how it ended early or None)."""
-    from ...engine.run import run_system
-    from ..fmus import is_foreign
-    from ..loop import default_stop, default_system, loop_metrics, set_parameters
-    from .case import record
+def side_system(case: Case, side: Side, host=None):
+    """The system of the case on this side; host (mil.Served or pil's): where its controller runs."""
+    from ..loop import default_system, set_parameters
 
     controller = side.controller or case.controller
     is_fmu = controller.endswith(".fmu")
-    if is_fmu and not Path(controller).is_file():
-        raise DescriptionError(f"controller {controller} does not exist")
-    stop = stop if stop is not None else case.stop_time if case.stop_time is not None else default_stop(case.trajectory)
     system = default_system(side.fmus, case.scenario, case.trajectory, None if is_fmu else controller, case.seed,
                             controller_fmu=Path(controller) if is_fmu else None)
     set_parameters(system, dict(side.settings))
+    if host is not None:
+        instance = system.instance("controller")
+        instance.remote, instance.token_file = host.address, host.token_file
+    return system
+
+
+def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, host=None) -> tuple[Path, str | None, float | None]:
+    """One run of the case on this side (on the pool's execution of its structure, if any): (its log, how it ended
+    early or None, the controller's time per tick in s, None when it runs in this process)."""
+    from ...engine.lifecycle import RunPlan, run_plan
+    from ..fmus import is_foreign
+    from ..loop import default_stop, loop_metrics
+    from .case import record
+
+    controller = side.controller or case.controller
+    if controller.endswith(".fmu") and not Path(controller).is_file():
+        raise DescriptionError(f"controller {controller} does not exist")
+    stop = stop if stop is not None else case.stop_time if case.stop_time is not None else default_stop(case.trajectory)
+    system = side_system(case, side, host)
     meta = record(scenario=case.scenario, trajectory=case.trajectory, controller=controller, seed=case.seed, stop_time=stop,
                   settings=side.settings)
-    result = run_system(system, stop, log, loop_metrics(), progress=False, metadata=meta, isolate=is_foreign)
-    return log, result.error
+    timer = ControllerTime()
+    result = run_plan(RunPlan(system, stop, log, meta, metrics=loop_metrics(), observers=(timer,), isolate=is_foreign), pool)
+    return log, result.error, (timer.per_tick if host is not None else None)
+
+
+def largest_deviation(mine: tuple[np.ndarray, np.ndarray], ref: tuple[np.ndarray, np.ndarray]) -> float:
+    """The largest |candidate - reference| at the times both logged (inf where one is NaN or infinite and the other
+    not); NaN when they share no time."""
+    t, y = mine
+    t_ref, y_ref = ref
+    _, i, j = np.intersect1d(t, t_ref, assume_unique=False, return_indices=True)
+    if not len(i):
+        return float("nan")
+    a, b = y[i], y_ref[j]
+    same = (a == b) | (np.isnan(a) & np.isnan(b))
+    with np.errstate(invalid="ignore"):
+        diff = np.where(same, 0.0, np.abs(a - b))
+    return float(np.nan_to_num(diff, nan=np.inf).max())
 
 
 @dataclass(frozen=True)
@@ -92,6 +186,9 @@ class CaseResult:
     case: Case
     rows: list[SignalRow] = field(default_factory=list)
     error: str | None = None  # a side that could not run to its end (the candidate's part is still compared)
+    deviation: dict[str, float] = field(default_factory=dict)  # per signal: the largest |candidate - reference|
+    per_tick: tuple[float | None, float | None] = (None, None)  # the controller's time per tick (s), reference and
+    # candidate: the round trip of a remote (mil, pil) controller; None in this process
 
     @property
     def ok(self) -> bool:
@@ -107,6 +204,9 @@ class CaseResult:
 class BackToBack:
     results: list[CaseResult]
     changes: list[str]  # what differs between the reference's FMUs and the candidate's (the first case's logs)
+    reference: Side | None = None
+    candidate: Side | None = None
+    tolerances: Tolerances = field(default_factory=Tolerances)
 
     @property
     def ok(self) -> bool:
@@ -114,44 +214,54 @@ class BackToBack:
 
     def table(self) -> str:
         width = max([4] + [len(r.case.name) for r in self.results])
-        lines = [f"{'case':<{width}}  {'signals in':>10}  {'first out':<16} {'at (s)':>9} {'largest excess':>14} {'out %':>6}"]
+        timed = [k for k in (0, 1) if any(r.per_tick[k] is not None for r in self.results)]
+        head = "".join(f" {('ref' if k == 0 else 'cand') + ' us/tick':>13}" for k in timed)
+        lines = [f"{'case':<{width}}  {'signals in':>10}  {'first out':<16} {'at (s)':>9} {'largest excess':>14} {'out %':>6}{head}"]
         for r in self.results:
             inside = f"{sum(x.passed for x in r.rows)}/{len(r.rows)}"
             worst = r.worst()
+            times = "".join(f" {'-' if r.per_tick[k] is None else f'{1e6 * r.per_tick[k]:.0f}':>13}" for k in timed)
             if worst is None:
-                lines.append(f"{r.case.name:<{width}}  {inside:>10}  {'-':<16} {'-':>9} {'-':>14} {'0':>6}")
+                lines.append(f"{r.case.name:<{width}}  {inside:>10}  {'-':<16} {'-':>9} {'-':>14} {'0':>6}{times}")
             else:
                 lines.append(f"{r.case.name:<{width}}  {inside:>10}  {worst.signal:<16} {worst.first_outside:>9.6g} "
-                             f"{worst.largest_excess:>14.4g} {100 * worst.share_outside:>6.3g}")
+                             f"{worst.largest_excess:>14.4g} {100 * worst.share_outside:>6.3g}{times}")
             if r.error:
                 lines.append(f"{'':<{width}}  ended early: {r.error}")
         return "\n".join(lines)
 
 
 def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path, signals: list[str] | None = None,
-                 tolerances: Tolerances | None = None, stop: float | None = None, echo=print) -> BackToBack:
-    """Each case run on both sides into out/, then the candidate's signals in the reference's tubes."""
+                 tolerances: Tolerances | None = None, stop: float | None = None, echo=print, pool=None) -> BackToBack:
+    """Each case run on both sides into out/, then the candidate's signals in the reference's tubes. pool: the
+    ExecutionPool the runs go through (None: one for this call, closed at its end)."""
+    from ...engine.lifecycle import ExecutionPool
     from ...engine.log_reader import read_metadata
     from .changes import what_changed
 
     names = signals or SIGNALS
     tolerances = tolerances or Tolerances()
-    for side in (reference, candidate):  # refused before anything runs
-        if side.controller and side.controller.endswith(".fmu") and not Path(side.controller).is_file():
-            raise DescriptionError(f"controller {side.controller} does not exist")
+    check_side(reference, "reference")  # refused before anything runs
+    check_side(candidate, "candidate")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results, changes = [], None
-    for k, case in enumerate(cases, start=1):
-        ref_log, ref_error = run_side(case, reference, out / f"{case.name}_reference.mcap", stop)
-        if ref_error is not None:
-            raise DescriptionError(f"{case.name}: the reference run failed ({ref_error}): nothing to compare with")
-        cand_log, cand_error = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop)
-        if changes is None:
-            changes = what_changed(read_metadata(ref_log).get("fmus"), read_metadata(cand_log).get("fmus"))
-        ref, units = log_signals(ref_log, names)
-        mine, _ = log_signals(cand_log, names)
-        result = CaseResult(case, compare_signals(mine, ref, tolerances, units), cand_error)
-        results.append(result)
-        echo(f"  [{k}/{len(cases)}] {case.name}: {'same' if result.ok else 'DIFFERENT'}")
-    return BackToBack(results, changes or [])
+    with contextlib.ExitStack() as stack:
+        hosts = [stack.enter_context(hosted(side, side_system(cases[0], side).instance("controller").fmu))
+                 for side in (reference, candidate)]
+        if pool is None:
+            pool = stack.enter_context(contextlib.closing(ExecutionPool()))
+        for k, case in enumerate(cases, start=1):
+            ref_log, ref_error, ref_time = run_side(case, reference, out / f"{case.name}_reference.mcap", stop, pool, hosts[0])
+            if ref_error is not None:
+                raise DescriptionError(f"{case.name}: the reference run failed ({ref_error}): nothing to compare with")
+            cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop, pool, hosts[1])
+            if changes is None:
+                changes = what_changed(read_metadata(ref_log).get("fmus"), read_metadata(cand_log).get("fmus"))
+            ref, units = log_signals(ref_log, names)
+            mine, _ = log_signals(cand_log, names)
+            result = CaseResult(case, compare_signals(mine, ref, tolerances, units), cand_error,
+                                {n: largest_deviation(mine[n], ref[n]) for n in names}, (ref_time, cand_time))
+            results.append(result)
+            echo(f"  [{k}/{len(cases)}] {case.name}: {'same' if result.ok else 'DIFFERENT'}")
+    return BackToBack(results, changes or [], reference, candidate, tolerances)

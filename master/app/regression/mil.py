@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import ctypes
 import secrets
 import socket
 import subprocess
@@ -195,9 +194,9 @@ def served(fmu: Path, gain: tuple[int, int, float] | None = None):
                                      *(["--scale-gain", ",".join(map(repr, gain))] if gain else [])],
                                     stdout=subprocess.PIPE, stderr=err, text=True)
         try:
-            from .pil import _first_line
+            from .pil import first_line
 
-            line = _first_line(proc)
+            line = first_line(proc)
             if not line.startswith("listening on "):
                 said = (Path(tmp) / "stderr").read_text(errors="replace").strip()
                 raise DescriptionError(f"the reference controller's server did not start: {said or line or 'no output'}")

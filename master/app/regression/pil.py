@@ -93,7 +93,7 @@ def served(fmu: Path, platform: str = "aarch64-linux", sessions: int = 0):
                                  "--bind", "127.0.0.1:0", "--sessions", str(sessions)],
                                 stdout=subprocess.PIPE, stderr=open(Path(tmp) / "stderr", "wb"), text=True)
         try:
-            line = _first_line(proc)
+            line = first_line(proc)
             if not line.startswith("listening on "):
                 said = (Path(tmp) / "stderr").read_text(errors="replace").strip()
                 raise DescriptionError(f"tl_serve for {platform} did not start: {said or line or 'no output'}")
@@ -104,7 +104,7 @@ def served(fmu: Path, platform: str = "aarch64-linux", sessions: int = 0):
             proc.stdout.close()
 
 
-def _first_line(proc: subprocess.Popen) -> str:
+def first_line(proc: subprocess.Popen) -> str:
     import select
 
     ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT)

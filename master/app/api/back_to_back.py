@@ -1,0 +1,104 @@
+"""tiltload.b2b: a case list run with a reference and a candidate, compared signal by signal in tolerance tubes, as
+`tiltload b2b` does (docs/back_to_back.md; the controller's stages MIL, SIL and PIL: docs/mil_sil_pil.md)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import fields
+from pathlib import Path
+
+from ..regression.back_to_back import BackToBack, Case, Side
+from .errors import TiltloadError, as_tiltload_errors
+
+B2BSide, B2BCase = Side, Case  # the public names (tiltload.B2BSide, tiltload.B2BCase)
+__all__ = ["B2BCase", "B2BSide", "BackToBack", "b2b", "case_list"]
+
+
+def _side(value: Side | Mapping | None, role: str) -> Side:
+    """A side given as a B2BSide or a mapping of its fields, checked."""
+    if value is None:
+        return Side()
+    if isinstance(value, Side):
+        return value
+    if not isinstance(value, Mapping):
+        raise TypeError(f"{role} must be a tiltload.B2BSide or a mapping of its fields, got {type(value).__name__}")
+    known = {f.name for f in fields(Side)}
+    unknown = sorted(set(value) - known)
+    if unknown:
+        raise TiltloadError(f"{role}: unknown field {unknown[0]!r} (a side has {', '.join(sorted(known))})")
+    given = dict(value)
+    if "fmus" in given:
+        given["fmus"] = Path(given["fmus"])
+    if isinstance(given.get("settings"), Mapping):
+        given["settings"] = tuple(given["settings"].items())
+    if given.get("gain") is not None:
+        given["gain"] = tuple(given["gain"])
+    return Side(**given)
+
+
+def case_list(cases) -> list[Case]:
+    """The cases b2b takes: 'reproduction', a case list file, or a list of B2BCase / mappings."""
+    from ..regression.back_to_back import load_cases, reproduction_cases
+
+    if isinstance(cases, str) and cases == "reproduction":
+        return reproduction_cases()
+    if isinstance(cases, (str, Path)):
+        return load_cases(Path(cases))
+    if not isinstance(cases, Sequence) or isinstance(cases, (bytes, str)) or not cases:
+        raise TypeError(f"cases must be 'reproduction', a case list file or a non-empty list of tiltload.B2BCase, got "
+                        f"{type(cases).__name__}")
+    out = []
+    for case in cases:
+        if isinstance(case, Case):
+            out.append(case)
+        elif isinstance(case, Mapping):
+            out.append(Case(**dict(case)))
+        else:
+            raise TypeError(f"a case must be a tiltload.B2BCase or a mapping {{scenario, trajectory, ...}}, got {type(case).__name__}")
+    return out
+
+
+def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapping | None = None,
+        candidate: Side | Mapping | None = None, signals: Sequence[str] | None = None,
+        tolerances: str | Path | Mapping | None = None, abs: float | None = None, rel: float | None = None,  # noqa: A002
+        lead: float | None = None, lag: float | None = None, stop_time: float | None = None, out: str | Path = "runs/b2b",
+        progress=None) -> BackToBack:
+    """Each case run as the reference and as the candidate, the candidate's signals in the reference's tubes.
+
+    cases: "reproduction" (the twelve of ch. 5), a case list file, or a list of B2BCase / mappings {scenario,
+    trajectory, controller, seed, stop_time}. reference, candidate: a B2BSide or a mapping of its fields (fmus, controller,
+    settings, stage "sil" | "mil" | "pil", gain (i, j, factor) for mil); default: the FMUs of ./fmus in this process.
+    signals: "instance.variable" (default: the plant's x, y, z, psi and the four commands); tolerances: a file or a
+    mapping as compare_signals takes, abs/rel/lead/lag for every signal. progress(line): told as each case ends. The
+    runs go through one execution pool (each side's execution restarted for the next case). Returns a BackToBack
+    (``.ok``, ``.results`` per case: ``.rows``, ``.deviation``, ``.per_tick``; ``.table()``)."""
+    from ..regression.back_to_back import back_to_back
+    from ..regression.signal_compare import Tolerances, check_names, load_tolerances, parse_tolerances
+
+    with as_tiltload_errors():
+        case_list_ = case_list(cases)
+        sides = _side(reference, "reference"), _side(candidate, "candidate")
+        names = check_names(list(signals), "signals") if signals else None
+        if tolerances is None:
+            given = Tolerances()
+        elif isinstance(tolerances, (str, Path)):
+            given = load_tolerances(Path(tolerances))
+        elif isinstance(tolerances, Mapping):
+            given = parse_tolerances(dict(tolerances), "tolerances")
+        else:
+            raise TypeError(f"tolerances must be a file or a mapping, got {type(tolerances).__name__}")
+        if names is None and given.signals:
+            names = list(given.signals)
+        flags = {"abs": abs, "rel": rel, "lead": lead, "lag": lag}
+        for flag, value in flags.items():
+            if value is not None:
+                _check_tolerance(flag, value)
+        return back_to_back(case_list_, *sides, Path(out), names, given.with_flags(flags), stop_time,
+                            echo=progress or (lambda line: None))
+
+
+def _check_tolerance(name: str, value) -> None:
+    from ...engine.argument_types import tolerance
+    from ..arguments import named
+
+    named(tolerance, name, value)
