@@ -264,4 +264,5 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
                                 {n: largest_deviation(mine[n], ref[n]) for n in names}, (ref_time, cand_time))
             results.append(result)
             echo(f"  [{k}/{len(cases)}] {case.name}: {'same' if result.ok else 'DIFFERENT'}")
-    return BackToBack(results, changes or [], reference, candidate, tolerances)
+    staged = [f"controller run as {reference.label} -> {candidate.label}"] if reference.label != candidate.label else []
+    return BackToBack(results, staged + (changes or []), reference, candidate, tolerances)
