@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..regression.compare import Comparison
-from .errors import as_tiltload_errors
+from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 
 Source = Result | str | Path
@@ -67,16 +67,27 @@ def _changes(run: Source, baseline: Source, run_case: dict | None, base_case: di
     return between(_fmus(baseline), _fmus(run), base_case, run_case)
 
 
-def save_baseline(result: Result, path: str | Path, *, rtol: float = 1e-6, atol: float = 1e-12) -> Path:
-    """Write a run's metrics and case as a baseline file (the format `tiltload compare` and `tiltload reproduce` read),
-    with these tolerances for every metric."""
+def save_baseline(result: Source, path: str | Path, *, rtol: float = 1e-6, atol: float = 1e-12) -> Path:
+    """Write a run's metrics and case (a Result, or a run's log) as a baseline file (the format `tiltload compare` and
+    `tiltload reproduce` read), with these tolerances for every metric."""
     import json
 
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+    if isinstance(result, Result):
+        metrics, record = dict(result.metrics), dict(result.record)
+    elif isinstance(result, (str, Path)):
+        from ..regression.compare import load_case, load_metrics
+
+        with as_tiltload_errors():
+            if Path(result).suffix != ".mcap":
+                raise TiltloadError(f"{result}: a baseline is recorded from a run's log (.mcap)")
+            metrics, _ = load_metrics(Path(result))
+            record = load_case(Path(result)) or {}
+    else:
+        raise TypeError(f"save_baseline() takes a Result or a log (.mcap), got {type(result).__name__}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"run": dict(result.record), "metrics": dict(result.metrics),
-            "tolerances": {"rtol": rtol, "atol": atol}}
+    data = {"run": record, "metrics": metrics, "tolerances": {"rtol": rtol, "atol": atol}}
     fmus = _fmus(result)
     if fmus is not None:  # what ran, so that a failing comparison can say what changed
         data["fmus"] = fmus

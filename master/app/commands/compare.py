@@ -27,6 +27,10 @@ def add_parser(sub) -> None:
     cp.add_argument("--any-case", action="store_true",
                     help="compare the metrics even if the two are different cases (scenario, trajectory, controller, seed, "
                          "stop time, --set, faults, wind, ...); by default that is refused with one line saying what differs")
+    cp.add_argument("--record-baseline", action="store_true",
+                    help="record RUN (a log) as the baseline BASELINE instead of comparing: a signal baseline (.parquet: the "
+                         "signals of --signals or of --tolerances, with those tolerances) or a metrics baseline (.json, "
+                         "with --rtol, --atol); what pytest --tiltload-update-baselines writes")
     sg = cp.add_argument_group("signals in tolerance tubes (docs/back_to_back.md): with a signal baseline (.parquet), "
                                "--signals or --tolerances")
     sg.add_argument("--signals", type=_names, default=None, metavar="LIST",
@@ -79,8 +83,45 @@ def _run_signals(args: argparse.Namespace) -> int:
     return 0 if result.ok else 1
 
 
+def _record(args: argparse.Namespace) -> int:
+    """RUN recorded as BASELINE, by the functions the pytest plugin records with (tl.save_signal_baseline,
+    tl.save_baseline)."""
+    from ..errors import UserError
+
+    if args.requirements is not None or args.figures is not None or args.any_case:
+        raise UserError("--record-baseline records the run: --requirements, --figures and --any-case belong to comparing")
+    if args.run.suffix != ".mcap":
+        raise UserError(f"{args.run}: --record-baseline records a run's log (.mcap)")
+    if args.baseline.suffix == ".parquet":
+        from ..api.signal_comparing import save_signal_baseline
+        from ..regression.signal_compare import Tolerances, check_names, load_tolerances
+
+        if args.rtol is not None or args.atol is not None:
+            raise UserError("--rtol and --atol are the metrics' tolerances: a signal baseline takes --abs, --rel, --lead, --lag")
+        given = load_tolerances(args.tolerances) if args.tolerances is not None else Tolerances()
+        signals = check_names(args.signals, "--signals") if args.signals else list(given.signals)
+        if not signals:
+            raise UserError("name the signals to record (--signals plant.x,plant.z, or a tolerance file's signals)")
+        tolerances = given.with_flags({f: getattr(args, f) for f in ("abs", "rel", "lead", "lag")})
+        path = save_signal_baseline(args.run, args.baseline, signals, tolerances=tolerances.to_header())
+        print(f"recorded {path}: {len(signals)} signals of {args.run} ({', '.join(signals[:6])}{', ...' if len(signals) > 6 else ''})")
+        return 0
+    if args.baseline.suffix == ".json":
+        from ..api.comparing import save_baseline
+
+        if _signal_mode(args):
+            raise UserError("a metrics baseline (.json) records the metrics: the signal options need a .parquet baseline")
+        path = save_baseline(args.run, args.baseline, **{k: v for k, v in (("rtol", args.rtol), ("atol", args.atol)) if v is not None})
+        print(f"recorded {path}: the metrics of {args.run}")
+        return 0
+    raise UserError(f"{args.baseline}: a baseline is a signal baseline (.parquet) or a metrics baseline (.json)")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..regression.compare import compare_files
+
+    if args.record_baseline:
+        return _record(args)
 
     if _signal_mode(args):
         return _run_signals(args)
