@@ -112,3 +112,27 @@ def test_a_gain_change_outside_mil_and_a_mil_controller_fmu_are_refused(fmus, tm
     with pytest.raises(TypeError, match="candidate must be a tiltload.B2BSide"):
         tl.b2b([CASE], candidate=3, out=tmp_path)
 
+
+
+def test_tl_serve_checks_each_step_against_the_model(fmus):
+    """tl_serve built for this machine: a step that sets an output is refused (the session ends), one line."""
+    import ctypes
+
+    from tiltload.master.app.regression import pil
+    from tiltload.master.engine.errors import ExecutionError
+    from tiltload.master.engine.isolation.hosting import remote_fmu
+    from tiltload.master.engine.model_description import read_fmu
+    from tiltload.native_fmu.compile import host_platform
+
+    fmu = fmus / "TiltloadController.fmu"
+    md = read_fmu(fmu, "controller")
+    with pil.served(fmu, host_platform()) as host:
+        slave = remote_fmu("controller", fmu, md, host.address, host.token_file)
+        try:
+            slave.initialize({"controller": "dlqr", "estimator": "none"})
+            output = slave.outputs["Real"][0].valueReference
+            slave.setters["Real"](None, (ctypes.c_uint * 1)(output), 1, (ctypes.c_double * 1)(1.0))
+            with pytest.raises(ExecutionError, match="a step sets a variable that is not an input of this model"):
+                slave.do_step(0.0, 0.012)
+        finally:
+            slave.close()
