@@ -89,9 +89,9 @@ def served(fmu: Path, platform: str = "aarch64-linux", sessions: int = 0):
         token = Path(tmp) / "token"
         token.write_text(secrets.token_hex(32))
         token.chmod(0o600)
-        proc = subprocess.Popen([*command(server, platform), "--fmu-dir", str(folder), "--token-file", str(token),
-                                 "--bind", "127.0.0.1:0", "--sessions", str(sessions)],
-                                stdout=subprocess.PIPE, stderr=open(Path(tmp) / "stderr", "wb"), text=True)
+        with open(Path(tmp) / "stderr", "wb") as err:
+            proc = subprocess.Popen([*command(server, platform), "--fmu-dir", str(folder), "--token-file", str(token),
+                                     "--bind", "127.0.0.1:0", "--sessions", str(sessions)], stdout=subprocess.PIPE, stderr=err, text=True)
         try:
             line = first_line(proc)
             if not line.startswith("listening on "):
