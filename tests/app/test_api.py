@@ -28,6 +28,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
     assert set(tl.__all__) == {"CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow",
+                               "PythonController",
                                "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare",
                                "compare_signals", "falsify", "run", "save_baseline", "save_signal_baseline", "plant", "design"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
