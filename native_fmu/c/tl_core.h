@@ -1,10 +1,9 @@
 /* The core of the FMI layers: what FMI 2.0 and FMI 3.0 share, written once (tl_core.c), as the Reference-FMUs'
-   cosimulation.c is for their fmi2Functions.c and fmi3Functions.c. The instance's life cycle (its resources folder
-   included), logging, refusal, the variable access loops over the generated tables, the step, Event Mode, the clocks,
-   Scheduled Execution and state snapshots. Each version's file (tl_fmi2.c, tl_fmi3.c) maps its standard's functions
-   onto these: its state-mask table says in which phases a call is allowed, its binding (TlBinding) how its standard
-   logs and allocates. Every function here returns a TlStatus, which a layer returns as its standard's status by a
-   cast. */
+   cosimulation.c is for their two API files. The instance's life cycle (its resources folder included), logging,
+   refusal, the variable access loops over the generated tables, the step, Event Mode, the clocks, Scheduled Execution
+   and state snapshots. Each version's file (tl_fmi2.c, tl_fmi3.c) maps its standard's functions onto these: its
+   state-mask table says in which phases a call is allowed, its binding (TlBinding) how its standard logs and
+   allocates. Every function here returns a TlStatus, which a layer returns as its standard's status by a cast. */
 #ifndef TL_CORE_H
 #define TL_CORE_H
 
