@@ -35,6 +35,7 @@ if TYPE_CHECKING:
     from .master.app.api.comparing import compare, save_baseline
     from .master.app.api.errors import TiltloadError
     from .master.app.api.falsifying import FalsifyOptions, FalsifyResult, falsify
+    from .master.app.api.python_controller import PythonController
     from .master.app.api.result import Result, Signals
     from .master.app.api.run_options import RunOptions
     from .master.app.api.running import run
@@ -47,6 +48,7 @@ _PUBLIC = {  # name: the module it is defined in
     "run": _API + "running", "Result": _API + "result", "Signals": _API + "result", "compare": _API + "comparing",
     "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns", "check": _API + "checking",
     "TiltloadError": _API + "errors", "Case": _API + "case", "RunOptions": _API + "run_options",
+    "PythonController": _API + "python_controller",
     "CampaignOptions": _API + "campaigns", "falsify": _API + "falsifying", "FalsifyOptions": _API + "falsifying",
     "FalsifyResult": _API + "falsifying", "Comparison": "tiltload.master.app.regression.compare",
     "MetricRow": "tiltload.master.app.regression.compare", "compare_signals": _API + "signal_comparing",
@@ -56,8 +58,8 @@ _PUBLIC = {  # name: the module it is defined in
 }
 _NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
 __all__ = ["B2BCase", "B2BSide", "BackToBack", "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions",
-           "FalsifyResult", "MetricRow", "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "b2b", "campaign",
-           "check", "compare", "compare_signals", "falsify",
+           "FalsifyResult", "MetricRow", "PythonController", "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError",
+           "b2b", "campaign", "check", "compare", "compare_signals", "falsify",
            "run", "save_baseline", "save_signal_baseline", "plant", "design"]
 
 

@@ -94,8 +94,116 @@ int tl_may_instantiate(const TlHost* host, const char* call, const char* name, c
   return 1;
 }
 
-TlInstance* tl_instantiate(const TlHost* host, const char* name, int logging_on, char* resources) {
+/* ---- resources: the importer's location as a native folder path --------------------------------------------------- */
+static int hex_digit(char c) {
+  return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+}
+
+static int is_drive(const char* p) {
+  return ((p[0] >= 'A' && p[0] <= 'Z') || (p[0] >= 'a' && p[0] <= 'z')) && (p[1] == ':' || p[1] == '|') &&
+         (p[2] == '/' || p[2] == '\\' || p[2] == '\0');
+}
+
+static int same_letters(const char* a, const char* b, size_t n) {
+  size_t i;
+  for (i = 0; i < n; ++i) {
+    char x = a[i] >= 'A' && a[i] <= 'Z' ? (char)(a[i] - 'A' + 'a') : a[i];
+    if (x != b[i]) return 0;
+  }
+  return 1;
+}
+
+/* The path part of a file URI: file:///C:/a%20b/resources (RFC 8089), file:/C:/..., file://localhost/...,
+   file://C:/... (a common slip), a UNC host on Windows, or a bare path as some importers pass one. *p moves to the
+   path, *host_name to a UNC host (or NULL). 0 when the C library cannot open it (another scheme; a host off Windows). */
+static int uri_path(const char** p, const char** host_name, size_t* host_len) {
+  if (same_letters(*p, "file:", 5)) {
+    *p += 5;
+    if ((*p)[0] == '/' && (*p)[1] == '/') { /* an authority: empty, localhost, a drive by mistake, or a host */
+      const char* end;
+      *p += 2;
+      end = *p + strcspn(*p, "/\\");
+      if (!is_drive(*p)) { /* file://C:/dir: the drive is the path's start */
+        if (end - *p != 0 && !((size_t)(end - *p) == 9 && same_letters(*p, "localhost", 9))) {
+          *host_name = *p;
+          *host_len = (size_t)(end - *p);
+        }
+        *p = end;
+      }
+    }
+  } else {
+    const char* q = *p;
+    size_t k = 0; /* another scheme (http:, ...) is nothing the C library opens; a drive letter is no scheme */
+    while ((q[k] >= 'a' && q[k] <= 'z') || (q[k] >= 'A' && q[k] <= 'Z') || (k > 0 && ((q[k] >= '0' && q[k] <= '9') ||
+                                                                                     q[k] == '+' || q[k] == '-' || q[k] == '.')))
+      ++k;
+    if (k > 1 && q[k] == ':') return 0;
+  }
+#if defined(_WIN32)
+  if ((*p)[0] == '/' && is_drive(*p + 1)) ++*p; /* /C:/dir -> C:/dir */
+  return 1;
+#else
+  return *host_name == NULL; /* file://server/share: only Windows opens it */
+#endif
+}
+
+/* A URI's path with percent-escapes decoded (backslashes taken as separators on Windows) into out; its length. */
+static size_t decode_uri_path(char* out, const char* p, const char* host_name, size_t host_len, char separator) {
+  size_t i, j = 0;
+  if (host_name != NULL) {
+    out[j++] = separator;
+    out[j++] = separator;
+    memcpy(out + j, host_name, host_len);
+    j += host_len;
+  }
+  for (i = 0; p[i] != '\0'; ++i) {
+    char c = p[i];
+    if (c == '%' && hex_digit(p[i + 1]) >= 0 && hex_digit(p[i + 2]) >= 0) {
+      c = (char)(hex_digit(p[i + 1]) * 16 + hex_digit(p[i + 2]));
+      i += 2;
+    } else if (c == '?' || c == '#') {
+      break; /* a query or fragment is not part of the path */
+    }
+#if defined(_WIN32)
+    if (c == '/' || c == '\\') c = separator;
+    if (c == '|' && j == 1) c = ':'; /* file:///C|/dir, the old form of a drive */
+#endif
+    out[j++] = c;
+  }
+  if (j == 0 || out[j - 1] != separator) out[j++] = separator;
+  return j;
+}
+
+/* The resources folder as a path the C library opens, ending in a separator; NULL when there is none. A native path
+   (FMI 3.0: "absolute file path with a trailing file separator") is kept as given, the separator added if left off. */
+static char* resource_folder(const TlHost* host, const char* location, int is_uri) {
+#if defined(_WIN32)
+  const char separator = '\\';
+#else
+  const char separator = '/';
+#endif
+  const char *p = location, *host_name = NULL;
+  size_t host_len = 0, j;
+  char* out;
+  if (location == NULL || location[0] == '\0') return NULL;
+  if (is_uri && !uri_path(&p, &host_name, &host_len)) return NULL;
+  out = (char*)tl_binding.allocate(host, strlen(p) + host_len + 4);
+  if (out == NULL) return NULL;
+  if (is_uri) {
+    j = decode_uri_path(out, p, host_name, host_len, separator);
+  } else {
+    j = strlen(p);
+    memcpy(out, p, j);
+    if (out[j - 1] != '/' && out[j - 1] != '\\') out[j++] = separator;
+  }
+  out[j] = '\0';
+  return out;
+}
+
+TlInstance* tl_create(const TlHost* host, const char* call, const char* name, int logging_on, int event_mode_used,
+                      const char* location, int is_uri) {
   const size_t n = strlen(name) + 1;
+  char* resources = resource_folder(host, location, is_uri);
   TlInstance* c = (TlInstance*)tl_binding.allocate(host, sizeof(TlInstance));
   if (c != NULL) c->name = (char*)tl_binding.allocate(host, n);
   if (c == NULL || c->name == NULL) {
@@ -107,6 +215,12 @@ TlInstance* tl_instantiate(const TlHost* host, const char* name, int logging_on,
   c->host = *host;
   c->logging_on = logging_on != 0;
   c->resources = resources;
+  c->event_mode_used = event_mode_used != 0;
+  if (is_uri && location != NULL && location[0] != '\0' && c->resources == NULL)
+    tl_log(c, TL_WARNING, "%s: the resource location %s is not a file this platform opens; ignored", call, location);
+  else
+    tl_log(c, TL_OK, "%s: resources in %s", call, c->resources ? c->resources : "(none given)");
+  tl_reset(c);
   return c;
 }
 
@@ -142,6 +256,10 @@ void tl_reset(TlInstance* c) {
 #endif
   tl_model_reset(c);
 }
+
+void tl_set_logging(TlInstance* c, int on) { c->logging_on = on != 0; }
+
+void tl_enter_initialization(TlInstance* c) { c->s.phase = TL_INITIALIZATION; }
 
 TlStatus tl_set_experiment(TlInstance* c, const char* call, double start, int stop_defined, double stop) {
   if (!isfinite(start)) return tl_fail(c, "%s: start time %g is not finite", call, start);
@@ -213,6 +331,98 @@ TlStatus tl_run_event(TlInstance* c) {
 #endif
 }
 
+#if TL_FMI_VERSION == 3
+TlStatus tl_enter_event_mode(TlInstance* c, const char* call) {
+  if (!c->event_mode_used) return tl_fail(c, "%s: the instance was created with eventModeUsed = false", call);
+  c->s.phase = TL_EVENT;
+  tl_begin_event(c);
+  return TL_OK;
+}
+
+TlStatus tl_update_discrete_states(TlInstance* c, int* terminate, int* next_defined, double* next_time) {
+  const TlStatus status = tl_run_event(c);
+  if (status > TL_WARNING) return tl_settle(c, status == TL_DISCARD ? TL_ERROR : status);
+  memset(c->s.clock_active, 0, sizeof c->s.clock_active); /* the clocks' ticks are over: a new super-dense instant */
+  c->s.event_ran = 0;
+  *terminate = c->s.stop_requested;
+  *next_defined = c->s.next_event_time >= 0.0;
+  *next_time = c->s.next_event_time >= 0.0 ? c->s.next_event_time : 0.0;
+  return status;
+}
+
+TlStatus tl_enter_step_mode(TlInstance* c) {
+  const TlStatus status = tl_run_event(c); /* an event left without fmi3UpdateDiscreteStates still runs its partition */
+  if (status > TL_WARNING) return tl_settle(c, status == TL_DISCARD ? TL_ERROR : status);
+  memset(c->s.clock_active, 0, sizeof c->s.clock_active);
+  c->s.phase = TL_STEPPING;
+  return status;
+}
+
+/* a time event the model asked for, reached by this step: the importer enters Event Mode at the step's end */
+int tl_event_needed(const TlInstance* c, double h) {
+  return c->event_mode_used && c->s.next_event_time >= 0.0 && c->s.time >= c->s.next_event_time - 1e-9 * h;
+}
+
+/* The clock index of vr, or -1 with a log line. */
+static int clock_index(TlInstance* c, const char* call, TlValueReference vr) {
+  const long k = (long)vr - TL_VR_CLOCK0, n = TL_N_CLOCK;
+  if (k >= 0 && k < n) return (int)k;
+  tl_log(c, TL_ERROR, "%s: value reference %u is not a clock of %s (it has %d)", call, vr, TL_MODEL_IDENTIFIER, TL_N_CLOCK);
+  return -1;
+}
+
+/* Every value reference a clock (the arrays given): TL_OK, or the error settled. */
+static TlStatus all_clocks(TlInstance* c, const char* call, const TlValueReference vr[], size_t n, int arrays_given) {
+  size_t i;
+  if (n && (vr == NULL || !arrays_given)) return tl_fail(c, "%s: no value references or values given", call);
+  for (i = 0; i < n; ++i)
+    if (clock_index(c, call, vr[i]) < 0) return tl_settle(c, TL_ERROR);
+  return TL_OK;
+}
+
+TlStatus tl_set_clocks(TlInstance* c, const char* call, const TlValueReference vr[], size_t n, const TlBoolean value[]) {
+  size_t i;
+  if (all_clocks(c, call, vr, n, value != NULL) != TL_OK) return TL_ERROR;
+#if TL_EVENT_PARTITION
+  for (i = 0; i < n; ++i)
+    if (!value[i] && c->s.clock_active[vr[i] - TL_VR_CLOCK0])
+      return tl_fail(c, "%s: %s cannot be deactivated (canBeDeactivated is false)", call, tl_clock_name[vr[i] - TL_VR_CLOCK0]);
+  for (i = 0; i < n; ++i) {
+    const unsigned k = vr[i] - TL_VR_CLOCK0;
+    if (value[i] && !c->s.clock_active[k]) {
+      c->s.clock_active[k] = 1;
+      c->s.event_dirty = 1;
+    }
+  }
+#else
+  (void)i;
+#endif
+  return TL_OK;
+}
+
+TlStatus tl_get_clocks(TlInstance* c, const char* call, const TlValueReference vr[], size_t n, TlBoolean value[]) {
+  size_t i;
+  if (all_clocks(c, call, vr, n, value != NULL) != TL_OK) return TL_ERROR;
+  for (i = 0; i < n; ++i) value[i] = c->s.clock_active[vr[i] - TL_VR_CLOCK0] ? 1 : 0;
+  return TL_OK;
+}
+
+/* The clocks are periodic with constant intervals (those of modelDescription.xml) and no shift. */
+TlStatus tl_clock_grid(TlInstance* c, const char* call, const TlValueReference vr[], size_t n, int arrays_given, int shift,
+                       double decimal[], TlUInt64 counter[], TlUInt64 resolution[], TlIntervalQualifier qualifier[]) {
+  size_t i;
+  if (all_clocks(c, call, vr, n, arrays_given) != TL_OK) return TL_ERROR;
+  for (i = 0; i < n; ++i) {
+    const unsigned k = vr[i] - TL_VR_CLOCK0;
+    if (decimal != NULL) decimal[i] = shift ? 0.0 : tl_clock_interval[k];
+    if (counter != NULL) counter[i] = shift ? 0 : tl_clock_counter[k];
+    if (resolution != NULL) resolution[i] = tl_clock_resolution[k];
+    if (qualifier != NULL) qualifier[i] = fmi3IntervalUnchanged;
+  }
+  return TL_OK;
+}
+#endif
+
 /* ---- Scheduled Execution ---------------------------------------------------------------------------------------------- */
 #if TL_SCHEDULED
 /* The activation of clock k at t in intervals from the start (exact decimal interval counter / resolution), or -1 when
@@ -228,9 +438,19 @@ int tl_partition_done(const TlInstance* c, int k, double t) {
   return n < 0 || c->s.activation[k] >= n; /* a later activation (preempting this instant's partition) counts too */
 }
 
-TlStatus tl_activate(TlInstance* c, const char* call, int k, double t) {
+void tl_lock_preemption(const TlInstance* c) {
+  if (c->host.lock_preemption != NULL) c->host.lock_preemption();
+}
+
+void tl_unlock_preemption(const TlInstance* c) {
+  if (c->host.unlock_preemption != NULL) c->host.unlock_preemption();
+}
+
+TlStatus tl_activate(TlInstance* c, const char* call, TlValueReference clock, double t) {
+  const int k = clock_index(c, call, clock);
   long long n;
   TlStatus status;
+  if (k < 0) return tl_settle(c, TL_ERROR);
   if (!isfinite(t) || t > c->s.stop_time + 1e-9 * tl_clock_interval[k])
     return tl_fail(c, "%s: %s activated at t=%.9g s, beyond the stop time %.9g s", call, tl_clock_name[k], t, c->s.stop_time);
   n = grid_index(c, k, t);
@@ -419,6 +639,11 @@ TlStatus tl_set(TlInstance* c, const char* call, TlType type, const TlValueRefer
   }
   if (n && c->s.phase == TL_EVENT) c->s.event_dirty = 1; /* an input set in Event Mode changes this event's partition */
   return TL_OK;
+}
+
+TlStatus tl_no_variables(TlInstance* c, const char* call, const TlValueReference vr[], size_t n, const char* what) {
+  if (n == 0) return TL_OK;
+  return tl_fail(c, "%s: value reference %u: %s has no %s", call, vr ? (unsigned)vr[0] : 0u, TL_MODEL_IDENTIFIER, what);
 }
 
 /* ---- state snapshots -------------------------------------------------------------------------------------------------- */

@@ -2,7 +2,7 @@
 
    Compiled per FMU with that FMU's generated tl_model.h / tl_model_tables.c and its model hooks (tl_fmu.h). What is
    FMI 2.0's own is here: the state-mask table (in which phases each call is allowed), how the standard logs and
-   allocates (tl_binding), the resource URI, and the status functions. An error puts the instance in an error phase
+   allocates (tl_binding), and the status functions. An error puts the instance in an error phase
    (get, reset, terminate and free remain), a discarded step keeps its state, a fatal error makes it unusable. */
 #include "tl_platform.h"
 
@@ -60,94 +60,6 @@ static void release(const TlHost* host, void* memory) { host->freeMemory(memory)
 
 const TlBinding tl_binding = {'%', TL_ERRORED, {"Real", "Integer", "Boolean", "String"}, host_log, allocate, release};
 
-/* The fmuResourceLocation URI as a path the C library opens: file:///C:/a%20b/resources (RFC 8089),
-   file:/C:/..., file://localhost/..., file://C:/... (a common slip), a UNC host on Windows, or a bare
-   path as some importers pass one; percent-escapes decoded, backslashes taken as separators on Windows.
-   Always ends in a separator. NULL when there is no such location (then a model has no resources). */
-static int hex_digit(char c) {
-  return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
-}
-
-static int is_drive(const char* p) {
-  return ((p[0] >= 'A' && p[0] <= 'Z') || (p[0] >= 'a' && p[0] <= 'z')) && (p[1] == ':' || p[1] == '|') &&
-         (p[2] == '/' || p[2] == '\\' || p[2] == '\0');
-}
-
-static int same_letters(const char* a, const char* b, size_t n) {
-  size_t i;
-  for (i = 0; i < n; ++i) {
-    char x = a[i] >= 'A' && a[i] <= 'Z' ? (char)(a[i] - 'A' + 'a') : a[i];
-    if (x != b[i]) return 0;
-  }
-  return 1;
-}
-
-static char* resource_path(const fmi2CallbackFunctions* host, const char* uri) {
-#if defined(_WIN32)
-  const char separator = '\\';
-#else
-  const char separator = '/';
-#endif
-  const char *p = uri, *host_name = NULL;
-  size_t host_len = 0, n, i, j = 0;
-  char* out;
-  if (uri == NULL || uri[0] == '\0') return NULL;
-  if (same_letters(p, "file:", 5)) {
-    p += 5;
-    if (p[0] == '/' && p[1] == '/') { /* an authority: empty, localhost, a drive by mistake, or a host */
-      const char* end;
-      p += 2;
-      end = p + strcspn(p, "/\\");
-      if (is_drive(p)) {
-        /* file://C:/dir: the drive is the path's start */
-      } else {
-        if (end - p != 0 && !((size_t)(end - p) == 9 && same_letters(p, "localhost", 9))) {
-          host_name = p;
-          host_len = (size_t)(end - p);
-        }
-        p = end;
-      }
-    }
-  } else {
-    size_t k = 0; /* another scheme (http:, ...) is nothing the C library opens; a drive letter is no scheme */
-    while ((p[k] >= 'a' && p[k] <= 'z') || (p[k] >= 'A' && p[k] <= 'Z') || (k > 0 && ((p[k] >= '0' && p[k] <= '9') ||
-                                                                                     p[k] == '+' || p[k] == '-' || p[k] == '.')))
-      ++k;
-    if (k > 1 && p[k] == ':') return NULL;
-  }
-#if defined(_WIN32)
-  if (p[0] == '/' && is_drive(p + 1)) ++p; /* /C:/dir -> C:/dir */
-#else
-  if (host_name != NULL) return NULL; /* file://server/share: only Windows opens it */
-#endif
-  n = strlen(p) + host_len + 4;
-  out = (char*)host->allocateMemory(n, 1);
-  if (out == NULL) return NULL;
-  if (host_name != NULL) {
-    out[j++] = separator;
-    out[j++] = separator;
-    memcpy(out + j, host_name, host_len);
-    j += host_len;
-  }
-  for (i = 0; p[i] != '\0'; ++i) {
-    char c = p[i];
-    if (c == '%' && hex_digit(p[i + 1]) >= 0 && hex_digit(p[i + 2]) >= 0) {
-      c = (char)(hex_digit(p[i + 1]) * 16 + hex_digit(p[i + 2]));
-      i += 2;
-    } else if (c == '?' || c == '#') {
-      break; /* a query or fragment is not part of the path */
-    }
-#if defined(_WIN32)
-    if (c == '/' || c == '\\') c = separator;
-    if (c == '|' && j == 1) c = ':'; /* file:///C|/dir, the old form of a drive */
-#endif
-    out[j++] = c;
-  }
-  if (j == 0 || out[j - 1] != separator) out[j++] = separator;
-  out[j] = '\0';
-  return out;
-}
-
 /* ---- information and life cycle -------------------------------------------------------------------------------------- */
 const char* fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char* fmi2GetVersion(void) { return fmi2Version; }
@@ -155,13 +67,12 @@ const char* fmi2GetVersion(void) { return fmi2Version; }
 fmi2Status fmi2SetDebugLogging(fmi2Component instance, fmi2Boolean on, size_t n, const fmi2String categories[]) {
   TL_ENTER(fmi2SetDebugLogging);
   (void)n; (void)categories;
-  c->logging_on = on != 0;
+  tl_set_logging(c, on);
   return fmi2OK;
 }
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String resources,
                               const fmi2CallbackFunctions* host, fmi2Boolean visible, fmi2Boolean logging_on) {
-  TlInstance* c;
   (void)visible;
   if (host == NULL || host->allocateMemory == NULL || host->freeMemory == NULL) return NULL;
   if (!tl_may_instantiate(host, "fmi2Instantiate", name, "GUID", guid)) return NULL;
@@ -169,14 +80,7 @@ fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, f
     tl_log_host(host, name, "fmi2Instantiate: %s is a co-simulation FMU only", TL_MODEL_IDENTIFIER);
     return NULL;
   }
-  c = tl_instantiate(host, name, logging_on, resource_path(host, resources));
-  if (c == NULL) return NULL;
-  if (resources != NULL && resources[0] != '\0' && c->resources == NULL)
-    tl_log(c, TL_WARNING, "fmi2Instantiate: the resource location %s is not a file this platform opens; ignored", resources);
-  else
-    tl_log(c, TL_OK, "fmi2Instantiate: resources in %s", c->resources ? c->resources : "(none given)");
-  tl_reset(c);
-  return c;
+  return tl_create(host, "fmi2Instantiate", name, logging_on, 0, resources, 1);
 }
 
 void fmi2FreeInstance(fmi2Component instance) { tl_free_instance((TlInstance*)instance); }
@@ -190,7 +94,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component instance, fmi2Boolean tolerance_def
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component instance) {
   TL_ENTER(fmi2EnterInitializationMode);
-  c->s.phase = TL_INITIALIZATION;
+  tl_enter_initialization(c);
   return fmi2OK;
 }
 

@@ -2,23 +2,13 @@
    the FMI 2.0 one (tl_fmi2.c). The same hooks (tl_fmu.h), tables and start values as FMI 2.0.
 
    What is FMI 3.0's own is here: the state-mask table, how the standard logs and allocates (tl_binding; '#' is its
-   escape character), value references unique across types (0 time, then the clocks, then each type from its base;
-   describe_fmi3.py), Event Mode and the clocks. Any error leads to Terminated, a fatal error makes the instance
-   unusable; a refused step (fmi3Discard) keeps the state.
-
-   Clocked builds (TL_N_CLOCK > 0) have Event Mode and periodic input clocks. The importer enters Event Mode,
-   activates the due clocks (fmi3SetClock), sets inputs, reads the clocked outputs, calls
-   fmi3UpdateDiscreteStates and returns to Step Mode. The model's partition (tl_model_event) runs lazily: at
-   the first Get in Event Mode, or in UpdateDiscreteStates, so inputs set after fmi3SetClock are seen. An input
-   or clock set after a Get makes it run again, from the model state the event began with. Clocked variables
-   are accessible only while their clock is active (and at initialization). Every fmi3 function is exported;
-   those of model exchange refuse with a reason.
-
-   Scheduled Execution builds (TL_SCHEDULED) have no co-simulation: after Initialization Mode the instance is in Clock
-   Activation Mode, where the importer's scheduler calls fmi3ActivateModelPartition for each clock at its activation
-   times (on the clock's grid, increasing), setting a partition's inputs before and reading its outputs after. The
-   partitions may preempt each other; the model locks around what they share through the importer's callbacks. The
-   co-simulation builds refuse fmi3InstantiateScheduledExecution, and these builds fmi3InstantiateCoSimulation. */
+   escape character), the checks of its arguments (array sizes, Event Mode asked for or not, the instantiation kind),
+   and which of its functions a tiltload FMU refuses with a reason (model exchange, structural parameters, ...).
+   Value references are unique across types (0 time, then the clocks, then each type from its base; describe_fmi3.py).
+   Any error leads to Terminated, a fatal error makes the instance unusable; a refused step (fmi3Discard) keeps the
+   state. Event Mode, the clocks and Scheduled Execution are the core's (tl_core.h says how they behave). The
+   co-simulation builds refuse fmi3InstantiateScheduledExecution, and the Scheduled Execution builds
+   fmi3InstantiateCoSimulation. */
 #include "tl_platform.h"
 
 #include <stdlib.h>
@@ -107,31 +97,19 @@ const TlBinding tl_binding = {'#', TL_TERMINATED, {"Float64", "Int32", "Boolean"
 /* ---- information and life cycle ------------------------------------------------------------------------------------ */
 const char* fmi3GetVersion(void) { return fmi3Version; }
 
+static TlHost host_of(fmi3InstanceEnvironment environment, fmi3LogMessageCallback log_message) {
+  TlHost host;
+  memset(&host, 0, sizeof host);
+  host.environment = environment;
+  host.log_message = log_message;
+  return host;
+}
+
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean on, size_t n, const fmi3String categories[]) {
   TL_ENTER(fmi3SetDebugLogging);
   (void)n; (void)categories;
-  c->logging_on = on ? 1 : 0;
+  tl_set_logging(c, on);
   return fmi3OK;
-}
-
-/* FMI 3.0 gives the resources folder as a native path already (2_3: "absolute file path with a trailing file
-   separator"); kept as given, with the separator added if an importer left it off. NULL for none. */
-static char* resource_path(const char* path) {
-#if defined(_WIN32)
-  const char separator = '\\';
-#else
-  const char separator = '/';
-#endif
-  size_t n;
-  char* out;
-  if (path == NULL || path[0] == '\0') return NULL;
-  n = strlen(path);
-  out = (char*)calloc(n + 2, 1);
-  if (out == NULL) return NULL;
-  memcpy(out, path, n);
-  if (out[n - 1] != '/' && out[n - 1] != '\\') out[n++] = separator;
-  out[n] = '\0';
-  return out;
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
@@ -140,12 +118,8 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
                                          fmi3InstanceEnvironment environment, fmi3LogMessageCallback log_message,
                                          fmi3IntermediateUpdateCallback intermediate_update) {
   const char* const call = "fmi3InstantiateCoSimulation";
-  TlHost host;
-  TlInstance* c;
+  TlHost host = host_of(environment, log_message);
   (void)visible; (void)early_return_allowed; (void)required_intermediate; (void)intermediate_update;
-  memset(&host, 0, sizeof host);
-  host.environment = environment;
-  host.log_message = log_message;
   if (!tl_may_instantiate(&host, call, name, "instantiation token", token)) return NULL;
   if (TL_SCHEDULED) {
     tl_log_host(&host, name, "%s: %s: %s is a Scheduled Execution FMU only (fmi3InstantiateScheduledExecution)", call, name,
@@ -167,22 +141,14 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String name, fmi3String token, fmi3
                 name, TL_MODEL_IDENTIFIER);
     return NULL;
   }
-  c = tl_instantiate(&host, name, logging_on, resource_path(resources));
-  if (c == NULL) return NULL;
-  c->event_mode_used = event_mode_used ? 1 : 0;
-  tl_log(c, TL_OK, "%s: resources in %s", call, c->resources ? c->resources : "(none given)");
-  tl_reset(c);
-  return c;
+  return tl_create(&host, call, name, logging_on, event_mode_used, resources, 0);
 }
 
 fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String resources, fmi3Boolean visible,
                                           fmi3Boolean logging_on, fmi3InstanceEnvironment environment,
                                           fmi3LogMessageCallback log_message) {
-  TlHost host;
+  TlHost host = host_of(environment, log_message);
   (void)token; (void)resources; (void)visible; (void)logging_on;
-  memset(&host, 0, sizeof host);
-  host.environment = environment;
-  host.log_message = log_message;
   tl_log_host(&host, name ? name : "?", "fmi3InstantiateModelExchange: %s: %s is a co-simulation FMU only", name ? name : "?", TL_MODEL_IDENTIFIER);
   return NULL;
 }
@@ -192,12 +158,8 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token
                                                fmi3LogMessageCallback log_message, fmi3ClockUpdateCallback clock_update,
                                                fmi3LockPreemptionCallback lock, fmi3UnlockPreemptionCallback unlock) {
   const char* const call = "fmi3InstantiateScheduledExecution";
-  TlHost host;
-  TlInstance* c;
+  TlHost host = host_of(environment, log_message);
   (void)visible; (void)clock_update; /* no output or countdown clocks: nothing to signal */
-  memset(&host, 0, sizeof host);
-  host.environment = environment;
-  host.log_message = log_message;
   if (!TL_SCHEDULED) {
     tl_log_host(&host, name ? name : "?", "%s: %s: %s is a co-simulation FMU only", call, name ? name : "?", TL_MODEL_IDENTIFIER);
     return NULL;
@@ -205,11 +167,7 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token
   if (!tl_may_instantiate(&host, call, name, "instantiation token", token)) return NULL;
   host.lock_preemption = lock;
   host.unlock_preemption = unlock;
-  c = tl_instantiate(&host, name, logging_on, resource_path(resources));
-  if (c == NULL) return NULL;
-  tl_log(c, TL_OK, "%s: resources in %s", call, c->resources ? c->resources : "(none given)");
-  tl_reset(c);
-  return c;
+  return tl_create(&host, call, name, logging_on, 0, resources, 0);
 }
 
 void fmi3FreeInstance(fmi3Instance instance) { tl_free_instance((TlInstance*)instance); }
@@ -220,7 +178,7 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
   TL_ENTER(fmi3EnterInitializationMode);
   (void)tolerance_defined; (void)tolerance;
   status = tl_set_experiment(c, call, start_time, stop_time_defined, stop_time);
-  if (status == TL_OK) c->s.phase = TL_INITIALIZATION;
+  if (status == TL_OK) tl_enter_initialization(c);
   return (fmi3Status)status;
 }
 
@@ -234,10 +192,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
   TL_ENTER(fmi3EnterEventMode);
-  if (!c->event_mode_used) return (fmi3Status)tl_fail(c, "%s: the instance was created with eventModeUsed = false", call);
-  c->s.phase = TL_EVENT;
-  tl_begin_event(c);
-  return fmi3OK;
+  return (fmi3Status)tl_enter_event_mode(c, call);
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance) {
@@ -276,9 +231,7 @@ ACCESS(fmi3SetString, set, TL_TYPE_STRING, const, fmi3String)
   fmi3Status function(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, qualifier ctype value[], size_t n_values) { \
     TL_ENTER(function);                                                                                                   \
     (void)value; (void)n_values;                                                                                          \
-    if (n == 0) return fmi3OK;                                                                                            \
-    return (fmi3Status)tl_fail(c, "%s: value reference %u: %s has no variable of this type", call, vr ? vr[0] : 0u,       \
-                               TL_MODEL_IDENTIFIER);                                                                      \
+    return (fmi3Status)tl_no_variables(c, call, vr, n, "variable of this type");                                          \
   }
 NO_SUCH_TYPE(fmi3GetFloat32, NOTHING, fmi3Float32)
 NO_SUCH_TYPE(fmi3GetInt8, NOTHING, fmi3Int8)
@@ -301,116 +254,49 @@ fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], s
                          size_t n_values) {
   TL_ENTER(fmi3GetBinary);
   (void)sizes; (void)value; (void)n_values;
-  if (n == 0) return fmi3OK;
-  return (fmi3Status)tl_fail(c, "%s: value reference %u: %s has no Binary variable", call, vr ? vr[0] : 0u, TL_MODEL_IDENTIFIER);
+  return (fmi3Status)tl_no_variables(c, call, vr, n, "Binary variable");
 }
 
 fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const size_t sizes[],
                          const fmi3Binary value[], size_t n_values) {
   TL_ENTER(fmi3SetBinary);
   (void)sizes; (void)value; (void)n_values;
-  if (n == 0) return fmi3OK;
-  return (fmi3Status)tl_fail(c, "%s: value reference %u: %s has no Binary variable", call, vr ? vr[0] : 0u, TL_MODEL_IDENTIFIER);
+  return (fmi3Status)tl_no_variables(c, call, vr, n, "Binary variable");
 }
 
-/* ---- clocks ------------------------------------------------------------------------------------------------------------ */
-/* The clock index of vr, or -1 with a log line. */
-static int clock_of(TlInstance* c, const char* call, fmi3ValueReference vr) {
-  const long k = (long)vr - TL_VR_CLOCK0, n = TL_N_CLOCK;
-  if (k >= 0 && k < n) return (int)k;
-  tl_log(c, TL_ERROR, "%s: value reference %u is not a clock of %s (it has %d)", call, vr, TL_MODEL_IDENTIFIER, TL_N_CLOCK);
-  return -1;
-}
-
-/* Every value reference a clock (the arrays given): 1, or 0 with the instance settled in error. */
-static int all_clocks(TlInstance* c, const char* call, const fmi3ValueReference vr[], size_t n, int arrays_given) {
-  size_t i;
-  if (n && (vr == NULL || !arrays_given)) {
-    tl_fail(c, "%s: no value references or values given", call);
-    return 0;
-  }
-  for (i = 0; i < n; ++i)
-    if (clock_of(c, call, vr[i]) < 0) {
-      tl_settle(c, TL_ERROR);
-      return 0;
-    }
-  return 1;
-}
-
+/* ---- clocks: periodic, with constant intervals and no shift ---------------------------------------------------------- */
 fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3Clock value[]) {
-  size_t i;
   TL_ENTER(fmi3SetClock);
-  if (!all_clocks(c, call, vr, n, value != NULL)) return fmi3Error;
-#if TL_HAS_EVENT_MODE
-  for (i = 0; i < n; ++i)
-    if (!value[i] && c->s.clock_active[vr[i] - TL_VR_CLOCK0])
-      return (fmi3Status)tl_fail(c, "%s: %s cannot be deactivated (canBeDeactivated is false)", call,
-                                 tl_clock_name[vr[i] - TL_VR_CLOCK0]);
-  for (i = 0; i < n; ++i) {
-    const unsigned k = vr[i] - TL_VR_CLOCK0;
-    if (value[i] && !c->s.clock_active[k]) {
-      c->s.clock_active[k] = 1;
-      c->s.event_dirty = 1;
-    }
-  }
-#else
-  (void)i;
-#endif
-  return fmi3OK;
+  return (fmi3Status)tl_set_clocks(c, call, vr, n, value);
 }
 
 fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3Clock value[]) {
-  size_t i;
   TL_ENTER(fmi3GetClock);
-  if (!all_clocks(c, call, vr, n, value != NULL)) return fmi3Error;
-  for (i = 0; i < n; ++i) value[i] = c->s.clock_active[vr[i] - TL_VR_CLOCK0] ? fmi3ClockActive : fmi3ClockInactive;
-  return fmi3OK;
+  return (fmi3Status)tl_get_clocks(c, call, vr, n, value);
 }
 
-/* The clocks are periodic with constant intervals (those of modelDescription.xml) and no shift. */
 fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3Float64 interval[],
                                   fmi3IntervalQualifier qualifier[]) {
-  size_t i;
   TL_ENTER(fmi3GetIntervalDecimal);
-  if (!all_clocks(c, call, vr, n, interval != NULL && qualifier != NULL)) return fmi3Error;
-  for (i = 0; i < n; ++i) {
-    interval[i] = tl_clock_interval[vr[i] - TL_VR_CLOCK0];
-    qualifier[i] = fmi3IntervalUnchanged;
-  }
-  return fmi3OK;
+  return (fmi3Status)tl_clock_grid(c, call, vr, n, interval != NULL && qualifier != NULL, 0, interval, NULL, NULL, qualifier);
 }
 
 fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3UInt64 counter[],
                                    fmi3UInt64 resolution[], fmi3IntervalQualifier qualifier[]) {
-  size_t i;
   TL_ENTER(fmi3GetIntervalFraction);
-  if (!all_clocks(c, call, vr, n, counter != NULL && resolution != NULL && qualifier != NULL)) return fmi3Error;
-  for (i = 0; i < n; ++i) {
-    counter[i] = tl_clock_counter[vr[i] - TL_VR_CLOCK0];
-    resolution[i] = tl_clock_resolution[vr[i] - TL_VR_CLOCK0];
-    qualifier[i] = fmi3IntervalUnchanged;
-  }
-  return fmi3OK;
+  return (fmi3Status)tl_clock_grid(c, call, vr, n, counter != NULL && resolution != NULL && qualifier != NULL, 0, NULL, counter,
+                                   resolution, qualifier);
 }
 
 fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3Float64 shift[]) {
-  size_t i;
   TL_ENTER(fmi3GetShiftDecimal);
-  if (!all_clocks(c, call, vr, n, shift != NULL)) return fmi3Error;
-  for (i = 0; i < n; ++i) shift[i] = 0.0;
-  return fmi3OK;
+  return (fmi3Status)tl_clock_grid(c, call, vr, n, shift != NULL, 1, shift, NULL, NULL, NULL);
 }
 
 fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3UInt64 counter[],
                                 fmi3UInt64 resolution[]) {
-  size_t i;
   TL_ENTER(fmi3GetShiftFraction);
-  if (!all_clocks(c, call, vr, n, counter != NULL && resolution != NULL)) return fmi3Error;
-  for (i = 0; i < n; ++i) {
-    counter[i] = 0;
-    resolution[i] = tl_clock_resolution[vr[i] - TL_VR_CLOCK0];
-  }
-  return fmi3OK;
+  return (fmi3Status)tl_clock_grid(c, call, vr, n, counter != NULL && resolution != NULL, 1, NULL, counter, resolution, NULL);
 }
 
 #define CONSTANT_CLOCKS "its clocks are constant (intervalVariability=\"constant\"): nothing to set"
@@ -442,29 +328,22 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean* need_upd
                                     fmi3Boolean* nominals_changed, fmi3Boolean* values_changed, fmi3Boolean* next_defined,
                                     fmi3Float64* next_time) {
   TlStatus status;
+  int terminating, defined;
   TL_ENTER(fmi3UpdateDiscreteStates);
   if (!need_update || !terminate || !nominals_changed || !values_changed || !next_defined || !next_time)
     return (fmi3Status)tl_fail(c, "%s: an output argument is NULL", call);
-  status = tl_run_event(c);
-  if (status > TL_WARNING) return (fmi3Status)tl_settle(c, status == TL_DISCARD ? TL_ERROR : status);
-  memset(c->s.clock_active, 0, sizeof c->s.clock_active); /* the clocks' ticks are over: a new super-dense instant */
-  c->s.event_ran = 0;
+  status = tl_update_discrete_states(c, &terminating, &defined, next_time);
+  if (status > TL_WARNING) return (fmi3Status)status;
   *need_update = fmi3False; /* the partitions have no iteration of their own */
-  *terminate = c->s.stop_requested ? fmi3True : fmi3False;
+  *terminate = terminating ? fmi3True : fmi3False;
   *nominals_changed = *values_changed = fmi3False;
-  *next_defined = c->s.next_event_time >= 0.0 ? fmi3True : fmi3False;
-  *next_time = c->s.next_event_time >= 0.0 ? c->s.next_event_time : 0.0;
+  *next_defined = defined ? fmi3True : fmi3False;
   return (fmi3Status)status;
 }
 
 fmi3Status fmi3EnterStepMode(fmi3Instance instance) {
-  TlStatus status;
   TL_ENTER(fmi3EnterStepMode);
-  status = tl_run_event(c); /* an event left without fmi3UpdateDiscreteStates still runs its partition */
-  if (status > TL_WARNING) return (fmi3Status)tl_settle(c, status == TL_DISCARD ? TL_ERROR : status);
-  memset(c->s.clock_active, 0, sizeof c->s.clock_active);
-  c->s.phase = TL_STEPPING;
-  return (fmi3Status)status;
+  return (fmi3Status)tl_enter_step_mode(c);
 }
 
 fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h, fmi3Boolean no_set_prior, fmi3Boolean* event_needed,
@@ -477,8 +356,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h, fmi3B
   *early_return = fmi3False;
   *last_time = c->s.time;
   *terminate = c->s.stop_requested ? fmi3True : fmi3False;
-  /* a time event the model asked for, reached by this step: the importer enters Event Mode at last_time */
-  *event_needed = c->event_mode_used && c->s.next_event_time >= 0.0 && c->s.time >= c->s.next_event_time - 1e-9 * h;
+  *event_needed = tl_event_needed(c, h) ? fmi3True : fmi3False;
   return (fmi3Status)status;
 }
 
@@ -618,20 +496,9 @@ fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t* n) {
 }
 
 #if TL_SCHEDULED
-void tl_lock_preemption(const TlInstance* c) {
-  if (c->host.lock_preemption != NULL) c->host.lock_preemption();
-}
-
-void tl_unlock_preemption(const TlInstance* c) {
-  if (c->host.unlock_preemption != NULL) c->host.unlock_preemption();
-}
-
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clock, fmi3Float64 time) {
-  int k;
   TL_ENTER(fmi3ActivateModelPartition);
-  k = clock_of(c, call, clock);
-  if (k < 0) return (fmi3Status)tl_settle(c, TL_ERROR);
-  return (fmi3Status)tl_activate(c, call, k, time);
+  return (fmi3Status)tl_activate(c, call, clock, time);
 }
 #else
 fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clock, fmi3Float64 time) {

@@ -27,7 +27,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     code = "import sys, tiltload; print(sorted(m for m in ('numpy', 'casadi', 'fmpy', 'pandas') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
-    assert set(tl.__all__) == {"B2BCase", "B2BSide", "BackToBack", "b2b",
+    assert set(tl.__all__) == {"B2BCase", "B2BSide", "BackToBack", "b2b", "PythonController",
                                "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow",
                                "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare",
                                "compare_signals", "falsify", "run", "save_baseline", "save_signal_baseline", "plant", "design"}

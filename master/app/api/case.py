@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from .. import arguments
 from . import field_types as kinds
 from .command_line import text_of
+from .python_controller import PythonController, controller_fmu_path
 
 if TYPE_CHECKING:
     from ..options import LoopOptions
@@ -21,14 +22,16 @@ class Case:
     """One run: the field names are `tiltload run`'s options (``--stop-time`` is ``stop_time``); None is the
     option's default (the vehicle's trajectory and controller, seed 1, the trajectory's duration, ...).
 
-    controller: dlqr, mixed or a controller FMU's path. set: FMU parameters {"instance.name": number, bool or text}
-    (checked against the FMU's type when the system is built). remote: {"instance": "host:port"} of a tiltload serve.
+    controller: dlqr, mixed, a controller FMU's path, or a Python controller class (or a PythonController), wrapped
+    into an FMU as `tiltload wrap` does, once per content (the field then holds that FMU's path). set: FMU parameters
+    {"instance.name": number, bool or text} (checked against the FMU's type when the system is built). remote:
+    {"instance": "host:port"} of a tiltload serve.
     A wrong type raises TypeError naming the field; a wrong value TiltloadError with the command's line."""
 
     vehicle: str | None = None  # load (default) or uav
     scenario: str | None = None  # fsi, lkf, zse (default)
     trajectory: int | str | None = None  # 0-3, a shape ("step-z:size=0.5") or a waypoint file
-    controller: str | None = None
+    controller: str | type | PythonController | None = None
     seed: int | None = None
     stop_time: float | None = None  # s
     delay: bool = False
@@ -68,6 +71,8 @@ class Case:
         kinds.number("Case", "max_tilt", self.max_tilt, False)
         fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", self.max_tilt))
         self._settings_and_remotes()
+        if self._python_controller() and self.system is None:  # with a system file the controller is refused below
+            fix("controller", controller_fmu_path(self.controller, self.fmi or 2))  # its path: what the run and log name
         from ..options import resolve_loop
 
         # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown)
@@ -91,10 +96,11 @@ class Case:
                             f"{type(self.trajectory).__name__} {self.trajectory!r:.80}")
         if isinstance(self.controller, Path):
             self._fix("controller", str(self.controller))
-        if isinstance(self.controller, type):
-            raise TypeError("Case.controller takes dlqr, mixed or a controller FMU's path; wrap a Python class first "
-                            "(tiltload wrap FILE.py, or the pytest plugin's tiltload_controller)")
-        kinds.text("Case", "controller", self.controller)
+        if not self._python_controller():
+            kinds.text("Case", "controller", self.controller)
+
+    def _python_controller(self) -> bool:
+        return isinstance(self.controller, (type, PythonController))
 
     def _settings_and_remotes(self) -> None:
         settings = kinds.pairs("Case", "set", self.set, (int, float, bool, str), "a number, bool or str")

@@ -30,6 +30,10 @@ class TraceError(WrapError):
     """A controller that cannot be traced; the message names the class, the line and the operation."""
 
 
+class InitError(TraceError):
+    """A controller whose __init__ raises: no route wraps it (the message names the class, the error and the line)."""
+
+
 @dataclass
 class Traced:
     """The controller as one function: step(t, inputs, parameters, states) -> (command[4], next states)."""
@@ -116,13 +120,18 @@ def _where(err: BaseException, source: Path) -> str:
     return f"line {f.lineno} (`{code}`)"
 
 
+def instantiate(cls: type, parameters: dict[str, float], source: Path):
+    """cls(**parameters), as the FMU will make it; InitError names the error and its line in the class's file."""
+    try:
+        return cls(**parameters) if parameters else cls()
+    except Exception as err:
+        raise InitError(f"{cls.__name__}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
+
+
 def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
     """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
     name = cls.__name__
-    try:
-        controller = cls(**parameters) if parameters else cls()
-    except Exception as err:
-        raise TraceError(f"{name}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
+    controller = instantiate(cls, parameters, source)
     numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
     initial = {k: v.copy() for k, v in numbers.items()}
     symbols = {k: _symbols(k, v.shape) for k, v in numbers.items()}
@@ -172,4 +181,4 @@ def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: n
     return np.array(y).ravel(), np.array(s).ravel()
 
 
-__all__ = ["TraceError", "Traced", "run_traced", "trace"]
+__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "trace"]

@@ -1,0 +1,87 @@
+"""A Python controller class given to the API (`tiltload.Case(controller=MyController)`) as a controller FMU: wrapped the
+way `tiltload wrap` wraps it, from the class's file, and kept in the machine's cache under the digest of what decides
+the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version), so a
+second run, in this process or another, uses the same FMU without tracing or building again.
+
+The route: `wrap --native` (a C FMU, native.py) when the class traces, else pythonfmu's (wrap.py); native=True
+refuses a class that cannot be traced, native=False always takes pythonfmu's."""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from ....native_fmu.build import tiltload_version
+from ....native_fmu.cache import cache_root
+from .wrap import WrapError, describe, load_class, wrap
+
+
+def _source(cls: object, field: str) -> Path:
+    """The .py file a controller class is defined in, at its top level (the wrap imports the class from there)."""
+    if not isinstance(cls, type):
+        raise WrapError(f"{field}: {cls!r:.60} is not a controller class (pass the class itself, not an instance)")
+    name = cls.__name__
+    if not callable(getattr(cls, "step", None)):
+        raise WrapError(f"{field}: {name} is not a controller class: it has no step(t, inputs) method (docs/ports.md)")
+    try:
+        source = inspect.getsourcefile(cls)
+    except TypeError:
+        source = None
+    if source is None or not source.endswith(".py") or not Path(source).is_file():
+        raise WrapError(f"{field}: {name} has no .py file (defined interactively?): tiltload wraps a class from its file")
+    if cls.__qualname__ != name:
+        raise WrapError(f"{field}: {cls.__qualname__} is not at the top level of {Path(source).name}: tiltload wraps a "
+                        "class it can import from its file")
+    return Path(source)
+
+
+def _key(path: Path, spec: dict, native: bool | None, fmi_version: int) -> str:
+    what = json.dumps({"spec": spec, "native": native, "fmi": fmi_version, "tiltload": tiltload_version()}, sort_keys=True)
+    return hashlib.sha256(path.read_bytes() + b"\0" + what.encode()).hexdigest()
+
+
+def _build(path: Path, spec: dict, native: bool | None, fmi_version: int, out: Path) -> Path:
+    """Wrap the class into out: natively if it traces (or native), else with pythonfmu."""
+    from .native import wrap_native
+    from .trace import InitError, TraceError, instantiate
+
+    name = spec["class"]
+    if native is not False:
+        try:
+            return wrap_native(path, out, name, fmi_version, progress=lambda line: None)
+        except InitError:
+            raise
+        except TraceError as err:
+            if native:
+                raise
+            if fmi_version != 2:
+                raise WrapError(f"{err}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
+                                "(run it with fmi=2)") from None
+    elif fmi_version != 2:
+        raise WrapError(f"{name}: a pythonfmu FMU is FMI 2.0 only (run it with fmi=2, or trace it: native=True)")
+    instantiate(load_class(path, name), spec["parameters"], path)  # an __init__ that raises: refused now, not in the run
+    return wrap(path, out, name)
+
+
+def controller_fmu(cls: type, native: bool | None = None, fmi_version: int = 2, field: str = "Case.controller") -> Path:
+    """The controller FMU of cls (a class with a step method, at the top level of its .py file): from the machine's
+    cache, or wrapped now and kept there. WrapError (a TraceError) says in one line what is wrong."""
+    path = _source(cls, field)
+    spec = describe(path, cls.__name__)
+    key = _key(path, spec, native, fmi_version)
+    target = cache_root() / "controllers" / key[:32] / f"{spec['class']}.fmu"
+    if target.is_file():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(dir=target.parent, prefix=".build-"))  # beside it: the rename below is atomic
+    try:
+        built = _build(path, spec, native, fmi_version, stage / target.name)
+        os.replace(built, target)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return target
