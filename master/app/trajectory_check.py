@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, lru_cache
 
 import numpy as np
 
@@ -74,6 +74,56 @@ def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0)
     return None if z_mid is None else _trim(vehicle, z_mid, middle, ref, p, n_angles, depth + 1)
 
 
+@lru_cache(maxsize=64)
+def _hover(vehicle: str, p: bytes):
+    """The hover trim of a parameter vector (its bytes), solved once per vector: a search over other inputs checks
+    the same plant again and again (read only)."""
+    from ...plant_fmu.trim import hover_trim
+
+    return hover_trim(np.frombuffer(p), vehicle=vehicle)
+
+
+_REFERENCES: dict[tuple, tuple] = {}  # the reference's samples and feedforward of a chunk, by what decides them
+_MOST_REFERENCES = 16
+
+
+def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff):
+    """(the reference's samples at t, the nominal feedforward there), computed once per trajectory and shape (not
+    for a waypoint mission, whose file may change under its name): they depend on nothing else, and every point of
+    a search over the plant's or the wind's parameters checks the same reference (read only)."""
+    code = int(scenario.get("trajectory", 1))
+    key = (vehicle, code, twin.shape_vector(scenario).tobytes(), lo, t.size, tick) if code != twin.WAYPOINTS else None
+    if key is not None and key in _REFERENCES:
+        return _REFERENCES[key]
+    nq = VEHICLES[vehicle].nq
+    s = twin.evaluate(scenario, t)
+    x = np.tile(hover.x, (t.size, 1))
+    x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
+    x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
+    qdd = np.zeros((t.size, nq))
+    qdd[:, 0:3] = s.a
+    u = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+    if key is not None:
+        if len(_REFERENCES) >= _MOST_REFERENCES:
+            _REFERENCES.pop(next(iter(_REFERENCES)))
+        _REFERENCES[key] = (s, u)
+    return s, u
+
+
+def _start(scenario: dict):
+    """The reference's sample at t = 0, once per trajectory and shape (as _reference)."""
+    code = int(scenario.get("trajectory", 1))
+    key = ("start", code, twin.shape_vector(scenario).tobytes()) if code != twin.WAYPOINTS else None
+    if key is not None and key in _REFERENCES:
+        return _REFERENCES[key]
+    first = twin.evaluate(scenario, [0.0])
+    if key is not None:
+        if len(_REFERENCES) >= _MOST_REFERENCES:
+            _REFERENCES.pop(next(iter(_REFERENCES)))
+        _REFERENCES[key] = first
+    return first
+
+
 def _vector(vehicle: str, overrides: dict) -> np.ndarray:
     """The vehicle's parameter vector with the plant instance's overrides (m_L, ...)."""
     v = VEHICLES[vehicle]
@@ -90,18 +140,17 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
     stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
-    from ...plant_fmu.trim import TrimError, hover_trim, unknown_coordinates
+    from ...plant_fmu.trim import TrimError, unknown_coordinates
 
     ff = _feedforward(vehicle)
     unknown = unknown_coordinates(vehicle)
-    nq = VEHICLES[vehicle].nq
     names = VEHICLES[vehicle].coordinates
     nominal = VEHICLES[vehicle].default_parameters()
     actual = _vector(vehicle, plant or {})
     report = Report()
     try:
-        hover = hover_trim(nominal, vehicle=vehicle)
-        hover_actual = hover_trim(actual, vehicle=vehicle)
+        hover = _hover(vehicle, nominal.tobytes())
+        hover_actual = _hover(vehicle, actual.tobytes())
     except (TrimError, ValueError) as err:
         report.problems.append(f"the plant has no hover trim with these parameters ({err})")
         return report
@@ -110,20 +159,14 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     n_angles = len(unknown)
     u_ff = np.empty((n, 4))
     z = np.r_[hover_actual.x[unknown], hover_actual.u]
-    first = twin.evaluate(scenario, [0.0])
+    first = _start(scenario)
     previous = np.zeros(11)
     previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
     trims, times, failed = [], [], False
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
-        s = twin.evaluate(scenario, t)
-        x = np.tile(hover.x, (t.size, 1))
-        x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
-        x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
-        qdd = np.zeros((t.size, nq))
-        qdd[:, 0:3] = s.a
-        u_ff[lo:lo + t.size] = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+        s, u_ff[lo:lo + t.size] = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
         refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
         for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY):
             if failed:
