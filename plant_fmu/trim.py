@@ -104,10 +104,11 @@ def _residual(vehicle: str) -> _Residual:
     return cached[vehicle]
 
 
-def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int):
+def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int, residual=None):
     """Newton's method on the trim residual from z: (z, residual, iterations), or None when it does not reach tol
-    within max_iter (or meets a singular Jacobian or a value that is not finite)."""
-    f = _residual(vehicle)
+    within max_iter (or meets a singular Jacobian or a value that is not finite). residual: (z, ref, p) -> (r, dense J)
+    of the same function computed elsewhere (compiled: master/app/trim_residual.py); None: CasADi's."""
+    f = residual if residual is not None else _residual(vehicle)
     for it in range(1, max_iter + 1):
         r, J = f(z, ref, p)
         if not np.all(np.isfinite(r)):

@@ -63,8 +63,9 @@ def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0)
     """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
     strays (a solution far from the previous one is another branch: the vehicle upside down)."""
     from ...plant_fmu.trim import newton
+    from .trim_residual import compiled_residual
 
-    found = newton(vehicle, z_prev, ref, p, 1e-9, 20)
+    found = newton(vehicle, z_prev, ref, p, 1e-9, 20, compiled_residual(vehicle))
     if found is not None and np.max(np.abs(found[0][:n_angles] - z_prev[:n_angles])) < 0.3:
         return found[0]
     if depth >= 8:

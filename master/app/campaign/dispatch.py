@@ -13,7 +13,8 @@ With `chunked`, several runs go to a task (`run_chunk`): a task costs the client
 ms of messages and (de)serialization, as much as a short run's simulation. Their sizes shrink as the runs left do
 (guided self-scheduling, `chunk_sizes`): the first tasks carry several runs, the last one each, so that no worker is
 left with a long task when the others are done. A task's outcomes are stored together (`store_many`: one Parquet
-part); a run whose environment failed is tried again alone.
+part); a run whose environment failed is tried again alone. A search's batch, whose runs are awaited together, goes
+as one task a worker (`even_chunks`).
 """
 
 from __future__ import annotations
@@ -45,6 +46,14 @@ def chunk_sizes(runs: int, workers: int) -> list[int]:
     return sizes
 
 
+def even_chunks(runs: int, workers: int) -> list[int]:
+    """Sizes of the tasks that carry a batch whose runs are all awaited together (a search's batch): one task a worker
+    (more when that is more than MOST runs a task), as equal as they can be (the larger first), so that a batch costs
+    each worker one task's messages, not one a run."""
+    tasks = max(1, min(runs, max(workers, math.ceil(runs / MOST))))
+    return [runs // tasks + (k < runs % tasks) for k in range(tasks)] if runs else []
+
+
 def run_chunk(task: Callable[..., dict], cases: list[dict], **shared) -> list[dict]:
     """A task of several runs, on a worker: each run's outcome, in order (task never raises: run_case)."""
     return [task(case, **shared) for case in cases]
@@ -72,9 +81,11 @@ class Dispatch:
     def __init__(self, client, task: Callable[[dict], dict], store: Callable[[dict], None], where: str, total: int,
                  done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
                  shared: dict | None = None, chunked: bool = False,
-                 store_many: Callable[[list[dict]], None] | None = None) -> None:
+                 store_many: Callable[[list[dict]], None] | None = None,
+                 sizes: Callable[[int, int], list[int]] = chunk_sizes) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
-        self.chunked = chunked  # several runs a task (chunk_sizes)
+        self.chunked = chunked  # several runs a task (sizes(runs, workers): chunk_sizes, or even_chunks for a batch)
+        self.sizes = sizes
         self.store_many = store_many  # stores a task's outcomes at once (default: store, one by one)
         self.shared = shared or {}  # keyword arguments of every run: futures of data scattered once (a snapshot)
         self.total, self.done_before = total, done_before
@@ -95,7 +106,7 @@ class Dispatch:
             self._lost()
         started = time.perf_counter()
         attempts = [_Attempt(case) for case in cases]
-        sizes = chunk_sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
+        sizes = self.sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
         at = 0
         for size in sizes:
             self._submit(*attempts[at:at + size])
