@@ -104,11 +104,10 @@ def _residual(vehicle: str) -> _Residual:
     return cached[vehicle]
 
 
-def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int, residual=None):
+def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int):
     """Newton's method on the trim residual from z: (z, residual, iterations), or None when it does not reach tol
-    within max_iter (or meets a singular Jacobian or a value that is not finite). residual: (z, ref, p) -> (r, dense J)
-    of the same function computed elsewhere (compiled: master/app/trim_residual.py); None: CasADi's."""
-    f = residual if residual is not None else _residual(vehicle)
+    within max_iter (or meets a singular Jacobian or a value that is not finite)."""
+    f = _residual(vehicle)
     for it in range(1, max_iter + 1):
         r, J = f(z, ref, p)
         if not np.all(np.isfinite(r)):
@@ -124,9 +123,10 @@ def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: flo
 
 
 def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0, 0.0),
-               tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load") -> Trim:
+               tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load", solve=None) -> Trim:
     """Solve the hover trim at yaw psi; raise TrimError if Newton does not converge.
-    p: the vehicle's own parameter vector (default: Table 5.1)."""
+    p: the vehicle's own parameter vector (default: Table 5.1). solve(z, ref, p, tol, max_iter): newton's steps taken
+    elsewhere, the same bits (the feasibility check's, compiled: master/app/trim_residual.py); None: newton."""
     v = VEHICLES[vehicle]
     p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
     full = np.array(ca.DM(v.full_parameters(ca.DM(p)))).ravel()
@@ -137,7 +137,8 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
     unknown = unknown_coordinates(vehicle)
     z = np.zeros(v.nq)
     z[len(unknown):len(unknown) + 2] = weight / 2
-    found = newton(vehicle, z, np.r_[pos, np.zeros(7)], p, tol, max_iter)
+    ref = np.r_[pos, np.zeros(7)]
+    found = solve(z, ref, p, tol, max_iter) if solve is not None else newton(vehicle, z, ref, p, tol, max_iter)
     if found is None:
         raise TrimError(f"hover trim did not converge in {max_iter} iterations")
     z, res, it = found

@@ -63,9 +63,10 @@ def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0)
     """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
     strays (a solution far from the previous one is another branch: the vehicle upside down)."""
     from ...plant_fmu.trim import newton
-    from .trim_residual import compiled_residual
+    from .trim_residual import compiled_newton
 
-    found = newton(vehicle, z_prev, ref, p, 1e-9, 20, compiled_residual(vehicle))
+    solve = compiled_newton(vehicle)  # the same steps in C, the same bits (trim_residual.py)
+    found = solve(z_prev, ref, p, 1e-9, 20) if solve is not None else newton(vehicle, z_prev, ref, p, 1e-9, 20)
     if found is not None and np.max(np.abs(found[0][:n_angles] - z_prev[:n_angles])) < 0.3:
         return found[0]
     if depth >= 8:
@@ -80,8 +81,9 @@ def _hover(vehicle: str, p: bytes):
     """The hover trim of a parameter vector (its bytes), solved once per vector: a search over other inputs checks
     the same plant again and again (read only)."""
     from ...plant_fmu.trim import hover_trim
+    from .trim_residual import compiled_newton
 
-    return hover_trim(np.frombuffer(p), vehicle=vehicle)
+    return hover_trim(np.frombuffer(p), vehicle=vehicle, solve=compiled_newton(vehicle))
 
 
 _REFERENCES: dict[tuple, tuple] = {}  # the reference's samples and feedforward of a chunk, by what decides them

@@ -1,12 +1,16 @@
-"""The trim's residual and Jacobian (plant_fmu.trim.residual_function) compiled to C by CasADi's code generator, built
-once per machine (engine/native/kernel.compiled: cached by the generated source's digest) and called with ctypes: about
-3 us a call where CasADi's virtual machine takes 25. The generated code performs the virtual machine's operations in
-its order (-ffp-contract=off: no fused multiply-add), so a trim is the same to the last bit (tests/app/test_throughput.py
-compares the two on the feasibility check's Newton steps). Without a C compiler the virtual machine is used."""
+"""The feasibility check's Newton steps (plant_fmu.trim.newton) in C: CasADi's code generator writes the trim residual
+and its Jacobian (plant_fmu.trim.residual_function), trim_newton.c takes the steps and solves with the LAPACK dgesv
+numpy's linalg.solve itself calls (its address taken from numpy's own library), built once per machine
+(engine/native/kernel.compiled: cached by the sources' digest) and called with ctypes. The same operations on the same
+values in the same order (-ffp-contract=off: no fused multiply-add), so the same trims to the last bit
+(tests/app/test_throughput.py), at about 20 us a trim where Python's steps take 150. Without a C compiler, or a numpy
+whose dgesv cannot be found, plant_fmu.trim.newton runs."""
 
 from __future__ import annotations
 
 import ctypes
+import glob
+import os
 import tempfile
 import threading
 from pathlib import Path
@@ -15,14 +19,25 @@ import numpy as np
 
 from ..engine.native.kernel import CFLAGS, KernelError, compiled
 
-FLAGS = tuple(f for f in CFLAGS if f not in ("-fvisibility=hidden", "-Wall", "-Wextra"))  # generated code: its exports
+FLAGS = tuple(f for f in CFLAGS if f not in ("-fvisibility=hidden", "-Wall", "-Wextra"))  # CasADi's generated code
+SOURCE = Path(__file__).with_name("trim_newton.c")
 _local = threading.local()
 _libraries: dict[str, ctypes.CDLL | None] = {}
 _lock = threading.Lock()
 
 
+def _gesv():
+    """numpy's own LAPACK dgesv (its bundled OpenBLAS, 64-bit integers), or None."""
+    libs = glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "libscipy_openblas64_*.so"))
+    for path in libs:
+        try:
+            return ctypes.CDLL(path).scipy_dgesv_64_
+        except (OSError, AttributeError):
+            continue
+    return None
+
+
 def _library(vehicle: str) -> ctypes.CDLL | None:
-    """The compiled residual of a vehicle (None: no compiler)."""
     import casadi as ca
 
     from ...plant_fmu.trim import residual_function
@@ -35,48 +50,50 @@ def _library(vehicle: str) -> ctypes.CDLL | None:
                 source = Path(tmp) / f"tl_trim_{vehicle}.c"
                 source.write_text(generator.dump())
                 try:
-                    _libraries[vehicle] = compiled(f"tl_trim_{vehicle}", [source], FLAGS, ("m",))
+                    _libraries[vehicle] = compiled(f"tl_trim_{vehicle}", [source, SOURCE], FLAGS, ("m",))
                 except KernelError:
                     _libraries[vehicle] = None
         return _libraries[vehicle]
 
 
-class CompiledResidual:
-    """(residual, dense Jacobian) of a trim point, as plant_fmu.trim's _Residual gives them; one per thread."""
+class CompiledNewton:
+    """newton(vehicle, z, ref, p, tol, max_iter) of plant_fmu.trim for one vehicle, in C; one per thread (its work
+    arrays)."""
 
-    def __init__(self, vehicle: str, lib: ctypes.CDLL) -> None:
+    def __init__(self, vehicle: str, lib: ctypes.CDLL, gesv) -> None:
         from ...plant_fmu.trim import residual_function
 
         f = residual_function(vehicle)
-        self.function = lib.trim_residual
         sizes = [ctypes.c_longlong() for _ in range(4)]
         lib.trim_residual_work(*(ctypes.byref(s) for s in sizes))
-        n_arg, n_res, n_iw, n_w = (s.value for s in sizes)
-        self.z, self.ref, self.p = (np.zeros(f.nnz_in(k)) for k in range(3))
-        self.r, self.nonzeros = np.zeros(f.nnz_out(0)), np.zeros(f.nnz_out(1))
-        double_p = ctypes.POINTER(ctypes.c_double)
-        self.args = (double_p * max(n_arg, 3))(*(a.ctypes.data_as(double_p) for a in (self.z, self.ref, self.p)))
-        self.res = (double_p * max(n_res, 2))(*(a.ctypes.data_as(double_p) for a in (self.r, self.nonzeros)))
-        self.iw = (ctypes.c_longlong * max(n_iw, 1))()
-        self.w = (ctypes.c_double * max(n_w, 1))()
-        self.function.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int]
-        self.function.restype = ctypes.c_int
+        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
+        self.w = np.zeros(max(sizes[3].value, 1))
         rows, cols = f.sparsity_out(1).get_triplet()
-        self.rows, self.cols, self.shape = np.array(rows), np.array(cols), f.sparsity_out(1).shape
+        self.n = f.nnz_in(0)
+        self.dense = np.array([c * f.size1_out(1) + r for r, c in zip(rows, cols)], dtype=np.int64)  # column-major
+        self.gesv = ctypes.cast(gesv, ctypes.c_void_p)
+        self.function = lib.tl_trim_newton
+        p, i = ctypes.c_void_p, ctypes.c_int
+        self.function.argtypes = [p, p, p, i, p, i, ctypes.c_double, i, p, p, p, ctypes.POINTER(ctypes.c_double),
+                                  ctypes.POINTER(ctypes.c_int)]
+        self.function.restype = i
+        self.residual, self.iterations = ctypes.c_double(), ctypes.c_int()
+        self.z, self.ref, self.p = np.zeros(self.n), np.zeros(f.nnz_in(1)), np.zeros(f.nnz_in(2))
+        self.addresses = [a.ctypes.data for a in (self.z, self.ref, self.p, self.dense, self.iw, self.w)]
 
-    def __call__(self, z, ref, p) -> tuple[np.ndarray, np.ndarray]:
+    def __call__(self, z, ref, p, tol: float, max_iter: int):
         self.z[:], self.ref[:], self.p[:] = z, ref, p
-        if self.function(self.args, self.res, self.iw, self.w, 0):
-            raise RuntimeError("the compiled trim residual failed")
-        J = np.zeros(self.shape)
-        J[self.rows, self.cols] = self.nonzeros
-        return self.r.copy(), J
+        at = self.addresses
+        ok = self.function(at[0], at[1], at[2], self.n, at[3], len(self.dense), tol, max_iter, self.gesv, at[4], at[5],
+                           ctypes.byref(self.residual), ctypes.byref(self.iterations))
+        return (self.z.copy(), float(self.residual.value), int(self.iterations.value)) if ok else None  # a new z
 
 
-def compiled_residual(vehicle: str):
-    """This thread's compiled residual of a vehicle; None without a C compiler (the caller uses the virtual machine)."""
-    cached = _local.__dict__.setdefault("residuals", {})
+def compiled_newton(vehicle: str):
+    """This thread's compiled Newton of a vehicle; None when it cannot be built (the caller uses plant_fmu.trim's)."""
+    cached = _local.__dict__.setdefault("newtons", {})
     if vehicle not in cached:
-        lib = _library(vehicle)
-        cached[vehicle] = CompiledResidual(vehicle, lib) if lib is not None else None
+        gesv = _gesv()
+        lib = _library(vehicle) if gesv is not None else None
+        cached[vehicle] = CompiledNewton(vehicle, lib, gesv) if lib is not None else None
     return cached[vehicle]
