@@ -144,6 +144,7 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
     stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
     from ...plant_fmu.trim import TrimError, unknown_coordinates
+    from .trim_residual import compiled_newton
 
     ff = _feedforward(vehicle)
     unknown = unknown_coordinates(vehicle)
@@ -171,7 +172,20 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
         s, u_ff[lo:lo + t.size] = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
         refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
-        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY):
+        solver = compiled_newton(vehicle)
+        if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
+            ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)
+            found = solver.path(z, previous, refs[ks], actual, n_angles, 1e-9, 20)
+            trims.extend(found)
+            times.extend(t[ks[:len(found)]])
+            if len(found):
+                z, previous = found[-1], refs[ks[len(found) - 1]]
+            if len(found) < len(ks):
+                k = ks[len(found)]
+                report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} "
+                                       f"m/s2 at t = {t[k]:.2f} s")
+                failed = True
+        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY) if solver is None else ():
             if failed:
                 break
             found = _trim(vehicle, z, previous, refs[k], actual, n_angles)

@@ -1,6 +1,7 @@
 /* Newton's method on the trim residual (plant_fmu/trim.py's newton, step for step), over CasADi's generated residual
  * and Jacobian (trim_residual, compiled with this file) and the LAPACK dgesv numpy's linalg.solve calls (its address
- * given): the same operations on the same values, so the same bits, without Python between the steps. */
+ * given); and the feasibility check's trims along a path (trajectory_check.py's _trim, halving and all): the same
+ * operations on the same values, so the same bits, without Python between the steps. */
 #include <math.h>
 #include <string.h>
 
@@ -49,4 +50,63 @@ int tl_trim_newton(double *z, const double *ref, const double *p, int n, const l
             z[i] = z[i] - b[i];
     }
     return 0;
+}
+
+enum { TL_REF = 11, TL_MAX_DEPTH = 8 };
+
+typedef struct {
+    const double *p;
+    int n, n_angles, nnz, max_iter;
+    const long long *dense;
+    double tol;
+    tl_gesv gesv;
+    casadi_int *iw;
+    double *w;
+} tl_trim_context;
+
+/* trajectory_check._trim: the trim at ref from the trim z_prev at ref_prev, halving the way when Newton strays. */
+static int trim_at(const tl_trim_context *c, double *z_out, const double *z_prev, const double *ref_prev, const double *ref,
+                   int depth)
+{
+    double z[TL_MAX_N], residual, middle[TL_REF], z_mid[TL_MAX_N];
+    int iterations;
+    memcpy(z, z_prev, sizeof(double) * (size_t)c->n);
+    if (tl_trim_newton(z, ref, c->p, c->n, c->dense, c->nnz, c->tol, c->max_iter, c->gesv, c->iw, c->w, &residual,
+                       &iterations)) {
+        double far = 0.0;
+        for (int i = 0; i < c->n_angles; i++)
+            if (fabs(z[i] - z_prev[i]) > far)
+                far = fabs(z[i] - z_prev[i]);
+        if (far < 0.3) {
+            memcpy(z_out, z, sizeof(double) * (size_t)c->n);
+            return 1;
+        }
+    }
+    if (depth >= TL_MAX_DEPTH)
+        return 0;
+    for (int j = 0; j < TL_REF; j++)
+        middle[j] = 0.5 * (ref_prev[j] + ref[j]);
+    if (!trim_at(c, z_mid, z_prev, ref_prev, middle, depth + 1))
+        return 0;
+    return trim_at(c, z_out, z_mid, middle, ref, depth + 1);
+}
+
+/* The trims at each of the count references (rows of TL_REF), each from the one before (z, previous: the start's, then
+ * the last found); trims: count rows of n. Returns how many were found (fewer than count: none at the next). */
+__attribute__((visibility("default")))
+int tl_trim_path(const double *z0, const double *previous0, const double *refs, int count, const double *p, int n,
+                 int n_angles, const long long *dense, int nnz, double tol, int max_iter, tl_gesv gesv, casadi_int *iw,
+                 double *w, double *trims)
+{
+    tl_trim_context c = {p, n, n_angles, nnz, max_iter, dense, tol, gesv, iw, w};
+    const double *z = z0, *previous = previous0;
+    if (n > TL_MAX_N)
+        return 0;
+    for (int k = 0; k < count; k++) {
+        if (!trim_at(&c, trims + (size_t)k * (size_t)n, z, previous, refs + (size_t)k * TL_REF, 0))
+            return k;
+        z = trims + (size_t)k * (size_t)n;
+        previous = refs + (size_t)k * TL_REF;
+    }
+    return count;
 }

@@ -3,7 +3,8 @@ and its Jacobian (plant_fmu.trim.residual_function), trim_newton.c takes the ste
 numpy's linalg.solve itself calls (its address taken from numpy's own library), built once per machine
 (engine/native/kernel.compiled: cached by the sources' digest) and called with ctypes. The same operations on the same
 values in the same order (-ffp-contract=off: no fused multiply-add), so the same trims to the last bit
-(tests/app/test_throughput.py), at about 20 us a trim where Python's steps take 150. Without a C compiler, or a numpy
+(tests/app/test_throughput.py); the trims along a path go in one call (tl_trim_path: trajectory_check._trim's
+halving too). A plant's check takes about 1 ms where Python's steps took 40. Without a C compiler, or a numpy
 whose dgesv cannot be found, plant_fmu.trim.newton runs."""
 
 from __future__ import annotations
@@ -78,8 +79,22 @@ class CompiledNewton:
                                   ctypes.POINTER(ctypes.c_int)]
         self.function.restype = i
         self.residual, self.iterations = ctypes.c_double(), ctypes.c_int()
+        self.path_function = lib.tl_trim_path
+        self.path_function.argtypes = [p, p, p, i, p, i, i, p, i, ctypes.c_double, i, p, p, p, p]
+        self.path_function.restype = i
         self.z, self.ref, self.p = np.zeros(self.n), np.zeros(f.nnz_in(1)), np.zeros(f.nnz_in(2))
         self.addresses = [a.ctypes.data for a in (self.z, self.ref, self.p, self.dense, self.iw, self.w)]
+
+    def path(self, z, previous, refs: np.ndarray, p, n_angles: int, tol: float, max_iter: int) -> np.ndarray:
+        """trajectory_check's trims at each row of refs, each from the one before (z at previous first): the rows found
+        (fewer than refs': none at the next)."""
+        refs = np.ascontiguousarray(refs, dtype=float)
+        z, previous, p = (np.ascontiguousarray(a, dtype=float) for a in (z, previous, p))
+        trims = np.empty((len(refs), self.n))
+        at = self.addresses
+        done = self.path_function(z.ctypes.data, previous.ctypes.data, refs.ctypes.data, len(refs), p.ctypes.data, self.n,
+                                  n_angles, at[3], len(self.dense), tol, max_iter, self.gesv, at[4], at[5], trims.ctypes.data)
+        return trims[:done]
 
     def __call__(self, z, ref, p, tol: float, max_iter: int):
         self.z[:], self.ref[:], self.p[:] = z, ref, p
