@@ -114,7 +114,7 @@ def inner(fmus: Path, evaluations: int, runs: int, kinds: bool) -> None:
                 names = list(specs) if (kinds and workers == 1) else list(SHIPPED)
                 for name in names:
                     out = tmp / f"{name}-{workers}"
-                    falsify(specs[name], out, fmus, optimizer="uniform", seed=1, simulations=evaluations, client=client,
+                    falsify(specs[name], out, fmus, optimizer="uniform", seed=1, simulations=4 * workers, client=client,
                             progress=lambda _: None, write_report=False, branch="off")  # warm: the workers' executions
                     out2 = tmp / f"{name}-{workers}-measured"
                     before, la = worker_cpu(client), os.getloadavg()[0]
@@ -130,11 +130,10 @@ def inner(fmus: Path, evaluations: int, runs: int, kinds: bool) -> None:
                 seeds = list(range(1, runs // 4 + 1))
                 spec = tmp / "short_runs.toml"
                 spec.write_text(CAMPAIGN.format(seeds=seeds))
-                for attempt in ("warm", "measured"):
-                    before, la = worker_cpu(client), os.getloadavg()[0]
-                    _, counts = campaign(spec, tmp / f"campaign-{workers}-{attempt}", fmus, progress=lambda _: None,
-                                         scheduler=cluster.scheduler_address, workers=workers)
-                    cpu = worker_cpu(client) - before
+                before, la = worker_cpu(client), os.getloadavg()[0]  # the searches warmed the workers' executions
+                _, counts = campaign(spec, tmp / f"campaign-{workers}", fmus, progress=lambda _: None,
+                                     scheduler=cluster.scheduler_address, workers=workers)
+                cpu = worker_cpu(client) - before
                 print(json.dumps({"what": "campaign", "workers": workers, "evaluations": counts["ran"],
                                   "seconds": counts["seconds"], "cpu_ms": 1e3 * cpu / max(counts["ran"], 1),
                                   "thread_ms": float("nan"), "refused": 0, "load": la}), flush=True)
@@ -196,7 +195,7 @@ def main() -> None:
     ap.add_argument("--inner", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--no-kinds", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
-    ap.add_argument("--evaluations", type=int, default=40, help="evaluations a search measures (after as many to warm up)")
+    ap.add_argument("--evaluations", type=int, default=40, help="evaluations a search measures (after 4 a worker to warm up)")
     ap.add_argument("--runs", type=int, default=120, help="runs of the short-run campaign (a multiple of 4)")
     ap.add_argument("--before", default="/work/wt/base", help="the other tree ('none': this one only)")
     ap.add_argument("--before-python", default="/work/venvs/base/bin/python")
