@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cache, lru_cache
+from functools import lru_cache
 
 import numpy as np
 
@@ -51,12 +51,6 @@ class Report:
         return not self.problems
 
 
-@cache
-def _feedforward(vehicle: str):
-    """The controller's feedforward (3.18) as a CasADi function."""
-    from ...plant_fmu.codegen import feedforward_function
-
-    return feedforward_function(vehicle)
 
 
 def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
@@ -105,7 +99,11 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
     qdd = np.zeros((t.size, nq))
     qdd[:, 0:3] = s.a
-    u = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
+    from .trim_residual import compiled_feedforward
+
+    mapped = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
+    u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
+        nominal[:, None], t.size, axis=1))).T
     if key is not None:
         if len(_REFERENCES) >= _MOST_REFERENCES:
             _REFERENCES.pop(next(iter(_REFERENCES)))
@@ -144,9 +142,9 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
     stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
     from ...plant_fmu.trim import TrimError, unknown_coordinates
-    from .trim_residual import compiled_newton
+    from .trim_residual import compiled_newton, feedforward
 
-    ff = _feedforward(vehicle)
+    ff = feedforward(vehicle)
     unknown = unknown_coordinates(vehicle)
     names = VEHICLES[vehicle].coordinates
     nominal = VEHICLES[vehicle].default_parameters()

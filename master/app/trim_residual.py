@@ -14,6 +14,7 @@ import glob
 import os
 import tempfile
 import threading
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,14 @@ SOURCE = Path(__file__).with_name("trim_newton.c")
 _local = threading.local()
 _libraries: dict[str, ctypes.CDLL | None] = {}
 _lock = threading.Lock()
+
+
+@cache
+def feedforward(vehicle: str):
+    """The controller's feedforward (3.18) as a CasADi function (the feasibility check's)."""
+    from ...plant_fmu.codegen import feedforward_function
+
+    return feedforward_function(vehicle)
 
 
 def _gesv():
@@ -47,6 +56,7 @@ def _library(vehicle: str) -> ctypes.CDLL | None:
         if vehicle not in _libraries:
             generator = ca.CodeGenerator(f"tl_trim_{vehicle}.c", {"with_header": False})
             generator.add(residual_function(vehicle))
+            generator.add(feedforward(vehicle))
             with tempfile.TemporaryDirectory(prefix="tiltload-trim-") as tmp:
                 source = Path(tmp) / f"tl_trim_{vehicle}.c"
                 source.write_text(generator.dump())
@@ -111,4 +121,44 @@ def compiled_newton(vehicle: str):
         gesv = _gesv()
         lib = _library(vehicle) if gesv is not None else None
         cached[vehicle] = CompiledNewton(vehicle, lib, gesv) if lib is not None else None
+    return cached[vehicle]
+
+
+class CompiledFeedforward:
+    """trajectory_check's feedforward along the reference, CasADi's map of it done in C (tl_map3): (count, 4)."""
+
+    def __init__(self, vehicle: str, lib: ctypes.CDLL) -> None:
+        f = feedforward(vehicle)
+        name = f.name()
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        getattr(lib, f"{name}_work")(*(ctypes.byref(s) for s in sizes))
+        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
+        self.w = np.zeros(max(sizes[3].value, 1))
+        self.rows = [f.size1_in(k) for k in range(3)]
+        self.nu = f.size1_out(0)
+        self.function = ctypes.cast(getattr(lib, name), ctypes.c_void_p)
+        self.map = lib.tl_map3
+        p, i = ctypes.c_void_p, ctypes.c_int
+        self.map.argtypes = [p, p, i, p, i, p, i, p, i, i, p, p]
+        self.map.restype = i
+
+    def __call__(self, x: np.ndarray, qdd: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """u (count, nu) at the rows of x (count, nx), qdd (count, nq) with the parameters p (np,) for every row."""
+        count = len(x)
+        x, qdd = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(qdd, dtype=float)
+        params = np.ascontiguousarray(np.broadcast_to(np.asarray(p, dtype=float), (count, self.rows[2])))
+        out = np.empty((count, self.nu))
+        status = self.map(self.function, x.ctypes.data, self.rows[0], qdd.ctypes.data, self.rows[1], params.ctypes.data,
+                          self.rows[2], out.ctypes.data, self.nu, count, self.iw.ctypes.data, self.w.ctypes.data)
+        if status:
+            raise RuntimeError(f"the compiled feedforward failed ({status})")
+        return out
+
+
+def compiled_feedforward(vehicle: str):
+    """This thread's compiled feedforward of a vehicle; None when it cannot be built (the caller maps CasADi's)."""
+    cached = _local.__dict__.setdefault("feedforwards", {})
+    if vehicle not in cached:
+        lib = _library(vehicle) if _gesv() is not None else None
+        cached[vehicle] = CompiledFeedforward(vehicle, lib) if lib is not None else None
     return cached[vehicle]

@@ -58,6 +58,21 @@ def test_newton_in_c_takes_python_s_steps_to_the_bit(vehicle):
         assert (a.residual, a.iterations) == (b.residual, b.iterations)
 
 
+@pytest.mark.parametrize("vehicle", ["load", "uav"])
+def test_the_feedforward_mapped_in_c_is_casadi_s_map_to_the_bit(vehicle):
+    from tiltload.master.app.trim_residual import compiled_feedforward, feedforward
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    mapped = compiled_feedforward(vehicle)
+    if mapped is None:
+        pytest.skip("no C compiler")
+    f, rng, n = feedforward(vehicle), np.random.default_rng(5), 300
+    x, qdd = rng.normal(size=(n, f.size1_in(0))), rng.normal(scale=3.0, size=(n, f.size1_in(1)))
+    p = VEHICLES[vehicle].default_parameters()
+    theirs = np.array(f.map(n)(x.T, qdd.T, np.repeat(p[:, None], n, axis=1))).T
+    assert mapped(x, qdd, p).tobytes() == theirs.tobytes()
+
+
 def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_says(monkeypatch):
     from tiltload.master.app.trajectory_check import Limits, check_reference
 
