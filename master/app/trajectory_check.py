@@ -85,7 +85,7 @@ _MOST_REFERENCES = 16
 
 
 def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff):
-    """(the reference's samples at t, the nominal feedforward there), computed once per trajectory and shape (not
+    """(the reference's samples at t, the nominal feedforward there, the trims' reference rows), computed once per trajectory and shape (not
     for a waypoint mission, whose file may change under its name): they depend on nothing else, and every point of
     a search over the plant's or the wind's parameters checks the same reference (read only)."""
     code = int(scenario.get("trajectory", 1))
@@ -104,11 +104,12 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     mapped = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
     u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
         nominal[:, None], t.size, axis=1))).T
+    refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]  # the trims' references
     if key is not None:
         if len(_REFERENCES) >= _MOST_REFERENCES:
             _REFERENCES.pop(next(iter(_REFERENCES)))
-        _REFERENCES[key] = (s, u)
-    return s, u
+        _REFERENCES[key] = (s, u, refs)
+    return s, u, refs
 
 
 def _start(scenario: dict):
@@ -168,8 +169,7 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
-        s, u_ff[lo:lo + t.size] = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
-        refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
+        s, u_ff[lo:lo + t.size], refs = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
         solver = compiled_newton(vehicle)
         if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
             ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)
