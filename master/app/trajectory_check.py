@@ -85,9 +85,10 @@ _MOST_REFERENCES = 16
 
 
 def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff):
-    """(the reference's samples at t, the nominal feedforward there, the trims' reference rows), computed once per trajectory and shape (not
-    for a waypoint mission, whose file may change under its name): they depend on nothing else, and every point of
-    a search over the plant's or the wind's parameters checks the same reference (read only)."""
+    """(the reference's samples at t, the nominal feedforward there, the trims' reference rows), computed once per
+    trajectory and shape (not for a waypoint mission, whose file may change under its name): they depend on nothing
+    else, and every point of a search over the plant's or the wind's parameters checks the same reference (read
+    only)."""
     code = int(scenario.get("trajectory", 1))
     key = (vehicle, code, twin.shape_vector(scenario).tobytes(), lo, t.size, tick) if code != twin.WAYPOINTS else None
     if key is not None and key in _REFERENCES:
@@ -106,10 +107,15 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
         nominal[:, None], t.size, axis=1))).T
     refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]  # the trims' references
     if key is not None:
-        if len(_REFERENCES) >= _MOST_REFERENCES:
-            _REFERENCES.pop(next(iter(_REFERENCES)))
-        _REFERENCES[key] = (s, u, refs)
+        _keep(key, (s, u, refs))
     return s, u, refs
+
+
+def _keep(key: tuple, value) -> None:
+    """Into _REFERENCES, the oldest entry dropped beyond _MOST_REFERENCES."""
+    if len(_REFERENCES) >= _MOST_REFERENCES:
+        _REFERENCES.pop(next(iter(_REFERENCES), None), None)
+    _REFERENCES[key] = value
 
 
 def _start(scenario: dict):
@@ -120,9 +126,7 @@ def _start(scenario: dict):
         return _REFERENCES[key]
     first = twin.evaluate(scenario, [0.0])
     if key is not None:
-        if len(_REFERENCES) >= _MOST_REFERENCES:
-            _REFERENCES.pop(next(iter(_REFERENCES)))
-        _REFERENCES[key] = first
+        _keep(key, first)
     return first
 
 
