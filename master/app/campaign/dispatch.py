@@ -19,6 +19,7 @@ as one task a worker (`even_chunks`).
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -30,7 +31,8 @@ from .errors import CampaignIncomplete
 from .logs import LOGGER
 from .spec import Case
 
-POLL = 0.02  # s between looks at the finished futures
+POLL = 0.02  # s between looks at the finished futures (at most: sooner when one finishes)
+WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
@@ -123,10 +125,23 @@ class Dispatch:
             if batch:
                 last_look, alone_since = time.monotonic(), None
                 continue
-            time.sleep(POLL)
+            self._wait()
             if time.monotonic() - last_look >= HEALTH:
                 last_look = time.monotonic()
                 alone_since = self._look(alone_since)
+
+    def _wait(self) -> None:
+        """Until one of the oldest pending futures finishes, at most POLL s: a search's batch of 8 ms runs is done
+        within a poll, which a sleep would add to every batch (docs/throughput.md)."""
+        from distributed import wait
+
+        try:
+            with self.client.as_current():  # wait() asks for the current client: ours, not a global default
+                wait(list(itertools.islice(self.pending, WATCHED)), timeout=POLL, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            pass
+        except Exception:  # noqa: BLE001  (a lost scheduler, a cancelled future: the loop above says so)
+            time.sleep(POLL)
 
     def _submit(self, *attempts: _Attempt):
         """The future of a task of these runs (several: a chunk of first tries); a run after failures of its
