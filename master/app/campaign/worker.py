@@ -138,8 +138,8 @@ def prepare(base: CampaignBase, case: dict, fmu_dir: str) -> bool:
 def feasibility_verdicts(base: CampaignBase, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
     """The feasibility check's verdicts of the first case of each set of plant parameters the cases vary (at most
     `most` sets), for the client to compute once and hand to every worker in base.feasibility: each worker would
-    otherwise check them itself (seconds each). A case this cannot describe is left to its worker, and so is any verdict
-    missed here (looked up by the same key, computed where missing)."""
+    otherwise check them itself (1-2 ms each, compiled: docs/throughput.md). A case this cannot describe is left to
+    its worker, and so is any verdict missed here (looked up by the same key, computed where missing)."""
     checker = CaseWorker()
     stop = stop_of(base)
     seen: set[tuple] = set()
