@@ -9,6 +9,7 @@ acceleration given, the others at rest) is the trim along a path the feasibility
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from functools import cache
 
@@ -68,13 +69,47 @@ def residual_function(vehicle: str) -> ca.Function:
     return _residual_function(vehicle)
 
 
+class _Residual:
+    """The trim residual called through CasADi's buffer interface (into arrays of ours: no DM made or converted, 25
+    against 67 us a call; the same virtual machine, so the same bits); one per thread, as its arrays are shared."""
+
+    def __init__(self, vehicle: str) -> None:
+        f = residual_function(vehicle)
+        self.buffer, self.call = f.buffer()
+        self.z, self.ref, self.p = (np.zeros(f.nnz_in(k)) for k in range(3))
+        self.r, self.nonzeros = np.zeros(f.nnz_out(0)), np.zeros(f.nnz_out(1))
+        rows, cols = f.sparsity_out(1).get_triplet()
+        self.rows, self.cols, self.shape = np.array(rows), np.array(cols), f.sparsity_out(1).shape
+        for k, a in enumerate((self.z, self.ref, self.p)):
+            self.buffer.set_arg(k, memoryview(a))
+        self.buffer.set_res(0, memoryview(self.r))
+        self.buffer.set_res(1, memoryview(self.nonzeros))
+
+    def __call__(self, z, ref, p) -> tuple[np.ndarray, np.ndarray]:
+        """(residual, its dense Jacobian), new arrays (structural zeros 0.0, as a DM made dense)."""
+        self.z[:], self.ref[:], self.p[:] = z, ref, p
+        self.call()
+        J = np.zeros(self.shape)
+        J[self.rows, self.cols] = self.nonzeros
+        return self.r.copy(), J
+
+
+_local = threading.local()
+
+
+def _residual(vehicle: str) -> _Residual:
+    cached = _local.__dict__.setdefault("residuals", {})
+    if vehicle not in cached:
+        cached[vehicle] = _Residual(vehicle)
+    return cached[vehicle]
+
+
 def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: float, max_iter: int):
     """Newton's method on the trim residual from z: (z, residual, iterations), or None when it does not reach tol
     within max_iter (or meets a singular Jacobian or a value that is not finite)."""
-    f = residual_function(vehicle)
+    f = _residual(vehicle)
     for it in range(1, max_iter + 1):
-        r, J = (np.array(a) for a in f(z, ref, p))
-        r = r.ravel()
+        r, J = f(z, ref, p)
         if not np.all(np.isfinite(r)):
             return None
         res = float(np.max(np.abs(r)))
@@ -88,9 +123,10 @@ def newton(vehicle: str, z: np.ndarray, ref: np.ndarray, p: np.ndarray, tol: flo
 
 
 def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0, 0.0),
-               tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load") -> Trim:
+               tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load", solve=None) -> Trim:
     """Solve the hover trim at yaw psi; raise TrimError if Newton does not converge.
-    p: the vehicle's own parameter vector (default: Table 5.1)."""
+    p: the vehicle's own parameter vector (default: Table 5.1). solve(z, ref, p, tol, max_iter): newton's steps taken
+    elsewhere, the same bits (the feasibility check's, compiled: master/app/trim_residual.py); None: newton."""
     v = VEHICLES[vehicle]
     p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
     full = np.array(ca.DM(v.full_parameters(ca.DM(p)))).ravel()
@@ -101,7 +137,8 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
     unknown = unknown_coordinates(vehicle)
     z = np.zeros(v.nq)
     z[len(unknown):len(unknown) + 2] = weight / 2
-    found = newton(vehicle, z, np.r_[pos, np.zeros(7)], p, tol, max_iter)
+    ref = np.r_[pos, np.zeros(7)]
+    found = solve(z, ref, p, tol, max_iter) if solve is not None else newton(vehicle, z, ref, p, tol, max_iter)
     if found is None:
         raise TrimError(f"hover trim did not converge in {max_iter} iterations")
     z, res, it = found

@@ -20,28 +20,50 @@ def limits_of(system) -> Limits:
     return Limits(**given)
 
 
-def vehicle_of(system) -> str | None:
-    """load or uav from the plant instance's FMU (TiltloadPlant or TiltrotorUAV), None for another plant."""
+_IDENTIFIERS: dict[str, tuple] = {}  # FMU path -> (its size, mtime, inode, its co-simulation model identifier)
+
+
+def model_identifier(path, instance: str) -> str | None:
+    """The co-simulation model identifier of an FMU (None: it has none), its model description read once per version of
+    the file (size, modification time, inode): a worker checks one set of FMUs for every case (3 ms a read). Raises as
+    read_fmu does."""
+    import os
+
     from ..engine.model_description import read_fmu
 
     try:
+        st = os.stat(path)
+        seen = (st.st_size, st.st_mtime_ns, st.st_ino)
+    except OSError:
+        seen = None
+    known = _IDENTIFIERS.get(str(path))
+    if seen is not None and known is not None and known[0] == seen:
+        return known[1]
+    md = read_fmu(path, instance)
+    identifier = md.coSimulation.modelIdentifier if md.coSimulation else None
+    if seen is not None:
+        _IDENTIFIERS[str(path)] = (seen, identifier)
+    return identifier
+
+
+def vehicle_of(system) -> str | None:
+    """load or uav from the plant instance's FMU (TiltloadPlant or TiltrotorUAV), None for another plant."""
+    try:
         plant = system.instance("plant")
-        md = read_fmu(plant.fmu, "plant")
+        identifier = model_identifier(plant.fmu, "plant")
     except Exception:
         return None
-    return {"TiltloadPlant": "load", "TiltrotorUAV": "uav"}.get(md.coSimulation.modelIdentifier if md.coSimulation else "")
+    return {"TiltloadPlant": "load", "TiltrotorUAV": "uav"}.get(identifier or "")
 
 
 def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Report | None:
     """The check of a loop system (our scenario and plant FMUs), or None when it is not one this check knows."""
-    from ..engine.model_description import read_fmu
-
     vehicle = vehicle_of(system)
     try:
-        md = read_fmu(system.instance("scenario").fmu, "scenario")
+        identifier = model_identifier(system.instance("scenario").fmu, "scenario")
     except Exception:
         return None
-    if vehicle is None or md.coSimulation is None or md.coSimulation.modelIdentifier != "TiltloadScenario":
+    if vehicle is None or identifier != "TiltloadScenario":
         return None
     scenario = system.instance("scenario").parameters
     plant = {k: v for k, v in system.instance("plant").parameters.items() if k in P.PARAMETER_NAMES}
@@ -72,16 +94,14 @@ def nominal_design_note(changed: dict[str, float], kind: str) -> str:
 
 def _our_design(system) -> tuple[str, int] | None:
     """(dlqr or mixed, loop delay) of our controller FMU in the system; None for a third party's."""
-    from ..engine.model_description import read_fmu
-
     try:
         ctrl = system.instance("controller")
-        md = read_fmu(ctrl.fmu, "controller")
+        identifier = model_identifier(ctrl.fmu, "controller")
     except Exception:
         return None
-    if md.coSimulation is None or md.coSimulation.modelIdentifier not in ("TiltloadController", "TiltrotorController"):
+    if identifier not in ("TiltloadController", "TiltrotorController"):
         return None
-    kind = str(ctrl.parameters.get("controller", "dlqr" if md.coSimulation.modelIdentifier == "TiltrotorController" else "mixed"))
+    kind = str(ctrl.parameters.get("controller", "dlqr" if identifier == "TiltrotorController" else "mixed"))
     return (kind, int(ctrl.parameters.get("loop_delay_ticks", 0))) if kind in ("dlqr", "mixed") else None
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cache
+from functools import lru_cache
 
 import numpy as np
 
@@ -51,20 +51,16 @@ class Report:
         return not self.problems
 
 
-@cache
-def _feedforward(vehicle: str):
-    """The controller's feedforward (3.18) as a CasADi function."""
-    from ...plant_fmu.codegen import feedforward_function
-
-    return feedforward_function(vehicle)
 
 
 def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
     """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
     strays (a solution far from the previous one is another branch: the vehicle upside down)."""
     from ...plant_fmu.trim import newton
+    from .trim_residual import compiled_newton
 
-    found = newton(vehicle, z_prev, ref, p, 1e-9, 20)
+    solve = compiled_newton(vehicle)  # the same steps in C, the same bits (trim_residual.py)
+    found = solve(z_prev, ref, p, 1e-9, 20) if solve is not None else newton(vehicle, z_prev, ref, p, 1e-9, 20)
     if found is not None and np.max(np.abs(found[0][:n_angles] - z_prev[:n_angles])) < 0.3:
         return found[0]
     if depth >= 8:
@@ -72,6 +68,66 @@ def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0)
     middle = 0.5 * (ref_prev + ref)
     z_mid = _trim(vehicle, z_prev, ref_prev, middle, p, n_angles, depth + 1)
     return None if z_mid is None else _trim(vehicle, z_mid, middle, ref, p, n_angles, depth + 1)
+
+
+@lru_cache(maxsize=64)
+def _hover(vehicle: str, p: bytes):
+    """The hover trim of a parameter vector (its bytes), solved once per vector: a search over other inputs checks
+    the same plant again and again (read only)."""
+    from ...plant_fmu.trim import hover_trim
+    from .trim_residual import compiled_newton
+
+    return hover_trim(np.frombuffer(p), vehicle=vehicle, solve=compiled_newton(vehicle))
+
+
+_REFERENCES: dict[tuple, tuple] = {}  # the reference's samples and feedforward of a chunk, by what decides them
+_MOST_REFERENCES = 16
+
+
+def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff):
+    """(the reference's samples at t, the nominal feedforward there, the trims' reference rows), computed once per
+    trajectory and shape (not for a waypoint mission, whose file may change under its name): they depend on nothing
+    else, and every point of a search over the plant's or the wind's parameters checks the same reference (read
+    only)."""
+    code = int(scenario.get("trajectory", 1))
+    key = (vehicle, code, twin.shape_vector(scenario).tobytes(), lo, t.size, tick) if code != twin.WAYPOINTS else None
+    if key is not None and key in _REFERENCES:
+        return _REFERENCES[key]
+    nq = VEHICLES[vehicle].nq
+    s = twin.evaluate(scenario, t)
+    x = np.tile(hover.x, (t.size, 1))
+    x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
+    x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
+    qdd = np.zeros((t.size, nq))
+    qdd[:, 0:3] = s.a
+    from .trim_residual import compiled_feedforward
+
+    mapped = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
+    u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
+        nominal[:, None], t.size, axis=1))).T
+    refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]  # the trims' references
+    if key is not None:
+        _keep(key, (s, u, refs))
+    return s, u, refs
+
+
+def _keep(key: tuple, value) -> None:
+    """Into _REFERENCES, the oldest entry dropped beyond _MOST_REFERENCES."""
+    if len(_REFERENCES) >= _MOST_REFERENCES:
+        _REFERENCES.pop(next(iter(_REFERENCES), None), None)
+    _REFERENCES[key] = value
+
+
+def _start(scenario: dict):
+    """The reference's sample at t = 0, once per trajectory and shape (as _reference)."""
+    code = int(scenario.get("trajectory", 1))
+    key = ("start", code, twin.shape_vector(scenario).tobytes()) if code != twin.WAYPOINTS else None
+    if key is not None and key in _REFERENCES:
+        return _REFERENCES[key]
+    first = twin.evaluate(scenario, [0.0])
+    if key is not None:
+        _keep(key, first)
+    return first
 
 
 def _vector(vehicle: str, overrides: dict) -> np.ndarray:
@@ -90,18 +146,18 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
     stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
-    from ...plant_fmu.trim import TrimError, hover_trim, unknown_coordinates
+    from ...plant_fmu.trim import TrimError, unknown_coordinates
+    from .trim_residual import compiled_newton, feedforward
 
-    ff = _feedforward(vehicle)
+    ff = feedforward(vehicle)
     unknown = unknown_coordinates(vehicle)
-    nq = VEHICLES[vehicle].nq
     names = VEHICLES[vehicle].coordinates
     nominal = VEHICLES[vehicle].default_parameters()
     actual = _vector(vehicle, plant or {})
     report = Report()
     try:
-        hover = hover_trim(nominal, vehicle=vehicle)
-        hover_actual = hover_trim(actual, vehicle=vehicle)
+        hover = _hover(vehicle, nominal.tobytes())
+        hover_actual = _hover(vehicle, actual.tobytes())
     except (TrimError, ValueError) as err:
         report.problems.append(f"the plant has no hover trim with these parameters ({err})")
         return report
@@ -110,22 +166,28 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     n_angles = len(unknown)
     u_ff = np.empty((n, 4))
     z = np.r_[hover_actual.x[unknown], hover_actual.u]
-    first = twin.evaluate(scenario, [0.0])
+    first = _start(scenario)
     previous = np.zeros(11)
     previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
     trims, times, failed = [], [], False
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
-        s = twin.evaluate(scenario, t)
-        x = np.tile(hover.x, (t.size, 1))
-        x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
-        x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
-        qdd = np.zeros((t.size, nq))
-        qdd[:, 0:3] = s.a
-        u_ff[lo:lo + t.size] = np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(nominal[:, None], t.size, axis=1))).T
-        refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]
-        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY):
+        s, u_ff[lo:lo + t.size], refs = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
+        solver = compiled_newton(vehicle)
+        if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
+            ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)
+            found = solver.path(z, previous, refs[ks], actual, n_angles, 1e-9, 20)
+            trims.extend(found)
+            times.extend(t[ks[:len(found)]])
+            if len(found):
+                z, previous = found[-1], refs[ks[len(found) - 1]]
+            if len(found) < len(ks):
+                k = ks[len(found)]
+                report.problems.append(f"no steady attitude carries the load's acceleration of {np.linalg.norm(s.a[k]):.3g} "
+                                       f"m/s2 at t = {t[k]:.2f} s")
+                failed = True
+        for k in range((-lo) % TRIM_EVERY, t.size, TRIM_EVERY) if solver is None else ():
             if failed:
                 break
             found = _trim(vehicle, z, previous, refs[k], actual, n_angles)

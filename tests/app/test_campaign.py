@@ -629,7 +629,7 @@ def test_a_bad_branching_spec_is_one_line_before_any_run(fmus, tmp_path, capfd, 
 def test_the_client_s_feasibility_verdicts_are_the_check_s_and_a_worker_uses_them(fmus, tmp_path):
     from tiltload.master.app.campaign.case_system import case_system, flight_of
     from tiltload.master.app.campaign.run_case import run_case
-    from tiltload.master.app.campaign.worker import CaseWorker, feasibility_verdicts
+    from tiltload.master.app.campaign.worker import CaseWorker, checked_plant, feasibility_verdicts
     from tiltload.master.app.feasibility import check_system
 
     c = campaign_spec.load(write_spec(tmp_path))
@@ -640,7 +640,7 @@ def test_the_client_s_feasibility_verdicts_are_the_check_s_and_a_worker_uses_the
     for case in cases[:: len(cases) // 3]:  # the check itself, on the case's own system
         system = case_system(fmus, base, case["controller"], case["seed"], case["parameters"])
         report = check_system(system, base.stop_time, flight.max_tilt)
-        key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance("plant").parameters.items())), base.stop_time)
+        key = (flight, checked_plant(system.instance("plant").parameters), base.stop_time)
         assert verdicts[key] == (report.problems[0] if report is not None and report.problems else None)
     planted = {key: "planted by the client" for key in verdicts}  # a worker takes the client's word, not its own check
     outcome = run_case(replace(base, feasibility=planted), cases[0], str(fmus), None, worker=CaseWorker(keep=False))

@@ -13,11 +13,13 @@ With `chunked`, several runs go to a task (`run_chunk`): a task costs the client
 ms of messages and (de)serialization, as much as a short run's simulation. Their sizes shrink as the runs left do
 (guided self-scheduling, `chunk_sizes`): the first tasks carry several runs, the last one each, so that no worker is
 left with a long task when the others are done. A task's outcomes are stored together (`store_many`: one Parquet
-part); a run whose environment failed is tried again alone.
+part); a run whose environment failed is tried again alone. A search's batch, whose runs are awaited together, goes
+as one task a worker (`even_chunks`).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -29,7 +31,8 @@ from .errors import CampaignIncomplete
 from .logs import LOGGER
 from .spec import Case
 
-POLL = 0.02  # s between looks at the finished futures
+POLL = 0.02  # s between looks at the finished futures (at most: sooner when one finishes)
+WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
@@ -43,6 +46,14 @@ def chunk_sizes(runs: int, workers: int) -> list[int]:
         sizes.append(min(MOST, max(1, math.ceil(left / (PER_WORKER * max(workers, 1))))))
         left -= sizes[-1]
     return sizes
+
+
+def even_chunks(runs: int, workers: int) -> list[int]:
+    """Sizes of the tasks that carry a batch whose runs are all awaited together (a search's batch): one task a worker
+    (more when that is more than MOST runs a task), as equal as they can be (the larger first), so that a batch costs
+    each worker one task's messages, not one a run."""
+    tasks = max(1, min(runs, max(workers, math.ceil(runs / MOST))))
+    return [runs // tasks + (k < runs % tasks) for k in range(tasks)] if runs else []
 
 
 def run_chunk(task: Callable[..., dict], cases: list[dict], **shared) -> list[dict]:
@@ -72,9 +83,11 @@ class Dispatch:
     def __init__(self, client, task: Callable[[dict], dict], store: Callable[[dict], None], where: str, total: int,
                  done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
                  shared: dict | None = None, chunked: bool = False,
-                 store_many: Callable[[list[dict]], None] | None = None) -> None:
+                 store_many: Callable[[list[dict]], None] | None = None,
+                 sizes: Callable[[int, int], list[int]] = chunk_sizes) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
-        self.chunked = chunked  # several runs a task (chunk_sizes)
+        self.chunked = chunked  # several runs a task (sizes(runs, workers): chunk_sizes, or even_chunks for a batch)
+        self.sizes = sizes
         self.store_many = store_many  # stores a task's outcomes at once (default: store, one by one)
         self.shared = shared or {}  # keyword arguments of every run: futures of data scattered once (a snapshot)
         self.total, self.done_before = total, done_before
@@ -95,7 +108,7 @@ class Dispatch:
             self._lost()
         started = time.perf_counter()
         attempts = [_Attempt(case) for case in cases]
-        sizes = chunk_sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
+        sizes = self.sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
         at = 0
         for size in sizes:
             self._submit(*attempts[at:at + size])
@@ -112,10 +125,23 @@ class Dispatch:
             if batch:
                 last_look, alone_since = time.monotonic(), None
                 continue
-            time.sleep(POLL)
+            self._wait()
             if time.monotonic() - last_look >= HEALTH:
                 last_look = time.monotonic()
                 alone_since = self._look(alone_since)
+
+    def _wait(self) -> None:
+        """Until one of the oldest pending futures finishes, at most POLL s: a search's batch of 8 ms runs is done
+        within a poll, which a sleep would add to every batch (docs/throughput.md)."""
+        from distributed import wait
+
+        try:
+            with self.client.as_current():  # wait() asks for the current client: ours, not a global default
+                wait(list(itertools.islice(self.pending, WATCHED)), timeout=POLL, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            pass
+        except Exception:  # noqa: BLE001  (a lost scheduler, a cancelled future: the loop above says so)
+            time.sleep(POLL)
 
     def _submit(self, *attempts: _Attempt):
         """The future of a task of these runs (several: a chunk of first tries); a run after failures of its

@@ -20,6 +20,7 @@ import stat
 import zipfile
 from pathlib import Path
 
+from ....plant_fmu.parameters import PARAMETER_NAMES
 from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.lifecycle import ExecutionPool
 from ..feasibility import check_system
@@ -28,6 +29,7 @@ from ..loop import PLANT
 from .case_system import case_system, flight_of, stop_of
 from .spec import CampaignBase, Flight
 
+CHECKED = frozenset((*PARAMETER_NAMES, "f_min", "f_max", "tau_max"))  # feasibility.check_system's plant parameters
 RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
 ATTRIBUTE = "tiltload_cases"  # the Dask worker's attribute that holds its CaseWorker
 
@@ -52,7 +54,7 @@ class CaseWorker:
 
     def infeasible(self, system, stop: float, flight: Flight) -> str | None:
         """The feasibility check's first problem for this case (None: it may run), once per reference and plant."""
-        key = (flight, tuple(sorted((k, repr(v)) for k, v in system.instance(PLANT).parameters.items())), stop)
+        key = (flight, checked_plant(system.instance(PLANT).parameters), stop)
         if key not in self.verdicts:
             report = check_system(system, stop, flight.max_tilt)
             self.verdicts[key] = report.problems[0] if report is not None and report.problems else None
@@ -106,6 +108,12 @@ class CaseWorker:
         return self.pool.prepare(system, is_foreign)
 
 
+def checked_plant(parameters: dict) -> tuple:
+    """The plant parameters the feasibility check reads (feasibility.check_system: the physical ones and the limits),
+    as a key: a case that changes only others (an initial offset, plant.x_0) has the verdict of one that does not."""
+    return tuple(sorted((k, repr(v)) for k, v in parameters.items() if k in CHECKED))
+
+
 def this_worker() -> CaseWorker:
     """The CaseWorker of the Dask worker running this (made on its first task); outside a worker, a new one that keeps
     no execution (a caller that runs many cases in its own process makes a CaseWorker and passes it)."""
@@ -130,13 +138,13 @@ def prepare(base: CampaignBase, case: dict, fmu_dir: str) -> bool:
 def feasibility_verdicts(base: CampaignBase, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
     """The feasibility check's verdicts of the first case of each set of plant parameters the cases vary (at most
     `most` sets), for the client to compute once and hand to every worker in base.feasibility: each worker would
-    otherwise check them itself (seconds each). A case this cannot describe is left to its worker, and so is any verdict
-    missed here (looked up by the same key, computed where missing)."""
+    otherwise check them itself (1-2 ms each, compiled: docs/throughput.md). A case this cannot describe is left to
+    its worker, and so is any verdict missed here (looked up by the same key, computed where missing)."""
     checker = CaseWorker()
     stop = stop_of(base)
     seen: set[tuple] = set()
     for case in cases:
-        plant = tuple(sorted((k, repr(v)) for k, v in case["parameters"].items() if k.startswith(f"{PLANT}.")))
+        plant = checked_plant({k.partition(".")[2]: v for k, v in case["parameters"].items() if k.startswith(f"{PLANT}.")})
         if plant in seen or len(seen) >= most:
             continue
         seen.add(plant)

@@ -64,15 +64,16 @@ def check_names(spec: Falsification, fmus: Path) -> None:
 
 def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2):
     """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster."""
-    from ..campaign.dispatch import Dispatch, Policy
+    from ..campaign.dispatch import Dispatch, Policy, even_chunks
     from .evaluate import evaluate
 
     task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
 
     def run(cases: list[dict]) -> dict[str, dict]:
         got: dict[str, dict] = {}
+        # the batch as one task a worker: a task costs a worker about 2.4 ms of Dask's messages (docs/throughput.md)
         dispatch = Dispatch(client, task, lambda result: got.__setitem__(result["row"]["run_id"], result["row"]), where,
-                            len(cases), 0, Policy(retries=retries))
+                            len(cases), 0, Policy(retries=retries), chunked=True, sizes=even_chunks)
         dispatch.run([Case(c["run_id"], base.controller, base.seed, c["values"], c["parameters"]) for c in cases])
         return got
     return run

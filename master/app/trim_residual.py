@@ -1,0 +1,164 @@
+"""The feasibility check's Newton steps (plant_fmu.trim.newton) in C: CasADi's code generator writes the trim residual
+and its Jacobian (plant_fmu.trim.residual_function), trim_newton.c takes the steps and solves with the LAPACK dgesv
+numpy's linalg.solve itself calls (its address taken from numpy's own library), built once per machine
+(engine/native/kernel.compiled: cached by the sources' digest) and called with ctypes. The same operations on the same
+values in the same order (-ffp-contract=off: no fused multiply-add), so the same trims to the last bit
+(tests/app/test_throughput.py); the trims along a path go in one call (tl_trim_path: trajectory_check._trim's
+halving too). A plant's check takes about 1 ms where Python's steps took 40. Without a C compiler, or a numpy
+whose dgesv cannot be found, plant_fmu.trim.newton runs."""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import tempfile
+import threading
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+
+from ..engine.native.kernel import CFLAGS, KernelError, compiled
+
+FLAGS = tuple(f for f in CFLAGS if f not in ("-fvisibility=hidden", "-Wall", "-Wextra"))  # CasADi's generated code
+SOURCE = Path(__file__).with_name("trim_newton.c")
+_local = threading.local()
+_libraries: dict[str, ctypes.CDLL | None] = {}
+_lock = threading.Lock()
+
+
+@cache
+def feedforward(vehicle: str):
+    """The controller's feedforward (3.18) as a CasADi function (the feasibility check's)."""
+    from ...plant_fmu.codegen import feedforward_function
+
+    return feedforward_function(vehicle)
+
+
+def _gesv():
+    """numpy's own LAPACK dgesv (its bundled OpenBLAS, 64-bit integers), or None."""
+    libs = glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "libscipy_openblas64_*.so"))
+    for path in libs:
+        try:
+            return ctypes.CDLL(path).scipy_dgesv_64_
+        except (OSError, AttributeError):
+            continue
+    return None
+
+
+def _library(vehicle: str) -> ctypes.CDLL | None:
+    import casadi as ca
+
+    from ...plant_fmu.trim import residual_function
+
+    with _lock:
+        if vehicle not in _libraries:
+            generator = ca.CodeGenerator(f"tl_trim_{vehicle}.c", {"with_header": False})
+            generator.add(residual_function(vehicle))
+            generator.add(feedforward(vehicle))
+            with tempfile.TemporaryDirectory(prefix="tiltload-trim-") as tmp:
+                source = Path(tmp) / f"tl_trim_{vehicle}.c"
+                source.write_text(generator.dump())
+                try:
+                    _libraries[vehicle] = compiled(f"tl_trim_{vehicle}", [source, SOURCE], FLAGS, ("m",))
+                except KernelError:
+                    _libraries[vehicle] = None
+        return _libraries[vehicle]
+
+
+class CompiledNewton:
+    """newton(vehicle, z, ref, p, tol, max_iter) of plant_fmu.trim for one vehicle, in C; one per thread (its work
+    arrays)."""
+
+    def __init__(self, vehicle: str, lib: ctypes.CDLL, gesv) -> None:
+        from ...plant_fmu.trim import residual_function
+
+        f = residual_function(vehicle)
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        lib.trim_residual_work(*(ctypes.byref(s) for s in sizes))
+        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
+        self.w = np.zeros(max(sizes[3].value, 1))
+        rows, cols = f.sparsity_out(1).get_triplet()
+        self.n = f.nnz_in(0)
+        self.dense = np.array([c * f.size1_out(1) + r for r, c in zip(rows, cols)], dtype=np.int64)  # column-major
+        self.gesv = ctypes.cast(gesv, ctypes.c_void_p)
+        self.function = lib.tl_trim_newton
+        p, i = ctypes.c_void_p, ctypes.c_int
+        self.function.argtypes = [p, p, p, i, p, i, ctypes.c_double, i, p, p, p, ctypes.POINTER(ctypes.c_double),
+                                  ctypes.POINTER(ctypes.c_int)]
+        self.function.restype = i
+        self.residual, self.iterations = ctypes.c_double(), ctypes.c_int()
+        self.path_function = lib.tl_trim_path
+        self.path_function.argtypes = [p, p, p, i, p, i, i, p, i, ctypes.c_double, i, p, p, p, p]
+        self.path_function.restype = i
+        self.z, self.ref, self.p = np.zeros(self.n), np.zeros(f.nnz_in(1)), np.zeros(f.nnz_in(2))
+        self.addresses = [a.ctypes.data for a in (self.z, self.ref, self.p, self.dense, self.iw, self.w)]
+
+    def path(self, z, previous, refs: np.ndarray, p, n_angles: int, tol: float, max_iter: int) -> np.ndarray:
+        """trajectory_check's trims at each row of refs, each from the one before (z at previous first): the rows found
+        (fewer than refs': none at the next)."""
+        refs = np.ascontiguousarray(refs, dtype=float)
+        z, previous, p = (np.ascontiguousarray(a, dtype=float) for a in (z, previous, p))
+        trims = np.empty((len(refs), self.n))
+        at = self.addresses
+        done = self.path_function(z.ctypes.data, previous.ctypes.data, refs.ctypes.data, len(refs), p.ctypes.data, self.n,
+                                  n_angles, at[3], len(self.dense), tol, max_iter, self.gesv, at[4], at[5], trims.ctypes.data)
+        return trims[:done]
+
+    def __call__(self, z, ref, p, tol: float, max_iter: int):
+        self.z[:], self.ref[:], self.p[:] = z, ref, p
+        at = self.addresses
+        ok = self.function(at[0], at[1], at[2], self.n, at[3], len(self.dense), tol, max_iter, self.gesv, at[4], at[5],
+                           ctypes.byref(self.residual), ctypes.byref(self.iterations))
+        return (self.z.copy(), float(self.residual.value), int(self.iterations.value)) if ok else None  # a new z
+
+
+def compiled_newton(vehicle: str):
+    """This thread's compiled Newton of a vehicle; None when it cannot be built (the caller uses plant_fmu.trim's)."""
+    cached = _local.__dict__.setdefault("newtons", {})
+    if vehicle not in cached:
+        gesv = _gesv()
+        lib = _library(vehicle) if gesv is not None else None
+        cached[vehicle] = CompiledNewton(vehicle, lib, gesv) if lib is not None else None
+    return cached[vehicle]
+
+
+class CompiledFeedforward:
+    """trajectory_check's feedforward along the reference, CasADi's map of it done in C (tl_map3): (count, 4)."""
+
+    def __init__(self, vehicle: str, lib: ctypes.CDLL) -> None:
+        f = feedforward(vehicle)
+        name = f.name()
+        sizes = [ctypes.c_longlong() for _ in range(4)]
+        getattr(lib, f"{name}_work")(*(ctypes.byref(s) for s in sizes))
+        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
+        self.w = np.zeros(max(sizes[3].value, 1))
+        self.rows = [f.size1_in(k) for k in range(3)]
+        self.nu = f.size1_out(0)
+        self.function = ctypes.cast(getattr(lib, name), ctypes.c_void_p)
+        self.map = lib.tl_map3
+        p, i = ctypes.c_void_p, ctypes.c_int
+        self.map.argtypes = [p, p, i, p, i, p, i, p, i, i, p, p]
+        self.map.restype = i
+
+    def __call__(self, x: np.ndarray, qdd: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """u (count, nu) at the rows of x (count, nx), qdd (count, nq) with the parameters p (np,) for every row."""
+        count = len(x)
+        x, qdd = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(qdd, dtype=float)
+        params = np.ascontiguousarray(np.broadcast_to(np.asarray(p, dtype=float), (count, self.rows[2])))
+        out = np.empty((count, self.nu))
+        status = self.map(self.function, x.ctypes.data, self.rows[0], qdd.ctypes.data, self.rows[1], params.ctypes.data,
+                          self.rows[2], out.ctypes.data, self.nu, count, self.iw.ctypes.data, self.w.ctypes.data)
+        if status:
+            raise RuntimeError(f"the compiled feedforward failed ({status})")
+        return out
+
+
+def compiled_feedforward(vehicle: str):
+    """This thread's compiled feedforward of a vehicle; None when it cannot be built (the caller maps CasADi's)."""
+    cached = _local.__dict__.setdefault("feedforwards", {})
+    if vehicle not in cached:
+        lib = _library(vehicle) if _gesv() is not None else None
+        cached[vehicle] = CompiledFeedforward(vehicle, lib) if lib is not None else None
+    return cached[vehicle]

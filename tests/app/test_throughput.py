@@ -1,0 +1,145 @@
+"""Issue 52's cheaper evaluations give what the plain ones give, bit for bit: the feasibility check's Newton steps in C
+against plant_fmu.trim.newton (CasADi's virtual machine, numpy's solve), the check's caches against a check without
+them, a search's rows on a warm worker (pooled executions, cached verdicts, compiled trims) against each point run
+alone the plain way; and the batches' task sizes (docs/throughput.md)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+TIMING = ("wall_s", "cpu_s", "worker")
+
+
+def plain(monkeypatch):
+    """The check as it was: Python's Newton steps, nothing cached."""
+    from tiltload.master.app import feasibility, trajectory_check, trim_residual
+
+    monkeypatch.setattr(trim_residual, "compiled_newton", lambda vehicle: None)
+    trajectory_check._hover.cache_clear()
+    trajectory_check._REFERENCES.clear()
+    feasibility._IDENTIFIERS.clear()
+
+
+@pytest.mark.parametrize("vehicle", ["load", "uav"])
+def test_newton_in_c_takes_python_s_steps_to_the_bit(vehicle):
+    from tiltload.master.app.trim_residual import compiled_newton
+    from tiltload.plant_fmu.trim import hover_trim, newton, unknown_coordinates
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    solve = compiled_newton(vehicle)
+    if solve is None:
+        pytest.skip("no C compiler")
+    p = VEHICLES[vehicle].default_parameters()
+    hover = hover_trim(p, vehicle=vehicle)
+    start = np.r_[hover.x[unknown_coordinates(vehicle)], hover.u]
+    rng = np.random.default_rng(7)
+    outcomes = {"converged": 0, "not": 0}
+    for _ in range(150):
+        z = start + rng.normal(scale=rng.choice([0.01, 0.3, 3.0]), size=start.size)  # near, farther, hopeless
+        ref = np.r_[rng.normal(size=4), rng.normal(scale=0.5, size=4), rng.normal(scale=rng.choice([0.5, 20.0]), size=3)]
+        q = p * rng.uniform(0.5, 2.0, size=p.size)
+        theirs, ours = newton(vehicle, z, ref, q, 1e-9, 20), solve(z, ref, q, 1e-9, 20)
+        assert (theirs is None) == (ours is None)
+        if theirs is not None:
+            assert theirs[0].tobytes() == ours[0].tobytes() and theirs[1:] == ours[1:]
+        outcomes["converged" if theirs is not None else "not"] += 1
+    assert min(outcomes.values()) > 0, outcomes  # both ways of ending were compared
+    for scale in (1.0, 1.3, 0.7):  # the first mass of the vehicle's parameters (the load's or the UAV's)
+        q = p.copy()
+        q[0] *= scale
+        a, b = hover_trim(q, 0.4, vehicle=vehicle, solve=solve), hover_trim(q, 0.4, vehicle=vehicle)
+        assert a.x.tobytes() == b.x.tobytes() and a.u.tobytes() == b.u.tobytes()
+        assert (a.residual, a.iterations) == (b.residual, b.iterations)
+
+
+@pytest.mark.parametrize("vehicle", ["load", "uav"])
+def test_the_feedforward_mapped_in_c_is_casadi_s_map_to_the_bit(vehicle):
+    from tiltload.master.app.trim_residual import compiled_feedforward, feedforward
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    mapped = compiled_feedforward(vehicle)
+    if mapped is None:
+        pytest.skip("no C compiler")
+    f, rng, n = feedforward(vehicle), np.random.default_rng(5), 300
+    x, qdd = rng.normal(size=(n, f.size1_in(0))), rng.normal(scale=3.0, size=(n, f.size1_in(1)))
+    p = VEHICLES[vehicle].default_parameters()
+    theirs = np.array(f.map(n)(x.T, qdd.T, np.repeat(p[:, None], n, axis=1))).T
+    assert mapped(x, qdd, p).tobytes() == theirs.tobytes()
+
+
+def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_says(monkeypatch):
+    from tiltload.master.app.trajectory_check import Limits, check_reference
+
+    rng = np.random.default_rng(3)
+    cases = [({"trajectory": int(rng.integers(1, 4))}, {"m_L": float(rng.uniform(0.01, 8)), "l": float(rng.uniform(0.2, 1.5))},
+              Limits(max_tilt=float(rng.uniform(1, 30)))) for _ in range(12)]
+
+    def reports():
+        return [vars(check_reference(s, 20.0, "load", plant, limits, design=("mixed", 0))) for s, plant, limits in cases]
+
+    ours = reports() + reports()  # the second time from the caches
+    plain(monkeypatch)
+    theirs = reports()
+    assert ours == theirs + theirs
+    assert any(r["problems"] for r in theirs) and any(not r["problems"] for r in theirs)  # refusals and passes compared
+
+
+def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
+    from tiltload.master.app.campaign.case_system import case_system
+    from tiltload.master.app.campaign.worker import CaseWorker
+    from tiltload.master.app.falsify.spec import load
+    from tiltload.master.app.feasibility import check_system
+
+    base = load(ROOT / "docs" / "falsification" / "tracking_wind_load.toml").base()
+    systems = [case_system(fmus, base, "mixed", 1, {"plant.m_L": 3.0, "plant.x_0": x}) for x in (1.7, 1.9)]
+    a, b = (vars(check_system(s, 8.1)) for s in systems)
+    assert a == b  # the check reads no initial position: one verdict serves both
+    worker = CaseWorker(keep=False)
+    verdicts = [worker.infeasible(s, 8.1, base.trajectory) for s in systems]
+    assert len(worker.verdicts) == 1 and verdicts[0] == verdicts[1]
+
+
+@pytest.mark.parametrize("spec", ["tracking_wind_load", "altitude_thrust_loss"])
+def test_a_search_s_rows_on_a_warm_worker_are_each_point_s_run_alone_the_plain_way(fmus, spec, monkeypatch):
+    from tiltload.master.app.campaign.worker import CaseWorker
+    from tiltload.master.app.falsify.evaluate import evaluate
+    from tiltload.master.app.falsify.runner import make_case
+    from tiltload.master.app.falsify.space import values_at
+    from tiltload.master.app.falsify.spec import load
+
+    spec = load(ROOT / "docs" / "falsification" / f"{spec}.toml")
+    base = replace(spec.base(), early_stop=True)
+    rng = np.random.default_rng(11)
+    cases = [make_case(base)(f"r{i}", values_at(spec.dimensions, rng.random(len(spec.dimensions)))) for i in range(8)]
+    warm = CaseWorker()
+    try:
+        ours = [evaluate(base, case, str(fmus), warm)["row"] for case in cases]
+    finally:
+        warm.close()
+    assert warm.pool.instantiated == 1  # every later point restarted the pooled execution
+    plain(monkeypatch)
+    theirs = [evaluate(base, case, str(fmus), CaseWorker(keep=False))["row"] for case in cases]
+    for a, b in zip(ours, theirs):
+        assert a.keys() == b.keys()
+        for key in a:
+            if key not in TIMING:
+                same = a[key] == b[key] or (isinstance(a[key], float) and math.isnan(a[key]) and math.isnan(b[key]))
+                assert same, (key, a[key], b[key])
+
+
+def test_a_batch_goes_as_one_task_a_worker_of_equal_sizes():
+    from tiltload.master.app.campaign.dispatch import MOST, even_chunks
+
+    for runs in range(0, 70):
+        for workers in range(1, 6):
+            sizes = even_chunks(runs, workers)
+            assert sum(sizes) == runs and all(s > 0 for s in sizes)
+            if runs:
+                assert max(sizes) - min(sizes) <= 1 and max(sizes) <= max(MOST, math.ceil(runs / workers))
+                assert len(sizes) == min(runs, max(workers, math.ceil(runs / MOST)))
