@@ -9,8 +9,9 @@ outcomes are first written to a part, <out>/parts/<first run id>+<count>-<unique
 (killed, or its scheduler gone) and started again runs only what is missing. Only outcomes are
 parts: a run whose environment failed, or whose future was cancelled, is not (dispatch.py). Runs
 execute on a LocalCluster on the loopback interface, sized to the machine, or on an existing Dask
-scheduler, checked before anything is built or written (cluster.py). Workers must see the FMU
-folder (and the log folder, with logs kept) at the same paths. Dask's log goes to <out>/campaign.log (logs.py).
+scheduler, checked before anything is built or written (cluster.py). An existing cluster's workers get the FMUs
+from the client (shipping.py); they must see the log folder (with logs kept) at the same path. Dask's log goes to
+<out>/campaign.log (logs.py).
 """
 
 from __future__ import annotations
@@ -142,16 +143,19 @@ def held(results: Path) -> dict[str, int]:
             "diverged": sum(bool(d) for d in diverged)}
 
 
-def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str) -> list:
-    """A task on each worker there is now that instantiates the first case's system (worker.prepare): their futures.
-    The workers do it while this process checks the cases' feasibility, rather than in their first run."""
+def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipped=None, data=None) -> list:
+    """A task on each worker there is now that instantiates the first case's system (worker.prepare; with shipped FMUs,
+    from its machine's copy: shipping.py): their futures. The workers do it while this process checks the cases'
+    feasibility, rather than in their first run."""
+    from .shipping import prepare_shipped
     from .worker import prepare
 
     try:
         workers = sorted(client.scheduler_info()["workers"])
     except Exception:  # the dispatch says what is wrong with the scheduler
         return []
-    return [client.submit(prepare, base, asdict(case), fmu_dir, workers=[w], allow_other_workers=False, pure=False,
+    task, args = (prepare, (base, asdict(case), fmu_dir)) if shipped is None else (prepare_shipped, (shipped, data, base, asdict(case)))
+    return [client.submit(task, *args, workers=[w], allow_other_workers=False, pure=False,
                           key=f"prepare-{k}-{time.time_ns()}") for k, w in enumerate(workers)]
 
 
@@ -207,8 +211,9 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
             say(f"campaign {campaign.name}: {len(campaign.cases)} runs, {len(campaign.cases) - len(todo)} already done, "
                 f"{len(todo)} to run")
             if todo:
-                from ..fmus import build_all  # these import the controller's design tools: seconds, so only now
+                from ..fmus import build_all, loop_recipes  # these import the controller's design tools: seconds, so only now
                 from .run_case import run_case
+                from .shipping import WithShippedFmus, ship
                 from .worker import feasibility_verdicts
 
                 build_all(fmus, progress=say)
@@ -219,12 +224,16 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 base = campaign.base()
+                shared, shipped = {}, None
+                if cluster is None:  # an existing cluster's workers need no copy of the FMUs: shipped (shipping.py)
+                    shipped, shared["fmus"] = ship(client, Path(fmus), [r.fmu_name for r in loop_recipes()])
                 if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
                     # workers instantiate the first case's system
-                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()))
+                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()), shipped, shared.get("fmus"))
                     base = replace(base, feasibility=feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve())))
                 task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
-                shared = {}
+                if shipped is not None:
+                    task = WithShippedFmus(task, shipped)
                 if campaign.snapshot is not None:  # to every worker once, not with every run
                     shared["snapshot"] = client.scatter(campaign.snapshot.read_bytes(), broadcast=True, hash=False)
                 _warm_writer()
