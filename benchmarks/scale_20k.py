@@ -50,7 +50,7 @@ stop_time = 2.0
 gusts = false
 [[requirements]]
 name = "swing"
-formula = "always[0.5:2] (abs(plant.gamma_1) < 3.0)"
+formula = "always[0.5:1.9] (abs(plant.gamma_1) < 3.0)"
 [[search]]
 name = "amp"
 target = "gust.amplitude"
@@ -108,6 +108,8 @@ def measure(kind: str, runs: int, workers: int, fmus: Path, folder: Path) -> dic
     if proc.returncode != 0 or not proc.stdout.strip():
         raise SystemExit(f"{kind} {runs}: exit {proc.returncode}: {proc.stderr[-2000:]}")
     got = json.loads(proc.stdout.strip().splitlines()[-1])
+    if got["exit"] != 0:
+        raise SystemExit(f"{kind} {runs}: tiltload exit {got['exit']}: {proc.stderr[-2000:]}")
     written, parts = files(out)
     return {"kind": kind, "runs": runs, **got, "rows": rows(results), "files": written, "parts": parts,
             "load_before": load, "load_after": os.getloadavg()[0]}
