@@ -7,7 +7,8 @@ The campaign: 2 s runs of the zse loop, varying the controller (dlqr, mixed), th
 (N / 10 seeds, with gusts). The search: uniform, batches of 200, over a gust's amplitude and heading in 2 s runs of the
 fsi loop, a requirement no point falsifies (so the whole budget is spent).
 
-Run: python benchmarks/scale_20k.py [--runs 20000 2000] [--only campaign|falsify] [--workers 2]   (minutes at 20,000)
+Run: python benchmarks/scale_20k.py [--runs 2000 20000] [--only campaign|falsify] [--workers 2] [--write]   (minutes at
+20,000; --write: into docs/timings.json, the figures of docs/timings.md's "Scale", with the date, machine and load)
 """
 
 from __future__ import annotations
@@ -122,6 +123,7 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--fmus", type=Path, default=ROOT / "fmus")
     parser.add_argument("--keep", type=Path, help="write into this folder (kept) rather than a temporary one")
+    parser.add_argument("--write", action="store_true", help="store in docs/timings.json and regenerate docs/timings.md")
     args = parser.parse_args()
     from tiltload.master.app.fmus import build_all
 
@@ -140,7 +142,24 @@ def main() -> int:
                       f"{m['rows']:>6} {m['files']:>6} {m['parts']:>6} {m['load_before']:>4.1f}-{m['load_after']:<4.1f}",
                       flush=True)
                 print("  " + json.dumps(m), flush=True)
+                if args.write:
+                    store(m)
     return 0
+
+
+def store(measured: dict) -> None:
+    """Into docs/timings.json's scale figures (replacing the same kind and size), and docs/timings.md again."""
+    import datetime
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import user_timings
+
+    data = json.loads(user_timings.TIMINGS.read_text()) if user_timings.TIMINGS.exists() else {}
+    measured = {**measured, "machine": user_timings.machine(), "date": datetime.date.today().isoformat()}
+    kept = [m for m in data.get("scale", []) if (m["kind"], m["runs"]) != (measured["kind"], measured["runs"])]
+    data["scale"] = sorted([*kept, measured], key=lambda m: (m["kind"], m["runs"]))
+    user_timings.TIMINGS.write_text(json.dumps(data, indent=1) + "\n")
+    user_timings.PAGE.write_text(user_timings.render(data))
 
 
 if __name__ == "__main__":
