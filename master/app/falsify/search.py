@@ -97,7 +97,8 @@ def assemble(out: Path, rows: list[dict]) -> Path:
 
     keys = list(dict.fromkeys(k for r in rows for k in r))
     tmp = out / f".{RESULTS}.tmp"
-    pq.write_table(pa.Table.from_pylist([{k: r.get(k) for k in keys} for r in rows]), tmp)
+    # column by column (what Table.from_pylist does with the rows), without a second dict a row
+    pq.write_table(pa.table({k: [r.get(k) for r in rows] for k in keys}), tmp)
     tmp.replace(out / RESULTS)
     return out / RESULTS
 
