@@ -143,7 +143,7 @@ def held(results: Path) -> dict[str, int]:
             "diverged": sum(bool(d) for d in diverged)}
 
 
-def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipped=None, data=None) -> list:
+def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipped=None) -> list:
     """A task on each worker there is now that instantiates the first case's system (worker.prepare; with shipped FMUs,
     from its machine's copy: shipping.py): their futures. The workers do it while this process checks the cases'
     feasibility, rather than in their first run."""
@@ -154,7 +154,7 @@ def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipp
         workers = sorted(client.scheduler_info()["workers"])
     except Exception:  # the dispatch says what is wrong with the scheduler
         return []
-    task, args = (prepare, (base, asdict(case), fmu_dir)) if shipped is None else (prepare_shipped, (shipped, data, base, asdict(case)))
+    task, args = (prepare, (base, asdict(case), fmu_dir)) if shipped is None else (prepare_shipped, (shipped, base, asdict(case)))
     return [client.submit(task, *args, workers=[w], allow_other_workers=False, pure=False,
                           key=f"prepare-{k}-{time.time_ns()}") for k, w in enumerate(workers)]
 
@@ -226,10 +226,10 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 base = campaign.base()
                 shared, shipped = {}, None
                 if cluster is None:  # an existing cluster's workers need no copy of the FMUs: shipped (shipping.py)
-                    shipped, shared["fmus"] = ship(client, Path(fmus), [r.fmu_name for r in loop_recipes()])
+                    shipped = ship(client, Path(fmus), [r.fmu_name for r in loop_recipes()])
                 if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
                     # workers instantiate the first case's system
-                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()), shipped, shared.get("fmus"))
+                    prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()), shipped)
                     base = replace(base, feasibility=feasibility_verdicts(base, [asdict(c) for c in todo], str(Path(fmus).resolve())))
                 task = partial(run_case, base, fmu_dir=str(Path(fmus).resolve()), log_dir=str(logs.resolve()) if logs else None)
                 if shipped is not None:

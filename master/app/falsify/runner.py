@@ -64,23 +64,22 @@ def check_names(spec: Falsification, fmus: Path) -> None:
 
 def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2, ship: bool = False):
     """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster. ship: the workers
-    get the FMUs from this client (an existing cluster's: campaign/shipping.py), scattered once for every batch."""
+    get the FMUs from this client (an existing cluster's: campaign/shipping.py), registered once for every batch."""
     from ..campaign.dispatch import Dispatch, Policy
     from .evaluate import evaluate
 
     task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
-    shared = {}
     if ship:
         from ..campaign import shipping
         from ..fmus import loop_recipes
 
-        shipped, shared["fmus"] = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()])
+        shipped = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()])
         task = shipping.WithShippedFmus(task, shipped)
 
     def run(cases: list[dict]) -> dict[str, dict]:
         got: dict[str, dict] = {}
         dispatch = Dispatch(client, task, lambda result: got.__setitem__(result["row"]["run_id"], result["row"]), where,
-                            len(cases), 0, Policy(retries=retries), shared=shared)
+                            len(cases), 0, Policy(retries=retries))
         dispatch.run([Case(c["run_id"], base.controller, base.seed, c["values"], c["parameters"]) for c in cases])
         return got
     return run
