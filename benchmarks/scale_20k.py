@@ -1,7 +1,9 @@
 """A campaign of N short runs and a falsification with a budget of N, each run as a user runs it (`tiltload campaign` /
 `tiltload falsify` on a local cluster), in a process of its own: its wall time, the client's peak resident memory
 (VmHWM of /proc/self/status: the process that dispatches, stores and assembles, with the local cluster's scheduler
-in it; not the workers) and the files it wrote. Run at two sizes, the peak shows whether the client grows with N.
+in it; not the workers) and the files it wrote. Run at two sizes, the peak shows whether the client grows with N:
+the peak when the report begins (the runs dispatched and stored, the results assembled) and at the end (the report's
+HTML page lists every run, so it grows with N: a page of 20,000 runs is 35 MB).
 
 The campaign: 2 s runs of the zse loop, varying the controller (dlqr, mixed), the load's mass (5 values) and the seed
 (N / 10 seeds, with gusts). The search: uniform, batches of 200, over a gust's amplitude and heading in 2 s runs of the
@@ -67,15 +69,30 @@ duration = 0.8
 simulations = {runs}
 """
 
-# the child: the CLI's main in this process, then its own peak memory (kB) and wall time, as one JSON line
+# the child: the CLI's main in this process, then its own peak memory and wall time, as one JSON line; also the peak
+# and the time when the report began (the runs stored and the results assembled: the report's pages list every run)
 CHILD = """
 import json, sys, time
+def peak():
+    status = dict(line.split(":", 1) for line in open("/proc/self/status") if ":" in line)
+    return int(status["VmHWM"].split()[0]) / 1024
 started = time.perf_counter()
+marks = {}
+import tiltload.master.app.campaign.report as campaign_report
+import tiltload.master.app.falsify.report as falsify_report
+def marked(module, name):
+    original = getattr(module, name)
+    def first(*args, **kwargs):
+        marks.setdefault("before_report_mb", peak())
+        marks.setdefault("before_report_s", time.perf_counter() - started)
+        return original(*args, **kwargs)
+    setattr(module, name, first)
+marked(campaign_report, "report")
+marked(falsify_report, "write")
 from tiltload.master.app.cli import main
 code = main(sys.argv[1:])
 wall = time.perf_counter() - started
-status = dict(line.split(":", 1) for line in open("/proc/self/status") if ":" in line)
-print(json.dumps({"exit": code, "wall_s": wall, "peak_rss_mb": int(status["VmHWM"].split()[0]) / 1024}))
+print(json.dumps({"exit": code, "wall_s": wall, "peak_rss_mb": peak(), **marks}))
 """
 
 
@@ -130,8 +147,8 @@ def main() -> int:
     build_all(args.fmus, progress=lambda *_: None)
     print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, {args.workers} workers, "
           f"load average {os.getloadavg()[0]:.1f}", flush=True)
-    print(f"{'what':>9} {'runs':>6} {'wall s':>8} {'runs/s':>7} {'peak RSS MB':>12} {'rows':>6} {'files':>6} {'parts':>6} "
-          f"{'load':>9}", flush=True)
+    print(f"{'what':>9} {'runs':>6} {'wall s':>8} {'runs/s':>7} {'peak RSS MB':>12} {'before report':>14} {'rows':>6} "
+          f"{'files':>6} {'parts':>6} {'load':>9}", flush=True)
     with tempfile.TemporaryDirectory(prefix="tiltload-scale-") as tmp:
         folder = args.keep or Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
@@ -139,7 +156,8 @@ def main() -> int:
             for runs in args.runs:
                 m = measure(kind, runs, args.workers, args.fmus.resolve(), folder)
                 print(f"{kind:>9} {runs:>6} {m['wall_s']:>8.1f} {runs / m['wall_s']:>7.1f} {m['peak_rss_mb']:>12.0f} "
-                      f"{m['rows']:>6} {m['files']:>6} {m['parts']:>6} {m['load_before']:>4.1f}-{m['load_after']:<4.1f}",
+                      f"{m.get('before_report_mb', 0):>14.0f} {m['rows']:>6} {m['files']:>6} {m['parts']:>6} "
+                      f"{m['load_before']:>4.1f}-{m['load_after']:<4.1f}",
                       flush=True)
                 print("  " + json.dumps(m), flush=True)
                 if args.write:

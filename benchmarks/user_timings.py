@@ -169,8 +169,9 @@ def measure(key: str, tmp: Path) -> dict:
         return timed([*cli, "reproduce", "--fmus", str(fmus), "--out", str(tmp / "reproduce")], ROOT)
     if key == "campaign":
         fmus = with_fmus(tmp)
+        # --allow-failures: its runs that fail are data, and since the exit codes became a CI's (issue 50) they exit 1
         return timed([*cli, "campaign", str(ROOT / "docs" / "campaigns" / "robustness.toml"), "--fmus", str(fmus),
-                      "--out", str(tmp / "campaign")], ROOT)
+                      "--out", str(tmp / "campaign"), "--allow-failures"], ROOT)
     if key == "spread_variant":
         return timed([sys.executable, str(ROOT / "benchmarks" / "baseline_spread.py"), "--only", "reference"], ROOT, env)
     raise SystemExit(f"unknown key {key}")
