@@ -181,13 +181,16 @@ class DaskCluster:
                 assert self.scheduler.poll() is None and time.time() < deadline, "the scheduler did not start"
                 time.sleep(0.1)
 
-    def add_worker(self, hiding: Path | None = None, nanny: bool = True) -> subprocess.Popen:
-        """A worker (with its nanny); hiding: a folder this worker sees empty (a tmpfs over it, its own mounts)."""
+    def add_worker(self, hiding: Path | None = None, nanny: bool = True, cwd: Path | None = None,
+                   cache: Path | None = None) -> subprocess.Popen:
+        """A worker (with its nanny); hiding: a folder this worker sees empty (a tmpfs over it, its own mounts); cwd:
+        the folder it starts in; cache: its machine's tiltload cache ($TILTLOAD_CACHE)."""
         command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--host",
                    "127.0.0.1", "--no-dashboard", *self.tls, *([] if nanny else ["--no-nanny"])]
         if hiding is not None:
             command = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs tmpfs "$0" && exec "$@"', str(hiding), *command]
-        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=self.env,
+        env = {**self.env, "TILTLOAD_CACHE": str(cache)} if cache is not None else self.env
+        worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=cwd,
                                   start_new_session=True)
         self.workers.append(worker)
         return worker
@@ -315,29 +318,66 @@ def test_a_scheduler_killed_mid_campaign_stores_no_cancelled_run_and_the_rerun_f
     assert identical(rows(out / "results.parquet"), rows(local_results))
 
 
+FOUR = SPEC.replace("values = [0.05, 0.2, {bad}]", "values = [0.05]")  # dlqr and mixed, seeds 1 and 2: 4 runs
+FALSIFY = """
+name = "shipped"
+optimizer = "uniform"
+[base]
+scenario = "fsi"
+trajectory = 1
+stop_time = 3.0
+gusts = false
+[[requirements]]
+name = "swing"
+formula = "always[1:3] (abs(plant.gamma_1) < 0.2)"
+[[search]]
+name = "amp"
+target = "gust.amplitude"
+range = [0.0, 20.0]
+[gust]
+start = 1.5
+duration = 0.8
+[budget]
+simulations = 4
+"""
+PER_RUN = ("wall_s", "cpu_s", "worker")  # a falsification row's measures of its own evaluation, and where it ran
+
+
 @pytest.mark.skipif(not _can_hide_folders(), reason="a worker that does not see the FMU folder needs a mount namespace "
                                                    "(unshare -m)")
 @pytest.mark.slow
-def test_a_worker_without_the_fmus_fails_no_run_and_the_rerun_after_the_fix_completes_them(fmus, local_results, tmp_path,
-                                                                                            dask_cluster, capfd):
+def test_a_worker_with_no_copy_of_the_fmus_gets_them_by_digest_and_gives_the_local_rows(fmus, tmp_path, dask_cluster):
+    """dask scheduler and dask worker started as the docs say, the worker in an empty folder of its own, blind to the FMU
+    folder and with a cache of its own: a campaign and a falsification run there as they run locally."""
+    from tiltload.master.app.falsify.runner import falsify
+
+    spec = write_spec(tmp_path, text=FOUR)
+    local, _ = campaign.run(spec, tmp_path / "local", fmus=fmus, workers=1, progress=lambda _: None)
+    searched = tmp_path / "f.toml"
+    searched.write_text(FALSIFY)
+    falsify(searched, tmp_path / "f-local", fmus=fmus, workers=1, progress=lambda _: None, write_report=False, branch="off")
     cluster = dask_cluster()
-    cluster.add_worker(hiding=fmus)  # sees an empty folder at the FMUs' path
+    folder, cache = tmp_path / "worker", tmp_path / "worker-cache"
+    folder.mkdir()
+    cluster.add_worker(hiding=fmus, cwd=folder, cache=cache)  # sees an empty folder at the FMUs' path
     cluster.wait_for_workers(1)
-    spec, out = write_spec(tmp_path, bad=-1.0), tmp_path / "out"
-    args = ["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--scheduler", cluster.address]
-    capfd.readouterr()
-    assert main(args) == 1
-    err = capfd.readouterr().err
-    line = err.strip().splitlines()[-1]
-    assert line.startswith("tiltload: error: 12 of 12 runs failed for their environment, not for themselves, up to 3 tries "
-                           "each (worker tcp://127.0.0.1:")
-    assert f"no FMU at {fmus}" in line and "nothing of them is stored: fix it and rerun the same command" in line
-    assert "Traceback" not in err and not _parts(out) and rows(out / "results.parquet") == []
-    cluster.add_worker()  # the fix: a worker that sees the FMUs, beside the blind one
-    cluster.wait_for_workers(2)
-    results, counts = campaign.run(spec, out, fmus=fmus, progress=lambda _: None, scheduler=cluster.address, workers=2)
-    assert counts["ran"] == 12 and counts["retried"] >= 1  # what the blind worker took was tried again on the other
-    assert identical(rows(results), rows(local_results))
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "remote"), "--fmus", str(fmus), "--scheduler",
+                 cluster.address]) == 0
+    assert identical(rows(tmp_path / "remote" / "results.parquet"), rows(local)) and len(rows(local)) == 4
+    falsify(searched, tmp_path / "f-remote", fmus=fmus, scheduler=cluster.address, progress=lambda _: None,
+            write_report=False, branch="off")
+    a, b = (rows(tmp_path / f / "falsification.parquet") for f in ("f-local", "f-remote"))
+    assert len(a) == 4 and identical([{k: v for k, v in r.items() if k not in PER_RUN} for r in a],
+                                     [{k: v for k, v in r.items() if k not in PER_RUN} for r in b])
+    shipped = list((cache / "shipped").iterdir())  # one set, the files the client has, by content
+    assert len(shipped) == 1
+    import hashlib
+
+    for path in shipped[0].iterdir():
+        assert hashlib.sha256(path.read_bytes()).digest() == hashlib.sha256((fmus / path.name).read_bytes()).digest()
+    assert sorted(p.name for p in shipped[0].iterdir()) == sorted(p.name for p in fmus.glob("Tiltload*.fmu"))
+    assert any(p.name != "shipped" for p in (cache / "fmus").iterdir())  # unpacked into the worker's machine cache
+    assert not list(folder.iterdir()) or all(p.name.startswith("dask-") for p in folder.iterdir())
 
 
 @pytest.mark.parametrize("address, needle", [

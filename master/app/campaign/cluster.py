@@ -81,10 +81,12 @@ def connect(scheduler: str, workers: int, connect_timeout: float, worker_timeout
         what = f"a Dask {identity['type'].lower()}" if isinstance(identity.get("type"), str) else "not a Dask scheduler"
         theirs = f" (its scheduler: {identity['scheduler']})" if identity.get("scheduler") else ""
         raise ClusterError(f"{address} is {what}, not the scheduler{theirs}")
+    import dask
     from dask.distributed import Client
 
     try:
-        client = Client(str(address), timeout=f"{connect_timeout}s", set_as_default=False)
+        with dask.config.set(BOUNDED):  # its connection's message log (the scheduler and workers are not ours)
+            client = Client(str(address), timeout=f"{connect_timeout}s", set_as_default=False)
     except Exception as err:  # it answered a moment ago: gone since
         LOGGER.info("connecting to %s failed", address, exc_info=True)
         raise ClusterError(f"the scheduler at {address} answered, then refused the client: {first_line(err)}") from None
@@ -117,8 +119,14 @@ def wait_for_workers(client, address: str, n: int, timeout: float) -> None:
 # Dask's periodic chores, on a machine whose cores the runs need: its workers sample their thread's stack every 10 ms
 # (the dashboard's profile), every process checks its event loop every 20 ms and its memory every 100 ms. Idle, that
 # was 3 % of a core per worker and 4 % for the client and scheduler; these make it a tenth (benchmarks/campaign_native.py).
+# Dask keeps its last messages of each connection and its last transitions for debugging, 1000 of each by default
+# (distributed.admin.low-level-log-length): the client's log of update-graph messages holds every task's cases, the
+# local cluster's scheduler (in the client's process) its compute-task messages to each worker; 32 bound what a
+# campaign of 20,000 runs costs the client to what a few hundred runs cost (benchmarks/scale_20k.py).
+BOUNDED = {"distributed.admin.low-level-log-length": 32}
 QUIET = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
-         "distributed.admin.system-monitor.interval": "5s", "distributed.worker.memory.monitor-interval": "500ms"}
+         "distributed.admin.system-monitor.interval": "5s", "distributed.worker.memory.monitor-interval": "500ms",
+         **BOUNDED}
 
 
 @contextmanager

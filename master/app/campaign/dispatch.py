@@ -14,7 +14,8 @@ ms of messages and (de)serialization, as much as a short run's simulation. Their
 (guided self-scheduling, `chunk_sizes`): the first tasks carry several runs, the last one each, so that no worker is
 left with a long task when the others are done. A task's outcomes are stored together (`store_many`: one Parquet
 part); a run whose environment failed is tried again alone. A search's batch, whose runs are awaited together, goes
-as one task a worker (`even_chunks`).
+as one task a worker (`even_chunks`). At most a window of tasks (WINDOW) is submitted and not yet settled; the next is
+submitted as one settles.
 """
 
 from __future__ import annotations
@@ -36,6 +37,9 @@ WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
+WINDOW = 64  # tasks submitted and not yet settled, at most (or PER_WORKER a thread, if more): the rest wait in the
+# client as cases, so the client and the local cluster's scheduler (in its process) hold a window, not every task of
+# 20,000 runs at once (all 1268 tasks submitted at once cost the client 90 MB: benchmarks/scale_20k.py)
 
 
 def chunk_sizes(runs: int, workers: int) -> list[int]:
@@ -54,6 +58,14 @@ def even_chunks(runs: int, workers: int) -> list[int]:
     each worker one task's messages, not one a run."""
     tasks = max(1, min(runs, max(workers, math.ceil(runs / MOST))))
     return [runs // tasks + (k < runs % tasks) for k in range(tasks)] if runs else []
+
+
+def _tasks(cases: list[Case], sizes: list[int]):
+    """The first tries of the cases, grouped a task each by sizes, made as they are submitted."""
+    at = 0
+    for size in sizes:
+        yield [_Attempt(case) for case in cases[at:at + size]]
+        at += size
 
 
 def run_chunk(task: Callable[..., dict], cases: list[dict], **shared) -> list[dict]:
@@ -107,12 +119,12 @@ class Dispatch:
         if self.client.status != "running":
             self._lost()
         started = time.perf_counter()
-        attempts = [_Attempt(case) for case in cases]
-        sizes = self.sizes(len(cases), self._threads()) if self.chunked else [1] * len(cases)
-        at = 0
-        for size in sizes:
-            self._submit(*attempts[at:at + size])
-            at += size
+        threads = self._threads()
+        sizes = self.sizes(len(cases), threads) if self.chunked else [1] * len(cases)
+        window = max(WINDOW, PER_WORKER * threads)
+        tasks = iter(_tasks(cases, sizes))
+        for group in itertools.islice(tasks, window):
+            self._submit(*group)
         finished = self.finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
         last_look, alone_since = time.monotonic(), None
         while not finished.is_empty():
@@ -122,6 +134,8 @@ class Dispatch:
                     continue
                 for again in self._settle(future, len(cases), started):
                     finished.add(again)
+            for group in itertools.islice(tasks, max(0, window - len(self.pending))):  # the window topped up
+                finished.add(self._submit(*group))
             if batch:
                 last_look, alone_since = time.monotonic(), None
                 continue

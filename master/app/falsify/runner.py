@@ -62,12 +62,19 @@ def check_names(spec: Falsification, fmus: Path) -> None:
             raise SpecError(f"{spec.source}: requirements: {s} is not an output of {instance}{hint}")
 
 
-def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2):
-    """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster."""
+def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2, ship: bool = False):
+    """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster. ship: the workers
+    get the FMUs from this client (an existing cluster's: campaign/shipping.py), registered once for every batch."""
     from ..campaign.dispatch import Dispatch, Policy, even_chunks
     from .evaluate import evaluate
 
     task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
+    if ship:
+        from ..campaign import shipping
+        from ..fmus import loop_recipes
+
+        shipped = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()])
+        task = shipping.WithShippedFmus(task, shipped)
 
     def run(cases: list[dict]) -> dict[str, dict]:
         got: dict[str, dict] = {}
@@ -157,13 +164,13 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
             base, notes = cheaper_base(spec, fmus, early_stop, branch)
             for line in notes:
                 say(line)
-            outcome = search(spec.dimensions, spec.optimizer, spec.seed, cluster_batch(client, where, base, fmus),
-                             make_case(base), spec.simulations, spec.seconds, out, identity(spec, early_stop), spec.batch, say)
+            batch = cluster_batch(client, where, base, fmus, ship=own and scheduler is not None)
+            outcome = search(spec.dimensions, spec.optimizer, spec.seed, batch, make_case(base), spec.simulations,
+                             spec.seconds, out, identity(spec, early_stop), spec.batch, say)
             if neighbourhood and outcome.best is not None and not outcome.failures:
                 from . import neighbourhood as nb
 
-                say(nb.run(spec, outcome.best, cluster_batch(client, where, base, fmus), make_case(base), out, fraction,
-                           points))
+                say(nb.run(spec, outcome.best, batch, make_case(base), out, fraction, points))
         finally:
             if own and client is not None:
                 client.close()

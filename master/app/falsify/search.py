@@ -2,10 +2,12 @@
 dispatch.py's retries and failure handling), each outcome is stored at once, the optimizer is told, until a point
 falsifies a requirement (robustness < 0) or the budget (simulations, wall time) is spent.
 
-Storage and resume: each evaluation is a part, <out>/parts/<index>.parquet (its point of the unit cube u_*, the
-values, each requirement's robustness and verdict, wall time, worker), and <out>/falsification.parquet is assembled
-from the parts after every batch. The optimizers are deterministic for their seed and what they are told, so a
-search killed half-way and started again asks the same points: a stored part whose point is the one asked is taken as
+Storage and resume: each batch's evaluations are a part, <out>/parts/<first index>+<count>-<stamp>.parquet (a row per
+evaluation: its point of the unit cube u_*, the values, each requirement's robustness and verdict, wall time, worker;
+older versions wrote <index>.parquet, one evaluation each, read the same), written as the batch ends; and
+<out>/falsification.parquet is assembled once, when the search ends (stopped by an error too): nothing is rewritten
+whole after every batch (benchmarks/scale_20k.py). The optimizers are deterministic for their seed and what they are
+told, so a search killed half-way and started again asks the same points: a stored part whose point is the one asked is taken as
 it is (not run again), and the search goes on exactly as the uninterrupted one would have.
 """
 
@@ -53,26 +55,40 @@ def run_id(identity: str, index: int, unit: np.ndarray) -> str:
     return f"{index:06d}-" + hashlib.sha256(what.encode()).hexdigest()[:10]
 
 
+def _stamp(path: Path) -> int:
+    """When a part was written, from its name (<first>+<count>-<stamp>); an older version's <index>.parquet: 0."""
+    _, _, stamp = path.stem.partition("-")
+    return int(stamp, 16) if stamp else 0
+
+
 def read_parts(folder: Path) -> dict[int, dict]:
-    """The stored evaluations by index; a part that is not one is refused with its name (stored_parts.read_part)."""
+    """The stored evaluations by index (an index stored twice, by a rerun with another spec: the newer part's row); a
+    part that is not one is refused with its name (stored_parts.read_part)."""
     from ..stored_parts import read_part
 
     if not folder.is_dir():
         return {}
     out = {}
-    for path in sorted(folder.glob("*.parquet")):
-        row = read_part(path, {"index": int, "run_id": str})[0]
-        out[row["index"]] = row
+    paths = sorted(folder.glob("*.parquet"))
+    try:
+        paths.sort(key=_stamp)
+    except ValueError:  # a name this command did not write: read in name order, refused there if it is not a part
+        pass
+    for path in paths:
+        for row in read_part(path, {"index": int, "run_id": str}):
+            out[row["index"]] = row
     return out
 
 
-def write_part(folder: Path, row: dict) -> None:
+def write_part(folder: Path, rows: list[dict]) -> None:
+    """A batch's evaluations as one part (never replaced: a newer part of the same indices is a newer name)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    tmp = folder / f".{row['index']:06d}.tmp"
-    pq.write_table(pa.Table.from_pylist([row]), tmp)
-    tmp.replace(folder / f"{row['index']:06d}.parquet")  # a part exists only once complete
+    name = f"{rows[0]['index']:06d}+{len(rows)}-{time.time_ns():x}"
+    tmp = folder / f".{name}.tmp"
+    pq.write_table(pa.Table.from_pylist(rows), tmp)
+    tmp.replace(folder / f"{name}.parquet")  # a part exists only once complete
 
 
 def assemble(out: Path, rows: list[dict]) -> Path:
@@ -81,7 +97,8 @@ def assemble(out: Path, rows: list[dict]) -> Path:
 
     keys = list(dict.fromkeys(k for r in rows for k in r))
     tmp = out / f".{RESULTS}.tmp"
-    pq.write_table(pa.Table.from_pylist([{k: r.get(k) for k in keys} for r in rows]), tmp)
+    # column by column (what Table.from_pylist does with the rows), without a second dict a row
+    pq.write_table(pa.table({k: [r.get(k) for r in rows] for k in keys}), tmp)
     tmp.replace(out / RESULTS)
     return out / RESULTS
 
@@ -100,8 +117,6 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
     """Minimize the robustness over the dimensions. evaluate_batch(cases) -> {run_id: row} (rows of runs whose
     environment failed are missing); make_case(run_id, values) -> the case a worker gets. out: where parts and
     falsification.parquet go (None: kept in memory only)."""
-    from .space import values_at
-
     say = progress or (lambda _: None)
     parts = out / "parts" if out is not None else None
     if parts is not None:
@@ -112,6 +127,22 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
     started = time.perf_counter()
     falsified_at, reused, failures = None, 0, {}
     limit = simulations if simulations is not None else math.inf
+    try:
+        falsified_at, reused, failures = _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds,
+                                               identity, opt, rows, stored, parts, say, started, stop_when_falsified)
+    finally:  # once, at the end (an interrupted search's too): the batches done so far
+        if out is not None and rows:
+            assemble(out, rows)
+    return Outcome(rows, falsified_at, time.perf_counter() - started, reused, failures)
+
+
+def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds, identity, opt, rows: list[dict],
+          stored: dict[int, dict], parts: Path | None, say, started: float, stop_when_falsified: bool):
+    """The batches until the budget is spent, a point falsifies or an environment fails; rows grows as they end.
+    (falsified_at, reused, failures)."""
+    from .space import values_at
+
+    falsified_at, reused, failures = None, 0, {}
     while len(rows) < limit and (seconds is None or time.perf_counter() - started < seconds):
         whole = opt.ask()
         asked = whole[:int(min(len(whole), limit - len(rows)))]  # the budget's last batch may be cut: never told
@@ -131,6 +162,7 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
             cases.append(case)
         if cases:
             got = evaluate_batch(cases)
+            fresh = []
             for case in cases:
                 row = got.get(case["run_id"])
                 if row is None:
@@ -139,8 +171,9 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
                        **{f"u_{d.name}": u for d, u in zip(dimensions, case["unit"])}}
                 row["run_id"] = case["run_id"]
                 batch_rows[case["run_id"]] = row
-                if parts is not None:
-                    write_part(parts, row)
+                fresh.append(row)
+            if parts is not None and fresh:
+                write_part(parts, fresh)
         missing = [c["run_id"] for c in cases if c["run_id"] not in batch_rows]
         if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
             failures.update({rid: "its environment failed" for rid in missing})
@@ -152,10 +185,8 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
             if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
                 falsified_at = int(r["index"])
         rows.extend(ordered)
-        if out is not None:
-            assemble(out, rows)
         best = min((_told(r) for r in rows), default=math.nan)
         say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
         if stop_when_falsified and falsified_at is not None:
             break
-    return Outcome(rows, falsified_at, time.perf_counter() - started, reused, failures)
+    return falsified_at, reused, failures
