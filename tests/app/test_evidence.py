@@ -364,3 +364,25 @@ def test_a_vacuous_pass_is_named_in_the_report(tmp_path):
     data = _page_data(page)
     assert data["matrix"] == {"never_triggered": {"x": "PASS (vacuous)"}, "triggered": {"x": "PASS"}}
     assert data["counts"]["PASS (vacuous)"] == 1 and data["counts"]["PASS"] == 1
+
+
+def test_a_large_campaign_page_lists_the_failed_runs_first_and_counts_every_run(tmp_path, monkeypatch):
+    """Past LISTED runs the page shows LISTED one by one (failed or diverged, then failing a requirement, first), while
+    its counts stay over every run: by the rows' own verdicts, counted here independently."""
+    import json
+    import re
+
+    from tiltload.master.app.evidence import campaign_page
+
+    monkeypatch.setattr(campaign_page, "LISTED", 3)
+    rows = [{"run_id": k, "controller": "dlqr", "seed": k, "mass": 0.1 * k, "completed": k != 7, "diverged": k == 7,
+             "diverged_at": None, "error": "plant: diverged" if k == 7 else None, "ISE(x)": 0.1 * k,
+             "max_tracking_error": 0.2, "thrust_verdict": "FAIL" if k == 5 else "PASS", "thrust_robustness": -1.0 if k == 5 else 1.0}
+            for k in range(10)]
+    page = campaign_page.write_campaign_report("big", rows, ["mass"], [f"tiltload run --seed {k}" for k in range(10)], [],
+                                               tmp_path / "big.html").read_text()
+    data = json.loads(re.search(r'<script type="application/json"[^>]*>(.*?)</script>', page, re.S).group(1))
+    assert [t["name"] for t in data["tests"]] == ["run 7", "run 5", "run 0"]
+    assert data["total"] == 10 and 'data-tests="10"' in page and 'data-listed="3"' in page
+    assert data["counts"]["PASS"] == 8 and data["counts"]["FAIL"] == 1 and data["counts"]["ERROR"] == 1
+    assert "lists 3 of the 10 runs" in page

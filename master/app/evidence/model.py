@@ -83,6 +83,7 @@ class Report:
     figures: list[tuple[str, str]] = field(default_factory=list)
     tables: list[Table] = field(default_factory=list)
     summary: str = ""  # a paragraph under the title
+    listed: int | None = None  # the most tests the page shows one by one (the counts are over all): a page stays readable
 
 
 def verdict_of(result) -> str:

@@ -73,8 +73,10 @@ def render(report: Report, standard_figures: bool = True) -> str:
     from .figures import standard_figures as figures_of_log
 
     reqs_by_name = {r.name: r for r in report.declared}
+    shown = report.tests if report.listed is None else report.tests[:report.listed]
+    everything = matrix(report)
     tests = []
-    for test in report.tests:
+    for test in shown:
         figures = _figures_of(test, reqs_by_name)
         tests.append({
             "name": test.name, "command": test.command, "case": {k: str(v) for k, v in test.case.items()},
@@ -85,7 +87,8 @@ def render(report: Report, standard_figures: bool = True) -> str:
             "environment": test.environment.to_json() if test.environment else None,
         })
     data = {"title": report.title, "kind": report.kind, "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-            "counts": counts(report), "matrix": matrix(report),
+            "counts": counts(report), "total": len(report.tests),
+            "matrix": {name: {t.name: row[t.name] for t in shown} for name, row in everything.items()},
             "requirements": [{"name": n, "source": s} for n, s in requirement_ids(report)],
             "environment": report.environment.to_json(), "summary": report.summary,
             "tables": [{"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
