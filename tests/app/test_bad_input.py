@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from support.fmi2_session import wrap_misbehaving
+from support.isolated_case import command_exit_code
 from tiltload.master.app.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
@@ -20,12 +21,11 @@ BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5",
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
 
 
-def exit_code(argv: list[str]) -> int:
-    """The command's exit code; argparse's usage errors raise SystemExit with theirs."""
-    try:
-        return main(argv)
-    except SystemExit as exit_:
-        return exit_.code
+def exit_code(argv: list[str]) -> int | None:
+    """The command's exit code, the command run as `tiltload` runs, each case in a session of its own with TMPDIR a
+    fresh empty folder (support/isolated_case.py); a file it left there, a process of its group alive after it, or a
+    hang is one more line on stderr, which each loop's one-line check reports with the case's label."""
+    return command_exit_code(argv)
 
 
 def _cli_cases() -> list[tuple[str, list[str]]]:
@@ -1111,7 +1111,7 @@ def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path,
     problems = []
     for i, (label, edit) in enumerate(good):
         results = _results_with(user_campaign, tmp_path / f"good_{i}", edit)
-        code = main(["campaign-report", str(results)])
+        code = exit_code(["campaign-report", str(results)])
         err = capsys.readouterr().err
         if code != 0 or not (results.parent / "report.md").is_file():
             problems.append(f"{label}: exit {code}: {err.strip()[:300]}")
@@ -1124,7 +1124,7 @@ def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path,
         (results.parent / "spec.toml").write_text(text)
         cases.append((label, results, says))
     for label, results, says in cases:
-        code = main(["campaign-report", str(results)])
+        code = exit_code(["campaign-report", str(results)])
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
