@@ -6,9 +6,11 @@ import argparse
 from pathlib import Path
 
 from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
+from ..engine.path_types import existing_folder, folder, output_file
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
-__all__ = ["DAY", "integer", "positive_number", "positive_time", "run_time", "time_span", "tolerance"]
+__all__ = ["DAY", "existing_folder", "folder", "integer", "output_file", "positive_number", "positive_time", "run_time", "time_span",
+           "tolerance"]
 
 DEFAULT_FMU_DIR = Path("fmus")
 MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
@@ -35,18 +37,6 @@ def assignment(text: str) -> tuple[str, object]:
 tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")
 seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
-
-
-def folder(text: str) -> Path:
-    """A folder option (--fmus): a folder, or a path where one can be made; a file, or a path under one, is refused
-    here, before the command prepares anything."""
-    from .output_folder import folder_problem
-
-    path = Path(text)
-    problem = folder_problem(path) if text else "an empty path"
-    if problem is not None:
-        raise argparse.ArgumentTypeError(problem)
-    return path
 
 
 def file_stem(text: str) -> str:
