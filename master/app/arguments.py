@@ -39,6 +39,13 @@ seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
 
+def controller(text: str) -> str:
+    """dlqr, mixed or an existing controller FMU file (the --controller of a side of b2b)."""
+    if text in ("dlqr", "mixed") or (text.endswith(".fmu") and Path(text).is_file()):
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed nor an existing FMU file")
+
+
 def file_stem(text: str) -> str:
     if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
         raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")

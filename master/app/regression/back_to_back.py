@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ...engine.argument_types import MAX_RUN
 from ...engine.errors import DescriptionError
 from ...engine.user_files import UserFileError, read_document, schema_problem
 from .signal_compare import SignalRow, Tolerances, compare_signals, log_signals
@@ -22,7 +23,7 @@ CASES_SCHEMA = {
         "type": "object", "additionalProperties": False, "required": ["scenario", "trajectory"],
         "properties": {"scenario": {"enum": ["fsi", "lkf", "zse"]}, "trajectory": {"enum": [0, 1, 2, 3]},
                        "controller": {"enum": ["dlqr", "mixed"]}, "seed": {"type": "integer", "minimum": 0, "maximum": 2**31 - 1},
-                       "stop_time": {"type": "number", "exclusiveMinimum": 0}}}}},
+                       "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_RUN}}}}},  # run's bound
 }
 
 
