@@ -63,6 +63,8 @@ class Case:
             kinds.flag("Case", name, getattr(self, name))
         for name in ("wind", "faults", "system", "fmus"):
             fix(name, kinds.path("Case", name, getattr(self, name)))
+        if self.fmus is not None:
+            arguments.checked(arguments.folder, "--fmus", self.fmus)
         if kinds.whole("Case", "fmi", self.fmi) is not None:
             arguments.chosen("--fmi", self.fmi, (2, 3))
         kinds.number("Case", "max_tilt", self.max_tilt, False)

@@ -30,6 +30,38 @@ class TraceError(WrapError):
     """A controller that cannot be traced; the message names the class, the line and the operation."""
 
 
+TIME_LIMIT_S = 60.0  # __init__ and the traced step each: a controller's take milliseconds; a loop without end never ends
+MAX_NUMBERS = 65_536  # the numbers kept from __init__, each a parameter or state of the FMU (a gain matrix holds hundreds)
+
+
+class _TooLong(BaseException):
+    """Raised in the traced code at the time limit (a BaseException: the user's own `except Exception` lets it by)."""
+
+
+@contextmanager
+def _time_limit(what: str):
+    """Run the block for at most TIME_LIMIT_S (SIGALRM's timer; off the main thread, unbounded)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expired(signum, frame):
+        raise _TooLong()
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, TIME_LIMIT_S)
+    try:
+        yield
+    except _TooLong:
+        raise TraceError(f"{what} did not return within {TIME_LIMIT_S:g} s (a loop without end?)") from None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 @dataclass
 class Traced:
     """The controller as one function: step(t, inputs, parameters, states) -> (command[4], next states)."""
@@ -120,10 +152,17 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
     """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
     name = cls.__name__
     try:
-        controller = cls(**parameters) if parameters else cls()
+        with _time_limit(f"{name}()"):
+            controller = cls(**parameters) if parameters else cls()
+    except TraceError:
+        raise
     except Exception as err:
         raise TraceError(f"{name}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
     numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
+    if sum(v.size for v in numbers.values()) > MAX_NUMBERS:
+        biggest = max(numbers, key=lambda k: numbers[k].size)
+        raise TraceError(f"{name}: its numbers after __init__ are {sum(v.size for v in numbers.values()):,} (self.{biggest} "
+                         f"holds {numbers[biggest].size:,}); at most {MAX_NUMBERS:,} are kept, each a parameter of the FMU")
     initial = {k: v.copy() for k, v in numbers.items()}
     symbols = {k: _symbols(k, v.shape) for k, v in numbers.items()}
     for k, s in symbols.items():
@@ -131,8 +170,10 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
     t = ca.SX.sym("t")
     u = {n: ca.SX.sym(n) for n in inputs}
     try:
-        with _no_numbers_of_symbols():
+        with _no_numbers_of_symbols(), _time_limit(f"{name}.step"):
             command = controller.step(t, dict(u))
+    except TraceError:
+        raise
     except Exception as err:
         where = _where(err, source) or f"a line outside {source.name}"
         raise TraceError(f"{name}.step cannot be traced at {where}: {_operation(err)}") from None
