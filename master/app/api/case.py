@@ -71,9 +71,12 @@ class Case:
         fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", self.max_tilt))
         self._settings_and_remotes()
         from ..options import resolve_loop
+        from .errors import as_tiltload_errors
 
-        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown)
-        object.__setattr__(self, "_resolved", resolve_loop(self))
+        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown);
+        # a trajectory, wind or fault file's error is the user's to fix, as the command says it: TiltloadError
+        with as_tiltload_errors():
+            object.__setattr__(self, "_resolved", resolve_loop(self))
 
     def loop_options(self) -> LoopOptions:
         """The case with every default filled in (what the system is built from and a snapshot records)."""
