@@ -122,6 +122,10 @@ def generate(folder: Path, fmus: Path) -> list[dict]:
         for label, (path, _) in inputs.not_a_folder_paths(fm).items():
             add("--fmus that is not a folder", f"{command} --fmus {label}", [*argv, f"--fmus={path}"])
 
+    paths = folder / "paths"
+    paths.mkdir(exist_ok=True)
+    for label, argv, _ in inputs.path_option_cases(paths):
+        add("path options by their kind", label, argv)
     for cls, label, argv, api, expect in inputs.surface_cases(folder / "surfaces", Path(FMUS)):
         add(cls, label, argv, api, expect)
     return cases
@@ -149,6 +153,7 @@ def _write_part(name: Path, part) -> None:
 def run(folder: Path, fmus: str, name: str, timeout_s: float) -> None:
     spec = importlib.util.spec_from_file_location("isolated_case", ROOT / "tests" / "support" / "isolated_case.py")
     isolated = importlib.util.module_from_spec(spec)
+    sys.modules["isolated_case"] = isolated  # its dataclass looks itself up there
     spec.loader.exec_module(isolated)
     cases = json.loads((folder / "cases.json").read_text())
     cwd = folder / f"cwd_{name}"
