@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
-from ..engine.path_types import existing_folder, folder, output_file
+from ..engine.path_types import existing_folder, folder, kind, output_file
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
 __all__ = ["DAY", "existing_folder", "folder", "integer", "output_file", "positive_number", "positive_time", "run_time", "time_span",
@@ -43,6 +43,9 @@ def controller(text: str) -> str:
     """dlqr, mixed or an existing controller FMU file (the --controller of a side of b2b)."""
     if text in ("dlqr", "mixed") or (text.endswith(".fmu") and Path(text).is_file()):
         return text
+    if text.endswith(".fmu"):
+        raise argparse.ArgumentTypeError(f"controller {text} does not exist" if not Path(text).exists() else
+                                         f"controller {text} is {kind(Path(text))}, not an FMU file")
     raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed nor an existing FMU file")
 
 
