@@ -1421,3 +1421,21 @@ def test_run_prints_the_thesis_values_beside_its_metrics_as_readme_says(fmus, tm
     assert main(["run", *common, "--stop-time", "40", "--set", "plant.m_L=0.06"]) == 0
     out = capsys.readouterr().out
     assert "thesis (" not in out and "note: the thesis" not in out
+
+
+def test_the_plugins_report_path_is_checked_before_any_test_runs(tmp_path):
+    """--tiltload-report naming a folder, a path under a file or a FIFO: pytest's one usage line (exit 4) before the
+    session, not a traceback at its end after every test ran."""
+    import subprocess
+    import sys
+
+    (tmp_path / "test_user.py").write_text("def test_a():\n    pass\n")
+    (tmp_path / "a_file").write_text("x")
+    os.mkfifo(tmp_path / "a_fifo")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    for path, says in ((tmp_path, "is a folder, not a file"), (tmp_path / "a_file" / "r.html", "so no file can be made"),
+                       (tmp_path / "a_fifo", "is a FIFO, not a file")):
+        done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py",
+                               f"--tiltload-report={path}"], cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+        lines = [ln for ln in (done.stdout + done.stderr).splitlines() if ln.strip()]
+        assert done.returncode == 4 and len(lines) == 1 and says in lines[0] and "passed" not in done.stdout, lines
