@@ -181,8 +181,9 @@ def classify(case: dict, result: dict) -> str:
     lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("campaign ", "falsify "))]
     if code is None:
         return "hang"
-    if "invalid choice" in err or "unrecognized arguments" in err or "has no attribute" in err:
-        return "no such command"
+    command = (case["argv"] or [""])[0]
+    if f"invalid choice: '{command}'" in err or "unrecognized arguments" in err or "has no attribute" in err:
+        return "no such command"  # the command, an option of it or the API's name did not exist
     if "Traceback" in err or (lines and EXCEPTION_LINE.match(lines[-1]) and code == 1):
         return "traceback"
     if "a bug" in err:
