@@ -154,7 +154,7 @@ def _write_part(name: Path, part) -> None:
 
 # ---- run (in the target tiltload's interpreter) --------------------------------------------------------------------
 
-def run(folder: Path, fmus: str, name: str, timeout_s: float) -> None:
+def run(folder: Path, fmus: str, name: str, timeout_s: float, first: int = 0) -> None:
     spec = importlib.util.spec_from_file_location("isolated_case", ROOT / "tests" / "support" / "isolated_case.py")
     isolated = importlib.util.module_from_spec(spec)
     sys.modules["isolated_case"] = isolated  # its dataclass looks itself up there
@@ -162,8 +162,10 @@ def run(folder: Path, fmus: str, name: str, timeout_s: float) -> None:
     cases = json.loads((folder / "cases.json").read_text())
     cwd = folder / f"cwd_{name}"
     cwd.mkdir(exist_ok=True)
-    with open(folder / f"results_{name}.jsonl", "w") as results:
+    with open(folder / (f"results_{name}.jsonl" if not first else f"results_{name}.from{first}.jsonl"), "w") as results:
         for i, case in enumerate(cases):
+            if i < first:
+                continue
             if case["api"] is not None:
                 code = case["api"].replace(FMUS, fmus)
                 call = lambda c=code: isolated.api_call(lambda: exec(c, {"tl": __import__("tiltload")}))  # noqa: E731, S102
@@ -207,8 +209,13 @@ def table(folder: Path, before: str, after: str) -> str:
     cases = json.loads((folder / "cases.json").read_text())
     rows, totals = {}, {before: Counter(), after: Counter()}
     for name in (before, after):
-        for line in (folder / f"results_{name}.jsonl").read_text().splitlines():
+        seen = set()
+        lines = [ln for f in sorted(folder.glob(f"results_{name}*.jsonl")) for ln in f.read_text().splitlines()]
+        for line in lines:  # a case run by two runners (one started from a later case to finish sooner) counted once
             r = json.loads(line)
+            if r["i"] in seen:
+                continue
+            seen.add(r["i"])
             if cases[r["i"]].get("dropped"):  # a case found not to be bad input after the runs (said why in the file)
                 continue
             outcome = classify(cases[r["i"]], r)
@@ -238,6 +245,7 @@ def main() -> int:
     r.add_argument("--name", required=True)
     r.add_argument("--tiltload", help="the tiltload executable whose interpreter runs the cases (default: this one)")
     r.add_argument("--timeout", type=float, default=120.0, help="s per case; past it, a hang")
+    r.add_argument("--first", type=int, default=0, help="start at this case (a second runner beside a first)")
     t = sub.add_parser("table")
     t.add_argument("folder", type=Path)
     t.add_argument("before")
@@ -250,9 +258,9 @@ def main() -> int:
     elif args.what == "run" and args.tiltload:  # the executable's own interpreter, from its first line
         python = Path(args.tiltload).read_text().splitlines()[0].removeprefix("#!").strip()
         return subprocess.call([python, __file__, "run", str(args.folder), "--fmus", args.fmus, "--name", args.name,
-                                "--timeout", str(args.timeout)])
+                                "--timeout", str(args.timeout), "--first", str(args.first)])
     elif args.what == "run":
-        run(args.folder.resolve(), str(Path(args.fmus).resolve()), args.name, args.timeout)
+        run(args.folder.resolve(), str(Path(args.fmus).resolve()), args.name, args.timeout, args.first)
     else:
         print(table(args.folder, args.before, args.after))
     return 0
