@@ -184,7 +184,7 @@ def classify(case: dict, result: dict) -> str:
     if code is None:
         return "hang"
     command = (case["argv"] or [""])[0]
-    if f"invalid choice: '{command}'" in err or "unrecognized arguments" in err or "has no attribute" in err:
+    if f"invalid choice: '{command}'" in err or "unrecognized arguments" in err or "module 'tiltload' has no attribute" in err:
         return "no such command"  # the command, an option of it or the API's name did not exist
     if "Traceback" in err or (lines and EXCEPTION_LINE.match(lines[-1]) and code == 1):
         return "traceback"
@@ -207,7 +207,8 @@ def classify(case: dict, result: dict) -> str:
 
 def table(folder: Path, before: str, after: str) -> str:
     cases = json.loads((folder / "cases.json").read_text())
-    rows, totals = {}, {before: Counter(), after: Counter()}
+    rows = {c["class"]: {before: Counter(), after: Counter()} for c in cases if not c.get("dropped")}  # in the cases' order
+    totals = {before: Counter(), after: Counter()}
     for name in (before, after):
         seen = set()
         lines = [ln for f in sorted(folder.glob(f"results_{name}*.jsonl")) for ln in f.read_text().splitlines()]
@@ -219,7 +220,7 @@ def table(folder: Path, before: str, after: str) -> str:
             if cases[r["i"]].get("dropped"):  # a case found not to be bad input after the runs (said why in the file)
                 continue
             outcome = classify(cases[r["i"]], r)
-            rows.setdefault(cases[r["i"]]["class"], {before: Counter(), after: Counter()})[name][outcome] += 1
+            rows[cases[r["i"]]["class"]][name][outcome] += 1
             totals[name][outcome] += 1
     out = [f"| class | cases | {before}: ok | {before}: what went wrong | {after}: ok | {after}: what went wrong |",
            "| --- | ---: | ---: | --- | ---: | --- |"]
