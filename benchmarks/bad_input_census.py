@@ -160,6 +160,12 @@ def run(folder: Path, fmus: str, name: str, timeout_s: float, first: int = 0) ->
     sys.modules["isolated_case"] = isolated  # its dataclass looks itself up there
     spec.loader.exec_module(isolated)
     cases = json.loads((folder / "cases.json").read_text())
+    # each tiltload on its own copy of the files (cp -a keeps the FIFOs): what one tiltload wrote (a results folder, a
+    # file where a FIFO was) must not change the next one's cases
+    copy = folder.parent / f"{folder.name}_{name}"
+    if not copy.exists():
+        subprocess.run(["cp", "-a", str(folder), str(copy)], check=True)
+    cases = json.loads(json.dumps(cases).replace(str(folder), str(copy)))
     cwd = folder / f"cwd_{name}"
     cwd.mkdir(exist_ok=True)
     with open(folder / (f"results_{name}.jsonl" if not first else f"results_{name}.from{first}.jsonl"), "w") as results:
