@@ -6,9 +6,11 @@ import argparse
 from pathlib import Path
 
 from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
+from ..engine.path_types import existing_folder, folder, kind, output_file
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
-__all__ = ["DAY", "integer", "positive_number", "positive_time", "run_time", "time_span", "tolerance"]
+__all__ = ["DAY", "existing_folder", "folder", "integer", "output_file", "positive_number", "positive_time", "run_time", "time_span",
+           "tolerance"]
 
 DEFAULT_FMU_DIR = Path("fmus")
 MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
@@ -37,16 +39,14 @@ seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
 
-def folder(text: str) -> Path:
-    """A folder option (--fmus): a folder, or a path where one can be made; a file, or a path under one, is refused
-    here, before the command prepares anything."""
-    from .output_folder import folder_problem
-
-    path = Path(text)
-    problem = folder_problem(path) if text else "an empty path"
-    if problem is not None:
-        raise argparse.ArgumentTypeError(problem)
-    return path
+def controller(text: str) -> str:
+    """dlqr, mixed or an existing controller FMU file (the --controller of a side of b2b)."""
+    if text in ("dlqr", "mixed") or (text.endswith(".fmu") and Path(text).is_file()):
+        return text
+    if text.endswith(".fmu"):
+        raise argparse.ArgumentTypeError(f"controller {text} does not exist" if not Path(text).exists() else
+                                         f"controller {text} is {kind(Path(text))}, not an FMU file")
+    raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed nor an existing FMU file")
 
 
 def file_stem(text: str) -> str:

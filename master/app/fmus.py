@@ -92,7 +92,11 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     stale = [r for r in recipes if force or not is_current(dest / r.fmu_name, digest(r, toolchains, fmi_version))]
     if not stale:
         return [BuildResult(dest / r.fmu_name, False, 0.0) for r in recipes]
-    cached = [r for r in stale if not force and cached_fmu(r.fmu_name, digest(r, toolchains, fmi_version)).is_file()]
+    def reusable(r: Recipe) -> bool:  # a cached copy that is whole (a damaged one is built again: not "reused")
+        key = digest(r, toolchains, fmi_version)
+        return is_current(cached_fmu(r.fmu_name, key), key)
+
+    cached = [r for r in stale if not force and reusable(r)]
     if cached:
         progress(f"reusing {', '.join(r.fmu_name for r in cached)} from this machine's FMU cache ({cache_root() / 'fmus'}/: "
                  "built before from the same sources, compilers and options)")

@@ -10,17 +10,10 @@ import os
 import shutil
 from pathlib import Path
 
+from ..engine.path_types import folder_problem
 from .user_error import UserError
 
 MIN_FREE = 16 * 2**20  # bytes: a part of a campaign is kilobytes, its results and report a few megabytes
-
-
-def _blocker(path: Path) -> Path | None:
-    """The nearest existing ancestor of path (path itself included) that is not a folder: nothing can be made under it."""
-    for p in (path, *path.parents):
-        if p.exists() or p.is_symlink():
-            return None if p.is_dir() else p
-    return None
 
 
 def _free(path: Path) -> int | None:
@@ -28,17 +21,6 @@ def _free(path: Path) -> int | None:
         return shutil.disk_usage(path).free
     except OSError:
         return None
-
-
-def folder_problem(path: Path) -> str | None:
-    """Why path cannot be (or become) a folder: it is a file, or lies under one; None if it can."""
-    path = Path(path)
-    blocker = _blocker(path)
-    if blocker == path:
-        return f"{path} is a file, not a folder"
-    if blocker is not None:
-        return f"{path}: {blocker} is a file, so no folder can be made under it"
-    return None
 
 
 def writable_folder(path: Path, what: str, min_free: int = MIN_FREE) -> Path:

@@ -10,8 +10,10 @@ import shutil
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from support.fmi2_session import wrap_misbehaving
+from support.isolated_case import command_exit_code
 from tiltload.master.app.cli import main
 
 BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5", "--", "None", "true"]
@@ -20,12 +22,11 @@ BAD_NUMBERS = ["x", "", "nan", "inf", "-inf", "-1", "0", "1e400", "0x10", "1,5",
 EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")  # Python's "TypeError: ..." form
 
 
-def exit_code(argv: list[str]) -> int:
-    """The command's exit code; argparse's usage errors raise SystemExit with theirs."""
-    try:
-        return main(argv)
-    except SystemExit as exit_:
-        return exit_.code
+def exit_code(argv: list[str]) -> int | None:
+    """The command's exit code, the command run as `tiltload` runs, each case in a session of its own with TMPDIR a
+    fresh empty folder (support/isolated_case.py); a file it left there, a process of its group alive after it, or a
+    hang is one more line on stderr, which each loop's one-line check reports with the case's label."""
+    return command_exit_code(argv)
 
 
 def _cli_cases() -> list[tuple[str, list[str]]]:
@@ -1010,21 +1011,30 @@ def _in_group(p, pgid: int) -> bool:
         return False
 
 
+def fmus_commands(folder: Path) -> dict[str, list[str]]:
+    """Every command with a --fmus that builds into it (a folder, or a path where one can be made); folder holds c.toml
+    and f.toml."""
+    return {"run": ["run", "--stop-time", "0.1"], "bundle": ["bundle", str(folder / "b.zip")],
+            "campaign": ["campaign", str(folder / "c.toml")], "falsify": ["falsify", str(folder / "f.toml")],
+            "formation": ["formation"], "reproduce": ["reproduce"], "ssp": ["ssp", "export", str(folder / "x.ssp")]}
+
+
+def not_a_folder_paths(folder: Path) -> dict[str, tuple[str, str]]:
+    """label -> (a path that cannot be a folder, what the line must say); folder holds the file fmus.zip."""
+    a_file = folder / "fmus.zip"
+    return {"a file": (str(a_file), "is a file, not a folder"), "under a file": (str(a_file / "fmus"), "is a file, so no folder"),
+            "empty": ("", "an empty path")}
+
+
 def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, monkeypatch):
     """Generated: 7 commands x 3 paths that cannot be a folder (a file, under a file, empty) = 21 cases, each refused
-    by the option's type (arguments.folder) before the command prepares anything."""
+    by the option's type (path_types.folder) before the command prepares anything."""
     monkeypatch.chdir(tmp_path)
-    a_file = tmp_path / "fmus.zip"
-    a_file.write_bytes(b"PK")
+    (tmp_path / "fmus.zip").write_bytes(b"PK")
     (tmp_path / "c.toml").write_text(CAMPAIGN_SPEC)
     (tmp_path / "f.toml").write_text(FALSIFY_SPEC)
-    commands = {"run": ["run", "--stop-time", "0.1"], "bundle": ["bundle", str(tmp_path / "b.zip")],
-                "campaign": ["campaign", "c.toml"], "falsify": ["falsify", "f.toml"], "formation": ["formation"],
-                "reproduce": ["reproduce"], "ssp": ["ssp", "export", str(tmp_path / "x.ssp")]}
-    paths = {"a file": (str(a_file), "is a file, not a folder"), "under a file": (str(a_file / "fmus"), "is a file, so no folder"),
-             "empty": ("", "an empty path")}
-    cases = [(f"{c} --fmus {label}", [*argv, f"--fmus={path}"], says) for c, argv in commands.items()
-             for label, (path, says) in paths.items()]
+    cases = [(f"{c} --fmus {label}", [*argv, f"--fmus={path}"], says) for c, argv in fmus_commands(tmp_path).items()
+             for label, (path, says) in not_a_folder_paths(tmp_path).items()]
     assert len(cases) == 21
     problems = []
     for label, argv, says in cases:
@@ -1032,6 +1042,182 @@ def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, mo
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or "--fmus" not in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+# ====================================================================================================================
+# Issue 49, every path option by its kind (engine/path_types.py): a folder to write into, a file to write, a folder to
+# read (serve's --fmus); and the surfaces milestone 4 added last (b2b and compare's tubes, wrap --native, the API's
+# Case and RunOptions, campaign-report on garbage), probed as a hostile user would.
+# ====================================================================================================================
+
+def path_option_cases(folder: Path) -> list[tuple[str, list[str], str]]:
+    """(label, argv, what the line must say): every option naming a folder to write, a file to write, or serve's
+    folder to read, given a path that cannot be that."""
+    a_file, fifo = folder / "a_file", folder / "a_fifo"
+    if not a_file.exists():
+        a_file.write_text("x")
+        os.mkfifo(fifo)
+    log = folder / "l.mcap"
+    out_folders = {"run --out": ["run", "--stop-time", "0.1", "--out"], "design --out": ["design", "--out"],
+                   "formation --out": ["formation", "--out"], "reproduce --out": ["reproduce", "--out"],
+                   "reproduce --baselines": ["reproduce", "--baselines"], "plot --out": ["plot", str(log), "--out"],
+                   "compare --figures": ["compare", str(log), str(log), "--figures"], "b2b --out": ["b2b", "--out"],
+                   "b2b --candidate-fmus": ["b2b", "--candidate-fmus"], "build --out": ["build", "--out"],
+                   "campaign --out": ["campaign", "c.toml", "--out"], "falsify --out": ["falsify", "f.toml", "--out"]}
+    out_files = {"run --report": ["run", "--stop-time", "0.1", "--report"], "check --report": ["check", str(log), "--report"],
+                 "reproduce --docs": ["reproduce", "--docs"], "bundle OUT": ["bundle"], "ssp export OUT": ["ssp", "export"],
+                 "layout OUT": ["layout"], "wrap --out": ["wrap", "c.py", "--out"]}
+    cases = []
+    for option, argv in out_folders.items():
+        for label, path, says in (("a file", a_file, "is a file, not a folder"), ("a FIFO", fifo, "is a FIFO, not a folder"),
+                                  ("under a file", a_file / "x", "is a file, so no folder")):
+            cases.append((f"{option} {label}", [*argv, str(path)], says))
+    for option, argv in out_files.items():
+        for label, path, says in (("a folder", folder, "is a folder, not a file"), ("a FIFO", fifo, "is a FIFO, not a file"),
+                                  ("under a file", a_file / "x.html", "is a file, so no file can be made")):
+            cases.append((f"{option} {label}", [*argv, str(path)], says))
+    serve = ["serve", "--token-file", str(a_file), "--fmus"]
+    for label, path, says in (("a file", a_file, "is a file, not a folder"), ("under a file", a_file / "x", "a_file is a file"),
+                              ("missing", folder / "nowhere", "no such folder"), ("a FIFO", fifo, "is a FIFO, not a folder"),
+                              ("empty", "", "an empty path")):
+        cases.append((f"serve --fmus {label}", [*serve, str(path)], says))
+    return cases
+
+
+def test_every_path_option_is_refused_by_its_kind_in_one_line(tmp_path, capsys, monkeypatch):
+    """Generated: 12 folder options x 3 + 7 file options x 3 + serve's --fmus x 5 = 62 cases; each one line naming
+    what the path is, exit 2 (a --report that was a folder, or --out a file, was "a bug" or an error after the run)."""
+    monkeypatch.chdir(tmp_path)
+    cases = path_option_cases(tmp_path)
+    assert len(cases) == 62
+    problems = []
+    for label, argv, says in cases:
+        code = exit_code(argv)
+        lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]):
+            problems.append(f"{label}: exit {code}: {lines[:3]}")
+    assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
+
+
+def _controllers(folder: Path) -> dict[str, str]:
+    """label -> the source of a controller class `wrap --native` must refuse in one line."""
+    ports = "    inputs = ['x_ref', 'x']\n"
+    step = "    def step(self, t, i):\n        return 0.0, 0.0, 0.0, 0.0\n"
+    return {"no class": "def step(t, i):\n    return 0, 0, 0, 0\n", "a syntax error": "class C(:\n",
+            "a decision on a traced value": "class C:\n" + ports + "    def step(self, t, i):\n        if i['x'] > 0:\n"
+                                            "            return 1.0, 0.0, 0.0, 0.0\n        return 0.0, 0.0, 0.0, 0.0\n",
+            "a number of a traced value": "class C:\n" + ports + "    def step(self, t, i):\n        return float(i['x']), 0, 0, 0\n",
+            "a huge array": "import numpy as np\nclass C:\n" + ports + "    def __init__(self):\n        self.k = np.ones((300, 300))\n"
+                            "    def step(self, t, i):\n        return self.k[0, 0] * i['x'], 0.0, 0.0, 0.0\n",
+            "__init__ raises": "class C:\n" + ports + "    def __init__(self):\n        raise ValueError('boom')\n" + step,
+            "__init__ loops without end": "class C:\n" + ports + "    def __init__(self):\n        while True:\n            pass\n" + step,
+            "step loops without end": "class C:\n" + ports + "    def step(self, t, i):\n        while True:\n            pass\n",
+            "step raises": "class C:\n" + ports + "    def step(self, t, i):\n        raise RuntimeError('x')\n",
+            "step returns text": "class C:\n" + ports + "    def step(self, t, i):\n        return 'a'\n",
+            "a port that is not one": "class C:\n    inputs = ['nothing']\n" + step,
+            "a NaN gain": "class C:\n" + ports + "    def __init__(self):\n        self.k = float('nan')\n"
+                          "    def step(self, t, i):\n        return self.k * i['x'], 0.0, 0.0, 0.0\n"}
+
+
+def surface_cases(folder: Path, fmus: Path) -> list[tuple[str, str, list[str] | None, str | None, str]]:
+    """(class, label, argv or None, API code or None, the exit expected): the surfaces milestone 4 added last."""
+    from support.synthetic_log import write_log
+
+    folder.mkdir(parents=True, exist_ok=True)
+    t = np.arange(201) * 0.01
+    log = write_log(folder / "a.mcap", {"plant": (t, {"x": np.sin(t), "z": -2 + 0 * t})}, stop_time=2.0)
+    (folder / "a_file").write_text("x")
+    cases = []
+    tubes = "b2b and compare: tubes"
+    sig = ["--signals", "plant.x,plant.z"]
+    for flag in ("abs", "rel", "lead", "lag"):
+        for value in ("-1", "nan", "inf", "-inf", "x", "1e400"):
+            cases.append((tubes, f"compare --{flag} {value}", ["compare", str(log), str(log), *sig, f"--{flag}", value], None, "2"))
+            cases.append((tubes, f"b2b --{flag} {value}", ["b2b", f"--{flag}", value], None, "2"))
+    tolerance_files = {"no such signal": '[signals."plant.nothing"]\nabs = 1\n', "nan": "[default]\nrel = nan\n",
+                       "text": '[default]\nabs = "1"\n', "not instance.variable": "[signals.x]\nabs = 1\n"}
+    for i, (label, text) in enumerate(tolerance_files.items()):
+        path = folder / f"tol{i}.toml"
+        path.write_text(text)
+        cases.append((tubes, f"compare tolerances: {label}", ["compare", str(log), str(log), "--tolerances", str(path)], None, "2"))
+    cases.append((tubes, "compare --signals naming none", ["compare", str(log), str(log), "--signals", "plant.nothing"], None, "2"))
+    case_lists = {"stop time -1": "stop_time = -1", "stop time nan": "stop_time = nan", "stop time 1e300": "stop_time = 1e300",
+                  "seed of 20 digits": "seed = 99999999999999999999", "scenario a number": None, "no cases": None}
+    for i, (label, field) in enumerate(case_lists.items()):
+        path = folder / f"cases{i}.toml"
+        one = 'scenario = "fsi", trajectory = 1, controller = "dlqr"'
+        path.write_text("cases = []\n" if field is None and label == "no cases" else
+                        "cases = [{scenario = 1, trajectory = 1}]\n" if field is None else f"cases = [{{{one}, {field}}}]\n")
+        cases.append((tubes, f"b2b case list: {label}", ["b2b", "--cases", str(path), "--reference-fmus", str(fmus),
+                                                         "--candidate-fmus", str(fmus)], None, "2"))
+    for label, value in (("a text file", str(folder / "a_file")), ("no such name", "nothing"), ("a folder", str(folder))):
+        cases.append((tubes, f"b2b --candidate-controller {label}", ["b2b", "--candidate-controller", value], None, "2"))
+    for value in ("1e300", "nan", "-1", "0"):
+        cases.append((tubes, f"b2b --stop-time {value}", ["b2b", "--stop-time", value], None, "2"))
+    for label, where in (("a file", folder / "a_file"), ("a folder", folder), ("a device", Path("/dev/zero"))):
+        cases.append((tubes, f"b2b --cases {label}", ["b2b", "--cases", str(where)], None, "2"))
+
+    for i, (label, source) in enumerate(_controllers(folder).items()):
+        path = folder / f"controller{i}.py"
+        path.write_text(source)
+        cases.append(("wrap --native", label, ["wrap", "--native", str(path), "--out", str(folder / f"w{i}.fmu")], None, "2"))
+
+    api = "the API: Case and RunOptions"
+    for field, values in {"stop_time": ["float('nan')", "float('inf')", "-1", "0", "1e300", "True", "'10'"],
+                          "seed": ["2**70", "-1", "1.5", "'1'", "True"], "scenario": ["3", "'ekf'"], "trajectory": ["9", "'x'"],
+                          "controller": ["3", "'pid'"], "set": ["'plant.m_L=1'", "{'plant.m_L': [1]}", "{'plant.m_L': 'abc'}",
+                                                                 "{'plant.m_L': float('nan')}"],
+                          "fmus": [repr(str(folder / "a_file")), "3"], "bogus": ["1"]}.items():
+        for value in values:
+            where = "" if field == "fmus" else f", fmus={str(fmus)!r}"
+            run = f"tl.run(tl.Case({field}={value}{where}), tl.RunOptions(no_log=True, quiet=True))"
+            cases.append((api, f"Case({field}={value})", None, run, "2"))
+    for field, values in {"out": [repr(str(folder / "a_file")), "3"],
+                          "report": [repr(str(folder)), repr(str(folder / "a_file" / "r.html"))],
+                          "step_timeout": ["float('nan')", "-1", "1e12"], "realtime": ["float('inf')", "0"], "log_every": ["0", "1.5"],
+                          "name": ["'../x'", "''"], "snapshot_at": ["(1e300, 'x.snapshot')", "'x'"], "bogus": ["1"]}.items():
+        for value in values:
+            run = f"tl.run(tl.Case(stop_time=0.1, fmus={str(fmus)!r}), tl.RunOptions({field}={value}))"
+            cases.append((api, f"RunOptions({field}={value})", None, run, "2"))
+
+    report = "campaign-report on garbage"
+    garbage = {"text": b"x", "empty": b"", "a log": (folder / "a.mcap").read_bytes(), "parquet magic only": b"PAR1PAR1",
+               "binary": bytes(range(256))}
+    for i, (label, data) in enumerate(garbage.items()):
+        path = folder / f"garbage{i}.parquet"
+        path.write_bytes(data)
+        cases.append((report, label, ["campaign-report", str(path)], None, "2"))
+    cases.append((report, "a folder", ["campaign-report", str(folder)], None, "2"))
+    cases.append((report, "--spec a folder", ["campaign-report", str(folder / "garbage0.parquet"), "--spec", str(folder)], None, "2"))
+    return cases
+
+
+def test_the_surfaces_added_last_refuse_bad_input_in_one_line(fmus, tmp_path, capsys, monkeypatch):
+    """Generated: b2b and compare's tubes, wrap --native, the API's Case and RunOptions, campaign-report on garbage;
+    each one line, exit 2 (a TypeError or TiltloadError from the API), nothing left behind. A traced loop without end
+    is cut at the tracer's time limit (here 2 s)."""
+    from support.isolated_case import api_call, run_isolated
+    from tiltload.master.app.wrap import trace
+
+    monkeypatch.setattr(trace, "TIME_LIMIT_S", 2.0)
+    monkeypatch.chdir(tmp_path)
+    cases = surface_cases(tmp_path / "surfaces", fmus)
+    assert len(cases) >= 120, len(cases)
+    problems = []
+    for cls, label, argv, api, _ in cases:
+        if argv is not None:
+            code = exit_code(argv)
+            lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        else:
+            import tiltload as tl
+
+            outcome = run_isolated(lambda a=api: api_call(lambda: exec(a, {"tl": tl})))  # noqa: S102 (the case's own code)
+            code, lines = outcome.code, [ln for ln in outcome.err.splitlines() if ln.strip()]
+            if outcome.left_behind:
+                lines.append(outcome.left_behind)
+        if code != 2 or len(lines) != 1 or "a bug" in lines[0] or "Traceback" in lines[0]:
+            problems.append(f"{cls}: {label}: exit {code}: {lines[-3:]}")
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
 
 
@@ -1111,7 +1297,7 @@ def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path,
     problems = []
     for i, (label, edit) in enumerate(good):
         results = _results_with(user_campaign, tmp_path / f"good_{i}", edit)
-        code = main(["campaign-report", str(results)])
+        code = exit_code(["campaign-report", str(results)])
         err = capsys.readouterr().err
         if code != 0 or not (results.parent / "report.md").is_file():
             problems.append(f"{label}: exit {code}: {err.strip()[:300]}")
@@ -1124,7 +1310,7 @@ def test_campaign_report_reads_every_writer_or_says_why(user_campaign, tmp_path,
         (results.parent / "spec.toml").write_text(text)
         cases.append((label, results, says))
     for label, results, says in cases:
-        code = main(["campaign-report", str(results)])
+        code = exit_code(["campaign-report", str(results)])
         lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
         if code != 2 or len(lines) != 1 or says not in lines[0] or EXCEPTION_NAME.search(lines[0]) or "a bug" in lines[0]:
             problems.append(f"{label}: exit {code}: {lines[:3]}")
@@ -1235,3 +1421,21 @@ def test_run_prints_the_thesis_values_beside_its_metrics_as_readme_says(fmus, tm
     assert main(["run", *common, "--stop-time", "40", "--set", "plant.m_L=0.06"]) == 0
     out = capsys.readouterr().out
     assert "thesis (" not in out and "note: the thesis" not in out
+
+
+def test_the_plugins_report_path_is_checked_before_any_test_runs(tmp_path):
+    """--tiltload-report naming a folder, a path under a file or a FIFO: pytest's one usage line (exit 4) before the
+    session, not a traceback at its end after every test ran."""
+    import subprocess
+    import sys
+
+    (tmp_path / "test_user.py").write_text("def test_a():\n    pass\n")
+    (tmp_path / "a_file").write_text("x")
+    os.mkfifo(tmp_path / "a_fifo")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    for path, says in ((tmp_path, "is a folder, not a file"), (tmp_path / "a_file" / "r.html", "so no file can be made"),
+                       (tmp_path / "a_fifo", "is a FIFO, not a file")):
+        done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_user.py",
+                               f"--tiltload-report={path}"], cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+        lines = [ln for ln in (done.stdout + done.stderr).splitlines() if ln.strip()]
+        assert done.returncode == 4 and len(lines) == 1 and says in lines[0] and "passed" not in done.stdout, lines

@@ -13,6 +13,7 @@ import pytest
 import tiltload as tl
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support.isolated_case import api_call, command_exit_code, run_isolated
 from support.synthetic_log import write_log
 from tiltload.master.app.cli import main
 
@@ -66,12 +67,7 @@ def log(tmp_path_factory):
 
 def _one_line_exit_2(argv, capsys) -> str | None:
     """None if the command refused its input in one line with exit 2, else what went wrong."""
-    try:
-        code = main(argv)
-    except SystemExit as exit_:
-        code = exit_.code
-    except RecursionError:
-        return "RecursionError"
+    code = command_exit_code(argv)  # its own session and TMPDIR: what it leaves behind is one more line
     out, err = capsys.readouterr()
     lines = [ln for ln in err.splitlines() if ln.strip()]
     if code != 2:
@@ -108,20 +104,16 @@ def test_bad_requirements_for_check_and_the_api_each_get_one_line_and_exit_2(log
     for label, argv, needle in cases:
         why = _one_line_exit_2(argv, capsys)
         if why is None and needle:
-            main(argv)
+            command_exit_code(argv)
             if needle not in capsys.readouterr().err:
                 why = f"does not name {needle}"
         if why:
             problems.append(f"{label}: {why}")
-    for label, formula in bad_formulas():  # the API: TiltloadError with the CLI's line
-        try:
-            tl.check(log, formulas=[f"a: {formula}"])
-            problems.append(f"tl.check {label}: no error")
-        except tl.TiltloadError as err:
-            if "\n" in str(err):
-                problems.append(f"tl.check {label}: {len(str(err).splitlines())} lines")
-        except (Exception, RecursionError) as err:  # noqa: BLE001 (what the API must never raise)
-            problems.append(f"tl.check {label}: {type(err).__name__}")
+    for label, formula in bad_formulas():  # the API: TiltloadError with the CLI's line, in the same isolation
+        outcome = run_isolated(lambda f=formula: api_call(lambda: tl.check(log, formulas=[f"a: {f}"])))
+        lines = [ln for ln in outcome.err.splitlines() if ln.strip()]
+        if outcome.code != 2 or len(lines) != 1 or outcome.left_behind:
+            problems.append(f"tl.check {label}: exit {outcome.code}: {lines[-1:]} {outcome.left_behind}")
     assert not problems, f"{len(problems)} of {len(cases) + len(bad_formulas())} cases:\n" + "\n".join(problems)
 
 

@@ -120,8 +120,10 @@ def test_an_existing_output_is_refused_and_left_as_it_was(tmp_path, capsys):
 
 def test_an_output_under_a_file_is_refused(tmp_path, capsys):
     (tmp_path / "file").write_text("")
-    assert main(["bundle", str(tmp_path / "file" / "b.zip")]) == 2
-    assert "is a file, not a folder" in _one_error_line(capsys)
+    with pytest.raises(SystemExit) as exit_:  # refused by OUT's type, as argparse refuses
+        main(["bundle", str(tmp_path / "file" / "b.zip")])
+    assert exit_.value.code == 2
+    assert "is a file, so no file can be made under it" in _one_error_line(capsys)
 
 
 def test_an_unwritable_folder_is_refused(tmp_path, capsys):

@@ -37,3 +37,33 @@ def test_a_forced_build_compiles(recipe, tmp_path, monkeypatch):
     build_many([recipe], tmp_path / "one", progress=lambda m: None)
     again = build_many([recipe], tmp_path / "two", force=True, progress=lambda m: None)[0]
     assert again.rebuilt and not again.from_cache
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "empty", "a folder", "cache root a file", "cache under a file"])
+def test_a_damaged_or_unusable_cache_builds_anew_and_says_so(recipe, tmp_path, monkeypatch, damage):
+    """A cached copy that is not a whole FMU is built again (not named as reused) and replaced; a TILTLOAD_CACHE that
+    is a file or under one costs a build, never an error."""
+    import shutil
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    first = build_many([recipe], tmp_path / "one", progress=lambda m: None)[0]
+    (copy,) = (tmp_path / "cache" / "fmus").glob(f"*/{recipe.fmu_name}")
+    if damage == "truncated":
+        copy.write_bytes(copy.read_bytes()[:1000])
+    elif damage in ("garbage", "empty"):
+        copy.write_bytes(b"garbage" if damage == "garbage" else b"")
+    elif damage == "a folder":
+        copy.unlink()
+        copy.mkdir()
+    else:
+        shutil.rmtree(tmp_path / "cache")
+        (tmp_path / "cache").write_text("x")
+        if damage == "cache under a file":
+            monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache" / "sub"))
+    said: list[str] = []
+    again = build_many([recipe], tmp_path / "two", progress=said.append)[0]
+    assert again.rebuilt and not again.from_cache and not [m for m in said if m.startswith("reusing")], said
+    assert (tmp_path / "two" / recipe.fmu_name).is_file()
+    if damage in ("truncated", "garbage", "empty"):  # the damaged copy is replaced by the new build
+        assert copy.read_bytes() == (tmp_path / "two" / recipe.fmu_name).read_bytes()
+    assert first.rebuilt

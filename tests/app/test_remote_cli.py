@@ -119,7 +119,7 @@ def test_bad_remote_options_are_one_line_and_exit_2(extra, needle, fmus, token, 
 
 
 @pytest.mark.parametrize("extra, needle", [
-    (["--fmus", "/no/such/folder"], "--fmus /no/such/folder: no such folder"),
+    (["--fmus", "/no/such/folder"], "argument --fmus: /no/such/folder: no such folder"),
     (["--token-file", "LOOSE"], "can be read by other users"),
     (["--bind", "localhost"], "argument --bind: 'localhost' is not HOST:PORT"),
     (["--bind", "203.0.113.9:7390"], "cannot listen on 203.0.113.9:7390"),  # not an address of this machine

@@ -66,6 +66,8 @@ class Case:
             kinds.flag("Case", name, getattr(self, name))
         for name in ("wind", "faults", "system", "fmus"):
             fix(name, kinds.path("Case", name, getattr(self, name)))
+        if self.fmus is not None:
+            arguments.checked(arguments.folder, "--fmus", self.fmus)
         if kinds.whole("Case", "fmi", self.fmi) is not None:
             arguments.chosen("--fmi", self.fmi, (2, 3))
         kinds.number("Case", "max_tilt", self.max_tilt, False)
@@ -74,9 +76,12 @@ class Case:
         if self._python_controller() and self.system is None:  # with a system file the controller is refused below
             fix("controller", controller_fmu_path(self.controller, self.fmi or 2))  # its path: what the run and log name
         from ..options import resolve_loop
+        from .errors import as_tiltload_errors
 
-        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown)
-        object.__setattr__(self, "_resolved", resolve_loop(self))
+        # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown);
+        # a trajectory, wind or fault file's error is the user's to fix, as the command says it: TiltloadError
+        with as_tiltload_errors():
+            object.__setattr__(self, "_resolved", resolve_loop(self))
 
     def loop_options(self) -> LoopOptions:
         """The case with every default filled in (what the system is built from and a snapshot records)."""

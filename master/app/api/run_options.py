@@ -35,6 +35,7 @@ class RunOptions:
     def __post_init__(self) -> None:
         fix = self._fix
         fix("out", kinds.path("RunOptions", "out", self.out, False))
+        arguments.checked(arguments.folder, "--out", self.out)  # the path types of the command's options
         if kinds.text("RunOptions", "name", self.name) is not None:
             arguments.checked(arguments.file_stem, "--name", self.name)
         for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet"):
@@ -42,6 +43,8 @@ class RunOptions:
         arguments.checked(arguments.whole_number, "--log-every", kinds.whole("RunOptions", "log_every", self.log_every, False))
         for name in ("requirements", "from_snapshot", "token_file", "report"):
             fix(name, kinds.path("RunOptions", name, getattr(self, name)))
+        if self.report is not None:
+            arguments.checked(arguments.output_file, "--report", self.report)
         self._snapshot_at()
         if self.realtime is True:
             fix("realtime", 1.0)

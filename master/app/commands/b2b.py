@@ -16,9 +16,9 @@ def add_parser(sub) -> None:
                     help="'reproduction' (the twelve cases of ch. 5) or a case list file (TOML, YAML, JSON: "
                          "cases = [{scenario, trajectory, controller, seed, stop_time}]); default: reproduction")
     for side in ("reference", "candidate"):
-        bp.add_argument(f"--{side}-fmus", type=Path, default=Path("fmus"), metavar="DIR",
+        bp.add_argument(f"--{side}-fmus", type=arguments.folder, default=Path("fmus"), metavar="DIR",
                         help=f"the {side}'s FMU folder (default: fmus)")
-        bp.add_argument(f"--{side}-controller", default=None, metavar="C",
+        bp.add_argument(f"--{side}-controller", type=arguments.controller, default=None, metavar="C",
                         help=f"the {side}'s controller: dlqr, mixed or a controller FMU (default: the case's)")
         bp.add_argument(f"--{side}-set", type=arguments.assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                         help=f"set a parameter on the {side}'s side only (repeatable)")
@@ -33,9 +33,9 @@ def add_parser(sub) -> None:
                     help="tolerances per signal (docs/back_to_back.md; default abs 1e-12, rel 1e-6)")
     for flag in ("abs", "rel", "lead", "lag"):
         bp.add_argument(f"--{flag}", type=arguments.tolerance, default=None, help=f"{flag} tolerance for every signal")
-    bp.add_argument("--stop-time", type=arguments.positive_time, default=None,
+    bp.add_argument("--stop-time", type=arguments.run_time, default=None,
                     help="simulated seconds of every case (default: each case's own, its trajectory's duration)")
-    bp.add_argument("--out", type=Path, default=Path("runs/b2b"), help="folder of the logs and figures (default: runs/b2b)")
+    bp.add_argument("--out", type=arguments.folder, default=Path("runs/b2b"), help="folder of the logs and figures (default: runs/b2b)")
     bp.add_argument("--figures", action="store_true", help="a figure of each signal outside its tube, into OUT")
     bp.set_defaults(func=run)
 

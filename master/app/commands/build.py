@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
+from .. import arguments
 from ..arguments import DEFAULT_FMU_DIR
 
 
@@ -25,7 +25,7 @@ def platform_list(text: str) -> list[str]:
 
 def add_parser(sub) -> None:
     b = sub.add_parser("build", help="build the FMUs into fmus/ (only what is missing or stale)")
-    b.add_argument("--out", type=Path, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
+    b.add_argument("--out", type=arguments.folder, default=DEFAULT_FMU_DIR, help="output folder (default: fmus)")
     b.add_argument("--force", action="store_true", help="rebuild even if up to date")
     b.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                    help="FMI version: 2 (default) into OUT/; 3: FMI 3.0 co-simulation into OUT/fmi3/, the plain FMUs and "

@@ -4,7 +4,6 @@ contract in one archive, for users of other FMI tools (master/app/bundle.py)."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from .. import arguments
 
@@ -12,7 +11,7 @@ from .. import arguments
 def add_parser(sub) -> None:
     b = sub.add_parser("bundle", help="write every FMU (FMI 2.0 and 3.0, Linux, Windows, aarch64 binaries), the SSP "
                                       "packages and the port contract into one zip, for other FMI tools")
-    b.add_argument("out", type=Path, help="the archive to write, e.g. tiltload-fmus.zip (it must not exist)")
+    b.add_argument("out", type=arguments.output_file, help="the archive to write, e.g. tiltload-fmus.zip (it must not exist)")
     b.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR,
                    help="the FMU folder the builds use and update (default: fmus; FMI 3.0 in fmus/fmi3)")
     b.add_argument("--force", action="store_true", help="rebuild every FMU even if up to date")

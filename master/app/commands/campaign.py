@@ -17,7 +17,7 @@ def add_parser(sub) -> None:
     ca.add_argument("what", metavar="SPEC", help="the campaign spec to run, a TOML or YAML file (docs/campaigns.md)")
     ca.add_argument("results", nargs="?", type=Path, default=None, metavar="RESULTS",
                     help="only in the older form `campaign report RESULTS`, now `tiltload campaign-report RESULTS`")
-    ca.add_argument("--out", type=Path, default=None, help="results folder (default runs/campaigns/<name>)")
+    ca.add_argument("--out", type=arguments.folder, default=None, help="results folder (default runs/campaigns/<name>)")
     ca.add_argument("--scheduler", default=None,
                     help="an existing Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (default: a local cluster on 127.0.0.1)")
     ca.add_argument("--workers", type=arguments.whole_number, default=None,

@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from .. import arguments
 from ..api.verdict_table import table
 from ..errors import UserError
 
@@ -23,7 +24,7 @@ def add_parser(sub) -> None:
                    help="a requirement without a file, e.g. 'alt: always[0:40] plant.z < 0' (repeatable)")
     c.add_argument("--explain", action="store_true", help="show each requirement's STL (the sugar expanded) and stop")
     c.add_argument("--json", action="store_true", help="the results as JSON on stdout")
-    c.add_argument("--report", type=Path, default=None, metavar="FILE",
+    c.add_argument("--report", type=arguments.output_file, default=None, metavar="FILE",
                    help="also write a self-contained HTML report: verdicts, traceability, plots (docs/reports.md)")
     c.set_defaults(func=run)
 

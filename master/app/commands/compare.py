@@ -42,7 +42,7 @@ def add_parser(sub) -> None:
     for flag, what in (("abs", "absolute tolerance, in the signal's unit"), ("rel", "relative tolerance, of |reference|"),
                        ("lead", "time the run may be early, s"), ("lag", "time the run may be late, s")):
         sg.add_argument(f"--{flag}", type=arguments.tolerance, default=None, help=f"{what}, for every signal")
-    sg.add_argument("--figures", type=Path, default=None, metavar="DIR",
+    sg.add_argument("--figures", type=arguments.folder, default=None, metavar="DIR",
                     help="a figure of each signal outside its tube into DIR")
     cp.set_defaults(func=run)
 

@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
     d.add_argument("--vehicle", choices=("load", "uav"), default="load", help="load (default) or uav: the UAV alone (dlqr only)")
     d.add_argument("--Tc", type=arguments.time_span(1.0, "period"), default=0.012,
                    help="controller period in s (default 0.012; at most 1)")
-    d.add_argument("--out", type=Path, default=Path("designs"), help="output folder (default: designs)")
+    d.add_argument("--out", type=arguments.folder, default=Path("designs"), help="output folder (default: designs)")
     d.add_argument("--fresh", action="store_true", help="synthesize again even if an identical design is cached")
     d.set_defaults(func=run)
 

@@ -13,7 +13,7 @@ from ..api.falsifying import OPTIMIZERS
 def add_parser(sub) -> None:
     f = sub.add_parser("falsify", help="search wind, faults and parameters for a case that breaks a requirement (STL)")
     f.add_argument("spec", type=Path, help="the falsification spec (TOML/YAML): docs/falsification.md")
-    f.add_argument("--out", type=Path, default=None, help="results folder (default runs/falsify/<name>-<optimizer>-<seed>)")
+    f.add_argument("--out", type=arguments.folder, default=None, help="results folder (default runs/falsify/<name>-<optimizer>-<seed>)")
     f.add_argument("--optimizer", choices=OPTIMIZERS, default=None, help="instead of the spec's")
     f.add_argument("--seed", type=arguments.integer(0, 2**32 - 1), default=None, help="the optimizer's seed, instead of the spec's")
     f.add_argument("--simulations", type=arguments.integer(1, 1000000), default=None, help="budget, instead of the spec's")

@@ -17,7 +17,7 @@ def add_parser(sub) -> None:
                     help="constant acceleration disturbances and external forces from t = 10 s (docs/formation.md)")
     fo.add_argument("--stop-time", type=arguments.positive_time, default=60.0, help="s (default 60)")
     fo.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
-    fo.add_argument("--out", type=Path, default=Path("runs/formation"), help="logs and figures (default runs/formation)")
+    fo.add_argument("--out", type=arguments.folder, default=Path("runs/formation"), help="logs and figures (default runs/formation)")
     fo.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     fo.add_argument("--quiet", action="store_true", help="no progress bar")
     fo.set_defaults(func=run)

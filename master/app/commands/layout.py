@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import arguments
 from ..errors import UserError
 
 
 def add_parser(sub) -> None:
     lo = sub.add_parser("layout", help="write the Foxglove layout for tiltload logs (3D replay, tracking, bounds, actuators)")
-    lo.add_argument("out", type=Path, nargs="?", default=Path("runs/foxglove_layout.json"),
+    lo.add_argument("out", type=arguments.output_file, nargs="?", default=Path("runs/foxglove_layout.json"),
                     help="the layout file to write (default: runs/foxglove_layout.json)")
     lo.add_argument("--formation", action="store_true", help="the layout for `tiltload formation` logs (three UAVs)")
     lo.set_defaults(func=run)

@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import arguments
 from ..errors import UserError
 
 
 def add_parser(sub) -> None:
     pl = sub.add_parser("plot", help="draw the thesis's kinds of figures from a run's MCAP log")
     pl.add_argument("log", type=Path, help="the run's MCAP log, e.g. runs/NAME.mcap (written by tiltload run)")
-    pl.add_argument("--out", type=Path, default=None, help="folder for the PNGs (default: next to the log)")
+    pl.add_argument("--out", type=arguments.folder, default=None, help="folder for the PNGs (default: next to the log)")
     pl.set_defaults(func=run)
 
 

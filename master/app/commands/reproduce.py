@@ -12,9 +12,10 @@ from .. import arguments
 def add_parser(sub) -> None:
     rp = sub.add_parser("reproduce", help="the twelve cases of ch. 5 in parallel: tables vs the thesis, figures, baselines")
     rp.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR)
-    rp.add_argument("--out", type=Path, default=Path("runs/reproduce"), help="logs, figures, results.md (default runs/reproduce)")
-    rp.add_argument("--docs", type=Path, default=None, help="also write this results document (e.g. docs/results.md)")
-    rp.add_argument("--baselines", type=Path, default=Path("baselines"), help="baseline folder (default baselines)")
+    rp.add_argument("--out", type=arguments.folder, default=Path("runs/reproduce"),
+                    help="logs, figures, results.md (default runs/reproduce)")
+    rp.add_argument("--docs", type=arguments.output_file, default=None, help="also write this results document (e.g. docs/results.md)")
+    rp.add_argument("--baselines", type=arguments.folder, default=Path("baselines"), help="baseline folder (default baselines)")
     rp.add_argument("--write-baselines", action="store_true", help="store the metrics as the new baselines")
     rp.add_argument("--check", action="store_true", help="compare every case with its baseline; exit 1 on a difference")
     rp.add_argument("--workers", type=arguments.whole_number, default=None, help="processes (default: one per core)")

@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     r.add_argument("--schedule", choices=("ordered", "jacobi"), default=None,
                    help="ordered: tiltload's master (default); jacobi: as libcosim and Ecos step (a package's own choice "
                         "is the default for it)")
-    r.add_argument("--out", type=Path, default=Path("runs"), help="where the log and plots go (default: runs)")
+    r.add_argument("--out", type=arguments.folder, default=Path("runs"), help="where the log and plots go (default: runs)")
     r.add_argument("--name", type=arguments.file_stem, default=None, help="file name stem of the log")
     r.add_argument("--trust-fmus", action="store_true",
                    help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
@@ -34,7 +34,7 @@ def add_parser(sub) -> None:
     r.add_argument("--requirements", type=Path, default=None, metavar="REQS",
                    help="monitor these requirements (STL, YAML: docs/requirements.md) while the run goes: verdicts in the "
                         "table and the log")
-    r.add_argument("--report", type=Path, default=None, metavar="FILE",
+    r.add_argument("--report", type=arguments.output_file, default=None, metavar="FILE",
                    help="write a self-contained HTML report of the run: its requirements' verdicts with their signals "
                         "plotted, the environment (FMU digests, the controller's parameters), the command that replays it "
                         "(docs/reports.md)")

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from .. import arguments
 
@@ -13,7 +12,7 @@ def add_parser(sub) -> None:
     x = sub.add_parser("ssp", help="export the loop as an SSP package: SSP 1.0 (libcosim, Ecos, tiltload; docs/ports.md), or "
                                    "SSP 2.0 with --fmi 3 (docs/fmi3.md)")
     x.add_argument("action", choices=("export",), help="export: write the package")
-    x.add_argument("out", type=Path, help="the package to write, e.g. loop.ssp")
+    x.add_argument("out", type=arguments.output_file, help="the package to write, e.g. loop.ssp")
     arguments.add_loop_options(x)
     x.add_argument("--schedule", choices=("jacobi", "ordered"), default=None,
                    help="the master the package is for: jacobi (libcosim, Ecos; the default for SSP 1.0) selects the designs "

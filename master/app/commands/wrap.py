@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .. import arguments
+
 
 def add_parser(sub) -> None:
     w = sub.add_parser("wrap", help="package your Python controller class as a controller FMU (docs/ports.md)")
     w.add_argument("controller", type=Path, help="the .py file with the controller class")
     w.add_argument("--class", dest="cls", default=None, help="the class to wrap, if the file has several")
-    w.add_argument("--out", type=Path, default=None, help="the FMU to write (default: next to the file, <name>.fmu)")
+    w.add_argument("--out", type=arguments.output_file, default=None, help="the FMU to write (default: next to the file, <name>.fmu)")
     w.add_argument("--native", action="store_true",
                    help="trace the class's step with CasADi and build a native C FMU (no Python needed to run it; Linux, "
                         "Windows, aarch64; docs/ports.md says what can be traced)")

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...engine.argument_types import MAX_RUN
 from ...engine.errors import DescriptionError
 from ...engine.observers import Observer
 from ...engine.user_files import UserFileError, read_document, schema_problem
@@ -31,7 +32,7 @@ CASES_SCHEMA = {
         "type": "object", "additionalProperties": False, "required": ["scenario", "trajectory"],
         "properties": {"scenario": {"enum": ["fsi", "lkf", "zse"]}, "trajectory": {"enum": [0, 1, 2, 3]},
                        "controller": {"enum": ["dlqr", "mixed"]}, "seed": {"type": "integer", "minimum": 0, "maximum": 2**31 - 1},
-                       "stop_time": {"type": "number", "exclusiveMinimum": 0}}}}},
+                       "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": MAX_RUN}}}}},  # run's bound
 }
 
 

@@ -44,6 +44,14 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 def pytest_configure(config: pytest.Config) -> None:
     if config.getoption(REPORT, None):
+        import argparse
+
+        from ...engine.path_types import output_file
+
+        try:  # checked as the commands' --report is, before any test runs (not a traceback when the session ends)
+            output_file(config.getoption(REPORT))
+        except argparse.ArgumentTypeError as err:
+            raise pytest.UsageError(f"{REPORT}: {err}") from None
         config.pluginmanager.register(SessionReport(Path(config.getoption(REPORT)).resolve()), "tiltload-report")
     config.addinivalue_line("markers", f"{MARKER}(**axes): run the test once per combination of the axes' values "
                             "(e.g. scenario=['zse', 'lkf'], trajectory=[1, 2], seed=[1, 2]), each given to the test as "

@@ -34,6 +34,38 @@ class InitError(TraceError):
     """A controller whose __init__ raises: no route wraps it (the message names the class, the error and the line)."""
 
 
+TIME_LIMIT_S = 60.0  # __init__ and the traced step each: a controller's take milliseconds; a loop without end never ends
+MAX_NUMBERS = 65_536  # the numbers kept from __init__, each a parameter or state of the FMU (a gain matrix holds hundreds)
+
+
+class _TooLong(BaseException):
+    """Raised in the traced code at the time limit (a BaseException: the user's own `except Exception` lets it by)."""
+
+
+@contextmanager
+def _time_limit(what: str):
+    """Run the block for at most TIME_LIMIT_S (SIGALRM's timer; off the main thread, unbounded)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expired(signum, frame):
+        raise _TooLong()
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, TIME_LIMIT_S)
+    try:
+        yield
+    except _TooLong:
+        raise TraceError(f"{what} did not return within {TIME_LIMIT_S:g} s (a loop without end?)") from None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 @dataclass
 class Traced:
     """The controller as one function: step(t, inputs, parameters, states) -> (command[4], next states)."""
@@ -123,7 +155,10 @@ def _where(err: BaseException, source: Path) -> str:
 def instantiate(cls: type, parameters: dict[str, float], source: Path):
     """cls(**parameters), as the FMU will make it; InitError names the error and its line in the class's file."""
     try:
-        return cls(**parameters) if parameters else cls()
+        with _time_limit(f"{cls.__name__}()"):
+            return cls(**parameters) if parameters else cls()
+    except TraceError:
+        raise
     except Exception as err:
         raise InitError(f"{cls.__name__}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
 
@@ -133,6 +168,10 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
     name = cls.__name__
     controller = instantiate(cls, parameters, source)
     numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
+    if sum(v.size for v in numbers.values()) > MAX_NUMBERS:
+        biggest = max(numbers, key=lambda k: numbers[k].size)
+        raise TraceError(f"{name}: its numbers after __init__ are {sum(v.size for v in numbers.values()):,} (self.{biggest} "
+                         f"holds {numbers[biggest].size:,}); at most {MAX_NUMBERS:,} are kept, each a parameter of the FMU")
     initial = {k: v.copy() for k, v in numbers.items()}
     symbols = {k: _symbols(k, v.shape) for k, v in numbers.items()}
     for k, s in symbols.items():
@@ -140,8 +179,10 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
     t = ca.SX.sym("t")
     u = {n: ca.SX.sym(n) for n in inputs}
     try:
-        with _no_numbers_of_symbols():
+        with _no_numbers_of_symbols(), _time_limit(f"{name}.step"):
             command = controller.step(t, dict(u))
+    except TraceError:
+        raise
     except Exception as err:
         where = _where(err, source) or f"a line outside {source.name}"
         raise TraceError(f"{name}.step cannot be traced at {where}: {_operation(err)}") from None

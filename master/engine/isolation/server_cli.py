@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..argument_types import DAY, integer, time_span
 from ..errors import DescriptionError
+from ..path_types import existing_folder
 from .server import DEFAULT_PORT, ServeOptions, Server
 
 
@@ -30,7 +31,7 @@ MAX_CLIENTS_PER_FMU = 1024
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--fmus", type=Path, default=Path("fmus"),
+    p.add_argument("--fmus", type=existing_folder, default=Path("fmus"),
                    help="the folder whose FMUs are served, built for this machine (default: fmus); nothing else is")
     p.add_argument("--bind", type=_address, default=("127.0.0.1", DEFAULT_PORT), metavar="HOST:PORT",
                    help=f"where to listen (default 127.0.0.1:{DEFAULT_PORT}, this machine only; 0.0.0.0:{DEFAULT_PORT} or "
@@ -50,8 +51,6 @@ def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C or SIGTERM (raised as KeyboardInterrupt); ServeError if it cannot start."""
     from .handshake import read_token
 
-    if not args.fmus.is_dir():
-        raise ServeError(f"--fmus {args.fmus}: no such folder")
     try:
         secret = read_token(args.token_file)
     except DescriptionError as err:
