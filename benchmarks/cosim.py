@@ -39,8 +39,8 @@ from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import TICK, default_system, loop_metrics, select_loop_delay
 from tiltload.master.app.scene import scene_channels
 from tiltload.master.engine import jacobi
-from tiltload.master.engine.mcap_log import McapLogger
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
+from tiltload.master.engine.log.logger import McapLogger
 from tiltload.master.engine.ssp.export import export
 from tiltload.master.engine.ssp.load import load
 from timing import Timed, best, machine, timed

@@ -160,7 +160,7 @@ def evaluation_cost(client, fmus, tmp, repeat: int) -> str:
 def _cost_in_worker(base, case, fmus, tmp, repeat):
     from tiltload.master.app.falsify.evaluate import evaluate, robustness, run_loop
     from tiltload.master.app.falsify.signals import trace_from_log
-    from tiltload.master.engine.mcap_log import McapLogger
+    from tiltload.master.engine.log.logger import McapLogger
 
     best_obs = best_log = math.inf
     for k in range(repeat):

@@ -31,8 +31,9 @@ from pathlib import Path
 from tiltload.master.app.fmus import build_all, build_many, fmu_folder, scheduled_recipes
 from tiltload.master.app.loop import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
-from tiltload.master.engine import execution, fmi3, fmi3_scheduled
+from tiltload.master.engine import execution
 from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.fmi import fmi3, fmi3_scheduled
 from tiltload.master.engine.native.codes import Profile
 from tiltload.master.engine.native.loop import NativeLoop
 

@@ -21,7 +21,7 @@ from tiltload.controller_fmu.design.synthesize import design
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.engine import jacobi
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.run import run_system
 
 STOP = 40.0

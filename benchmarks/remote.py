@@ -99,8 +99,8 @@ def link_round_trip(kind: str, request: int, reply: int, n: int = 3000, netns: s
 
 def step_sizes(fmus: Path) -> tuple[int, int]:
     """The bytes of the controller's step request and reply in the loop (wire.py): what the link carries per tick."""
+    from tiltload.master.engine.fmi.model_description import read_fmu
     from tiltload.master.engine.isolation import wire
-    from tiltload.master.engine.model_description import read_fmu
 
     md = read_fmu(fmus / "TiltloadController.fmu", "controller")
     inputs = [v for v in md.modelVariables if v.causality == "input"]

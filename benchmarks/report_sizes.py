@@ -36,8 +36,8 @@ def run_and_check(fmus: Path, tmp: Path) -> list[str]:
     import tiltload as tl
     from tiltload.master.app.evidence import Report, test_of_log, write_report
     from tiltload.master.app.evidence.model import this_environment
-    from tiltload.master.engine.requirement_check import check_log
-    from tiltload.master.engine.requirements import load
+    from tiltload.master.engine.requirement.check import check_log
+    from tiltload.master.engine.requirement.files import load
 
     common = {"scenario": "zse", "trajectory": 1, "stop_time": 40, "fmus": fmus, "no_plots": True, "requirements": REQS}
     _, plain = timed(lambda: tl.run(out=tmp / "a", **common))

@@ -23,12 +23,12 @@ import numpy as np
 from tiltload.master.app.fmus import build_all
 from tiltload.master.app.loop import default_system, loop_metrics
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import log_reader
-from tiltload.master.engine.mcap_log import McapLogger
-from tiltload.master.engine.requirement_check import build_trace, check_trace
-from tiltload.master.engine.requirement_observer import RequirementObserver
-from tiltload.master.engine.requirements import load
-from tiltload.master.engine.stl.windows import sliding_min, sliding_min_deque
+from tiltload.master.engine.log import reader as log_reader
+from tiltload.master.engine.log.logger import McapLogger
+from tiltload.master.engine.requirement.check import build_trace, check_trace
+from tiltload.master.engine.requirement.files import load
+from tiltload.master.engine.requirement.observer import RequirementObserver
+from tiltload.master.engine.requirement.stl.windows import sliding_min, sliding_min_deque
 from timing import best, machine, timed
 
 ROOT = Path(__file__).resolve().parents[1]

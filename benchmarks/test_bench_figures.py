@@ -29,7 +29,7 @@ def mission(fmus: Path) -> None:
     from tiltload.master.app.inputs import READER
     from tiltload.master.app.loop import default_system, loop_metrics
     from tiltload.master.app.trajectory_check import check_reference
-    from tiltload.master.engine import log_reader
+    from tiltload.master.engine.log import reader as log_reader
     from tiltload.master.engine.run import run_system
     from tiltload.scenario_fmu import choice, twin
     from tiltload.scenario_fmu.wind import read_wind

@@ -17,7 +17,7 @@ LIBCOSIMPY = "libcosimpy==0.0.6"
 
 @pytest.fixture(scope="session")
 def plant_fmu() -> Path:
-    from tiltload.master.engine.pythonfmu_guard import pin
+    from tiltload.master.engine.fmi.pythonfmu_guard import pin
     from tiltload.native_fmu.build import build
     from tiltload.plant_fmu.build import recipe
 
@@ -30,7 +30,7 @@ def plant_fmu() -> Path:
 def pipeline_fmus() -> dict[str, Path]:
     """All four FMUs (the controller's first build synthesizes the mixed designs, then cached)."""
     from tiltload.master.app.fmus import build_all
-    from tiltload.master.engine.pythonfmu_guard import pin
+    from tiltload.master.engine.fmi.pythonfmu_guard import pin
 
     paths = {r.path.stem: r.path for r in build_all(ROOT / "fmus", progress=lambda *_: None)}
     for path in paths.values():
@@ -101,8 +101,8 @@ def pytest_sessionfinish(session, exitstatus):
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
     """After the report: a process that loaded pythonfmu FMUs (wrapped controllers) leaves without the interpreter
-    shutdown those can crash (engine/pythonfmu_guard.py); everything else exits normally."""
-    from tiltload.master.engine.pythonfmu_guard import exit_now, pinned
+    shutdown those can crash (engine/fmi/pythonfmu_guard.py); everything else exits normally."""
+    from tiltload.master.engine.fmi.pythonfmu_guard import exit_now, pinned
 
     if pinned():
         exit_now(getattr(config, "_tiltload_exit", 0))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..engine.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
-from ..engine.path_types import existing_folder, folder, kind, output_file
+from ..command_line.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
+from ..command_line.path_types import existing_folder, folder, kind, output_file
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
 __all__ = ["DAY", "existing_folder", "folder", "integer", "output_file", "positive_number", "positive_time", "run_time", "time_span",

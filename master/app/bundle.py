@@ -117,7 +117,7 @@ def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
 def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, str]:
     """One line per member, from the files themselves: an FMU's model description and its build record's platforms;
     refused if an FMU lacks a platform's binary (a bundle is for every platform)."""
-    from ..engine.model_description import read_fmu
+    from ..engine.fmi.model_description import read_fmu
 
     out = {}
     for member, path in members.items():
@@ -143,7 +143,7 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
 
 
 def _is_scheduled(md) -> bool:
-    from ..engine.model_description import is_scheduled
+    from ..engine.fmi.model_description import is_scheduled
 
     return is_scheduled(md)
 
@@ -191,7 +191,7 @@ def ports_text(controller_fmu: Path) -> str:
     from ...plant_fmu.vehicles import VEHICLES
     from ...sensor_fmu.suite import SUITES
     from ..engine.connections import resolve
-    from ..engine.model_description import read_fmu
+    from ..engine.fmi.model_description import read_fmu
     from ..engine.system import System
     from .loop import default_system
     from .ports import contract_inputs

@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
 def entry() -> None:
     """The `tiltload` command: main(), then an exit that a loaded pythonfmu controller cannot crash."""
     try:  # from the first import: a Ctrl-C while the command's modules load is as quiet as one while it runs
-        from ..engine.pythonfmu_guard import exit_now, pinned
+        from ..engine.fmi.pythonfmu_guard import exit_now, pinned
         from ..engine.run import terminate_like_interrupt
 
         terminate_like_interrupt()

@@ -29,7 +29,7 @@ def model_identifier(path, instance: str) -> str | None:
     read_fmu does."""
     import os
 
-    from ..engine.model_description import read_fmu
+    from ..engine.fmi.model_description import read_fmu
 
     try:
         st = os.stat(path)

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ...formation.kinematics import AGENTS  # noqa: E402
-from ..engine import log_reader  # noqa: E402
+from ..engine.log import reader as log_reader  # noqa: E402
 from ..engine.run import RunResult, run_system  # noqa: E402
 from .formation_system import DISTURBANCE_START, DURATION, formation_system  # noqa: E402
 from .scene import scene_channels  # noqa: E402

@@ -50,7 +50,7 @@ def loop_system(opts: LoopOptions, unpack_into: Path, prepared: bool = False, bu
 
             check_settings(system, opts.settings)
         if opts.controller_fmu is not None and not prepared:
-            from ..engine.model_description import read_fmu
+            from ..engine.fmi.model_description import read_fmu
             from .ports import check_controller
 
             check_controller(read_fmu(opts.controller_fmu, CONTROLLER), opts.allow_unknown_inputs, opts.vehicle)

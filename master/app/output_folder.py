@@ -10,7 +10,7 @@ import os
 import shutil
 from pathlib import Path
 
-from ..engine.path_types import folder_problem
+from ..command_line.path_types import folder_problem
 from .user_error import UserError
 
 MIN_FREE = 16 * 2**20  # bytes: a part of a campaign is kilobytes, its results and report a few megabytes

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ...plant_fmu.parameters import MODEL_PARAMETERS
-from ..engine.mcap_log import DerivedChannel
+from ..engine.log.logger import DerivedChannel
 
 _P = {s.name: s.default for s in MODEL_PARAMETERS}
 THRUSTERS = [(_P[f"d_C{i}_x"], _P[f"d_C{i}_y"], _P[f"d_C{i}_z"]) for i in (2, 3)]

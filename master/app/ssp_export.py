@@ -13,9 +13,9 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     """The loop the options describe as an SSP package at out (SSP 2.0 when its FMUs are FMI 3.0): (path, SSP 2.0?,
     the schedule it is prepared for, the controller's loop delay in ticks or None, FMUs, stop time)."""
     from ...controller_fmu.design.cache import cache_root
-    from ..engine import ssp2
-    from ..engine.model_description import read_fmu
+    from ..engine.fmi.model_description import read_fmu
     from ..engine.ssp import export as ssp1
+    from ..engine.ssp import ssp2
     from .loop import select_loop_delay
     from .loop_system import loop_system
     from .options import resolve_loop

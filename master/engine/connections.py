@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .errors import DescriptionError
-from .slave import TYPES
+from .fmi.slave import TYPES
 from .system import System
 
 

@@ -25,10 +25,10 @@ import numpy as np
 
 from . import connections
 from .errors import DescriptionError
-from .model_description import checked_value, read_fmu, steps_every
+from .fmi.model_description import checked_value, read_fmu, steps_every
+from .fmi.slave import C_TYPES, Slave
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
-from .slave import C_TYPES, Slave
 from .system import System, validate
 
 # Which FMUs run in a worker process of their own: a predicate (fmu path, model description) -> bool

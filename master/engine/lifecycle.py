@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .execution import Execution, IsolationPolicy
-from .mcap_log import CHUNK_TICK_BY_TICK, McapLogger
+from .log.logger import CHUNK_TICK_BY_TICK, McapLogger
 from .observers import Metrics, Progress
 from .system import System
 

@@ -1,4 +1,4 @@
-"""Observers: read-only views of an execution (metrics, progress). The MCAP logger is in mcap_log.py.
+"""Observers: read-only views of an execution (metrics, progress). The MCAP logger is in log/logger.py.
 
 An observer sees the execution start, every instance's outputs after each of its steps (with the
 time they hold), the end of every tick, the start and end of every fault, and the finish. The tick

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import DescriptionError
-from .model_description import checked_value
+from .fmi.model_description import checked_value
 
 FORMAT = "tiltload-snapshot/2"
 # bounds checked before a member is read (declared sizes) and while it is (actual bytes): a state of the loop's FMUs

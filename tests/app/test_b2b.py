@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from tiltload.master.app.cli import main
 from tiltload.master.app.regression.back_to_back import SIGNALS
-from tiltload.master.engine.log_reader import read_columns
+from tiltload.master.engine.log.reader import read_columns
 
 CASES = 'cases = [{scenario = "lkf", trajectory = 1}, {scenario = "fsi", trajectory = 2, controller = "mixed"}]\n'
 

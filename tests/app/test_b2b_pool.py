@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from tiltload.master.app.regression.back_to_back import SIGNALS, Case, Side, back_to_back, run_side
 from tiltload.master.engine.lifecycle import ExecutionPool
-from tiltload.master.engine.log_reader import read_columns
+from tiltload.master.engine.log.reader import read_columns
 
 
 def test_the_cases_restart_one_execution_and_log_what_a_fresh_run_logs(fmus, tmp_path):

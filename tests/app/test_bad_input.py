@@ -682,7 +682,7 @@ def test_every_file_a_command_reads_is_opened_as_a_file(tmp_path, capsys, monkey
 
 
 # ====================================================================================================================
-# Issue 49, logs from other tools (engine/log_reader.py): MCAPs written by the mcap package's own writer the way other
+# Issue 49, logs from other tools (engine/log/reader.py): MCAPs written by the mcap package's own writer the way other
 # tools write them, and chunks that declare or inflate to more than a chunk may hold. Each is one line naming the
 # channel and what tiltload expected there (or the chunk, as damage), exit 2, never a traceback nor a decompression
 # of gigabytes.
@@ -750,11 +750,11 @@ def _foreign_logs(folder: Path) -> dict[str, tuple[Path, str]]:
                                                    ("geometry.Pose", "protobuf", foreign_schema)), "geometry.Pose"),
         "a protobuf schema that claims tiltload's layout": (
             _foreign_log(folder / "claims.mcap", "protobuf", [b"\x0a\x03abc"] * 3, ("geometry.Pose", "protobuf", foreign_schema),
-                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+                         {"layout": __import__("tiltload.master.engine.log.encoding", fromlist=["LAYOUT"]).LAYOUT}),
             "fixed layout"),
         "a protobuf schema that is garbage": (
             _foreign_log(folder / "garbage.mcap", "protobuf", [b"\x00"] * 3, ("x", "protobuf", b"\xff\xff\xff"),
-                         {"layout": __import__("tiltload.master.engine.log_encoding", fromlist=["LAYOUT"]).LAYOUT}),
+                         {"layout": __import__("tiltload.master.engine.log.encoding", fromlist=["LAYOUT"]).LAYOUT}),
             "fixed layout"),
         "JSON text where a number goes": (_foreign_log(folder / "text.mcap", "json", [number, b'{"t": 0.012, "x": "high"}']),
                                           "where a number goes"),
@@ -1046,7 +1046,7 @@ def test_every_fmus_option_that_is_not_a_folder_is_one_line(tmp_path, capsys, mo
 
 
 # ====================================================================================================================
-# Issue 49, every path option by its kind (engine/path_types.py): a folder to write into, a file to write, a folder to
+# Issue 49, every path option by its kind (master/command_line/path_types.py): a folder to write into, a file to write, a folder to
 # read (serve's --fmus); and the surfaces milestone 4 added last (b2b and compare's tubes, wrap --native, the API's
 # Case and RunOptions, campaign-report on garbage), probed as a hostile user would.
 # ====================================================================================================================

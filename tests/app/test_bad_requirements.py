@@ -227,7 +227,7 @@ def test_vacuous_pass_in_the_table_json_and_the_api(tmp_path, capsys):
 
 
 def test_sugar_times_keep_every_digit_and_a_checked_field_is_spliced_as_given():
-    from tiltload.master.engine.requirements import parse_entries
+    from tiltload.master.engine.requirement.files import parse_entries
 
     (r,) = parse_entries({"requirements": [{"name": "a", "bounds": {"signal": "plant.x", "max": 1, "from": 0.1, "to": 12.3456789}}]}, "")
     assert r.formula.a == 0.1 and r.formula.b == 12.3456789  # not 12.3457, as :g wrote it
@@ -247,9 +247,9 @@ _PIECES = ["plant.x > 0", "plant.z < 1", "(", ")", " and ", " or ", " -> ", "not
 def test_a_sugar_field_is_refused_naming_it_or_is_exactly_its_own_formula(trigger, response, signal):
     """Whatever the text: refused with one line naming the field, or the expansion holds the field's own tree where the
     field goes (never a text spliced in that changes the meaning around it)."""
-    from tiltload.master.engine.requirements import RequirementError, parse_entries
-    from tiltload.master.engine.stl import parse
-    from tiltload.master.engine.stl import syntax as S
+    from tiltload.master.engine.requirement.files import RequirementError, parse_entries
+    from tiltload.master.engine.requirement.stl import parse
+    from tiltload.master.engine.requirement.stl import syntax as S
 
     entry = {"name": "r", "response": {"trigger": trigger, "response": response, "within": 1}}
     try:

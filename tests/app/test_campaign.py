@@ -614,7 +614,7 @@ values = [1.0, 0.8]
 
 
 def _log_metrics(path: Path) -> dict[str, float]:
-    from tiltload.master.engine.log_reader import read_metadata
+    from tiltload.master.engine.log.reader import read_metadata
 
     return {k: float(v) for k, v in read_metadata(path)["metrics"].items() if k.startswith(("ISE", "IADU"))}
 

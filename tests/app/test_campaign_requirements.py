@@ -9,8 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 from tiltload.master.app.campaign import runner as campaign
 from tiltload.master.app.campaign import spec as campaign_spec
-from tiltload.master.engine.requirement_check import check_log
-from tiltload.master.engine.requirements import load
+from tiltload.master.engine.requirement.check import check_log
+from tiltload.master.engine.requirement.files import load
 
 SPEC = """
 name = "reqs"

@@ -68,7 +68,7 @@ def test_a_traceable_class_runs_as_the_native_fmu_wrap_makes_and_is_built_once(p
 _RUN_IN_A_PROCESS = """
 import importlib.util, json, sys
 import tiltload as tl
-from tiltload.master.engine.pythonfmu_guard import exit_now
+from tiltload.master.engine.fmi.pythonfmu_guard import exit_now
 path, fmus, controller = sys.argv[1:4]
 spec = importlib.util.spec_from_file_location("user_hover_lqr", path)
 module = importlib.util.module_from_spec(spec)

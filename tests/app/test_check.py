@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from support.synthetic_log import write_log
 from tiltload.master.app.cli import main
-from tiltload.master.engine.requirement_check import check_log
-from tiltload.master.engine.requirements import RequirementError, from_option, load
+from tiltload.master.engine.requirement.check import check_log
+from tiltload.master.engine.requirement.files import RequirementError, from_option, load
 
 TICK = 0.012
 N = 1001  # 12 s
@@ -169,7 +169,7 @@ def test_several_logs_a_signal_one_lacks_is_inconclusive_there(log, tmp_path, ca
 
 def test_read_columns_equals_the_message_reader(tmp_path):
     """read_columns decodes the fixed layout's doubles as the per-message reader does, bit for bit."""
-    from tiltload.master.engine import log_reader
+    from tiltload.master.engine.log import reader as log_reader
 
     t = np.arange(50) * TICK
     path = write_log(tmp_path / "l.mcap", {"plant": (t, {"x": np.sin(t) * 1e-300, "y": np.cos(t)})})

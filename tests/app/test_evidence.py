@@ -105,8 +105,8 @@ def test_verdicts_counts_and_matrix_follow_from_the_signals(check_report):
 def test_not_exercised_and_error_cells():
     from tiltload.master.app.evidence import Report, Test
     from tiltload.master.app.evidence.model import counts, matrix, this_environment
-    from tiltload.master.engine.requirement_check import Result
-    from tiltload.master.engine.requirements import requirement
+    from tiltload.master.engine.requirement.check import Result
+    from tiltload.master.engine.requirement.files import requirement
 
     declared = [requirement("a", "always plant.x <= 1"), requirement("b", "always plant.x >= -1")]
     judged = Test("judged", results=[Result("a", "PASS", 0.5, None)])
@@ -161,7 +161,7 @@ def pages(check_report, fmus, tmp_path_factory):
     from tiltload.master.app.evidence.campaign_page import write_campaign_report
     from tiltload.master.app.evidence.falsification_page import write_falsification_report
     from tiltload.master.app.evidence.pytest_report import TestRecord, write_pytest_report
-    from tiltload.master.engine.requirements import load
+    from tiltload.master.engine.requirement.files import load
 
     tmp = tmp_path_factory.mktemp("pages")
     reqs = tmp / "reqs.yaml"

@@ -13,10 +13,10 @@ from support.remote import ServerProcess, token_file
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import fmu_folder, is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.fmi3 import Fmu3Slave
+from tiltload.master.engine.fmi.fmi3 import Fmu3Slave
 from tiltload.master.engine.isolation.process import IsolatedFmu
+from tiltload.master.engine.log import reader as log_reader
 
 CLOCKS = {"clocked": ["--clocks"], "plain": []}
 TOPICS = ["/scenario", "/sensors", "/controller", "/plant"]

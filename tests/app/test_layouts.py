@@ -8,9 +8,9 @@ from support import ROOT
 from tiltload.master.app import foxglove_layout
 from tiltload.master.app.loop import default_system
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.mcap_log import McapLogger
+from tiltload.master.engine.log import reader as log_reader
+from tiltload.master.engine.log.logger import McapLogger
 
 
 def test_the_shipped_foxglove_layout_is_current_and_plots_paths_the_log_has(fmus, tmp_path):

@@ -12,7 +12,7 @@ from support.third_party_controller import build as build_third_party
 from support.third_party_controller import user_controller
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.observers import Observer
 from tiltload.master.engine.run import run_system
 from tiltload.plant_fmu.interface import STATE_NAMES

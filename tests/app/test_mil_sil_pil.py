@@ -13,7 +13,7 @@ import pytest
 import tiltload as tl
 from tiltload.master.app.cli import main
 from tiltload.master.app.regression.back_to_back import SIGNALS
-from tiltload.master.engine.log_reader import read_columns
+from tiltload.master.engine.log.reader import read_columns
 
 TOLERANCE = {"abs": 1e-6, "rel": 1e-6}  # docs/mil_sil_pil.md: the same controller, every signal
 CASE = {"scenario": "lkf", "trajectory": 1, "controller": "dlqr"}
@@ -120,8 +120,8 @@ def test_tl_serve_checks_each_step_against_the_model(fmus):
 
     from tiltload.master.app.regression import pil
     from tiltload.master.engine.errors import ExecutionError
+    from tiltload.master.engine.fmi.model_description import read_fmu
     from tiltload.master.engine.isolation.hosting import remote_fmu
-    from tiltload.master.engine.model_description import read_fmu
     from tiltload.native_fmu.compile import host_platform
 
     fmu = fmus / "TiltloadController.fmu"

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import pytest
 from support import DATA
 from tiltload.master.app.plot import figures, unit
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 
 UNIT = re.compile(r"\((m|rad|m/s|rad/s|N|N m|s|[^()]*units[^()]*)\)$")
 

@@ -13,8 +13,8 @@ import pytest
 from support.remote import ServerProcess, token_file
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
-from tiltload.master.engine import log_reader
 from tiltload.master.engine import system as sysdesc
+from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.ssp.load import load
 
 

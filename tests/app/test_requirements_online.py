@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
-from tiltload.master.engine import log_reader
-from tiltload.master.engine.requirement_check import build_trace, check_log, log_series
-from tiltload.master.engine.requirement_observer import RequirementObserver
-from tiltload.master.engine.requirements import from_option
+from tiltload.master.engine.log import reader as log_reader
+from tiltload.master.engine.requirement.check import build_trace, check_log, log_series
+from tiltload.master.engine.requirement.files import from_option
+from tiltload.master.engine.requirement.observer import RequirementObserver
+from tiltload.master.engine.requirement.stl import Evaluator
 from tiltload.master.engine.run import run_system
-from tiltload.master.engine.stl import Evaluator
 
 REQS = ["track: always[2:inf] abs(plant.x - scenario.x_ref) < 0.3",
         "thrust: always (controller.f_R >= 0 and controller.f_R <= 30)",
@@ -93,7 +93,7 @@ def test_unknown_signal_before_the_run(fmus, tmp_path, capsys):
 
 def test_the_requirements_figure(online_run, tmp_path):
     from tiltload.master.app.plot import requirement_figure
-    from tiltload.master.engine.requirement_check import intervals
+    from tiltload.master.engine.requirement.check import intervals
 
     _, _, log = online_run
     (path,) = requirement_figure(log, tmp_path)

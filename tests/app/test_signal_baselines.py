@@ -175,7 +175,7 @@ def _fmu(path: Path, guid: str, date: str, code: bytes) -> Path:
 
 def test_a_rewrapped_fmu_is_the_same_content_and_what_changed_is_told_in_order(tmp_path):
     from tiltload.master.app.regression.changes import what_changed
-    from tiltload.master.engine.provenance import content_digest, fmu_digest
+    from tiltload.master.engine.log.provenance import content_digest, fmu_digest
 
     one = _fmu(tmp_path / "a.fmu", "g1", "2026-12-04T14:41:58", b"kp = 1.0")
     again = _fmu(tmp_path / "b.fmu", "g2", "2026-12-04T14:42:03", b"kp = 1.0")  # a wrap stamps a new GUID and date

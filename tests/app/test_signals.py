@@ -14,7 +14,7 @@ import pytest
 from support import HOSTS
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import loop_metrics
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 
 
 def start(fmus: Path, folder: Path) -> tuple[subprocess.Popen, Path, Path]:

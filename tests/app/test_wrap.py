@@ -8,8 +8,8 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 from tiltload.master.app.cli import main
-from tiltload.master.engine import log_reader
-from tiltload.master.engine.pythonfmu_guard import pin
+from tiltload.master.engine.fmi.pythonfmu_guard import pin
+from tiltload.master.engine.log import reader as log_reader
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "docs" / "examples" / "hover_lqr.py"
 

@@ -10,9 +10,9 @@ import pytest
 from support import ROOT, T
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader
 from tiltload.master.engine.faults.parse import load, parse
 from tiltload.master.engine.faults.schedule import FaultError
+from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.system import Instance, System
 

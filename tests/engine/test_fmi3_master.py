@@ -1,4 +1,4 @@
-"""The engine's FMI 3.0 slave (master/engine/fmi3.py): the loop on FMI 3.0 FMUs with and without clocks, mixed with
+"""The engine's FMI 3.0 slave (master/engine/fmi/fmi3.py): the loop on FMI 3.0 FMUs with and without clocks, mixed with
 FMI 2.0 ones, equals the FMI 2.0 loop bit for bit; the log shows each clocked sensor group sampled at its clock's
 ticks; clocks replace periods; a state saved at 20 s continues bit for bit in new instances; two other importers
 agree: FMPy's FMU3Slave stepping the plain FMUs, and a C host written from the standard's call sequences stepping
@@ -20,9 +20,9 @@ from tiltload.master.engine import connections
 from tiltload.master.engine import system as sysdesc
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.log_reader import read
-from tiltload.master.engine.mcap_log import McapLogger
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
+from tiltload.master.engine.log.logger import McapLogger
+from tiltload.master.engine.log.reader import read
 from tiltload.master.engine.observers import Observer
 from tiltload.master.engine.run import run_system
 from tiltload.native_fmu.package import fmi_header_dir
@@ -153,7 +153,7 @@ def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_th
     """The loop says which path each instance takes, and does take it: with the slaves' own Python step disabled
     here, the in-process FMUs (plain and clocked) still run; the controller in a worker process is stepped there
     (its callback, a message to the worker); asked to, the loop steps an in-process clocked FMU through the callback."""
-    from tiltload.master.engine.fmi3 import Fmu3Slave
+    from tiltload.master.engine.fmi.fmi3 import Fmu3Slave
     from tiltload.master.engine.native.loop import NativeLoop
 
     system = default_system(fmi3_set, "zse", 1, "mixed", fmi=3, clocked=True)
@@ -409,8 +409,8 @@ def test_the_clocked_loop_is_clean_under_address_and_undefined_behaviour_sanitiz
 def test_a_scheduled_execution_slave_takes_its_own_kernel_path():
     """It is an Fmu3Slave (it reuses the clocked slave's staging) but runs partitions, no Event Mode and no step: the
     kernel must not take it for a clocked co-simulation FMU, and says so in its path."""
-    from tiltload.master.engine.fmi3 import Fmu3Slave
-    from tiltload.master.engine.fmi3_scheduled import Fmu3ScheduledSlave
+    from tiltload.master.engine.fmi.fmi3 import Fmu3Slave
+    from tiltload.master.engine.fmi.fmi3_scheduled import Fmu3ScheduledSlave
     from tiltload.master.engine.native.loop import path_of
 
     scheduled, clocked = object.__new__(Fmu3ScheduledSlave), object.__new__(Fmu3Slave)

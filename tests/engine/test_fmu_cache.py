@@ -1,4 +1,4 @@
-"""The machine's unpacked FMUs (engine/fmu_cache.py): one folder per SHA-256, safe for concurrent unpackers, checked
+"""The machine's unpacked FMUs (engine/fmi/fmu_cache.py): one folder per SHA-256, safe for concurrent unpackers, checked
 against the archive at each load, and never one library shared by two live instances of a process."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from tiltload.master.engine import fmu_cache
+from tiltload.master.engine.fmi import fmu_cache
 
 
 def _archive_files(fmu: Path) -> dict[str, bytes]:

@@ -13,9 +13,9 @@ from support.fmi2_session import foreign_copy, wrap_misbehaving
 from tiltload.master.app.cli import main
 from tiltload.master.app.fmus import is_foreign
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation.process import IsolatedFmu
+from tiltload.master.engine.log import reader as log_reader
 
 MISBEHAVIOURS = {
     "segfault": ("os.kill(os.getpid(), signal.SIGSEGV)", "crashed (SIGSEGV) in doStep at t=0.504 s"),

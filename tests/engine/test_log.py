@@ -14,10 +14,10 @@ from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system
 from tiltload.master.app.plot import plot_run
 from tiltload.master.app.scene import scene_channels
-from tiltload.master.engine import log_reader
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.log_encoding import FixedMessage
-from tiltload.master.engine.mcap_log import McapLogger
+from tiltload.master.engine.log import reader as log_reader
+from tiltload.master.engine.log.encoding import FixedMessage
+from tiltload.master.engine.log.logger import McapLogger
 
 OLD_LOG = ROOT / "tests" / "support" / "data" / "json_log_v0.mcap"  # written by tiltload before the protobuf log (JSON channels)
 

@@ -12,8 +12,8 @@ from mcap.data_stream import RecordBuilder
 from mcap.reader import make_reader
 from mcap.records import Chunk, ChunkIndex, Message, MessageIndex, Statistics
 from mcap.stream_reader import StreamReader
-from tiltload.master.engine.log_encoding import FixedMessage
-from tiltload.master.engine.mcap_writer import McapWriter, MessageBatch
+from tiltload.master.engine.log.encoding import FixedMessage
+from tiltload.master.engine.log.writer import McapWriter, MessageBatch
 
 
 def random_batches(rng, channels: list[int], count: int):

@@ -13,16 +13,16 @@ import pytest
 from support.fmi2_session import wrap_misbehaving
 from support.remote import Namespace, ServerProcess, board_copy, connect, netns_available, token_file
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine.binaries import library_member
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.fmi.binaries import library_member
+from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.isolation import handshake, wire
 from tiltload.master.engine.isolation.elf import library_machine, this_machine
 from tiltload.master.engine.isolation.hosting import remote_fmu
 from tiltload.master.engine.isolation.process import IsolatedFmu
 from tiltload.master.engine.isolation.remote_client import RemoteHost
 from tiltload.master.engine.isolation.transport import Channel, FrameTooLarge, LinkClosed
-from tiltload.master.engine.model_description import read_fmu
 
 GIGABYTE = 1 << 30
 

@@ -13,11 +13,12 @@ from support.system_libraries import needs_library
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import jacobi, zip_unpack
+from tiltload.master.engine import jacobi
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.run import run_system
+from tiltload.master.engine.ssp import zip_unpack
 from tiltload.master.engine.ssp.load import load
 from tiltload.master.engine.ssp.schema import PARAMETER_SET, schema_errors
 from tiltload.scenario_fmu.trajectories import circle

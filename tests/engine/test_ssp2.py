@@ -1,4 +1,4 @@
-"""SSP 2.0 export of a system with FMI 3.0 FMUs (master/engine/ssp2.py): valid against the SSP 2.0 schemas (both forms)
+"""SSP 2.0 export of a system with FMI 3.0 FMUs (master/engine/ssp/ssp2.py): valid against the SSP 2.0 schemas (both forms)
 and pyssp-standard's check, FMI 3.0 types and clocks declared, FMI 2.0 components kept SSP 1.0-typed, read back by
 ssp.load.load into the same system, which runs to the same metrics bit for bit; FMI 2.0-only systems stay SSP 1.0."""
 
@@ -10,9 +10,9 @@ import pytest
 from lxml import etree
 from support import T
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import ssp2
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.run import run_system
+from tiltload.master.engine.ssp import ssp2
 from tiltload.master.engine.ssp.export import export
 from tiltload.master.engine.ssp.load import load
 from tiltload.master.engine.ssp.schema import SSD_NAME, TL_NS, schema_errors
@@ -100,7 +100,7 @@ def test_fmi2_components_keep_their_types_and_fmi2_only_systems_stay_ssp_1_0(fmu
         root = etree.fromstring(z.read(SSD_NAME))
     assert _connectors(root, "plant")["x"].find("ssc:Real", NS) is not None
     assert _connectors(root, "sensors")["x"].find("ssc:Float64", NS) is not None
-    from tiltload.master.engine.model_description import read_fmu
+    from tiltload.master.engine.fmi.model_description import read_fmu
 
     fmi2 = default_system(fmus, "zse", 1, "mixed")
     assert not ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in fmi2.instances})

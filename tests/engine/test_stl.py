@@ -9,9 +9,9 @@ import random
 import numpy as np
 import pytest
 from support.stl_oracle import brute, every_operator, rand_formula, rand_trace, same
-from tiltload.master.engine.stl import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, StlError, Trace, parse, unparse, verdict
-from tiltload.master.engine.stl import syntax as S
-from tiltload.master.engine.stl.windows import sliding_min, sliding_min_deque
+from tiltload.master.engine.requirement.stl import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, StlError, Trace, parse, unparse, verdict
+from tiltload.master.engine.requirement.stl import syntax as S
+from tiltload.master.engine.requirement.stl.windows import sliding_min, sliding_min_deque
 
 
 @pytest.mark.parametrize("seed", range(40))

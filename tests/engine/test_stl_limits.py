@@ -14,8 +14,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from support.stl_oracle import brute, rand_formula, rand_trace
-from tiltload.master.engine.stl import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, StlError, Trace, horizon, parse, signals, unparse, verdict
-from tiltload.master.engine.stl import syntax as S
+from tiltload.master.engine.requirement.stl import (
+    FAIL,
+    INCONCLUSIVE,
+    PASS,
+    ZERO,
+    Evaluator,
+    StlError,
+    Trace,
+    horizon,
+    parse,
+    signals,
+    unparse,
+    verdict,
+)
+from tiltload.master.engine.requirement.stl import syntax as S
 
 TRACE = Trace.uniform(np.arange(50) * 0.1, {"a.x": np.linspace(1.0, 2.0, 50), "a.y": np.linspace(-1.0, 1.0, 50)}, 0.1)
 
@@ -184,7 +197,7 @@ def test_vacuity_only_of_implies_at_the_top():
 
 @pytest.mark.parametrize("seed", range(40))
 def test_a_long_until_window_equals_the_passes_and_the_definition(seed, monkeypatch):
-    from tiltload.master.engine.stl import robustness as R
+    from tiltload.master.engine.requirement.stl import robustness as R
 
     rng = random.Random(9000 + seed)
     period = rng.choice([1.0, 0.25])

@@ -21,7 +21,7 @@ from tiltload.controller_fmu.reference.runtime import ControllerRuntime
 from tiltload.master.app.loop import default_system
 from tiltload.master.engine import connections
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.plant_fmu.interface import STATE_NAMES
 from tiltload.sensor_fmu.suite import GROUPS, ZSE_NAMES
 

@@ -24,7 +24,7 @@ from tiltload.controller_fmu.fmu.build import TC
 from tiltload.master.app.loop import default_stop, default_system
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
 from tiltload.master.engine.execution import Execution
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.observers import Observer
 from tiltload.native_fmu.package import fmi_header_dir
 from tiltload.plant_fmu.interface import STATE_NAMES

@@ -11,7 +11,7 @@ from fractions import Fraction
 from pathlib import Path
 
 from tiltload.master.engine import connections
-from tiltload.master.engine.model_description import read_fmu
+from tiltload.master.engine.fmi.model_description import read_fmu
 
 INTERFACES = {"CoSimulation": "F", "ScheduledExecution": "S"}
 

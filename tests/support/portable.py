@@ -174,7 +174,7 @@ def loop_plan(system, folders: dict[str, Path], platform: Platform, out: Path, s
     psi as tiltload's metrics sample them, every Real output of the plant and the controller every `every` ticks.
     Returns the plan and the plant's value reference of each tracked variable (the keys of Run.ise)."""
     from tiltload.master.engine import connections
-    from tiltload.master.engine.model_description import read_fmu
+    from tiltload.master.engine.fmi.model_description import read_fmu
 
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     lines = ["G"] if global_scope else []

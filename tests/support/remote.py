@@ -31,8 +31,8 @@ class ServerProcess:
 
     def __init__(self, fmus: Path, token: Path, *extra: str, bind: str = "127.0.0.1:0", netns: str | None = None,
                  engine_only: bool = False) -> None:
-        """engine_only: as a board without the application runs it, `python -m tiltload.master.engine.isolation.server_cli`."""
-        entry = ["tiltload.master.engine.isolation.server_cli"] if engine_only else ["tiltload.master.app.cli", "serve"]
+        """engine_only: as a board without the application runs it, `python -m tiltload.master.command_line.serve`."""
+        entry = ["tiltload.master.command_line.serve"] if engine_only else ["tiltload.master.app.cli", "serve"]
         command = [sys.executable, "-m", *entry, "--fmus", str(fmus), "--token-file", str(token), "--bind", bind, *extra]
         if netns is not None:
             command = ["ip", "netns", "exec", netns, *command]

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from tiltload.master.engine.stl import Evaluator, unparse  # noqa: E402
-from tiltload.master.engine.stl import syntax as S  # noqa: E402
+from tiltload.master.engine.requirement.stl import Evaluator, unparse  # noqa: E402
+from tiltload.master.engine.requirement.stl import syntax as S  # noqa: E402
 
 from support.stl_oracle import every_operator, rand_formula, rand_trace  # noqa: E402
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from tiltload.master.engine.stl import Trace
-from tiltload.master.engine.stl import syntax as S
+from tiltload.master.engine.requirement.stl import Trace
+from tiltload.master.engine.requirement.stl import syntax as S
 
 # --- the oracle: the definition, sample by sample ------------------------------------------------------------------
 

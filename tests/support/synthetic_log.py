@@ -6,8 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from tiltload.master.engine.log_encoding import LAYOUT, FixedMessage
-from tiltload.master.engine.mcap_writer import McapWriter, MessageBatch
+from tiltload.master.engine.log.encoding import LAYOUT, FixedMessage
+from tiltload.master.engine.log.writer import McapWriter, MessageBatch
 
 
 def write_log(path: Path, channels: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], stop_time: float | None = None,

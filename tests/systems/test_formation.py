@@ -10,7 +10,7 @@ import pytest
 from support.fmi2_session import session
 from tiltload.formation import dualquat as dq
 from tiltload.formation import kinematics as kin
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 
 RNG = np.random.default_rng(7)
 
@@ -249,7 +249,7 @@ def test_formation_command(formation_fmus, tmp_path, capsys):
                  "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "7 FMUs" in out and (tmp_path / "tsid.mcap").is_file() and (tmp_path / "error_norm.png").is_file()
-    from tiltload.master.engine import log_reader
+    from tiltload.master.engine.log import reader as log_reader
 
     topics = log_reader.read(tmp_path / "tsid.mcap", topics=["/scene/plant_sigma", "/scene/plant_tau"])
     assert topics["/scene/plant_sigma"] and topics["/scene/plant_tau"]  # one 3D scene per UAV

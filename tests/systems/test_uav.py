@@ -10,7 +10,7 @@ from support import ROOT
 from support import physics_oracle as ref
 from support.fmi2_session import session
 from tiltload.master.app.cli import main
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 from tiltload.plant_fmu.trim import hover_trim
 
 STATES = ["x", "y", "z", "phi", "theta", "psi", "alpha_R", "alpha_L"]

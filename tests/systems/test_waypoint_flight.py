@@ -12,7 +12,7 @@ from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
 from tiltload.master.app.inputs import READER
 from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.engine import log_reader
+from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.ssp.load import load
 from tiltload.master.engine.ssp.schema import PARAMETER_SET

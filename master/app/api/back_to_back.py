@@ -98,7 +98,7 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
 
 
 def _check_tolerance(name: str, value) -> None:
-    from ...engine.argument_types import tolerance
+    from ...command_line.argument_types import tolerance
     from ..arguments import named
 
     named(tolerance, name, value)

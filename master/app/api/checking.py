@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from ...engine.requirement_check import Result as RequirementResult
+from ...engine.requirement.check import Result as RequirementResult
 from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 
@@ -18,7 +18,7 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
     Each result has name, verdict (PASS, FAIL, INCONCLUSIVE, ZERO), vacuous (a PASS whose trigger never held), robustness,
     first_violation (s) and the signals' values there; to_json() is valid JSON. Raises TiltloadError for a missing or
     damaged log, a formula that does not parse or exceeds a limit, an unknown signal, a window past the run's end."""
-    from ...engine.requirements import from_option, load
+    from ...engine.requirement.files import from_option, load
 
     log = run.log if isinstance(run, Result) else Path(run)
     if log is None:
@@ -27,8 +27,8 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
         reqs = [*(load(Path(requirements)) if requirements is not None else []), *(from_option(f) for f in formulas)]
         if not reqs:
             raise TiltloadError("check: name a requirement file or give formulas")
-        from ...engine.requirement_check import check_log, log_span
-        from ...engine.requirements import check_horizons
+        from ...engine.requirement.check import check_log, log_span
+        from ...engine.requirement.files import check_horizons
 
         if Path(log).is_file():  # as `tiltload check` refuses it: a window past the run's end can never be decided
             check_horizons(reqs, log_span(log), f"the run in {Path(log).name}")

@@ -12,7 +12,7 @@ Source = Result | str | Path
 
 
 def _tolerance(name: str, value: float | None) -> float | None:
-    from ...engine.argument_types import tolerance
+    from ...command_line.argument_types import tolerance
     from ..arguments import named
 
     return None if value is None else named(tolerance, name, value)
@@ -54,7 +54,7 @@ def compare(run: Source, baseline: Source, *, rtol: float | None = None, atol: f
 
 
 def _fmus(source: Source) -> dict | None:
-    """The FMUs' record (digests, parameters: engine.provenance) of a Result's log, a log or a baseline file."""
+    """The FMUs' record (digests, parameters: engine.log.provenance) of a Result's log, a log or a baseline file."""
     from ..regression.changes import load_fmus
 
     path = source.log if isinstance(source, Result) else Path(source)

@@ -30,7 +30,7 @@ class Outcome:
     log: Path | None
     plots: list[Path]
     failure: str | None  # the one line of a run that ended early
-    requirements: tuple = ()  # the requirements' results (engine.requirement_check.Result) when requirements were given
+    requirements: tuple = ()  # the requirements' results (engine.requirement.check.Result) when requirements were given
 
 
 def preparing(case: Case, options: RunOptions) -> str:
@@ -143,7 +143,7 @@ def _options(case: Case, options: RunOptions):
 def _scheduled(case: Case, loop, system, snap, say: Say):
     """(the system as its schedule runs it, the schedule): the snapshot's, the case's or the loop's own."""
     from ...engine import jacobi
-    from ...engine.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
 
     schedule = (snap.application.get("schedule") if snap else None) or case.schedule or loop.schedule
     if schedule == "jacobi":
@@ -227,7 +227,7 @@ def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, mo
 def _failed_run_plots(options: RunOptions, log: Path | None, say: Say) -> list[Path]:
     """A run that ended early still gets its figures, of what its log holds (a diverged one scaled to where its signals
     were sane: plot.scale_to_sane); a log too damaged to draw gets none, said in one line."""
-    from ...engine.log_reader import DamagedLog
+    from ...engine.log.reader import DamagedLog
     from ..plot import plot_intact
 
     if options.no_plots or log is None or not log.is_file():
@@ -266,9 +266,9 @@ def _monitor(options: RunOptions, system, span: float):
         if options.stop_on_violation:
             raise UserError("--stop-on-violation needs --requirements")
         return None
-    from ...engine.model_description import read_fmu
-    from ...engine.requirement_observer import RequirementObserver
-    from ...engine.requirements import check_horizons, check_signals, load
+    from ...engine.fmi.model_description import read_fmu
+    from ...engine.requirement.files import check_horizons, check_signals, load
+    from ...engine.requirement.observer import RequirementObserver
 
     reqs = load(options.requirements)
     check_horizons(reqs, span, "this run")  # as check refuses it: a window past the run's end can never be decided

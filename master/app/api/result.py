@@ -13,7 +13,7 @@ if TYPE_CHECKING:
     import numpy as np
     import pandas as pd
 
-    from ...engine.requirement_check import Result as RequirementResult
+    from ...engine.requirement.check import Result as RequirementResult
     from .case import Case
     from .run_options import RunOptions
 
@@ -49,7 +49,7 @@ def read_signals(log: Path, topic: str) -> Signals:
     """A channel of a log as arrays (a value missing from a message, e.g. a dropped sample, is NaN)."""
     import numpy as np
 
-    from ...engine.log_reader import read
+    from ...engine.log.reader import read
 
     messages = read(log, topics=[topic]).get(topic)
     if not messages:

@@ -9,8 +9,8 @@ from pathlib import Path
 
 from ...engine.errors import DescriptionError
 from ...engine.lifecycle import RunPlan, run_plan
-from ...engine.mcap_log import McapLogger
-from ...engine.requirement_observer import RequirementObserver
+from ...engine.log.logger import McapLogger
+from ...engine.requirement.observer import RequirementObserver
 from ..fmus import is_foreign
 from ..loop import PLANT
 from ..scene import scene_channels
@@ -66,7 +66,7 @@ def _monitor(base: CampaignBase) -> list:
     """The requirements' observer of keep.requirements (a fresh one a run), or none."""
     if not base.requirements:
         return []
-    from ...engine.requirements import requirement
+    from ...engine.requirement.files import requirement
 
     return [RequirementObserver([requirement(name, text) for name, text in base.requirements])]
 

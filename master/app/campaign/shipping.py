@@ -3,7 +3,7 @@ the FMU folder: the client registers a worker plugin holding the files' bytes (S
 runs it on every worker there is and every worker that joins later, even after all the others are gone (data scattered
 to the workers would be lost with them). Each worker writes the files, checked against their SHA-256, into its
 machine's cache, <cache>/shipped/<the set's digest>/ (the first worker of a machine writes, the others find them
-there); the engine then unpacks each FMU once per machine into the same cache (engine/fmu_cache.py), as for a local
+there); the engine then unpacks each FMU once per machine into the same cache (engine/fmi/fmu_cache.py), as for a local
 run. The tasks run with that folder as their FMU folder. The plugin stays registered under the set's digest (shipping
 the same set again replaces it): a cluster that outlives many builds holds a plugin, about a megabyte, a set.
 

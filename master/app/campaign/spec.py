@@ -308,8 +308,8 @@ def _requirements(keep: dict, path: Path) -> tuple:
     """keep.requirements: a requirement file (relative to the spec): each (name, STL), its columns' names checked."""
     if "requirements" not in keep:
         return ()
-    from ...engine.requirements import RequirementError
-    from ...engine.requirements import load as load_requirements
+    from ...engine.requirement.files import RequirementError
+    from ...engine.requirement.files import load as load_requirements
 
     try:
         reqs = load_requirements(path.parent / keep["requirements"])

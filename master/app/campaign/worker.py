@@ -92,7 +92,7 @@ class CaseWorker:
     def formula(self, text: str):
         """An STL formula, parsed once."""
         if text not in self.formulas:
-            from ...engine.stl import parse
+            from ...engine.requirement.stl import parse
 
             self.formulas[text] = parse(text)
         return self.formulas[text]

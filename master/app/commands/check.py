@@ -42,7 +42,7 @@ def _is_log(path: Path) -> bool:
 
 def gather(files: list[Path], formulas: list[str]):
     """(requirements, logs) from the command line."""
-    from ...engine.requirements import from_option, load
+    from ...engine.requirement.files import from_option, load
     from ...engine.user_files import open_binary
 
     files = list(files)
@@ -65,7 +65,7 @@ def gather(files: list[Path], formulas: list[str]):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...engine.requirement_check import check_log, log_span
+    from ...engine.requirement.check import check_log, log_span
 
     reqs, logs = gather(args.files, args.formula)
     if args.explain:

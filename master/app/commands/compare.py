@@ -133,8 +133,8 @@ def run(args: argparse.Namespace) -> int:
     print(result.table())
     ok = result.ok
     if args.requirements is not None:
-        from ...engine.requirement_check import check_log
-        from ...engine.requirements import load
+        from ...engine.requirement.check import check_log
+        from ...engine.requirement.files import load
         from ..errors import UserError
         from ..regression import compare as cmp
 

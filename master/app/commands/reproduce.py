@@ -29,7 +29,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...engine.requirements import load
+    from ...engine.requirement.files import load
     from ..errors import UserError
     from ..fmus import build_all, fmu_folder
     from ..regression.reproduce import CASES, case_name, main
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
 def verdict_table(reqs, logs: list[Path]) -> bool:
     """Each case's verdicts (P, F, I, 0 for ZERO, - for no log), one row a requirement; True if any FAIL."""
-    from ...engine.requirement_check import check_log
+    from ...engine.requirement.check import check_log
 
     verdicts = {}
     for log in logs:

@@ -1,7 +1,7 @@
 """`tiltload serve`: this machine hosts the FMUs of a folder for masters elsewhere (docs/remote.md).
 
-The options and the serving are the engine's (isolation/server_cli.py), which a board without the
-whole application also runs as `python -m tiltload.master.engine.isolation.server_cli`.
+The options and the serving are the engine's (command_line/serve.py), which a board without the
+whole application also runs as `python -m tiltload.master.command_line.serve`.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import argparse
 
 
 def add_parser(sub) -> None:
-    from ...engine.isolation.server_cli import add_arguments
+    from ...command_line.serve import add_arguments
 
     s = sub.add_parser("serve", help="host the FMUs of a folder for a master on another machine "
                                      "(tiltload run --remote INSTANCE=HOST:PORT; docs/remote.md)")
@@ -19,8 +19,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ...engine.isolation.server_cli import ServeError
-    from ...engine.isolation.server_cli import run as serve
+    from ...command_line.serve import ServeError
+    from ...command_line.serve import run as serve
     from ..errors import UserError
 
     try:

@@ -18,7 +18,7 @@ def write_falsification_report(name: str, summary: str, requirements: list, dime
     replays the best case and log that replay's log (None: no case had a robustness)."""
     import shlex
 
-    from ...engine.requirement_check import check_log
+    from ...engine.requirement.check import check_log
 
     tests = []
     if log is not None and Path(log).is_file():

@@ -51,7 +51,7 @@ def requirement_figure(req, trace, result, unit_of, final: bool = True) -> tuple
     what follows it share one), the first violation marked; and its margin (for always[a:b] φ, φ's robustness over the
     window) against the bound 0, violations shaded. A diverged signal is drawn where it was finite, its divergence
     marked."""
-    from ...engine.requirement_check import intervals, margins
+    from ...engine.requirement.check import intervals, margins
 
     times, margin = margins(req, trace, final=final)
     panels: dict[str, list[str]] = {}
@@ -116,7 +116,7 @@ def _svg(fig, name: str) -> str:
 
 def standard_figures(log: Path) -> list[tuple[str, str]]:
     """(title, PNG data: URI) of the thesis's kinds of figures the log allows (none for a log without a plant)."""
-    from ...engine import log_reader
+    from ...engine.log import reader as log_reader
     from ..plot import TITLES, TOPICS, case_of, figures
 
     data, state = log_reader.read_checked(Path(log), topics=TOPICS)

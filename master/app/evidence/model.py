@@ -45,7 +45,7 @@ class Environment:
 @dataclass
 class Test:
     """One test or case: what ran (its replay command), its log, its metrics, each requirement's result
-    (engine.requirement_check.Result), and the one line of a run that ended in an error."""
+    (engine.requirement.check.Result), and the one line of a run that ended in an error."""
 
     name: str
     command: str = ""
@@ -79,7 +79,7 @@ class Report:
     kind: str  # run, check, campaign, falsification, pytest
     tests: list[Test]
     environment: Environment
-    declared: list = field(default_factory=list)  # engine.requirements.Requirement
+    declared: list = field(default_factory=list)  # engine.requirement.files.Requirement
     figures: list[tuple[str, str]] = field(default_factory=list)
     tables: list[Table] = field(default_factory=list)
     summary: str = ""  # a paragraph under the title
@@ -158,7 +158,7 @@ def sha256(path: Path) -> str:
 def environment_of_system(system, controller: str = "controller") -> Environment:
     """The environment of a run of `system` (engine.system.System): each instance's FMU (model, GUID, digest) and the
     controller instance's parameters (its FMU's start values, overridden by what the run set)."""
-    from ...engine.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
 
     fmus, params = [], {}
     for inst in system.instances:

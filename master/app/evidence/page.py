@@ -34,9 +34,9 @@ def _result_json(r) -> dict:
 
 def _figures_of(test, reqs_by_name) -> dict[str, dict]:
     """Requirement name -> {"svg": ..., "curves": [...]} for each result judged on the test's log."""
-    from ...engine import log_reader
-    from ...engine.requirement_check import build_trace
-    from ...engine.requirements import requirement
+    from ...engine.log import reader as log_reader
+    from ...engine.requirement.check import build_trace
+    from ...engine.requirement.files import requirement
     from ..plot import unit
     from .figures import requirement_figure
 

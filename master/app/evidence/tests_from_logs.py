@@ -40,8 +40,8 @@ def replay_command(run: dict, requirements: Path | None = None) -> str:
 
 def test_of_log(log: Path, results, requirements: Path | None = None, name: str | None = None) -> Test:
     """The test a log stands for: named by its file, its case and metrics from its metadata, the results given
-    (engine.requirement_check.Result), the one line of the error that ended its run, if one did."""
-    from ...engine.log_reader import read_metadata
+    (engine.requirement.check.Result), the one line of the error that ended its run, if one did."""
+    from ...engine.log.reader import read_metadata
 
     meta = read_metadata(Path(log))
     run = dict(meta.get("run", {}))

@@ -30,7 +30,7 @@ from pathlib import Path
 from ....scenario_fmu.files import ScenarioFileError
 from ...engine.lifecycle import RunPlan, run_plan
 from ...engine.observers import StopRun
-from ...engine.stl import Evaluator, verdict
+from ...engine.requirement.stl import Evaluator, verdict
 from ..campaign.case_system import case_system
 from ..campaign.worker import RUN_FAILURES, CaseWorker, environment_failure, this_worker, worker_address
 from ..fmus import is_foreign

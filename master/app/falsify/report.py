@@ -175,7 +175,7 @@ def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = 
 def html_report(spec: Falsification, outcome: Outcome, out: Path, command: list[str] | None, text: str,
                 log: Path | None) -> Path:
     """report.html: the search, and its best case (log: that case replayed with a log) judged with its figures."""
-    from ...engine.requirements import requirement
+    from ...engine.requirement.files import requirement
     from ..evidence.falsification_page import write_falsification_report
 
     figures = [out / FIGURE, out / "neighbourhood" / "neighbourhood.png", out / "neighbourhood.png"]

@@ -35,7 +35,7 @@ def identity(spec: Falsification, early_stop: bool = True) -> str:
 def check_names(spec: Falsification, fmus: Path) -> None:
     """Before any run, against the built FMUs: each requirement's signal is an output of its instance, each searched
     instance.name a parameter of it."""
-    from ...engine.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
     from ..campaign.case_system import case_system
 
     system = case_system(fmus, spec.base(), spec.controller, spec.loop_seed, dict(spec.parameters))

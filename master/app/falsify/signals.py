@@ -10,7 +10,7 @@ Early stop (`stop_on`): at every CHECK_TICKS-th tick of the run (absolute ticks:
 where the whole run does, so both stop at the same tick), the recorder evaluates the formulas on the trace so far, cut
 at the last tick every signal has reached (an exact prefix of the whole run's trace: no held value stands in for one
 not yet computed). A formula whose robustness's upper bound over every continuation is below 0 has a FAIL that can no
-longer change: the recorder raises the requirements' RequirementViolated (master/engine/requirement_observer.py) and
+longer change: the recorder raises the requirements' RequirementViolated (master/engine/requirement/observer.py) and
 the run stops there.
 """
 
@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...engine.observers import Observer
-from ...engine.requirement_observer import RequirementViolated
-from ...engine.stl import Evaluator, Trace, verdict
+from ...engine.requirement.observer import RequirementViolated
+from ...engine.requirement.stl import Evaluator, Trace, verdict
 
 TYPES = ("Real", "Integer", "Boolean")
 CHECK_TICKS = 256  # ticks between two early-stop checks: the tick loop's own calls (engine/native/loop.py's CHUNK, 3.07 s
@@ -125,8 +125,8 @@ class SignalRecorder(Observer):
 
 
 def trace_from_log(path, names: list[str], tick: float) -> Trace:
-    """The same trace from a run's MCAP log (its /instance topics; master/engine/log_reader.py)."""
-    from ...engine import log_reader
+    """The same trace from a run's MCAP log (its /instance topics; master/engine/log/reader.py)."""
+    from ...engine.log import reader as log_reader
 
     topics = sorted({"/" + n.partition(".")[0] for n in names})
     data = log_reader.read(path, topics)

@@ -80,7 +80,7 @@ class Dimension:
 @dataclass(frozen=True)
 class Requirement:
     name: str
-    formula: str  # rtamt's grammar (master/engine/stl)
+    formula: str  # rtamt's grammar (master/engine/requirement/stl)
     description: str = ""
 
 
@@ -164,8 +164,8 @@ def _validate(data: dict, path: Path) -> None:
 
 def _from_file(item: dict, i: int, path: Path) -> list[dict]:
     """The entries a {file, name} item names, as {name, formula, description} (the file read through user_files: its
-    size, depth and numbers bounded; its entries checked by the requirements' own loader, master/engine/requirements.py)."""
-    from ...engine.requirements import RequirementError, parse_entries
+    size, depth and numbers bounded; its entries checked by the requirements' own loader, master/engine/requirement/files.py)."""
+    from ...engine.requirement.files import RequirementError, parse_entries
     from ...engine.user_files import UserFileError, read_yaml
 
     file = (path.parent / item["file"]).resolve()
@@ -189,7 +189,7 @@ def _from_file(item: dict, i: int, path: Path) -> list[dict]:
 
 
 def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str, ...]]:
-    from ...engine import stl
+    from ...engine.requirement import stl
 
     names, found, out = set(), [], []
     expanded = []
@@ -213,7 +213,7 @@ def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str
 
 def _check_horizons(requirements: list[Requirement], stop: float, path: Path) -> None:
     """A requirement must be decidable by the run: its horizon within the last tick the run reaches."""
-    from ...engine import stl
+    from ...engine.requirement import stl
     from ..loop import TICK
 
     last = math.floor(stop / TICK + 1e-9) * TICK

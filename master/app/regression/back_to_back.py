@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine.argument_types import MAX_RUN
+from ...command_line.argument_types import MAX_RUN
 from ...engine.errors import DescriptionError
 from ...engine.observers import Observer
 from ...engine.user_files import UserFileError, read_document, schema_problem
@@ -237,7 +237,7 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
     """Each case run on both sides into out/, then the candidate's signals in the reference's tubes. pool: the
     ExecutionPool the runs go through (None: one for this call, closed at its end)."""
     from ...engine.lifecycle import ExecutionPool
-    from ...engine.log_reader import read_metadata
+    from ...engine.log.reader import read_metadata
     from .changes import what_changed
 
     names = signals or SIGNALS

@@ -1,7 +1,7 @@
 """What changed between a baseline and a run, said before any signal or metric: each FMU by its digest, model and
 GUID, and its parameters ("controller parameter x_0 1.7 -> 1.75; plant, scenario and sensors unchanged").
 
-The records are engine.provenance's (a log's "fmus" metadata, copied into every baseline). A baseline or log without one
+The records are engine.log.provenance's (a log's "fmus" metadata, copied into every baseline). A baseline or log without one
 (written before tiltload kept them) says what differs between the two cases' controller --set values instead.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...engine.provenance import instance_names, parameters
+from ...engine.log.provenance import instance_names, parameters
 
 SHOWN = 6  # parameters named one by one; the rest counted
 
@@ -26,7 +26,7 @@ def load_fmus(path: Path) -> dict[str, str] | None:
 
         record = read_header(path).get("fmus")
     else:
-        from ...engine.log_reader import read_metadata
+        from ...engine.log.reader import read_metadata
 
         record = read_metadata(path).get("fmus")
     return {str(k): str(v) for k, v in record.items()} if isinstance(record, dict) else None

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ...engine.errors import DescriptionError
-from ...engine.log_reader import DamagedLog, check, read_log, read_metadata
+from ...engine.log.reader import DamagedLog, check, read_log, read_metadata
 
 _TOLERANCE = {"type": "number", "minimum": 0}
 BASELINE_SCHEMA = {  # a baseline .json (regression/reproduce.write_baselines writes them; case, seed, spread are notes)

@@ -1,7 +1,7 @@
 """Model-in-the-loop: the thesis's controller as its numpy reference implementation (controller_fmu/reference/runtime.py,
 the oracle the C is tested against), in the loop with the ports of the controller FMU (docs/mil_sil_pil.md).
 
-`ReferenceController` is a slave (engine/slave.py) with the FMU's model description whose tick is ControllerRuntime's
+`ReferenceController` is a slave (engine/fmi/slave.py) with the FMU's model description whose tick is ControllerRuntime's
 step, in Python. It is served over tiltload's remote protocol by a process of its own (`python -m
 tiltload.master.app.regression.mil --fmu F --token-file T`, the worker's request loop with this slave as its loader),
 so that the master runs it as the remote controller of an unchanged run, as it runs the C build (SIL) in process and
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ...engine.errors import DescriptionError, ExecutionError
-from ...engine.slave import TYPES, Slave
+from ...engine.fmi.slave import TYPES, Slave
 from .pil import START_TIMEOUT, Served
 
 TICK = 0.012
@@ -156,10 +156,10 @@ class ReferenceController(Slave):
 
 def serve(fmu: Path, secret: bytes, sock: socket.socket, say, gain: tuple[int, int, float] | None = None) -> None:
     """Sessions one after the other: the handshake, the request for the controller, the worker's loop."""
+    from ...engine.fmi.model_description import read_fmu
     from ...engine.isolation import handshake, wire
     from ...engine.isolation.transport import Channel, LinkClosed, LinkTimeout
     from ...engine.isolation.worker import serve as serve_requests
-    from ...engine.model_description import read_fmu
 
     md = read_fmu(fmu, "controller")
     while True:

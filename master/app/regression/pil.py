@@ -48,7 +48,7 @@ def build_server(platform: str = "aarch64-linux") -> Path:
     """tl_serve compiled for platform (aarch64-linux, x86_64-linux), cached by the source, the compiler and its flags."""
     from ....native_fmu.compile import compiler_identity
     from ....native_fmu.package import fmi_header_dir
-    from ...engine.fmu_cache import cache_root
+    from ...engine.fmi.fmu_cache import cache_root
 
     cc = _compiler(platform)
     flags = ["-std=c99", "-pedantic", "-O2", "-Wall", "-Wextra", "-I", str(fmi_header_dir(2))]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...engine import log_reader
+from ...engine.log import reader as log_reader
 from .thesis_values import thesis
 
 KEY_FIGURES = ("zse_traj1_mixed_estimation_error", "zse_traj1_mixed_tracking_error", "lkf_traj1_mixed_estimation_error",

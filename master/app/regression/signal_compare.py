@@ -92,7 +92,7 @@ def load_tolerances(path: Path) -> Tolerances:
 
 def log_signals(log: Path, names: list[str]) -> tuple[Signals, dict[str, str]]:
     """({name: (times, values)}, units) of "instance.variable" signals of a log; a name it lacks: one line naming it."""
-    from ...engine.log_reader import DamagedLog, read_columns, read_metadata
+    from ...engine.log.reader import DamagedLog, read_columns, read_metadata
 
     topics = sorted({f"/{n.split('.')[0]}" for n in names})
     columns, state = read_columns(Path(log), topics)
@@ -242,7 +242,7 @@ def load_reference(path: Path, names: list[str] | None, named_by: Path | str | N
     if not names:
         raise DescriptionError(f"{path} is a log: name the signals to compare (--signals plant.x,plant.z, or a tolerance "
                                "file's signals)")
-    from ...engine.log_reader import read_metadata
+    from ...engine.log.reader import read_metadata
 
     try:
         signals, units = log_signals(path, names)
@@ -266,7 +266,7 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
                          given: Tolerances | None = None) -> SignalComparison:
     """`tiltload compare RUN BASELINE --signals ...`: the case, what changed, then each signal in its tube. Tolerances:
     a tolerance file's, or given ones, in place of the baseline's own; flags replace one of them for every signal."""
-    from ...engine.log_reader import read_metadata
+    from ...engine.log.reader import read_metadata
     from .changes import between
     from .compare import compare_cases
 
@@ -303,7 +303,7 @@ def _check_known(tolerances: Tolerances, names: list[str], source: Path | str) -
 
 def record(log: Path, path: Path, signals: list[str], tolerances: Tolerances = Tolerances()) -> Path:
     """A signal baseline of these signals of a run's log, with its case, FMUs and these tolerances."""
-    from ...engine.log_reader import read_metadata
+    from ...engine.log.reader import read_metadata
     from . import signal_baseline
 
     names = check_names(signals, "signals")

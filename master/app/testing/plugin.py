@@ -46,7 +46,7 @@ def pytest_configure(config: pytest.Config) -> None:
     if config.getoption(REPORT, None):
         import argparse
 
-        from ...engine.path_types import output_file
+        from ...command_line.path_types import output_file
 
         try:  # checked as the commands' --report is, before any test runs (not a traceback when the session ends)
             output_file(config.getoption(REPORT))

@@ -7,7 +7,7 @@ import threading
 from pathlib import Path
 
 from ..errors import DescriptionError
-from ..model_description import read_fmu
+from ..fmi.model_description import read_fmu
 from .elf import library_machine, this_machine
 
 

@@ -7,7 +7,7 @@ import platform
 import zipfile
 from pathlib import Path
 
-from ..binaries import library_member
+from ..fmi.binaries import library_member
 
 _ELF_MACHINES = {3: "x86", 40: "arm", 62: "x86_64", 183: "aarch64", 243: "riscv64"}
 _THIS_MACHINE = {"amd64": "x86_64", "arm64": "aarch64", "i686": "x86", "i386": "x86"}

@@ -10,9 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import ExecutionError
-from ..in_process import load
-from ..model_description import is_scheduled
-from ..slave import Slave
+from ..fmi.in_process import load
+from ..fmi.model_description import is_scheduled
+from ..fmi.slave import Slave
 from . import handshake
 from .process import STEP_TIMEOUT, IsolatedFmu
 from .remote_client import RemoteHost

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import slave
 from ..errors import DescriptionError, ExecutionError
+from ..fmi import slave
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 

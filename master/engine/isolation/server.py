@@ -1,4 +1,4 @@
-"""The server of `tiltload serve` (its command line: server_cli.py): the FMUs of one folder (catalogue.py), each
+"""The server of `tiltload serve` (its command line: command_line/serve.py): the FMUs of one folder (catalogue.py), each
 stepped for a master across the network as a local worker would.
 
 A connection goes: accepted (logged, with the peer's address) → the HMAC handshake (handshake.py)
@@ -33,7 +33,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..argument_types import DAY
+from ...command_line.argument_types import DAY
 from . import handshake, wire
 from .catalogue import Catalogue, Refused
 from .process import WORKER_MODULE, how_it_ended
@@ -335,5 +335,5 @@ class Server:
 
 if __name__ == "__main__":  # the command line of boards set up before it moved: one line saying where, not silence
     print("python -m tiltload.master.engine.isolation.server: the command line is now "
-          "python -m tiltload.master.engine.isolation.server_cli (docs/remote.md)", file=sys.stderr)
+          "python -m tiltload.master.command_line.serve (docs/remote.md)", file=sys.stderr)
     sys.exit(2)

@@ -16,7 +16,7 @@ import signal
 import socket
 import sys
 
-from ..argument_types import DAY, time_span
+from ...command_line.argument_types import DAY, time_span
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -48,9 +48,9 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
     until it closes the link or asks to close. loader(name, fmu, md, tick): the slave that answers (default: the FMU
     loaded in this process; another model of the same ports, e.g. a controller's prototype in Python)."""
     from ..errors import DescriptionError, ExecutionError
-    from ..in_process import load
-    from ..model_description import read_fmu
-    from ..slave import C_TYPES
+    from ..fmi.in_process import load
+    from ..fmi.model_description import read_fmu
+    from ..fmi.slave import C_TYPES
 
     say = say or _say("")
     inst, sent = None, 0
@@ -176,7 +176,7 @@ def main() -> None:
     except LinkClosed:
         code = 0
     channel.close()  # a socket is shut down: the master sees the end at once
-    from ..pythonfmu_guard import exit_now
+    from ..fmi.pythonfmu_guard import exit_now
 
     exit_now(code)  # no interpreter shutdown: a pythonfmu FMU can crash in it
 

@@ -21,7 +21,7 @@ import ctypes
 
 import numpy as np
 
-from ..fmi3 import FMI3_C, MAX_EVENT_ITERATIONS
+from ..fmi.fmi3 import FMI3_C, MAX_EVENT_ITERATIONS
 from . import kernel
 from .codes import PartKind, value_type
 

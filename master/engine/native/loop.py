@@ -18,10 +18,10 @@ import ctypes
 import numpy as np
 
 from ..errors import ExecutionError
-from ..fmi2 import InProcessFmu
-from ..fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS, Fmu3Slave
+from ..fmi.fmi2 import InProcessFmu
+from ..fmi.fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS, Fmu3Slave
+from ..fmi.slave import TYPES
 from ..observers import Batch
-from ..slave import TYPES
 from . import kernel
 from .clocks import ClockedPlan
 from .codes import ErrorKind, Profile, Side, type_name, value_type

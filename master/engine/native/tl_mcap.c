@@ -1,4 +1,4 @@
-/* MCAP records laid out in bulk for the log's writer (mcap_writer.py): Message records of a batch in file order,
+/* MCAP records laid out in bulk for the log's writer (log/writer.py): Message records of a batch in file order,
    and the MessageIndex records of a chunk. Byte for byte what the mcap library's record classes write (little
    endian, MCAP specification), without a Python call per record. The caller owns every array. */
 #include "tl_mcap.h"

@@ -1,4 +1,4 @@
-/* The log's MCAP records laid out in bulk (tl_mcap.c, called by mcap_writer.py through ctypes): what the kernel
+/* The log's MCAP records laid out in bulk (tl_mcap.c, called by log/writer.py through ctypes): what the kernel
    exports for them. Each function's arrays and sizes are described at its definition. */
 #ifndef TL_MCAP_H
 #define TL_MCAP_H

@@ -44,7 +44,7 @@ def _ssv(instance: Instance, md) -> bytes:
     from pyssp_standard.parameter_types import ParameterType
     from pyssp_standard.ssv import Parameter, SSVElem
 
-    from ..model_description import checked_value
+    from ..fmi.model_description import checked_value
 
     variables = {v.name: v for v in md.modelVariables}
     params = []
@@ -175,7 +175,7 @@ def export(system: System, out: Path, stop: float, schedule: str = "ordered") ->
     """Write the system as an SSP archive at out; it validates against the SSP 1.0 schemas or nothing is written.
     (Systems with FMI 3.0 FMUs are SSP 2.0 packages: ssp2.export.)"""
     from .. import jacobi
-    from ..model_description import read_fmu
+    from ..fmi.model_description import read_fmu
 
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     check_members(system)

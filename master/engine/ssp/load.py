@@ -10,8 +10,8 @@ from lxml import etree
 
 from ..errors import DescriptionError
 from ..system import Connection, Instance, System, validate
-from ..zip_unpack import unpack
 from .schema import ANNOTATION, FMU_TYPE, OSP_ANNOTATION, OSP_NS, SSD_NAME, SSD_NS, schema_errors
+from .zip_unpack import unpack
 
 
 def _inside(folder: Path, source: str, allow_external: bool, where: str, what: str) -> Path:

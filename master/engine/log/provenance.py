@@ -16,7 +16,7 @@ _DIGESTS: dict[tuple[str, int, int], str] = {}  # (path, size, mtime) -> SHA-256
 
 def fmu_digest(path: Path) -> str:
     """The FMU's SHA-256 (hex), computed once per file version in this process."""
-    from .fmu_cache import digest
+    from ..fmi.fmu_cache import digest
 
     st = os.stat(path)
     key = (str(Path(path).resolve()), st.st_size, st.st_mtime_ns)

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
-from .errors import DescriptionError
+from ..errors import DescriptionError
 
 ENGINE_TYPE = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
 FMI3_TYPE = {engine: fmi3 for fmi3, engine in ENGINE_TYPE.items()}
@@ -58,7 +58,7 @@ def is_scheduled(md) -> bool:
 
 def read_fmu(path: Path, instance: str):
     """Model description of a co-simulation FMU (FMI 2.0 or 3.0), or a DescriptionError saying what the file is not."""
-    from .user_files import UserFileError, regular_file
+    from ..user_files import UserFileError, regular_file
 
     path = Path(path)
     try:

@@ -37,7 +37,7 @@ from mcap.records import (
     SummaryOffset,
 )
 
-from .native.kernel import library
+from ..native.kernel import library
 
 MAGIC = b"\x89MCAP0\r\n"
 _MESSAGE_HEADER_SIZE = 31  # opcode, length, channel, sequence, log time, publish time (MCAP Message record)

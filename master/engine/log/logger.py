@@ -2,13 +2,13 @@
 
 Every output of every instance is logged after each of its steps (and once at t = 0), or after
 every n-th step with `log_every`. Instance channels are protobuf messages of a fixed layout
-(log_encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
+(log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
 case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
 which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
-load), are JSON messages computed from one instance's outputs. The writer (mcap_writer.py) takes
+load), are JSON messages computed from one instance's outputs. The writer (log/writer.py) takes
 each call of the tick loop's messages at once and compresses beside the loop; the file is finalized
 on any exit path, so an interrupted run leaves a readable log up to its last step, and a killed one
-up to its last chunk. The readers are in log_reader.py.
+up to its last chunk. The readers are in log/reader.py.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..observers import Observer
 from . import provenance
-from .log_encoding import LAYOUT, FixedMessage, fits
-from .mcap_writer import McapWriter, MessageBatch
-from .observers import Observer
+from .encoding import LAYOUT, FixedMessage, fits
+from .writer import McapWriter, MessageBatch
 
 # Chunks of a run in batches: a killed run loses at most the chunk being filled (128 KiB: about 50 ticks of the loop,
 # 0.6 s) and the batch in the writer's hands (256 ticks), and the writer's cost per chunk is spread over 50 ticks.
@@ -148,7 +148,7 @@ class McapLogger(Observer):
             self._writer.add_messages(MessageBatch(), [_fixed_rows(channel, enc, times, ns, values, *none, keys)], wait=False)
 
     def on_fault(self, t, fault, what) -> None:
-        from .faults.schedule import describe
+        from ..faults.schedule import describe
 
         if self._faults_channel is not None:
             self._batch.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode())
@@ -211,7 +211,7 @@ class McapLogger(Observer):
                     if text is not None:
                         out.add(channel, int(ns[j]), text.encode(), int(keys[j]) + 1)
         if self._faults_channel is not None:
-            from .faults.schedule import describe
+            from ..faults.schedule import describe
 
             for position, t, fault, what in batch.events:
                 out.add(self._faults_channel, int(round(t * 1e9)), json.dumps({"t": t, "event": what, **describe(fault)}).encode(),

@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 from fmpy.fmi3 import FMU3Slave
 
+from ..errors import ExecutionError
 from .binding import Binding, c_function
-from .errors import ExecutionError
 from .model_description import clock_ticks, clocks_of
 from .slave import TYPES
 

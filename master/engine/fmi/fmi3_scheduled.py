@@ -31,7 +31,7 @@ from fmpy.fmi3 import (
     fmi3UnlockPreemptionCallback,
 )
 
-from .errors import ExecutionError
+from ..errors import ExecutionError
 from .fmi3 import Fmu3Slave
 
 

@@ -16,9 +16,9 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import DescriptionError
-from .log_encoding import LAYOUT, FixedMessage
-from .user_files import open_binary
+from ..errors import DescriptionError
+from ..user_files import open_binary
+from .encoding import LAYOUT, FixedMessage
 
 MAGIC = b"\x89MCAP0\r\n"
 NON_FINITE = ("inf", "-inf", "nan")  # how tiltload's JSON channels spell a value JSON cannot hold (faults/schedule.py)

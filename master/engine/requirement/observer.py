@@ -19,9 +19,9 @@ import re
 
 import numpy as np
 
-from .observers import Observer, StopRun
-from .requirement_check import Result, build_trace, check_trace, split
-from .requirements import Requirement, check_signals
+from ..observers import Observer, StopRun
+from .check import Result, build_trace, check_trace, split
+from .files import Requirement, check_signals
 from .stl import Evaluator, verdict
 
 CHECK_EVERY = 64  # ticks between two early-stop checks (a run stepped tick by tick would otherwise re-evaluate every tick)

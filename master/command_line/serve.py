@@ -1,4 +1,4 @@
-"""The command line of `tiltload serve`, also run as `python -m tiltload.master.engine.isolation.server_cli` on a board
+"""The command line of `tiltload serve`, also run as `python -m tiltload.master.command_line.serve` on a board
 that has only numpy and FMPy (the engine's own dependencies), not the whole application (docs/remote.md)."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..argument_types import DAY, integer, time_span
-from ..errors import DescriptionError
-from ..path_types import existing_folder
-from .server import DEFAULT_PORT, ServeOptions, Server
+from ..engine.errors import DescriptionError
+from ..engine.isolation.server import DEFAULT_PORT, ServeOptions, Server
+from .argument_types import DAY, integer, time_span
+from .path_types import existing_folder
 
 
 class ServeError(Exception):
@@ -18,7 +18,7 @@ class ServeError(Exception):
 
 
 def _address(text: str) -> tuple[str, int]:
-    from ..system import parse_address
+    from ..engine.system import parse_address
 
     try:
         return parse_address(text, port_zero=True)
@@ -49,7 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C or SIGTERM (raised as KeyboardInterrupt); ServeError if it cannot start."""
-    from .handshake import read_token
+    from ..engine.isolation.handshake import read_token
 
     try:
         secret = read_token(args.token_file)
@@ -79,7 +79,7 @@ def main() -> None:
     def terminated(signum, frame):
         raise _Terminated()
     signal.signal(signal.SIGTERM, terminated)
-    p = argparse.ArgumentParser(prog="python -m tiltload.master.engine.isolation.server_cli", allow_abbrev=False,
+    p = argparse.ArgumentParser(prog="python -m tiltload.master.command_line.serve", allow_abbrev=False,
                                 description="Serve the FMUs of a folder to tiltload masters elsewhere (docs/remote.md).")
     add_arguments(p)
     try:

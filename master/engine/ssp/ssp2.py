@@ -17,11 +17,11 @@ from pathlib import Path
 
 from lxml import etree
 
-from .errors import DescriptionError
-from .model_description import FMI3_TYPE, clocks_of, fmi_version, read_fmu
-from .ssp.export import check_members, master_annotation, osp_annotation, write_package
-from .ssp.schema import FMU_TYPE, OSP_NS, PARAMETER_SET, SSD_NAME, TL_NS, schema_errors
-from .system import Instance, System
+from ..errors import DescriptionError
+from ..fmi.model_description import FMI3_TYPE, clocks_of, fmi_version, read_fmu
+from ..system import Instance, System
+from .export import check_members, master_annotation, osp_annotation, write_package
+from .schema import FMU_TYPE, OSP_NS, PARAMETER_SET, SSD_NAME, TL_NS, schema_errors
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -122,7 +122,7 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
 
 def ssv_document(inst: Instance, md) -> bytes:
     """The instance's parameter values as an SSV 2.0 parameter set, typed as the FMU declares them."""
-    from .model_description import checked_value
+    from ..fmi.model_description import checked_value
 
     variables = {v.name: v for v in md.modelVariables}
     root = etree.Element(_q(SSV, "ParameterSet"), nsmap={"ssv": SSV}, version="2.0", name=PARAMETER_SET,
@@ -139,7 +139,7 @@ def ssv_document(inst: Instance, md) -> bytes:
 
 def export(system: System, out: Path, stop: float, schedule: str = "ordered") -> Path:
     """Write the system as an SSP 2.0 archive at out; it validates against the SSP 2.0 schemas or nothing is written."""
-    from . import jacobi
+    from .. import jacobi
 
     mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
     check_members(system)

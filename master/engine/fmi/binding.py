@@ -12,7 +12,7 @@ from pathlib import Path
 
 from fmpy.fmi1 import FMICallException
 
-from .errors import ExecutionError
+from ..errors import ExecutionError
 from .fmu_cache import unpacked
 from .model_description import checked_value
 from .slave import Slave

@@ -9,7 +9,7 @@ import threading
 import zipfile
 from pathlib import Path
 
-from .errors import DescriptionError
+from ..errors import DescriptionError
 
 # Limits on what an archive may unpack to: a package holds a few FMUs (the loop's is 0.45 MB; a big FMU with its
 # resources, hundreds of MB), a zip bomb expands a thousandfold. Checked on the declared sizes before anything is

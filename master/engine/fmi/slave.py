@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ExecutionError
+from ..errors import ExecutionError
 
 TYPES = ("Real", "Integer", "Boolean")  # the types connections carry, in the order outputs are read
 C_TYPES = {"Real": ctypes.c_double, "Integer": ctypes.c_int, "Boolean": ctypes.c_int}  # fmi2Boolean is an int

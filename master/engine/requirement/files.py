@@ -19,7 +19,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import DescriptionError
+from ..errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
 from .stl.syntax import number_text
 
@@ -172,7 +172,7 @@ def parse_entries(data, where: str) -> list[Requirement]:
 
 def load(path: Path) -> list[Requirement]:
     """A requirement file (YAML, or JSON: YAML reads it), read as every user file is (engine/user_files.py)."""
-    from .user_files import UserFileError, read_yaml
+    from ..user_files import UserFileError, read_yaml
 
     try:
         data = read_yaml(Path(path), MAX_BYTES)

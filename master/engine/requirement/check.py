@@ -2,7 +2,7 @@
 
 The trace: every instance's messages (the values after each of its steps, and at t = 0), held from one message to the
 next, read at each time any of the instances the requirements read has a message (the tick). The same function builds
-it from a log (offline: check_log) and from the steps a run hands its observers (online: requirement_observer.py), so
+it from a log (offline: check_log) and from the steps a run hands its observers (online: requirement/observer.py), so
 the two agree bit for bit.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .requirements import Requirement, RequirementError, check_signals, load
+from .files import Requirement, RequirementError, check_signals, load
 from .stl import Evaluator, StlError, Trace, verdict
 
 
@@ -201,10 +201,10 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     A log cut short (a killed run, no footer) is a trace that could have gone on; a damaged one raises DamagedLog. A
     signal the log does not have raises RequirementError naming the closest names (missing="inconclusive": that
     requirement is INCONCLUSIVE instead, for a log of a loop without it)."""
-    from . import log_reader
+    from ..log import reader as log_reader
 
     reqs = as_requirements(requirements)
-    from .user_files import UserFileError, regular_file
+    from ..user_files import UserFileError, regular_file
 
     path = Path(log_path)
     try:
@@ -241,7 +241,7 @@ def _trace(series, req: Requirement, cache: dict | None = None) -> Trace:
 
 def log_span(log_path) -> float:
     """How long the run was meant to last: its stop time, or the last message's time."""
-    from . import log_reader
+    from ..log import reader as log_reader
 
     stop = run_stop_time(log_reader.read_metadata(Path(log_path)))
     if stop is not None:
