@@ -37,7 +37,7 @@ def workers(parent: int | None = None) -> list[str]:
     parent = os.getpid() if parent is None else parent
     ps = subprocess.run(["ps", "-ww", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout  # -ww: never cut
     return [line for line in ps.splitlines()[1:]
-            if "tiltload.master.engine.isolation.worker" in line and int(line.split()[1]) == parent]
+            if "tiltload.master.command_line.worker" in line and int(line.split()[1]) == parent]
 
 
 @pytest.mark.parametrize("mode", list(MISBEHAVIOURS))

@@ -77,7 +77,7 @@ class ServerProcess:
         """The FMU processes the server runs now."""
         out = subprocess.run(["ps", "-ww", "-eo", "pid,ppid,args"], capture_output=True, text=True).stdout.splitlines()[1:]
         server = self.server_pid()
-        return [int(line.split()[0]) for line in out if int(line.split()[1]) == server and "isolation.worker" in line]
+        return [int(line.split()[0]) for line in out if int(line.split()[1]) == server and "command_line.worker" in line]
 
     def server_pid(self) -> int:
         """The Python process of the server (under `ip netns exec` it is the child of that)."""

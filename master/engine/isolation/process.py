@@ -36,7 +36,7 @@ from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 STEP_TIMEOUT = 10.0  # s a call may take before the watchdog ends it (--step-timeout)
 START_TIMEOUT = 60.0  # s for the host to start and instantiate (a pythonfmu FMU starts an interpreter)
-WORKER_MODULE = "tiltload.master.engine.isolation.worker"
+WORKER_MODULE = "tiltload.master.command_line.worker"  # its command line; the hosting itself is worker.py
 
 
 def _signal_name(number: int) -> str:

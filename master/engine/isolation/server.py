@@ -33,11 +33,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ...command_line.argument_types import DAY
 from . import handshake, wire
 from .catalogue import Catalogue, Refused
 from .process import WORKER_MODULE, how_it_ended
 from .transport import HEADER, Channel, FrameTooLarge, LinkClosed, LinkTimeout
+
+MAX_TICK = 86400.0  # s: a day, the longest wait any command line allows (command_line/argument_types.DAY)
 
 DEFAULT_PORT = 7390
 GRACE = 2.0  # s a worker has to end once its client has left, before it is killed
@@ -189,7 +190,7 @@ class Server:
         if not isinstance(instance, str) or not _NAME.match(instance):
             raise Refused("malformed request (instance name)")
         tick = request.get("tick")
-        if tick is not None and (isinstance(tick, bool) or not isinstance(tick, (int, float)) or not 0 < tick <= DAY):
+        if tick is not None and (isinstance(tick, bool) or not isinstance(tick, (int, float)) or not 0 < tick <= MAX_TICK):
             raise Refused("malformed request (tick: a positive number of seconds, at most a day)")
         self.say(f"{label}: authenticated: {request['client']} asks for {request['model_identifier']} "
                  f"{request['guid']} as {instance}")

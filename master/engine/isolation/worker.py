@@ -1,4 +1,4 @@
-"""A process that hosts one FMU for the master (`python -m tiltload.master.engine.isolation.worker`).
+"""A process that hosts one FMU for the master (its command line: `python -m tiltload.master.command_line.worker`).
 
 An FMU that is not trusted can crash (segfault), call exit() or hang. In its own process that
 costs the process, not the run: the master sees the link close or its watchdog expire and says
@@ -10,27 +10,15 @@ before it reaches the FMU. See process.py for the master's side.
 
 from __future__ import annotations
 
-import argparse
 import ctypes
-import signal
-import socket
 import sys
 
-from ...command_line.argument_types import DAY, time_span
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 
-def _die_with_parent() -> None:
-    """Linux: be killed when the master (or the server) dies, even while hung inside the FMU."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass  # elsewhere a dead master still closes the link, which ends the loop
-
-
-def _say(label: str):
+def labelled(label: str):
+    """say(message): a line on stderr, after the label if there is one."""
     def say(message: str) -> None:
         print(f"{label}: {message}" if label else message, file=sys.stderr, flush=True)
     return say
@@ -52,7 +40,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
     from ..fmi.model_description import read_fmu
     from ..fmi.slave import C_TYPES
 
-    say = say or _say("")
+    say = say or labelled("")
     inst, sent = None, 0
 
     def new_log():
@@ -152,34 +140,3 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         except ExecutionError as err:
             channel.send(wire.error("execution", str(err), inst.fatal, new_log()))
     return 0
-
-
-def main() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the master's (or the server's) to handle
-    _die_with_parent()
-    p = argparse.ArgumentParser(prog="worker", allow_abbrev=False)
-    p.add_argument("fmu")
-    p.add_argument("name")
-    link = p.add_mutually_exclusive_group(required=True)
-    link.add_argument("--pipes", type=int, nargs=2, metavar=("REQUESTS", "REPLIES"))
-    link.add_argument("--socket", type=int, metavar="FD")
-    p.add_argument("--idle-timeout", type=time_span(DAY), default=None)
-    p.add_argument("--label", default="")
-    p.add_argument("--tick", type=time_span(DAY), default=None)  # the master's, for an FMI 3.0 FMU's clocks
-    args = p.parse_args()
-    if args.socket is not None:
-        channel = Channel.over_socket(socket.socket(fileno=args.socket))
-    else:
-        channel = Channel.over_pipes(*args.pipes)
-    try:
-        code = serve(args.fmu, args.name, channel, args.idle_timeout, _say(args.label), args.tick)
-    except LinkClosed:
-        code = 0
-    channel.close()  # a socket is shut down: the master sees the end at once
-    from ..fmi.pythonfmu_guard import exit_now
-
-    exit_now(code)  # no interpreter shutdown: a pythonfmu FMU can crash in it
-
-
-if __name__ == "__main__":
-    main()
