@@ -2,7 +2,7 @@
 
 A YAML file `requirements: [...]`, each entry a name, a description, a source (where the requirement comes from: a
 thesis section, a user's requirement id) and one of:
-- `formula`: STL in rtamt's grammar (stl/syntax.py);
+- `formula`: STL in rtamt's grammar (stl/grammar.py);
 - `bounds`: {signal, min, max, from, to}: the signal within [min, max] (either may be left out) over [from, to] s
   (default: the whole run) -> always[from:to] (signal >= min and signal <= max);
 - `response`: {trigger, response, within, hold, from, to}: whenever the trigger holds, within `within` s the response
@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ..errors import DescriptionError
 from .stl import StlError, bounded_horizon, parse, signals, unparse
-from .stl.syntax import number_text
+from .stl.grammar import number_text
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")

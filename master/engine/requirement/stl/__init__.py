@@ -1,8 +1,10 @@
-"""Signal Temporal Logic monitors: rtamt's textual grammar (syntax), discrete-time robustness (robustness) with O(n)
-windowed min/max (windows). Generic: it knows nothing of FMUs, logs or tiltload; docs/requirements.md."""
+"""Signal Temporal Logic monitors: the syntax tree and its walks (syntax), rtamt's textual grammar (grammar),
+discrete-time robustness (robustness) with O(n) windowed min/max (windows). Generic: it knows nothing of FMUs, logs or
+tiltload; docs/requirements.md."""
 
+from .grammar import parse, unparse
 from .robustness import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, Trace, Verdict, verdict
-from .syntax import StlError, bounded_horizon, horizon, parse, signals, unparse
+from .syntax import StlError, bounded_horizon, horizon, signals
 
 __all__ = ["FAIL", "INCONCLUSIVE", "PASS", "ZERO", "Evaluator", "StlError", "Trace", "Verdict", "bounded_horizon", "horizon",
            "parse", "signals", "unparse", "verdict"]
