@@ -21,16 +21,13 @@ fmi2 ones: without clocks set, fmi3DoStep, get; with clocks the sequence above t
 event_state handed over around each call). do_step here is the sequence for a host process (isolation/worker.py),
 where the slave is stepped from Python. A snapshot's bytes (get_state) carry the FMU's
 own serialized state and what this slave holds besides: the clocked outputs as read at their last ticks and a
-pending event.
+pending event (fmi3_state.py).
 """
 
 from __future__ import annotations
 
 import ctypes
-import json
-import struct
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -38,53 +35,13 @@ from fmpy.fmi3 import FMU3Slave
 
 from ..errors import ExecutionError
 from .binding import Binding, c_function
+from .fmi3_state import Fmu3State
 from .model_description import clock_ticks, clocks_of
 from .slave import TYPES
 
 FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
 FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
 MAX_EVENT_ITERATIONS = 100
-STATE_MAGIC = b"TLFMU3S1"  # get_state's bytes: magic, header length (u32 LE), JSON header, the FMU's state, held outputs
-
-
-@dataclass
-class Fmu3State:
-    """A slave between two steps: the FMU's serialized state and what the slave holds (held outputs, a pending event)."""
-
-    fmu: bytes
-    values: dict[str, np.ndarray]
-    held: list[np.ndarray]  # the clocked outputs as read at their clocks' last ticks
-    event_asked: bool
-    next_event: float | None
-
-    def to_bytes(self) -> bytes:
-        """Plain bytes (no pickle): a JSON header with the flags and the held arrays' layout, then the raw data."""
-        header = json.dumps({"fmu": len(self.fmu), "held": [[a.dtype.str, a.size] for a in self.held],
-                             "event_asked": self.event_asked, "next_event": self.next_event}).encode()
-        return b"".join([STATE_MAGIC, struct.pack("<I", len(header)), header, self.fmu,
-                         *(a.astype(a.dtype.newbyteorder("<"), copy=False).tobytes() for a in self.held)])
-
-    @classmethod
-    def from_bytes(cls, data: bytes, name: str) -> Fmu3State:
-        """The state to_bytes wrote (values are the snapshot's business: empty here); a one-line error otherwise."""
-        try:
-            if data[:8] != STATE_MAGIC:
-                raise ValueError("not an FMI 3.0 slave's state")
-            (n,) = struct.unpack_from("<I", data, 8)
-            header = json.loads(data[12:12 + n])
-            at = 12 + n
-            if len(data) != at + header["fmu"] + sum(np.dtype(d).itemsize * size for d, size in header["held"]):
-                raise ValueError("its length does not match its header")
-            fmu = data[at:at + header["fmu"]]
-            at += header["fmu"]
-            held = []
-            for dtype, size in header["held"]:
-                dt = np.dtype(dtype)
-                held.append(np.frombuffer(data, dtype=dt, count=size, offset=at).astype(dt.newbyteorder("="), copy=True))
-                at += dt.itemsize * size
-            return cls(fmu, {}, held, bool(header["event_asked"]), header["next_event"])
-        except (ValueError, KeyError, TypeError, struct.error, json.JSONDecodeError, UnicodeDecodeError) as err:
-            raise ExecutionError(f"{name}: cannot restore its state: {err}") from None
 
 
 class _Inputs:
