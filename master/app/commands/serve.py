@@ -1,7 +1,7 @@
 """`tiltload serve`: this machine hosts the FMUs of a folder for masters elsewhere (docs/remote.md).
 
-The options and the serving are the engine's (command_line/serve.py), which a board without the
-whole application also runs as `python -m tiltload.master.command_line.serve`.
+The options are master/command_line/serve.py's, the serving the engine's (isolation/server.py); a board without the
+whole application runs the same as `python -m tiltload.master.command_line.serve`.
 """
 
 from __future__ import annotations
