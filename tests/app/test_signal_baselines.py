@@ -100,6 +100,18 @@ def test_a_run_that_ends_early_is_outside_from_its_end(runs):
     assert short.largest_excess == math.inf and "a NaN, infinite or missing value" in short.words()
 
 
+def test_a_run_longer_than_its_baseline_says_its_tail_is_not_compared(runs):
+    """Tubes are judged over the baseline's span: the run past the short baseline's end is named as not compared."""
+    longer = tl.compare_signals(runs["base"], runs["short"].log, signals=["plant.x"], any_case=True)
+    assert longer.ok  # the same run up to the short one's end
+    end, base_end = runs["base"].signals("/plant").time[-1], runs["short"].signals("/plant").time[-1]
+    assert [n for n in longer.notes if "not compared there" in n] == [
+        f"the run goes on to t = {end:.6g} s, past the baseline's end at t = {base_end:.6g} s: not compared there "
+        "(tubes are judged over the baseline's span)"]
+    same = tl.compare_signals(runs["again"], runs["base"].log, signals=["plant.x"])
+    assert not [n for n in same.notes if "not compared" in n]
+
+
 def test_a_diverging_candidate_is_reported_from_its_first_nan_not_raised(tmp_path):
     t = np.linspace(0, 1, 101)
     ref = {"plant.x": (t, np.sin(t))}

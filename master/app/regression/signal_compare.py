@@ -291,7 +291,19 @@ def compare_signal_files(run: Path, baseline: Path, signals: list[str] | None = 
     changes = between(base_fmus, meta.get("fmus") or None, base_case, run_case)
     mine, run_units = log_signals(Path(run), names)
     rows = compare_signals(mine, base, tolerances, {**run_units, **units})
+    notes += uncompared_tail(mine, base)
     return SignalComparison(all(r.passed for r in rows), rows, what, notes, changes, dict(run_case or {}))
+
+
+def uncompared_tail(run: Signals, base: Signals) -> list[str]:
+    """A note when the run goes on past the baseline's end (another case's baseline, --any-case): the tubes are judged
+    over the baseline's span, so that part of the run is not compared, and a reader must not take it as compared."""
+    ends = [(run[n][0][-1], t_ref[-1]) for n, (t_ref, _) in base.items() if len(t_ref) and len(run[n][0])]
+    run_end, base_end = max(e[0] for e in ends) if ends else 0.0, max(e[1] for e in ends) if ends else 0.0
+    if run_end > base_end:
+        return [f"the run goes on to t = {run_end:.6g} s, past the baseline's end at t = {base_end:.6g} s: not compared there "
+                "(tubes are judged over the baseline's span)"]
+    return []
 
 
 def _check_known(tolerances: Tolerances, names: list[str], source: Path | str) -> None:
