@@ -58,3 +58,17 @@ def test_bad_case_lists_and_sides_are_one_line(text, extra, words, fmus, tmp_pat
         code = done.code
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and words in err, err
+
+
+def test_a_tolerance_for_a_signal_not_compared_is_refused_before_anything_runs(fmus, tmp_path, capsys):
+    """A typo in a tolerance file would go unnoticed: refused in one line (exit 2) before a run is made."""
+    from tiltload.master.app.cli import main
+
+    tolerances = tmp_path / "tol.toml"
+    tolerances.write_text('[signals."plant.nothing"]\nabs = 1\n')
+    out = tmp_path / "b2b"
+    code = main(["b2b", "--signals", "plant.x", "--tolerances", str(tolerances), "--reference-fmus", str(fmus),
+                 "--candidate-fmus", str(fmus), "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "plant.nothing" in err[0] and "not among the compared signals" in err[0]
+    assert not out.exists() or not list(out.glob("*.mcap"))

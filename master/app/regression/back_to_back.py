@@ -244,6 +244,9 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
     tolerances = tolerances or Tolerances()
     check_side(reference, "reference")  # refused before anything runs
     check_side(candidate, "candidate")
+    unknown = [n for n in tolerances.signals if n not in names]
+    if unknown:  # a tolerance for a signal not compared: a typo would go unnoticed
+        raise DescriptionError(f"the tolerances name {', '.join(unknown)}, which are not among the compared signals ({', '.join(names)})")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     results, changes = [], None
@@ -256,10 +259,10 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
             ref_log, ref_error, ref_time = run_side(case, reference, out / f"{case.name}_reference.mcap", stop, pool, hosts[0])
             if ref_error is not None:
                 raise DescriptionError(f"{case.name}: the reference run failed ({ref_error}): nothing to compare with")
+            ref, units = log_signals(ref_log, names)  # a signal the log does not have: refused before the candidate runs
             cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop, pool, hosts[1])
             if changes is None:
                 changes = what_changed(read_metadata(ref_log).get("fmus"), read_metadata(cand_log).get("fmus"))
-            ref, units = log_signals(ref_log, names)
             mine, _ = log_signals(cand_log, names)
             result = CaseResult(case, compare_signals(mine, ref, tolerances, units), cand_error,
                                 {n: largest_deviation(mine[n], ref[n]) for n in names}, (ref_time, cand_time))
