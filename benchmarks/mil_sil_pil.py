@@ -81,7 +81,7 @@ def table(rows: list[dict], stop: float | None) -> str:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--stop-time", type=float, default=None)
     p.add_argument("--cases", default=None, help="comma-separated case names (default: the twelve)")
     p.add_argument("--out", type=Path, default=ROOT / "runs" / "mil_sil_pil")

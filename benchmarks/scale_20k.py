@@ -134,7 +134,7 @@ def measure(kind: str, runs: int, workers: int, fmus: Path, folder: Path) -> dic
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--runs", type=int, nargs="+", default=[2000, 20000])
     parser.add_argument("--only", choices=("campaign", "falsify"))
     parser.add_argument("--workers", type=int, default=2)

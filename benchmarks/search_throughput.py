@@ -191,7 +191,7 @@ def run_tree(python: str, fmus: Path, env: dict, evaluations: int, runs: int, cw
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False)
     ap.add_argument("--inner", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--no-kinds", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
