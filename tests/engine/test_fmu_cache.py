@@ -44,7 +44,7 @@ def test_concurrent_unpackers_publish_one_whole_copy(fmu, tmp_path):
     """Eight threads and three other processes unpack the same FMU into an empty cache at once."""
     key = fmu_cache.digest(fmu)
     go = tmp_path / "go"
-    code = ("import os, sys, time, pathlib; from tiltload.master.engine import fmu_cache as c; go = pathlib.Path(sys.argv[3])\n"
+    code = ("import os, sys, time, pathlib; from tiltload.master.engine.fmi import fmu_cache as c; go = pathlib.Path(sys.argv[3])\n"
             "(go.parent / f'ready-{os.getpid()}').touch()\n"
             "while not go.exists(): time.sleep(0.001)\n"
             "print(c.cached_copy(pathlib.Path(sys.argv[1]), sys.argv[2], pathlib.Path(sys.argv[4])))")
