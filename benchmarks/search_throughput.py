@@ -18,7 +18,8 @@ What each figure is:
   fraction = evals/s / limit. Wall figures mean nothing on a loaded machine: the load average is printed beside each.
 
 Each tree runs in a process of its own (`--inner`), with its own interpreter, FMU folder and FMU cache (TILTLOAD_CACHE),
-the searches with `--optimizer uniform` (a needle is rarely hit, so every search runs its budget) and branching off.
+the searches with `--optimizer uniform` and branching off, each running its whole budget (past a falsification too, where
+the tree can: f642aa0 stops at it, and its figures then count the evaluations stored).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from inspect import signature
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,8 +120,10 @@ def inner(fmus: Path, evaluations: int, runs: int, kinds: bool) -> None:
                             progress=lambda _: None, write_report=False, branch="off")  # warm: the workers' executions
                     out2 = tmp / f"{name}-{workers}-measured"
                     before, la = worker_cpu(client), os.getloadavg()[0]
+                    whole = {"stop_when_falsified": False} if "stop_when_falsified" in signature(falsify).parameters else {}
                     _, outcome, _ = falsify(specs[name], out2, fmus, optimizer="uniform", seed=2, simulations=evaluations,
-                                            client=client, progress=lambda _: None, write_report=False, branch="off")
+                                            client=client, progress=lambda _: None, write_report=False, branch="off",
+                                            **whole)
                     cpu = worker_cpu(client) - before
                     rows = pq.read_table(out2 / "falsification.parquet").to_pylist()
                     print(json.dumps({"what": name, "workers": workers, "evaluations": len(rows), "seconds": outcome.seconds,

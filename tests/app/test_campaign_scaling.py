@@ -94,6 +94,34 @@ def test_chunks_shrink_to_single_runs_and_carry_every_run_once(runs, workers):
     assert len(sizes) < runs or runs <= dispatch.PER_WORKER * workers
 
 
+def test_a_floor_keeps_the_last_tasks_at_that_many_runs():
+    assert dispatch.chunk_sizes(200, 1)[-4:] == [1, 1, 1, 1]
+    sizes = dispatch.chunk_sizes(200, 1, floor=4)
+    assert sum(sizes) == 200 and all(s >= 4 for s in sizes[:-1]) and sizes[-1] >= 1
+    assert dispatch.chunk_size(3, 1, floor=4) == 3  # never more than is left
+
+
+def _short(case: dict) -> dict:
+    """A run that says it took 5 ms."""
+    return {"row": {"run_id": case["run_id"], "completed": True}, "wall": 0.005, "setup": 0.0, "sim_time": 1.0}
+
+
+def test_once_runs_have_come_back_no_task_carries_less_than_task_seconds_of_them():
+    from dask.distributed import Client, LocalCluster
+    from tiltload.master.app.campaign.spec import Case
+
+    stored: list[int] = []
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        d = dispatch.Dispatch(client, _short, lambda _: None, "here", 200, 0, chunked=True,
+                              store_many=lambda results: stored.append(len(results)))
+        d.run([Case(f"r{i}", "mixed", i, {}, {}) for i in range(200)])
+    floor = math.ceil(dispatch.TASK_SECONDS / 0.005)
+    assert sum(stored) == 200 and d.stored == 200
+    assert sum(1 for n in stored if n < floor) <= 1  # the remainder at most, where the plain schedule ends in 1s
+    assert len(stored) < len(dispatch.chunk_sizes(200, 1))
+
+
 def _flaky(case: dict, marker: str) -> dict:
     """An outcome; for run r0, the first time, its environment's failure."""
     if case["run_id"] == "r0" and not Path(marker).exists():

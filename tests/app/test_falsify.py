@@ -215,6 +215,26 @@ def test_a_search_stops_at_its_first_falsification(name):
     assert out.simulations - out.falsified_at <= optimizers.make(name, 2, 3).batch  # at most the rest of its batch
 
 
+@pytest.mark.parametrize("budget", [3000, 37])
+def test_batches_asked_ahead_give_the_rows_of_a_batch_at_a_time(monkeypatch, budget):
+    """uniform's batches go to the workers a group at a time: the same points, the same rows, the same stop at the
+    first falsification (the group's later batches dropped) as when each batch is told before the next is asked."""
+    calls = []
+
+    def counted(cases):
+        calls.append(len(cases))
+        return {c["run_id"]: {**row, "wall_s": 0.01} for c, row in zip(cases, synthetic_batch(DIMS)(cases).values())}
+    ahead = search(DIMS, "uniform", 3, counted, make_case, budget, None, None, "needle")
+    grouped = list(calls)
+    monkeypatch.setattr(optimizers.UniformRandom, "independent", False)
+    calls.clear()
+    one_by_one = search(DIMS, "uniform", 3, counted, make_case, budget, None, None, "needle")
+    assert ahead.rows == one_by_one.rows and ahead.falsified_at == one_by_one.falsified_at
+    assert set(calls) <= {4, 1} and max(grouped) > 4  # asked ahead: fewer, larger calls
+    if budget == 37:
+        assert ahead.falsified_at is None and ahead.simulations == 37
+
+
 def test_not_falsified_within_the_budget_says_so(tmp_path):
     out = search(DIMS, "uniform", 0, lambda cases: {c["run_id"]: {**c["values"], "robustness": 1.0 + c["unit"][0],
                                                                    "run_id": c["run_id"]} for c in cases},

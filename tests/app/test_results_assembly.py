@@ -1,6 +1,6 @@
 """The results a campaign and a search assemble from their parts, against their definition (each run's newest row, in
 the spec's order, every column any row has, null where a row lacks it), written out here row by row; and the parts a
-search writes: one a batch."""
+search writes: one a batch, or one a group of batches asked ahead (uniform)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from types import SimpleNamespace
 
 import pyarrow as pa
 import pyarrow.parquet as pq
+import pytest
 from tiltload.master.app.campaign import runner
 from tiltload.master.app.falsify.search import read_parts, search
 from tiltload.master.app.falsify.spec import Dimension
@@ -71,16 +72,18 @@ def test_no_stored_run_is_an_empty_results_file(tmp_path):
     assert pq.read_table(tmp_path / runner.RESULTS).num_rows == 0
 
 
-def test_a_search_writes_a_part_a_batch_and_its_results_once_every_row_in_order(tmp_path):
+@pytest.mark.parametrize("optimizer, sizes", [("cmaes", [2] + [8] * 6),  # a part a batch: 6 of 8 and the budget's last 2
+                                               ("uniform", [8, 42])])  # the first batch, then the rest asked ahead
+def test_a_search_writes_a_part_a_group_of_batches_and_its_results_once_every_row_in_order(tmp_path, optimizer, sizes):
     dims = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
 
     def evaluate(cases):
-        return {c["run_id"]: {"run_id": c["run_id"], **c["values"], "robustness": 1.0 + c["unit"][0]} for c in cases}
-    outcome = search(dims, "uniform", 3, evaluate, lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 50, None,
+        return {c["run_id"]: {"run_id": c["run_id"], **c["values"], "robustness": 1.0 + c["unit"][0], "wall_s": 0.001}
+                for c in cases}
+    outcome = search(dims, optimizer, 3, evaluate, lambda rid, v: {"run_id": rid, "values": v, "parameters": {}}, 50, None,
                      tmp_path, "parts-a-batch", batch=8)
     parts = sorted((tmp_path / "parts").glob("*.parquet"))
-    assert len(parts) == 7  # 6 batches of 8 and the budget's last 2
-    assert sorted(pq.read_table(p).num_rows for p in parts) == [2] + [8] * 6
+    assert sorted(pq.read_table(p).num_rows for p in parts) == sizes
     rows = pq.read_table(tmp_path / "falsification.parquet").to_pylist()
     assert [r["index"] for r in rows] == list(range(50)) and rows == outcome.rows
     assert {i: r["run_id"] for i, r in read_parts(tmp_path / "parts").items()} == {r["index"]: r["run_id"] for r in rows}

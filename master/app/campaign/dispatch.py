@@ -11,11 +11,13 @@
 
 With `chunked`, several runs go to a task (`run_chunk`): a task costs the client, the scheduler and the worker a few
 ms of messages and (de)serialization, as much as a short run's simulation. Their sizes shrink as the runs left do
-(guided self-scheduling, `chunk_sizes`): the first tasks carry several runs, the last one each, so that no worker is
-left with a long task when the others are done. A task's outcomes are stored together (`store_many`: one Parquet
-part); a run whose environment failed is tried again alone. A search's batch, whose runs are awaited together, goes
-as one task a worker (`even_chunks`). At most a window of tasks (WINDOW) is submitted and not yet settled; the next is
-submitted as one settles.
+(guided self-scheduling, `chunk_size`): the first tasks carry several runs, the last ones fewer, so that no worker is
+left with a long task when the others are done; but once runs have come back, never fewer than TASK_SECONDS of runs
+(`_floor`), so that the last tasks of short runs do not cost more in messages than their runs. A task's outcomes are
+stored together (`store_many`: one Parquet part); a run whose environment failed is tried again alone. A search's
+batch, whose runs are awaited together, goes as one task a worker (`even_chunks`). At most a window of tasks
+(2 x PER_WORKER a thread, at most WINDOW) is submitted and not yet settled; the next is made and submitted as one
+settles, its size decided then.
 """
 
 from __future__ import annotations
@@ -37,17 +39,24 @@ WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
-WINDOW = 64  # tasks submitted and not yet settled, at most (or PER_WORKER a thread, if more): the rest wait in the
+TASK_SECONDS = 0.02  # ... and at least this much work once the runs' length is known: a task's messages cost a worker
+# about 2.4 ms of CPU (docs/throughput.md)
+WINDOW = 64  # tasks submitted and not yet settled, at most (2 x PER_WORKER a thread below that): the rest wait in the
 # client as cases, so the client and the local cluster's scheduler (in its process) hold a window, not every task of
 # 20,000 runs at once (all 1268 tasks submitted at once cost the client 90 MB: benchmarks/scale_20k.py)
 
 
-def chunk_sizes(runs: int, workers: int) -> list[int]:
-    """Sizes of the tasks that carry `runs` runs on `workers` workers: each the runs left / (PER_WORKER x workers),
-    rounded up, at most MOST; the last ones 1."""
+def chunk_size(left: int, workers: int, floor: int = 1) -> int:
+    """The size of the next task when `left` runs are left on `workers` workers: the runs left / (PER_WORKER x
+    workers), rounded up, at most MOST, at least floor (all that is left, if less)."""
+    return min(left, MOST, max(floor, 1, math.ceil(left / (PER_WORKER * max(workers, 1)))))
+
+
+def chunk_sizes(runs: int, workers: int, floor: int = 1) -> list[int]:
+    """The sizes of the tasks that carry `runs` runs, each decided by chunk_size; with floor 1 the last ones are 1."""
     sizes, left = [], runs
     while left > 0:
-        sizes.append(min(MOST, max(1, math.ceil(left / (PER_WORKER * max(workers, 1))))))
+        sizes.append(chunk_size(left, workers, floor))
         left -= sizes[-1]
     return sizes
 
@@ -55,15 +64,19 @@ def chunk_sizes(runs: int, workers: int) -> list[int]:
 def even_chunks(runs: int, workers: int) -> list[int]:
     """Sizes of the tasks that carry a batch whose runs are all awaited together (a search's batch): one task a worker
     (more when that is more than MOST runs a task), as equal as they can be (the larger first), so that a batch costs
-    each worker one task's messages, not one a run."""
-    tasks = max(1, min(runs, max(workers, math.ceil(runs / MOST))))
+    each worker one task's messages, not one a run. More than MOST runs a worker: a whole number of tasks a worker, so
+    that no worker is left alone with the last task while the others wait."""
+    workers = max(workers, 1)
+    tasks = max(1, min(runs, workers * math.ceil(runs / (workers * MOST))))
     return [runs // tasks + (k < runs % tasks) for k in range(tasks)] if runs else []
 
 
-def _tasks(cases: list[Case], sizes: list[int]):
-    """The first tries of the cases, grouped a task each by sizes, made as they are submitted."""
+def _tasks(cases: list[Case], next_size: Callable[[int], int]):
+    """The first tries of the cases, grouped a task each, made as they are submitted: next_size(runs left) is the
+    next task's size."""
     at = 0
-    for size in sizes:
+    while at < len(cases):
+        size = next_size(len(cases) - at)
         yield [_Attempt(case) for case in cases[at:at + size]]
         at += size
 
@@ -96,10 +109,10 @@ class Dispatch:
                  done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
                  shared: dict | None = None, chunked: bool = False,
                  store_many: Callable[[list[dict]], None] | None = None,
-                 sizes: Callable[[int, int], list[int]] = chunk_sizes) -> None:
+                 sizes: Callable[[int, int], list[int]] | None = None) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
-        self.chunked = chunked  # several runs a task (sizes(runs, workers): chunk_sizes, or even_chunks for a batch)
-        self.sizes = sizes
+        self.chunked = chunked  # several runs a task: chunk_size's, decided as each task is made; or all at once by
+        self.sizes = sizes  # sizes(runs, workers) (even_chunks, for a batch)
         self.store_many = store_many  # stores a task's outcomes at once (default: store, one by one)
         self.shared = shared or {}  # keyword arguments of every run: futures of data scattered once (a snapshot)
         self.total, self.done_before = total, done_before
@@ -112,6 +125,7 @@ class Dispatch:
         self.failures: dict[str, str] = {}  # run id -> the line of its environment's last failure (not stored)
         self.finished = None  # as_completed over the pending futures
         self._submitted = 0
+        self._walls = [0.0, 0]  # the stored runs' wall seconds, summed, and their count (_floor)
 
     def run(self, cases: list[Case]) -> None:
         from dask.distributed import as_completed
@@ -120,9 +134,14 @@ class Dispatch:
             self._lost()
         started = time.perf_counter()
         threads = self._threads()
-        sizes = self.sizes(len(cases), threads) if self.chunked else [1] * len(cases)
-        window = max(WINDOW, PER_WORKER * threads)
-        tasks = iter(_tasks(cases, sizes))
+        fixed = iter(self.sizes(len(cases), threads)) if self.chunked and self.sizes is not None else None
+
+        def next_size(left: int) -> int:
+            if not self.chunked:
+                return 1
+            return next(fixed) if fixed is not None else chunk_size(left, threads, self._floor())
+        window = min(WINDOW, 2 * PER_WORKER * threads)
+        tasks = iter(_tasks(cases, next_size))
         for group in itertools.islice(tasks, window):
             self._submit(*group)
         finished = self.finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
@@ -143,6 +162,11 @@ class Dispatch:
             if time.monotonic() - last_look >= HEALTH:
                 last_look = time.monotonic()
                 alone_since = self._look(alone_since)
+
+    def _floor(self) -> int:
+        """The fewest runs a task carries: TASK_SECONDS of the runs stored so far (1 before any)."""
+        total, count = self._walls
+        return 1 if not count or total <= 0 else min(MOST, math.ceil(TASK_SECONDS * count / total))
 
     def _wait(self) -> None:
         """Until one of the oldest pending futures finishes, at most POLL s: a search's batch of 8 ms runs is done
@@ -253,6 +277,8 @@ class Dispatch:
                 for result in outcomes:
                     self.store(result)
         for result in outcomes:
+            self._walls[0] += float(result.get("wall") or 0.0)
+            self._walls[1] += 1
             self.stored += 1
             self.failed += not result["row"]["completed"]
         done = self.stored + len(self.failures)

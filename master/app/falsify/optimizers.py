@@ -18,6 +18,7 @@ NAMES = ("uniform", "cmaes", "tpe", "neldermead")
 
 class Optimizer:
     batch: int
+    independent = False  # its asks do not depend on what it was told: batches may be asked before earlier ones are told
 
     def ask(self) -> np.ndarray:  # (n, d) points of the unit cube
         raise NotImplementedError
@@ -27,6 +28,8 @@ class Optimizer:
 
 
 class UniformRandom(Optimizer):
+    independent = True
+
     def __init__(self, dim: int, seed: int, batch: int | None = None) -> None:
         self.dim, self.batch = dim, batch or 4
         self.rng = np.random.default_rng(seed)

@@ -83,7 +83,16 @@ def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int
                             len(cases), 0, Policy(retries=retries), chunked=True, sizes=even_chunks)
         dispatch.run([Case(c["run_id"], base.controller, base.seed, c["values"], c["parameters"]) for c in cases])
         return got
+    run.threads = _threads(client)  # search.py asks an independent optimizer's batches ahead for this many
     return run
+
+
+def _threads(client) -> int:
+    """The runs the cluster runs at once now (1 if its scheduler does not say)."""
+    try:
+        return max(1, sum(client.nthreads(callback_timeout=5).values()))
+    except Exception:  # noqa: BLE001  (a scheduler that does not answer: the dispatcher says so at its first batch)
+        return 1
 
 
 def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[SearchBase, list[str]]:
@@ -122,11 +131,13 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
             seed: int | None = None, simulations: int | None = None, seconds: float | None = None,
             scheduler: str | None = None, workers: int | None = None, client=None, progress=None,
             write_report: bool = True, early_stop: bool = True, branch: str = "auto", neighbourhood: bool = False,
-            fraction: float = 0.1, points: int | None = None) -> tuple[Falsification, Outcome, Path]:
+            fraction: float = 0.1, points: int | None = None, stop_when_falsified: bool = True,
+            ) -> tuple[Falsification, Outcome, Path]:
     """Run (or finish) a falsification; returns the spec, what the search found and the output folder. client: an
     existing Dask client to run on (benchmarks); else a local cluster or the scheduler's. early_stop: each evaluation
     stops at its first decided violation; branch: auto (measured: cheaper_base), on or off; neighbourhood: then run the
-    grid around the best case (neighbourhood.py: ±fraction of each range, points values each)."""
+    grid around the best case (neighbourhood.py: ±fraction of each range, points values each); stop_when_falsified=False:
+    the whole budget even past a falsification (benchmarks/search_throughput.py)."""
     from ..campaign.cluster import connect, local_cluster
     from ..campaign.logs import campaign_log
     from ..fmus import build_all
@@ -166,7 +177,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
                 say(line)
             batch = cluster_batch(client, where, base, fmus, ship=own and scheduler is not None)
             outcome = search(spec.dimensions, spec.optimizer, spec.seed, batch, make_case(base), spec.simulations,
-                             spec.seconds, out, identity(spec, early_stop), spec.batch, say)
+                             spec.seconds, out, identity(spec, early_stop), spec.batch, say, stop_when_falsified)
             if neighbourhood and outcome.best is not None and not outcome.failures:
                 from . import neighbourhood as nb
 

@@ -136,33 +136,55 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
     return Outcome(rows, falsified_at, time.perf_counter() - started, reused, failures)
 
 
+AHEAD_SECONDS = 0.25  # an independent optimizer's batches are asked ahead until a worker has about this much work
+AHEAD_MOST = 256  # ... and at most this many points (what a search that falsifies early runs for nothing)
+
+
+def _group_size(opt, rows: list[dict], threads: int) -> int:
+    """How many points to ask before the first of them is told: the optimizer's batch, or for an optimizer whose asks
+    do not depend on what it is told (uniform) enough batches to keep every worker busy for AHEAD_SECONDS, so that a
+    round trip to the workers, the part written and the client's turn are paid once a group, not once a batch (the
+    rows are the same: the same points asked in the same order, told in the same order)."""
+    if not opt.independent or not rows:  # the first batch measures what an evaluation costs
+        return opt.batch
+    walls = sorted(float(r.get("wall_s") or 0.0) for r in rows[-64:])
+    each = max(walls[len(walls) // 2], 1e-4)
+    return int(min(AHEAD_MOST, max(opt.batch, threads * AHEAD_SECONDS / each)))
+
+
 def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds, identity, opt, rows: list[dict],
           stored: dict[int, dict], parts: Path | None, say, started: float, stop_when_falsified: bool):
     """The batches until the budget is spent, a point falsifies or an environment fails; rows grows as they end.
-    (falsified_at, reused, failures)."""
+    Batches go to evaluate_batch a group at a time (_group_size); each is told and judged in the order asked, and the
+    batches of a group after the one that ends the search are dropped. (falsified_at, reused, failures)."""
     from .space import values_at
 
+    threads = max(1, int(getattr(evaluate_batch, "threads", 1)))
     falsified_at, reused, failures = None, 0, {}
     while len(rows) < limit and (seconds is None or time.perf_counter() - started < seconds):
-        whole = opt.ask()
-        asked = whole[:int(min(len(whole), limit - len(rows)))]  # the budget's last batch may be cut: never told
-        cases, batch_rows = [], {}
-        for j, unit in enumerate(asked):
-            index = len(rows) + j
-            rid = run_id(identity, index, unit)
-            old = stored.get(index)
-            if old is not None and old["run_id"] == rid:
-                batch_rows[rid] = old
-                reused += 1
-                continue
-            values = values_at(dimensions, unit)
-            case = make_case(rid, values)
-            case["unit"] = [float(x) for x in unit]
-            case["index"] = index
-            cases.append(case)
+        group, cases, batch_rows = [], [], {}  # group: (the batch asked, the points of it run)
+        size = _group_size(opt, rows, threads)
+        at = len(rows)
+        while at < limit and (not group or at - len(rows) + opt.batch <= size):
+            whole = opt.ask()
+            asked = whole[:int(min(len(whole), limit - at))]  # the budget's last batch may be cut: never told
+            group.append((whole, asked))
+            for j, unit in enumerate(asked):
+                index = at + j
+                rid = run_id(identity, index, unit)
+                old = stored.get(index)
+                if old is not None and old["run_id"] == rid:
+                    batch_rows[rid] = old
+                    reused += 1
+                    continue
+                case = make_case(rid, values_at(dimensions, unit))
+                case["unit"] = [float(x) for x in unit]
+                case["index"] = index
+                cases.append(case)
+            at += len(asked)
+        fresh = {}
         if cases:
             got = evaluate_batch(cases)
-            fresh = []
             for case in cases:
                 row = got.get(case["run_id"])
                 if row is None:
@@ -170,23 +192,31 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
                 row = {"index": case["index"], "optimizer": optimizer, "optimizer_seed": seed, **row,
                        **{f"u_{d.name}": u for d, u in zip(dimensions, case["unit"])}}
                 row["run_id"] = case["run_id"]
-                batch_rows[case["run_id"]] = row
-                fresh.append(row)
-            if parts is not None and fresh:
-                write_part(parts, fresh)
-        missing = [c["run_id"] for c in cases if c["run_id"] not in batch_rows]
-        if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
-            failures.update({rid: "its environment failed" for rid in missing})
-            break
-        ordered = [batch_rows[run_id(identity, len(rows) + j, unit)] for j, unit in enumerate(asked)]
-        if len(asked) == len(whole):
-            opt.tell(asked, [_told(r) for r in ordered])
-        for r in ordered:
-            if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
-                falsified_at = int(r["index"])
-        rows.extend(ordered)
+                batch_rows[case["run_id"]] = fresh[case["run_id"]] = row
+        kept, done = [], False
+        for whole, asked in group:
+            ids = [run_id(identity, len(rows) + j, unit) for j, unit in enumerate(asked)]
+            missing = [rid for rid in ids if rid not in batch_rows]
+            if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
+                failures.update({rid: "its environment failed" for rid in missing})
+                kept += [fresh[rid] for rid in ids if rid in fresh]  # stored: a rerun takes them as they are
+                done = True
+                break
+            ordered = [batch_rows[rid] for rid in ids]
+            if len(asked) == len(whole):
+                opt.tell(asked, [_told(r) for r in ordered])
+            for r in ordered:
+                if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
+                    falsified_at = int(r["index"])
+            rows.extend(ordered)
+            kept += [fresh[rid] for rid in ids if rid in fresh]
+            if stop_when_falsified and falsified_at is not None:
+                done = True
+                break
+        if parts is not None and kept:
+            write_part(parts, kept)
         best = min((_told(r) for r in rows), default=math.nan)
         say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
-        if stop_when_falsified and falsified_at is not None:
+        if done:
             break
     return falsified_at, reused, failures
