@@ -116,10 +116,24 @@ def test_once_runs_have_come_back_no_task_carries_less_than_task_seconds_of_them
         d = dispatch.Dispatch(client, _short, lambda _: None, "here", 200, 0, chunked=True,
                               store_many=lambda results: stored.append(len(results)))
         d.run([Case(f"r{i}", "mixed", i, {}, {}) for i in range(200)])
-    floor = math.ceil(dispatch.TASK_SECONDS / 0.005)
+    floor, most = math.ceil(dispatch.TASK_SECONDS[0] / 0.005), int(dispatch.TASK_SECONDS[1] / 0.005)
     assert sum(stored) == 200 and d.stored == 200
     assert sum(1 for n in stored if n < floor) <= 1  # the remainder at most, where the plain schedule ends in 1s
-    assert len(stored) < len(dispatch.chunk_sizes(200, 1))
+    assert len(stored) < len(dispatch.chunk_sizes(200, 1)) and max(stored) <= max(most, dispatch.MOST)
+
+
+def test_tasks_of_short_runs_carry_up_to_task_seconds_of_them():
+    """Runs of 1 ms: once they are known, a task carries up to 0.1 s of them (more than MOST), never more."""
+    from dask.distributed import Client, LocalCluster
+    from tiltload.master.app.campaign.spec import Case
+
+    stored: list[int] = []
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
+            Client(cluster, set_as_default=False) as client:
+        d = dispatch.Dispatch(client, lambda case: {**_short(case), "wall": 0.001}, lambda _: None, "here", 3000, 0,
+                              chunked=True, store_many=lambda results: stored.append(len(results)))
+        d.run([Case(f"r{i}", "mixed", i, {}, {}) for i in range(3000)])
+    assert sum(stored) == 3000 and dispatch.MOST < max(stored) <= min(dispatch.SHORTEST, 0.1 / 0.001)
 
 
 def _flaky(case: dict, marker: str) -> dict:

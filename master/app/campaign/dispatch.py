@@ -13,7 +13,8 @@ With `chunked`, several runs go to a task (`run_chunk`): a task costs the client
 ms of messages and (de)serialization, as much as a short run's simulation. Their sizes shrink as the runs left do
 (guided self-scheduling, `chunk_size`): the first tasks carry several runs, the last ones fewer, so that no worker is
 left with a long task when the others are done; but once runs have come back, never fewer than TASK_SECONDS of runs
-(`_floor`), so that the last tasks of short runs do not cost more in messages than their runs. A task's outcomes are
+(`_bounds`), so that the last tasks of short runs do not cost more in messages than their runs, nor more than
+TASK_SECONDS[1] of runs (what a killed worker takes with it). A task's outcomes are
 stored together (`store_many`: one Parquet part); a run whose environment failed is tried again alone. A search's
 batch, whose runs are awaited together, goes as one task a worker (`even_chunks`). At most a window of tasks
 (2 x PER_WORKER a thread, at most WINDOW) is submitted and not yet settled; the next is made and submitted as one
@@ -38,25 +39,26 @@ POLL = 0.02  # s between looks at the finished futures (at most: sooner when one
 WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
-MOST = 16  # ... and at most this many runs (what a killed worker takes with it)
-TASK_SECONDS = 0.02  # ... and at least this much work once the runs' length is known: a task's messages cost a worker
-# about 2.4 ms of CPU (docs/throughput.md)
+MOST = 16  # ... and at most this many runs (what a killed worker takes with it) before the runs' length is known
+TASK_SECONDS = (0.02, 0.1)  # then at least and at most this much work (a task's messages cost a worker about 2.4 ms of
+# CPU, the client and its scheduler as much again: docs/throughput.md) ...
+SHORTEST = 128  # ... and never more runs than this
 WINDOW = 64  # tasks submitted and not yet settled, at most (2 x PER_WORKER a thread below that): the rest wait in the
 # client as cases, so the client and the local cluster's scheduler (in its process) hold a window, not every task of
 # 20,000 runs at once (all 1268 tasks submitted at once cost the client 90 MB: benchmarks/scale_20k.py)
 
 
-def chunk_size(left: int, workers: int, floor: int = 1) -> int:
+def chunk_size(left: int, workers: int, floor: int = 1, most: int = MOST) -> int:
     """The size of the next task when `left` runs are left on `workers` workers: the runs left / (PER_WORKER x
-    workers), rounded up, at most MOST, at least floor (all that is left, if less)."""
-    return min(left, MOST, max(floor, 1, math.ceil(left / (PER_WORKER * max(workers, 1)))))
+    workers), rounded up, at most `most`, at least floor (all that is left, if less)."""
+    return min(left, most, max(floor, 1, math.ceil(left / (PER_WORKER * max(workers, 1)))))
 
 
-def chunk_sizes(runs: int, workers: int, floor: int = 1) -> list[int]:
+def chunk_sizes(runs: int, workers: int, floor: int = 1, most: int = MOST) -> list[int]:
     """The sizes of the tasks that carry `runs` runs, each decided by chunk_size; with floor 1 the last ones are 1."""
     sizes, left = [], runs
     while left > 0:
-        sizes.append(chunk_size(left, workers, floor))
+        sizes.append(chunk_size(left, workers, floor, most))
         left -= sizes[-1]
     return sizes
 
@@ -139,7 +141,7 @@ class Dispatch:
         def next_size(left: int) -> int:
             if not self.chunked:
                 return 1
-            return next(fixed) if fixed is not None else chunk_size(left, threads, self._floor())
+            return next(fixed) if fixed is not None else chunk_size(left, threads, *self._bounds())
         window = min(WINDOW, 2 * PER_WORKER * threads)
         tasks = iter(_tasks(cases, next_size))
         for group in itertools.islice(tasks, window):
@@ -163,10 +165,14 @@ class Dispatch:
                 last_look = time.monotonic()
                 alone_since = self._look(alone_since)
 
-    def _floor(self) -> int:
-        """The fewest runs a task carries: TASK_SECONDS of the runs stored so far (1 before any)."""
+    def _bounds(self) -> tuple[int, int]:
+        """The fewest and the most runs a task carries: TASK_SECONDS of the runs stored so far (1 and MOST before any;
+        never fewer than MOST at most, nor more than SHORTEST)."""
         total, count = self._walls
-        return 1 if not count or total <= 0 else min(MOST, math.ceil(TASK_SECONDS * count / total))
+        if not count or total <= 0:
+            return 1, MOST
+        least, most = math.ceil(TASK_SECONDS[0] * count / total), int(TASK_SECONDS[1] * count / total)
+        return min(MOST, least), min(SHORTEST, max(MOST, most))
 
     def _wait(self) -> None:
         """Until one of the oldest pending futures finishes, at most POLL s: a search's batch of 8 ms runs is done
