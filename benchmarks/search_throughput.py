@@ -3,9 +3,9 @@ run: CPU per evaluation per kind of dimension against the loop's own cost, and e
 limit (workers / the loop's own cost per run) on 1 and 2 workers, for the four shipped falsification specs and a
 campaign of short runs.
 
-    python benchmarks/search_throughput.py                         # this tree and /work/wt/base (about 3 minutes)
+    python benchmarks/search_throughput.py                         # this tree and /work/wt/base (about 3 minutes quiet)
     python benchmarks/search_throughput.py --before none           # this tree only
-    python benchmarks/search_throughput.py --evaluations 64 --runs 160
+    python benchmarks/search_throughput.py --evaluations 40 --runs 400
 
 What each figure is:
 - cpu ms: the worker processes' own CPU time over the measurement (every worker's, Dask's share in them included)
@@ -199,8 +199,8 @@ def main() -> None:
     ap.add_argument("--inner", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--no-kinds", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
-    ap.add_argument("--evaluations", type=int, default=40, help="evaluations a search measures (after 4 a worker to warm up)")
-    ap.add_argument("--runs", type=int, default=120, help="runs of the short-run campaign (a multiple of 4)")
+    ap.add_argument("--evaluations", type=int, default=200, help="evaluations a search measures (after 4 a worker to warm up)")
+    ap.add_argument("--runs", type=int, default=2000, help="runs of the short-run campaign (a multiple of 4)")
     ap.add_argument("--before", default="/work/wt/base", help="the other tree ('none': this one only)")
     ap.add_argument("--before-python", default="/work/venvs/base/bin/python")
     ap.add_argument("--before-cache", default="/work/cache-base", help="its TILTLOAD_CACHE")
