@@ -140,83 +140,128 @@ AHEAD_SECONDS = 0.25  # an independent optimizer's batches are asked ahead until
 AHEAD_MOST = 256  # ... and at most this many points (what a search that falsifies early runs for nothing)
 
 
-def _group_size(opt, rows: list[dict], threads: int) -> int:
+def _group_size(opt, walls: list[float], threads: int) -> int:
     """How many points to ask before the first of them is told: the optimizer's batch, or for an optimizer whose asks
-    do not depend on what it is told (uniform) enough batches to keep every worker busy for AHEAD_SECONDS, so that a
-    round trip to the workers, the part written and the client's turn are paid once a group, not once a batch (the
-    rows are the same: the same points asked in the same order, told in the same order)."""
-    if not opt.independent or not rows:  # the first batch measures what an evaluation costs
+    do not depend on what it is told (uniform) enough batches to keep every worker busy for AHEAD_SECONDS (walls: the
+    latest evaluations' wall seconds), so that a round trip to the workers, the part written and the client's turn are
+    paid once a group, not once a batch (the rows are the same: the same points asked in the same order, told in the
+    same order)."""
+    if not opt.independent or not walls:  # the first batch measures what an evaluation costs
         return opt.batch
-    walls = sorted(float(r.get("wall_s") or 0.0) for r in rows[-64:])
-    each = max(walls[len(walls) // 2], 1e-4)
+    ordered = sorted(walls[-64:])
+    each = max(ordered[len(ordered) // 2], 1e-4)
     return int(min(AHEAD_MOST, max(opt.batch, threads * AHEAD_SECONDS / each)))
+
+
+@dataclass
+class _Group:
+    """Batches asked together: each (the batch asked, the points of it run), the cases sent, the stored rows taken."""
+
+    batches: list
+    cases: list[dict]
+    rows: dict[str, dict]
+    end: int  # the index after its last point
+    evaluated: object = None  # the future of evaluate_batch(cases) (None: nothing to run)
 
 
 def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds, identity, opt, rows: list[dict],
           stored: dict[int, dict], parts: Path | None, say, started: float, stop_when_falsified: bool):
     """The batches until the budget is spent, a point falsifies or an environment fails; rows grows as they end.
     Batches go to evaluate_batch a group at a time (_group_size); each is told and judged in the order asked, and the
-    batches of a group after the one that ends the search are dropped. (falsified_at, reused, failures)."""
+    batches of a group after the one that ends the search are dropped. An independent optimizer's next group is asked
+    and sent before the one back is judged, so the workers do not wait for the client's turn; a group sent when the
+    search ends is dropped whole. (falsified_at, reused, failures)."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from .space import values_at
 
     threads = max(1, int(getattr(evaluate_batch, "threads", 1)))
+    walls: list[float] = []
     falsified_at, reused, failures = None, 0, {}
-    while len(rows) < limit and (seconds is None or time.perf_counter() - started < seconds):
-        group, cases, batch_rows = [], [], {}  # group: (the batch asked, the points of it run)
-        size = _group_size(opt, rows, threads)
-        at = len(rows)
-        while at < limit and (not group or at - len(rows) + opt.batch <= size):
+
+    def more(at: int) -> bool:
+        return at < limit and (seconds is None or time.perf_counter() - started < seconds)
+
+    def ask(at: int) -> _Group:
+        group = _Group([], [], {}, at)
+        size = _group_size(opt, walls, threads)
+        while group.end < limit and (not group.batches or group.end - at + opt.batch <= size):
             whole = opt.ask()
-            asked = whole[:int(min(len(whole), limit - at))]  # the budget's last batch may be cut: never told
-            group.append((whole, asked))
+            asked = whole[:int(min(len(whole), limit - group.end))]  # the budget's last batch may be cut: never told
+            group.batches.append((whole, asked))
             for j, unit in enumerate(asked):
-                index = at + j
+                index = group.end + j
                 rid = run_id(identity, index, unit)
                 old = stored.get(index)
                 if old is not None and old["run_id"] == rid:
-                    batch_rows[rid] = old
-                    reused += 1
+                    group.rows[rid] = old
                     continue
                 case = make_case(rid, values_at(dimensions, unit))
                 case["unit"] = [float(x) for x in unit]
                 case["index"] = index
-                cases.append(case)
-            at += len(asked)
-        fresh = {}
-        if cases:
-            got = evaluate_batch(cases)
-            for case in cases:
+                group.cases.append(case)
+            group.end += len(asked)
+        if group.cases:  # on the sender's thread while this one judges the group before (an independent optimizer)
+            group.evaluated = sender.submit(evaluate_batch, group.cases) if sender else _Now(evaluate_batch(group.cases))
+        return group
+
+    sender = ThreadPoolExecutor(1, thread_name_prefix="search-batches") if opt.independent else None
+    ended = False
+    try:
+        group = ask(len(rows)) if more(len(rows)) else None
+        while group is not None:
+            got = group.evaluated.result() if group.evaluated is not None else {}
+            fresh = {}
+            for case in group.cases:
                 row = got.get(case["run_id"])
                 if row is None:
                     continue
                 row = {"index": case["index"], "optimizer": optimizer, "optimizer_seed": seed, **row,
                        **{f"u_{d.name}": u for d, u in zip(dimensions, case["unit"])}}
                 row["run_id"] = case["run_id"]
-                batch_rows[case["run_id"]] = fresh[case["run_id"]] = row
-        kept, done = [], False
-        for whole, asked in group:
-            ids = [run_id(identity, len(rows) + j, unit) for j, unit in enumerate(asked)]
-            missing = [rid for rid in ids if rid not in batch_rows]
-            if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
-                failures.update({rid: "its environment failed" for rid in missing})
-                kept += [fresh[rid] for rid in ids if rid in fresh]  # stored: a rerun takes them as they are
-                done = True
-                break
-            ordered = [batch_rows[rid] for rid in ids]
-            if len(asked) == len(whole):
-                opt.tell(asked, [_told(r) for r in ordered])
-            for r in ordered:
-                if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
-                    falsified_at = int(r["index"])
-            rows.extend(ordered)
-            kept += [fresh[rid] for rid in ids if rid in fresh]
-            if stop_when_falsified and falsified_at is not None:
-                done = True
-                break
-        if parts is not None and kept:
-            write_part(parts, kept)
-        best = min((_told(r) for r in rows), default=math.nan)
-        say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
-        if done:
-            break
+                group.rows[case["run_id"]] = fresh[case["run_id"]] = row
+                walls.append(float(row.get("wall_s") or 0.0))
+            following = ask(group.end) if opt.independent and more(group.end) else None
+            kept, done = [], False
+            for whole, asked in group.batches:
+                ids = [run_id(identity, len(rows) + j, unit) for j, unit in enumerate(asked)]
+                missing = [rid for rid in ids if rid not in group.rows]
+                if missing:  # the environment failed for these (after the dispatcher's retries): the search cannot go on
+                    failures.update({rid: "its environment failed" for rid in missing})
+                    kept += [fresh[rid] for rid in ids if rid in fresh]  # stored: a rerun takes them as they are
+                    done = True
+                    break
+                ordered = [group.rows[rid] for rid in ids]
+                reused += sum(1 for rid in ids if rid not in fresh)
+                if len(asked) == len(whole):
+                    opt.tell(asked, [_told(r) for r in ordered])
+                for r in ordered:
+                    if falsified_at is None and r.get("robustness") is not None and r["robustness"] < 0:
+                        falsified_at = int(r["index"])
+                rows.extend(ordered)
+                kept += [fresh[rid] for rid in ids if rid in fresh]
+                if stop_when_falsified and falsified_at is not None:
+                    done = True
+                    break
+            if parts is not None and kept:
+                write_part(parts, kept)
+            best = min((_told(r) for r in rows), default=math.nan)
+            say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
+            if done:
+                break  # a following group is dropped: the sender waits for its evaluation to end
+            group = following if following is not None else (ask(len(rows)) if more(len(rows)) else None)
+        ended = True
+    finally:  # a group still out is dropped: waited for when the search ended, left to the closing client on an error
+        if sender is not None:
+            sender.shutdown(wait=ended, cancel_futures=True)
     return falsified_at, reused, failures
+
+
+class _Now:
+    """An evaluation already done, as a future."""
+
+    def __init__(self, value) -> None:
+        self.value = value
+
+    def result(self):
+        return self.value
