@@ -222,7 +222,8 @@ def render(data: dict) -> str:
                   "campaign` / `tiltload falsify` on a local cluster of 2 workers. The client's peak resident memory",
                   "(VmHWM: the process that dispatches, stores and assembles, the local cluster's scheduler in it) is "
                   "what shows whether it grows with N: before the report (the runs dispatched and stored, the results assembled) and "
-                  "at the end (the report written: the campaign's HTML page lists at most 500 runs, the failing first, and counts all); files: everything the command "
+                  "at the end (the report written: the campaign's HTML page lists at most 500 runs, the failing first, and "
+                  "counts all); files: everything the command "
                   "wrote (parts among them).", "",
                   "| what | runs | wall | runs a second | client peak RSS before the report | at the end (report written) | "
                   "files (parts) | measured on | date | load average |", "|---|---|---|---|---|---|---|---|---|---|"]

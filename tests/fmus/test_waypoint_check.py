@@ -1,0 +1,59 @@
+"""The waypoints' check asks JSON Schema only when a row is not plain (an unknown field, a missing one, a value that is
+not a number): on random rows, its verdict is the one of the schema itself (jsonschema) plus its own order rules."""
+
+from __future__ import annotations
+
+import jsonschema
+import numpy as np
+import pytest
+from tiltload.scenario_fmu import waypoints as W
+from tiltload.scenario_fmu.files import ScenarioFileError
+
+
+def _by_the_schema(rows: list[dict]) -> bool:
+    """Whether the rows meet the schema and the order rules, judged without check()."""
+    if jsonschema.Draft202012Validator({"type": "array", "items": W.SCHEMA}).is_valid(rows) is False:
+        return False
+    if len({("psi" in r) for r in rows}) > 1 or any(("vpsi" in r or "apsi" in r) and "psi" not in r for r in rows):
+        return False
+    return all(rows[k]["t"] - rows[k - 1]["t"] >= W.MIN_GAP for k in range(1, len(rows)))
+
+
+def _random_rows(rng) -> list[dict]:
+    rows, t = [], 0.0
+    for _ in range(int(rng.integers(2, 5))):
+        t += float(rng.choice([1.0, 2.5, -1.0, 1e-4]))
+        row = {"t": t, "x": float(rng.normal()), "y": float(rng.normal()), "z": float(rng.normal())}
+        for field in rng.choice(["vx", "psi", "az", "vpsi"], size=int(rng.integers(0, 3)), replace=False):
+            row[str(field)] = float(rng.normal(scale=10))
+        kind = rng.integers(0, 12)
+        if kind == 0:
+            row["bogus"] = 1.0  # an unknown field
+        elif kind == 1:
+            del row["y"]  # a required one missing
+        elif kind == 2:
+            row["x"] = "1.0"  # a string
+        elif kind == 3:
+            row["z"] = True  # a bool is no number
+        elif kind == 4:
+            row["x"] = 2e5  # out of range
+        elif kind == 5:
+            row["vx"] = 7  # an int is a number
+        rows.append(row)
+    return rows
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_check_agrees_with_the_schema_on_random_rows(seed):
+    rng = np.random.default_rng(seed)
+    verdicts = set()
+    for _ in range(250):
+        rows = _random_rows(rng)
+        try:
+            W.check(rows, [f"row {i}" for i in range(len(rows))], "random")
+            accepted = True
+        except ScenarioFileError:
+            accepted = False
+        assert accepted == _by_the_schema(rows), rows
+        verdicts.add(accepted)
+    assert verdicts == {True, False}  # both kinds met
