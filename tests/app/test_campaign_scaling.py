@@ -123,7 +123,7 @@ def test_once_runs_have_come_back_no_task_carries_less_than_task_seconds_of_them
 
 
 def test_tasks_of_short_runs_carry_up_to_task_seconds_of_them():
-    """Runs of 1 ms: once they are known, a task carries up to 0.1 s of them (more than MOST), never more."""
+    """Runs of 1 ms: once they are known, a task carries up to TASK_SECONDS[1] of them (more than MOST), never more."""
     from dask.distributed import Client, LocalCluster
     from tiltload.master.app.campaign.spec import Case
 
@@ -133,7 +133,8 @@ def test_tasks_of_short_runs_carry_up_to_task_seconds_of_them():
         d = dispatch.Dispatch(client, lambda case: {**_short(case), "wall": 0.001}, lambda _: None, "here", 3000, 0,
                               chunked=True, store_many=lambda results: stored.append(len(results)))
         d.run([Case(f"r{i}", "mixed", i, {}, {}) for i in range(3000)])
-    assert sum(stored) == 3000 and dispatch.MOST < max(stored) <= min(dispatch.SHORTEST, 0.1 / 0.001)
+    assert sum(stored) == 3000 and dispatch.MOST < max(stored) <= min(dispatch.SHORTEST, dispatch.TASK_SECONDS[1] / 0.001)
+    assert stored[:2] == [dispatch.MOST] * 2  # two tasks a thread before any run came back, of MOST runs each
 
 
 def _flaky(case: dict, marker: str) -> dict:

@@ -17,8 +17,8 @@ left with a long task when the others are done; but once runs have come back, ne
 TASK_SECONDS[1] of runs (what a killed worker takes with it). A task's outcomes are
 stored together (`store_many`: one Parquet part); a run whose environment failed is tried again alone. A search's
 batch, whose runs are awaited together, goes as one task a worker (`even_chunks`). At most a window of tasks
-(2 x PER_WORKER a thread, at most WINDOW) is submitted and not yet settled; the next is made and submitted as one
-settles, its size decided then.
+(2 x PER_WORKER a thread, at most WINDOW; two a thread until runs have come back) is submitted and not yet settled;
+the next is made and submitted as one settles, its size decided then.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import math
 import time
 from collections.abc import Callable
 from concurrent.futures import CancelledError
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 from .cluster import first_line
 from .errors import CampaignIncomplete
@@ -40,9 +40,9 @@ WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
 PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it) before the runs' length is known
-TASK_SECONDS = (0.02, 0.1)  # then at least and at most this much work (a task's messages cost a worker about 2.4 ms of
+TASK_SECONDS = (0.02, 0.25)  # then at least and at most this much work (a task's messages cost a worker about 2.4 ms of
 # CPU, the client and its scheduler as much again: docs/throughput.md) ...
-SHORTEST = 128  # ... and never more runs than this
+SHORTEST = 256  # ... and never more runs than this
 WINDOW = 64  # tasks submitted and not yet settled, at most (2 x PER_WORKER a thread below that): the rest wait in the
 # client as cases, so the client and the local cluster's scheduler (in its process) hold a window, not every task of
 # 20,000 runs at once (all 1268 tasks submitted at once cost the client 90 MB: benchmarks/scale_20k.py)
@@ -83,9 +83,23 @@ def _tasks(cases: list[Case], next_size: Callable[[int], int]):
         at += size
 
 
-def run_chunk(task: Callable[..., dict], cases: list[dict], **shared) -> list[dict]:
+@dataclass(frozen=True)
+class Runs:
+    """A task's cases as one argument Dask does not look into (it walks a plain list of dicts for futures: a tenth of a
+    millisecond a run in the client)."""
+
+    cases: tuple
+
+
+def run_chunk(task: Callable[..., dict], runs: Runs, **shared) -> list[dict]:
     """A task of several runs, on a worker: each run's outcome, in order (task never raises: run_case)."""
-    return [task(case, **shared) for case in cases]
+    return [task(case, **shared) for case in runs.cases]
+
+
+def _fields(case: Case) -> dict:
+    """A case as the task takes it: its fields (a shallow copy: the task only reads them; asdict's deep copy cost the
+    client as much as the task's messages)."""
+    return dict(vars(case))
 
 
 @dataclass
@@ -144,7 +158,8 @@ class Dispatch:
             return next(fixed) if fixed is not None else chunk_size(left, threads, *self._bounds())
         window = min(WINDOW, 2 * PER_WORKER * threads)
         tasks = iter(_tasks(cases, next_size))
-        for group in itertools.islice(tasks, window):
+        # two tasks a thread to start with: the rest are sized once the first runs have said how long a run takes
+        for group in itertools.islice(tasks, window if fixed is not None else min(window, 2 * threads)):
             self._submit(*group)
         finished = self.finished = as_completed(list(self.pending), loop=self.client.loop, with_results=False)
         last_look, alone_since = time.monotonic(), None
@@ -199,10 +214,10 @@ class Dispatch:
         suffix = f"-try{attempt.number + 1}-{self._submitted}" if attempt.number or attempt.allowed else ""
         where = {"workers": sorted(attempt.allowed) if attempt.allowed else None, "allow_other_workers": False}
         if len(attempts) == 1 and not self.chunked:
-            future = self.client.submit(self.task, asdict(attempt.case), **self.shared,
+            future = self.client.submit(self.task, _fields(attempt.case), **self.shared,
                                         key=f"run-{attempt.case.run_id}{suffix}", pure=False, **where)
         else:
-            future = self.client.submit(run_chunk, self.task, [asdict(a.case) for a in attempts], **self.shared,
+            future = self.client.submit(run_chunk, self.task, Runs(tuple(_fields(a.case) for a in attempts)), **self.shared,
                                         key=f"runs-{attempt.case.run_id}+{len(attempts)}{suffix}", pure=False, **where)
         self.pending[future] = attempts
         return future
