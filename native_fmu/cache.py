@@ -20,6 +20,15 @@ def cached_fmu(fmu_name: str, digest: str) -> Path:
     return cache_root() / "fmus" / digest[:32] / fmu_name
 
 
+def newest_cached(fmu_name: str) -> Path | None:
+    """The machine's latest build of an FMU of this name, whatever its inputs (None: none, or no cache to read)."""
+    try:
+        found = [(p.stat().st_mtime_ns, p) for p in (cache_root() / "fmus").glob(f"*/{fmu_name}") if p.is_file()]
+    except OSError:
+        return None
+    return max(found, default=(0, None))[1]
+
+
 def keep(built: Path, digest: str) -> None:
     """Copy a build into the machine's cache (atomically: a reader sees the whole file or none). A cache that cannot be
     written (a read-only home, a full disk) only costs the next folder a build."""

@@ -11,7 +11,7 @@ from pathlib import Path
 from ...controller_fmu.fmu import build as controller
 from ...formation import build as formation
 from ...native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
-from ...native_fmu.cache import cache_root, cached_fmu
+from ...native_fmu.cache import cache_root, cached_fmu, newest_cached
 from ...native_fmu.compile import choose
 from ...native_fmu.package import read_build_info
 from ...plant_fmu import build as plant
@@ -131,7 +131,11 @@ def why(stale: list[Recipe], dest: Path, force: bool, toolchains, fmi_version: i
     differ (a changed compiler set concerns all; a changed source file, only the FMUs built from it)."""
     reasons: dict[str, list[str]] = {}
     for r in stale:
-        said = rebuild_reason(dest / r.fmu_name, inputs_record(r, toolchains, fmi_version), force) or "its inputs changed"
+        record = inputs_record(r, toolchains, fmi_version)
+        said = rebuild_reason(dest / r.fmu_name, record, force) or "its inputs changed"
+        other = newest_cached(r.fmu_name) if said == "not built yet" else None
+        if other is not None:  # a new folder: why the machine's build is not this one's
+            said = f"not built yet here, and this machine's FMU cache holds it from other inputs only ({rebuild_reason(other, record)})"
         reasons.setdefault(said, []).append(r.fmu_name.removesuffix(".fmu"))
     if len(reasons) == 1:
         return next(iter(reasons))

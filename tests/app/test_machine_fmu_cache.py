@@ -30,6 +30,11 @@ def test_a_second_folder_reuses_the_machine_s_build(recipe, tmp_path, monkeypatc
     third = build_many([changed], tmp_path / "two", progress=said.append)[0]
     assert third.rebuilt and not third.from_cache
     assert any("the model's settings or library versions changed" in m for m in said)
+    said.clear()  # a third folder, of other inputs again: why the machine's builds are not its own
+    other = dataclasses.replace(recipe, identity=(*recipe.identity, "a third setting"))
+    build_many([other], tmp_path / "three", progress=said.append)
+    assert any(m.startswith("building TiltloadScenario.fmu") and "this machine's FMU cache holds it from other inputs only "
+               "(the model's settings or library versions changed)" in m for m in said), said
 
 
 def test_a_forced_build_compiles(recipe, tmp_path, monkeypatch):
