@@ -135,7 +135,7 @@ def why(stale: list[Recipe], dest: Path, force: bool, toolchains, fmi_version: i
         said = rebuild_reason(dest / r.fmu_name, record, force) or "its inputs changed"
         other = newest_cached(r.fmu_name) if said == "not built yet" else None
         if other is not None:  # a new folder: why the machine's build is not this one's
-            said = f"not built yet here, and this machine's FMU cache holds it from other inputs only ({rebuild_reason(other, record)})"
+            said = f"not built yet here; this machine's FMU cache has builds of other inputs only ({rebuild_reason(other, record)})"
         reasons.setdefault(said, []).append(r.fmu_name.removesuffix(".fmu"))
     if len(reasons) == 1:
         return next(iter(reasons))
