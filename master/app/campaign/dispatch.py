@@ -102,6 +102,14 @@ def _fields(case: Case) -> dict:
     return dict(vars(case))
 
 
+def cluster_threads(client, timeout: float = 5.0) -> int:
+    """How many runs the cluster runs at once (its workers' threads; 1 if the scheduler does not say)."""
+    try:
+        return max(1, sum(client.nthreads(callback_timeout=timeout).values()))
+    except Exception:  # noqa: BLE001  (a scheduler that does not answer: the dispatch says so when it waits)
+        return 1
+
+
 @dataclass
 class Policy:
     retries: int = 2  # further tries of a run whose environment failed
@@ -233,11 +241,7 @@ class Dispatch:
                 self.finished.add(self._submit(*attempts))
 
     def _threads(self) -> int:
-        """How many runs the cluster runs at once (its workers' threads; 1 if the scheduler does not say)."""
-        try:
-            return max(1, sum(self.client.nthreads(callback_timeout=self.policy.answer_timeout).values()))
-        except Exception:
-            return 1
+        return cluster_threads(self.client, self.policy.answer_timeout)
 
     def _workers(self) -> list[str]:
         return sorted(self._workers_or_none() or ())

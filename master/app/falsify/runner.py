@@ -65,7 +65,7 @@ def check_names(spec: Falsification, fmus: Path) -> None:
 def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2, ship: bool = False):
     """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster. ship: the workers
     get the FMUs from this client (an existing cluster's: campaign/shipping.py), registered once for every batch."""
-    from ..campaign.dispatch import Dispatch, Policy, even_chunks
+    from ..campaign.dispatch import Dispatch, Policy, cluster_threads, even_chunks
     from .evaluate import evaluate
 
     task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
@@ -83,16 +83,8 @@ def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int
                             len(cases), 0, Policy(retries=retries), chunked=True, sizes=even_chunks)
         dispatch.run([Case(c["run_id"], base.controller, base.seed, c["values"], c["parameters"]) for c in cases])
         return got
-    run.threads = _threads(client)  # search.py asks an independent optimizer's batches ahead for this many
+    run.threads = cluster_threads(client)  # search.py asks an independent optimizer's batches ahead for this many
     return run
-
-
-def _threads(client) -> int:
-    """The runs the cluster runs at once now (1 if its scheduler does not say)."""
-    try:
-        return max(1, sum(client.nthreads(callback_timeout=5).values()))
-    except Exception:  # noqa: BLE001  (a scheduler that does not answer: the dispatcher says so at its first batch)
-        return 1
 
 
 def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[SearchBase, list[str]]:

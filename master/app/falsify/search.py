@@ -18,6 +18,7 @@ import json
 import math
 import time
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -171,8 +172,6 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
     batches of a group after the one that ends the search are dropped. An independent optimizer's next group is asked
     and sent before the one back is judged, so the workers do not wait for the client's turn; a group sent when the
     search ends is dropped whole. (falsified_at, reused, failures)."""
-    from concurrent.futures import ThreadPoolExecutor
-
     from .space import values_at
 
     threads = max(1, int(getattr(evaluate_batch, "threads", 1)))
@@ -202,7 +201,7 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
                 group.cases.append(case)
             group.end += len(asked)
         if group.cases:  # on the sender's thread while this one judges the group before (an independent optimizer)
-            group.evaluated = sender.submit(evaluate_batch, group.cases) if sender else _Now(evaluate_batch(group.cases))
+            group.evaluated = sender.submit(evaluate_batch, group.cases) if sender else _done(evaluate_batch(group.cases))
         return group
 
     sender = ThreadPoolExecutor(1, thread_name_prefix="search-batches") if opt.independent else None
@@ -257,11 +256,9 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
     return falsified_at, reused, failures
 
 
-class _Now:
+
+def _done(value) -> Future:
     """An evaluation already done, as a future."""
-
-    def __init__(self, value) -> None:
-        self.value = value
-
-    def result(self):
-        return self.value
+    future = Future()
+    future.set_result(value)
+    return future
