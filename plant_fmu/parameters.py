@@ -129,8 +129,9 @@ def validate(p: np.ndarray, limits: dict[str, float] | None = None) -> None:
             raise ParameterError(f"parameter {name} must be +1 or -1, got {p[_INDEX[name]]:g}")
     if not abs(p[_INDEX["beta"]]) < math.pi / 2:
         raise ParameterError(f"parameter beta must lie in (-pi/2, pi/2) rad, got {p[_INDEX['beta']]:g}")
-    for prefix in ("I_L", "I_1", "I_2", "I_3"):
-        eig = np.linalg.eigvalsh(inertia_matrix(p, prefix))
+    prefixes = ("I_L", "I_1", "I_2", "I_3")
+    eigs = np.linalg.eigvalsh(np.stack([inertia_matrix(p, prefix) for prefix in prefixes]))  # one call for the four
+    for prefix, eig in zip(prefixes, eigs):
         if eig[0] <= 0.0:
             raise ParameterError(f"inertia {prefix} must be positive definite (smallest eigenvalue {eig[0]:.3g})")
         if eig[0] + eig[1] < eig[2] * (1 - 1e-9):

@@ -129,7 +129,7 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
     elsewhere, the same bits (the feasibility check's, compiled: master/app/trim_residual.py); None: newton."""
     v = VEHICLES[vehicle]
     p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
-    full = np.array(ca.DM(v.full_parameters(ca.DM(p)))).ravel()
+    full = v.full_vector(p)
     P.validate(full)
     pos = np.array([*position, psi], dtype=float)
     masses = ("m_L", "m_1", "m_2", "m_3") if vehicle == "load" else ("m_1", "m_2", "m_3")

@@ -7,8 +7,10 @@ One Table 5.1 parameter set serves both; the UAV alone takes the parameters of i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
+import numpy as np
 
 from . import interface as I
 from . import parameters as P
@@ -32,14 +34,17 @@ class Vehicle:
     def nx(self) -> int:
         return 2 * self.nq
 
-    @property
+    @cached_property  # read per feasibility check: a search's every point
     def parameter_specs(self) -> tuple[P.ParameterSpec, ...]:
         return tuple(s for s in P.MODEL_PARAMETERS if s.name in self.parameters)
 
-    def default_parameters(self):
-        import numpy as np
-
+    @cached_property
+    def _defaults(self) -> np.ndarray:
         return np.array([s.default for s in self.parameter_specs])
+
+    def default_parameters(self) -> np.ndarray:
+        """Its parameter vector at Table 5.1's values (a new array: the caller may change it)."""
+        return self._defaults.copy()
 
     def full_parameters(self, p):
         """The full Table 5.1 vector from this vehicle's own (symbolic or numeric): the entries it lacks are
@@ -48,6 +53,15 @@ class Vehicle:
             return p
         own = {name: i for i, name in enumerate(self.parameters)}
         return ca.vertcat(*(p[own[s.name]] if s.name in own else s.default for s in P.MODEL_PARAMETERS))
+
+    def full_vector(self, p) -> np.ndarray:
+        """full_parameters of a numeric vector, in numpy (the same numbers, without CasADi's conversions)."""
+        p = np.asarray(p, dtype=float).ravel()
+        if self.parameters == P.PARAMETER_NAMES:
+            return p.copy()
+        full = np.array([s.default for s in P.MODEL_PARAMETERS])
+        full[[P.index(name) for name in self.parameters]] = p
+        return full
 
 
 LOAD = Vehicle("load", I.COORDINATES, I.STATES, I.DISTURBANCES, P.PARAMETER_NAMES)

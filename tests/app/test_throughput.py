@@ -134,14 +134,14 @@ def test_a_search_s_rows_on_a_warm_worker_are_each_point_s_run_alone_the_plain_w
 
 
 def test_a_batch_goes_as_tasks_of_equal_sizes_a_whole_number_a_worker():
-    from tiltload.master.app.campaign.dispatch import MOST, even_chunks
+    from tiltload.master.app.campaign.dispatch import SHORTEST, even_chunks
 
-    for runs in range(0, 300):
+    for runs in [*range(0, 300), *range(500, 1300, 37)]:
         for workers in range(1, 6):
             sizes = even_chunks(runs, workers)
             assert sum(sizes) == runs and all(s > 0 for s in sizes)
             if runs:
-                assert max(sizes) - min(sizes) <= 1 and max(sizes) <= MOST
-                # as few tasks as MOST allows, and a whole number of them a worker: none left alone with the last
-                assert len(sizes) == min(runs, workers) if runs <= workers * MOST else len(sizes) % workers == 0
-                assert len(sizes) < workers * (math.ceil(runs / (workers * MOST)) + 1)
+                assert max(sizes) - min(sizes) <= 1 and max(sizes) <= SHORTEST
+                # as few tasks as SHORTEST allows, and a whole number of them a worker: none left alone with the last
+                assert len(sizes) == min(runs, workers) if runs <= workers * SHORTEST else len(sizes) % workers == 0
+                assert len(sizes) < workers * (math.ceil(runs / (workers * SHORTEST)) + 1)

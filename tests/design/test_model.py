@@ -141,3 +141,19 @@ def test_composed_angular_velocities_equal_the_differentiated_rotations():
         for i in range(n):
             np.testing.assert_allclose(out[i], out[2 * n + i], atol=1e-13)
             np.testing.assert_allclose(out[n + i], out[3 * n + i], atol=1e-12)
+
+
+def test_a_numeric_full_vector_is_casadis_full_parameters():
+    """Vehicle.full_vector (numpy, the feasibility check's) gives CasADi's full_parameters bit for bit, for both vehicles,
+    and the vehicle's cached defaults are a new array each call."""
+    import casadi as ca
+    from tiltload.plant_fmu.vehicles import VEHICLES
+
+    rng = np.random.default_rng(3)
+    for vehicle in VEHICLES.values():
+        p = vehicle.default_parameters() * rng.uniform(0.5, 1.5, len(vehicle.parameters))
+        want = np.array(ca.DM(vehicle.full_parameters(ca.DM(p)))).ravel()
+        assert np.array_equal(vehicle.full_vector(p), want) and want.shape == (P.N_PARAMETERS,)
+        first = vehicle.default_parameters()
+        first[0] = -1.0
+        assert vehicle.default_parameters()[0] != -1.0

@@ -9,7 +9,19 @@ import random
 import numpy as np
 import pytest
 from support.stl_oracle import brute, every_operator, rand_formula, rand_trace, same
-from tiltload.master.engine.requirement.stl import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, StlError, Trace, parse, unparse, verdict
+from tiltload.master.engine.requirement.stl import (
+    FAIL,
+    INCONCLUSIVE,
+    PASS,
+    ZERO,
+    Evaluator,
+    StlError,
+    Trace,
+    decided_fail,
+    parse,
+    unparse,
+    verdict,
+)
 from tiltload.master.engine.requirement.stl import syntax as S
 from tiltload.master.engine.requirement.stl.windows import sliding_min, sliding_min_deque
 
@@ -42,6 +54,28 @@ def test_an_unfinished_trace_bounds_every_way_it_can_go_on(seed):
         prefix = Trace.uniform(full.times[:k], {n: v[:k] for n, v in full.signals.items()}, period)
         ev = Evaluator(prefix, final=False)
         assert ev(f, "lower")[0] <= whole <= ev(f, "upper")[0]
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_a_decided_fail_is_a_fail_of_every_way_the_trace_goes_on(seed):
+    """decided_fail on a prefix (the early-stop check) is verdict's FAIL there, and then every whole trace that begins
+    with the prefix fails by the brute-force definition; an always whose prefix already holds a violation is decided."""
+    rng = random.Random(2000 + seed)
+    period = 0.5
+    formulas = [every_operator(rng, period), rand_formula(rng, 3, period), parse("always[1:20] a.x > 0")]
+    for f in formulas:
+        for _ in range(3):
+            full = rand_trace(rng, 50, period)
+            for k in (1, 6, 19, 37):
+                prefix = Trace.uniform(full.times[:k], {n: v[:k] for n, v in full.signals.items()}, period)
+                decided = decided_fail(f, prefix)
+                assert decided == (verdict(f, prefix, final=False).verdict == FAIL)
+                if decided:
+                    assert brute(f, full, 0) < 0, unparse(f)
+                if unparse(f) == "always[1:20] a.x > 0" and k > 2:
+                    assert decided == bool(np.any(full.signals["a.x"][2:k] < 0))  # samples 2.. are in the window
+    with pytest.raises(ValueError, match="must not be final"):
+        decided_fail(formulas[0], full, Evaluator(full, final=True))
 
 
 # --- known answers, by hand ------------------------------------------------------------------------------------

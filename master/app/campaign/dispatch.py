@@ -64,12 +64,13 @@ def chunk_sizes(runs: int, workers: int, floor: int = 1, most: int = MOST) -> li
 
 
 def even_chunks(runs: int, workers: int) -> list[int]:
-    """Sizes of the tasks that carry a batch whose runs are all awaited together (a search's batch): one task a worker
-    (more when that is more than MOST runs a task), as equal as they can be (the larger first), so that a batch costs
-    each worker one task's messages, not one a run. More than MOST runs a worker: a whole number of tasks a worker, so
-    that no worker is left alone with the last task while the others wait."""
+    """Sizes of the tasks that carry a batch whose runs are all awaited together (a search's batch or group, sized to
+    about TASK_SECONDS[1] a worker: falsify/search.py): one task a worker (more when that is more than SHORTEST runs a
+    task), as equal as they can be (the larger first), so that a batch costs each worker one task's messages, not one a
+    run. More than SHORTEST runs a worker: a whole number of tasks a worker, so that no worker is left alone with the
+    last task while the others wait."""
     workers = max(workers, 1)
-    tasks = max(1, min(runs, workers * math.ceil(runs / (workers * MOST))))
+    tasks = max(1, min(runs, workers * math.ceil(runs / (workers * SHORTEST))))
     return [runs // tasks + (k < runs % tasks) for k in range(tasks)] if runs else []
 
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from ...engine.observers import Observer
 from ...engine.requirement.observer import RequirementViolated
-from ...engine.requirement.stl import Evaluator, Trace, verdict
+from ...engine.requirement.stl import Evaluator, Trace, decided_fail
 
 TYPES = ("Real", "Integer", "Boolean")
 CHECK_TICKS = 256  # ticks between two early-stop checks: the tick loop's own calls (engine/native/loop.py's CHUNK, 3.07 s
@@ -99,7 +99,7 @@ class SignalRecorder(Observer):
         trace = self.trace(common=True)
         ev = Evaluator(trace, False)
         for formula in self.stop_on:
-            if verdict(formula, trace, False, ev).verdict == "FAIL":
+            if decided_fail(formula, trace, ev):
                 self.stopped_at = float(trace.times[-1])
                 raise RequirementViolated(f"a requirement's FAIL is decided at t = {self.stopped_at:.3f} s")
 

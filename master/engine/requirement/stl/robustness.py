@@ -313,6 +313,15 @@ def verdict(formula, trace: Trace, final: bool = True, evaluator: Evaluator | No
     return Verdict(INCONCLUSIVE, None, (low, high), None, {}, unknown=unknown)
 
 
+def decided_fail(formula, trace: Trace, evaluator: Evaluator | None = None) -> bool:
+    """verdict(formula, trace, final=False) is FAIL: the robustness's upper bound over every continuation of the trace
+    is below 0. Only that bound is computed (half of verdict's work): a check repeated while a run goes on."""
+    ev = evaluator or Evaluator(trace, False)
+    if ev.final:
+        raise ValueError("decided_fail judges a trace still going on: its evaluator must not be final")
+    return len(trace) > 0 and float(ev(formula, "upper")[0]) < 0
+
+
 def vacuity(formula, ev: Evaluator) -> bool:
     """Whether `always[a:b] (p implies q)` (or `p implies q`) at the trace's start is vacuous: p's robustness is a
     number <= 0 at every judged sample (the samples of [a, b] in the trace; the start alone without always). A NaN
