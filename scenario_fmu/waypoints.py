@@ -139,17 +139,48 @@ B_HERMITE = _hermite_to_monomial()
 H_JERK = _jerk_gram()
 
 
-def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list) -> tuple[np.ndarray, np.ndarray]:
+def _segments(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The jerk cost's matrix as its segments' blocks (each S H S / T^5) in w = [p0, v0, a0, p1, ...]: the entries, their
+    rows and their columns (the same for every axis of a mission)."""
+    n = t.size
+    T = np.diff(t)
+    S = np.stack([np.ones_like(T), T, T * T, np.ones_like(T), T, T * T], axis=1)  # (n-1, 6)
+    blocks = S[:, :, None] * H_JERK[None] * S[:, None, :] / (T**5)[:, None, None]
+    rows = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, :, None]  # global index of each block entry
+    cols = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, None, :]
+    rows, cols = np.broadcast_to(rows, blocks.shape).ravel(), np.broadcast_to(cols, blocks.shape).ravel()
+    return blocks.ravel(), rows, cols
+
+
+def _free_system(free: np.ndarray, segments) -> tuple:
+    """What the free entries decide (the same for every axis that leaves the same ones free): their positions, the
+    entries that couple them to the known ones, and the equilibrated upper band of their block."""
+    values, rows, cols = segments
+    position = np.cumsum(free) - 1  # index among the free entries
+    known = ~free
+    into = free[rows] & known[cols]  # b = -G[free, known] w[known]
+    both = free[rows] & free[cols]
+    i, j, g = position[rows[both]], position[cols[both]], values[both]
+    diagonal = np.zeros(int(free.sum()))
+    np.add.at(diagonal, i[i == j], g[i == j])
+    scale = 1 / np.sqrt(diagonal)  # the entries span powers of the segment times: equilibrate first
+    upper = i <= j
+    band = int((j - i)[upper].max())
+    ab = np.zeros((band + 1, diagonal.size))  # the upper band, as scipy.linalg.solveh_banded takes it
+    np.add.at(ab, (band + i[upper] - j[upper], j[upper]), g[upper] * scale[i[upper]] * scale[j[upper]])
+    return position, into, scale, ab
+
+
+def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list, segments=None, systems: dict | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Minimum-jerk velocities and accelerations at the knots of one axis; None entries of v, a are free.
+    segments: _segments(t), systems: _free_system's by free pattern (a mission's axes share them).
 
     The cost couples only the two ends of a segment, so its matrix is banded (half-bandwidth 5 in w = [p0, v0, a0,
     p1, ...]; at most 3 among the free entries): a banded Cholesky solve, linear in the number of knots."""
     import scipy.linalg
 
     n = t.size
-    T = np.diff(t)
-    S = np.stack([np.ones_like(T), T, T * T, np.ones_like(T), T, T * T], axis=1)  # (n-1, 6)
-    blocks = S[:, :, None] * H_JERK[None] * S[:, None, :] / (T**5)[:, None, None]  # each segment's S H S / T^5
     w = np.full(3 * n, np.nan)
     w[0::3] = p
     for i in range(n):
@@ -160,24 +191,15 @@ def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list) -> tuple[np.ndar
     free = np.isnan(w)
     if not free.any():
         return w[1::3].copy(), w[2::3].copy()
-    rows = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, :, None]  # global index of each block entry
-    cols = (3 * np.arange(n - 1))[:, None, None] + np.arange(6)[None, None, :]
-    rows, cols = np.broadcast_to(rows, blocks.shape).ravel(), np.broadcast_to(cols, blocks.shape).ravel()
-    values = blocks.ravel()
-    position = np.cumsum(free) - 1  # index among the free entries
-    known = ~free
-    b = np.zeros(int(free.sum()))
-    into = free[rows] & known[cols]  # b = -G[free, known] w[known]
+    segments = segments if segments is not None else _segments(t)
+    systems = systems if systems is not None else {}
+    key = free.tobytes()
+    if key not in systems:
+        systems[key] = _free_system(free, segments)
+    position, into, scale, ab = systems[key]
+    values, rows, cols = segments
+    b = np.zeros(scale.size)
     np.add.at(b, position[rows[into]], -values[into] * w[cols[into]])
-    both = free[rows] & free[cols]
-    i, j, g = position[rows[both]], position[cols[both]], values[both]
-    diagonal = np.zeros(b.size)
-    np.add.at(diagonal, i[i == j], g[i == j])
-    scale = 1 / np.sqrt(diagonal)  # the entries span powers of the segment times: equilibrate first
-    upper = i <= j
-    band = int((j - i)[upper].max())
-    ab = np.zeros((band + 1, b.size))  # the upper band, as scipy.linalg.solveh_banded takes it
-    np.add.at(ab, (band + i[upper] - j[upper], j[upper]), g[upper] * scale[i[upper]] * scale[j[upper]])
     w[free] = scale * scipy.linalg.solveh_banded(ab, b * scale)
     return w[1::3].copy(), w[2::3].copy()
 
@@ -243,9 +265,14 @@ def knot_text(knots: np.ndarray) -> str:
     return ",".join(KNOT_COLUMNS) + "\n" + "".join(",".join(f"{x:.17g}" for x in row) + "\n" for row in knots)
 
 
+_READ: dict[str, tuple[tuple, MinimumJerk]] = {}  # a knot file's path -> (its size, mtime, inode, device), its reference
+_MOST_READ = 8  # files remembered (a search's feasibility check reads each moved mission's twice)
+
+
 def read_knots(path: Path) -> MinimumJerk:
     """The reference a knot file describes, read as the scenario FMU reads it: a regular file of at most MAX_WAYPOINTS
-    knots (its size checked before it is read), the header, 13 finite numbers a line, times increasing."""
+    knots (its size checked before it is read), the header, 13 finite numbers a line, times increasing. Read again
+    only when the file changed (its size, modification time, inode or device); the reference's arrays are read-only."""
     import os
     import stat
 
@@ -258,6 +285,10 @@ def read_knots(path: Path) -> MinimumJerk:
         raise ScenarioFileError(f"waypoints_file {path}: not a regular file")
     if info.st_size > (MAX_WAYPOINTS + 1) * (KNOT_LINE + 2):
         raise ScenarioFileError(f"waypoints_file {path}: {info.st_size} bytes, more than {MAX_WAYPOINTS} knots take")
+    seen = (info.st_size, info.st_mtime_ns, info.st_ino, info.st_dev)
+    known = _READ.get(str(path))
+    if known is not None and known[0] == seen:
+        return known[1]
     with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
         lines = f.read().decode("ascii", errors="replace").splitlines()
     if not lines or lines[0] != ",".join(KNOT_COLUMNS):
@@ -272,7 +303,14 @@ def read_knots(path: Path) -> MinimumJerk:
         raise ScenarioFileError(f"waypoints_file {path}: {knots.shape[0]} knots; a mission has 2 to {MAX_WAYPOINTS}")
     if not np.all(np.isfinite(knots)) or not np.all(np.diff(knots[:, 0]) > 0):
         raise ScenarioFileError(f"waypoints_file {path}: a value that is not finite, or times that do not increase")
-    return MinimumJerk.from_knots(knots)
+    ref = MinimumJerk.from_knots(knots)
+    for array in (ref.t, ref.p, ref.v, ref.a):
+        array.flags.writeable = False  # shared by every later read of the file
+    _READ.pop(str(path), None)
+    if len(_READ) >= _MOST_READ:
+        _READ.pop(next(iter(_READ)))
+    _READ[str(path)] = (seen, ref)
+    return ref
 
 
 def minimum_jerk(rows: list[dict]) -> MinimumJerk:
@@ -280,12 +318,13 @@ def minimum_jerk(rows: list[dict]) -> MinimumJerk:
     t = np.array([r["t"] for r in rows], dtype=float)
     n = t.size
     p, v, a = np.zeros((n, 4)), np.zeros((n, 4)), np.zeros((n, 4))
+    segments, systems = (_segments(t), {}) if n > 1 else (None, None)  # shared by the four axes
     for k, axis in enumerate(AXES):
         p[:, k] = [r.get(axis, 0.0) for r in rows]
         ends = (0, n - 1)
         vk = [r.get(f"v{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
         ak = [r.get(f"a{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
-        v[:, k], a[:, k] = _solve_axis(t, p[:, k], vk, ak)
+        v[:, k], a[:, k] = _solve_axis(t, p[:, k], vk, ak, segments, systems)
     return MinimumJerk(t, p, v, a)
 
 

@@ -62,7 +62,8 @@ def test_a_decided_fail_is_a_fail_of_every_way_the_trace_goes_on(seed):
     with the prefix fails by the brute-force definition; an always whose prefix already holds a violation is decided."""
     rng = random.Random(2000 + seed)
     period = 0.5
-    formulas = [every_operator(rng, period), rand_formula(rng, 3, period), parse("always[1:20] a.x > 0")]
+    formulas = [every_operator(rng, period), rand_formula(rng, 3, period), parse("always[1:20] a.x > 0"),
+                parse("always[9:12] (a.y > 0 until[1:2] a.x < 0)")]  # reads nothing before 9 s (sample 18)
     for f in formulas:
         for _ in range(3):
             full = rand_trace(rng, 50, period)
@@ -72,10 +73,23 @@ def test_a_decided_fail_is_a_fail_of_every_way_the_trace_goes_on(seed):
                 assert decided == (verdict(f, prefix, final=False).verdict == FAIL)
                 if decided:
                     assert brute(f, full, 0) < 0, unparse(f)
+                if unparse(f).startswith("always[9:12]") and k <= 18:
+                    assert not decided  # nothing it reads has come yet
                 if unparse(f) == "always[1:20] a.x > 0" and k > 2:
                     assert decided == bool(np.any(full.signals["a.x"][2:k] < 0))  # samples 2.. are in the window
     with pytest.raises(ValueError, match="must not be final"):
         decided_fail(formulas[0], full, Evaluator(full, final=True))
+
+
+def test_an_until_whose_window_lies_past_the_trace_is_not_decided():
+    """p until[3:6] q on one sample: every t' of the window is still to come, so a continuation with q large there
+    satisfies it (the upper bound is p's, here +inf); on the finished trace no t' exists (-inf, rtamt's value)."""
+    f = parse("a.x > 0 until[1.5:3] a.y > 0")
+    one = Trace.uniform([0.0], {"a.x": np.array([1.0]), "a.y": np.array([-1.0])}, 0.5)
+    going_on = Evaluator(one, final=False)
+    assert going_on(f, "upper")[0] == 1.0 and going_on(f, "lower")[0] == -np.inf  # p's margin bounds it above
+    assert verdict(f, one, final=False).verdict == INCONCLUSIVE and not decided_fail(f, one)
+    assert Evaluator(one, final=True)(f)[0] == -np.inf
 
 
 # --- known answers, by hand ------------------------------------------------------------------------------------

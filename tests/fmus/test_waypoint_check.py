@@ -1,5 +1,6 @@
 """The waypoints' check asks JSON Schema only when a row is not plain (an unknown field, a missing one, a value that is
-not a number): on random rows, its verdict is the one of the schema itself (jsonschema) plus its own order rules."""
+not a number): on random rows, its verdict is the one of the schema itself (jsonschema) plus its own order rules.
+A knot file read once is read again when it changes, and its reference's knots are the file's numbers."""
 
 from __future__ import annotations
 
@@ -57,3 +58,23 @@ def test_the_check_agrees_with_the_schema_on_random_rows(seed):
         assert accepted == _by_the_schema(rows), rows
         verdicts.add(accepted)
     assert verdicts == {True, False}  # both kinds met
+
+
+def test_a_knot_file_is_read_again_when_it_changes(tmp_path):
+    import os
+
+    first = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 4.0, "x": 1.0, "y": 0.0, "z": 1.0}])
+    second = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 5.0, "x": 2.0, "y": 1.0, "z": 1.5}])
+    path = tmp_path / "mission.csv"
+    path.write_text(W.knot_text(first.knots()))
+    read = W.read_knots(path)
+    assert np.array_equal(read.knots(), first.knots()) and W.read_knots(path) is read  # unchanged: read once
+    with pytest.raises(ValueError):
+        read.p[0, 0] = 9.0  # shared by later reads: read-only
+    stamp = path.stat().st_mtime_ns
+    path.write_text(W.knot_text(second.knots()))  # the same path, other knots (kept at the same time stamp too)
+    os.utime(path, ns=(stamp, stamp))
+    assert np.array_equal(W.read_knots(path).knots(), second.knots())
+    path.write_text("t,x\n")
+    with pytest.raises(ScenarioFileError, match="header"):
+        W.read_knots(path)

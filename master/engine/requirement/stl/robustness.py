@@ -189,10 +189,13 @@ class Evaluator:
             return np.minimum(sliding_min(p, 0, lo - 1, pad_p), first)
         if hi - lo > UNTIL_PASSES and not (np.isnan(p).any() or np.isnan(q).any()):
             return _until_long(p, q, lo, hi, pad_p, pad_q)
+        reach = hi
+        if lo > hi and math.floor(min(node.b / self.trace.period, n + 1.0) + _SLACK) >= lo:
+            reach = lo  # the window lies wholly past the trace's end: its first tick stands for all of it (all padding)
         out = np.full(n, -np.inf)
         run = np.full(n, np.inf)  # min of p over [i, i + d)
         # O(n w): w vector passes, w <= n + 1 (ticks_end stops at the trace's end); a longer window: _until_long, O(n)
-        for d in range(hi + 1):
+        for d in range(reach + 1):
             if d >= lo:
                 out = np.maximum(out, np.minimum(_shifted(q, d, pad_q), run))
             run = np.minimum(run, _shifted(p, d, pad_p))
@@ -319,7 +322,26 @@ def decided_fail(formula, trace: Trace, evaluator: Evaluator | None = None) -> b
     ev = evaluator or Evaluator(trace, False)
     if ev.final:
         raise ValueError("decided_fail judges a trace still going on: its evaluator must not be final")
-    return len(trace) > 0 and float(ev(formula, "upper")[0]) < 0
+    if len(trace) == 0 or first_read(formula, trace) >= len(trace):
+        return False  # every sample it reads is still to come: unknown samples bound it above by +inf
+    return float(ev(formula, "upper")[0]) < 0
+
+
+def first_read(formula, trace: Trace) -> int:
+    """The earliest sample the formula's robustness at the trace's start reads, in ticks as the evaluator's windows
+    round their bounds (an until's left side counted from its start). A comparison reads its own sample."""
+    done: dict[int, int] = {}
+    for n in postorder(formula):
+        kids = [done.pop(id(c)) for c in children(n)]
+        if isinstance(n, (Always, Eventually)):
+            done[id(n)] = trace.ticks(n.a) + kids[0]
+        elif isinstance(n, Until):
+            done[id(n)] = min(kids[0], trace.ticks(n.a) + kids[1])
+        elif isinstance(n, (Not, And, Or, Implies)):
+            done[id(n)] = min(kids)
+        else:  # a comparison and the expressions in it: the sample itself
+            done[id(n)] = 0
+    return done[id(formula)]
 
 
 def vacuity(formula, ev: Evaluator) -> bool:
