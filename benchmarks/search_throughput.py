@@ -13,7 +13,7 @@ What each figure is:
   feasibility check, its robustness). Meaningful under load.
 - loop ms: the loop's own cost of the same run, measured in this process with this tree's engine on this tree's FMUs:
   run_plan of the kind's middle point with no log and no observer on a warm execution (restart included), the median
-  of 7 (engine/lifecycle.py).
+  of 15 (engine/lifecycle.py).
 - evals/s: evaluations over the search's (or campaign's) own seconds (no cluster start); limit: workers / loop s;
   fraction = evals/s / limit. Wall figures mean nothing on a loaded machine: the load average is printed beside each.
 
@@ -162,7 +162,7 @@ def loop_costs(fmus: Path) -> dict[str, float]:
         pool = ExecutionPool()
         run_plan(RunPlan(system, stop, isolate=is_foreign), pool)
         times = []
-        for _ in range(7):
+        for _ in range(15):
             started = time.thread_time()
             run_plan(RunPlan(system, stop, isolate=is_foreign), pool)
             times.append(time.thread_time() - started)

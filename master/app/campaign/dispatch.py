@@ -38,7 +38,8 @@ from .spec import Case
 POLL = 0.02  # s between looks at the finished futures (at most: sooner when one finishes)
 WATCHED = 64  # the oldest pending futures whose finish ends a wait at once
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
-PER_WORKER = 4  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left
+PER_WORKER = 2  # chunks: a task carries at most 1/(PER_WORKER x workers) of the runs left (2: a third fewer tasks than 4, the
+# same balance at the end: docs/throughput.md)
 MOST = 16  # ... and at most this many runs (what a killed worker takes with it) before the runs' length is known
 TASK_SECONDS = (0.02, 0.25)  # then at least and at most this much work (a task's messages cost a worker about 2.4 ms of
 # CPU, the client and its scheduler as much again: docs/throughput.md) ...
@@ -55,7 +56,7 @@ def chunk_size(left: int, workers: int, floor: int = 1, most: int = MOST) -> int
 
 
 def chunk_sizes(runs: int, workers: int, floor: int = 1, most: int = MOST) -> list[int]:
-    """The sizes of the tasks that carry `runs` runs, each decided by chunk_size; with floor 1 the last ones are 1."""
+    """The sizes of the tasks that carry `runs` runs, each decided by chunk_size; with floor 1 the last is 1."""
     sizes, left = [], runs
     while left > 0:
         sizes.append(chunk_size(left, workers, floor, most))
