@@ -181,14 +181,16 @@ class DaskCluster:
                 assert self.scheduler.poll() is None and time.time() < deadline, "the scheduler did not start"
                 time.sleep(0.1)
 
-    def add_worker(self, hiding: Path | None = None, nanny: bool = True, cwd: Path | None = None,
+    def add_worker(self, hiding: Path | tuple[Path, ...] | None = None, nanny: bool = True, cwd: Path | None = None,
                    cache: Path | None = None) -> subprocess.Popen:
-        """A worker (with its nanny); hiding: a folder this worker sees empty (a tmpfs over it, its own mounts); cwd:
+        """A worker (with its nanny); hiding: folders this worker sees empty (a tmpfs over each, its own mounts); cwd:
         the folder it starts in; cache: its machine's tiltload cache ($TILTLOAD_CACHE)."""
         command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--host",
                    "127.0.0.1", "--no-dashboard", *self.tls, *([] if nanny else ["--no-nanny"])]
         if hiding is not None:
-            command = ["unshare", "-m", "sh", "-c", 'mount -t tmpfs tmpfs "$0" && exec "$@"', str(hiding), *command]
+            hidden = [str(h) for h in ((hiding,) if isinstance(hiding, Path) else hiding)]
+            mount = 'n=$1; shift; while [ "$n" -gt 0 ]; do mount -t tmpfs tmpfs "$1" || exit 1; shift; n=$((n - 1)); done; exec "$@"'
+            command = ["unshare", "-m", "sh", "-c", mount, "sh", str(len(hidden)), *hidden, *command]
         env = {**self.env, "TILTLOAD_CACHE": str(cache)} if cache is not None else self.env
         worker = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=cwd,
                                   start_new_session=True)
@@ -378,6 +380,43 @@ def test_a_worker_with_no_copy_of_the_fmus_gets_them_by_digest_and_gives_the_loc
     assert sorted(p.name for p in shipped[0].iterdir()) == sorted(p.name for p in fmus.glob("Tiltload*.fmu"))
     assert any(p.name != "shipped" for p in (cache / "fmus").iterdir())  # unpacked into the worker's machine cache
     assert not list(folder.iterdir()) or all(p.name.startswith("dask-") for p in folder.iterdir())
+
+
+@pytest.mark.skipif(not _can_hide_folders(), reason="a worker that does not see the FMU folder needs a mount namespace "
+                                                   "(unshare -m)")
+@pytest.mark.slow
+def test_a_users_controller_fmu_reaches_a_worker_that_has_no_copy_of_it(fmus, tmp_path, dask_cluster):
+    """A campaign and a search over a user's controller FMU, on an existing cluster whose worker sees neither the FMU
+    folder nor the controller's: the controller goes with the shipped set, and the rows are the local run's."""
+    import hashlib
+
+    from tiltload.master.app.falsify.runner import falsify
+
+    user = tmp_path / "user"
+    user.mkdir()
+    shutil.copy(fmus / "TiltloadController.fmu", user / "mine.fmu")  # a copy of ours under another name
+    spec = write_spec(tmp_path, text=FOUR.replace('controllers = ["dlqr", "mixed"]', f'controllers = ["{user / "mine.fmu"}"]'))
+    searched = tmp_path / "f.toml"
+    searched.write_text(FALSIFY.replace('scenario = "fsi"', f'scenario = "fsi"\ncontroller = "{user / "mine.fmu"}"'))
+    local, _ = campaign.run(spec, tmp_path / "local", fmus=fmus, workers=1, progress=lambda _: None)
+    falsify(searched, tmp_path / "f-local", fmus=fmus, workers=1, progress=lambda _: None, write_report=False, branch="off")
+    cluster = dask_cluster()
+    folder, cache = tmp_path / "worker", tmp_path / "worker-cache"
+    folder.mkdir()
+    cluster.add_worker(hiding=(fmus, user), cwd=folder, cache=cache)
+    cluster.wait_for_workers(1)
+    assert main(["campaign", str(spec), "--out", str(tmp_path / "remote"), "--fmus", str(fmus), "--scheduler",
+                 cluster.address]) == 0
+    remote = rows(tmp_path / "remote" / "results.parquet")
+    assert identical(remote, rows(local)) and len(remote) == 2 and {r["controller"] for r in remote} == {"mine"}
+    falsify(searched, tmp_path / "f-remote", fmus=fmus, scheduler=cluster.address, progress=lambda _: None,
+            write_report=False, branch="off")
+    a, b = (rows(tmp_path / f / "falsification.parquet") for f in ("f-local", "f-remote"))
+    assert len(a) == 4 and identical([{k: v for k, v in r.items() if k not in PER_RUN} for r in a],
+                                     [{k: v for k, v in r.items() if k not in PER_RUN} for r in b])
+    copies = list((cache / "shipped").glob("*/controllers/*/mine.fmu"))
+    assert copies and all(hashlib.sha256(c.read_bytes()).digest() == hashlib.sha256((user / "mine.fmu").read_bytes()).digest()
+                          for c in copies)
 
 
 @pytest.mark.parametrize("address, needle", [

@@ -226,7 +226,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
                 base = campaign.base()
                 shared, shipped = {}, None
                 if cluster is None:  # an existing cluster's workers need no copy of the FMUs: shipped (shipping.py)
-                    shipped = ship(client, Path(fmus), [r.fmu_name for r in loop_recipes()])
+                    shipped = ship(client, Path(fmus), [r.fmu_name for r in loop_recipes()],
+                                   [c.controller for c in todo if c.controller not in ("dlqr", "mixed")])
                 if campaign.snapshot is None:  # checked once here, not once per worker (seconds each), while the
                     # workers instantiate the first case's system
                     prepared = _prepare_workers(client, base, todo[0], str(Path(fmus).resolve()), shipped)

@@ -7,7 +7,9 @@ there); the engine then unpacks each FMU once per machine into the same cache (e
 run. The tasks run with that folder as their FMU folder. The plugin stays registered under the set's digest (shipping
 the same set again replaces it): a cluster that outlives many builds holds a plugin, about a megabyte, a set.
 
-A controller FMU of the user's (base.controllers naming a file) is not shipped: the workers must see it at its path.
+A controller FMU of the user's (a campaign's controllers, a search's controller naming a file) goes with the set, under
+controllers/<its digest>/<its file name>: a task's case naming it at the client's path is run with the worker's copy
+(the same file name, so its rows name it as the local run's do).
 """
 
 from __future__ import annotations
@@ -27,19 +29,33 @@ _LOCK = threading.Lock()
 
 @dataclass(frozen=True)
 class FmuSet:
-    """The FMU files a run needs, each (file name, SHA-256 of its bytes)."""
+    """The FMU files a run needs, each (its name in the set's folder, SHA-256 of its bytes); the user's controllers,
+    each (its path on the client, its name in the set's folder)."""
 
     files: tuple[tuple[str, str], ...]
+    controllers: tuple[tuple[str, str], ...] = ()
 
     @property
     def key(self) -> str:
-        return hashlib.sha256(json.dumps(self.files).encode()).hexdigest()[:32]
+        return hashlib.sha256(json.dumps([self.files, self.controllers]).encode()).hexdigest()[:32]
+
+    def localized(self, case: dict, folder: str) -> dict:
+        """The case with its controller at this machine's copy when it names a shipped one (else the case itself)."""
+        name = dict(self.controllers).get(case.get("controller"))
+        return case if name is None else {**case, "controller": str(Path(folder) / name)}
 
 
-def fmu_set(folder: Path, names: list[str]) -> tuple[FmuSet, dict[str, bytes]]:
-    """The set of these files of the folder, and their bytes (what the client scatters)."""
+def fmu_set(folder: Path, names: list[str], controllers: list[str] = ()) -> tuple[FmuSet, dict[str, bytes]]:
+    """The set of these files of the folder and of the user's controller FMUs (their paths here), and their bytes
+    (what the client sends)."""
     data = {name: (Path(folder) / name).read_bytes() for name in names}
-    return FmuSet(tuple((name, hashlib.sha256(b).hexdigest()) for name, b in data.items())), data
+    moved = []
+    for path in sorted(set(controllers)):
+        blob = Path(path).read_bytes()
+        name = f"controllers/{hashlib.sha256(blob).hexdigest()[:16]}/{Path(path).name}"
+        data[name] = blob
+        moved.append((path, name))
+    return FmuSet(tuple((name, hashlib.sha256(b).hexdigest()) for name, b in data.items()), tuple(moved)), data
 
 
 def shipped_folder(fmus: FmuSet) -> Path:
@@ -60,7 +76,8 @@ def install(fmus: FmuSet, data: dict[str, bytes]) -> str:
             blob = data[name]
             if hashlib.sha256(blob).hexdigest() != digest:  # the bytes are the client's: this would be a bug
                 raise RuntimeError(f"the shipped {name} is not the file the client sent (SHA-256 differs)")
-            part = target.with_name(f".{name}.{os.getpid()}.{threading.get_ident()}.part")
+            target.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+            part = target.with_name(f".{target.name}.{os.getpid()}.{threading.get_ident()}.part")
             part.write_bytes(blob)
             os.replace(part, target)  # atomic: another worker of this machine finds the whole file or none
         _READY[fmus.key] = str(folder)
@@ -115,12 +132,13 @@ class WithShippedFmus:
             folder = local_folder(self.fmus)
         except MissingFmu as err:  # its environment's failure, as a file the worker cannot see: tried elsewhere
             return environment_failure(err)
-        return self.task(case, fmu_dir=folder, **shared)
+        return self.task(self.fmus.localized(case, folder), fmu_dir=folder, **shared)
 
 
-def ship(client, folder: Path, names: list[str]) -> FmuSet:
-    """Register the set's plugin on the client's cluster (its workers now, and later ones): the set."""
-    fmus, data = fmu_set(folder, names)
+def ship(client, folder: Path, names: list[str], controllers: list[str] = ()) -> FmuSet:
+    """Register the set's plugin on the client's cluster (its workers now, and later ones): the set. controllers: the
+    user's controller FMUs the runs name (paths on this machine)."""
+    fmus, data = fmu_set(folder, names, controllers)
     client.register_plugin(ShippedFmus(fmus, data), name=f"tiltload-fmus-{fmus.key}")
     return fmus
 
@@ -133,4 +151,4 @@ def prepare_shipped(fmus: FmuSet, base, case: dict) -> bool:
         folder = local_folder(fmus)
     except OSError:
         return False
-    return prepare(base, case, folder)
+    return prepare(base, fmus.localized(case, folder), folder)

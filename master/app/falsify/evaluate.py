@@ -22,6 +22,7 @@ Cheaper evaluations (docs/falsification.md, "Cheaper evaluations"):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import socket
 import time
@@ -99,6 +100,8 @@ def evaluate(base: SearchBase, case: dict, fmu_dir: str, worker: CaseWorker | No
     started, cpu = time.perf_counter(), time.thread_time()
     try:
         worker = worker if worker is not None else this_worker()
+        if case.get("controller", base.controller) != base.controller:  # this worker's copy of a shipped controller FMU
+            base = dataclasses.replace(base, controller=case["controller"])  # (campaign/shipping.py)
         early = base.early_stop
         recorder = SignalRecorder(base.signals, [worker.formula(f) for f in base.requirements] if early else None)
         try:

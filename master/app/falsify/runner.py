@@ -73,7 +73,8 @@ def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int
         from ..campaign import shipping
         from ..fmus import loop_recipes
 
-        shipped = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()])
+        shipped = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()],
+                                [base.controller] if base.controller not in ("dlqr", "mixed") else [])
         task = shipping.WithShippedFmus(task, shipped)
 
     def run(cases: list[dict]) -> dict[str, dict]:
