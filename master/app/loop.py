@@ -78,9 +78,12 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
     else:
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
-    from ...controller_fmu.design.cache import cache_root
+    if trajectory.knots:  # a mission's knot file goes into the machine's cache (the others need no folder)
+        from ...controller_fmu.design.cache import cache_root
 
-    scenario_parameters = {**trajectory.fmu_parameters(cache_root() / "missions"), "gusts": gusts}
+        scenario_parameters = {**trajectory.fmu_parameters(cache_root() / "missions"), "gusts": gusts}
+    else:
+        scenario_parameters = {**trajectory.parameters, "gusts": gusts}
     if vehicle != "load":
         scenario_parameters["gust_magnitude"] = loop.gust_magnitude
     if wind:
