@@ -80,14 +80,54 @@ def _hover(vehicle: str, p: bytes):
     return hover_trim(np.frombuffer(p), vehicle=vehicle, solve=compiled_newton(vehicle))
 
 
-_REFERENCES: dict[tuple, tuple] = {}  # the reference's samples and feedforward of a chunk, by what decides them
+@dataclass
+class _Chunk:
+    """A chunk of the reference: its samples, the nominal feedforward there and the trims' reference rows, with what
+    follows from them alone computed once (a cached chunk is read by every point of a search over the plant or the
+    wind)."""
+
+    s: twin.Samples
+    u: np.ndarray
+    refs: np.ndarray
+    _own_jump: tuple | None = None
+    _psi: tuple | None = None
+    _facts: dict = field(default_factory=dict)
+
+    def jump(self, before, tick: float) -> tuple[float, float, float]:
+        """_largest_jump of the chunk (from the chunk before's last sample when there is one)."""
+        if before is not None:
+            return _largest_jump(self.s, before, tick)
+        if self._own_jump is None:
+            self._own_jump = _largest_jump(self.s, None, tick)
+        return self._own_jump
+
+    def psi_worst(self) -> tuple[float, float, float]:
+        """(|psi|, psi, t) at the chunk's largest yaw."""
+        if self._psi is None:
+            k = int(np.argmax(np.abs(self.s.psi)))
+            self._psi = (abs(float(self.s.psi[k])), float(self.s.psi[k]), float(self.s.t[k]))
+        return self._psi
+
+    def feedforward_facts(self, limits: Limits) -> tuple[list[str], str, float]:
+        """For a reference of this one chunk: the feedforward's problems against the limits, its forces' ranges (the
+        summary's words) and its largest torque."""
+        key = (limits.f_min, limits.f_max, limits.tau_max)
+        if key not in self._facts:
+            found = Report()
+            _limit_inputs(found, "", self.u, self.s.t, limits)
+            self._facts[key] = (found.problems, _forces(self.u), float(np.abs(self.u[:, 2:]).max()))
+        problems, forces, torque = self._facts[key]
+        return list(problems), forces, torque
+
+
+_REFERENCES: dict[tuple, object] = {}  # the reference's chunks (and start samples), by what decides them
 _MOST_REFERENCES = 16
 
 
-def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff):
-    """(the reference's samples at t, the nominal feedforward there, the trims' reference rows), computed once per
-    trajectory and shape (not for a waypoint mission, whose file may change under its name): they depend on nothing
-    else, and every point of a search over the plant's or the wind's parameters checks the same reference (read
+def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float, hover, nominal: np.ndarray, ff) -> _Chunk:
+    """The chunk of the reference at t (its samples, the nominal feedforward there, the trims' reference rows), computed
+    once per trajectory and shape (not for a waypoint mission, whose file may change under its name): they depend on
+    nothing else, and every point of a search over the plant's or the wind's parameters checks the same reference (read
     only)."""
     code = int(scenario.get("trajectory", 1))
     key = (vehicle, code, twin.shape_vector(scenario).tobytes(), lo, t.size, tick) if code != twin.WAYPOINTS else None
@@ -106,9 +146,10 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
         nominal[:, None], t.size, axis=1))).T
     refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]  # the trims' references
+    chunk = _Chunk(s, u, refs)
     if key is not None:
-        _keep(key, (s, u, refs))
-    return s, u, refs
+        _keep(key, chunk)
+    return chunk
 
 
 def _keep(key: tuple, value) -> None:
@@ -173,7 +214,8 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
-        s, u_ff[lo:lo + t.size], refs = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
+        chunk = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
+        s, u_ff[lo:lo + t.size], refs = chunk.s, chunk.u, chunk.refs
         solver = compiled_newton(vehicle)
         if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
             ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)
@@ -199,12 +241,16 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
             z, previous = found, refs[k]
             trims.append(z)
             times.append(t[k])
-        jump = max(jump, _largest_jump(s, last, tick))
-        k = int(np.argmax(np.abs(s.psi)))
-        psi_worst = max(psi_worst, (abs(float(s.psi[k])), float(s.psi[k]), float(t[k])))
+        jump = max(jump, chunk.jump(last, tick))
+        psi_worst = max(psi_worst, chunk.psi_worst())
         last = (s.t[-1], s.p[-1], s.v[-1])
     t_all = np.arange(n) * tick
-    _limit_inputs(report, "", u_ff, t_all, limits)
+    if n <= CHUNK:  # one chunk: its own facts, once per reference
+        problems, forces, torque = chunk.feedforward_facts(limits)
+        report.problems.extend(problems)
+    else:
+        _limit_inputs(report, "", u_ff, t_all, limits)
+        forces, torque = _forces(u_ff), float(np.abs(u_ff[:, 2:]).max())
     if trims:
         trims, times = np.array(trims), np.array(times)
         _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
@@ -225,14 +271,17 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     yaw = yaw_problem(psi_worst[1:], design, vehicle)
     if yaw:
         report.problems.append(yaw)
-    forces = ", ".join(f"{name} {u_ff[:, i].min():.2f}..{u_ff[:, i].max():.2f} N" for i, name in enumerate(INPUT_NAMES[:2]))
-    torque = np.abs(u_ff[:, 2:]).max()
     where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
     part = f" (the first {span:g} s of {stop:g} s)" if span < stop else ""
     report.summary = (f"feasibility over {t_all[-1]:.2f} s{part}: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "
                       f"{limits.f_min:g}..{limits.f_max:g} N, {limits.tau_max:g} N m); trim tilt up to {tilt:.1f} degrees{where}, "
                       f"limit {limits.max_tilt:g}")
     return report
+
+
+def _forces(u: np.ndarray) -> str:
+    """The feedforward's thrusts' ranges, as the summary says them."""
+    return ", ".join(f"{name} {u[:, i].min():.2f}..{u[:, i].max():.2f} N" for i, name in enumerate(INPUT_NAMES[:2]))
 
 
 def _limit_inputs(report: Report, what: str, u: np.ndarray, t: np.ndarray, limits: Limits) -> None:

@@ -78,14 +78,19 @@ def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_
 
     rng = np.random.default_rng(3)
     cases = [({"trajectory": int(rng.integers(1, 4))}, {"m_L": float(rng.uniform(0.01, 8)), "l": float(rng.uniform(0.2, 1.5))},
-              Limits(max_tilt=float(rng.uniform(1, 30)))) for _ in range(12)]
+              Limits(f_max=float(rng.uniform(8, 30)), tau_max=float(rng.uniform(0.02, 2)), max_tilt=float(rng.uniform(1, 30))))
+             for _ in range(12)]
+    cases += [({"trajectory": 2}, {}, Limits()), ({"trajectory": 2}, {}, Limits(f_max=5.0, tau_max=0.001))]  # the same
+    # reference under other limits: its cached facts are the limits' own
 
     def reports():
         return [vars(check_reference(s, 20.0, "load", plant, limits, design=("mixed", 0))) for s, plant, limits in cases]
 
     ours = reports() + reports()  # the second time from the caches
-    plain(monkeypatch)
-    theirs = reports()
+    theirs = []
+    for s, plant, limits in cases:  # each case alone, nothing cached
+        plain(monkeypatch)
+        theirs.append(vars(check_reference(s, 20.0, "load", plant, limits, design=("mixed", 0))))
     assert ours == theirs + theirs
     assert any(r["problems"] for r in theirs) and any(not r["problems"] for r in theirs)  # refusals and passes compared
 
