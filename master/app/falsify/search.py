@@ -256,7 +256,6 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
     return falsified_at, reused, failures
 
 
-
 def _done(value) -> Future:
     """An evaluation already done, as a future."""
     future = Future()

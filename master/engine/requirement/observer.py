@@ -22,7 +22,7 @@ import numpy as np
 from ..observers import Observer, StopRun
 from .check import Result, build_trace, check_trace, split
 from .files import Requirement, check_signals
-from .stl import Evaluator, verdict
+from .stl import Evaluator, decided_fail, verdict
 
 CHECK_EVERY = 64  # ticks between two early-stop checks (a run stepped tick by tick would otherwise re-evaluate every tick)
 
@@ -107,8 +107,9 @@ class RequirementObserver(Observer):
         series = self._series()
         for req in self.requirements:
             trace = build_trace(series, req.signals)
-            v = verdict(req.formula, trace, final=False, evaluator=Evaluator(trace, final=False))
-            if v.verdict == "FAIL":
+            ev = Evaluator(trace, final=False)
+            if decided_fail(req.formula, trace, ev):  # the upper bound alone; the verdict for its violation's time
+                v = verdict(req.formula, trace, final=False, evaluator=ev)
                 self.stopped_by = req.name
                 raise RequirementViolated(f"requirement '{req.name}' violated at t = {v.violation_time:.3f} s, its FAIL can no "
                                           "longer change: run stopped (--stop-on-violation)")
