@@ -62,13 +62,17 @@ class Trajectory:
         import hashlib
         import os
 
-        text = waypoints.knot_text(np.array(self.knots))
+        knots = np.array(self.knots)
+        text = waypoints.knot_text(knots)
         path = Path(folder).resolve() / f"mission-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
-        if not (path.is_file() and path.read_text() == text):
+        info = path.stat() if path.is_file() else None  # before it is read: a file changed after is read again
+        if info is None or path.read_text() != text:
             path.parent.mkdir(parents=True, exist_ok=True)
             partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
             partial.write_text(text)
+            info = partial.stat()  # a rename keeps it
             os.replace(partial, path)  # whole or not at all, for a reader in another process
+        waypoints.known_knots(path, info, knots)  # the feasibility check reads it next: not parsed again
         if len(str(path)) > waypoints.PATH_LENGTH:
             raise ScenarioFileError(f"the knot file's path {str(path)[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
         return {**self.parameters, "waypoints_file": str(path)}

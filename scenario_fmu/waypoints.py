@@ -260,9 +260,12 @@ class MinimumJerk:
         return cls(knots[:, 0].copy(), axis(0), axis(1), axis(2))
 
 
+_KNOT_LINE_FORMAT = ",".join(["%.17g"] * len(KNOT_COLUMNS)) + "\n"  # one format a line (f"{x:.17g}", the same text)
+
+
 def knot_text(knots: np.ndarray) -> str:
     """The knot file's text (what the scenario FMU reads from waypoints_file)."""
-    return ",".join(KNOT_COLUMNS) + "\n" + "".join(",".join(f"{x:.17g}" for x in row) + "\n" for row in knots)
+    return ",".join(KNOT_COLUMNS) + "\n" + "".join(_KNOT_LINE_FORMAT % tuple(row) for row in np.asarray(knots).tolist())
 
 
 _READ: dict[str, tuple[tuple, MinimumJerk]] = {}  # a knot file's path -> (its size, mtime, inode, device), its reference
@@ -299,6 +302,25 @@ def read_knots(path: Path) -> MinimumJerk:
             knots[i] = [float(x) for x in line.split(",")]
         except ValueError:
             raise ScenarioFileError(f"waypoints_file {path}: line {i + 2}: not {len(KNOT_COLUMNS)} numbers") from None
+    return _remember(path, seen, knots)
+
+
+def known_knots(path: Path, info, knots: np.ndarray) -> None:
+    """The knot file at path that held knot_text(knots) when its stat was info, read without parsing its text again:
+    the %.17g numbers read back as these exact doubles, so its reference is read_knots' own (a moved mission's file is
+    written by the search and read by its feasibility check at once). Checked as read_knots checks the file; a file
+    changed since (its stat) is read again."""
+    seen = (info.st_size, info.st_mtime_ns, info.st_ino, info.st_dev)
+    known = _READ.get(str(path))
+    if known is None or known[0] != seen:  # (a mission run again finds its file, and its reference, as they were)
+        _remember(Path(path), seen, np.array(knots, dtype=float))
+
+
+def _remember(path: Path, seen: tuple, knots: np.ndarray) -> MinimumJerk:
+    """The reference of a knot table read from path (as it was: seen), checked as the scenario FMU checks it, kept
+    in _READ (read-only)."""
+    if knots.ndim != 2 or knots.shape[1] != len(KNOT_COLUMNS):
+        raise ScenarioFileError(f"waypoints_file {path}: not {len(KNOT_COLUMNS)} numbers a line")
     if not 2 <= knots.shape[0] <= MAX_WAYPOINTS:
         raise ScenarioFileError(f"waypoints_file {path}: {knots.shape[0]} knots; a mission has 2 to {MAX_WAYPOINTS}")
     if not np.all(np.isfinite(knots)) or not np.all(np.diff(knots[:, 0]) > 0):

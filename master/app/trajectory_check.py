@@ -120,7 +120,7 @@ class _Chunk:
         return list(problems), forces, torque
 
 
-_REFERENCES: dict[tuple, object] = {}  # the reference's chunks (and start samples), by what decides them
+_REFERENCES: dict[tuple, object] = {}  # the reference's chunks, by what decides them
 _MOST_REFERENCES = 16
 
 
@@ -145,7 +145,7 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     mapped = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
     u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
         nominal[:, None], t.size, axis=1))).T
-    refs = np.c_[s.p, s.psi, s.v, s.psi_dot, s.a]  # the trims' references
+    refs = np.column_stack([s.p, s.psi, s.v, s.psi_dot, s.a])  # the trims' references
     chunk = _Chunk(s, u, refs)
     if key is not None:
         _keep(key, chunk)
@@ -157,18 +157,6 @@ def _keep(key: tuple, value) -> None:
     if len(_REFERENCES) >= _MOST_REFERENCES:
         _REFERENCES.pop(next(iter(_REFERENCES), None), None)
     _REFERENCES[key] = value
-
-
-def _start(scenario: dict):
-    """The reference's sample at t = 0, once per trajectory and shape (as _reference)."""
-    code = int(scenario.get("trajectory", 1))
-    key = ("start", code, twin.shape_vector(scenario).tobytes()) if code != twin.WAYPOINTS else None
-    if key is not None and key in _REFERENCES:
-        return _REFERENCES[key]
-    first = twin.evaluate(scenario, [0.0])
-    if key is not None:
-        _keep(key, first)
-    return first
 
 
 def _vector(vehicle: str, overrides: dict) -> np.ndarray:
@@ -207,15 +195,15 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     n_angles = len(unknown)
     u_ff = np.empty((n, 4))
     z = np.r_[hover_actual.x[unknown], hover_actual.u]
-    first = _start(scenario)
     previous = np.zeros(11)
-    previous[0:3], previous[3] = first.p[0], first.psi[0]  # hover at the start point: the trim there is the hover trim
     trims, times, failed = [], [], False
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
         chunk = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
         s, u_ff[lo:lo + t.size], refs = chunk.s, chunk.u, chunk.refs
+        if lo == 0:  # hover at the start point (the first sample, t = 0): the trim there is the hover trim
+            previous[0:3], previous[3] = s.p[0], s.psi[0]
         solver = compiled_newton(vehicle)
         if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
             ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)

@@ -19,10 +19,12 @@ from tiltload.master.engine.requirement.stl import (
     Trace,
     decided_fail,
     parse,
+    reads_from,
     unparse,
     verdict,
 )
 from tiltload.master.engine.requirement.stl import syntax as S
+from tiltload.master.engine.requirement.stl.robustness import first_read
 from tiltload.master.engine.requirement.stl.windows import sliding_min, sliding_min_deque
 
 
@@ -79,6 +81,21 @@ def test_a_decided_fail_is_a_fail_of_every_way_the_trace_goes_on(seed):
                     assert decided == bool(np.any(full.signals["a.x"][2:k] < 0))  # samples 2.. are in the window
     with pytest.raises(ValueError, match="must not be final"):
         decided_fail(formulas[0], full, Evaluator(full, final=True))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_reads_from_says_what_first_read_says_of_every_trace_length(seed):
+    """reads_from (once per formula and period, for the early-stop check) >= n exactly when first_read on a trace of n
+    samples is, for random formulas and windows that end before, inside and past the traces."""
+    rng = random.Random(3000 + seed)
+    period = rng.choice([1.0, 0.012, 0.25])
+    formulas = [every_operator(rng, period), rand_formula(rng, 3, period), parse(f"always[{200 * period}:{300 * period}] a.x > 0"),
+                parse(f"a.x > 0 until[{30 * period}:{90 * period}] (eventually[{7 * period}:{9 * period}] a.y > 0)")]
+    for f in formulas:
+        for n in range(1, 80):
+            trace = rand_trace(rng, n, period)
+            assert (reads_from(f, period) >= n) == (first_read(f, trace) >= n), (unparse(f), n)
+        assert reads_from(f, period) == reads_from(f, period)  # the second from its cache
 
 
 def test_an_until_whose_window_lies_past_the_trace_is_not_decided():

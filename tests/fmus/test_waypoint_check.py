@@ -78,3 +78,37 @@ def test_a_knot_file_is_read_again_when_it_changes(tmp_path):
     path.write_text("t,x\n")
     with pytest.raises(ScenarioFileError, match="header"):
         W.read_knots(path)
+
+
+def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
+    """The knot file a moved mission writes is not parsed again by the feasibility check (choice.Trajectory
+    .fmu_parameters hands its knots to read_knots): what read_knots then gives is, bit for bit, what parsing the file's
+    text gives; a file changed since is read again, and a table the file check refuses is refused the same way."""
+    import os
+
+    from tiltload.scenario_fmu.choice import Trajectory
+
+    rng = np.random.default_rng(4)
+    rows = [{"t": float(t), "x": float(x), "y": float(y), "z": float(z)}
+            for t, x, y, z in zip(np.cumsum(rng.uniform(0.5, 3.0, 6)), *rng.normal(size=(3, 6)))]
+    ref = W.minimum_jerk(rows)
+    trajectory = Trajectory("m", 4, (), ref.start, ref.duration, "", tuple(map(tuple, ref.knots().tolist())))
+    path = trajectory.fmu_parameters(tmp_path)["waypoints_file"]
+    given = W.read_knots(path)
+    copy = tmp_path / "copy.csv"
+    copy.write_bytes(open(path, "rb").read())
+    parsed = W.read_knots(copy)  # another path: parsed from its text
+    assert given is not parsed
+    for a, b in zip((given.t, given.p, given.v, given.a), (parsed.t, parsed.p, parsed.v, parsed.a)):
+        assert np.array_equal(a.view(np.int64), b.view(np.int64))  # the same doubles, the sign of zero too
+    assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path and W.read_knots(path) is given  # kept
+    other = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 3.0, "x": 1.0, "y": 2.0, "z": 1.0}])
+    stamp = os.stat(path).st_mtime_ns
+    with open(path, "w") as f:
+        f.write(W.knot_text(other.knots()))
+    os.utime(path, ns=(stamp, stamp))
+    assert np.array_equal(W.read_knots(path).knots(), other.knots())  # changed: read again
+    fresh = tmp_path / "fresh.csv"  # (a file read_knots has not seen)
+    fresh.write_text(W.knot_text(ref.knots()))
+    with pytest.raises(ScenarioFileError, match="times that do not increase"):
+        W.known_knots(fresh, os.stat(fresh), ref.knots()[::-1].copy())

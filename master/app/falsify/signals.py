@@ -20,7 +20,7 @@ import numpy as np
 
 from ...engine.observers import Observer
 from ...engine.requirement.observer import RequirementViolated
-from ...engine.requirement.stl import Evaluator, Trace, decided_fail
+from ...engine.requirement.stl import Evaluator, Trace, decided_fail, reads_from
 
 TYPES = ("Real", "Integer", "Boolean")
 CHECK_TICKS = 256  # ticks between two early-stop checks: the tick loop's own calls (engine/native/loop.py's CHUNK, 3.07 s
@@ -95,7 +95,16 @@ class SignalRecorder(Observer):
         if self.stop_on and execution.ticks_done % CHECK_TICKS == 0:
             self._check()
 
+    def common_length(self) -> int:
+        """len(self.trace(common=True)), from each signal's first and last record alone (rounded as sampled() rounds)."""
+        ticks = [(round(float(self._times[n][0][0]) / self.tick), round(float(self._times[n][-1][-1]) / self.tick))
+                 for n in self.names]
+        return max(0, min(last for _, last in ticks) - min(first for first, _ in ticks) + 1)
+
     def _check(self) -> None:
+        length = self.common_length()
+        if all(reads_from(f, self.tick) >= length for f in self.stop_on):
+            return  # every sample any formula reads is still to come (decided_fail's own test, before the trace is made)
         trace = self.trace(common=True)
         ev = Evaluator(trace, False)
         for formula in self.stop_on:

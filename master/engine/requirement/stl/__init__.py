@@ -3,8 +3,8 @@ discrete-time robustness (robustness) with O(n) windowed min/max (windows). Gene
 tiltload; docs/requirements.md."""
 
 from .grammar import parse, unparse
-from .robustness import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, Trace, Verdict, decided_fail, verdict
+from .robustness import FAIL, INCONCLUSIVE, PASS, ZERO, Evaluator, Trace, Verdict, decided_fail, reads_from, verdict
 from .syntax import StlError, bounded_horizon, horizon, signals
 
 __all__ = ["FAIL", "INCONCLUSIVE", "PASS", "ZERO", "Evaluator", "StlError", "Trace", "Verdict", "bounded_horizon",
-           "decided_fail", "horizon", "parse", "signals", "unparse", "verdict"]
+           "decided_fail", "horizon", "parse", "reads_from", "signals", "unparse", "verdict"]

@@ -322,9 +322,40 @@ def decided_fail(formula, trace: Trace, evaluator: Evaluator | None = None) -> b
     ev = evaluator or Evaluator(trace, False)
     if ev.final:
         raise ValueError("decided_fail judges a trace still going on: its evaluator must not be final")
-    if len(trace) == 0 or first_read(formula, trace) >= len(trace):
+    if len(trace) == 0 or reads_from(formula, trace.period) >= len(trace):
         return False  # every sample it reads is still to come: unknown samples bound it above by +inf
     return float(ev(formula, "upper")[0]) < 0
+
+
+class _Unbounded:
+    """A trace's length and period as first_read sees them, for a trace longer than any window (no bound clamped)."""
+
+    ticks = Trace.ticks
+
+    def __init__(self, period: float) -> None:
+        self.period = period
+
+    def __len__(self) -> int:
+        return 2**62
+
+
+_READS_FROM: dict[tuple[int, float], tuple] = {}  # (id(formula), period) -> (formula, reads_from): the formula kept, so
+# its id is not reused while it is here; no hash of the tree (a chain of thousands of `and`s is that deep)
+_MOST_READS_FROM = 256
+
+
+def reads_from(formula, period: float) -> int:
+    """first_read on a trace of this period longer than any of the formula's windows, once per formula and period (a
+    search's every check asks it). On a trace of n samples, first_read >= n exactly when this is: a bound past the
+    trace's end is clamped to n + 1, and the sums and minimums of first_read keep ">= n" either way."""
+    known = _READS_FROM.get((id(formula), period))
+    if known is not None and known[0] is formula:
+        return known[1]
+    if len(_READS_FROM) >= _MOST_READS_FROM:
+        _READS_FROM.clear()  # (one call: a Dask worker's threads share it)
+    value = first_read(formula, _Unbounded(period))
+    _READS_FROM[(id(formula), period)] = (formula, value)
+    return value
 
 
 def first_read(formula, trace: Trace) -> int:
