@@ -394,6 +394,27 @@ def _thrust_case(tmp_path, unit):
     return spec, base, {"run_id": "t", "values": values, "parameters": case_parameters(base, values)}
 
 
+def test_the_recorders_common_length_is_its_common_traces_length():
+    """The early-stop check's length of the trace so far (from each signal's first and last record: it skips making
+    the trace while every formula reads later) is the length of the trace it would make, for signals at other rates
+    and starts (a slower instance's last record behind, a record at the start only)."""
+    from tiltload.master.app.falsify.signals import SignalRecorder
+
+    rng = np.random.default_rng(3)
+    tick = 0.012
+    for _ in range(200):
+        recorder = SignalRecorder(["a.x", "b.y", "c.z"])
+        recorder.tick = tick
+        for name in recorder.names:
+            every, first = int(rng.integers(1, 9)), int(rng.integers(0, 4))
+            last = first + int(rng.integers(0, 300))
+            times = np.arange(first, last + 1, every) * tick
+            parts = [times[:1]] + ([times[1:]] if times.size > 1 else [])  # as start and on_batch append them
+            recorder._times[name] = parts
+            recorder._values[name] = [rng.normal(size=part.size) for part in parts]
+        assert recorder.common_length() == len(recorder.trace(common=True))
+
+
 @pytest.mark.slow
 def test_an_early_stopped_run_reports_the_bound_of_its_prefix_against_brute_force_on_the_whole_trace(tmp_path):
     """Stopped at a decided violation: its robustness is the lowest margin of the always's predicate over the window so
