@@ -171,36 +171,41 @@ def _free_system(free: np.ndarray, segments) -> tuple:
     return position, into, scale, ab
 
 
-def _solve_axis(t: np.ndarray, p: np.ndarray, v: list, a: list, segments=None, systems: dict | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Minimum-jerk velocities and accelerations at the knots of one axis; None entries of v, a are free.
-    segments: _segments(t), systems: _free_system's by free pattern (a mission's axes share them).
+def _solve_axes(t: np.ndarray, p: np.ndarray, v: list, a: list, segments=None) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum-jerk velocities and accelerations at the knots of each axis (p (n, k); v, a: each axis's list, None
+    entries free). segments: _segments(t). The axes that leave the same entries free share one solve (each its own
+    right-hand side: the same arithmetic as a solve of its own).
 
     The cost couples only the two ends of a segment, so its matrix is banded (half-bandwidth 5 in w = [p0, v0, a0,
     p1, ...]; at most 3 among the free entries): a banded Cholesky solve, linear in the number of knots."""
     import scipy.linalg
 
-    n = t.size
-    w = np.full(3 * n, np.nan)
+    n, k = p.shape
+    w = np.full((3 * n, k), np.nan)
     w[0::3] = p
-    for i in range(n):
-        if v[i] is not None:
-            w[3 * i + 1] = v[i]
-        if a[i] is not None:
-            w[3 * i + 2] = a[i]
+    for axis in range(k):
+        for i in range(n):
+            if v[axis][i] is not None:
+                w[3 * i + 1, axis] = v[axis][i]
+            if a[axis][i] is not None:
+                w[3 * i + 2, axis] = a[axis][i]
     free = np.isnan(w)
-    if not free.any():
-        return w[1::3].copy(), w[2::3].copy()
-    segments = segments if segments is not None else _segments(t)
-    systems = systems if systems is not None else {}
-    key = free.tobytes()
-    if key not in systems:
-        systems[key] = _free_system(free, segments)
-    position, into, scale, ab = systems[key]
-    values, rows, cols = segments
-    b = np.zeros(scale.size)
-    np.add.at(b, position[rows[into]], -values[into] * w[cols[into]])
-    w[free] = scale * scipy.linalg.solveh_banded(ab, b * scale)
+    groups: dict[bytes, list[int]] = {}
+    for axis in range(k):
+        if free[:, axis].any():
+            groups.setdefault(free[:, axis].tobytes(), []).append(axis)
+    if groups:
+        segments = segments if segments is not None else _segments(t)
+        values, rows, cols = segments
+    for axes in groups.values():
+        mask = free[:, axes[0]]
+        position, into, scale, ab = _free_system(mask, segments)
+        b = np.zeros((scale.size, len(axes)))
+        for c, axis in enumerate(axes):
+            np.add.at(b[:, c], position[rows[into]], -values[into] * w[cols[into], axis])
+        solved = scipy.linalg.solveh_banded(ab, b * scale[:, None])
+        for c, axis in enumerate(axes):
+            w[mask, axis] = scale * solved[:, c]
     return w[1::3].copy(), w[2::3].copy()
 
 
@@ -339,15 +344,15 @@ def minimum_jerk(rows: list[dict]) -> MinimumJerk:
     """The minimum-jerk reference through checked waypoints (check())."""
     t = np.array([r["t"] for r in rows], dtype=float)
     n = t.size
-    p, v, a = np.zeros((n, 4)), np.zeros((n, 4)), np.zeros((n, 4))
-    segments, systems = (_segments(t), {}) if n > 1 else (None, None)  # shared by the four axes
-    for k, axis in enumerate(AXES):
-        p[:, k] = [r.get(axis, 0.0) for r in rows]
-        ends = (0, n - 1)
-        vk = [r.get(f"v{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
-        ak = [r.get(f"a{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)]
-        v[:, k], a[:, k] = _solve_axis(t, p[:, k], vk, ak, segments, systems)
-    return MinimumJerk(t, p, v, a)
+    p = np.array([[r.get(axis, 0.0) for axis in AXES] for r in rows], dtype=float)
+    ends = (0, n - 1)
+    v = [[r.get(f"v{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)] for axis in AXES]
+    a = [[r.get(f"a{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)] for axis in AXES]
+    if n > 1:
+        v_knots, a_knots = _solve_axes(t, p, v, a)
+    else:
+        v_knots, a_knots = np.array(v, dtype=float).T, np.array(a, dtype=float).T
+    return MinimumJerk(t, p, v_knots, a_knots)
 
 
 def from_parameters(values: dict) -> MinimumJerk:

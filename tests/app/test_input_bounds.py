@@ -142,6 +142,6 @@ def test_the_banded_minimum_jerk_is_the_dense_solve():
     w[2::3] = [np.nan if x is None else x for x in a]
     free = np.isnan(w)
     w[free] = np.linalg.solve(G[np.ix_(free, free)], -G[np.ix_(free, ~free)] @ w[~free])
-    vel, acc = waypoints._solve_axis(t, p, v, a)
+    vel, acc = (x[:, 0] for x in waypoints._solve_axes(t, p[:, None], [v], [a]))
     np.testing.assert_allclose(vel, w[1::3], rtol=1e-7, atol=1e-9 * np.abs(w[1::3]).max())
     np.testing.assert_allclose(acc, w[2::3], rtol=1e-7, atol=1e-9 * np.abs(w[2::3]).max())
