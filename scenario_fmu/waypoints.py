@@ -313,12 +313,15 @@ def read_knots(path: Path) -> MinimumJerk:
 def known_knots(path: Path, info, knots: np.ndarray) -> None:
     """The knot file at path that held knot_text(knots) when its stat was info, read without parsing its text again:
     the %.17g numbers read back as these exact doubles, so its reference is read_knots' own (a moved mission's file is
-    written by the search and read by its feasibility check at once). Checked as read_knots checks the file; a file
-    changed since (its stat) is read again."""
+    written by the search and read by its feasibility check at once). A file changed since (its stat) is read again;
+    a table read_knots would refuse is not remembered (its readers meet the file's problem as before)."""
     seen = (info.st_size, info.st_mtime_ns, info.st_ino, info.st_dev)
     known = _READ.get(str(path))
     if known is None or known[0] != seen:  # (a mission run again finds its file, and its reference, as they were)
-        _remember(Path(path), seen, np.array(knots, dtype=float))
+        try:
+            _remember(Path(path), seen, np.array(knots, dtype=float))
+        except ScenarioFileError:
+            pass
 
 
 def _remember(path: Path, seen: tuple, knots: np.ndarray) -> MinimumJerk:
@@ -344,7 +347,7 @@ def minimum_jerk(rows: list[dict]) -> MinimumJerk:
     """The minimum-jerk reference through checked waypoints (check())."""
     t = np.array([r["t"] for r in rows], dtype=float)
     n = t.size
-    p = np.array([[r.get(axis, 0.0) for axis in AXES] for r in rows], dtype=float)
+    p = np.array([[r.get(axis, 0.0) for axis in AXES] for r in rows], dtype=float).reshape(n, len(AXES))
     ends = (0, n - 1)
     v = [[r.get(f"v{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)] for axis in AXES]
     a = [[r.get(f"a{axis}", 0.0 if i in ends else None) for i, r in enumerate(rows)] for axis in AXES]
