@@ -104,6 +104,7 @@ class Execution:
         self.manipulator = None
         self.loop: NativeLoop | None = None
         self.resumed_at: float | None = None  # the time of the snapshot this run continues from
+        self._held: dict | None = None  # the outputs at the end of the last batch replayed (deliver)
         if system.faults:
             from .faults.apply import Manipulator
 
@@ -154,6 +155,12 @@ class Execution:
         if resume is not None:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)
+        self._held = self._values() if self.stepwise_observers() else None
+
+    def _values(self) -> dict[str, dict[str, np.ndarray]]:
+        """Every instance's output values now (a copy): what a per-step observer sees of an instance that has not
+        stepped yet in the batch replayed next."""
+        return {name: {typ: v.copy() for typ, v in inst.values.items()} for name, inst in self.instances.items()}
 
     def restart(self, parameters: dict[str, dict] | None = None, observers=None, faults=None, resume=None) -> None:
         """A new run on the same FMU instances: fmi2Reset, then initialization with these parameters
@@ -207,7 +214,9 @@ class Execution:
         # starts, which then runs beside the tick loop's next call instead of competing for the interpreter
         batchwise = sorted((obs for obs in self.observers if obs not in stepwise), key=lambda obs: obs.threaded)
         try:
-            replay(self, batch, stepwise)
+            replay(self, batch, stepwise, self._held)
+            if stepwise:
+                self._held = self._values()
         except ReplayStopped as stop:
             head = batch.head(stop.cut)
             for obs in batchwise:

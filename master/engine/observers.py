@@ -34,10 +34,22 @@ class Batch:
     row: np.ndarray
     rows: dict[str, dict[str, np.ndarray]]
     events: list = field(default_factory=list)
+    _layout: dict | None = field(default=None, repr=False, compare=False)
+
+    def _derived(self, key: tuple, make) -> np.ndarray:
+        """An index array that follows from the record layout alone (which instance stepped where), made once per
+        layout: a campaign's or a search's runs repeat the same layouts, batch after batch (read only)."""
+        if self._layout is None:
+            self._layout = _layout((tuple(self.names), self.instance.tobytes()))
+        found = self._layout.get(key)
+        if found is None:
+            found = self._layout[key] = make()
+            found.flags.writeable = False
+        return found
 
     def positions(self, name: str) -> np.ndarray:
         """The records of one instance, in order."""
-        return np.flatnonzero(self.instance == self.names.index(name))
+        return self._derived(("positions", name), lambda: np.flatnonzero(self.instance == self.names.index(name)))
 
     def head(self, cut: int) -> Batch:
         """The batch's first cut records (and the fault events before them)."""
@@ -54,6 +66,23 @@ class Batch:
         mine = self.instance == self.names.index(name)
         count = np.cumsum(mine) - mine  # its records strictly before each position
         return count[positions] - 1
+
+    def latest_before_steps(self, name: str, stepper: str) -> np.ndarray:
+        """latest_before(name, positions(stepper)), made once per layout."""
+        return self._derived(("before", name, stepper), lambda: self.latest_before(name, self.positions(stepper)))
+
+
+_LAYOUTS: dict[tuple, dict] = {}  # a batch's record layout -> the index arrays made of it (Batch._derived)
+_MOST_LAYOUTS = 64
+
+
+def _layout(key: tuple) -> dict:
+    found = _LAYOUTS.get(key)
+    if found is None:
+        if len(_LAYOUTS) >= _MOST_LAYOUTS:  # the oldest goes
+            _LAYOUTS.pop(next(iter(_LAYOUTS)))
+        found = _LAYOUTS[key] = {}
+    return found
 
 
 class Observer:
@@ -94,15 +123,17 @@ class ReplayStopped(Exception):
         self.cut = cut
 
 
-def replay(execution, batch: Batch, observers) -> None:
+def replay(execution, batch: Batch, observers, held: dict | None = None) -> None:
     """The batch step by step for observers of the per-step kind: each instance's values as they were after each of
-    its steps, on_tick at the end of every tick, fault events in their places. The live values are restored after.
+    its steps (before its first step in the batch: held[name], the values it had when the batch began; without held,
+    its values at the batch's end), on_tick at the end of every tick, fault events in their places. The live values
+    are restored after.
     An observer's exception stops the replay where it happened: ReplayStopped(cut) from it, cut being the records
     the run got to (the step being delivered included, as the log has it)."""
     if not observers:
         return
     try:
-        _replay(execution, batch, observers)
+        _replay(execution, batch, observers, held)
     except _Stopped as stop:
         raise ReplayStopped(stop.cut) from stop.__cause__
 
@@ -112,9 +143,12 @@ class _Stopped(Exception):
         self.cut = cut
 
 
-def _replay(execution, batch: Batch, observers) -> None:
+def _replay(execution, batch: Batch, observers, held: dict | None) -> None:
     slaves = [execution.instances[n] for n in batch.names]
     live = [{t: v.copy() for t, v in s.values.items()} for s in slaves]
+    for name, slave in zip(batch.names, slaves) if held is not None else ():
+        for typ, values in slave.values.items():
+            values[:] = held[name][typ]
     events = iter(batch.events)
     event = next(events, None)
     tick_of, tick = batch.tick, execution.system.tick
@@ -213,17 +247,19 @@ class Metrics(Observer):
         if getattr(execution, "resumed_at", None) is not None:  # from a snapshot: the first step's change is from the command held there
             self._prev_u = self._a.values["Real"][self._ui]
 
-    def _carried(self, batch: Batch, name: str, columns: np.ndarray, carry: np.ndarray, at: np.ndarray) -> np.ndarray:
-        """The named instance's columns as they were just before each record position in at."""
-        rows = batch.rows[name]["Real"][:, columns]
-        before = batch.latest_before(name, at)
-        return np.where((before >= 0)[:, None], rows[np.maximum(before, 0)], carry[None, :])
+    def _carried(self, batch: Batch, name: str, columns: np.ndarray, carry: np.ndarray) -> np.ndarray:
+        """The named instance's columns as they were just before each of the actuator's records."""
+        before = batch.latest_before_steps(name, self.actuators)
+        rows = batch.rows[name]["Real"]
+        if len(before) and before[0] >= 0:  # (before is sorted) every step has a record of name before it in the batch
+            return rows[before][:, columns]
+        return np.where((before >= 0)[:, None], rows[np.maximum(before, 0)][:, columns], carry[None, :])
 
     def _sampled(self, batch: Batch) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(positions, e, u) at each actuator step of the batch: the tracking error before it, the command it gave."""
         at = batch.positions(self.actuators)
-        x = self._carried(batch, self.plant, self._pi, self._x, at)
-        ref = self._carried(batch, self.reference, self._ri, self._ref, at)
+        x = self._carried(batch, self.plant, self._pi, self._x)
+        ref = self._carried(batch, self.reference, self._ri, self._ref)
         u = batch.rows[self.actuators]["Real"][batch.row[at]][:, self._ui]
         return at, x - ref, u
 
@@ -233,10 +269,7 @@ class Metrics(Observer):
     def _accumulate(self, batch: Batch, at: np.ndarray, e: np.ndarray, u: np.ndarray) -> None:
         if len(at):
             self._ise = np.add.accumulate(np.vstack([self._ise, e * e * self.tick]), axis=0)[-1]
-            previous = np.vstack([u[:1] if self._prev_u is None else self._prev_u[None, :], u[:-1]])
-            steps = np.abs(u - previous)
-            if self._prev_u is None:
-                steps = steps[1:]
+            steps = np.abs(np.diff(u if self._prev_u is None else np.vstack([self._prev_u[None, :], u]), axis=0))
             if len(steps):
                 self._iadu = np.add.accumulate(np.vstack([self._iadu, steps]), axis=0)[-1]
             self._prev_u = u[-1].copy()

@@ -94,7 +94,7 @@ def test_restart_on_the_same_fmus_equals_a_fresh_instantiation(fmus):
     def metrics_of(execution):
         return {k: v for k, v in execution.observers[0].table().items()}
     system = default_system(fmus, "zse", 1, "mixed", seed=4)
-    system.instance("plant").parameters["m_L"] = 0.2
+    system.instance("plant").parameters["m_L"] = 1.5
     fresh = Execution(system, [loop_metrics()])
     fresh.instantiate()
     fresh.run(1.5)
@@ -724,3 +724,55 @@ def test_the_client_s_feasibility_verdicts_are_the_check_s_and_a_worker_uses_the
     planted = {key: "planted by the client" for key in verdicts}  # a worker takes the client's word, not its own check
     outcome = run_case(replace(base, feasibility=planted), cases[0], str(fmus), None, worker=CaseWorker(keep=False))
     assert outcome["row"]["error"] == "the reference is infeasible: planted by the client"
+
+
+def test_campaign_metrics_equal_a_step_by_step_count(fmus):
+    """CampaignMetrics (vectorized over the tick loop's batches, their index arrays kept per record layout) against
+    the same definitions counted step by step in Python: the plant's and the reference's latest values before each
+    controller step, the command it gave (the replay of each batch starts from the values the last one ended with:
+    before, an instance not yet stepped in a batch showed its values at the batch's end). Twice on one pool (the
+    second run reads the layouts the first made), in batches of 7 ticks, with a 1.5 kg load so that the thrusts
+    saturate, the ZSE's bounds checked at every step."""
+    from tiltload.master.app.campaign.metrics import CampaignMetrics
+    from tiltload.master.app.loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
+    from tiltload.master.engine.lifecycle import ExecutionPool, RunPlan, run_plan
+    from tiltload.master.engine.observers import Observer, real_outputs
+
+    class StepByStep(Observer):
+        def start(self, execution):
+            self.ins = execution.instances
+            self.steps = []  # (t, plant values, reference values, controller values) at each controller step
+
+        def on_step(self, instance, t):
+            if instance.name == CONTROLLER:
+                self.steps.append((t, *(self.ins[n].values["Real"].copy() for n in (PLANT, SCENARIO, CONTROLLER))))
+
+    system = default_system(fmus, "zse", 1, "mixed", seed=3)
+    system.instance("plant").parameters["m_L"] = 1.5
+    pool = ExecutionPool()
+    try:
+        for _ in range(2):
+            metrics, steps = CampaignMetrics(settle=1.0), StepByStep()
+            run_plan(RunPlan(system, 3.0, observers=(metrics, steps), segment=7), pool)
+            p_out, r_out, c_out = (real_outputs(steps.ins[n]) for n in (PLANT, SCENARIO, CONTROLLER))
+            ise, iadu, worst, saturated, contained, previous = [0.0] * len(TRACKED), [0.0] * 4, 0.0, 0, 0, None
+            for t, p, r, c in steps.steps:
+                e = [p[p_out[a]] - r[r_out[b]] for a, b in TRACKED]
+                u = [c[c_out[n]] for n in COMMANDS]
+                ise = [s + x * x * system.tick for s, x in zip(ise, e)]
+                if previous is not None:
+                    iadu = [s + abs(a - b) for s, a, b in zip(iadu, u, previous)]
+                previous = u
+                if t >= 1.0:
+                    worst = max(worst, math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2))
+                saturated += any(f <= 1e-9 or f >= 30 - 1e-9 for f in u[:2]) or any(abs(x) >= 2 - 1e-9 for x in u[2:])
+                names = [v.name for v in steps.ins[PLANT].outputs["Real"]][:20]
+                contained += all(c[c_out[f"est_{n}_lo"]] <= p[i] <= c[c_out[f"est_{n}_hi"]] for i, n in enumerate(names))
+            row = metrics.row(("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment"))
+            assert [row[f"ISE({a})"] for a, _ in TRACKED] == pytest.approx(ise, rel=1e-12, abs=1e-300)
+            assert [row[f"IADU({n})"] for n in COMMANDS] == pytest.approx(iadu, rel=1e-12)
+            assert row["max_tracking_error"] == pytest.approx(worst, rel=1e-12)
+            assert row["time_saturated"] == saturated / len(steps.steps) and saturated > 0
+            assert row["zse_containment"] == contained / len(steps.steps) and 0 < contained
+    finally:
+        pool.close()

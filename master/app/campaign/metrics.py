@@ -46,11 +46,11 @@ class CampaignMetrics(Metrics):
                 self.max_error = max(self.max_error, float(np.sqrt((position * position).sum(axis=1)).max()))
             lo, hi, tau = self.limits
             eps = 1e-9
-            self.saturated += int(np.count_nonzero((u[:, 0] <= lo + eps) | (u[:, 1] <= lo + eps) | (u[:, 0] >= hi - eps)
-                                                   | (u[:, 1] >= hi - eps) | (np.abs(u[:, 2]) >= tau - eps)
-                                                   | (np.abs(u[:, 3]) >= tau - eps)))
+            thrust = u[:, :2]
+            self.saturated += int(np.count_nonzero(((thrust <= lo + eps) | (thrust >= hi - eps)).any(axis=1)
+                                                   | (np.abs(u[:, 2:]) >= tau - eps).any(axis=1)))
             if self._lo is not None:
-                state = self._carried(batch, self.plant, self._state_index, self._state, at)
+                state = self._carried(batch, self.plant, self._state_index, self._state)
                 v = batch.rows[self.actuators]["Real"][batch.row[at]]
                 self.contained += int(np.count_nonzero(np.all((v[:, self._lo] <= state) & (state <= v[:, self._hi]), axis=1)))
             self.controller_steps += len(at)
