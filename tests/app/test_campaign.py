@@ -776,3 +776,28 @@ def test_campaign_metrics_equal_a_step_by_step_count(fmus):
             assert row["zse_containment"] == contained / len(steps.steps) and 0 < contained
     finally:
         pool.close()
+
+
+def test_campaign_metrics_do_not_depend_on_the_batching_of_a_diverging_run(fmus):
+    """A 6 kg load makes the plant diverge at 1.512 s: the row is the same, bit for bit, whether the loop ran in one
+    call, in calls of 7 ticks (the failed call then holds no plant record, which the numpy form lost) or of 50."""
+    from tiltload.master.app.campaign.metrics import CampaignMetrics
+    from tiltload.master.engine.lifecycle import ExecutionPool, RunPlan, run_plan
+
+    keep = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
+    rows, errors = [], []
+    pool = ExecutionPool()
+    try:
+        for segment in (None, 7, 50):
+            system = default_system(fmus, "fsi", 1, "dlqr", seed=1)
+            system.instance("plant").parameters["m_L"] = 6.0
+            metrics = CampaignMetrics(bounds=False, settle=1.0)
+            result = run_plan(RunPlan(system, 4.0, observers=(metrics,), segment=segment, outcomes=(Exception,),
+                                      when=False), pool)
+            rows.append({k: float(v).hex() for k, v in metrics.row(keep).items()})
+            errors.append(result.error)
+    finally:
+        pool.close()
+    assert all(e is not None and "diverged" in e for e in errors), errors
+    assert rows[0] == rows[1] == rows[2]
+    assert math.isfinite(float.fromhex(rows[0]["ISE(x)"])) and metrics.controller_steps == 127
