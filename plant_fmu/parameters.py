@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -110,6 +111,25 @@ def inertia_matrix(p: np.ndarray, prefix: str) -> np.ndarray:
     )
 
 
+_PREFIXES = ("I_L", "I_1", "I_2", "I_3")
+_INERTIA = np.array([_INDEX[f"{prefix}_{k}"] for prefix in _PREFIXES for k in ("xx", "xy", "xz", "yy", "yz", "zz")])
+
+
+@lru_cache(maxsize=64)
+def _inertia_problem(entries: bytes) -> str | None:
+    """What is wrong with the four inertia tensors of these entries (p[_INERTIA]'s bytes), or None; worked out once per
+    set of tensors: a search over the load's mass or the rod checks the same tensors at every point."""
+    p = np.zeros(N_PARAMETERS)
+    p[_INERTIA] = np.frombuffer(entries)
+    eigs = np.linalg.eigvalsh(np.stack([inertia_matrix(p, prefix) for prefix in _PREFIXES]))  # one call for the four
+    for prefix, eig in zip(_PREFIXES, eigs):
+        if eig[0] <= 0.0:
+            return f"inertia {prefix} must be positive definite (smallest eigenvalue {eig[0]:.3g})"
+        if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+            return f"inertia {prefix} violates the triangle inequality of principal moments"
+    return None
+
+
 def validate(p: np.ndarray, limits: dict[str, float] | None = None) -> None:
     """Raise ParameterError with a one-line reason if p is not a physical plant."""
     p = np.asarray(p, dtype=float)
@@ -129,13 +149,9 @@ def validate(p: np.ndarray, limits: dict[str, float] | None = None) -> None:
             raise ParameterError(f"parameter {name} must be +1 or -1, got {p[_INDEX[name]]:g}")
     if not abs(p[_INDEX["beta"]]) < math.pi / 2:
         raise ParameterError(f"parameter beta must lie in (-pi/2, pi/2) rad, got {p[_INDEX['beta']]:g}")
-    prefixes = ("I_L", "I_1", "I_2", "I_3")
-    eigs = np.linalg.eigvalsh(np.stack([inertia_matrix(p, prefix) for prefix in prefixes]))  # one call for the four
-    for prefix, eig in zip(prefixes, eigs):
-        if eig[0] <= 0.0:
-            raise ParameterError(f"inertia {prefix} must be positive definite (smallest eigenvalue {eig[0]:.3g})")
-        if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
-            raise ParameterError(f"inertia {prefix} violates the triangle inequality of principal moments")
+    problem = _inertia_problem(p[_INERTIA].tobytes())
+    if problem:
+        raise ParameterError(problem)
     if limits:
         lo, hi, tau = limits["f_min"], limits["f_max"], limits["tau_max"]
         if not (np.isfinite([lo, hi, tau]).all() and 0.0 <= lo < hi and tau > 0.0):
