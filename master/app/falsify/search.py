@@ -17,6 +17,7 @@ import hashlib
 import json
 import math
 import time
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -139,6 +140,7 @@ def search(dimensions: list[Dimension], optimizer: str, seed: int, evaluate_batc
 
 AHEAD_SECONDS = 0.25  # an independent optimizer's batches are asked ahead until a worker has about this much work
 AHEAD_MOST = 256  # ... and at most this many points (what a search that falsifies early runs for nothing)
+IN_FLIGHT = 2  # an independent optimizer's groups out at once: the one being judged and the next
 
 
 def _group_size(opt, walls: list[float], threads: int) -> int:
@@ -169,9 +171,10 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
           stored: dict[int, dict], parts: Path | None, say, started: float, stop_when_falsified: bool):
     """The batches until the budget is spent, a point falsifies or an environment fails; rows grows as they end.
     Batches go to evaluate_batch a group at a time (_group_size); each is told and judged in the order asked, and the
-    batches of a group after the one that ends the search are dropped. An independent optimizer's next group is asked
-    and sent before the one back is judged, so the workers do not wait for the client's turn; a group sent when the
-    search ends is dropped whole. (falsified_at, reused, failures)."""
+    batches of a group after the one that ends the search are dropped. An independent optimizer has IN_FLIGHT groups
+    out at once (asked and sent in order): a worker that ends its share of one starts on the next instead of waiting
+    for the other workers' shares and the client's turn; the groups out when the search ends are dropped whole.
+    (falsified_at, reused, failures)."""
     from .space import values_at
 
     threads = max(1, int(getattr(evaluate_batch, "threads", 1)))
@@ -204,11 +207,14 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
             group.evaluated = sender.submit(evaluate_batch, group.cases) if sender else _done(evaluate_batch(group.cases))
         return group
 
-    sender = ThreadPoolExecutor(1, thread_name_prefix="search-batches") if opt.independent else None
+    sender = ThreadPoolExecutor(IN_FLIGHT, thread_name_prefix="search-batches") if opt.independent else None
+    out: deque[_Group] = deque()  # the groups sent, in the order asked
     ended = False
     try:
         group = ask(len(rows)) if more(len(rows)) else None
         while group is not None:
+            while opt.independent and len(out) < IN_FLIGHT - 1 and more((out[-1] if out else group).end):
+                out.append(ask((out[-1] if out else group).end))
             got = group.evaluated.result() if group.evaluated is not None else {}
             fresh = {}
             for case in group.cases:
@@ -220,7 +226,6 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
                 row["run_id"] = case["run_id"]
                 group.rows[case["run_id"]] = fresh[case["run_id"]] = row
                 walls.append(float(row.get("wall_s") or 0.0))
-            following = ask(group.end) if opt.independent and more(group.end) else None
             kept, done = [], False
             for whole, asked in group.batches:
                 ids = [run_id(identity, len(rows) + j, unit) for j, unit in enumerate(asked)]
@@ -247,8 +252,8 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
             best = min((_told(r) for r in rows), default=math.nan)
             say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
             if done:
-                break  # a following group is dropped: the sender waits for its evaluation to end
-            group = following if following is not None else (ask(len(rows)) if more(len(rows)) else None)
+                break  # the groups out are dropped: the sender waits for their evaluations to end
+            group = out.popleft() if out else (ask(len(rows)) if more(len(rows)) else None)
         ended = True
     finally:  # a group still out is dropped: waited for when the search ended, left to the closing client on an error
         if sender is not None:
