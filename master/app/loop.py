@@ -15,7 +15,7 @@ from ...scenario_fmu.choice import Trajectory
 from ..engine import jacobi
 from ..engine.errors import DescriptionError
 from ..engine.fmi.model_description import clocks_of, read_fmu
-from ..engine.observers import Metrics
+from ..engine.metrics import Metrics
 from ..engine.system import Connection, Instance, System
 from .inputs import trajectory as as_trajectory
 

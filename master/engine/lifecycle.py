@@ -17,7 +17,8 @@ from pathlib import Path
 
 from .execution import Execution, IsolationPolicy
 from .log.logger import CHUNK_TICK_BY_TICK, McapLogger
-from .observers import Metrics, Progress
+from .metrics import Metrics
+from .observers import Progress
 from .system import System
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from .execution import IsolationPolicy
 from .lifecycle import RunPlan, RunResult, run_plan
-from .observers import Metrics
+from .metrics import Metrics
 from .system import System
 
 __all__ = ["RunPlan", "RunResult", "run_plan", "run_system", "terminate_like_interrupt", "Terminated"]

@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from ...engine.observers import Metrics, real_outputs
+from ...engine.metrics import Metrics
+from ...engine.observers import real_outputs
 from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
 
 

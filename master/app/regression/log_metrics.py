@@ -1,6 +1,6 @@
 """ISE and IADU recomputed from a log's messages, for a log whose metrics record is missing (a killed run).
 
-Same definitions as observers.Metrics: ISE(v) = sum_k (v(t_k) - v_ref(t_k))^2 T over the controller's
+Same definitions as engine/metrics.Metrics: ISE(v) = sum_k (v(t_k) - v_ref(t_k))^2 T over the controller's
 ticks, with v(t_k) the plant's state at the start of tick k; IADU(u) = sum_k |u_k - u_{k-1}|.
 """
 

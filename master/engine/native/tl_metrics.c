@@ -1,4 +1,4 @@
-/* The loop's metrics over one call's records (engine/observers.py, Metrics; the campaign's extras: campaign/metrics.py).
+/* The loop's metrics over one call's records (engine/metrics.py, Metrics; the campaign's extras: campaign/metrics.py).
  *
  * The records are walked in the order the steps happened: a step of the plant or of the reference replaces what is
  * carried of its outputs, a step of the actuators (the controller) is sampled with what is carried then, the values
