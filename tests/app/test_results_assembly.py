@@ -73,7 +73,9 @@ def test_no_stored_run_is_an_empty_results_file(tmp_path):
 
 
 @pytest.mark.parametrize("optimizer, sizes", [("cmaes", [2] + [8] * 6),  # a part a batch: 6 of 8 and the budget's last 2
-                                               ("uniform", [8, 42])])  # the first batch, then the rest asked ahead
+                                               # the first two batches (out at once, before an evaluation has
+                                               # said what it costs), then the rest asked ahead
+                                               ("uniform", [8, 8, 34])])
 def test_a_search_writes_a_part_a_group_of_batches_and_its_results_once_every_row_in_order(tmp_path, optimizer, sizes):
     dims = [Dimension("a", "plant.m_L", 0.0, 1.0), Dimension("b", "plant.l", 0.0, 1.0)]
 
