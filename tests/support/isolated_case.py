@@ -128,6 +128,9 @@ def run_isolated(call, *, timeout_s: float = 300.0, cwd: str | Path | None = Non
             for member in alive:  # one that made a group of its own is still of the case's session
                 _kill(int(member.split()[0]))
         left = sorted(os.listdir(scratch))
+        while left and time.monotonic() < grace_end:  # an unpacked FMU's reaper (its own session) removes the copy of
+            time.sleep(0.05)  # a process that died, once it sees its pipe close: a moment later on a loaded machine
+            left = sorted(os.listdir(scratch))
         shutil.rmtree(scratch, ignore_errors=True)
         out_file.seek(0)
         err_file.seek(0)
