@@ -214,9 +214,7 @@ class Execution:
         # starts, which then runs beside the tick loop's next call instead of competing for the interpreter
         batchwise = sorted((obs for obs in self.observers if obs not in stepwise), key=lambda obs: obs.threaded)
         try:
-            replay(self, batch, stepwise, self._held)
-            if stepwise:
-                self._held = self._values()
+            self._held = replay(self, batch, stepwise, self._held)
         except ReplayStopped as stop:
             head = batch.head(stop.cut)
             for obs in batchwise:

@@ -34,22 +34,10 @@ class Batch:
     row: np.ndarray
     rows: dict[str, dict[str, np.ndarray]]
     events: list = field(default_factory=list)
-    _layout: dict | None = field(default=None, repr=False, compare=False)
-
-    def _derived(self, key: tuple, make) -> np.ndarray:
-        """An index array that follows from the record layout alone (which instance stepped where), made once per
-        layout: a campaign's or a search's runs repeat the same layouts, batch after batch (read only)."""
-        if self._layout is None:
-            self._layout = _layout((tuple(self.names), self.instance.tobytes()))
-        found = self._layout.get(key)
-        if found is None:
-            found = self._layout[key] = make()
-            found.flags.writeable = False
-        return found
 
     def positions(self, name: str) -> np.ndarray:
         """The records of one instance, in order."""
-        return self._derived(("positions", name), lambda: np.flatnonzero(self.instance == self.names.index(name)))
+        return np.flatnonzero(self.instance == self.names.index(name))
 
     def head(self, cut: int) -> Batch:
         """The batch's first cut records (and the fault events before them)."""
@@ -66,19 +54,6 @@ class Batch:
         mine = self.instance == self.names.index(name)
         count = np.cumsum(mine) - mine  # its records strictly before each position
         return count[positions] - 1
-
-
-_LAYOUTS: dict[tuple, dict] = {}  # a batch's record layout -> the index arrays made of it (Batch._derived)
-_MOST_LAYOUTS = 64
-
-
-def _layout(key: tuple) -> dict:
-    found = _LAYOUTS.get(key)
-    if found is None:
-        if len(_LAYOUTS) >= _MOST_LAYOUTS:  # the oldest goes
-            _LAYOUTS.pop(next(iter(_LAYOUTS)))
-        found = _LAYOUTS[key] = {}
-    return found
 
 
 class Observer:
@@ -119,17 +94,17 @@ class ReplayStopped(Exception):
         self.cut = cut
 
 
-def replay(execution, batch: Batch, observers, held: dict | None = None) -> None:
+def replay(execution, batch: Batch, observers, held: dict | None = None) -> dict | None:
     """The batch step by step for observers of the per-step kind: each instance's values as they were after each of
     its steps (before its first step in the batch: held[name], the values it had when the batch began; without held,
     its values at the batch's end), on_tick at the end of every tick, fault events in their places. The live values
-    are restored after.
+    are restored after, and returned ({name: {type: a copy}}: what the next batch's replay holds; None: no observer).
     An observer's exception stops the replay where it happened: ReplayStopped(cut) from it, cut being the records
     the run got to (the step being delivered included, as the log has it)."""
     if not observers:
-        return
+        return None
     try:
-        _replay(execution, batch, observers, held)
+        return _replay(execution, batch, observers, held)
     except _Stopped as stop:
         raise ReplayStopped(stop.cut) from stop.__cause__
 
@@ -139,7 +114,7 @@ class _Stopped(Exception):
         self.cut = cut
 
 
-def _replay(execution, batch: Batch, observers, held: dict | None) -> None:
+def _replay(execution, batch: Batch, observers, held: dict | None) -> dict:
     slaves = [execution.instances[n] for n in batch.names]
     live = [{t: v.copy() for t, v in s.values.items()} for s in slaves]
     for name, slave in zip(batch.names, slaves) if held is not None else ():
@@ -181,6 +156,7 @@ def _replay(execution, batch: Batch, observers, held: dict | None) -> None:
         for slave, values in zip(slaves, live):
             for typ, v in values.items():
                 slave.values[typ][:] = v
+    return dict(zip(batch.names, live))
 
 
 _REAL_OUTPUTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # slave -> real_outputs(slave), built once
