@@ -22,7 +22,7 @@ from functools import lru_cache
 import numpy as np
 
 from ...plant_fmu.vehicles import VEHICLES
-from ...scenario_fmu import twin
+from ...scenario_fmu import twin, waypoints
 from ...scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
 from .yaw_margin import yaw_problem
 
@@ -134,7 +134,7 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     if key is not None and key in _REFERENCES:
         return _REFERENCES[key]
     nq = VEHICLES[vehicle].nq
-    s = twin.evaluate(scenario, t)
+    s = _samples(vehicle, scenario, t)
     x = np.tile(hover.x, (t.size, 1))
     x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
     x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
@@ -150,6 +150,17 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     if key is not None:
         _keep(key, chunk)
     return chunk
+
+
+def _samples(vehicle: str, scenario: dict, t: np.ndarray) -> twin.Samples:
+    """twin.evaluate(scenario, t); a mission's by the scenario FMU's C where it is compiled (the same bits)."""
+    from .trim_residual import compiled_mission
+
+    mission = compiled_mission(vehicle) if int(scenario.get("trajectory", 1)) == twin.WAYPOINTS else None
+    if mission is None:
+        return twin.evaluate(scenario, t)
+    pos, vel, acc = mission(waypoints.from_parameters(scenario), t)
+    return twin.Samples(t, pos[:, :3], vel[:, :3], acc[:, :3], pos[:, 3], vel[:, 3])
 
 
 def _keep(key: tuple, value) -> None:

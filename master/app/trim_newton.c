@@ -114,8 +114,9 @@ int tl_trim_path(const double *z0, const double *previous0, const double *refs, 
 typedef int (*tl_casadi_function)(const double **arg, double **res, casadi_int *iw, double *w, int mem);
 
 /* CasADi's map of a function of three dense column inputs and one dense column output, serially, column by column
- * (rows of the C-ordered arrays here: x count x nx, qdd count x nq, p count x np, out count x nu), as Function.map does
- * by default: the feasibility check's feedforward along the reference. 0: done; else the function's code. */
+ * (rows of the C-ordered arrays here: x count x nx, qdd count x nq, p count x np, out count x nu; np = 0: p is one row
+ * for every column), as Function.map does by default: the feasibility check's feedforward along the reference. 0: done;
+ * else the function's code. */
 __attribute__((visibility("default")))
 int tl_map3(tl_casadi_function f, const double *x, int nx, const double *qdd, int nq, const double *p, int np, double *out,
             int nu, int count, casadi_int *iw, double *w)

@@ -23,6 +23,9 @@ from ..engine.native.kernel import CFLAGS, KernelError, compiled
 
 FLAGS = tuple(f for f in CFLAGS if f not in ("-fvisibility=hidden", "-Wall", "-Wextra"))  # CasADi's generated code
 SOURCE = Path(__file__).with_name("trim_newton.c")
+MISSION = Path(__file__).with_name("mission_samples.c")  # with the scenario FMU's own waypoint arithmetic
+SCENARIO_C = Path(__file__).resolve().parents[2] / "scenario_fmu" / "c"
+PLATFORM_C = Path(__file__).resolve().parents[2] / "native_fmu" / "c"
 _local = threading.local()
 _libraries: dict[str, ctypes.CDLL | None] = {}
 _lock = threading.Lock()
@@ -51,6 +54,7 @@ def _library(vehicle: str) -> ctypes.CDLL | None:
     import casadi as ca
 
     from ...plant_fmu.trim import residual_function
+    from ...scenario_fmu.fmu_variables import capacity_header
 
     with _lock:
         if vehicle not in _libraries:
@@ -60,8 +64,13 @@ def _library(vehicle: str) -> ctypes.CDLL | None:
             with tempfile.TemporaryDirectory(prefix="tiltload-trim-") as tmp:
                 source = Path(tmp) / f"tl_trim_{vehicle}.c"
                 source.write_text(generator.dump())
+                capacity = Path(tmp) / "scenario_capacity.h"
+                capacity.write_text(capacity_header())
+                headers = [SCENARIO_C / "scenario_waypoints.h", PLATFORM_C / "tl_platform.h", capacity]
+                includes = (f"-I{SCENARIO_C}", f"-I{PLATFORM_C}", f"-I{tmp}")
                 try:
-                    _libraries[vehicle] = compiled(f"tl_trim_{vehicle}", [source, SOURCE], FLAGS, ("m",))
+                    _libraries[vehicle] = compiled(f"tl_trim_{vehicle}", [source, SOURCE, MISSION, SCENARIO_C /
+                                                   "scenario_waypoints.c", *headers], (*FLAGS, *includes), ("m",))
                 except KernelError:
                     _libraries[vehicle] = None
         return _libraries[vehicle]
@@ -146,10 +155,12 @@ class CompiledFeedforward:
         """u (count, nu) at the rows of x (count, nx), qdd (count, nq) with the parameters p (np,) for every row."""
         count = len(x)
         x, qdd = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(qdd, dtype=float)
-        params = np.ascontiguousarray(np.broadcast_to(np.asarray(p, dtype=float), (count, self.rows[2])))
+        params = np.ascontiguousarray(p, dtype=float)
+        if params.shape != (self.rows[2],):
+            raise ValueError(f"the feedforward takes {self.rows[2]} parameters, not {params.shape}")
         out = np.empty((count, self.nu))
         status = self.map(self.function, x.ctypes.data, self.rows[0], qdd.ctypes.data, self.rows[1], params.ctypes.data,
-                          self.rows[2], out.ctypes.data, self.nu, count, self.iw.ctypes.data, self.w.ctypes.data)
+                          0, out.ctypes.data, self.nu, count, self.iw.ctypes.data, self.w.ctypes.data)  # one p row for all
         if status:
             raise RuntimeError(f"the compiled feedforward failed ({status})")
         return out
@@ -161,4 +172,37 @@ def compiled_feedforward(vehicle: str):
     if vehicle not in cached:
         lib = _library(vehicle) if _gesv() is not None else None
         cached[vehicle] = CompiledFeedforward(vehicle, lib) if lib is not None else None
+    return cached[vehicle]
+
+
+class CompiledMission:
+    """waypoints.MinimumJerk.evaluate by the scenario FMU's C (tl_mission_samples): the same bits
+    (tests/app/test_throughput.py), 0.01 ms where numpy takes 0.15 for an 8 s reference."""
+
+    def __init__(self, lib: ctypes.CDLL) -> None:
+        self.function = lib.tl_mission_samples
+        p, i = ctypes.c_void_p, ctypes.c_int
+        self.function.argtypes = [i, p, p, p, p, i, p, p, p, p]
+        self.function.restype = None
+
+    def __call__(self, reference, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity, acceleration ((len(times), 4)) of a waypoints.MinimumJerk at the times."""
+        times = np.ascontiguousarray(times, dtype=float)
+        knots = np.ascontiguousarray(reference.t, dtype=float)
+        p, v, a = (np.ascontiguousarray(np.asarray(x, dtype=float).T) for x in (reference.p, reference.v, reference.a))
+        if p.shape[0] != 4:
+            raise ValueError(f"a mission has 4 axes (x, y, z, psi), not {p.shape[0]}")
+        out = [np.empty((times.size, 4)) for _ in range(3)]
+        self.function(knots.size, knots.ctypes.data, p.ctypes.data, v.ctypes.data, a.ctypes.data, times.size,
+                      times.ctypes.data, *(o.ctypes.data for o in out))
+        return out[0], out[1], out[2]
+
+
+def compiled_mission(vehicle: str):
+    """The compiled mission evaluation (built with the vehicle's feasibility library); None when it cannot be built
+    (the caller evaluates waypoints.MinimumJerk in numpy)."""
+    cached = _local.__dict__.setdefault("missions", {})
+    if vehicle not in cached:
+        lib = _library(vehicle) if _gesv() is not None else None
+        cached[vehicle] = CompiledMission(lib) if lib is not None else None
     return cached[vehicle]

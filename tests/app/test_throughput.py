@@ -6,6 +6,7 @@ alone the plain way; and the batches' task sizes (docs/throughput.md)."""
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -71,6 +72,29 @@ def test_the_feedforward_mapped_in_c_is_casadi_s_map_to_the_bit(vehicle):
     p = VEHICLES[vehicle].default_parameters()
     theirs = np.array(f.map(n)(x.T, qdd.T, np.repeat(p[:, None], n, axis=1))).T
     assert mapped(x, qdd, p).tobytes() == theirs.tobytes()
+
+
+def test_a_mission_evaluated_by_the_scenario_fmu_s_c_is_numpy_s_evaluation_to_the_bit():
+    from tiltload.master.app.trim_residual import compiled_mission
+    from tiltload.scenario_fmu.waypoints import minimum_jerk
+
+    mission = compiled_mission("load")
+    if mission is None:
+        pytest.skip("no C compiler")
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        n = int(rng.integers(2, 14))
+        t = np.cumsum(rng.uniform(0.01, 5.0, size=n)) - rng.uniform(0, 0.01)
+        rows = [{"t": float(ti), "x": float(rng.normal()), "y": float(rng.normal()), "z": float(rng.normal(3)),
+                 "psi": float(rng.normal(scale=0.3))} for ti in t]
+        for row in rows[1:-1]:
+            if rng.random() < 0.3:
+                row["vx"], row["az"] = float(rng.normal()), float(rng.normal())
+        ref = minimum_jerk(rows)
+        times = np.r_[np.arange(0.0, t[-1] + 1.0, 0.012), t, t[0] - 0.5]  # before, at every knot, after the end
+        theirs, ours = ref.evaluate(times), mission(ref, times)
+        for a, b in zip(theirs, ours):
+            assert a.tobytes() == b.tobytes()
 
 
 def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_says(monkeypatch):
@@ -150,3 +174,35 @@ def test_a_batch_goes_as_tasks_of_equal_sizes_a_whole_number_a_worker():
                 # as few tasks as SHORTEST allows, and a whole number of them a worker: none left alone with the last
                 assert len(sizes) == min(runs, workers) if runs <= workers * SHORTEST else len(sizes) % workers == 0
                 assert len(sizes) < workers * (math.ceil(runs / (workers * SHORTEST)) + 1)
+
+
+def test_a_worker_keeps_the_memory_it_frees_where_dask_would_have_it_trimmed():
+    """Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536: then every block past 128 KB is a mapping of its
+    own, faulted in page by page at every allocation (2 MB blocks here: larger than any hole the heap may hold).
+    keep_freed_memory undoes that (glibc only)."""
+    import platform
+    import subprocess
+    import sys
+
+    if platform.libc_ver()[0] != "glibc":
+        pytest.skip("glibc's malloc only")
+    probe = """
+import ctypes, resource
+from tiltload.master.app.campaign.worker import keep_freed_memory
+libc = ctypes.CDLL(None)
+libc.malloc.restype, libc.malloc.argtypes, libc.free.argtypes = ctypes.c_void_p, [ctypes.c_size_t], [ctypes.c_void_p]
+def faults():
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(50):
+        block = libc.malloc(2_000_000)
+        ctypes.memset(block, 1, 2_000_000)
+        libc.free(block)
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+faults()
+print(faults(), keep_freed_memory(), (faults(), faults())[1])
+"""
+    done = subprocess.run([sys.executable, "-c", probe], env={**os.environ, "MALLOC_TRIM_THRESHOLD_": "65536"},
+                          capture_output=True, text=True, check=True)
+    before, kept, after = done.stdout.split()
+    assert kept == "True"
+    assert int(before) >= 50 * 400 and int(after) < 50  # 489 pages a block, then none but a handful

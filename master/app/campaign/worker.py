@@ -114,6 +114,28 @@ def checked_plant(parameters: dict) -> tuple:
     return tuple(sorted((k, repr(v)) for k, v in parameters.items() if k in CHECKED))
 
 
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+FREED_KEPT, OWN_MAPPING = 64 << 20, 4 << 20  # bytes
+
+
+def keep_freed_memory() -> bool:
+    """glibc's malloc in a process that runs thousands of cases keeps what it frees (up to FREED_KEPT at the heap's
+    top; an allocation is a mapping of its own only from OWN_MAPPING). Why: Dask starts its workers with
+    MALLOC_TRIM_THRESHOLD_=65536 (its nanny's pre-spawn-environ), which also fixes that mapping threshold at 128 KB:
+    a moved mission's feasibility check then maps, faults in page by page and unmaps its 100-200 KB arrays at every
+    evaluation (80-110 page faults, 0.2 ms of 6.4: docs/throughput.md). False where the C library is not glibc."""
+    import ctypes
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        return False
+    mallopt = getattr(ctypes.CDLL(None), "mallopt", None)
+    if mallopt is None:
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    return bool(mallopt(M_TRIM_THRESHOLD, FREED_KEPT)) and bool(mallopt(M_MMAP_THRESHOLD, OWN_MAPPING))
+
+
 def this_worker() -> CaseWorker:
     """The CaseWorker of the Dask worker running this (made on its first task); outside a worker, a new one that keeps
     no execution (a caller that runs many cases in its own process makes a CaseWorker and passes it)."""
@@ -125,6 +147,7 @@ def this_worker() -> CaseWorker:
         return CaseWorker(keep=False)
     state = getattr(dask_worker, ATTRIBUTE, None)
     if state is None:
+        keep_freed_memory()
         state = CaseWorker()
         setattr(dask_worker, ATTRIBUTE, state)
     return state
