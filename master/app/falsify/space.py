@@ -109,7 +109,7 @@ def case_flight(base: SearchBase, parameters: dict) -> tuple[SearchBase, dict]:
     waypoints.check(rows, [f"waypoint {i}" for i in range(len(rows))], f"{source.name} (moved)")
     ref = waypoints.minimum_jerk(rows)  # as choice.read_file makes a mission file's reference
     trajectory = Trajectory(source.stem, twin.WAYPOINTS, (), ref.start, ref.duration, str(source),
-                            tuple(tuple(float(v) for v in k) for k in ref.knots()))
+                            tuple(map(tuple, ref.knots().tolist())))
     moved = dataclasses.replace(flight, trajectory=trajectory)
     return dataclasses.replace(base, trajectory=moved), {k: v for k, v in parameters.items() if not k.startswith("waypoints.")}
 
