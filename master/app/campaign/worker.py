@@ -114,7 +114,7 @@ def checked_plant(parameters: dict) -> tuple:
     return tuple(sorted((k, repr(v)) for k, v in parameters.items() if k in CHECKED))
 
 
-M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (as its malloc header numbers them)
 FREED_KEPT, OWN_MAPPING = 64 << 20, 4 << 20  # bytes
 
 
