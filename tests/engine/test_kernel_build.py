@@ -30,6 +30,25 @@ def _all_threads_load_it(c, cache):
     assert [p.name for p in built if p.is_file()] == ["answer.so"]  # no partial file left behind
 
 
+def test_the_same_sources_in_another_temporary_folder_are_the_same_library(tmp_path, monkeypatch):
+    """Generated code written to a new temporary folder in every process (the feasibility check's trim library) is built
+    once per machine: an include folder of a listed source counts by its files' content, not its path."""
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+
+    def build(folder, header):
+        folder.mkdir()
+        (folder / "answer.h").write_text(header)
+        (folder / "answer.c").write_text('#include "answer.h"\n' + SOURCE.replace("42", "ANSWER"))
+        lib = kernel.compiled("answer", (folder / "answer.c", folder / "answer.h"), (*kernel.CFLAGS, f"-I{folder}"))
+        lib.tl_answer.restype = ctypes.c_int
+        return lib.tl_answer()
+
+    assert build(tmp_path / "one", "#define ANSWER 42\n") == 42 and build(tmp_path / "two", "#define ANSWER 42\n") == 42
+    assert len(list((tmp_path / "cache" / "kernels").iterdir())) == 1
+    assert build(tmp_path / "three", "#define ANSWER 7\n") == 7  # another header: another library
+    assert len(list((tmp_path / "cache" / "kernels").iterdir())) == 2
+
+
 def test_a_numpy_random_library_that_does_not_link_leaves_the_draws_to_numpy(tmp_path, monkeypatch):
     """An archive the linker refuses: the kernel is built without the C draws (noise and jitter then drawn by numpy
     in Python), not lost."""

@@ -144,6 +144,13 @@ def _build(cc: str, command: list[str], folder: Path, name: str) -> Path:
     return target
 
 
+def _digested(flags, sources) -> list[str]:
+    """The flags as the digest takes them: an include folder of a listed source by the content of what is listed, not by
+    its path (generated code in a new temporary folder every process is still the same library)."""
+    folders = {str(Path(f).parent) for f in sources}
+    return [f for f in flags if not (f.startswith("-I") and f[2:] in folders)]
+
+
 def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) -> ctypes.CDLL:
     """The shared library of these C sources (the .c files compiled, .a archives linked, headers only in the digest),
     built on first use into the cache and loaded. KernelError: no compiler, or it failed."""
@@ -152,7 +159,7 @@ def compiled(name: str, sources, flags=CFLAGS, libraries: tuple[str, ...] = ()) 
     for f in sources:
         h.update(Path(f).read_bytes())
     command = [*flags, *(str(f) for f in sources if str(f).endswith((".c", ".a"))), *(f"-l{lib}" for lib in libraries)]
-    h.update(" ".join((cc, *command[:len(flags)], *libraries)).encode())
+    h.update(" ".join((cc, *_digested(flags, sources), *libraries)).encode())
     digest = h.hexdigest()[:16]
     with _BUILDING:  # the loop and the log writer's thread may ask for the same library at once
         try:
