@@ -56,8 +56,9 @@ def vehicle_of(system) -> str | None:
     return {"TiltloadPlant": "load", "TiltrotorUAV": "uav"}.get(identifier or "")
 
 
-def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Report | None:
-    """The check of a loop system (our scenario and plant FMUs), or None when it is not one this check knows."""
+def check_system(system, stop: float, max_tilt: float = Limits.max_tilt, explain: bool = True) -> Report | None:
+    """The check of a loop system (our scenario and plant FMUs), or None when it is not one this check knows.
+    explain=False: the problems alone (trajectory_check.check_reference)."""
     vehicle = vehicle_of(system)
     try:
         identifier = model_identifier(system.instance("scenario").fmu, "scenario")
@@ -70,8 +71,8 @@ def check_system(system, stop: float, max_tilt: float = Limits.max_tilt) -> Repo
     limits = limits_of(system)
     design = _our_design(system)
     report = check_reference(scenario, stop, vehicle, plant, Limits(limits.f_min, limits.f_max, limits.tau_max, max_tilt),
-                             design=design)
-    changed = _changed_plant(vehicle, plant)
+                             design=design, explain=explain)
+    changed = _changed_plant(vehicle, plant) if explain else None
     if design is not None and changed:
         report.notes.insert(0, nominal_design_note(changed, design[0]))
     return report

@@ -108,14 +108,15 @@ class _Chunk:
             self._psi = (abs(float(self.s.psi[k])), float(self.s.psi[k]), float(self.s.t[k]))
         return self._psi
 
-    def feedforward_facts(self, limits: Limits) -> tuple[list[str], str, float]:
+    def feedforward_facts(self, limits: Limits, explain: bool = True) -> tuple[list[str], str, float]:
         """For a reference of this one chunk: the feedforward's problems against the limits, its forces' ranges (the
-        summary's words) and its largest torque."""
-        key = (limits.f_min, limits.f_max, limits.tau_max)
+        summary's words) and its largest torque (explain=False: the problems alone, "" and nan)."""
+        key = (limits.f_min, limits.f_max, limits.tau_max, explain)
         if key not in self._facts:
             found = Report()
             _limit_inputs(found, "", self.u, self.s.t, limits)
-            self._facts[key] = (found.problems, _forces(self.u), float(np.abs(self.u[:, 2:]).max()))
+            self._facts[key] = ((found.problems, _forces(self.u), float(np.abs(self.u[:, 2:]).max())) if explain else
+                                (found.problems, "", math.nan))
         problems, forces, torque = self._facts[key]
         return list(problems), forces, torque
 
@@ -182,10 +183,12 @@ def _vector(vehicle: str, overrides: dict) -> np.ndarray:
 
 
 def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
-                    limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None) -> Report:
+                    limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None,
+                    explain: bool = True) -> Report:
     """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
-    stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds."""
+    stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds. explain=False: the problems
+    alone, the same ones (no summary, no notes: what a search's or a campaign's worker reads)."""
     from ...plant_fmu.trim import TrimError, unknown_coordinates
     from .trim_residual import compiled_newton, feedforward
 
@@ -240,12 +243,12 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
             z, previous = found, refs[k]
             trims.append(z)
             times.append(t[k])
-        jump = max(jump, chunk.jump(last, tick))
+        jump = max(jump, chunk.jump(last, tick)) if explain else jump
         psi_worst = max(psi_worst, chunk.psi_worst())
         last = (s.t[-1], s.p[-1], s.v[-1])
     t_all = np.arange(n) * tick
     if n <= CHUNK:  # one chunk: its own facts, once per reference
-        problems, forces, torque = chunk.feedforward_facts(limits)
+        problems, forces, torque = chunk.feedforward_facts(limits, explain)
         report.problems.extend(problems)
     else:
         _limit_inputs(report, "", u_ff, t_all, limits)
@@ -253,23 +256,26 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     if trims:
         trims, times = np.array(trims), np.array(times)
         _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
-        angles = np.degrees(trims[:, :n_angles])
-        worst = np.argmax(np.abs(angles), axis=0)
+        angles = np.abs(np.degrees(trims[:, :n_angles]))
+        worst = np.argmax(angles, axis=0)
         for j, i in enumerate(unknown):
             value, when = angles[worst[j], j], times[worst[j]]
-            if abs(value) > limits.max_tilt:
+            if value > limits.max_tilt:
+                value = math.copysign(value, trims[worst[j], j])
                 report.problems.append(f"{names[i]} would need {value:.1f} degrees at t = {when:.2f} s; the limit is "
                                        f"{limits.max_tilt:g} degrees (--max-tilt)")
-        tilt = np.abs(angles).max()
-        k_tilt = np.unravel_index(np.argmax(np.abs(angles)), angles.shape)
+        k_tilt = np.unravel_index(np.argmax(angles), angles.shape)
+        tilt = angles[k_tilt]
     else:
         tilt, k_tilt = math.nan, (0, 0)
-    if jump[0] > 0.01:
-        report.notes.append(f"the reference jumps by {jump[1]:.3g} m at t = {jump[2]:.2f} s: no feedforward can "
-                            "anticipate it, the feedback alone takes it")
     yaw = yaw_problem(psi_worst[1:], design, vehicle)
     if yaw:
         report.problems.append(yaw)
+    if not explain:
+        return report
+    if jump[0] > 0.01:
+        report.notes.append(f"the reference jumps by {jump[1]:.3g} m at t = {jump[2]:.2f} s: no feedforward can "
+                            "anticipate it, the feedback alone takes it")
     where = f" ({names[unknown[k_tilt[1]]]} at t = {times[k_tilt[0]]:.2f} s)" if len(times) else ""
     part = f" (the first {span:g} s of {stop:g} s)" if span < stop else ""
     report.summary = (f"feasibility over {t_all[-1]:.2f} s{part}: feedforward {forces}, |tau| <= {torque:.2f} N m (limits "

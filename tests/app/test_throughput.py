@@ -119,6 +119,24 @@ def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_
     assert any(r["problems"] for r in theirs) and any(not r["problems"] for r in theirs)  # refusals and passes compared
 
 
+def test_the_check_without_its_explanations_finds_the_same_problems_in_the_same_order():
+    """What a worker asks (explain=False: no summary, no notes) against the whole check, over plants and limits that
+    refuse for the thrusts of the trims and of the feedforward and for the tilt."""
+    from tiltload.master.app.trajectory_check import Limits, check_reference
+
+    rng = np.random.default_rng(11)
+    cases = [({"trajectory": int(rng.integers(1, 4))}, {"m_L": float(rng.uniform(0.01, 8)), "l": float(rng.uniform(0.2, 1.5))},
+              Limits(f_max=float(rng.uniform(8, 30)), tau_max=float(rng.uniform(0.02, 2)), max_tilt=float(rng.uniform(1, 30))),
+              ("mixed", int(rng.integers(0, 3)))) for _ in range(16)]
+    seen = set()
+    for scenario, plant, limits, design in cases:
+        whole = check_reference(scenario, 20.0, "load", plant, limits, design=design)
+        short = check_reference(scenario, 20.0, "load", plant, limits, design=design, explain=False)
+        assert short.problems == whole.problems and short.notes == [] and short.summary == ""
+        seen.update(p.split(" would need")[0] for p in whole.problems)
+    assert {"f_R", "the trim's f_R", "phi", "theta"} <= seen, seen  # the kinds of refusal a case meets compared
+
+
 def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
     from tiltload.master.app.campaign.case_system import case_system
     from tiltload.master.app.campaign.worker import CaseWorker

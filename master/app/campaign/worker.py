@@ -56,7 +56,7 @@ class CaseWorker:
         """The feasibility check's first problem for this case (None: it may run), once per reference and plant."""
         key = (flight, checked_plant(system.instance(PLANT).parameters), stop)
         if key not in self.verdicts:
-            report = check_system(system, stop, flight.max_tilt)
+            report = check_system(system, stop, flight.max_tilt, explain=False)
             self.verdicts[key] = report.problems[0] if report is not None and report.problems else None
         problem = self.verdicts[key]
         return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
