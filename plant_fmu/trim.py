@@ -43,10 +43,11 @@ def unknown_coordinates(vehicle: str) -> list[int]:
     return [i for i in range(model(vehicle).nq) if i not in TRACKED]
 
 
-def _residual_function(vehicle: str) -> ca.Function:
+def _residual_functions(vehicle: str) -> tuple[ca.Function, ca.Function]:
     """The residual L_in u - (M qdd + C qd + L_fr qd + g) and its Jacobian in z (the unknown coordinates, then the four
     inputs), at the tracked coordinates of ref = [x, y, z, psi, their rates, the load's acceleration x, y, z] with
-    every other coordinate at rest: the hover trim (ref's rates and acceleration 0) or the trim along a path."""
+    every other coordinate at rest: the hover trim (ref's rates and acceleration 0) or the trim along a path; and the
+    residual alone, from the same expressions (a quarter of the operations: Newton's last evaluation needs no Jacobian)."""
     m = model(vehicle)
     unknown = unknown_coordinates(vehicle)
     z = ca.SX.sym("z", m.nq)
@@ -60,13 +61,19 @@ def _residual_function(vehicle: str) -> ca.Function:
         qdd[k] = ref[8 + k]
     M, Cqd, g, L_in, L_fr, _ = m.f_terms(ca.vertcat(*q, *qd), m.p)
     r = L_in @ z[len(unknown):] - (M @ ca.vertcat(*qdd) + Cqd + L_fr @ ca.vertcat(*qd) + g)
-    return ca.Function("trim_residual", [z, ref, m.p], [r, ca.jacobian(r, z)])
+    return (ca.Function("trim_residual", [z, ref, m.p], [r, ca.jacobian(r, z)]),
+            ca.Function("trim_residual_value", [z, ref, m.p], [r]))
 
 
 @cache
+def residual_functions(vehicle: str) -> tuple[ca.Function, ca.Function]:
+    """The trim residual with its Jacobian, and alone (_residual_functions), built once per vehicle."""
+    return _residual_functions(vehicle)
+
+
 def residual_function(vehicle: str) -> ca.Function:
-    """The trim residual of _residual_function, built once per vehicle."""
-    return _residual_function(vehicle)
+    """The trim residual and its Jacobian (_residual_functions)."""
+    return residual_functions(vehicle)[0]
 
 
 class _Residual:

@@ -134,23 +134,28 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
     key = (vehicle, code, twin.shape_vector(scenario).tobytes(), lo, t.size, tick) if code != twin.WAYPOINTS else None
     if key is not None and key in _REFERENCES:
         return _REFERENCES[key]
-    nq = VEHICLES[vehicle].nq
-    s = _samples(vehicle, scenario, t)
-    x = np.tile(hover.x, (t.size, 1))
-    x[:, 0:3], x[:, 5], x[:, nq:] = s.p, s.psi, 0.0
-    x[:, nq:nq + 3], x[:, nq + 5] = s.v, s.psi_dot
-    qdd = np.zeros((t.size, nq))
-    qdd[:, 0:3] = s.a
     from .trim_residual import compiled_feedforward
 
-    mapped = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
-    u = mapped(x, qdd, nominal) if mapped is not None else np.array(ff.map(t.size)(x.T, qdd.T, np.repeat(
-        nominal[:, None], t.size, axis=1))).T
+    s = _samples(vehicle, scenario, t)
     refs = np.column_stack([s.p, s.psi, s.v, s.psi_dot, s.a])  # the trims' references
+    along = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
+    u = along(hover.x, refs, nominal) if along is not None else feedforward_map(ff, hover.x, refs, nominal)
     chunk = _Chunk(s, u, refs)
     if key is not None:
         _keep(key, chunk)
     return chunk
+
+
+def feedforward_map(ff, hover_x: np.ndarray, refs: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The feedforward at each row of refs (the load's position, psi, their rates, its acceleration), the other
+    coordinates at hover_x and at rest, with the parameters p: CasADi's map ((count, 4))."""
+    nq = hover_x.size // 2
+    x = np.tile(hover_x, (len(refs), 1))
+    x[:, 0:3], x[:, 5], x[:, nq:] = refs[:, 0:3], refs[:, 3], 0.0
+    x[:, nq:nq + 3], x[:, nq + 5] = refs[:, 4:7], refs[:, 7]
+    qdd = np.zeros((len(refs), nq))
+    qdd[:, 0:3] = refs[:, 8:11]
+    return np.array(ff.map(len(refs))(x.T, qdd.T, np.repeat(p[:, None], len(refs), axis=1))).T
 
 
 def _samples(vehicle: str, scenario: dict, t: np.ndarray) -> twin.Samples:

@@ -1,6 +1,6 @@
 """The feasibility check's Newton steps (plant_fmu.trim.newton) in C: CasADi's code generator writes the trim residual
-and its Jacobian (plant_fmu.trim.residual_function), trim_newton.c takes the steps and solves with the LAPACK dgesv
-numpy's linalg.solve itself calls (its address taken from numpy's own library), built once per machine
+and its Jacobian, and the residual alone (plant_fmu.trim.residual_functions); trim_newton.c takes the steps and solves
+with the LAPACK dgesv numpy's linalg.solve itself calls (its address taken from numpy's own library), built once per machine
 (engine/native/kernel.compiled: cached by the sources' digest) and called with ctypes. The same operations on the same
 values in the same order (-ffp-contract=off: no fused multiply-add), so the same trims to the last bit
 (tests/app/test_throughput.py); the trims along a path go in one call (tl_trim_path: trajectory_check._trim's
@@ -53,13 +53,14 @@ def _gesv():
 def _library(vehicle: str) -> ctypes.CDLL | None:
     import casadi as ca
 
-    from ...plant_fmu.trim import residual_function
+    from ...plant_fmu.trim import residual_functions
     from ...scenario_fmu.fmu_variables import capacity_header
 
     with _lock:
         if vehicle not in _libraries:
             generator = ca.CodeGenerator(f"tl_trim_{vehicle}.c", {"with_header": False})
-            generator.add(residual_function(vehicle))
+            for function in residual_functions(vehicle):
+                generator.add(function)
             generator.add(feedforward(vehicle))
             with tempfile.TemporaryDirectory(prefix="tiltload-trim-") as tmp:
                 source = Path(tmp) / f"tl_trim_{vehicle}.c"
@@ -84,10 +85,13 @@ class CompiledNewton:
         from ...plant_fmu.trim import residual_function
 
         f = residual_function(vehicle)
-        sizes = [ctypes.c_longlong() for _ in range(4)]
-        lib.trim_residual_work(*(ctypes.byref(s) for s in sizes))
-        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
-        self.w = np.zeros(max(sizes[3].value, 1))
+        work = []
+        for name in ("trim_residual_work", "trim_residual_value_work"):  # arrays for either function
+            sizes = [ctypes.c_longlong() for _ in range(4)]
+            getattr(lib, name)(*(ctypes.byref(s) for s in sizes))
+            work.append((sizes[2].value, sizes[3].value))
+        self.iw = np.zeros(max(1, *(i for i, _ in work)), dtype=np.int64)
+        self.w = np.zeros(max(1, *(w for _, w in work)))
         rows, cols = f.sparsity_out(1).get_triplet()
         self.n = f.nnz_in(0)
         self.dense = np.array([c * f.size1_out(1) + r for r, c in zip(rows, cols)], dtype=np.int64)  # column-major
@@ -134,7 +138,8 @@ def compiled_newton(vehicle: str):
 
 
 class CompiledFeedforward:
-    """trajectory_check's feedforward along the reference, CasADi's map of it done in C (tl_map3): (count, 4)."""
+    """trajectory_check's feedforward along the reference in C (tl_feedforward_along): CasADi's map of it over states and
+    accelerations made from the reference's rows, the same bits."""
 
     def __init__(self, vehicle: str, lib: ctypes.CDLL) -> None:
         f = feedforward(vehicle)
@@ -146,21 +151,21 @@ class CompiledFeedforward:
         self.rows = [f.size1_in(k) for k in range(3)]
         self.nu = f.size1_out(0)
         self.function = ctypes.cast(getattr(lib, name), ctypes.c_void_p)
-        self.map = lib.tl_map3
+        self.along = lib.tl_feedforward_along
         p, i = ctypes.c_void_p, ctypes.c_int
-        self.map.argtypes = [p, p, i, p, i, p, i, p, i, i, p, p]
-        self.map.restype = i
+        self.along.argtypes = [p, p, i, p, p, p, i, i, p, p]
+        self.along.restype = i
 
-    def __call__(self, x: np.ndarray, qdd: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """u (count, nu) at the rows of x (count, nx), qdd (count, nq) with the parameters p (np,) for every row."""
-        count = len(x)
-        x, qdd = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(qdd, dtype=float)
-        params = np.ascontiguousarray(p, dtype=float)
-        if params.shape != (self.rows[2],):
-            raise ValueError(f"the feedforward takes {self.rows[2]} parameters, not {params.shape}")
-        out = np.empty((count, self.nu))
-        status = self.map(self.function, x.ctypes.data, self.rows[0], qdd.ctypes.data, self.rows[1], params.ctypes.data,
-                          0, out.ctypes.data, self.nu, count, self.iw.ctypes.data, self.w.ctypes.data)  # one p row for all
+    def __call__(self, hover_x: np.ndarray, refs: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """u (count, nu) at the rows of refs (count, 11: the load's position, psi, their rates, its acceleration), the
+        other coordinates at hover_x and at rest, with the parameters p."""
+        hover_x, refs, p = (np.ascontiguousarray(a, dtype=float) for a in (hover_x, refs, p))
+        if hover_x.shape != (self.rows[0],) or p.shape != (self.rows[2],) or refs.ndim != 2 or refs.shape[1] != 11:
+            raise ValueError(f"the feedforward takes a state of {self.rows[0]}, rows of 11 and {self.rows[2]} parameters, "
+                             f"not {hover_x.shape}, {refs.shape} and {p.shape}")
+        out = np.empty((len(refs), self.nu))
+        status = self.along(self.function, hover_x.ctypes.data, self.rows[1], refs.ctypes.data, p.ctypes.data,
+                            out.ctypes.data, self.nu, len(refs), self.iw.ctypes.data, self.w.ctypes.data)
         if status:
             raise RuntimeError(f"the compiled feedforward failed ({status})")
         return out

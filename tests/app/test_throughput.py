@@ -18,10 +18,11 @@ TIMING = ("wall_s", "cpu_s", "worker")
 
 
 def plain(monkeypatch):
-    """The check as it was: Python's Newton steps, nothing cached."""
+    """The check as it was: Python's Newton steps, CasADi's map of the feedforward, numpy's mission, nothing cached."""
     from tiltload.master.app import feasibility, trajectory_check, trim_residual
 
-    monkeypatch.setattr(trim_residual, "compiled_newton", lambda vehicle: None)
+    for name in ("compiled_newton", "compiled_feedforward", "compiled_mission"):
+        monkeypatch.setattr(trim_residual, name, lambda vehicle: None)
     trajectory_check._hover.cache_clear()
     trajectory_check._REFERENCES.clear()
     feasibility._IDENTIFIERS.clear()
@@ -60,18 +61,38 @@ def test_newton_in_c_takes_python_s_steps_to_the_bit(vehicle):
 
 
 @pytest.mark.parametrize("vehicle", ["load", "uav"])
-def test_the_feedforward_mapped_in_c_is_casadi_s_map_to_the_bit(vehicle):
+def test_the_residual_alone_is_the_residual_of_the_residual_and_jacobian_to_the_bit(vehicle):
+    """What lets Newton's last evaluation skip the Jacobian (trim_newton.c) without changing a trim."""
+    from tiltload.plant_fmu.trim import residual_functions
+
+    full, alone = residual_functions(vehicle)
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        args = [rng.normal(scale=rng.choice([0.1, 3.0]), size=full.nnz_in(k)) for k in range(3)]
+        assert np.array(alone(*args)).tobytes() == np.array(full(*args)[0]).tobytes()
+
+
+@pytest.mark.parametrize("vehicle", ["load", "uav"])
+def test_the_feedforward_along_a_reference_in_c_is_casadi_s_map_to_the_bit(vehicle):
+    """The states and accelerations built from the reference's rows in C, against numpy's and CasADi's map
+    (trajectory_check.feedforward_map, what runs without a compiler), at random rows and a random hover state."""
+    from tiltload.master.app.trajectory_check import feedforward_map
     from tiltload.master.app.trim_residual import compiled_feedforward, feedforward
     from tiltload.plant_fmu.vehicles import VEHICLES
 
-    mapped = compiled_feedforward(vehicle)
-    if mapped is None:
+    along = compiled_feedforward(vehicle)
+    if along is None:
         pytest.skip("no C compiler")
     f, rng, n = feedforward(vehicle), np.random.default_rng(5), 300
-    x, qdd = rng.normal(size=(n, f.size1_in(0))), rng.normal(scale=3.0, size=(n, f.size1_in(1)))
-    p = VEHICLES[vehicle].default_parameters()
-    theirs = np.array(f.map(n)(x.T, qdd.T, np.repeat(p[:, None], n, axis=1))).T
-    assert mapped(x, qdd, p).tobytes() == theirs.tobytes()
+    hover_x, refs = rng.normal(size=f.size1_in(0)), rng.normal(scale=3.0, size=(n, 11))
+    p = VEHICLES[vehicle].default_parameters() * rng.uniform(0.8, 1.2, size=f.size1_in(2))
+    ours, theirs = along(hover_x, refs, p), feedforward_map(f, hover_x, refs, p)
+    assert ours.shape == (n, 4) and ours.tobytes() == theirs.tobytes()
+    nq = f.size1_in(1)  # and by hand at one row: the state's rates but the load's and psi's are 0
+    x = hover_x.copy()
+    x[[0, 1, 2, 5]], x[nq:] = refs[7, :4], 0.0
+    x[[nq, nq + 1, nq + 2, nq + 5]] = refs[7, 4:8]
+    assert np.array(f(x, np.r_[refs[7, 8:11], np.zeros(nq - 3)], p)).ravel().tobytes() == ours[7].tobytes()
 
 
 def test_a_mission_evaluated_by_the_scenario_fmu_s_c_is_numpy_s_evaluation_to_the_bit():
