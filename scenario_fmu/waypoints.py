@@ -170,20 +170,34 @@ def _free_system(free: np.ndarray, segments) -> tuple:
     """What the free entries decide (the same for every axis that leaves the same ones free): their positions, the
     entries that couple them to the known ones, and the equilibrated upper band of their block."""
     values, rows, cols = segments
+    position, into, both, on, i_on, upper, iu, ju, band, flat, size = _free_pattern(free.tobytes(), rows.size // 36)
+    g = values[both]
+    diagonal = np.bincount(i_on, g[on], minlength=size)  # (bincount sums in the order given, as np.add.at does: the
+    scale = 1 / np.sqrt(diagonal)  # same bits, a fifth of the time) the entries span powers of the segment times
+    ab = np.bincount(flat, g[upper] * scale[iu] * scale[ju], minlength=(band + 1) * size)
+    return position, into, scale, ab.reshape(band + 1, size)  # the upper band, as scipy.linalg.solveh_banded takes it
+
+
+@lru_cache(maxsize=64)
+def _free_pattern(free: bytes, segments: int) -> tuple:
+    """_free_system's indices, which depend on which entries are free and the number of segments alone (not on the
+    times): kept per pattern, read-only (a search that moves a waypoint's time or position meets the same ones)."""
+    free = np.frombuffer(free, dtype=bool)
+    rows, cols = _block_indices(segments)
     position = np.cumsum(free) - 1  # index among the free entries
     known = ~free
     into = free[rows] & known[cols]  # b = -G[free, known] w[known]
     both = free[rows] & free[cols]
-    i, j, g = position[rows[both]], position[cols[both]], values[both]
+    i, j = position[rows[both]], position[cols[both]]
     size = int(free.sum())
-    on = i == j  # (bincount sums in the order given, as np.add.at does: the same bits, a fifth of the time)
-    diagonal = np.bincount(i[on], g[on], minlength=size)
-    scale = 1 / np.sqrt(diagonal)  # the entries span powers of the segment times: equilibrate first
-    upper = i <= j
+    on, upper = i == j, i <= j
     iu, ju = i[upper], j[upper]
     band = int((ju - iu).max())
-    ab = np.bincount((band + iu - ju) * size + ju, g[upper] * scale[iu] * scale[ju], minlength=(band + 1) * size)
-    return position, into, scale, ab.reshape(band + 1, size)  # the upper band, as scipy.linalg.solveh_banded takes it
+    out = (position, into, both, on, i[on], upper, iu, ju, band, (band + iu - ju) * size + ju, size)
+    for array in out:
+        if isinstance(array, np.ndarray):
+            array.flags.writeable = False
+    return out
 
 
 def _solve_banded(ab: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -290,9 +304,8 @@ class MinimumJerk:
 
     @classmethod
     def from_knots(cls, knots: np.ndarray) -> MinimumJerk:
-        knots = np.asarray(knots, dtype=float)
-        axis = lambda q: np.stack([knots[:, 1 + 3 * k + q] for k in range(len(AXES))], axis=1)  # noqa: E731
-        return cls(knots[:, 0].copy(), axis(0), axis(1), axis(2))
+        knots = np.asarray(knots, dtype=float)  # each axis's position, velocity, acceleration: every third column
+        return cls(knots[:, 0].copy(), *(np.ascontiguousarray(knots[:, 1 + q::3]) for q in range(3)))
 
 
 _KNOT_LINE_FORMAT = ",".join(["%.17g"] * len(KNOT_COLUMNS)) + "\n"  # one format a line (f"{x:.17g}", the same text)

@@ -295,19 +295,21 @@ def _forces(u: np.ndarray) -> str:
 
 
 def _limit_inputs(report: Report, what: str, u: np.ndarray, t: np.ndarray, limits: Limits) -> None:
-    """One line per input beyond its limit, at its worst sample."""
+    """One line per input beyond its limit, at its worst sample (the first, when several are as bad)."""
+    over = np.argmax(u[:, :2] - limits.f_max, axis=0).tolist()
+    under = np.argmin(u[:, :2], axis=0).tolist()
+    torque = np.argmax(np.abs(u[:, 2:]), axis=0).tolist()
     for i, name in enumerate(INPUT_NAMES):
         if i < 2:
-            over, under = u[:, i] - limits.f_max, limits.f_min - u[:, i]
-            k_over, k_under = int(np.argmax(over)), int(np.argmin(u[:, i]))
-            if over[k_over] > 1e-9:
+            k_over, k_under = over[i], under[i]
+            if u[k_over, i] - limits.f_max > 1e-9:
                 report.problems.append(f"{what}{name} would need {u[k_over, i]:.3g} N at t = {t[k_over]:.2f} s; the limit is "
                                        f"{limits.f_max:g} N")
-            if under[k_under] > 1e-9:
+            if limits.f_min - u[k_under, i] > 1e-9:
                 report.problems.append(f"{what}{name} would need {u[k_under, i]:.3g} N at t = {t[k_under]:.2f} s; the limit is "
                                        f"{limits.f_min:g} N")
         else:
-            k = int(np.argmax(np.abs(u[:, i])))
+            k = torque[i - 2]
             if abs(u[k, i]) > limits.tau_max + 1e-9:
                 report.problems.append(f"{what}{name} would need {u[k, i]:.3g} N m at t = {t[k]:.2f} s; the limit is "
                                        f"+-{limits.tau_max:g} N m")
