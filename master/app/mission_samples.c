@@ -5,19 +5,22 @@
 
 enum { TL_AXES = 4 }; /* x, y, z, psi */
 
-/* n knots: times t[n], and p, v, a each TL_AXES rows of n (axis by axis); pos, vel, acc: count rows of TL_AXES. */
+/* n knots: times t[n], and p, v, a each TL_AXES rows of n (axis by axis); out: count rows of 3 TL_AXES, each the
+ * position, the velocity and the acceleration of x, y, z, psi at its time (the feasibility check's reference rows: its
+ * first 11 columns). */
 __attribute__((visibility("default")))
 void tl_mission_samples(int n, const double *t, const double *p, const double *v, const double *a, int count,
-                        const double *times, double *pos, double *vel, double *acc)
+                        const double *times, double *out)
 {
     for (int i = 0; i < count; i++) {
+        double *row = out + (size_t)i * 3 * TL_AXES;
         for (int k = 0; k < TL_AXES; k++) {
-            double out[3];
-            size_t at = (size_t)k * (size_t)n, row = (size_t)i * TL_AXES + (size_t)k;
-            tl_waypoints_axis(n, t, p + at, v + at, a + at, times[i], out);
-            pos[row] = out[0];
-            vel[row] = out[1];
-            acc[row] = out[2];
+            double at[3];
+            size_t axis = (size_t)k * (size_t)n;
+            tl_waypoints_axis(n, t, p + axis, v + axis, a + axis, times[i], at);
+            row[k] = at[0];
+            row[TL_AXES + k] = at[1];
+            row[2 * TL_AXES + k] = at[2];
         }
     }
 }

@@ -136,8 +136,7 @@ def _reference(vehicle: str, scenario: dict, t: np.ndarray, lo: int, tick: float
         return _REFERENCES[key]
     from .trim_residual import compiled_feedforward
 
-    s = _samples(vehicle, scenario, t)
-    refs = np.column_stack([s.p, s.psi, s.v, s.psi_dot, s.a])  # the trims' references
+    s, refs = _samples(vehicle, scenario, t)
     along = compiled_feedforward(vehicle)  # CasADi's map in C, the same bits (trim_residual.py)
     u = along(hover.x, refs, nominal) if along is not None else feedforward_map(ff, hover.x, refs, nominal)
     chunk = _Chunk(s, u, refs)
@@ -158,15 +157,18 @@ def feedforward_map(ff, hover_x: np.ndarray, refs: np.ndarray, p: np.ndarray) ->
     return np.array(ff.map(len(refs))(x.T, qdd.T, np.repeat(p[:, None], len(refs), axis=1))).T
 
 
-def _samples(vehicle: str, scenario: dict, t: np.ndarray) -> twin.Samples:
-    """twin.evaluate(scenario, t); a mission's by the scenario FMU's C where it is compiled (the same bits)."""
+def _samples(vehicle: str, scenario: dict, t: np.ndarray) -> tuple[twin.Samples, np.ndarray]:
+    """twin.evaluate(scenario, t), and its rows as the trims and the feedforward take them (the load's position, psi,
+    their rates, its acceleration: 11 columns); a mission's by the scenario FMU's C where it is compiled (the same
+    bits), the samples then views of its rows."""
     from .trim_residual import compiled_mission
 
     mission = compiled_mission(vehicle) if int(scenario.get("trajectory", 1)) == twin.WAYPOINTS else None
     if mission is None:
-        return twin.evaluate(scenario, t)
-    pos, vel, acc = mission(waypoints.from_parameters(scenario), t)
-    return twin.Samples(t, pos[:, :3], vel[:, :3], acc[:, :3], pos[:, 3], vel[:, 3])
+        s = twin.evaluate(scenario, t)
+        return s, np.column_stack([s.p, s.psi, s.v, s.psi_dot, s.a])
+    rows = mission(waypoints.from_parameters(scenario), t)
+    return twin.Samples(t, rows[:, 0:3], rows[:, 4:7], rows[:, 8:11], rows[:, 3], rows[:, 7]), rows[:, :11]
 
 
 def _keep(key: tuple, value) -> None:

@@ -147,21 +147,21 @@ typedef int (*tl_casadi_function)(const double **arg, double **res, casadi_int *
 enum { TL_MAX_NX = 64 };
 
 /* The feedforward (3.18) along the reference, one call per row as CasADi's map does: at each row of refs (count rows of
- * TL_REF: the load's position, psi, their rates, the load's acceleration) the state hover_x (nx = 2 nq) with the load's
- * position, psi and their rates put in and every other rate 0, and qdd the load's acceleration alone, with the
- * parameters p; out: count rows of nu. 0: done; else the function's code (-1: a state larger than TL_MAX_NX). */
+ * TL_REF, stride apart: the load's position, psi, their rates, the load's acceleration) the state hover_x (nx = 2 nq)
+ * with the load's position, psi and their rates put in and every other rate 0, and qdd the load's acceleration alone,
+ * with the parameters p; out: count rows of nu. 0: done; else the function's code (-1: a state larger than TL_MAX_NX). */
 __attribute__((visibility("default")))
-int tl_feedforward_along(tl_casadi_function f, const double *hover_x, int nq, const double *refs, const double *p, double *out,
-                         int nu, int count, casadi_int *iw, double *w)
+int tl_feedforward_along(tl_casadi_function f, const double *hover_x, int nq, const double *refs, int stride, const double *p,
+                         double *out, int nu, int count, casadi_int *iw, double *w)
 {
     double x[TL_MAX_NX], qdd[TL_MAX_NX / 2];
-    if (2 * nq > TL_MAX_NX || nq < 6)
+    if (2 * nq > TL_MAX_NX || nq < 6 || stride < TL_REF)
         return -1;
     memcpy(x, hover_x, sizeof(double) * (size_t)nq);
     memset(x + nq, 0, sizeof(double) * (size_t)nq);
     memset(qdd, 0, sizeof(double) * (size_t)nq);
     for (int k = 0; k < count; k++) {
-        const double *ref = refs + (size_t)k * TL_REF;
+        const double *ref = refs + (size_t)k * (size_t)stride;
         memcpy(x, ref, 3 * sizeof(double));
         x[5] = ref[3];
         memcpy(x + nq, ref + 4, 3 * sizeof(double));

@@ -153,19 +153,21 @@ class CompiledFeedforward:
         self.function = ctypes.cast(getattr(lib, name), ctypes.c_void_p)
         self.along = lib.tl_feedforward_along
         p, i = ctypes.c_void_p, ctypes.c_int
-        self.along.argtypes = [p, p, i, p, p, p, i, i, p, p]
+        self.along.argtypes = [p, p, i, p, i, p, p, i, i, p, p]
         self.along.restype = i
 
     def __call__(self, hover_x: np.ndarray, refs: np.ndarray, p: np.ndarray) -> np.ndarray:
         """u (count, nu) at the rows of refs (count, 11: the load's position, psi, their rates, its acceleration), the
         other coordinates at hover_x and at rest, with the parameters p."""
-        hover_x, refs, p = (np.ascontiguousarray(a, dtype=float) for a in (hover_x, refs, p))
+        hover_x, p = np.ascontiguousarray(hover_x, dtype=float), np.ascontiguousarray(p, dtype=float)
+        if refs.dtype != np.float64 or refs.ndim != 2 or refs.strides[1] != 8 or refs.strides[0] % 8:
+            refs = np.ascontiguousarray(refs, dtype=float)  # (rows apart by any whole number of doubles are read as they are)
         if hover_x.shape != (self.rows[0],) or p.shape != (self.rows[2],) or refs.ndim != 2 or refs.shape[1] != 11:
             raise ValueError(f"the feedforward takes a state of {self.rows[0]}, rows of 11 and {self.rows[2]} parameters, "
                              f"not {hover_x.shape}, {refs.shape} and {p.shape}")
         out = np.empty((len(refs), self.nu))
-        status = self.along(self.function, hover_x.ctypes.data, self.rows[1], refs.ctypes.data, p.ctypes.data,
-                            out.ctypes.data, self.nu, len(refs), self.iw.ctypes.data, self.w.ctypes.data)
+        status = self.along(self.function, hover_x.ctypes.data, self.rows[1], refs.ctypes.data, refs.strides[0] // 8,
+                            p.ctypes.data, out.ctypes.data, self.nu, len(refs), self.iw.ctypes.data, self.w.ctypes.data)
         if status:
             raise RuntimeError(f"the compiled feedforward failed ({status})")
         return out
@@ -187,20 +189,21 @@ class CompiledMission:
     def __init__(self, lib: ctypes.CDLL) -> None:
         self.function = lib.tl_mission_samples
         p, i = ctypes.c_void_p, ctypes.c_int
-        self.function.argtypes = [i, p, p, p, p, i, p, p, p, p]
+        self.function.argtypes = [i, p, p, p, p, i, p, p]
         self.function.restype = None
 
-    def __call__(self, reference, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity, acceleration ((len(times), 4)) of a waypoints.MinimumJerk at the times."""
+    def __call__(self, reference, times: np.ndarray) -> np.ndarray:
+        """(len(times), 12): the position, velocity and acceleration of x, y, z, psi of a waypoints.MinimumJerk at the
+        times (its first 11 columns a reference row of the trims and the feedforward)."""
         times = np.ascontiguousarray(times, dtype=float)
         knots = np.ascontiguousarray(reference.t, dtype=float)
         p, v, a = (np.ascontiguousarray(np.asarray(x, dtype=float).T) for x in (reference.p, reference.v, reference.a))
         if p.shape[0] != 4:
             raise ValueError(f"a mission has 4 axes (x, y, z, psi), not {p.shape[0]}")
-        out = [np.empty((times.size, 4)) for _ in range(3)]
+        out = np.empty((times.size, 12))
         self.function(knots.size, knots.ctypes.data, p.ctypes.data, v.ctypes.data, a.ctypes.data, times.size,
-                      times.ctypes.data, *(o.ctypes.data for o in out))
-        return out[0], out[1], out[2]
+                      times.ctypes.data, out.ctypes.data)
+        return out
 
 
 def compiled_mission(vehicle: str):
