@@ -84,6 +84,32 @@ def test_a_decided_fail_is_a_fail_of_every_way_the_trace_goes_on(seed):
 
 
 @pytest.mark.parametrize("seed", range(20))
+def test_the_robustness_at_the_start_alone_is_the_signal_s_first_sample(seed):
+    """Evaluator.at_start (a verdict's and the early-stop check's question) against the whole signal's first sample in
+    every mode, finished and not, with windows inside, across and past the trace's end, on samples with NaN and inf;
+    and against the brute-force definition (on the samples without them: the oracle's arithmetic is Python's)."""
+    rng = random.Random(4000 + seed)
+    period = rng.choice([1.0, 0.25])
+    for _ in range(6):
+        clean = rand_trace(rng, rng.randint(1, 30), period)
+        trace = Trace.uniform(clean.times, {n: v.copy() for n, v in clean.signals.items()}, period)
+        x = trace.signals["a.x"]
+        x[rng.randrange(len(x))] = rng.choice([np.nan, np.inf, -np.inf, 0.0])
+        inner = unparse(rand_formula(rng, 2, period))
+        a = rng.choice([0, 1, 3, 12, 40]) * period
+        b = a + rng.choice([0, 2, 9, 60]) * period
+        texts = [f"always[{a}:{b}] ({inner})", f"eventually[{a}:{b}] ({inner})", f"always ({inner})", inner]
+        for text in texts:
+            f = parse(text)
+            for final in (True, False):
+                for mode in ("value", "lower", "upper"):
+                    want = Evaluator(trace, final)(f, mode)[0]
+                    got = Evaluator(trace, final).at_start(f, mode)
+                    assert same(np.array([got]), np.array([want])), (text, final, mode, got, want)
+            assert same(np.array([Evaluator(clean).at_start(f)]), np.array([brute(f, clean, 0)])), text
+
+
+@pytest.mark.parametrize("seed", range(20))
 def test_reads_from_says_what_first_read_says_of_every_trace_length(seed):
     """reads_from (once per formula and period, for the early-stop check) >= n exactly when first_read on a trace of n
     samples is, for random formulas and windows that end before, inside and past the traces."""

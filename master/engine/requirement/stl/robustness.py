@@ -109,6 +109,24 @@ class Evaluator:
                 self._memo[(id(n), m)] = (n, self._eval(n, m))
         return self._memo[key][1]
 
+    def at_start(self, node, mode: str = "value") -> float:
+        """self(node, mode)[0] (a verdict's question), without the windowed min or max over every sample where the
+        formula is an always or an eventually: the min or max of its window at the start alone, the same value (min and
+        max only select, so bit for bit but for the sign of a zero among equal samples; a NaN in the window carried as
+        numpy's minimum carries it)."""
+        if not isinstance(node, (Always, Eventually)) or (id(node), mode) in self._memo or not len(self.trace):
+            return float(self(node, mode)[0])
+        lo, hi = self.trace.ticks(node.a), self.trace.ticks_end(node.b)
+        pad_min, pad_max = self._pads(mode, math.isinf(node.b))
+        always = isinstance(node, Always)
+        if lo > hi:
+            return float(pad_min if always else pad_max)
+        x = self(node.arg, mode)
+        window = x[lo:hi + 1]  # the samples past the end are the pad, once (hi may pass the end: ticks_end stops there)
+        if hi >= len(x) or not window.size:
+            window = np.append(window, pad_min if always else pad_max)
+        return float(np.min(window) if always else np.max(window))
+
     def _pads(self, mode: str, unbounded: bool) -> tuple[float, float]:
         """(what an absent sample is for a min, for a max): neutral for the value, unknown for a bound."""
         if mode == "value" or (unbounded and self.final):
@@ -299,13 +317,13 @@ def verdict(formula, trace: Trace, final: bool = True, evaluator: Evaluator | No
         return Verdict(INCONCLUSIVE, None, (-math.inf, math.inf), None, {})
     covered = final and trace.times[-1] - trace.times[0] >= bounded_horizon(formula) - _SLACK * trace.period
     if covered:
-        rho = float(ev(formula, "value")[0])
+        rho = ev.at_start(formula, "value")
         if rho < 0:
             j = first_violation(formula, ev, 0, "value")
             return Verdict(FAIL, rho, (rho, rho), float(trace.times[j]), _values(formula, trace, j))
         if rho >= 0:
             return Verdict(PASS if rho > 0 else ZERO, rho, (rho, rho), None, {}, vacuous=vacuity(formula, ev))
-    low, high = float(ev(formula, "lower")[0]), float(ev(formula, "upper")[0])
+    low, high = ev.at_start(formula, "lower"), ev.at_start(formula, "upper")
     unknown = covered  # a NaN where the formula reads, not the run's end
     if high < 0:
         j = first_violation(formula, ev, 0, "upper")
@@ -324,7 +342,7 @@ def decided_fail(formula, trace: Trace, evaluator: Evaluator | None = None) -> b
         raise ValueError("decided_fail judges a trace still going on: its evaluator must not be final")
     if len(trace) == 0 or reads_from(formula, trace.period) >= len(trace):
         return False  # every sample it reads is still to come: unknown samples bound it above by +inf
-    return float(ev(formula, "upper")[0]) < 0
+    return ev.at_start(formula, "upper") < 0
 
 
 class _Unbounded:
