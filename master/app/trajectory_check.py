@@ -80,6 +80,17 @@ def _hover(vehicle: str, p: bytes):
     return hover_trim(np.frombuffer(p), vehicle=vehicle, solve=compiled_newton(vehicle))
 
 
+@lru_cache(maxsize=64)
+def _trim_start(vehicle: str, p: bytes) -> np.ndarray:
+    """The trims' unknowns at the hover trim of a parameter vector (its bytes): the first trim's start (read only)."""
+    from ...plant_fmu.trim import unknown_coordinates
+
+    hover = _hover(vehicle, p)
+    z = np.r_[hover.x[unknown_coordinates(vehicle)], hover.u]
+    z.flags.writeable = False
+    return z
+
+
 @dataclass
 class _Chunk:
     """A chunk of the reference: its samples, the nominal feedforward there and the trims' reference rows, with what
@@ -207,22 +218,23 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     report = Report()
     try:
         hover = _hover(vehicle, nominal.tobytes())
-        hover_actual = _hover(vehicle, actual.tobytes())
+        z = _trim_start(vehicle, actual.tobytes())
     except (TrimError, ValueError) as err:
         report.problems.append(f"the plant has no hover trim with these parameters ({err})")
         return report
     span = min(stop, MAX_SPAN)
     n = int(math.floor(span / tick + 1e-9)) + 1
     n_angles = len(unknown)
-    u_ff = np.empty((n, 4))
-    z = np.r_[hover_actual.x[unknown], hover_actual.u]
+    u_ff = np.empty((n, 4)) if n > CHUNK else None  # (one chunk: its own array)
     previous = np.zeros(11)
     trims, times, failed = [], [], False
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
         chunk = _reference(vehicle, scenario, t, lo, tick, hover, nominal, ff)
-        s, u_ff[lo:lo + t.size], refs = chunk.s, chunk.u, chunk.refs
+        s, refs = chunk.s, chunk.refs
+        if u_ff is not None:
+            u_ff[lo:lo + t.size] = chunk.u
         if lo == 0:  # hover at the start point (the first sample, t = 0): the trim there is the hover trim
             previous[0:3], previous[3] = s.p[0], s.psi[0]
         solver = compiled_newton(vehicle)

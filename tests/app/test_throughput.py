@@ -24,6 +24,7 @@ def plain(monkeypatch):
     for name in ("compiled_newton", "compiled_feedforward", "compiled_mission"):
         monkeypatch.setattr(trim_residual, name, lambda vehicle: None)
     trajectory_check._hover.cache_clear()
+    trajectory_check._trim_start.cache_clear()
     trajectory_check._REFERENCES.clear()
     feasibility._IDENTIFIERS.clear()
 
