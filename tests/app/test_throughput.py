@@ -161,6 +161,23 @@ def test_the_check_without_its_explanations_finds_the_same_problems_in_the_same_
     assert {"f_R", "the trim's f_R", "phi", "theta"} <= seen, seen  # the kinds of refusal a case meets compared
 
 
+def test_a_reference_checked_in_chunks_says_what_it_says_in_one(monkeypatch):
+    """A span longer than CHUNK ticks is sampled a chunk at a time (the check's memory bounded): the same problems,
+    notes and summary as one chunk, the chunk boundaries falling between trims and within the reference's moves."""
+    from tiltload.master.app import trajectory_check
+    from tiltload.master.app.trajectory_check import Limits, check_reference
+
+    cases = [({"trajectory": 2}, {}, Limits()), ({"trajectory": 3}, {"m_L": 2.0}, Limits(f_max=12.0, max_tilt=5.0)),
+             ({"trajectory": 1}, {"l": 1.2}, Limits(tau_max=0.01))]
+    whole = [vars(check_reference(s, 20.0, "load", plant, limits)) for s, plant, limits in cases]
+    monkeypatch.setattr(trajectory_check, "CHUNK", 237)  # 1667 ticks: 8 chunks, none a multiple of the trims' 10
+    trajectory_check._REFERENCES.clear()
+    chunked = [vars(check_reference(s, 20.0, "load", plant, limits)) for s, plant, limits in cases]
+    trajectory_check._REFERENCES.clear()
+    assert chunked == whole
+    assert any(r["problems"] for r in whole) and any(not r["problems"] for r in whole)
+
+
 def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
     from tiltload.master.app.campaign.case_system import case_system
     from tiltload.master.app.campaign.worker import CaseWorker
