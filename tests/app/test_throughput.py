@@ -193,6 +193,27 @@ def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
     assert len(worker.verdicts) == 1 and verdicts[0] == verdicts[1]
 
 
+def test_a_worker_keeps_a_bounded_number_of_verdicts_and_checks_again_what_it_let_go(fmus, monkeypatch):
+    """A search that moves a mission makes a new verdict key at every point: the worker keeps the last MOST_VERDICTS,
+    and a point whose verdict went is checked again (the same verdict), never answered from another's."""
+    from tiltload.master.app.campaign import worker as W
+    from tiltload.master.app.campaign.case_system import case_system
+    from tiltload.master.app.falsify.spec import load
+
+    base = load(ROOT / "docs" / "falsification" / "tracking_wind_load.toml").base()
+    systems = [case_system(fmus, base, "mixed", 1, {"plant.m_L": m}) for m in (0.05, 3.0, 7.5, 0.06)]
+    checks = []
+    real = W.check_system
+    monkeypatch.setattr(W, "check_system", lambda *a, **k: checks.append(1) or real(*a, **k))
+    monkeypatch.setattr(W, "MOST_VERDICTS", 3)
+    worker = W.CaseWorker(keep=False)
+    first = [worker.infeasible(s, 8.1, base.trajectory) for s in systems]  # the fourth pushes the first out
+    assert len(worker.verdicts) == 3 and len(checks) == 4
+    assert worker.infeasible(systems[0], 8.1, base.trajectory) == first[0] and len(checks) == 5  # checked again
+    assert worker.infeasible(systems[3], 8.1, base.trajectory) == first[3] and len(checks) == 5  # still kept
+    assert first[0] is None and first[2] is not None  # a feasible plant and an infeasible one
+
+
 @pytest.mark.parametrize("spec", ["tracking_wind_load", "altitude_thrust_loss"])
 def test_a_search_s_rows_on_a_warm_worker_are_each_point_s_run_alone_the_plain_way(fmus, spec, monkeypatch):
     from tiltload.master.app.campaign.worker import CaseWorker

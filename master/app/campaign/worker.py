@@ -29,6 +29,7 @@ from ..loop import PLANT
 from .case_system import case_system, flight_of, stop_of
 from .spec import CampaignBase, Flight
 
+MOST_VERDICTS = 1024  # feasibility verdicts a worker keeps (a moved mission's key holds its knot table: a few KB)
 CHECKED = frozenset((*PARAMETER_NAMES, "f_min", "f_max", "tau_max"))  # feasibility.check_system's plant parameters
 RUN_FAILURES = (DescriptionError, ExecutionError)  # the engine's word on the run itself: kept as its outcome
 ATTRIBUTE = "tiltload_cases"  # the Dask worker's attribute that holds its CaseWorker
@@ -57,6 +58,8 @@ class CaseWorker:
         key = (flight, checked_plant(system.instance(PLANT).parameters), stop)
         if key not in self.verdicts:
             report = check_system(system, stop, flight.max_tilt, explain=False)
+            if len(self.verdicts) >= MOST_VERDICTS:  # the oldest goes: a search's every moved mission is a new key
+                self.verdicts.pop(next(iter(self.verdicts)))
             self.verdicts[key] = report.problems[0] if report is not None and report.problems else None
         problem = self.verdicts[key]
         return None if problem is None or flight.allow_infeasible else f"the reference is infeasible: {problem}"
