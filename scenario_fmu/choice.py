@@ -13,6 +13,8 @@ size for a step or ramp along its axis; in a file, center, size, ratio and phase
 from __future__ import annotations
 
 import math
+import os
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -61,23 +63,29 @@ class Trajectory:
         if not self.knots:
             return self.parameters
         import hashlib
-        import os
 
         knots = np.array(self.knots)
         text = waypoints.knot_text(knots)
-        name = f"mission-{hashlib.sha256(text.encode()).hexdigest()[:20]}.csv"
-        path = _resolved(str(folder), "" if Path(folder).is_absolute() else os.getcwd()) / name
-        info = path.stat() if path.is_file() else None  # before it is read: a file changed after is read again
-        if info is None or path.read_text() != text:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            partial = path.with_name(f"{path.name}.{os.getpid()}.partial")
-            partial.write_text(text)
-            info = partial.stat()  # a rename keeps it
+        data = text.encode()
+        where = str(_resolved(str(folder), "" if os.path.isabs(folder) else os.getcwd()))
+        path = os.path.join(where, f"mission-{hashlib.sha256(data).hexdigest()[:20]}.csv")  # (str: a search writes one
+        try:  # a point, and pathlib's objects cost more than the writing)
+            info = os.stat(path)  # before it is read: a file changed after is read again
+            same = stat.S_ISREG(info.st_mode) and _read(path, len(data) + 1) == data  # (never opens a pipe)
+        except OSError:
+            same = False
+        if not same:
+            partial = f"{path}.{os.getpid()}.partial"
+            try:
+                info = _write(partial, data)
+            except FileNotFoundError:  # the folder's first file
+                os.makedirs(where, exist_ok=True)
+                info = _write(partial, data)
             os.replace(partial, path)  # whole or not at all, for a reader in another process
-        waypoints.known_knots(path, info, knots)  # the feasibility check reads it next: not parsed again
-        if len(str(path)) > waypoints.PATH_LENGTH:
-            raise ScenarioFileError(f"the knot file's path {str(path)[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
-        return {**self.parameters, "waypoints_file": str(path)}
+        waypoints.known_knots(Path(path), info, knots)  # the feasibility check reads it next: not parsed again
+        if len(path) > waypoints.PATH_LENGTH:
+            raise ScenarioFileError(f"the knot file's path {path[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
+        return {**self.parameters, "waypoints_file": path}
 
     @property
     def parameters(self) -> dict[str, float | int]:
@@ -94,6 +102,18 @@ class Trajectory:
 
 
 @lru_cache(maxsize=8)
+def _read(path: str, most: int) -> bytes:
+    with open(path, "rb") as f:
+        return f.read(most)
+
+
+def _write(path: str, data: bytes):
+    """data into a new file at path (replaced if there), and the file's stat (a rename keeps it)."""
+    with open(path, "wb") as f:
+        f.write(data)
+        return os.fstat(f.fileno())
+
+
 def _resolved(folder: str, cwd: str) -> Path:
     """The folder's absolute path from cwd, worked out once (a search writes a mission's file at every point: 0.04 ms a
     time)."""

@@ -102,6 +102,12 @@ def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
     for a, b in zip((given.t, given.p, given.v, given.a), (parsed.t, parsed.p, parsed.v, parsed.a)):
         assert np.array_equal(a.view(np.int64), b.view(np.int64))  # the same doubles, the sign of zero too
     assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path and W.read_knots(path) is given  # kept
+    deeper = trajectory.fmu_parameters(tmp_path / "new" / "folder")["waypoints_file"]  # the folder made for it
+    assert open(deeper, "rb").read() == open(path, "rb").read()
+    piped = tmp_path / "piped"
+    piped.mkdir()
+    os.mkfifo(piped / os.path.basename(path))  # a pipe where the file goes: replaced, never opened (it would block)
+    assert open(trajectory.fmu_parameters(piped)["waypoints_file"], "rb").read() == open(path, "rb").read()
     other = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 3.0, "x": 1.0, "y": 2.0, "z": 1.0}])
     stamp = os.stat(path).st_mtime_ns
     with open(path, "w") as f:
