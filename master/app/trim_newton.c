@@ -146,20 +146,30 @@ typedef int (*tl_casadi_function)(const double **arg, double **res, casadi_int *
 
 enum { TL_MAX_NX = 64 };
 
-/* The feedforward (3.18) along the reference, one call per row as CasADi's map does: at each row of refs (count rows of
+/* The feedforward (3.18) along the reference, one row at a time as CasADi's map does: at each row of refs (count rows of
  * TL_REF, stride apart: the load's position, psi, their rates, the load's acceleration) the state hover_x (nx = 2 nq)
  * with the load's position, psi and their rates put in and every other rate 0, and qdd the load's acceleration alone,
- * with the parameters p; out: count rows of nu. 0: done; else the function's code (-1: a state larger than TL_MAX_NX). */
+ * with the parameters p; out: count rows of nu. The feedforward comes in two parts (trim_residual.feedforward_parts):
+ * fixed (x, p) -> values, what the rows leave unchanged, once into values; rest (x, qdd, p, values) -> u at each row.
+ * 0: done; else the functions' code (-1: a state larger than TL_MAX_NX). */
 __attribute__((visibility("default")))
-int tl_feedforward_along(tl_casadi_function f, const double *hover_x, int nq, const double *refs, int stride, const double *p,
-                         double *out, int nu, int count, casadi_int *iw, double *w)
+int tl_feedforward_along(tl_casadi_function fixed, tl_casadi_function rest, const double *hover_x, int nq, const double *refs,
+                         int stride, const double *p, double *values, double *out, int nu, int count, casadi_int *iw,
+                         double *w)
 {
     double x[TL_MAX_NX], qdd[TL_MAX_NX / 2];
+    int status;
     if (2 * nq > TL_MAX_NX || nq < 6 || stride < TL_REF)
         return -1;
     memcpy(x, hover_x, sizeof(double) * (size_t)nq);
     memset(x + nq, 0, sizeof(double) * (size_t)nq);
     memset(qdd, 0, sizeof(double) * (size_t)nq);
+    {
+        const double *arg[2] = {x, p};
+        double *res[1] = {values};
+        if ((status = fixed(arg, res, iw, w, 0)))
+            return status;
+    }
     for (int k = 0; k < count; k++) {
         const double *ref = refs + (size_t)k * (size_t)stride;
         memcpy(x, ref, 3 * sizeof(double));
@@ -167,10 +177,9 @@ int tl_feedforward_along(tl_casadi_function f, const double *hover_x, int nq, co
         memcpy(x + nq, ref + 4, 3 * sizeof(double));
         x[nq + 5] = ref[7];
         memcpy(qdd, ref + 8, 3 * sizeof(double));
-        const double *arg[3] = {x, qdd, p};
+        const double *arg[4] = {x, qdd, p, values};
         double *res[1] = {out + (size_t)k * (size_t)nu};
-        int status = f(arg, res, iw, w, 0);
-        if (status)
+        if ((status = rest(arg, res, iw, w, 0)))
             return status;
     }
     return 0;

@@ -39,6 +39,29 @@ def feedforward(vehicle: str):
     return feedforward_function(vehicle)
 
 
+def along_reference(nq: int) -> tuple[int, ...]:
+    """The state's entries a reference row sets (the load's position, psi and their rates: tl_feedforward_along); the
+    others are the hover trim's angles and zero rates, the same at every row."""
+    return (0, 1, 2, 5, nq, nq + 1, nq + 2, nq + 5)
+
+
+@cache
+def feedforward_parts(vehicle: str):
+    """The feedforward in two functions of the same operations: `fixed` (x, p) -> what depends only on the entries of x
+    a reference row leaves as they are and on p (the hover attitude's trigonometry, its least-squares factor), computed
+    once a reference; `rest` (x, qdd, p, fixed's values) -> u, computed at every row (CasADi's extract_parametric: the
+    same expressions, the same bits; a third fewer operations a row)."""
+    import casadi as ca
+
+    f = feedforward(vehicle)
+    x, qdd, p = ca.SX.sym("x", f.size1_in(0)), ca.SX.sym("qdd", f.size1_in(1)), ca.SX.sym("p", f.size1_in(2))
+    same = [x[i] for i in range(x.numel()) if i not in along_reference(f.size1_in(1))]
+    rest, symbols, values = ca.extract_parametric(f(x, qdd, p), ca.vertcat(*same, p))
+    symbols, values = (ca.vertcat(*v) if isinstance(v, list) else v for v in (symbols, values))
+    return (ca.Function("tl_feedforward_fixed", [x, p], [values]),
+            ca.Function("tl_feedforward_rest", [x, qdd, p, symbols], [rest]))
+
+
 def _gesv():
     """numpy's own LAPACK dgesv (its bundled OpenBLAS, 64-bit integers), or None."""
     libs = glob.glob(os.path.join(os.path.dirname(np.__file__), os.pardir, "numpy.libs", "libscipy_openblas64_*.so"))
@@ -59,9 +82,8 @@ def _library(vehicle: str) -> ctypes.CDLL | None:
     with _lock:
         if vehicle not in _libraries:
             generator = ca.CodeGenerator(f"tl_trim_{vehicle}.c", {"with_header": False})
-            for function in residual_functions(vehicle):
+            for function in (*residual_functions(vehicle), *feedforward_parts(vehicle)):
                 generator.add(function)
-            generator.add(feedforward(vehicle))
             with tempfile.TemporaryDirectory(prefix="tiltload-trim-") as tmp:
                 source = Path(tmp) / f"tl_trim_{vehicle}.c"
                 source.write_text(generator.dump())
@@ -138,22 +160,26 @@ def compiled_newton(vehicle: str):
 
 
 class CompiledFeedforward:
-    """trajectory_check's feedforward along the reference in C (tl_feedforward_along): CasADi's map of it over states and
-    accelerations made from the reference's rows, the same bits."""
+    """trajectory_check's feedforward along the reference in C (tl_feedforward_along, over feedforward_parts): CasADi's
+    map of it over states and accelerations made from the reference's rows, the same bits."""
 
     def __init__(self, vehicle: str, lib: ctypes.CDLL) -> None:
         f = feedforward(vehicle)
-        name = f.name()
-        sizes = [ctypes.c_longlong() for _ in range(4)]
-        getattr(lib, f"{name}_work")(*(ctypes.byref(s) for s in sizes))
-        self.iw = np.zeros(max(sizes[2].value, 1), dtype=np.int64)
-        self.w = np.zeros(max(sizes[3].value, 1))
+        parts = feedforward_parts(vehicle)
+        work = []
+        for part in parts:
+            sizes = [ctypes.c_longlong() for _ in range(4)]
+            getattr(lib, f"{part.name()}_work")(*(ctypes.byref(s) for s in sizes))
+            work.append((sizes[2].value, sizes[3].value))
+        self.iw = np.zeros(max(1, *(i for i, _ in work)), dtype=np.int64)
+        self.w = np.zeros(max(1, *(w for _, w in work)))
+        self.values = np.zeros(max(1, parts[0].nnz_out(0)))
         self.rows = [f.size1_in(k) for k in range(3)]
         self.nu = f.size1_out(0)
-        self.function = ctypes.cast(getattr(lib, name), ctypes.c_void_p)
+        self.functions = [ctypes.cast(getattr(lib, part.name()), ctypes.c_void_p) for part in parts]
         self.along = lib.tl_feedforward_along
         p, i = ctypes.c_void_p, ctypes.c_int
-        self.along.argtypes = [p, p, i, p, i, p, p, i, i, p, p]
+        self.along.argtypes = [p, p, p, i, p, i, p, p, p, i, i, p, p]
         self.along.restype = i
 
     def __call__(self, hover_x: np.ndarray, refs: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -166,8 +192,9 @@ class CompiledFeedforward:
             raise ValueError(f"the feedforward takes a state of {self.rows[0]}, rows of 11 and {self.rows[2]} parameters, "
                              f"not {hover_x.shape}, {refs.shape} and {p.shape}")
         out = np.empty((len(refs), self.nu))
-        status = self.along(self.function, hover_x.ctypes.data, self.rows[1], refs.ctypes.data, refs.strides[0] // 8,
-                            p.ctypes.data, out.ctypes.data, self.nu, len(refs), self.iw.ctypes.data, self.w.ctypes.data)
+        status = self.along(*self.functions, hover_x.ctypes.data, self.rows[1], refs.ctypes.data, refs.strides[0] // 8,
+                            p.ctypes.data, self.values.ctypes.data, out.ctypes.data, self.nu, len(refs),
+                            self.iw.ctypes.data, self.w.ctypes.data)
         if status:
             raise RuntimeError(f"the compiled feedforward failed ({status})")
         return out

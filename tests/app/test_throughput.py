@@ -75,7 +75,8 @@ def test_the_residual_alone_is_the_residual_of_the_residual_and_jacobian_to_the_
 
 @pytest.mark.parametrize("vehicle", ["load", "uav"])
 def test_the_feedforward_along_a_reference_in_c_is_casadi_s_map_to_the_bit(vehicle):
-    """The states and accelerations built from the reference's rows in C, against numpy's and CasADi's map
+    """The states and accelerations built from the reference's rows in C, and the feedforward in two parts (what the rows
+    leave unchanged computed once), against numpy's and CasADi's map of the whole function
     (trajectory_check.feedforward_map, what runs without a compiler), at random rows and a random hover state."""
     from tiltload.master.app.trajectory_check import feedforward_map
     from tiltload.master.app.trim_residual import compiled_feedforward, feedforward
@@ -84,8 +85,10 @@ def test_the_feedforward_along_a_reference_in_c_is_casadi_s_map_to_the_bit(vehic
     along = compiled_feedforward(vehicle)
     if along is None:
         pytest.skip("no C compiler")
-    f, rng, n = feedforward(vehicle), np.random.default_rng(5), 300
+    f, rng, n = feedforward(vehicle), np.random.default_rng(5), 2000
     hover_x, refs = rng.normal(size=f.size1_in(0)), rng.normal(scale=3.0, size=(n, 11))
+    refs[rng.random(size=refs.shape) < 0.3] = 0.0  # at rest, level: zeros where a reference has them (signs of zero)
+    refs[rng.random(size=refs.shape) < 0.05] *= -0.0
     p = VEHICLES[vehicle].default_parameters() * rng.uniform(0.8, 1.2, size=f.size1_in(2))
     ours, theirs = along(hover_x, refs, p), feedforward_map(f, hover_x, refs, p)
     assert ours.shape == (n, 4) and ours.tobytes() == theirs.tobytes()
