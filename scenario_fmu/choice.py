@@ -101,7 +101,6 @@ class Trajectory:
         return self.label
 
 
-@lru_cache(maxsize=8)
 def _read(path: str, most: int) -> bytes:
     with open(path, "rb") as f:
         return f.read(most)
@@ -114,6 +113,7 @@ def _write(path: str, data: bytes):
         return os.fstat(f.fileno())
 
 
+@lru_cache(maxsize=8)
 def _resolved(folder: str, cwd: str) -> Path:
     """The folder's absolute path from cwd, worked out once (a search writes a mission's file at every point: 0.04 ms a
     time)."""

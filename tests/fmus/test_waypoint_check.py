@@ -114,6 +114,8 @@ def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
         f.write(W.knot_text(other.knots()))
     os.utime(path, ns=(stamp, stamp))
     assert np.array_equal(W.read_knots(path).knots(), other.knots())  # changed: read again
+    assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path  # and written again by the mission it names
+    assert open(path).read() == W.knot_text(ref.knots()) and np.array_equal(W.read_knots(path).knots(), ref.knots())
     backwards = ref.knots()[::-1].copy()  # a table read_knots refuses: not remembered, the file's reader refuses it
     fresh = tmp_path / "fresh.csv"
     fresh.write_text(W.knot_text(backwards))
