@@ -190,13 +190,18 @@ def _keep(key: tuple, value) -> None:
 
 
 def _vector(vehicle: str, overrides: dict) -> np.ndarray:
-    """The vehicle's parameter vector with the plant instance's overrides (m_L, ...)."""
-    v = VEHICLES[vehicle]
-    p = v.default_parameters()
-    for k, s in enumerate(v.parameter_specs):
-        if s.name in overrides:
-            p[k] = float(overrides[s.name])
+    """The vehicle's parameter vector with the plant instance's overrides (m_L, ...; other names are not its)."""
+    p = VEHICLES[vehicle].default_parameters()
+    where = _parameter_index(vehicle)
+    for name, value in overrides.items():
+        if name in where:
+            p[where[name]] = float(value)
     return p
+
+
+@lru_cache(maxsize=4)
+def _parameter_index(vehicle: str) -> dict[str, int]:
+    return {s.name: k for k, s in enumerate(VEHICLES[vehicle].parameter_specs)}
 
 
 
@@ -227,7 +232,7 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     n_angles = len(unknown)
     u_ff = np.empty((n, 4)) if n > CHUNK else None  # (one chunk: its own array)
     previous = np.zeros(11)
-    trims, times, failed = [], [], False
+    trims, times, failed = [], [], False  # arrays of trims (rows) and their times, a part a chunk
     jump, psi_worst, last = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), None
     for lo in range(0, n, CHUNK):
         t = np.arange(lo, min(lo + CHUNK, n)) * tick
@@ -241,8 +246,8 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
         if solver is not None and not failed:  # the loop below in C, the same bits (trim_residual.py)
             ks = np.arange((-lo) % TRIM_EVERY, t.size, TRIM_EVERY)
             found = solver.path(z, previous, refs[ks], actual, n_angles, 1e-9, 20)
-            trims.extend(found)
-            times.extend(t[ks[:len(found)]])
+            trims.append(found)
+            times.append(t[ks[:len(found)]])
             if len(found):
                 z, previous = found[-1], refs[ks[len(found) - 1]]
             if len(found) < len(ks):
@@ -260,8 +265,8 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
                 failed = True
                 break
             z, previous = found, refs[k]
-            trims.append(z)
-            times.append(t[k])
+            trims.append(z[None])
+            times.append(t[k:k + 1])
         jump = max(jump, chunk.jump(last, tick)) if explain else jump
         psi_worst = max(psi_worst, chunk.psi_worst())
         last = (s.t[-1], s.p[-1], s.v[-1])
@@ -272,8 +277,8 @@ def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: d
     else:
         _limit_inputs(report, "", u_ff, t_all, limits)
         forces, torque = _forces(u_ff), float(np.abs(u_ff[:, 2:]).max())
-    if trims:
-        trims, times = np.array(trims), np.array(times)
+    trims, times = (parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else np.empty(0) for parts in (trims, times))
+    if len(trims):
         _limit_inputs(report, "the trim's ", trims[:, n_angles:], times, limits)
         angles = np.abs(np.degrees(trims[:, :n_angles]))
         worst = np.argmax(angles, axis=0)
