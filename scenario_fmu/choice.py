@@ -82,7 +82,7 @@ class Trajectory:
                 os.makedirs(where, exist_ok=True)
                 info = _write(partial, data)
             os.replace(partial, path)  # whole or not at all, for a reader in another process
-        waypoints.known_knots(Path(path), info, knots)  # the feasibility check reads it next: not parsed again
+        waypoints.known_knots(path, info, knots)  # the feasibility check reads it next: not parsed again
         if len(path) > waypoints.PATH_LENGTH:
             raise ScenarioFileError(f"the knot file's path {path[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
         return {**self.parameters, "waypoints_file": path}

@@ -23,6 +23,8 @@ reference holds the end waypoint at rest.
 from __future__ import annotations
 
 import math
+import os
+import stat
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -320,16 +322,13 @@ _READ: dict[str, tuple[tuple, MinimumJerk]] = {}  # a knot file's path -> (its s
 _MOST_READ = 8  # files remembered (a search's feasibility check reads each moved mission's twice)
 
 
-def read_knots(path: Path) -> MinimumJerk:
+def read_knots(path: str | Path) -> MinimumJerk:
     """The reference a knot file describes, read as the scenario FMU reads it: a regular file of at most MAX_WAYPOINTS
     knots (its size checked before it is read), the header, 13 finite numbers a line, times increasing. Read again
     only when the file changed (its size, modification time, inode or device); the reference's arrays are read-only."""
-    import os
-    import stat
-
-    path = Path(path)
+    path = os.fspath(path)  # (a string: a search reads a moved mission's file at every point)
     try:
-        info = path.stat()
+        info = os.stat(path)
     except OSError as err:
         raise ScenarioFileError(f"waypoints_file {path}: {err.strerror or err}") from None
     if not stat.S_ISREG(info.st_mode):
@@ -337,7 +336,7 @@ def read_knots(path: Path) -> MinimumJerk:
     if info.st_size > (MAX_WAYPOINTS + 1) * (KNOT_LINE + 2):
         raise ScenarioFileError(f"waypoints_file {path}: {info.st_size} bytes, more than {MAX_WAYPOINTS} knots take")
     seen = (info.st_size, info.st_mtime_ns, info.st_ino, info.st_dev)
-    known = _READ.get(str(path))
+    known = _READ.get(path)
     if known is not None and known[0] == seen:
         return known[1]
     with open(path, "rb", opener=lambda p, flags: os.open(p, flags | getattr(os, "O_NONBLOCK", 0))) as f:
@@ -353,21 +352,22 @@ def read_knots(path: Path) -> MinimumJerk:
     return _remember(path, seen, knots)
 
 
-def known_knots(path: Path, info, knots: np.ndarray) -> None:
+def known_knots(path: str | Path, info, knots: np.ndarray) -> None:
     """The knot file at path that held knot_text(knots) when its stat was info, read without parsing its text again:
     the %.17g numbers read back as these exact doubles, so its reference is read_knots' own (a moved mission's file is
     written by the search and read by its feasibility check at once). A file changed since (its stat) is read again;
     a table read_knots would refuse is not remembered (its readers meet the file's problem as before)."""
     seen = (info.st_size, info.st_mtime_ns, info.st_ino, info.st_dev)
-    known = _READ.get(str(path))
+    path = os.fspath(path)
+    known = _READ.get(path)
     if known is None or known[0] != seen:  # (a mission run again finds its file, and its reference, as they were)
         try:
-            _remember(Path(path), seen, np.array(knots, dtype=float))
+            _remember(path, seen, np.array(knots, dtype=float))
         except ScenarioFileError:
             pass
 
 
-def _remember(path: Path, seen: tuple, knots: np.ndarray) -> MinimumJerk:
+def _remember(path: str, seen: tuple, knots: np.ndarray) -> MinimumJerk:
     """The reference of a knot table read from path (as it was: seen), checked as the scenario FMU checks it, kept
     in _READ (read-only)."""
     if knots.ndim != 2 or knots.shape[1] != len(KNOT_COLUMNS):
@@ -379,10 +379,10 @@ def _remember(path: Path, seen: tuple, knots: np.ndarray) -> MinimumJerk:
     ref = MinimumJerk.from_knots(knots)
     for array in (ref.t, ref.p, ref.v, ref.a):
         array.flags.writeable = False  # shared by every later read of the file
-    _READ.pop(str(path), None)
+    _READ.pop(path, None)
     if len(_READ) >= _MOST_READ:
         _READ.pop(next(iter(_READ)))
-    _READ[str(path)] = (seen, ref)
+    _READ[path] = (seen, ref)
     return ref
 
 
@@ -407,4 +407,4 @@ def from_parameters(values: dict) -> MinimumJerk:
     name = str(values.get("waypoints_file", ""))
     if not name:
         raise ScenarioFileError("trajectory 4 needs waypoints_file: the knot file of the mission")
-    return read_knots(Path(name))
+    return read_knots(name)
