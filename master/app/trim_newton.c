@@ -12,7 +12,7 @@ typedef void (*tl_gesv)(long long *n, long long *nrhs, double *a, long long *lda
                         long long *ldb, long long *info);
 
 enum { TL_MAX_N = 16, TL_MAX_NZ = TL_MAX_N * TL_MAX_N };
-/* A step this small is most likely the last: the next point's residual is then evaluated alone first (a quarter of the
+/* A step this small is most likely the last: the next iterate's residual is then evaluated alone first (a quarter of the
  * residual-and-Jacobian's operations), the Jacobian only when it has not converged after all. Which evaluation comes
  * first changes no value (the same expressions), only the cost: along a path 0.12 s apart the last steps measured below
  * 2.2e-4, the earlier ones above 1.8e-4. */
@@ -148,8 +148,8 @@ enum { TL_MAX_NX = 64 };
 
 /* The feedforward (3.18) along the reference, one row at a time as CasADi's map does: at each row of refs (count rows of
  * TL_REF, stride apart: the load's position, psi, their rates, the load's acceleration) the state hover_x (nx = 2 nq)
- * with the load's position, psi and their rates put in and every other rate 0, and qdd the load's acceleration alone,
- * with the parameters p; out: count rows of nu. The feedforward comes in two parts (trim_residual.feedforward_parts):
+ * with the load's position, psi and their rates put in (the entries trim_residual.along_reference names) and every
+ * other rate 0, and qdd the load's acceleration alone, with the parameters p; out: count rows of nu. The feedforward comes in two parts (trim_residual.feedforward_parts):
  * fixed (x, p) -> values, what the rows leave unchanged, once into values; rest (x, qdd, p, values) -> u at each row.
  * 0: done; else the functions' code (-1: a state larger than TL_MAX_NX). */
 __attribute__((visibility("default")))
