@@ -39,7 +39,7 @@ FLOOR = 1e-6  # ... and never tighter than this
 
 def run_variant(name: str, result: Path) -> None:
     """Child: build the FMUs into a fresh folder with a fresh cache, run the twelve cases, dump the metrics."""
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
     from tiltload.master.app.regression.reproduce import run_all
 
     with tempfile.TemporaryDirectory(prefix=f"tiltload_spread_{name}_") as tmp:

@@ -15,8 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine import snapshot
 from tiltload.master.engine.execution import Execution
 

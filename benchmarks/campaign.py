@@ -31,8 +31,8 @@ import pyarrow.parquet as pq
 from tiltload.master.app.campaign import runner as campaign
 from tiltload.master.app.campaign.run_case import run_case
 from tiltload.master.app.campaign.spec import load
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.thesis import default_system
 from tiltload.master.engine.execution import Execution
 
 SPEC = """

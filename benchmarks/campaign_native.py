@@ -157,7 +157,7 @@ def measure_setup(spec: str, fmus: str, n: int) -> dict:
     outside Execution.run (describing the case, checking it, the restart, the observers' finish, the row)."""
     from tiltload.master.app.campaign import run_case as module
     from tiltload.master.app.campaign.spec import load
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
     from tiltload.master.engine.execution import Execution
 
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -188,12 +188,13 @@ def measure_setup(spec: str, fmus: str, n: int) -> dict:
 
 def measure(spec: str, out: str, fmus: str, workers: int, alone: int) -> dict:
     """One campaign on `workers` local workers with the probe, and the serial runs around it: the figures, a dict."""
-    from tiltload.master.app.campaign import dispatch, runner
+    from tiltload.master.app.batch import dispatch
     from tiltload.master.app.campaign import run_case as module
+    from tiltload.master.app.campaign import runner
 
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     spec_path, fmu_dir = Path(spec), Path(fmus)
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     build_all(fmu_dir, progress=lambda _: None)
     module._probe_original = module.run_case
@@ -427,7 +428,7 @@ def main() -> None:
             spec = tmp / f"{scenario}.toml"
             spec.write_text(SPEC.format(scenario=scenario, stop=stop, seeds=", ".join(str(s) for s in range(1, runs + 1))))
             if args.ceiling:
-                from tiltload.master.app.fmus import build_all
+                from tiltload.master.app.loop.fmus import build_all
 
                 build_all(trees[-1][2], progress=lambda _: None)
                 print(ceiling_report(scenario, spec, trees[-1][2], max(alone, 8), args.ceiling), flush=True)

@@ -35,9 +35,9 @@ import fmu_container
 import libcosim_master
 import numpy as np
 from tiltload.controller_fmu.design.cache import cache_root
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import TICK, default_system, loop_metrics, select_loop_delay
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.scene import scene_channels
+from tiltload.master.app.loop.thesis import TICK, default_system, loop_metrics, select_loop_delay
 from tiltload.master.engine import jacobi
 from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.log.logger import McapLogger

@@ -27,7 +27,7 @@ from tiltload.controller_fmu.reference import native_estimators
 from tiltload.controller_fmu.reference.lkf import KalmanFilter
 from tiltload.controller_fmu.reference.zonotope import REDUCTIONS, reduce_rows
 from tiltload.controller_fmu.reference.zse import ZonotopicEstimator
-from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop.fmus import build_all
 
 ROOT = Path(__file__).resolve().parents[1]
 

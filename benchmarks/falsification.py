@@ -187,7 +187,7 @@ def throughput(client, fmus, tmp, n: int, names, rounds: int = 4) -> None:
     from tiltload.master.app.falsify.branching import branch_tick, with_branch
     from tiltload.master.app.falsify.runner import cluster_batch, make_case
     from tiltload.master.app.falsify.search import search
-    from tiltload.master.app.loop import TICK
+    from tiltload.master.app.loop.thesis import TICK
 
     print(f"\n## throughput: uniform random, {n} evaluations a configuration in {rounds} rounds, batches of 8, "
           f"{len(client.scheduler_info()['workers'])} workers")
@@ -243,9 +243,9 @@ def main() -> None:
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "figures" / "falsification_best_robustness.png")
     args = ap.parse_args()
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from tiltload.master.app.campaign.cluster import local_cluster
+    from tiltload.master.app.batch.cluster import local_cluster
     from tiltload.master.app.falsify.report import figure
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = (ROOT / "fmus").resolve()
     build_all(fmus)

@@ -21,8 +21,8 @@ import dataclasses
 import os
 from pathlib import Path
 
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.faults.apply import Manipulator
 from tiltload.master.engine.faults.parse import parse
 from tiltload.master.engine.native import kernel

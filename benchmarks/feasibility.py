@@ -2,7 +2,7 @@
 
 Each mission is a survey circle flown from rest to rest (3 m radius, the altitude swinging by 0.5 m) with a waypoint every 0.3 s, so its
 duration grows with its waypoints (30 s, 300 s, 3,000 s). For each: reading the file through the input layer and the
-minimum-jerk solve (scenario_fmu.waypoints, a banded solve), and the feasibility check (master/app/trajectory_check.py:
+minimum-jerk solve (scenario_fmu.waypoints, a banded solve), and the feasibility check (master/app/feasibility/trajectory_check.py:
 the feedforward at every 12 ms tick, the trim every 0.12 s). Beside them, the dense solve the minimum jerk used before
 (a 3n x 3n matrix: 7 GB at 10,000 waypoints, so measured up to 1,000 only).
 
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import scipy.linalg
-from tiltload.master.app.inputs import trajectory
-from tiltload.master.app.trajectory_check import check_reference
+from tiltload.master.app.feasibility.trajectory_check import check_reference
+from tiltload.master.app.loop.inputs import trajectory
 from tiltload.scenario_fmu import waypoints
 
 SPACING = 0.3  # s between waypoints

@@ -28,8 +28,8 @@ import time
 import types
 from pathlib import Path
 
-from tiltload.master.app.fmus import build_all, build_many, fmu_folder, scheduled_recipes
-from tiltload.master.app.loop import default_stop, default_system, loop_metrics
+from tiltload.master.app.loop.fmus import build_all, build_many, fmu_folder, scheduled_recipes
+from tiltload.master.app.loop.thesis import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
 from tiltload.master.engine import execution
 from tiltload.master.engine.execution import Execution

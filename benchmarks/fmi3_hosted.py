@@ -21,8 +21,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the server helpers of the test suite
 
 from support.remote import ServerProcess, token_file  # noqa: E402
-from tiltload.master.app.fmus import build_all, fmu_folder  # noqa: E402
-from tiltload.master.app.loop import default_system, loop_metrics  # noqa: E402
+from tiltload.master.app.loop.fmus import build_all, fmu_folder  # noqa: E402
+from tiltload.master.app.loop.thesis import default_system, loop_metrics  # noqa: E402
 from tiltload.master.engine.execution import Execution  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -24,8 +24,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the plan writer and the host of the test suite
 from support import HOSTS  # noqa: E402
 from support.fmi3_plan import host_plan  # noqa: E402
-from tiltload.master.app.fmus import build_all, build_many, fmu_folder, scheduled_recipes  # noqa: E402
-from tiltload.master.app.loop import default_stop, default_system, loop_metrics  # noqa: E402
+from tiltload.master.app.loop.fmus import build_all, build_many, fmu_folder, scheduled_recipes  # noqa: E402
+from tiltload.master.app.loop.thesis import default_stop, default_system, loop_metrics  # noqa: E402
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name  # noqa: E402
 from tiltload.master.engine.execution import Execution  # noqa: E402
 from tiltload.master.engine.observers import Observer  # noqa: E402

@@ -15,9 +15,9 @@ import tempfile
 from pathlib import Path
 
 from tiltload.formation.kinematics import AGENTS
-from tiltload.master.app.fmus import build_formation as build_fmus
-from tiltload.master.app.formation_system import formation_system
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.formation.system import formation_system
+from tiltload.master.app.loop.fmus import build_formation as build_fmus
+from tiltload.master.app.loop.scene import scene_channels
 from tiltload.master.engine.log.logger import McapLogger
 from timing import timed_run
 

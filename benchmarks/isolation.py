@@ -19,8 +19,8 @@ import time
 import zipfile
 from pathlib import Path
 
-from tiltload.master.app.fmus import build_all, is_foreign
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import build_all, is_foreign
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.execution import Execution
 
 

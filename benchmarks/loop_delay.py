@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 from tiltload.controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
 from tiltload.controller_fmu.design.synthesize import design
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine import jacobi
 from tiltload.master.engine.fmi.model_description import read_fmu
 from tiltload.master.engine.run import run_system

@@ -22,7 +22,7 @@ import time
 import zipfile
 from pathlib import Path
 
-from tiltload.master.app.fmus import formation_recipes, loop_recipes
+from tiltload.master.app.loop.fmus import formation_recipes, loop_recipes
 from tiltload.native_fmu import compile as cc
 from tiltload.native_fmu.build import build
 

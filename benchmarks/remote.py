@@ -26,8 +26,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the server helpers of the test suite
 
 from support.remote import Namespace, ServerProcess, netns_available, token_file  # noqa: E402
-from tiltload.master.app.fmus import build_all  # noqa: E402
-from tiltload.master.app.loop import TICK, default_system, loop_metrics  # noqa: E402
+from tiltload.master.app.loop.fmus import build_all  # noqa: E402
+from tiltload.master.app.loop.thesis import TICK, default_system, loop_metrics  # noqa: E402
 from tiltload.master.engine.execution import Execution  # noqa: E402
 from tiltload.master.engine.isolation.transport import Channel  # noqa: E402
 

@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from tiltload.master.app.fmus import build_all
+from tiltload.master.app.loop.fmus import build_all
 from tiltload.master.app.regression import compare as cmp
 from tiltload.master.app.regression.reproduce import BASELINE_RTOL, check_baselines, run_all
 from timing import machine

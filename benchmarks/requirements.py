@@ -20,9 +20,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from tiltload.master.app.fmus import build_all
-from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.loop.fmus import build_all
+from tiltload.master.app.loop.scene import scene_channels
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.log.logger import McapLogger
 from tiltload.master.engine.requirement.check import build_trace, check_trace

@@ -56,7 +56,7 @@ def inner(fmus: Path, out: Path) -> None:
     """In this tree's interpreter: the searches' and the campaign's rows, as JSON lines into out."""
     import pyarrow.parquet as pq
     from search_throughput import kind_specs
-    from tiltload.master.app.campaign.cluster import local_cluster
+    from tiltload.master.app.batch.cluster import local_cluster
     from tiltload.master.app.campaign.runner import run as campaign
     from tiltload.master.app.falsify.runner import falsify
 

@@ -142,7 +142,7 @@ def main() -> int:
     parser.add_argument("--keep", type=Path, help="write into this folder (kept) rather than a temporary one")
     parser.add_argument("--write", action="store_true", help="store in docs/timings.json and regenerate docs/timings.md")
     args = parser.parse_args()
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     build_all(args.fmus, progress=lambda *_: None)
     print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} cores, {args.workers} workers, "

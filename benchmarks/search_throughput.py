@@ -102,7 +102,7 @@ def worker_cpu(client) -> float:
 def inner(fmus: Path, evaluations: int, runs: int, kinds: bool) -> None:
     """In this tree's interpreter: the searches and the campaign on 1 and 2 workers; JSON lines on stdout."""
     import pyarrow.parquet as pq
-    from tiltload.master.app.campaign.cluster import local_cluster
+    from tiltload.master.app.batch.cluster import local_cluster
     from tiltload.master.app.campaign.runner import run as campaign
     from tiltload.master.app.falsify.runner import falsify
 
@@ -151,11 +151,11 @@ def loop_costs(fmus: Path) -> dict[str, float]:
     from dataclasses import replace
 
     import numpy as np
-    from tiltload.master.app.campaign.case_system import case_system
+    from tiltload.master.app.case.system import case_system
     from tiltload.master.app.falsify.runner import make_case
     from tiltload.master.app.falsify.space import case_flight, values_at
     from tiltload.master.app.falsify.spec import load as load_spec
-    from tiltload.master.app.fmus import is_foreign
+    from tiltload.master.app.loop.fmus import is_foreign
     from tiltload.master.engine.lifecycle import ExecutionPool, RunPlan, run_plan
 
     def median_cost(system, stop) -> float:
@@ -208,7 +208,7 @@ def main() -> None:
     if a.inner:
         inner(a.fmus.resolve(), a.evaluations, a.runs, not a.no_kinds)
         return
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     started = time.perf_counter()
     build_all(a.fmus.resolve(), progress=lambda _: None)

@@ -26,9 +26,9 @@ TICK = 0.012
 
 
 def mission(fmus: Path) -> None:
-    from tiltload.master.app.inputs import READER
-    from tiltload.master.app.loop import default_system, loop_metrics
-    from tiltload.master.app.trajectory_check import check_reference
+    from tiltload.master.app.feasibility.trajectory_check import check_reference
+    from tiltload.master.app.loop.inputs import READER
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics
     from tiltload.master.engine.log import reader as log_reader
     from tiltload.master.engine.run import run_system
     from tiltload.scenario_fmu import choice, twin
@@ -143,7 +143,7 @@ def dryden(fmus: Path, stop: float = 60000.0) -> None:
 
 
 if __name__ == "__main__":
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = ROOT / "fmus"
     build_all(fmus, progress=lambda *_: None)

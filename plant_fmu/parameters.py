@@ -73,6 +73,8 @@ ACTUATOR_LIMITS: tuple[ParameterSpec, ...] = (
     ParameterSpec("tau_max", 2.0, "N.m", "servo torque magnitude limit"),
 )
 
+ACTUATOR_LIMIT = {s.name: s.default for s in ACTUATOR_LIMITS}  # by name: f_min, f_max, tau_max
+
 PARAMETER_NAMES: tuple[str, ...] = tuple(s.name for s in MODEL_PARAMETERS)
 N_PARAMETERS = len(MODEL_PARAMETERS)
 _INDEX = {name: i for i, name in enumerate(PARAMETER_NAMES)}

@@ -133,7 +133,7 @@ def hover_trim(p: np.ndarray | None = None, psi: float = 0.0, position=(0.0, 0.0
                tol: float = 1e-12, max_iter: int = 50, vehicle: str = "load", solve=None) -> Trim:
     """Solve the hover trim at yaw psi; raise TrimError if Newton does not converge.
     p: the vehicle's own parameter vector (default: Table 5.1). solve(z, ref, p, tol, max_iter): newton's steps taken
-    elsewhere, the same bits (the feasibility check's, compiled: master/app/trim_residual.py); None: newton."""
+    elsewhere, the same bits (the feasibility check's, compiled: master/app/feasibility/trim_residual.py); None: newton."""
     v = VEHICLES[vehicle]
     p = v.default_parameters() if p is None else np.asarray(p, dtype=float)
     full = v.full_vector(p)

@@ -29,7 +29,7 @@ def plant_fmu() -> Path:
 @pytest.fixture(scope="session")
 def pipeline_fmus() -> dict[str, Path]:
     """All four FMUs (the controller's first build synthesizes the mixed designs, then cached)."""
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
     from tiltload.master.engine.fmi.pythonfmu_guard import pin
 
     paths = {r.path.stem: r.path for r in build_all(ROOT / "fmus", progress=lambda *_: None)}
@@ -41,7 +41,7 @@ def pipeline_fmus() -> dict[str, Path]:
 @pytest.fixture(scope="session")
 def fmi3_fmus() -> dict[str, Path]:
     """The loop's FMUs as FMI 3.0 co-simulation FMUs (fmus/fmi3/), by file stem."""
-    from tiltload.master.app.fmus import build_all, fmu_folder
+    from tiltload.master.app.loop.fmus import build_all, fmu_folder
 
     results = build_all(fmu_folder(ROOT / "fmus", 3), progress=lambda *_: None, fmi_version=3)
     return {r.path.stem: r.path for r in results}

@@ -65,3 +65,32 @@ def test_the_check_reports_a_module_its_folders_bullet_does_not_name(tmp_path):
     section = ("### The engine (`master/engine/`)\n\n- **top level**: `system`, and `slave` named in the wrong bullet\n"
                "- **`fmi/`**: `slave`, and `other` named in the wrong bullet\n")
     assert unnamed(tmp_path, section) == ["fmi/brand_new.py", "other.py"]
+
+
+APP = ROOT / "master" / "app"
+
+
+def app_section(doc: str) -> str:
+    start = doc.index("### The application (`master/app/`)")
+    return doc[start:doc.index("\n## ", start + 1)]
+
+
+def test_every_application_module_is_named_in_its_folders_bullet():
+    """The application's map as the engine's: by concept, every module (and C source) in its folder's bullet."""
+    section = app_section((ROOT / "docs" / "architecture.md").read_text())
+    missing = unnamed(APP, section)
+    by_folder = bullets(section)
+    for path in sorted(APP.rglob("*.c")):
+        package = path.parent.parent if path.parent.name == "c" else path.parent  # a package's C sources may sit in c/
+        folder = package.relative_to(APP).as_posix()
+        if f"`{path.name}`" not in by_folder.get("" if folder == "." else folder, ""):
+            missing.append(path.relative_to(APP).as_posix())
+    assert missing == [], "not in docs/architecture.md's application map, in its folder's bullet"
+
+
+def test_every_application_package_has_a_bullet_and_the_top_level_keeps_only_entry_points():
+    section = app_section((ROOT / "docs" / "architecture.md").read_text())
+    folders = {p.parent.relative_to(APP).as_posix() for p in APP.rglob("__init__.py")} - {"."}
+    assert set(bullets(section)) - {""} == folders
+    top = sorted(p.stem for p in APP.glob("*.py") if p.name != "__init__.py")
+    assert top == ["arguments", "cli", "errors", "output_folder", "user_error"], top

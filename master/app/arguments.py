@@ -7,12 +7,13 @@ from pathlib import Path
 
 from ..command_line.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
 from ..command_line.path_types import existing_folder, folder, kind, output_file
+from .loop import defaults
 
 # the checks are the engine's (one implementation, shared with tiltload serve); the commands find them here
 __all__ = ["DAY", "existing_folder", "folder", "integer", "output_file", "positive_number", "positive_time", "run_time", "time_span",
            "tolerance"]
 
-DEFAULT_FMU_DIR = Path("fmus")
+DEFAULT_FMU_DIR = defaults.FMU_DIR  # the commands' --fmus
 MAX_REALTIME_FACTOR = 1000.0  # --realtime: the pacer waits tick / factor; beyond these bounds a wait overflows or means nothing
 
 
@@ -26,7 +27,7 @@ def realtime_factor(text: str) -> float:
 
 
 def assignment(text: str) -> tuple[str, object]:
-    from .loop import parse_value
+    from .loop.thesis import parse_value
 
     key, sep, value = text.partition("=")
     if not sep or "." not in key or not value:
@@ -75,7 +76,7 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     are refused, not ignored."""
     p.add_argument("--vehicle", choices=("load", "uav"), default=None,
                    help="load: the UAV with its suspended load (ch. 5, default); uav: the UAV alone (Appendix A)")
-    p.add_argument("--scenario", choices=("fsi", "lkf", "zse"), default=None, help="estimation scenario (default zse)")
+    p.add_argument("--scenario", choices=defaults.SCENARIOS, default=None, help=f"estimation scenario (default {defaults.SCENARIO})")
     p.add_argument("--trajectory", default=None, metavar="N|SHAPE|FILE",
                    help="load: 1 circle (default), 2 Table 5.3; uav: 3 Appendix A's circle (default); 0 hover; a shape "
                         "(lemniscate, lissajous, step-x/y/z, ramp-x/y/z, with :KEY=VALUE,... e.g. step-z:size=0.5); or a "
@@ -85,7 +86,7 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                         "seeded by --seed; docs/test_bench.md")
     p.add_argument("--allow-infeasible", action="store_true",
                    help="run a reference the actuators cannot follow (Table 5.2), with a warning instead of refusing it")
-    p.add_argument("--max-tilt", type=tilt_limit, default=30.0, metavar="DEG",
+    p.add_argument("--max-tilt", type=tilt_limit, default=defaults.MAX_TILT, metavar="DEG",
                    help="largest trim tilt angle the feasibility check accepts (default 30 degrees)")
     p.add_argument("--controller", default=None,
                    help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")

@@ -7,8 +7,8 @@ from ...scenario_fmu.files import ScenarioFileError
 from ..engine.errors import DescriptionError
 from ..engine.user_files import UserFileError
 from .campaign.report import ReportError
-from .campaign.spec import SpecError
-from .feasibility import InfeasibleReference
+from .case.spec_file import SpecError
+from .feasibility.policy import InfeasibleReference
 from .user_error import UserError
 from .wrap.wrap import WrapError
 

@@ -1,7 +1,7 @@
 """Declarative description of a co-simulation: FMU instances, their periods and parameters, connections.
 
 A system is plain data (JSON on disk, or an SSP package: ssp.py): the engine knows nothing of the
-FMUs it runs. The tiltload loop is one such system, built by the application (app/loop.py).
+FMUs it runs. The tiltload loop is one such system, built by the application (app/loop/thesis.py).
 """
 
 from __future__ import annotations

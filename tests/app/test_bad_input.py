@@ -791,7 +791,7 @@ def test_logs_from_other_tools_are_one_line_naming_the_channel(tmp_path, capsys)
 
 
 # ====================================================================================================================
-# Issue 49, output folders and resumed state (app/output_folder.py, app/stored_parts.py): campaign, falsify and
+# Issue 49, output folders and resumed state (app/output_folder.py, app/batch/parts.py): campaign, falsify and
 # campaign-report refuse an output folder they could not write, and stored parts that are not parts, in one line
 # before any FMU is built or any cluster started (local_cluster is replaced by a tripwire here).
 # ====================================================================================================================
@@ -882,7 +882,7 @@ def test_output_folders_and_stored_parts_are_refused_before_a_cluster(tmp_path, 
     import pyarrow as pa
     import pyarrow.parquet as pq
     from tiltload.master.app import output_folder
-    from tiltload.master.app.campaign import cluster
+    from tiltload.master.app.batch import cluster
 
     def tripwire(*args, **kwargs):
         raise AssertionError("a cluster was started")

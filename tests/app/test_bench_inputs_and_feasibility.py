@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 from support import ROOT
-from tiltload.master.app import trajectory_check, yaw_margin
 from tiltload.master.app.campaign import spec as campaign_spec
 from tiltload.master.app.campaign.run_case import run_case
 from tiltload.master.app.cli import main
-from tiltload.master.app.inputs import READER
+from tiltload.master.app.feasibility import trajectory_check, yaw_margin
+from tiltload.master.app.loop.inputs import READER
 from tiltload.scenario_fmu import choice
 
 EXAMPLES = ROOT / "docs" / "examples"

@@ -49,7 +49,7 @@ def opened(bundle, tmp_path_factory) -> Path:
 
 @pytest.mark.slow
 def test_every_fmu_of_tiltload_build_is_in_it_as_fmi2_and_fmi3(opened):
-    from tiltload.master.app.fmus import every_recipe
+    from tiltload.master.app.loop.fmus import every_recipe
 
     assert {p.name for p in (opened / "fmi2").glob("*.fmu")} == {r.fmu_name for r in every_recipe(2)}
     assert {p.name for p in (opened / "fmi3").glob("*.fmu")} == {r.fmu_name for r in every_recipe(3)}

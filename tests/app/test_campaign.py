@@ -20,7 +20,7 @@ import pytest
 from tiltload.master.app.campaign import runner as campaign
 from tiltload.master.app.campaign import spec as campaign_spec
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.execution import Execution
 
 SPEC = """
@@ -611,7 +611,7 @@ def test_the_report_summarizes_and_its_rerun_command_reproduces_a_run(local_resu
     assert "error: " in text  # the failed runs come first
     row = next(r for r in rows(local_results) if r["completed"] and r["controller"] == "dlqr" and r["load_mass"] == 0.2)
     from tiltload.master.app.campaign.report import rerun_command
-    from tiltload.master.app.campaign.spec import read_spec_file
+    from tiltload.master.app.case.spec_file import read_spec_file
 
     command = rerun_command(row, read_spec_file(local_results.parent / "spec.toml")).split()[2:]
     capsys.readouterr()
@@ -706,10 +706,11 @@ def test_a_bad_branching_spec_is_one_line_before_any_run(fmus, tmp_path, capfd, 
 
 
 def test_the_client_s_feasibility_verdicts_are_the_check_s_and_a_worker_uses_them(fmus, tmp_path):
-    from tiltload.master.app.campaign.case_system import case_system, flight_of
+    from tiltload.master.app.batch.worker import CaseWorker, checked_plant, feasibility_verdicts
     from tiltload.master.app.campaign.run_case import run_case
-    from tiltload.master.app.campaign.worker import CaseWorker, checked_plant, feasibility_verdicts
-    from tiltload.master.app.feasibility import check_system
+    from tiltload.master.app.case.flight import flight_of
+    from tiltload.master.app.case.system import case_system
+    from tiltload.master.app.feasibility.policy import check_system
 
     c = campaign_spec.load(write_spec(tmp_path))
     base, cases = c.base(), [asdict(x) for x in c.cases]
@@ -734,7 +735,7 @@ def test_campaign_metrics_equal_a_step_by_step_count(fmus):
     second run reads the layouts the first made), in batches of 7 ticks, with a 1.5 kg load so that the thrusts
     saturate, the ZSE's bounds checked at every step."""
     from tiltload.master.app.campaign.metrics import CampaignMetrics
-    from tiltload.master.app.loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
+    from tiltload.master.app.loop.thesis import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
     from tiltload.master.engine.lifecycle import ExecutionPool, RunPlan, run_plan
     from tiltload.master.engine.observers import Observer, real_outputs
 

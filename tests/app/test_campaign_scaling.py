@@ -8,9 +8,10 @@ from dataclasses import asdict
 from pathlib import Path
 
 import pytest
-from tiltload.master.app.campaign import dispatch, run_case
+from tiltload.master.app.batch import dispatch
+from tiltload.master.app.batch.worker import CaseWorker, this_worker
+from tiltload.master.app.campaign import run_case
 from tiltload.master.app.campaign.spec import load
-from tiltload.master.app.campaign.worker import CaseWorker, this_worker
 
 SPEC = """
 name = "reuse"
@@ -109,7 +110,7 @@ def _short(case: dict) -> dict:
 
 def test_once_runs_have_come_back_no_task_carries_less_than_task_seconds_of_them():
     from dask.distributed import Client, LocalCluster
-    from tiltload.master.app.campaign.spec import Case
+    from tiltload.master.app.case.case_set import Case
 
     stored: list[int] = []
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
@@ -126,7 +127,7 @@ def test_once_runs_have_come_back_no_task_carries_less_than_task_seconds_of_them
 def test_tasks_of_short_runs_carry_up_to_task_seconds_of_them():
     """Runs of 1 ms: once they are known, a task carries up to TASK_SECONDS[1] of them (more than MOST), never more."""
     from dask.distributed import Client, LocalCluster
-    from tiltload.master.app.campaign.spec import Case
+    from tiltload.master.app.case.case_set import Case
 
     stored: list[int] = []
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
@@ -151,7 +152,7 @@ def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path
     from functools import partial
 
     from dask.distributed import Client, LocalCluster
-    from tiltload.master.app.campaign.spec import Case
+    from tiltload.master.app.case.case_set import Case
 
     stored: list[list[str]] = []
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address="127.0.0.1:0") as cluster, \
@@ -168,7 +169,7 @@ def test_a_run_of_a_chunk_whose_environment_failed_is_tried_again_alone(tmp_path
 def _worker_state(n: int) -> tuple[bool, int, bool]:
     """(the state is the Dask worker's own, how many tasks it has seen, whether it keeps executions)."""
     from distributed import get_worker
-    from tiltload.master.app.campaign.worker import ATTRIBUTE
+    from tiltload.master.app.batch.worker import ATTRIBUTE
 
     state = this_worker()
     state.branch_points[("task", n)] = None  # a mark each task leaves on the state it got

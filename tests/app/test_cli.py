@@ -90,7 +90,7 @@ def test_a_run_s_default_name_says_what_sets_it_apart():
     import argparse
 
     from tiltload.master.app import arguments
-    from tiltload.master.app.options import resolve_loop
+    from tiltload.master.app.case.options import resolve_loop
 
     def name(*argv):
         p = argparse.ArgumentParser()

@@ -59,8 +59,8 @@ def test_campaign_refuses_the_report_options_when_it_runs_a_spec(tmp_path, capsy
 
 
 def test_design_and_run_default_to_the_same_controller_for_each_vehicle():
-    from tiltload.master.app.loop import LOOPS
-    from tiltload.master.app.options import resolve_loop
+    from tiltload.master.app.case.options import resolve_loop
+    from tiltload.master.app.loop.thesis import LOOPS
 
     run_help = {a.dest: a for a in _find(parser(), "run")._actions}
     design = _find(parser(), "design")

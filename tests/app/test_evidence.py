@@ -263,7 +263,7 @@ def test_a_diverged_signal_is_drawn_where_it_was_sane_and_the_divergence_marked(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from tiltload.master.app.plot import scale_to_sane
+    from tiltload.master.app.views.plot import scale_to_sane
 
     t = np.linspace(0, 2.2, 221)
     y = np.sin(3 * t)
@@ -283,7 +283,7 @@ def test_a_diverged_signal_is_drawn_where_it_was_sane_and_the_divergence_marked(
 
 
 def test_a_title_names_the_set_values_briefly():
-    from tiltload.master.app.plot import case_title
+    from tiltload.master.app.views.plot import case_title
 
     many = " ".join(f"plant.p{k}={k / 10}" for k in range(9))
     title = case_title({"vehicle": "load", "scenario": "fsi", "trajectory": "1", "controller": "dlqr", "seed": "1", "set": many})

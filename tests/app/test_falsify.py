@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tiltload.master.app.campaign.spec import SpecError
+from tiltload.master.app.case.spec_file import SpecError
 from tiltload.master.app.falsify import optimizers
 from tiltload.master.app.falsify.search import read_parts, search
 from tiltload.master.app.falsify.spec import Dimension, load
@@ -110,7 +110,7 @@ def test_the_command_refuses_a_bad_spec_with_exit_2(tmp_path):
 ])
 def test_names_are_checked_against_the_built_fmus_before_any_run(tmp_path, old, new, says):
     from tiltload.master.app.falsify.runner import check_names
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -310,7 +310,7 @@ def test_the_counterexample_replays_bit_for_bit(tmp_path, monkeypatch):
     from tiltload.master.app.falsify.report import write as write_report
     from tiltload.master.app.falsify.runner import make_case as case_of
     from tiltload.master.app.falsify.signals import trace_from_log
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -422,7 +422,7 @@ def test_an_early_stopped_run_reports_the_bound_of_its_prefix_against_brute_forc
     that passes is not stopped and has the whole run's robustness, bit for bit."""
     from tiltload.master.app.falsify.evaluate import evaluate, run_loop
     from tiltload.master.app.falsify.signals import SignalRecorder
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -453,8 +453,8 @@ def test_a_branch_from_a_snapshot_is_the_whole_run_bit_for_bit(tmp_path):
     from tiltload.master.app.falsify.branching import branch_tick, choose, with_branch
     from tiltload.master.app.falsify.evaluate import run_loop
     from tiltload.master.app.falsify.signals import SignalRecorder
-    from tiltload.master.app.fmus import build_all
-    from tiltload.master.app.loop import TICK
+    from tiltload.master.app.loop.fmus import build_all
+    from tiltload.master.app.loop.thesis import TICK
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -497,7 +497,7 @@ def test_an_early_stopped_counterexample_replays_the_whole_run_the_summary_state
     from tiltload.master.app.falsify.report import replay_command
     from tiltload.master.app.falsify.report import write as write_report
     from tiltload.master.app.falsify.signals import trace_from_log
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -587,7 +587,7 @@ def test_the_neighbourhood_of_a_counterexample_runs_and_its_campaign_spec_is_the
     from tiltload.master.app.falsify import neighbourhood
     from tiltload.master.app.falsify.evaluate import evaluate
     from tiltload.master.app.falsify.runner import make_case as case_of
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)
@@ -635,7 +635,7 @@ def test_a_moved_waypoint_is_searched_and_its_counterexample_replays_bit_for_bit
     from tiltload.master.app.falsify.report import write as write_report
     from tiltload.master.app.falsify.runner import make_case as case_of
     from tiltload.master.app.falsify.signals import trace_from_log
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = Path("fmus").resolve()
     build_all(fmus)

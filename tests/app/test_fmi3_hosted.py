@@ -11,8 +11,8 @@ from support.fmi2_session import foreign_copy
 from support.fmi3_misbehaving import misbehaving_fmi3
 from support.remote import ServerProcess, token_file
 from tiltload.master.app.cli import main
-from tiltload.master.app.fmus import fmu_folder, is_foreign
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import fmu_folder, is_foreign
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.fmi.fmi3 import Fmu3Slave
 from tiltload.master.engine.isolation.process import IsolatedFmu
@@ -25,7 +25,7 @@ TOPICS = ["/scenario", "/sensors", "/controller", "/plant"]
 @pytest.fixture(scope="module")
 def fmi3_folder(fmus):
     """The FMI 3.0 loop's FMUs, plain and with clocks, for this machine (fmus/fmi3/)."""
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     for clocked in (False, True):
         build_all(fmu_folder(fmus, 3), progress=lambda *_: None, fmi_version=3, clocked=clocked)

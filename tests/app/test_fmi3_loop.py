@@ -19,7 +19,7 @@ from tiltload.master.app.regression.reproduce import BASELINE_RTOL, CASES, case_
 
 @pytest.fixture(scope="module")
 def fmi3_set(fmi3_fmus):
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     folder = fmi3_fmus["TiltloadPlant"].parent
     build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)
@@ -44,8 +44,8 @@ def test_twelve_cases_on_plain_and_clocked_fmi3_fmus_equal_the_fmi2_runs_bit_for
 
 def test_the_uav_alone_on_clocked_fmi3_fmus_equals_fmi2_bit_for_bit(fmus, fmi3_set):
     """Appendix A's loop (the UAV without the load, its own sensor suite of Table A.1 and controller)."""
-    from tiltload.master.app.fmus import build_all
-    from tiltload.master.app.loop import default_system, loop_metrics
+    from tiltload.master.app.loop.fmus import build_all
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics
     from tiltload.master.engine.run import run_system
 
     build_all(fmus, progress=lambda *_: None, vehicles=("uav",))

@@ -5,9 +5,9 @@ from __future__ import annotations
 import json
 
 from support import ROOT
-from tiltload.master.app import foxglove_layout
-from tiltload.master.app.loop import default_system
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.loop.scene import scene_channels
+from tiltload.master.app.loop.thesis import default_system
+from tiltload.master.app.views import foxglove_layout
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.log.logger import McapLogger

@@ -6,10 +6,10 @@ from __future__ import annotations
 import argparse
 
 import pytest
+from tiltload.master.app.case.log_name import default_log_name
+from tiltload.master.app.case.options import resolve_loop
 from tiltload.master.app.cli import parser
-from tiltload.master.app.log_name import default_log_name
-from tiltload.master.app.loop import default_stop
-from tiltload.master.app.options import resolve_loop
+from tiltload.master.app.loop.thesis import default_stop
 
 # options that change no metric and no logged value, with why
 SAME_RUN = {

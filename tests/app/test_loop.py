@@ -11,7 +11,7 @@ from scipy.linalg import solve_discrete_are
 from support.third_party_controller import build as build_third_party
 from support.third_party_controller import user_controller
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.observers import Observer
 from tiltload.master.engine.run import run_system

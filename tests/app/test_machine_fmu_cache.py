@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses
 
 import pytest
-from tiltload.master.app.fmus import build_many, loop_recipes
+from tiltload.master.app.loop.fmus import build_many, loop_recipes
 
 
 @pytest.fixture

@@ -68,7 +68,7 @@ def test_mil_and_pil_equal_sil_within_the_tolerances_and_a_broken_gain_fails(fmu
 
 @needs_qemu
 def test_the_pil_server_is_aarch64_code_and_refuses_a_wrong_token(fmus, tmp_path):
-    from tiltload.master.app.loop import default_system, loop_metrics
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics
     from tiltload.master.app.regression import pil
     from tiltload.master.engine.run import run_system
 

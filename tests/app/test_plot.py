@@ -7,7 +7,7 @@ import re
 import matplotlib.pyplot as plt
 import pytest
 from support import DATA
-from tiltload.master.app.plot import figures, unit
+from tiltload.master.app.views.plot import figures, unit
 from tiltload.master.engine.log import reader as log_reader
 
 UNIT = re.compile(r"\((m|rad|m/s|rad/s|N|N m|s|[^()]*units[^()]*)\)$")
@@ -47,7 +47,7 @@ def test_the_uav_alone_s_figures_have_units_too(uav_log):
 def uav_log(tmp_path_factory):
     from support import ROOT
     from tiltload.master.app.cli import main
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     out = tmp_path_factory.mktemp("uav")
     build_all(ROOT / "fmus", progress=lambda *_: None, vehicles=("uav",))
@@ -62,7 +62,7 @@ def test_units_by_name():
 
 
 def test_every_figure_is_titled_with_its_case():
-    from tiltload.master.app.plot import case_title
+    from tiltload.master.app.views.plot import case_title
 
     case = case_title({"vehicle": "load", "scenario": "zse", "trajectory": "1", "controller": "mixed", "seed": "7",
                        "delay": "True", "gusts": "False", "fmi": "2"})
@@ -74,14 +74,14 @@ def test_every_figure_is_titled_with_its_case():
 
 
 def test_a_system_file_s_run_is_titled_by_its_file():
-    from tiltload.master.app.plot import case_title
+    from tiltload.master.app.views.plot import case_title
 
     assert case_title({"system": "/tmp/x/loop.ssp", "faults": "runs/f.yaml"}) == "system loop.ssp, faults f.yaml"
 
 
 def test_limits_far_from_the_data_are_named_not_drawn():
     import numpy as np
-    from tiltload.master.app.plot import limit_view
+    from tiltload.master.app.views.plot import limit_view
 
     torque = np.array([-0.018, 0.045, 0.0, 0.01])
     (lo, hi), shown, far = limit_view(torque, (-2.0, 2.0))

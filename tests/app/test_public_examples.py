@@ -47,7 +47,7 @@ def internal_uses(source: str) -> list[str]:
 
 def test_the_scan_finds_each_way_of_reaching_an_internal_module():
     bad = """
-import tiltload.master.app.loop
+import tiltload.master.app.loop.thesis
 from tiltload.controller_fmu.design.estimator_setup import augmented_model
 from plant_fmu.trim import hover_trim
 import master

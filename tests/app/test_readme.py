@@ -78,7 +78,7 @@ def test_what_the_readme_says_fmpy_info_lists_is_what_it_lists(ran, fmus):
 
 @pytest.mark.slow
 def test_the_readme_counts_the_figures_a_run_writes(tmp_path):
-    from tiltload.master.app.plot import plot_run
+    from tiltload.master.app.views.plot import plot_run
 
     said = re.search(r"`runs/zse_traj1_mixed_seed1.mcap` with (\w+) PNG figures", " ".join(README.split()))
     words = {"five": 5, "six": 6, "seven": 7, "eight": 8}

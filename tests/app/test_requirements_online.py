@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop.thesis import default_system
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.requirement.check import build_trace, check_log, log_series
 from tiltload.master.engine.requirement.files import from_option
@@ -92,7 +92,7 @@ def test_unknown_signal_before_the_run(fmus, tmp_path, capsys):
 
 
 def test_the_requirements_figure(online_run, tmp_path):
-    from tiltload.master.app.plot import requirement_figure
+    from tiltload.master.app.views.plot import requirement_figure
     from tiltload.master.engine.requirement.check import intervals
 
     _, _, log = online_run

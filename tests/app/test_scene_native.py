@@ -1,4 +1,4 @@
-"""The 3D scene encoded in C (app/scene.c) against the Python scene encoder, and its number printing against Python's
+"""The 3D scene encoded in C (app/loop/scene.c) against the Python scene encoder, and its number printing against Python's
 own '%.17g' (David Gay's correctly rounded conversion)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from tiltload.master.app.scene import POSE_KEYS, SceneEncoder, scene_library
+from tiltload.master.app.loop.scene import POSE_KEYS, SceneEncoder, scene_library
 
 
 def poses(rng, n: int) -> np.ndarray:

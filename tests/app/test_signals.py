@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from support import HOSTS
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import loop_metrics
+from tiltload.master.app.loop.thesis import loop_metrics
 from tiltload.master.engine.log import reader as log_reader
 
 
@@ -78,7 +78,7 @@ def test_after_sigkill_the_torn_log_reads_plots_and_compares(fmus, tmp_path, cap
 
 def test_metrics_recomputed_from_a_log_equal_the_runs_own(fmus, tmp_path):
     """The recomputation a torn log relies on, checked on a complete run against the Metrics observer."""
-    from tiltload.master.app.loop import default_system
+    from tiltload.master.app.loop.thesis import default_system
     from tiltload.master.app.regression.log_metrics import metrics_from_messages
     from tiltload.master.engine.run import run_system
 

@@ -19,19 +19,19 @@ TIMING = ("wall_s", "cpu_s", "worker")
 
 def plain(monkeypatch):
     """The check as it was: Python's Newton steps, CasADi's map of the feedforward, numpy's mission, nothing cached."""
-    from tiltload.master.app import feasibility, trajectory_check, trim_residual
+    from tiltload.master.app.feasibility import policy, trajectory_check, trim_residual
 
     for name in ("compiled_newton", "compiled_feedforward", "compiled_mission"):
         monkeypatch.setattr(trim_residual, name, lambda vehicle: None)
     trajectory_check._hover.cache_clear()
     trajectory_check._trim_start.cache_clear()
     trajectory_check._REFERENCES.clear()
-    feasibility._IDENTIFIERS.clear()
+    policy._IDENTIFIERS.clear()
 
 
 @pytest.mark.parametrize("vehicle", ["load", "uav"])
 def test_newton_in_c_takes_python_s_steps_to_the_bit(vehicle):
-    from tiltload.master.app.trim_residual import compiled_newton
+    from tiltload.master.app.feasibility.trim_residual import compiled_newton
     from tiltload.plant_fmu.trim import hover_trim, newton, unknown_coordinates
     from tiltload.plant_fmu.vehicles import VEHICLES
 
@@ -78,8 +78,8 @@ def test_the_feedforward_along_a_reference_in_c_is_casadi_s_map_to_the_bit(vehic
     """The states and accelerations built from the reference's rows in C, and the feedforward in two parts (what the rows
     leave unchanged computed once), against numpy's and CasADi's map of the whole function
     (trajectory_check.feedforward_map, what runs without a compiler), at random rows and a random hover state."""
-    from tiltload.master.app.trajectory_check import feedforward_map
-    from tiltload.master.app.trim_residual import compiled_feedforward, feedforward
+    from tiltload.master.app.feasibility.trajectory_check import feedforward_map
+    from tiltload.master.app.feasibility.trim_residual import compiled_feedforward, feedforward
     from tiltload.plant_fmu.vehicles import VEHICLES
 
     along = compiled_feedforward(vehicle)
@@ -102,7 +102,7 @@ def test_the_feedforward_along_a_reference_in_c_is_casadi_s_map_to_the_bit(vehic
 
 
 def test_a_mission_evaluated_by_the_scenario_fmu_s_c_is_numpy_s_evaluation_to_the_bit():
-    from tiltload.master.app.trim_residual import compiled_mission
+    from tiltload.master.app.feasibility.trim_residual import compiled_mission
     from tiltload.scenario_fmu.waypoints import minimum_jerk
 
     mission = compiled_mission("load")
@@ -125,7 +125,7 @@ def test_a_mission_evaluated_by_the_scenario_fmu_s_c_is_numpy_s_evaluation_to_th
 
 
 def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_says(monkeypatch):
-    from tiltload.master.app.trajectory_check import Limits, check_reference
+    from tiltload.master.app.feasibility.trajectory_check import Limits, check_reference
 
     rng = np.random.default_rng(3)
     cases = [({"trajectory": int(rng.integers(1, 4))}, {"m_L": float(rng.uniform(0.01, 8)), "l": float(rng.uniform(0.2, 1.5))},
@@ -149,7 +149,7 @@ def test_the_check_with_its_caches_and_compiled_trims_says_what_the_plain_check_
 def test_the_check_without_its_explanations_finds_the_same_problems_in_the_same_order():
     """What a worker asks (explain=False: no summary, no notes) against the whole check, over plants and limits that
     refuse for the thrusts of the trims and of the feedforward and for the tilt."""
-    from tiltload.master.app.trajectory_check import Limits, check_reference
+    from tiltload.master.app.feasibility.trajectory_check import Limits, check_reference
 
     rng = np.random.default_rng(11)
     cases = [({"trajectory": int(rng.integers(1, 4))}, {"m_L": float(rng.uniform(0.01, 8)), "l": float(rng.uniform(0.2, 1.5))},
@@ -167,8 +167,8 @@ def test_the_check_without_its_explanations_finds_the_same_problems_in_the_same_
 def test_a_reference_checked_in_chunks_says_what_it_says_in_one(monkeypatch):
     """A span longer than CHUNK ticks is sampled a chunk at a time (the check's memory bounded): the same problems,
     notes and summary as one chunk, the chunk boundaries falling between trims and within the reference's moves."""
-    from tiltload.master.app import trajectory_check
-    from tiltload.master.app.trajectory_check import Limits, check_reference
+    from tiltload.master.app.feasibility import trajectory_check
+    from tiltload.master.app.feasibility.trajectory_check import Limits, check_reference
 
     cases = [({"trajectory": 2}, {}, Limits()), ({"trajectory": 3}, {"m_L": 2.0}, Limits(f_max=12.0, max_tilt=5.0)),
              ({"trajectory": 1}, {"l": 1.2}, Limits(tau_max=0.01))]
@@ -182,10 +182,10 @@ def test_a_reference_checked_in_chunks_says_what_it_says_in_one(monkeypatch):
 
 
 def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
-    from tiltload.master.app.campaign.case_system import case_system
-    from tiltload.master.app.campaign.worker import CaseWorker
+    from tiltload.master.app.batch.worker import CaseWorker
+    from tiltload.master.app.case.system import case_system
     from tiltload.master.app.falsify.spec import load
-    from tiltload.master.app.feasibility import check_system
+    from tiltload.master.app.feasibility.policy import check_system
 
     base = load(ROOT / "docs" / "falsification" / "tracking_wind_load.toml").base()
     systems = [case_system(fmus, base, "mixed", 1, {"plant.m_L": 3.0, "plant.x_0": x}) for x in (1.7, 1.9)]
@@ -199,8 +199,8 @@ def test_a_case_that_moves_only_the_start_shares_the_check_s_verdict(fmus):
 def test_a_worker_keeps_a_bounded_number_of_verdicts_and_checks_again_what_it_let_go(fmus, monkeypatch):
     """A search that moves a mission makes a new verdict key at every point: the worker keeps the last MOST_VERDICTS,
     and a point whose verdict went is checked again (the same verdict), never answered from another's."""
-    from tiltload.master.app.campaign import worker as W
-    from tiltload.master.app.campaign.case_system import case_system
+    from tiltload.master.app.batch import worker as W
+    from tiltload.master.app.case.system import case_system
     from tiltload.master.app.falsify.spec import load
 
     base = load(ROOT / "docs" / "falsification" / "tracking_wind_load.toml").base()
@@ -219,7 +219,7 @@ def test_a_worker_keeps_a_bounded_number_of_verdicts_and_checks_again_what_it_le
 
 @pytest.mark.parametrize("spec", ["tracking_wind_load", "altitude_thrust_loss"])
 def test_a_search_s_rows_on_a_warm_worker_are_each_point_s_run_alone_the_plain_way(fmus, spec, monkeypatch):
-    from tiltload.master.app.campaign.worker import CaseWorker
+    from tiltload.master.app.batch.worker import CaseWorker
     from tiltload.master.app.falsify.evaluate import evaluate
     from tiltload.master.app.falsify.runner import make_case
     from tiltload.master.app.falsify.space import values_at
@@ -246,7 +246,7 @@ def test_a_search_s_rows_on_a_warm_worker_are_each_point_s_run_alone_the_plain_w
 
 
 def test_a_batch_goes_as_tasks_of_equal_sizes_a_whole_number_a_worker():
-    from tiltload.master.app.campaign.dispatch import SHORTEST, even_chunks
+    from tiltload.master.app.batch.dispatch import SHORTEST, even_chunks
 
     for runs in [*range(0, 300), *range(500, 1300, 37)]:
         for workers in range(1, 6):
@@ -271,7 +271,7 @@ def test_a_worker_keeps_the_memory_it_frees_where_dask_would_have_it_trimmed():
         pytest.skip("glibc's malloc only")
     probe = """
 import ctypes, resource
-from tiltload.master.app.campaign.worker import keep_freed_memory
+from tiltload.master.app.batch.worker import keep_freed_memory
 libc = ctypes.CDLL(None)
 libc.malloc.restype, libc.malloc.argtypes, libc.free.argtypes = ctypes.c_void_p, [ctypes.c_size_t], [ctypes.c_void_p]
 def faults():

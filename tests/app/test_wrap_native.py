@@ -135,7 +135,7 @@ def test_in_the_closed_loop_every_platform_equals_linux_and_the_python_class(tmp
     the portable C host on each platform: the ISE equals tiltload's own run on Linux (1e-12); and tiltload's run of
     the same class wrapped as Python (pythonfmu) gives the same ISE to 1e-9."""
     from support.portable import AARCH64, LINUX64, WIN64, Host, compile_host, loop_plan, need_platform, unpack, wine_environment
-    from tiltload.master.app.loop import CONTROLLER, default_system, loop_metrics
+    from tiltload.master.app.loop.thesis import CONTROLLER, default_system, loop_metrics
     from tiltload.master.engine.run import run_system
 
     native = _wrapped(HOVER, tmp_path / "hover_native.fmu")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from support import ROOT, T
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.faults.parse import load, parse
 from tiltload.master.engine.faults.schedule import FaultError
 from tiltload.master.engine.log import reader as log_reader

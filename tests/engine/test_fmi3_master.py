@@ -15,7 +15,7 @@ import pytest
 from support import HOSTS, T
 from support.fmi3_plan import host_plan
 from support.fmi3_session import Session3
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine import connections
 from tiltload.master.engine import system as sysdesc
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
@@ -34,7 +34,7 @@ from tiltload.sensor_fmu.suite import GROUPS
 @pytest.fixture(scope="module")
 def fmi3_set(fmi3_fmus):
     """The FMI 3.0 folder with the clocked variants built too."""
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     folder = fmi3_fmus["TiltloadPlant"].parent
     build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)

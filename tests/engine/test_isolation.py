@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from support.fmi2_session import foreign_copy, wrap_misbehaving
 from tiltload.master.app.cli import main
-from tiltload.master.app.fmus import is_foreign
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.fmus import is_foreign
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation.process import IsolatedFmu
 from tiltload.master.engine.log import reader as log_reader

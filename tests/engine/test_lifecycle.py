@@ -8,7 +8,7 @@ import ast
 from pathlib import Path
 
 import pytest
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.lifecycle import ExecutionPool, RunPlan, run_plan
 from tiltload.master.engine.observers import Observer
@@ -105,7 +105,7 @@ def test_a_plan_run_again_on_one_pool_gives_the_fresh_run_bit_for_bit(fmus, tmp_
 
 
 LIFE_CYCLE_MODULES = ["master/engine/lifecycle.py", "master/engine/run.py", "master/app/campaign/run_case.py",
-                      "master/app/campaign/worker.py", "master/app/campaign/case_system.py", "master/app/campaign/metrics.py",
+                      "master/app/batch/worker.py", "master/app/case/system.py", "master/app/campaign/metrics.py",
                       "master/app/campaign/runner.py", "master/app/falsify/evaluate.py", "master/app/falsify/branching.py",
                       "master/app/falsify/runner.py", "master/app/regression/reproduce.py", "master/app/testing/plugin.py"]
 

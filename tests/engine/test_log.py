@@ -11,9 +11,9 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap.reader import make_reader
 from support import ROOT
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system
-from tiltload.master.app.plot import plot_run
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.loop.scene import scene_channels
+from tiltload.master.app.loop.thesis import default_system
+from tiltload.master.app.views.plot import plot_run
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.log.encoding import FixedMessage

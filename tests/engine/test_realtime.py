@@ -6,7 +6,7 @@ import time
 
 import pytest
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.realtime import Pacer
 from tiltload.master.engine.run import run_system

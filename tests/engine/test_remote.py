@@ -12,7 +12,7 @@ import zipfile
 import pytest
 from support.fmi2_session import wrap_misbehaving
 from support.remote import Namespace, ServerProcess, board_copy, connect, netns_available, token_file
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.errors import DescriptionError, ExecutionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.fmi.binaries import library_member

@@ -5,7 +5,7 @@ Python applies, a new fault schedule or none, and new parameters."""
 from __future__ import annotations
 
 import numpy as np
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop.thesis import default_system
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.faults.parse import parse
 from tiltload.master.engine.observers import Observer

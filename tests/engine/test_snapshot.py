@@ -11,9 +11,9 @@ import pytest
 from mcap.reader import make_reader
 from support.fmi2_session import foreign_copy
 from tiltload.master.app.cli import main
-from tiltload.master.app.fmus import is_foreign
-from tiltload.master.app.loop import default_system, loop_metrics
-from tiltload.master.app.scene import scene_channels
+from tiltload.master.app.loop.fmus import is_foreign
+from tiltload.master.app.loop.scene import scene_channels
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine import snapshot
 from tiltload.master.engine.faults.parse import parse
 from tiltload.master.engine.run import run_system

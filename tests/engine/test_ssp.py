@@ -12,7 +12,7 @@ from support.at_once import at_once
 from support.system_libraries import needs_library
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine import jacobi
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.execution import Execution
@@ -152,7 +152,7 @@ def test_three_masters_run_one_package_and_agree(packages, scenario, tmp_path):
 @pytest.mark.slow
 def test_the_uav_alone_runs_in_the_three_masters_too(pipeline_fmus, tmp_path):
     """Appendix A's loop (DLQR + ZSE, 80 s circle) exported for a Jacobi master: the three agree."""
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmus = pipeline_fmus["TiltloadPlant"].parent
     build_all(fmus, vehicles=("uav",))

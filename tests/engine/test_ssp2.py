@@ -9,7 +9,7 @@ import zipfile
 import pytest
 from lxml import etree
 from support import T
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.errors import DescriptionError
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.ssp import ssp2
@@ -24,7 +24,7 @@ NS = {"ssd": ssp2.SSD, "ssc": ssp2.SSC, "ssv": ssp2.SSV, "tl": TL_NS}
 
 @pytest.fixture(scope="module")
 def fmi3_set(fmi3_fmus):
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     folder = fmi3_fmus["TiltloadPlant"].parent
     build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)

@@ -18,7 +18,7 @@ from support.fmi2_session import session
 from tiltload.controller_fmu.design import feedforward as ff
 from tiltload.controller_fmu.fmu.build import bundle
 from tiltload.controller_fmu.reference.runtime import ControllerRuntime
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop.thesis import default_system
 from tiltload.master.engine import connections
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.fmi.model_description import read_fmu

@@ -26,7 +26,7 @@ CLOCKED = ("TiltloadSensorsClocked", "TiltloadControllerClocked")
 
 @pytest.fixture(scope="module")
 def clocked(fmi3_fmus):
-    from tiltload.master.app.fmus import clocked_recipes, fmu_folder
+    from tiltload.master.app.loop.fmus import clocked_recipes, fmu_folder
     from tiltload.native_fmu.build import build
 
     folder = fmi3_fmus["TiltloadPlant"].parent

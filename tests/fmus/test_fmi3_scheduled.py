@@ -21,7 +21,7 @@ from fmpy.validation import validate_fmu
 from support import HOSTS, T
 from support.fmi3_plan import host_plan
 from tiltload.controller_fmu.fmu.build import TC
-from tiltload.master.app.loop import default_stop, default_system
+from tiltload.master.app.loop.thesis import default_stop, default_system
 from tiltload.master.app.regression.reproduce import CASES, SEED, case_name
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.fmi.model_description import read_fmu
@@ -37,7 +37,7 @@ COMMANDS = ("f_R", "f_L", "tau_R", "tau_L")
 @pytest.fixture(scope="module")
 def fmi3_set(fmi3_fmus):
     """The FMI 3.0 folder with the clocked variants and the Scheduled Execution controller built too."""
-    from tiltload.master.app.fmus import build_all, build_many, scheduled_recipes
+    from tiltload.master.app.loop.fmus import build_all, build_many, scheduled_recipes
 
     folder = fmi3_fmus["TiltloadPlant"].parent
     build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)

@@ -32,7 +32,7 @@ WINDOWS_DLLS = {"kernel32.dll", "msvcrt.dll"}  # Windows' own (msvcrt.dll: the s
 @pytest.fixture(scope="module")
 def all_fmus() -> dict[str, Path]:
     """The nine FMUs tiltload builds, with every platform whose compiler is here."""
-    from tiltload.master.app.fmus import formation_recipes, loop_recipes
+    from tiltload.master.app.loop.fmus import formation_recipes, loop_recipes
     from tiltload.native_fmu.build import build
 
     recipes = {r.fmu_name: r for r in [*loop_recipes(("load", "uav")), *formation_recipes()]}
@@ -159,7 +159,7 @@ def test_the_closed_loop_on_win64_gives_linux_ise(unpacked, hosts, tmp_path, all
     """Plant, sensors, scenario, controller (ZSE, trajectory 1) stepped by the C host on win64 under wine for 40 s:
     ISE(x..psi) as tiltload's own master on Linux gets them, to the digits `tiltload run` prints."""
     from support.portable import loop_plan
-    from tiltload.master.app.loop import default_system, loop_metrics
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics
     from tiltload.master.engine.run import run_system
 
     for name in LOOP.values():
@@ -235,7 +235,7 @@ def test_source_built_fmus_share_one_process_in_the_global_symbol_scope(unpacked
     """The four loop FMUs built from sources/ without any visibility flag, loaded RTLD_GLOBAL into one process (as
     some importers do): each keeps its own hooks, and 2 s of the loop equal the shipped binaries' run to the bit."""
     from support.portable import loop_plan
-    from tiltload.master.app.loop import default_system
+    from tiltload.master.app.loop.thesis import default_system
 
     folders = {inst: unpacked[name] for inst, name in LOOP.items()}
     libraries = {inst: plain("gcc", name)[0] for inst, name in LOOP.items()}
@@ -281,7 +281,7 @@ FMI3_LOOP = ("TiltloadPlant", "TiltloadSensors", "TiltloadScenario", "TiltloadCo
 @pytest.fixture(scope="module")
 def fmi3_fmus() -> dict[str, Path]:
     """The loop's FMI 3.0 FMUs (plain and clocked) in fmus/fmi3/, with every platform whose compiler is here."""
-    from tiltload.master.app.fmus import build_many, clocked_recipes, fmu_folder, loop_recipes
+    from tiltload.master.app.loop.fmus import build_many, clocked_recipes, fmu_folder, loop_recipes
 
     results = build_many([*loop_recipes(("load",)), *clocked_recipes(("load",))], fmu_folder(ROOT / "fmus", 3),
                          progress=lambda *_: None, fmi_version=3)

@@ -13,7 +13,7 @@ from fmpy import simulate_fmu
 from support import HOSTS, ROOT, T
 from support import trajectory_oracle as ref_traj
 from support.fmi2_session import session
-from tiltload.master.app.inputs import READER
+from tiltload.master.app.loop.inputs import READER
 from tiltload.plant_fmu.parameters import default_vector
 from tiltload.plant_fmu.trim import hover_trim
 from tiltload.scenario_fmu import choice, twin, waypoints, wind

@@ -7,7 +7,7 @@ from pathlib import Path
 
 def case_metrics(fmus: str, scenario: str, trajectory: int, controller: str, fmi: int = 2, clocked: bool = False) -> dict:
     """Seed 1, the trajectory's full length, no log: the metrics of a reproduction case on one FMU set."""
-    from tiltload.master.app.loop import default_stop, default_system, loop_metrics
+    from tiltload.master.app.loop.thesis import default_stop, default_system, loop_metrics
     from tiltload.master.app.regression.reproduce import SEED
     from tiltload.master.engine.run import run_system
 

@@ -122,7 +122,7 @@ def test_both_laws_converge_and_only_backstepping_rejects_a_constant_disturbance
 
 @pytest.fixture(scope="module")
 def formation_fmus(pipeline_fmus):
-    from tiltload.master.app.fmus import build_formation as build_fmus
+    from tiltload.master.app.loop.fmus import build_formation as build_fmus
 
     fmus = pipeline_fmus["TiltloadPlant"].parent
     build_fmus(fmus, progress=lambda *_: None)
@@ -149,7 +149,7 @@ def test_tracker_fmu_is_the_python_law(formation_fmus):
     from tiltload.controller_fmu.design.control_law import StateFeedback
     from tiltload.formation.build import cached_design
     from tiltload.formation.fmu_variables import TICK
-    from tiltload.master.app.formation_system import REFERENCES, STATES
+    from tiltload.master.app.formation.system import REFERENCES, STATES
     from tiltload.plant_fmu.vehicles import VEHICLES
 
     d = cached_design()
@@ -170,7 +170,7 @@ def test_tracker_fmu_is_the_python_law(formation_fmus):
 def test_formation_fmu_is_the_python_law(formation_fmus):
     """FormationController.fmu's references: the CasADi law and the integration of Sec. B.3.4, in Python."""
     from tiltload.formation.fmu_variables import MEASURED, TICK
-    from tiltload.master.app.formation_system import REFERENCES
+    from tiltload.master.app.formation.system import REFERENCES
 
     f = kin.formation_functions()[0]
     rho_ref, rho_dot_ref, e_C = None, None, np.zeros(24)
@@ -207,7 +207,7 @@ def test_formation_fmu_is_the_python_law(formation_fmus):
 
 
 def _run(fmus, controller, disturbances, stop):
-    from tiltload.master.app.formation_system import formation_system
+    from tiltload.master.app.formation.system import formation_system
     from tiltload.master.engine.execution import Execution
 
     ex = Execution(formation_system(fmus, controller, disturbances))
@@ -258,8 +258,8 @@ def test_formation_command(formation_fmus, tmp_path, capsys):
 def test_the_formation_layout_is_current_and_plots_paths_the_log_has(formation_fmus, tmp_path):
     import json
 
-    from tiltload.master.app import foxglove_layout
-    from tiltload.master.app.formation import run
+    from tiltload.master.app.formation.runner import run
+    from tiltload.master.app.views import foxglove_layout
 
     shipped = foxglove_layout.layout_json(formation=True)
     assert (formation_fmus.parent / "docs" / "foxglove_layout_formation.json").read_text() == shipped

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from support import ROOT
 from support.remote import Namespace, ServerProcess, netns_available, token_file
-from tiltload.master.app.loop import default_stop, default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_stop, default_system, loop_metrics
 from tiltload.master.app.regression import reproduce
 from tiltload.master.engine.run import run_system
 
@@ -51,7 +51,7 @@ def test_the_twelve_cases_with_a_remote_controller_give_the_in_process_metrics_b
 @pytest.fixture(scope="module")
 def served_fmi3(fmus, tmp_path_factory):
     """The clocked FMI 3.0 loop's FMUs (fmus/fmi3/), served on loopback."""
-    from tiltload.master.app.fmus import build_all, fmu_folder
+    from tiltload.master.app.loop.fmus import build_all, fmu_folder
 
     folder = fmu_folder(fmus, 3)
     build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)

@@ -29,7 +29,7 @@ A4_U = {"f_R": 9.74110841, "f_L": 9.77602843, "tau_R": 0.0, "tau_L": 0.0}
 
 @pytest.fixture(scope="module")
 def uav_fmus():
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     return {r.path.stem: r.path for r in build_all(ROOT / "fmus", progress=lambda *_: None, vehicles=("uav",))}
 

@@ -10,8 +10,8 @@ import pytest
 from support import ROOT
 from tiltload.controller_fmu.design.cache import cache_root
 from tiltload.master.app.cli import main
-from tiltload.master.app.inputs import READER
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.inputs import READER
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.run import run_system
 from tiltload.master.engine.ssp.load import load

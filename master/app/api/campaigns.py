@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import arguments
+from ..loop.defaults import FMU_DIR, WORKER_TIMEOUT
 from . import field_types as kinds
 from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
@@ -28,11 +29,11 @@ class CampaignOptions:
     scheduler: str | None = None  # tcp://HOST:PORT or tls://HOST:PORT; None: a local cluster
     workers: int | None = None  # the local cluster's size; with a scheduler, how many to wait for
     connect_timeout: float = 5.0  # s
-    worker_timeout: float = 30.0  # s
+    worker_timeout: float = WORKER_TIMEOUT  # s
     retries: int = 2  # further tries of a run whose environment failed
     retry_failed: bool = False  # run again the stored runs that failed
     verbose: bool = False  # Dask's log on the terminal too
-    fmus: Path = Path("fmus")
+    fmus: Path = FMU_DIR
 
     def __post_init__(self) -> None:
         owner, fix = "CampaignOptions", self._fix
@@ -72,7 +73,7 @@ class CampaignResult:
 def run_campaign(spec: Path, options: CampaignOptions, progress: Callable[[str], None] | None = None) -> tuple[Path, dict]:
     """The core of `tiltload campaign SPEC` and tiltload.campaign: (results file, counts). progress: where the
     campaign's lines go (default stderr). CampaignIncomplete when runs are still missing at the end."""
-    from ..campaign.errors import ClusterError
+    from ..batch.errors import ClusterError
     from ..campaign.runner import run
     from ..user_error import UserError
 
@@ -106,7 +107,7 @@ def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, pro
     """Run what is missing of a campaign spec (TOML/YAML: docs/campaigns.md) as `tiltload campaign SPEC` does; its
     options a CampaignOptions or keywords (out=, workers=, scheduler=, retries=, fmus=, ...). A campaign that ends with
     runs still missing raises TiltloadError (the results hold the others)."""
-    from ..campaign.errors import CampaignIncomplete
+    from ..batch.errors import CampaignIncomplete
 
     if not isinstance(spec, (str, Path)):
         raise TypeError(f"campaign() takes the spec's path (str or pathlib.Path), got {type(spec).__name__}")

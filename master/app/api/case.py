@@ -9,12 +9,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import arguments
+from ..loop.defaults import MAX_TILT, SCENARIOS
 from . import field_types as kinds
 from .command_line import text_of
 from .python_controller import PythonController, controller_fmu_path
 
 if TYPE_CHECKING:
-    from ..options import LoopOptions
+    from ..case.options import LoopOptions
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -46,7 +47,7 @@ class Case:
     fmus: Path | None = None  # default: fmus
     remote: tuple[tuple[str, str], ...] = ()
     allow_infeasible: bool = False
-    max_tilt: float = 30.0  # degrees
+    max_tilt: float = MAX_TILT  # degrees
     allow_unknown_inputs: bool = False
     allow_external_fmus: bool = False
 
@@ -55,7 +56,7 @@ class Case:
         for name in ("vehicle", "scenario", "schedule"):
             fix(name, kinds.text("Case", name, getattr(self, name)))
         arguments.chosen("--vehicle", self.vehicle, ("load", "uav"))
-        arguments.chosen("--scenario", self.scenario, ("fsi", "lkf", "zse"))
+        arguments.chosen("--scenario", self.scenario, SCENARIOS)
         arguments.chosen("--schedule", self.schedule, ("ordered", "jacobi"))
         self._trajectory_and_controller()
         if kinds.whole("Case", "seed", self.seed) is not None:
@@ -75,7 +76,7 @@ class Case:
         self._settings_and_remotes()
         if self._python_controller() and self.system is None:  # with a system file the controller is refused below
             fix("controller", controller_fmu_path(self.controller, self.fmi or 2))  # its path: what the run and log name
-        from ..options import resolve_loop
+        from ..case.options import resolve_loop
         from .errors import as_tiltload_errors
 
         # what needs the vehicle's choices or a file, with the command's lines; kept (no field: not compared, not shown);

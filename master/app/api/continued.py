@@ -31,7 +31,7 @@ def continued(case: Case, options: RunOptions):
     anything is loaded."""
     from ...engine import snapshot
     from ..arguments import DEFAULT_FMU_DIR
-    from ..options import snapshot_options
+    from ..case.options import snapshot_options
 
     path = options.from_snapshot
     _refuse([f"--{k.replace('_', '-')}" for k in LOOP_DEFINING if getattr(case, k) not in (None, False)

@@ -14,7 +14,7 @@ from .run_options import RunOptions
 
 if TYPE_CHECKING:
     from ...engine.run import RunResult
-    from ..options import LoopOptions
+    from ..case.options import LoopOptions
 
 Say = Callable[[str], None]
 
@@ -47,16 +47,16 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     executions between them (restarted, not instantiated again); None: the run's own, closed after it."""
     from ....controller_fmu.design.cache import cache_root
     from ...engine.lifecycle import RunPlan, run_plan
-    from ..fmus import is_foreign
-    from ..loop import is_loop, loop_metrics
-    from ..loop_system import loop_system
+    from ..case.system import build_system
+    from ..loop.fmus import is_foreign
+    from ..loop.scene import scene_channels
+    from ..loop.thesis import is_loop, loop_metrics
     from ..regression.thesis_values import beside_run
-    from ..scene import scene_channels
 
     pacer = _pacer(options)
     snap, opts = _options(case, options)
     checkpoint = None if options.snapshot_at is None else (options.snapshot_time, options.snapshot_at[1])
-    loop = loop_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
+    loop = build_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
@@ -154,7 +154,7 @@ def _scheduled(case: Case, loop, system, snap, say: Say):
 
 def _log_path(case: Case, options: RunOptions, opts, loop, snap, say: Say) -> tuple[str, Path | None]:
     """(the run's label, its log or None with no_log); a log replaced is said."""
-    from ..log_name import default_log_name
+    from ..case.log_name import default_log_name
 
     label = options.name or default_log_name(options, opts, loop.natural_stop, loop.schedule, snap.time if snap else None,
                                              case.schedule)
@@ -208,7 +208,7 @@ def _outcome(options: RunOptions, opts, meta: dict, result, log: Path | None, mo
     """A failed run's one line (exit 1, or 128 + the signal), else the plots and the requirements' verdicts (exit 1 on a
     FAIL, 3 on an INCONCLUSIVE or ZERO without a FAIL)."""
     from ..errors import failure_line
-    from ..plot import plot_run
+    from ..views.plot import plot_run
 
     if result.error:
         failure = failure_line(result.error, log, result.sim_time)
@@ -228,7 +228,7 @@ def _failed_run_plots(options: RunOptions, log: Path | None, say: Say) -> list[P
     """A run that ended early still gets its figures, of what its log holds (a diverged one scaled to where its signals
     were sane: plot.scale_to_sane); a log too damaged to draw gets none, said in one line."""
     from ...engine.log.reader import DamagedLog
-    from ..plot import plot_intact
+    from ..views.plot import plot_intact
 
     if options.no_plots or log is None or not log.is_file():
         return []

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .. import arguments
+from ..loop.defaults import FMU_DIR
 from . import field_types as kinds
 from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
@@ -32,7 +33,7 @@ class FalsifyOptions:
     seconds: float | None = None  # wall-time budget
     scheduler: str | None = None
     workers: int | None = None
-    fmus: Path = Path("fmus")
+    fmus: Path = FMU_DIR
     no_early_stop: bool = False  # run every evaluation to the stop time
     branch: str = "auto"  # auto, on, off: evaluations branched from a snapshot
     neighbourhood: bool = False  # then a grid around the best case
@@ -106,7 +107,7 @@ def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[s
     """The core of `tiltload falsify SPEC` and tiltload.falsify: (the spec, the search's outcome, its folder).
     progress: where the search's lines go (default stderr). CampaignIncomplete when evaluations failed for their
     environment."""
-    from ..campaign.errors import ClusterError
+    from ..batch.errors import ClusterError
     from ..falsify.runner import falsify as search
     from ..user_error import UserError
 
@@ -148,7 +149,7 @@ def falsify(spec: str | Path, options: FalsifyOptions | None = None, /, *, progr
     as `tiltload falsify SPEC` does; options a FalsifyOptions or keywords (simulations=, optimizer=, seed=, out=,
     workers=, fmus=, ...). Resumes a search its folder holds. Raises TiltloadError for what the user can fix, and when
     evaluations failed for their environment (what was stored stays)."""
-    from ..campaign.errors import CampaignIncomplete
+    from ..batch.errors import CampaignIncomplete
     from ..falsify.report import SUMMARY
 
     if not isinstance(spec, (str, Path)):

@@ -19,12 +19,13 @@ from ....plant_fmu.linearize import linearize as _jacobians
 from ....plant_fmu.linearize import zoh
 from ....plant_fmu.trim import TrimError, hover_trim
 from ....plant_fmu.vehicles import VEHICLES
-from ..loop import TICK
+from ..loop.defaults import VEHICLE
+from ..loop.thesis import TICK
 from .errors import TiltloadError
 
 __all__ = ["TICK", "ActuatorLimits", "LinearModel", "Parameters", "Trim", "limits", "linearize", "parameters", "trim"]
 
-# TICK (0.012 s) is the loop's sample time T_c (master/app/loop.py): every FMU of the loop steps on it, and a
+# TICK (0.012 s) is the loop's sample time T_c (master/app/loop/thesis.py): every FMU of the loop steps on it, and a
 # controller's period is a whole number of ticks (docs/ports.md)
 _INTEGRALS = ("int_x", "int_y", "int_z", "int_psi")  # (3.8): the integrals of the x, y, z and psi errors
 
@@ -131,7 +132,7 @@ _SPECS = {name: v.parameter_specs for name, v in VEHICLES.items()}
 _DEFAULTS = {s.name: s.default for s in table.MODEL_PARAMETERS}
 
 
-def parameters(vehicle: str = "load", **overrides: float) -> Parameters:
+def parameters(vehicle: str = VEHICLE, **overrides: float) -> Parameters:
     """The vehicle's parameters ("load": the UAV with its suspended load, ch. 2; "uav": the UAV alone, Appendix A),
     Table 5.1 with the given overrides: ``tl.plant.parameters(m_L=0.2)``."""
     vehicle = _vehicle(vehicle)
@@ -164,7 +165,7 @@ class Trim:
         return float(self.x[self.state_names.index(name)])
 
 
-def trim(params: Parameters | None = None, *, psi: float = 0.0, position=(0.0, 0.0, 0.0), vehicle: str = "load") -> Trim:
+def trim(params: Parameters | None = None, *, psi: float = 0.0, position=(0.0, 0.0, 0.0), vehicle: str = VEHICLE) -> Trim:
     """The hover trim (q_dot = 0, the model's derivative zero) at yaw psi (rad) and the load's (or the UAV's) position.
 
     params: a ``tl.plant.parameters(...)`` (default: Table 5.1 of the vehicle)."""

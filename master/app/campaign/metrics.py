@@ -7,16 +7,18 @@ import math
 
 import numpy as np
 
+from ....plant_fmu.parameters import ACTUATOR_LIMIT
 from ...engine.metrics import Metrics
 from ...engine.observers import real_outputs
-from ..loop import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
+from ..loop.thesis import COMMANDS, CONTROLLER, PLANT, SCENARIO, TRACKED
 
 
 class CampaignMetrics(Metrics):
     """ISE and IADU, plus the worst tracking error (after `settle` s: the runs start 30 cm off the path), the share of
     ticks with an actuator at its limit and, in the ZSE scenario, the share of ticks with the true state in the bounds."""
 
-    def __init__(self, limits=(0.0, 30.0, 2.0), bounds: bool = True, settle: float = 5.0) -> None:
+    def __init__(self, limits=tuple(ACTUATOR_LIMIT[k] for k in ("f_min", "f_max", "tau_max")), bounds: bool = True,
+                 settle: float = 5.0) -> None:
         super().__init__(PLANT, SCENARIO, CONTROLLER, TRACKED, COMMANDS)
         self.settle = settle  # the worst tracking error counts after the initial offset is taken up
         self.limits = limits

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..loop.defaults import OUR_CONTROLLERS, SCENARIO
+
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
 DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
                  "zse_containment")
@@ -24,7 +26,7 @@ TITLES = {"max_tracking_error": "largest tracking error", "time_saturated": "tim
 
 def metric_unit(key: str) -> str:
     """The unit of a campaign metric: ISE of a position in m²·s, of an angle in rad²·s; IADU in its input's unit."""
-    from ..plot import unit
+    from ..views.plot import unit
 
     if key.startswith(("ISE(", "IADU(")):
         name = key[key.index("(") + 1:-1]
@@ -191,9 +193,9 @@ def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None)
     base = (spec or {}).get("base", {})
     controller = row["controller"]
     for c in base.get("controllers", []):
-        if c not in ("dlqr", "mixed") and Path(c).stem == controller:
+        if c not in OUR_CONTROLLERS and Path(c).stem == controller:
             controller = str((spec_folder / c).resolve() if spec_folder is not None else Path(c))
-    parts = ["tiltload run", f"--scenario {base.get('scenario', 'zse')}", f"--trajectory {shlex.quote(str(base.get('trajectory', 1)))}",
+    parts = ["tiltload run", f"--scenario {base.get('scenario', SCENARIO)}", f"--trajectory {shlex.quote(str(base.get('trajectory', 1)))}",
              f"--controller {shlex.quote(controller)}"] + ([f"--seed {row['seed']}"] if row.get("seed") is not None else [])
     if base.get("stop_time"):
         parts.append(f"--stop-time {base['stop_time']:g}")

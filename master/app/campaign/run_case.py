@@ -11,19 +11,14 @@ from ...engine.errors import DescriptionError
 from ...engine.lifecycle import RunPlan, run_plan
 from ...engine.log.logger import McapLogger
 from ...engine.requirement.observer import RequirementObserver
-from ..fmus import is_foreign
-from ..loop import PLANT
-from ..scene import scene_channels
-from .case_system import branch_system, case_system, flight_of, stop_of
+from ..batch.worker import RUN_FAILURES, CaseWorker, MissingFmu, environment_failure, this_worker
+from ..case.flight import flight_of, stop_of
+from ..case.system import branch_system, case_system
+from ..loop.fmus import is_foreign
+from ..loop.scene import scene_channels
+from ..loop.thesis import PLANT
 from .metrics import CampaignMetrics
 from .spec import CampaignBase
-from .worker import RUN_FAILURES, CaseWorker, MissingFmu, environment_failure, this_worker
-
-
-def ready() -> bool:
-    """Nothing: run on each worker of a new local cluster, so that importing this module (seconds: the controller's
-    design tools come with it) is part of the cluster's start, not of the first run."""
-    return True
 
 
 def error_row(case: dict, error: str) -> dict:

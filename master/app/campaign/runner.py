@@ -23,8 +23,9 @@ from dataclasses import asdict, dataclass, replace
 from functools import partial
 from pathlib import Path
 
-from .errors import CampaignIncomplete
-from .logs import LOG, LOGGER, campaign_log
+from ..batch.errors import CampaignIncomplete
+from ..batch.logs import LOG, LOGGER, campaign_log
+from ..loop.defaults import FMU_DIR, WORKER_TIMEOUT
 from .spec import Campaign, CampaignBase, Case, SpecError, load
 
 RESULTS, TIMINGS = "results.parquet", "timings.parquet"
@@ -37,7 +38,7 @@ class Options:
     scheduler: str | None = None  # an existing scheduler's address; None: a local cluster
     workers: int | None = None  # the local cluster's size; with a scheduler: how many workers to wait for
     connect_timeout: float = 5.0  # s for the scheduler to answer
-    worker_timeout: float = 30.0  # s to wait for workers (before the runs, and when all are gone)
+    worker_timeout: float = WORKER_TIMEOUT  # s to wait for workers (before the runs, and when all are gone)
     retries: int = 2  # further tries of a run whose environment failed
     retry_failed: bool = False  # run again the stored runs that failed
     verbose: bool = False  # Dask's log on the terminal too
@@ -84,7 +85,7 @@ def _newest_rows(parts: Path) -> dict[str, tuple[bool, int, int]]:
     """Where each stored run's newest row is: (its completed, its part's number in sorted order, its row there); rows
     of older versions' parts (one run a part, no _stored_at) count as oldest. Every part is checked
     (stored_parts.read_part: one that is not a part is refused with its name), none kept: bounded memory."""
-    from ..stored_parts import read_part
+    from ..batch.parts import read_part
 
     newest: dict[str, tuple[bool, int, int, int]] = {}
     for number, path in enumerate(sorted(parts.glob("*.parquet")) if parts.is_dir() else ()):
@@ -147,8 +148,8 @@ def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipp
     """A task on each worker there is now that instantiates the first case's system (worker.prepare; with shipped FMUs,
     from its machine's copy: shipping.py): their futures. The workers do it while this process checks the cases'
     feasibility, rather than in their first run."""
-    from .shipping import prepare_shipped
-    from .worker import prepare
+    from ..batch.shipping import prepare_shipped
+    from ..batch.worker import prepare
 
     try:
         workers = sorted(client.scheduler_info()["workers"])
@@ -159,15 +160,15 @@ def _prepare_workers(client, base: CampaignBase, case: Case, fmu_dir: str, shipp
                           key=f"prepare-{k}-{time.time_ns()}") for k, w in enumerate(workers)]
 
 
-def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress=None, **options) -> tuple[Path, dict]:
+def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None, **options) -> tuple[Path, dict]:
     """Run what is missing of a campaign (options: the fields of Options); returns results.parquet and counts: total
     (the spec's runs), what the results hold (stored, completed, failed, diverged), skipped (stored before), ran
     (stored now), retried, seconds. CampaignIncomplete (with .counts) when runs are still missing at the end (the
     results hold the others); ClusterError, before anything is built or written, when the cluster cannot take it."""
+    from ..batch.address import parse
+    from ..batch.cluster import connect, local_cluster
+    from ..batch.dispatch import Dispatch, Policy
     from ..output_folder import writable_folder
-    from .address import parse
-    from .cluster import connect, local_cluster
-    from .dispatch import Dispatch, Policy
     from .report import ORIGIN
 
     opts = Options(**options)
@@ -211,10 +212,10 @@ def run(spec: Path, out: Path | None = None, fmus: Path = Path("fmus"), progress
             say(f"campaign {campaign.name}: {len(campaign.cases)} runs, {len(campaign.cases) - len(todo)} already done, "
                 f"{len(todo)} to run")
             if todo:
-                from ..fmus import build_all, loop_recipes  # these import the controller's design tools: seconds, so only now
+                from ..batch.shipping import WithShippedFmus, ship
+                from ..batch.worker import feasibility_verdicts
+                from ..loop.fmus import build_all, loop_recipes  # these import the controller's design tools: seconds, so only now
                 from .run_case import run_case
-                from .shipping import WithShippedFmus, ship
-                from .worker import feasibility_verdicts
 
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
@@ -276,7 +277,7 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
     from ...engine import snapshot
     from ...engine.errors import DescriptionError
     from ...engine.execution import Execution
-    from .case_system import branch_system
+    from ..case.system import branch_system
 
     snap = snapshot.read(campaign.snapshot)
     for case in campaign.cases[:1]:

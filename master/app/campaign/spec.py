@@ -13,7 +13,14 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ....scenario_fmu.choice import Trajectory
+from ..case.case_set import Case
+from ..case.flight import Flight, read_flight
+from ..case.spec_file import BASE_PROPERTIES, NAME, SEED, TARGET, SpecError, checked_faults, read_spec_file
+from ..case.targets import GUST_DEFAULTS, kind_problem, resolve
+from ..loop.defaults import CONTROLLER as DEFAULT_CONTROLLER
+from ..loop.defaults import GUSTS, OUR_CONTROLLERS
+from ..loop.defaults import SCENARIO as DEFAULT_SCENARIO
+from ..loop.defaults import SEED as DEFAULT_SEED
 
 METRICS = ("ISE", "IADU", "max_tracking_error", "time_saturated", "zse_containment")
 MAX_RUNS = 100_000  # runs in one campaign: as many as vary.samples may ask for; each run is a row, and the grid is counted first
@@ -21,23 +28,14 @@ MAX_RUNS = 100_000  # runs in one campaign: as many as vary.samples may ask for;
 SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["name", "base", "vary"],
     "properties": {
-        "name": {"type": "string", "pattern": "^[A-Za-z0-9_.-]+$"},
+        "name": NAME,
         "base": {"type": "object", "additionalProperties": False, "properties": {
-            "scenario": {"enum": ["fsi", "lkf", "zse"]},
-            "trajectory": {"anyOf": [{"enum": [0, 1, 2]}, {"type": "string", "minLength": 1}]},
-            "wind": {"type": "string", "minLength": 1},
-            "allow_infeasible": {"type": "boolean"},
-            "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
+            **BASE_PROPERTIES,
             "controllers": {"type": "array", "minItems": 1, "uniqueItems": True, "items": {"type": "string", "minLength": 1}},
-            "stop_time": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
-            "gusts": {"type": "boolean"},
-            "parameters": {"type": "object", "propertyNames": {"pattern": r"^[A-Za-z_]\w*\.[A-Za-z_]\w*$"},
-                           "additionalProperties": {"type": ["number", "string", "boolean"]}},
-            "faults": {"type": "array"},
             "snapshot": {"type": "string", "minLength": 1}}},
         "vary": {"type": "object", "additionalProperties": False, "properties": {
             "seeds": {"type": "array", "minItems": 1, "uniqueItems": True,
-                      "items": {"type": "integer", "minimum": 0, "maximum": 2147483647}},
+                      "items": SEED},
             "method": {"enum": ["grid", "random", "lhs"]},
             "samples": {"type": "integer", "minimum": 1, "maximum": 100000},
             "sample_seed": {"type": "integer", "minimum": 0},
@@ -45,8 +43,7 @@ SCHEMA = {
                 "type": "object", "additionalProperties": False, "required": ["name", "targets"],
                 "properties": {
                     "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
-                    "targets": {"type": "array", "minItems": 1, "items": {"type": "string", "pattern":
-                                r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value))$"}},
+                    "targets": {"type": "array", "minItems": 1, "items": TARGET},
                     "values": {"type": "array", "minItems": 1, "items": {"type": "number"}},
                     "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}}}}}}},
         "keep": {"type": "object", "additionalProperties": False, "properties": {
@@ -55,35 +52,6 @@ SCHEMA = {
             "requirements": {"type": "string"}}},
     },
 }
-
-
-class SpecError(ValueError):
-    """A campaign specification that cannot be run; the message names the file and the field."""
-
-
-@dataclass(frozen=True)
-class Case:
-    """One run: its id (a hash of everything that defines it), controller, seed and parameter values."""
-
-    run_id: str
-    controller: str
-    seed: int
-    values: dict[str, float]  # by varied name
-    parameters: dict[str, object] = field(default_factory=dict)  # by instance.name, base and varied
-
-
-@dataclass(frozen=True)
-class Flight:
-    """What the scenario FMU flies in every case, and how its feasibility is checked: the spec's base.trajectory,
-    base.wind, base.allow_infeasible and base.max_tilt, resolved (files read) once."""
-
-    trajectory: Trajectory
-    wind: tuple[tuple[str, object], ...] = ()  # the scenario FMU's wind parameters
-    allow_infeasible: bool = False
-    max_tilt: float = 30.0
-
-    def __str__(self) -> str:
-        return self.trajectory.label
 
 
 @dataclass(frozen=True)
@@ -122,24 +90,6 @@ class Campaign:
         """What every run shares, as the workers get it (run_case's `base`)."""
         return CampaignBase(self.scenario, self.trajectory, self.stop_time, self.gusts, self.faults, tuple(self.keep_metrics),
                             self.snapshot is not None, tuple(tuple(r) for r in self.requirements))
-
-
-def read_spec_file(path: Path) -> dict:
-    from ...engine.user_files import UserFileError, read_toml, read_yaml, regular_file
-
-    try:
-        regular_file(path, "spec")
-    except UserFileError as err:
-        raise SpecError(str(err)) from None
-    if path.suffix not in (".toml", ".yaml", ".yml"):
-        raise SpecError(f"{path}: a campaign spec is a .toml, .yaml or .yml file")
-    try:
-        data = read_toml(path) if path.suffix == ".toml" else read_yaml(path)
-    except UserFileError as err:
-        raise SpecError(str(err)) from None
-    if not isinstance(data, dict):
-        raise SpecError(f"{path}: a campaign spec is a mapping of name, base, vary, keep")
-    return data
 
 
 def validate(data: dict, path: Path) -> None:
@@ -195,21 +145,6 @@ def _points(vary: dict, path: Path, per_point: int = 1) -> list[dict[str, float]
     return [dict(zip(names, map(float, row))) for row in scaled]
 
 
-def read_flight(base: dict, path: Path) -> Flight:
-    """base.trajectory and base.wind read (relative to the spec), with the feasibility policy."""
-    from ....scenario_fmu.files import ScenarioFileError
-    from ...engine.user_files import UserFileError
-    from ..inputs import read_wind
-    from ..inputs import trajectory as as_trajectory
-
-    try:
-        trajectory = as_trajectory(base.get("trajectory", 1), path.parent)
-        wind = tuple(read_wind(path.parent / base["wind"]).items()) if "wind" in base else ()
-    except (ScenarioFileError, UserFileError) as err:
-        raise SpecError(f"{path}: base: {err}") from None
-    return Flight(trajectory, wind, base.get("allow_infeasible", False), base.get("max_tilt", 30.0))
-
-
 def run_id(controller: str, seed: int, parameters: dict, snapshot: str | None = None) -> str:
     what = {"controller": controller, "seed": seed, "parameters": parameters}
     if snapshot is not None:  # a branch: of which snapshot (its digest)
@@ -236,7 +171,7 @@ class Branching:
 
 def _branching(base: dict, path: Path) -> Branching:
     from ...engine import snapshot
-    from ..options import snapshot_options
+    from ..case.options import snapshot_options
     from ..user_error import UserError
 
     given = [k for k in _FIXED_BY_SNAPSHOT if k in base]
@@ -279,29 +214,44 @@ def load(path: Path) -> Campaign:
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     if "snapshot" in base:
         return dataclasses.replace(_load_branches(data, path, _branching(base, path)), requirements=_requirements(keep, path))
-    controllers = base.get("controllers", ["mixed"])
+    controllers = base.get("controllers", [DEFAULT_CONTROLLER])
     for c in controllers:
-        if c not in ("dlqr", "mixed") and not (path.parent / c).is_file():
+        if c not in OUR_CONTROLLERS and not (path.parent / c).is_file():
             raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
-    controllers = [c if c in ("dlqr", "mixed") else str((path.parent / c).resolve()) for c in controllers]
-    seeds = vary.get("seeds", [1])
-    faults = checked_faults(base, vary, path)
+    controllers = [c if c in OUR_CONTROLLERS else str((path.parent / c).resolve()) for c in controllers]
+    seeds = vary.get("seeds", [DEFAULT_SEED])
+    faults = checked_faults(base, _varied_targets(vary, path), path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
+    flight = read_flight(base, path)
+    gust = dict(GUST_DEFAULTS) if any(t.startswith("gust.") for ts in targets.values() for t in ts) else None
     cases = []
     for point in _points(vary, path, len(controllers) * len(seeds)):
+        values = [(target, value) for name, value in point.items() for target in targets[name]]
+        parameters = resolve(values, base.get("parameters", {}), flight.trajectory.start, faults, gust)
         for controller in controllers:
             for seed in seeds:
-                parameters = dict(base.get("parameters", {}))
-                for name, value in point.items():
-                    for target in targets[name]:
-                        parameters[target] = value
-                cases.append(Case(run_id(controller, seed, parameters), controller, seed, point, parameters))
+                cases.append(Case(run_id(controller, seed, parameters), controller, seed, point, dict(parameters)))
     ids = [c.run_id for c in cases]
     if len(set(ids)) != len(ids):
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
-    return Campaign(data["name"], base.get("scenario", "zse"), read_flight(base, path), base.get("stop_time"),
-                    base.get("gusts", True), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
+    return Campaign(data["name"], base.get("scenario", DEFAULT_SCENARIO), flight, base.get("stop_time"),
+                    base.get("gusts", GUSTS), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
                     list(targets), cases, path, requirements=_requirements(keep, path))
+
+
+def _varied_targets(vary: dict, path: Path) -> list[tuple[str, str]]:
+    """(where, target) of every varied target, each checked against the grammar (case/targets.py); a mission's
+    waypoints are a search's to move (a campaign's runs share one reference)."""
+    out = []
+    for p in vary.get("parameters", []):
+        for target in p["targets"]:
+            where = f"vary.parameters.{p['name']}"
+            problem = kind_problem(target) or ("a campaign's runs fly one reference: waypoints.K.* is a search's "
+                                               "(tiltload falsify)" if target.startswith("waypoints.") else None)
+            if problem:
+                raise SpecError(f"{path}: {where}: {problem}")
+            out.append((where, target))
+    return out
 
 
 def _requirements(keep: dict, path: Path) -> tuple:
@@ -321,33 +271,18 @@ def _requirements(keep: dict, path: Path) -> tuple:
     return tuple((r.name, r.text) for r in reqs)
 
 
-def checked_faults(base: dict, vary: dict, path: Path) -> list:
-    from ...engine.faults.parse import parse
-    from ...engine.faults.schedule import FaultError
-
-    faults = base.get("faults", [])
-    try:
-        parse(faults, f"{path}: base.faults")
-    except FaultError as err:
-        raise SpecError(str(err)) from None
-    for p in vary.get("parameters", []):
-        for target in p["targets"]:
-            if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
-                raise SpecError(f"{path}: vary.parameters.{p['name']}: {target} names a fault base.faults does not have")
-    return faults
-
-
 def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     """The cases of a campaign from a snapshot: its loop, each case's faults, tunable parameters and seed."""
     from ....scenario_fmu.choice import Trajectory
-    from ..inputs import trajectory as as_trajectory
+    from ..loop.inputs import trajectory as as_trajectory
 
     base, vary, keep = data["base"], data["vary"], data.get("keep", {})
     options = branching.options  # the snapshot's LoopOptions.to_dict()
     stop = base.get("stop_time") or branching.stop
     if stop is None or stop <= branching.time:
         raise SpecError(f"{path}: base.stop_time: {stop} s is not after the snapshot's time ({branching.time:g} s)")
-    faults = checked_faults(base, vary, path) if "faults" in base else None  # None: the run's own faults, as --from-snapshot
+    # None: the run's own faults, as --from-snapshot
+    faults = checked_faults(base, _varied_targets(vary, path), path) if "faults" in base else None
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
     for name, these in targets.items():
         if TUNED_SEED in these and "seeds" in vary:

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from .. import arguments
+from ..loop.defaults import FMU_DIR
 
 
 def add_parser(sub) -> None:
@@ -16,7 +17,7 @@ def add_parser(sub) -> None:
                     help="'reproduction' (the twelve cases of ch. 5) or a case list file (TOML, YAML, JSON: "
                          "cases = [{scenario, trajectory, controller, seed, stop_time}]); default: reproduction")
     for side in ("reference", "candidate"):
-        bp.add_argument(f"--{side}-fmus", type=arguments.folder, default=Path("fmus"), metavar="DIR",
+        bp.add_argument(f"--{side}-fmus", type=arguments.folder, default=FMU_DIR, metavar="DIR",
                         help=f"the {side}'s FMU folder (default: fmus)")
         bp.add_argument(f"--{side}-controller", type=arguments.controller, default=None, metavar="C",
                         help=f"the {side}'s controller: dlqr, mixed or a controller FMU (default: the case's)")

@@ -38,7 +38,7 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ....native_fmu.compile import choose
-    from ..fmus import build_every
+    from ..loop.fmus import build_every
 
     toolchains, missing = choose(args.platforms)
     if missing:

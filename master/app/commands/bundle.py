@@ -1,5 +1,5 @@
 """`tiltload bundle OUT.zip`: every FMU for the three platforms, as FMI 2.0 and 3.0, the SSP packages and the port
-contract in one archive, for users of other FMI tools (master/app/bundle.py)."""
+contract in one archive, for users of other FMI tools (master/app/export/bundle.py)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     import sys
 
-    from ..bundle import write
+    from ..export.bundle import write
 
     contents = write(args.out, args.fmus, args.force, progress=lambda m: print(m, file=sys.stderr))
     fmus = sum(m.endswith(".fmu") for m in contents)

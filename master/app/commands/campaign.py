@@ -10,6 +10,7 @@ from pathlib import Path
 from .. import arguments
 from ..api.campaigns import HOUR
 from ..errors import UserError
+from ..loop.defaults import WORKER_TIMEOUT
 
 
 def add_parser(sub) -> None:
@@ -24,7 +25,7 @@ def add_parser(sub) -> None:
                     help="local cluster size (default: one per core); with --scheduler: wait for this many workers (default 1)")
     ca.add_argument("--connect-timeout", type=arguments.time_span(HOUR), default=5.0, metavar="S",
                     help=f"s for the scheduler to answer (default 5; at most {HOUR:g})")
-    ca.add_argument("--worker-timeout", type=arguments.time_span(arguments.DAY), default=30.0, metavar="S",
+    ca.add_argument("--worker-timeout", type=arguments.time_span(arguments.DAY), default=WORKER_TIMEOUT, metavar="S",
                     help=f"s to wait for workers, before the runs and whenever none is left (default 30; at most "
                          f"{arguments.DAY:g})")
     ca.add_argument("--retries", type=arguments.integer(0, 100), default=2,
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
             raise ReportError(f"{err} (note: {note})") from None
         print(f"note: {note}", file=sys.stderr)
         return code
-    from ..campaign.errors import CampaignIncomplete
+    from ..batch.errors import CampaignIncomplete
 
     if args.spec is not None or args.x is not None or args.y is not None:
         raise UserError("campaign: --spec, --x and --y are options of tiltload campaign-report RESULTS")

@@ -74,8 +74,8 @@ def _run_signals(args: argparse.Namespace) -> int:
         print(f"note: {note}")
     print(result.table())
     if args.figures is not None and not result.ok:
-        from ..plot import case_title
         from ..regression.tube_plot import tube_figures
+        from ..views.plot import case_title
 
         for path in tube_figures(result.rows, args.figures, args.run.stem, case_title(result.case)):
             print(f"figure: {path}")

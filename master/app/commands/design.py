@@ -9,13 +9,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import arguments
+from ..loop.defaults import VEHICLE
+from ..loop.thesis import LOOPS
 
 
 def add_parser(sub) -> None:
     d = sub.add_parser("design", help="design a controller of the thesis (ch. 3) and save it as an artifact")
     d.add_argument("--controller", default=None,
                    help="dlqr, hinf or mixed (default: the one tiltload run flies, mixed for the load, dlqr for the UAV alone)")
-    d.add_argument("--vehicle", choices=("load", "uav"), default="load", help="load (default) or uav: the UAV alone (dlqr only)")
+    d.add_argument("--vehicle", choices=tuple(LOOPS), default=VEHICLE, help="load (default) or uav: the UAV alone (dlqr only)")
     d.add_argument("--Tc", type=arguments.time_span(1.0, "period"), default=0.012,
                    help="controller period in s (default 0.012; at most 1)")
     d.add_argument("--out", type=arguments.folder, default=Path("designs"), help="output folder (default: designs)")
@@ -26,7 +28,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ....controller_fmu.design import artifact
     from ....controller_fmu.design.synthesize import design
-    from ..loop import LOOPS
+    from ..loop.thesis import LOOPS
 
     kind = args.controller or LOOPS[args.vehicle].default_controller  # one default with `tiltload run`
     d = design(kind, args.Tc, use_cache=not args.fresh, progress=lambda m: print(m, file=sys.stderr),

@@ -45,7 +45,7 @@ def options_of(args: argparse.Namespace):
 
 def run(args: argparse.Namespace) -> int:
     from ..api.falsifying import run_falsification
-    from ..campaign.errors import CampaignIncomplete
+    from ..batch.errors import CampaignIncomplete
 
     try:
         _, outcome, out = run_falsification(args.spec, options_of(args))

@@ -24,9 +24,9 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from .. import formation
     from ..errors import run_failed
-    from ..fmus import build_formation
+    from ..formation import runner as formation
+    from ..loop.fmus import build_formation
 
     build_formation(args.fmus, progress=lambda m: print(m, file=sys.stderr))
     controllers = ("backstepping", "tsid") if args.controller == "both" else (args.controller,)

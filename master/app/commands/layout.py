@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..foxglove_layout import write
+    from ..views.foxglove_layout import write
 
     try:
         path = write(args.out, args.formation)

@@ -20,7 +20,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ...engine.user_files import open_binary
-    from ..plot import plot_intact
+    from ..views.plot import plot_intact
 
     with open_binary(args.log, "log") as f:
         if f.read(8) != b"\x89MCAP0\r\n":

@@ -31,7 +31,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from ...engine.requirement.files import load
     from ..errors import UserError
-    from ..fmus import build_all, fmu_folder
+    from ..loop.fmus import build_all, fmu_folder
     from ..regression.reproduce import CASES, case_name, main
 
     if args.clocks and args.fmi != 3:

@@ -21,7 +21,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..ssp_export import export
+    from ..export.ssp import export
 
     path, version2, schedule, delay, count, stop = export(args, args.out, args.schedule)
     print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for a "

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..plot import scale_to_sane  # noqa: E402
+from ..views.plot import scale_to_sane  # noqa: E402
 from .decimate import envelope  # noqa: E402
 
 COLUMNS = 800  # pixel columns of a figure's plot area (10 in at 96 dpi, less the margins): the decimation's resolution
@@ -117,7 +117,7 @@ def _svg(fig, name: str) -> str:
 def standard_figures(log: Path) -> list[tuple[str, str]]:
     """(title, PNG data: URI) of the thesis's kinds of figures the log allows (none for a log without a plant)."""
     from ...engine.log import reader as log_reader
-    from ..plot import TITLES, TOPICS, case_of, figures
+    from ..views.plot import TITLES, TOPICS, case_of, figures
 
     data, state = log_reader.read_checked(Path(log), topics=TOPICS)
     if not data.get("/plant"):

@@ -37,7 +37,7 @@ def _figures_of(test, reqs_by_name) -> dict[str, dict]:
     from ...engine.log import reader as log_reader
     from ...engine.requirement.check import build_trace
     from ...engine.requirement.files import requirement
-    from ..plot import unit
+    from ..views.plot import unit
     from .figures import requirement_figure
 
     if test.log is None or not Path(test.log).is_file() or not test.results:

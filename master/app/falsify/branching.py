@@ -54,7 +54,7 @@ def with_branch(base: SearchBase, ticks: int) -> SearchBase:
 
 def choose(base: SearchBase, dimensions, fmus: Path, ticks: int, repeat: int = 9) -> tuple[bool, str]:
     """Measure whole runs against branches on the spec's midpoint and a corner: (branch?, the line that says why)."""
-    from ..campaign.worker import CaseWorker
+    from ..batch.worker import CaseWorker
     from .evaluate import evaluate
     from .space import case_parameters, values_at
 
@@ -84,7 +84,7 @@ def choose(base: SearchBase, dimensions, fmus: Path, ticks: int, repeat: int = 9
         worker.close()
     whole, branch = statistics.median(spent["whole"]), statistics.median(spent["branch"])
     use = branch < whole
-    from ..loop import TICK
+    from ..loop.thesis import TICK
 
     return use, (f"branching from a snapshot at t = {ticks * TICK:.3f} s: {branch * 1e3:.2f} ms against {whole * 1e3:.2f} ms "
                  f"for the whole run (CPU, median of {repeat}): {'used' if use else 'not used'}")

@@ -1,4 +1,4 @@
-"""One evaluation: the loop run as a campaign case runs (campaign/case_system.py: its system; campaign/worker.py: its
+"""One evaluation: the loop run as a campaign case runs (case/system.py: its system; batch/worker.py: its
 feasibility check and the worker's executions; run through engine/lifecycle.py), the requirements' signals kept by an
 observer, each requirement's robustness.
 
@@ -32,9 +32,9 @@ from ....scenario_fmu.files import ScenarioFileError
 from ...engine.lifecycle import RunPlan, run_plan
 from ...engine.observers import StopRun
 from ...engine.requirement.stl import Evaluator, verdict
-from ..campaign.case_system import case_system
-from ..campaign.worker import RUN_FAILURES, CaseWorker, environment_failure, this_worker, worker_address
-from ..fmus import is_foreign
+from ..batch.worker import RUN_FAILURES, CaseWorker, environment_failure, this_worker, worker_address
+from ..case.system import case_system
+from ..loop.fmus import is_foreign
 from .signals import CHECK_TICKS, SignalRecorder
 from .space import case_flight
 from .spec import SearchBase
@@ -94,14 +94,14 @@ def run_loop(base: SearchBase, parameters: dict, fmu_dir: Path, observers: list,
 
 
 def evaluate(base: SearchBase, case: dict, fmu_dir: str, worker: CaseWorker | None = None) -> dict:
-    """The outcome of one point, as campaign/dispatch.py expects it: {"row", "wall", "setup", "sim_time"}; or, when its
+    """The outcome of one point, as batch/dispatch.py expects it: {"row", "wall", "setup", "sim_time"}; or, when its
     environment failed (not the run), {"environment": line, "worker": address}. Never raises. worker: whose executions
     (None: this Dask worker's, campaign/worker.this_worker)."""
     started, cpu = time.perf_counter(), time.thread_time()
     try:
         worker = worker if worker is not None else this_worker()
         if case.get("controller", base.controller) != base.controller:  # this worker's copy of a shipped controller FMU
-            base = dataclasses.replace(base, controller=case["controller"])  # (campaign/shipping.py)
+            base = dataclasses.replace(base, controller=case["controller"])  # (batch/shipping.py)
         early = base.early_stop
         recorder = SignalRecorder(base.signals, [worker.formula(f) for f in base.requirements] if early else None)
         try:

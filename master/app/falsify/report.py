@@ -10,6 +10,7 @@ import math
 import shlex
 from pathlib import Path
 
+from ..loop.defaults import MAX_TILT
 from .search import Outcome
 from .spec import Falsification
 
@@ -69,7 +70,7 @@ def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None 
         args += ["--wind", str(case["wind"])]
     if case["allow_infeasible"]:
         args.append("--allow-infeasible")
-    if case["max_tilt"] != 30.0:
+    if case["max_tilt"] != MAX_TILT:
         args += ["--max-tilt", _number(case["max_tilt"])]
     if "faults" in case:
         args += ["--faults", str(case["faults"])]

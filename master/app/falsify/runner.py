@@ -1,6 +1,6 @@
 """`tiltload falsify SPEC`: the search of a spec on a Dask cluster (a local one on the loopback interface, or an existing
-scheduler, as campaigns run: campaign/cluster.py), its evaluations dispatched with the campaign's retries and failure
-handling (campaign/dispatch.py), its results and report written to the output folder."""
+scheduler, as campaigns run: batch/cluster.py), its evaluations dispatched with the campaign's retries and failure
+handling (batch/dispatch.py), its results and report written to the output folder."""
 
 from __future__ import annotations
 
@@ -13,8 +13,10 @@ from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
-from ..campaign.errors import CampaignIncomplete
-from ..campaign.spec import Case, SpecError
+from ..batch.errors import CampaignIncomplete
+from ..case.case_set import Case
+from ..case.spec_file import SpecError
+from ..loop.defaults import FMU_DIR, WORKER_TIMEOUT
 from .search import Outcome, search
 from .spec import Falsification, SearchBase, load
 
@@ -36,7 +38,7 @@ def check_names(spec: Falsification, fmus: Path) -> None:
     """Before any run, against the built FMUs: each requirement's signal is an output of its instance, each searched
     instance.name a parameter of it."""
     from ...engine.fmi.model_description import read_fmu
-    from ..campaign.case_system import case_system
+    from ..case.system import case_system
 
     system = case_system(fmus, spec.base(), spec.controller, spec.loop_seed, dict(spec.parameters))
     outputs, parameters = {}, {}
@@ -63,15 +65,15 @@ def check_names(spec: Falsification, fmus: Path) -> None:
 
 
 def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int = 2, ship: bool = False):
-    """evaluate_batch for search(): the cases through campaign/dispatch.py on the client's cluster. ship: the workers
-    get the FMUs from this client (an existing cluster's: campaign/shipping.py), registered once for every batch."""
-    from ..campaign.dispatch import Dispatch, Policy, cluster_threads, even_chunks
+    """evaluate_batch for search(): the cases through batch/dispatch.py on the client's cluster. ship: the workers
+    get the FMUs from this client (an existing cluster's: batch/shipping.py), registered once for every batch."""
+    from ..batch.dispatch import Dispatch, Policy, cluster_threads, even_chunks
     from .evaluate import evaluate
 
     task = partial(evaluate, base, fmu_dir=str(fmus.resolve()))
     if ship:
-        from ..campaign import shipping
-        from ..fmus import loop_recipes
+        from ..batch import shipping
+        from ..loop.fmus import loop_recipes
 
         shipped = shipping.ship(client, fmus, [r.fmu_name for r in loop_recipes()],
                                 [base.controller] if base.controller not in ("dlqr", "mixed") else [])
@@ -91,7 +93,7 @@ def cluster_batch(client, where: str, base: SearchBase, fmus: Path, retries: int
 def cheaper_base(spec: Falsification, fmus: Path, early_stop: bool = True, branch: str = "auto") -> tuple[SearchBase, list[str]]:
     """The workers' base with the cheaper evaluations it can have (evaluate.py): early stop, and branching from a
     snapshot when the searched inputs all act late and (auto) it measured faster here; the lines that say what."""
-    from ..loop import TICK
+    from ..loop.thesis import TICK
     from .branching import branch_tick, choose, with_branch
 
     base = replace(spec.base(), early_stop=early_stop)
@@ -120,7 +122,7 @@ def make_case(base: SearchBase):
     return make
 
 
-def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"), optimizer: str | None = None,
+def falsify(spec_path: Path, out: Path | None = None, fmus: Path = FMU_DIR, optimizer: str | None = None,
             seed: int | None = None, simulations: int | None = None, seconds: float | None = None,
             scheduler: str | None = None, workers: int | None = None, client=None, progress=None,
             write_report: bool = True, early_stop: bool = True, branch: str = "auto", neighbourhood: bool = False,
@@ -131,9 +133,9 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
     stops at its first decided violation; branch: auto (measured: cheaper_base), on or off; neighbourhood: then run the
     grid around the best case (neighbourhood.py: ±fraction of each range, points values each); stop_when_falsified=False:
     the whole budget even past a falsification (benchmarks/search_throughput.py)."""
-    from ..campaign.cluster import connect, local_cluster
-    from ..campaign.logs import campaign_log
-    from ..fmus import build_all
+    from ..batch.cluster import connect, local_cluster
+    from ..batch.logs import campaign_log
+    from ..loop.fmus import build_all
     from ..output_folder import writable_folder
     from .search import read_parts
 
@@ -160,7 +162,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = Path("fmus"),
         try:
             if own:
                 if scheduler is not None:
-                    client = connect(scheduler, workers or 1, 5.0, 30.0)
+                    client = connect(scheduler, workers or 1, 5.0, WORKER_TIMEOUT)
                 else:
                     client, cluster = local_cluster(workers, scratch=Path(scratch))
                     where = f"{cluster.scheduler_address} (the local cluster's)"

@@ -66,7 +66,7 @@ def _stamp(path: Path) -> int:
 def read_parts(folder: Path) -> dict[int, dict]:
     """The stored evaluations by index (an index stored twice, by a rerun with another spec: the newer part's row); a
     part that is not one is refused with its name (stored_parts.read_part)."""
-    from ..stored_parts import read_part
+    from ..batch.parts import read_part
 
     if not folder.is_dir():
         return {}

@@ -10,30 +10,25 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..campaign.spec import SCHEMA as CAMPAIGN_SCHEMA
-from ..campaign.spec import Flight, SpecError, checked_faults, read_flight, read_spec_file
+from ..case.flight import Flight, read_flight
+from ..case.spec_file import BASE_PROPERTIES, NAME, TARGET, SpecError, checked_faults, read_spec_file
+from ..case.spec_file import SEED as SEED_SCHEMA
+from ..case.targets import GUST_DEFAULTS, GUST_FIELDS, LOOP_INSTANCES, kind_problem
+from ..loop.defaults import CONTROLLER, GUSTS, OUR_CONTROLLERS, SCENARIO, SEED
 
 OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
-LOOP_INSTANCES = ("plant", "scenario", "controller", "sensors")  # master/app/loop.py's instance names
-GUST_FIELDS = ("amplitude", "direction", "start", "duration", "rise")
-GUST_DEFAULTS = {"amplitude": 0.0, "direction": 0.0, "start": 0.0, "duration": 1.0, "rise": 0.2}
-TARGET_PATTERN = (r"^([A-Za-z_]\w*\.[A-Za-z_]\w*|faults\.\d+\.(start|end|value|duration)|gust\.(amplitude|direction|start|"
-                  r"duration|rise)|initial\.[xyz]|waypoints\.\d+\.(t|x|y|z|psi))$")
 
 
 def _base_schema() -> dict:
-    base = copy.deepcopy(CAMPAIGN_SCHEMA["properties"]["base"])
-    props = base["properties"]
-    del props["controllers"], props["snapshot"]  # one controller; a search branches from snapshots of its own (branching.py)
-    props["controller"] = {"type": "string", "minLength": 1}
-    props["seed"] = {"type": "integer", "minimum": 0, "maximum": 2147483647}
-    return base
+    # one controller and a seed; a search branches from snapshots of its own (branching.py)
+    props = {**copy.deepcopy(BASE_PROPERTIES), "controller": {"type": "string", "minLength": 1}, "seed": SEED_SCHEMA}
+    return {"type": "object", "additionalProperties": False, "properties": props}
 
 
 SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["name", "base", "requirements", "search", "budget"],
     "properties": {
-        "name": CAMPAIGN_SCHEMA["properties"]["name"],
+        "name": NAME,
         "optimizer": {"enum": list(OPTIMIZERS)},
         "seed": {"type": "integer", "minimum": 0, "maximum": 2**32 - 1},
         "batch": {"type": "integer", "minimum": 1, "maximum": 1024},
@@ -49,7 +44,7 @@ SCHEMA = {
         "search": {"type": "array", "minItems": 1, "items": {
             "type": "object", "additionalProperties": False, "required": ["name", "target", "range"], "properties": {
                 "name": {"type": "string", "pattern": r"^[A-Za-z_]\w*$"},
-                "target": {"type": "string", "pattern": TARGET_PATTERN},
+                "target": TARGET,
                 "range": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "number"}},
                 "integer": {"type": "boolean"}}}},
         "gust": {"type": "object", "additionalProperties": False,
@@ -214,7 +209,7 @@ def _requirements(items: list, path: Path) -> tuple[list[Requirement], tuple[str
 def _check_horizons(requirements: list[Requirement], stop: float, path: Path) -> None:
     """A requirement must be decidable by the run: its horizon within the last tick the run reaches."""
     from ...engine.requirement import stl
-    from ..loop import TICK
+    from ..loop.thesis import TICK
 
     last = math.floor(stop / TICK + 1e-9) * TICK
     for i, r in enumerate(requirements):
@@ -239,7 +234,7 @@ def _mission_rows(flight: Flight, path: Path) -> list[dict]:
     from ....scenario_fmu import waypoints
     from ....scenario_fmu.files import ScenarioFileError, read_rows, read_structured
     from ...engine.user_files import UserFileError
-    from ..inputs import READER
+    from ..loop.inputs import READER
 
     source = Path(flight.trajectory.source) if flight.trajectory.source else None
     if source is None or not flight.trajectory.knots:
@@ -268,14 +263,9 @@ def _dimensions(items: list, faults: list, flight: Flight, path: Path) -> list[D
         names.add(item["name"])
         targets.add(item["target"])
         target = item["target"]
-        kind, _, rest = target.partition(".")
-        if kind == "gust" and rest not in GUST_FIELDS:
-            raise SpecError(f"{where}.target: a gust has {', '.join(GUST_FIELDS)}, not {rest}")
-        if kind not in ("gust", "initial", "faults", "waypoints") and kind not in LOOP_INSTANCES:
-            raise SpecError(f"{where}.target: {target} is neither gust.*, initial.*, faults.N.*, waypoints.K.* nor a "
-                            f"parameter of the loop's instances ({', '.join(LOOP_INSTANCES)})")
-        if target.startswith("faults.") and int(target.split(".")[1]) >= len(faults):
-            raise SpecError(f"{where}.target: {target} names a fault base.faults does not have")
+        problem = kind_problem(target)
+        if problem:
+            raise SpecError(f"{where}.target: {problem}")
         if target.startswith("gust.") and any(k.startswith("wind_profile") for k, _ in flight.wind):
             raise SpecError(f"{where}.target: a searched gust is written into the wind profile, and base.wind has one")
         if target in ("gust.duration", "gust.rise") and low <= 0:
@@ -290,12 +280,12 @@ def load(path: Path) -> Falsification:
     data = read_spec_file(path)
     _validate(data, path)
     base = data["base"]
-    controller = base.get("controller", "mixed")
-    if controller not in ("dlqr", "mixed"):
+    controller = base.get("controller", CONTROLLER)
+    if controller not in OUR_CONTROLLERS:
         if not (path.parent / controller).is_file():
             raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed nor an existing controller FMU")
         controller = str((path.parent / controller).resolve())
-    faults = checked_faults(base, {}, path)
+    faults = checked_faults(base, [(f"search.{i}.target", s["target"]) for i, s in enumerate(data["search"])], path)
     flight = read_flight(base, path)
     requirements, signals = _requirements(data["requirements"], path)
     _check_signals(signals, path)
@@ -305,7 +295,7 @@ def load(path: Path) -> Falsification:
         if d.target.startswith("waypoints.") and int(d.target.split(".")[1]) >= len(mission):
             raise SpecError(f"{path}: search.{i}.target: {d.target} names a waypoint the mission does not have "
                             f"(it has {len(mission)}: 0 to {len(mission) - 1})")
-    from ..loop import default_stop
+    from ..loop.thesis import default_stop
 
     stop = base.get("stop_time") or default_stop(flight.trajectory)
     _check_horizons(requirements, float(stop), path)
@@ -316,7 +306,7 @@ def load(path: Path) -> Falsification:
     wind = (path.parent / base["wind"]).resolve() if "wind" in base else None
     raw = base.get("trajectory", 1)
     trajectory_arg = str((path.parent / raw).resolve()) if isinstance(raw, str) and (path.parent / raw).is_file() else str(raw)
-    return Falsification(data["name"], base.get("scenario", "zse"), flight, controller, base.get("seed", 1), float(stop),
-                         base.get("gusts", True), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
+    return Falsification(data["name"], base.get("scenario", SCENARIO), flight, controller, base.get("seed", SEED), float(stop),
+                         base.get("gusts", GUSTS), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
                          data.get("optimizer", "cmaes"), data.get("seed", 0), data.get("batch"), budget.get("simulations"),
                          budget.get("seconds"), path, wind, trajectory_arg, signals, mission)

@@ -21,6 +21,7 @@ from ...command_line.argument_types import MAX_RUN
 from ...engine.errors import DescriptionError
 from ...engine.observers import Observer
 from ...engine.user_files import UserFileError, read_document, schema_problem
+from ..loop.defaults import FMU_DIR, SEED
 from .signal_compare import SignalRow, Tolerances, compare_signals, log_signals
 
 SIGNALS = ["plant.x", "plant.y", "plant.z", "plant.psi", "controller.f_R", "controller.f_L", "controller.tau_R",
@@ -41,12 +42,12 @@ class Case:
     scenario: str
     trajectory: int
     controller: str = "dlqr"
-    seed: int = 1
+    seed: int = SEED
     stop_time: float | None = None  # None: the trajectory's duration
 
     @property
     def name(self) -> str:
-        return f"{self.scenario}_traj{self.trajectory}_{self.controller}" + (f"_seed{self.seed}" if self.seed != 1 else "")
+        return f"{self.scenario}_traj{self.trajectory}_{self.controller}" + (f"_seed{self.seed}" if self.seed != SEED else "")
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,7 @@ class Side:
     the controller's stage (sil, mil, pil) and, for mil, gain (i, j, factor): the entry K[i, j] of the gain scaled (a
     deliberately broken candidate)."""
 
-    fmus: Path = Path("fmus")
+    fmus: Path = FMU_DIR
     controller: str | None = None
     settings: tuple[tuple[str, object], ...] = ()
     stage: str = "sil"
@@ -134,7 +135,7 @@ def load_cases(path: Path) -> list[Case]:
 
 def side_system(case: Case, side: Side, host=None):
     """The system of the case on this side; host (mil.Served or pil's): where its controller runs."""
-    from ..loop import default_system, set_parameters
+    from ..loop.thesis import default_system, set_parameters
 
     controller = side.controller or case.controller
     is_fmu = controller.endswith(".fmu")
@@ -151,8 +152,8 @@ def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, h
     """One run of the case on this side (on the pool's execution of its structure, if any): (its log, how it ended
     early or None, the controller's time per tick in s, None when it runs in this process)."""
     from ...engine.lifecycle import RunPlan, run_plan
-    from ..fmus import is_foreign
-    from ..loop import default_stop, loop_metrics
+    from ..loop.fmus import is_foreign
+    from ..loop.thesis import default_stop, loop_metrics
     from .case import record
 
     controller = side.controller or case.controller

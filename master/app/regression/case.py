@@ -15,6 +15,8 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
+from ..loop.defaults import FMI, GUSTS, VEHICLE
+
 # the keys compared, in the order a difference is told; with the value a record that lacks the key means (logs written
 # before the key was recorded: no wind, the ordered schedule)
 CASE_KEYS: dict[str, str | None] = {
@@ -35,8 +37,8 @@ def file_digest(path: Path | None) -> str:
         return ""
 
 
-def record(*, scenario: str, trajectory: int | str, controller: str, seed: int, stop_time: float, vehicle: str = "load",
-           delay: bool = False, gusts: bool = True, fmi: int = 2, clocks: bool = False,
+def record(*, scenario: str, trajectory: int | str, controller: str, seed: int, stop_time: float, vehicle: str = VEHICLE,
+           delay: bool = False, gusts: bool = GUSTS, fmi: int = FMI, clocks: bool = False,
            settings: tuple[tuple[str, object], ...] = (), faults: Path | None = None, wind: Path | None = None,
            schedule: str = "ordered") -> dict[str, object]:
     """The "run" record of a run of the loop (the log's metadata keeps every value as text)."""

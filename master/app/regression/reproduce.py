@@ -35,9 +35,9 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
              clocked: bool = False) -> dict:
     """Worker: one case, its log and its figures (fmi, clocked: the FMU set of fmus, docs/fmi3.md)."""
     from ...engine.lifecycle import RunPlan, run_plan
-    from ..loop import default_stop, default_system, loop_metrics
-    from ..plot import plot_run
-    from ..scene import scene_channels
+    from ..loop.scene import scene_channels
+    from ..loop.thesis import default_stop, default_system, loop_metrics
+    from ..views.plot import plot_run
     from .case import record
 
     name = case_name(scenario, trajectory, controller)

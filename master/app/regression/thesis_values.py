@@ -35,7 +35,7 @@ def beside_run(opts, stop: float) -> tuple[str, dict[str, float] | None]:
     """What `tiltload run` prints beside its metrics: ("Table 5.x", the thesis's values) for a run of a thesis case as
     the thesis ran it (the loop, the load, FSI/LKF/ZSE, trajectory 1 or 2, DLQR or mixed, gusts, no delay, fault, wind
     or --set, the full length); (a note, None) for that case cut short; ("", None) for any other run."""
-    from ..loop import default_stop
+    from ..loop.thesis import default_stop
 
     case = (getattr(opts, "system", None) is None and opts.vehicle == "load" and opts.trajectory in (1, 2)
             and (opts.scenario, opts.trajectory) in _TABLES and opts.controller in ("dlqr", "mixed") and opts.gusts

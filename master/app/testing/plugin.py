@@ -92,7 +92,7 @@ def tiltload_case() -> dict[str, object]:
 @pytest.fixture(scope="session")
 def tiltload_fmus(pytestconfig: pytest.Config) -> Path:
     """The loop's FMUs, built (or checked up to date) once per session: their folder."""
-    from ..fmus import build_all
+    from ..loop.fmus import build_all
 
     folder = pytestconfig.getoption("--tiltload-fmus") or pytestconfig.getini("tiltload_fmus")
     folder = (pytestconfig.rootpath / folder).resolve()

@@ -28,7 +28,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ..ports import OUTPUT_UNITS, REQUIRED_OUTPUTS, contract_inputs
+from ..loop.ports import OUTPUT_UNITS, REQUIRED_OUTPUTS, contract_inputs
 from . import packaging
 
 TICK = 0.012

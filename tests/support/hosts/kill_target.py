@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from tiltload.master.app.loop import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_system, loop_metrics
 from tiltload.master.engine.observers import Observer
 from tiltload.master.engine.run import run_system, terminate_like_interrupt
 

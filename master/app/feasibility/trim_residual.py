@@ -19,13 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine.native.kernel import CFLAGS, KernelError, compiled
+from ...engine.native.kernel import CFLAGS, KernelError, compiled
 
 FLAGS = tuple(f for f in CFLAGS if f not in ("-fvisibility=hidden", "-Wall", "-Wextra"))  # CasADi's generated code
 SOURCE = Path(__file__).with_name("trim_newton.c")
 MISSION = Path(__file__).with_name("mission_samples.c")  # with the scenario FMU's own waypoint arithmetic
-SCENARIO_C = Path(__file__).resolve().parents[2] / "scenario_fmu" / "c"
-PLATFORM_C = Path(__file__).resolve().parents[2] / "native_fmu" / "c"
+SCENARIO_C = Path(__file__).resolve().parents[3] / "scenario_fmu" / "c"  # tiltload/master/app/feasibility/ -> tiltload/
+PLATFORM_C = Path(__file__).resolve().parents[3] / "native_fmu" / "c"
 _local = threading.local()
 _libraries: dict[str, ctypes.CDLL | None] = {}
 _lock = threading.Lock()
@@ -34,7 +34,7 @@ _lock = threading.Lock()
 @cache
 def feedforward(vehicle: str):
     """The controller's feedforward (3.18) as a CasADi function (the feasibility check's)."""
-    from ...plant_fmu.codegen import feedforward_function
+    from ....plant_fmu.codegen import feedforward_function
 
     return feedforward_function(vehicle)
 
@@ -76,8 +76,8 @@ def _gesv():
 def _library(vehicle: str) -> ctypes.CDLL | None:
     import casadi as ca
 
-    from ...plant_fmu.trim import residual_functions
-    from ...scenario_fmu.fmu_variables import capacity_header
+    from ....plant_fmu.trim import residual_functions
+    from ....scenario_fmu.fmu_variables import capacity_header
 
     with _lock:
         if vehicle not in _libraries:
@@ -104,7 +104,7 @@ class CompiledNewton:
     arrays)."""
 
     def __init__(self, vehicle: str, lib: ctypes.CDLL, gesv) -> None:
-        from ...plant_fmu.trim import residual_function
+        from ....plant_fmu.trim import residual_function
 
         f = residual_function(vehicle)
         work = []

@@ -4,8 +4,8 @@ itself: trajectory_check.py; docs/test_bench.md."""
 
 from __future__ import annotations
 
-from ...plant_fmu import parameters as P
-from ...plant_fmu.vehicles import VEHICLES
+from ....plant_fmu import parameters as P
+from ....plant_fmu.vehicles import VEHICLES
 from .trajectory_check import Limits, Report, check_reference
 
 
@@ -29,7 +29,7 @@ def model_identifier(path, instance: str) -> str | None:
     read_fmu does."""
     import os
 
-    from ..engine.fmi.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
 
     try:
         st = os.stat(path)

@@ -30,10 +30,11 @@ from collections.abc import Callable
 from concurrent.futures import CancelledError
 from dataclasses import dataclass, field
 
+from ..case.case_set import Case
+from ..loop.defaults import WORKER_TIMEOUT
 from .cluster import first_line
 from .errors import CampaignIncomplete
 from .logs import LOGGER
-from .spec import Case
 
 POLL = 0.1  # s between looks at the cluster's health at most while nothing finishes (a finish wakes the wait at once)
 HEALTH = 1.0  # s between looks at the cluster while nothing finishes
@@ -129,7 +130,7 @@ def cluster_threads(client, timeout: float = 5.0) -> int:
 @dataclass
 class Policy:
     retries: int = 2  # further tries of a run whose environment failed
-    worker_timeout: float = 30.0  # s without a worker before the campaign gives up
+    worker_timeout: float = WORKER_TIMEOUT  # s without a worker before the campaign gives up
     answer_timeout: float = 5.0  # s for the scheduler to answer a question
 
 

@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ...plant_fmu import parameters  # noqa: E402
-from ..engine.log import reader as log_reader  # noqa: E402
+from ....plant_fmu import parameters  # noqa: E402
+from ...engine.log import reader as log_reader  # noqa: E402
 
 
 def _series(msgs: list[dict], *names: str) -> np.ndarray:
@@ -46,8 +46,8 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
 def requirement_figure(log: Path, out: Path | None = None) -> list[Path]:
     """<stem>_requirements.png for a run monitored with --requirements: each requirement's margin over time (for
     always[a:b] φ, the robustness of φ), its violations shaded, its signals named; none for a log without them."""
-    from ..engine.requirement.check import build_trace, intervals, margins
-    from ..engine.requirement.files import requirement
+    from ...engine.requirement.check import build_trace, intervals, margins
+    from ...engine.requirement.files import requirement
 
     meta = log_reader.read_metadata(log)
     formulas, verdicts = meta.get("requirement_formulas"), meta.get("requirements", {})

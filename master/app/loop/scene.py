@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...plant_fmu.parameters import MODEL_PARAMETERS
-from ..engine.log.logger import DerivedChannel
+from ....plant_fmu.parameters import MODEL_PARAMETERS
+from ...engine.log.logger import DerivedChannel
 
 _P = {s.name: s.default for s in MODEL_PARAMETERS}
 THRUSTERS = [(_P[f"d_C{i}_x"], _P[f"d_C{i}_y"], _P[f"d_C{i}_z"]) for i in (2, 3)]
@@ -163,7 +163,7 @@ class _NativeScene:
 @cache
 def scene_library():
     """scene.c, compiled like the engine's kernel (libm's sin and cos, not the compiler's: the Python encoder's)."""
-    from ..engine.native.kernel import CFLAGS, compiled
+    from ...engine.native.kernel import CFLAGS, compiled
 
     lib = compiled("tl_scene", (Path(__file__).with_name("scene.c"),), (*CFLAGS, "-fno-builtin-sin", "-fno-builtin-cos"), ("m",))
     p, n, i = ctypes.c_void_p, ctypes.c_int64, ctypes.c_int

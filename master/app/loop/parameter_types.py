@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from .user_error import UserError
+from ..user_error import UserError
 
 _NUMBERS = ("Real", "Float32", "Float64", "Integer", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64",
             "Enumeration")
@@ -27,7 +27,7 @@ def _what(value: object) -> str:
 
 def check_settings(system, settings) -> None:
     """Each INSTANCE.NAME=VALUE of the system's own FMUs (a name the FMU does not have is the FMU's to refuse)."""
-    from ..engine.fmi.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
 
     names = {i.name: i for i in system.instances}
     for key, value in settings:

@@ -196,7 +196,7 @@ def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | No
                 raise
         if interrupted:
             raise KeyboardInterrupt
-        from .run_case import ready
+        from .worker import ready
 
         client.run(ready)  # each new worker imports the runs' module now: part of the start, not of the first run
     except BaseException:  # a Ctrl-C while it starts: closed here, while the campaign's log still takes Dask's records

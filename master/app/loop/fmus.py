@@ -8,15 +8,15 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from ...controller_fmu.fmu import build as controller
-from ...formation import build as formation
-from ...native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
-from ...native_fmu.cache import cache_root, cached_fmu, newest_cached
-from ...native_fmu.compile import choose
-from ...native_fmu.package import read_build_info
-from ...plant_fmu import build as plant
-from ...scenario_fmu import build as scenario
-from ...sensor_fmu import build as sensors
+from ....controller_fmu.fmu import build as controller
+from ....formation import build as formation
+from ....native_fmu.build import BuildResult, Recipe, build, digest, inputs_record, is_current, rebuild_reason
+from ....native_fmu.cache import cache_root, cached_fmu, newest_cached
+from ....native_fmu.compile import choose
+from ....native_fmu.package import read_build_info
+from ....plant_fmu import build as plant
+from ....scenario_fmu import build as scenario
+from ....sensor_fmu import build as sensors
 
 FMI3_FOLDER = "fmi3"  # the FMI 3.0 set lives beside the FMI 2.0 one: fmus/fmi3/ (the same file names)
 
@@ -81,8 +81,8 @@ def build_many(recipes: list[Recipe], dest: Path, force: bool = False, progress=
     """Every stale FMU of recipes rebuilt into dest (as FMI 2.0 or 3.0), in the order given. The C compiler runs for several FMUs side by
     side (a first build is mostly compiling: ~20 s in a row on 2 cores, ~11 s side by side); their Python preparation
     (CasADi code generation, the designs) runs one at a time, as CasADi is not known to be thread-safe."""
-    from .output_folder import folder_problem
-    from .user_error import UserError
+    from ..output_folder import folder_problem
+    from ..user_error import UserError
 
     dest = Path(dest)
     problem = folder_problem(dest)

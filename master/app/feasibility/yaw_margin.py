@@ -8,19 +8,21 @@ from functools import cache
 
 import numpy as np
 
+from ..loop.defaults import VEHICLE
+
 
 @cache
 def closed_loop_radius(kind: str, vehicle: str, delay: int, psi: float) -> float:
     """Spectral radius of the loop of design `kind` (made at psi = 0) around the hover trim at yaw psi."""
-    from ...controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
-    from ...controller_fmu.design.synthesize import design
+    from ....controller_fmu.design.error_dynamics import error_dynamics, with_loop_delay
+    from ....controller_fmu.design.synthesize import design
 
     K = design(kind, use_cache=True, vehicle=vehicle, loop_delay=delay).K
     e = with_loop_delay(error_dynamics(0.012, psi=psi, vehicle=vehicle), delay)
     return float(np.abs(np.linalg.eigvals(e.A - e.B @ K)).max())
 
 
-def yaw_margin(kind: str, vehicle: str = "load", delay: int = 0) -> float:
+def yaw_margin(kind: str, vehicle: str = VEHICLE, delay: int = 0) -> float:
     """The largest |psi| (rad, to 0.01) at which the design's loop stays stable (bisection on the spectral radius)."""
     lo, hi = 0.0, math.pi
     if closed_loop_radius(kind, vehicle, delay, hi) < 1:

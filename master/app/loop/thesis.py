@@ -10,13 +10,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...controller_fmu.design.error_dynamics import LOOP_DELAYS
-from ...scenario_fmu.choice import Trajectory
-from ..engine import jacobi
-from ..engine.errors import DescriptionError
-from ..engine.fmi.model_description import clocks_of, read_fmu
-from ..engine.metrics import Metrics
-from ..engine.system import Connection, Instance, System
+from ....controller_fmu.design.error_dynamics import LOOP_DELAYS
+from ....scenario_fmu.choice import Trajectory
+from ...engine import jacobi
+from ...engine.errors import DescriptionError
+from ...engine.fmi.model_description import clocks_of, read_fmu
+from ...engine.metrics import Metrics
+from ...engine.system import Connection, Instance, System
+from . import defaults
 from .inputs import trajectory as as_trajectory
 
 TICK = 0.012
@@ -43,7 +44,7 @@ class VehicleLoop:
 
 LOOPS = {
     "load": VehicleLoop("TiltloadPlant.fmu", "TiltloadSensors.fmu", "TiltloadController.fmu", ("fsi", "lkf", "zse"),
-                        (0, 1, 2), ("dlqr", "mixed"), 1, "mixed", 0.1),
+                        (0, 1, 2), defaults.OUR_CONTROLLERS, 1, defaults.CONTROLLER, 0.1),
     # Appendix A: DLQR with the exact state or the ZSE; Fig. A.3's disturbance profile is lost: 0.5 N steps through
     # the same 0.5 s lags at 1/4, 1/2 and 3/4 of the 80 s circle (chosen; docs/uav.md)
     "uav": VehicleLoop("TiltrotorUAV.fmu", "TiltrotorSensors.fmu", "TiltrotorController.fmu", ("fsi", "zse"),
@@ -56,9 +57,10 @@ def clocked_name(fmu_name: str) -> str:
     return fmu_name.removesuffix(".fmu") + "Clocked.fmu"
 
 
-def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Trajectory | None = None, controller: str | None = None,
-                   seed: int = 1, controller_fmu: Path | None = None, delay: bool = False, gusts: bool = True,
-                   vehicle: str = "load", wind: dict | None = None, fmi: int | None = None, clocked: bool = False) -> System:
+def default_system(fmu_dir: Path, scenario: str = defaults.SCENARIO, trajectory: int | Trajectory | None = None,
+                   controller: str | None = None, seed: int = defaults.SEED, controller_fmu: Path | None = None,
+                   delay: bool = False, gusts: bool = defaults.GUSTS, vehicle: str = defaults.VEHICLE, wind: dict | None = None,
+                   fmi: int | None = None, clocked: bool = False) -> System:
     """The thesis's loop. With controller_fmu, a third-party controller replaces ours (ports: docs/ports.md).
     trajectory: 0-3 or any Trajectory (scenario_fmu.choice: shapes, waypoint files); wind: the scenario FMU's wind
     parameters (scenario_fmu.wind.read_wind), seeded like the sensors. fmi: the FMI version of the FMUs in fmu_dir
@@ -79,7 +81,7 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
         ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
     if trajectory.knots:  # a mission's knot file goes into the machine's cache (the others need no folder)
-        from ...controller_fmu.design.cache import cache_root
+        from ....controller_fmu.design.cache import cache_root
 
         scenario_parameters = {**trajectory.fmu_parameters(cache_root() / "missions"), "gusts": gusts}
     else:

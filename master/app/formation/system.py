@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ...formation.fmu_variables import MEASURED, TICK
-from ...formation.kinematics import AGENTS, formation_start
-from ..engine.faults.schedule import Fault
-from ..engine.system import Connection, Instance, System
+from ....formation.fmu_variables import MEASURED, TICK
+from ....formation.kinematics import AGENTS, formation_start
+from ...engine.faults.schedule import Fault
+from ...engine.system import Connection, Instance, System
 
 DURATION = 60.0  # s: long enough to see the backstepping reject the disturbances (time constant ~10 s)
 DISTURBANCE_START = 10.0  # s: the loop has settled by then

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .user_error import UserError
+from ..user_error import UserError
 
 
 def read_part(path: Path, columns: dict[str, type | tuple[type, ...]]) -> list[dict]:

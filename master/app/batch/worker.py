@@ -23,11 +23,11 @@ from pathlib import Path
 from ....plant_fmu.parameters import PARAMETER_NAMES
 from ...engine.errors import DescriptionError, ExecutionError
 from ...engine.lifecycle import ExecutionPool
-from ..feasibility import check_system
-from ..fmus import is_foreign
-from ..loop import PLANT
-from .case_system import case_system, flight_of, stop_of
-from .spec import CampaignBase, Flight
+from ..case.flight import Flight, LoopBase, flight_of, stop_of
+from ..case.system import case_system
+from ..feasibility.policy import check_system
+from ..loop.fmus import is_foreign
+from ..loop.thesis import PLANT
 
 MOST_VERDICTS = 1024  # feasibility verdicts a worker keeps (a moved mission's key holds its knot table: a few KB)
 CHECKED = frozenset((*PARAMETER_NAMES, "f_min", "f_max", "tau_max"))  # feasibility.check_system's plant parameters
@@ -100,7 +100,7 @@ class CaseWorker:
             self.formulas[text] = parse(text)
         return self.formulas[text]
 
-    def prepare(self, base: CampaignBase, case: dict, fmu_dir: str) -> bool:
+    def prepare(self, base: LoopBase, case: dict, fmu_dir: str) -> bool:
         """Instantiate a case's system before its runs come (the FMUs unpacked, loaded and instantiated, as its first
         run would), while the client checks the cases' feasibility: the first run then restarts it. Never raises
         (False: not prepared; the run meets the problem again and reports it)."""
@@ -109,6 +109,12 @@ class CaseWorker:
         except Exception:
             return False
         return self.pool.prepare(system, is_foreign)
+
+
+def ready() -> bool:
+    """Nothing: run on each worker of a new local cluster, so that importing this module (seconds: the controller's
+    design tools come with the case core) is part of the cluster's start, not of the first run."""
+    return True
 
 
 def checked_plant(parameters: dict) -> tuple:
@@ -156,12 +162,12 @@ def this_worker() -> CaseWorker:
     return state
 
 
-def prepare(base: CampaignBase, case: dict, fmu_dir: str) -> bool:
+def prepare(base: LoopBase, case: dict, fmu_dir: str) -> bool:
     """The Dask task: this worker prepares a case's system (CaseWorker.prepare)."""
     return this_worker().prepare(base, case, fmu_dir)
 
 
-def feasibility_verdicts(base: CampaignBase, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
+def feasibility_verdicts(base: LoopBase, cases: list[dict], fmu_dir: str, most: int = 16) -> dict:
     """The feasibility check's verdicts of the first case of each set of plant parameters the cases vary (at most
     `most` sets), for the client to compute once and hand to every worker in base.feasibility: each worker would
     otherwise check them itself (1-2 ms each, compiled: docs/throughput.md). A case this cannot describe is left to

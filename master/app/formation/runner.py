@@ -16,11 +16,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ...formation.kinematics import AGENTS  # noqa: E402
-from ..engine.log import reader as log_reader  # noqa: E402
-from ..engine.run import RunResult, run_system  # noqa: E402
-from .formation_system import DISTURBANCE_START, DURATION, formation_system  # noqa: E402
-from .scene import scene_channels  # noqa: E402
+from ....formation.kinematics import AGENTS  # noqa: E402
+from ...engine.log import reader as log_reader  # noqa: E402
+from ...engine.run import RunResult, run_system  # noqa: E402
+from ..loop.scene import scene_channels  # noqa: E402
+from .system import DISTURBANCE_START, DURATION, formation_system  # noqa: E402
 
 LABEL = {"sigma": "leader σ", "zeta": "follower ζ", "tau": "follower τ"}
 

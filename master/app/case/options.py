@@ -1,4 +1,4 @@
-"""The options of a run of the loop, resolved once into a frozen value (the system they describe: loop_system.py)."""
+"""The options of a run of the loop, resolved once into a frozen value (the system they describe: system.py, the one builder)."""
 
 from __future__ import annotations
 
@@ -6,14 +6,16 @@ import argparse
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from ...scenario_fmu.choice import THESIS, Trajectory
-from .arguments import DEFAULT_FMU_DIR
-from .inputs import trajectory as as_trajectory
-from .loop import LOOPS
-from .user_error import UserError
+from ....scenario_fmu.choice import THESIS, Trajectory
+from ..loop.defaults import FMU_DIR as DEFAULT_FMU_DIR
+from ..loop.defaults import MAX_TILT, OUR_CONTROLLERS
+from ..loop.defaults import SCENARIO as DEFAULT_SCENARIO
+from ..loop.defaults import SEED as DEFAULT_SEED
+from ..loop.defaults import VEHICLE as DEFAULT_VEHICLE
+from ..loop.inputs import trajectory as as_trajectory
+from ..loop.thesis import LOOPS
+from ..user_error import UserError
 
-DEFAULT_SEED = 1
-DEFAULT_SCENARIO = "zse"
 # the options that describe the thesis's loop, which a system file describes itself: given with --system, an error
 LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
              ("controller", "--controller"), ("seed", "--seed"), ("delay", "--delay"), ("no_gusts", "--no-gusts"),
@@ -56,7 +58,7 @@ OPTIONS_SCHEMA = {
 
 def snapshot_options(application: dict, where) -> LoopOptions:
     """The loop options a snapshot was taken with, checked against OPTIONS_SCHEMA (one line naming the first problem)."""
-    from ..engine.user_files import schema_problem
+    from ...engine.user_files import schema_problem
 
     options = application.get("options")
     if options is None:
@@ -93,11 +95,13 @@ class LoopOptions:
     reference: Trajectory | None = None  # what the scenario FMU flies (None: the thesis's trajectory)
     wind: Path | None = None  # a wind file (scenario_fmu.wind)
     allow_infeasible: bool = False
-    max_tilt: float = 30.0  # degrees, the feasibility check's
+    max_tilt: float = MAX_TILT  # degrees, the feasibility check's
     allow_external_fmus: bool = False  # a system file's FMUs may lie outside its package or folder
     remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order (where, not which loop)
     fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
     clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
+    # a case set's wind, read once for all its runs (the scenario FMU's parameters); a run's own is its wind file
+    wind_parameters: tuple[tuple[str, object], ...] = ()
 
     @property
     def controller_label(self) -> str:
@@ -105,7 +109,7 @@ class LoopOptions:
 
     def to_dict(self) -> dict:
         """JSON-able, for a snapshot to say which loop it is of."""
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "wind_parameters"}
         for key in ("controller_fmu", "faults", "system", "fmus", "wind"):
             d[key] = None if d[key] is None else str(Path(d[key]).resolve())
         d["settings"] = [list(s) for s in self.settings]
@@ -176,15 +180,15 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
             raise UserError(f"--system {args.system} runs the system as its file describes it: {', '.join(given)} "
                             f"{'applies' if one else 'apply'} to the thesis's loop only (drop {'it' if one else 'them'}, "
                             "or set it in the system file)")
-        load = LOOPS["load"]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
-        return LoopOptions(vehicle="load", scenario=DEFAULT_SCENARIO, trajectory=load.default_trajectory,
+        load = LOOPS[DEFAULT_VEHICLE]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
+        return LoopOptions(vehicle=DEFAULT_VEHICLE, scenario=DEFAULT_SCENARIO, trajectory=load.default_trajectory,
                            controller=load.default_controller, controller_fmu=None, seed=DEFAULT_SEED, stop_time=args.stop_time,
                            delay=False, gusts=True, faults=args.faults, settings=(), system=args.system, fmus=DEFAULT_FMU_DIR,
                            allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
                            remotes=tuple(getattr(args, "remote", ())))
     if getattr(args, "allow_external_fmus", False):
         raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
-    vehicle = args.vehicle or "load"
+    vehicle = args.vehicle or DEFAULT_VEHICLE
     loop = LOOPS[vehicle]
     reference = as_trajectory(loop.default_trajectory if args.trajectory is None else args.trajectory)
     trajectory = reference.code if reference.code in THESIS else reference.label
@@ -195,11 +199,11 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
                         f"{', '.join(map(str, loop.trajectories))}")
     if scenario not in loop.scenarios:
         raise UserError(f"--scenario {scenario}: the {vehicle} vehicle has {', '.join(loop.scenarios)}")
-    if controller in ("dlqr", "mixed") and controller not in loop.controllers:
+    if controller in OUR_CONTROLLERS and controller not in loop.controllers:
         raise UserError(f"--controller {controller}: the {vehicle} vehicle has {', '.join(loop.controllers)} "
                         "(or your own FMU)")
     controller_fmu = None
-    if controller not in ("dlqr", "mixed"):
+    if controller not in OUR_CONTROLLERS:
         controller_fmu = Path(controller)
         if not controller_fmu.is_file():
             raise UserError(f"--controller: {controller_fmu} is neither dlqr, mixed nor an existing FMU file")

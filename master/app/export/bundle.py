@@ -13,7 +13,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from .user_error import UserError
+from ..user_error import UserError
 
 PLATFORMS = ("linux64", "win64", "aarch64-linux")  # every row of native_fmu.compile.TOOLCHAINS
 FMI_VERSIONS = (2, 3)
@@ -69,7 +69,7 @@ def check_output(out: Path) -> Path:
 
 def toolchains():
     """The three platforms' toolchains; a missing compiler is the user's to install, named with its package."""
-    from ...native_fmu.compile import BuildError, choose
+    from ....native_fmu.compile import BuildError, choose
 
     try:
         chosen, missing = choose()
@@ -83,8 +83,8 @@ def toolchains():
 def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
     """Build what is stale, export the SSP packages, and write the archive at out (whole or not at all); what it holds:
     {member: description}."""
-    from .fmus import build_every
-    from .ssp_export import export, loop_arguments
+    from ..loop.fmus import build_every
+    from .ssp import export, loop_arguments
 
     out = check_output(out)
     chosen = toolchains()
@@ -117,7 +117,7 @@ def write(out: Path, fmus: Path, force: bool = False, progress=print) -> dict:
 def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, str]:
     """One line per member, from the files themselves: an FMU's model description and its build record's platforms;
     refused if an FMU lacks a platform's binary (a bundle is for every platform)."""
-    from ..engine.fmi.model_description import read_fmu
+    from ...engine.fmi.model_description import read_fmu
 
     out = {}
     for member, path in members.items():
@@ -143,7 +143,7 @@ def describe(members: dict[str, Path], packages: dict[str, tuple]) -> dict[str, 
 
 
 def _is_scheduled(md) -> bool:
-    from ..engine.fmi.model_description import is_scheduled
+    from ...engine.fmi.model_description import is_scheduled
 
     return is_scheduled(md)
 
@@ -161,8 +161,8 @@ def wrapped(head: str, words: list[str], width: int = 116) -> list[str]:
 
 
 def readme(descriptions: dict[str, str]) -> str:
-    from ...native_fmu.build import tiltload_version
-    from ...native_fmu.compile import TOOLCHAINS
+    from ....native_fmu.build import tiltload_version
+    from ....native_fmu.compile import TOOLCHAINS
 
     lines = [f"tiltload {tiltload_version()}: the FMUs of a tilt-rotor UAV carrying a suspended load",
              "(Rego, MSc thesis, UFMG 2016), for any FMI 2.0 or 3.0 co-simulation tool.", "",
@@ -187,14 +187,14 @@ def ports_text(controller_fmu: Path) -> str:
     """The contract in short, then the loop's connections and the controller's inputs as the FMUs declare them."""
     import numpy as np
 
-    from ...native_fmu.build import tiltload_version
-    from ...plant_fmu.vehicles import VEHICLES
-    from ...sensor_fmu.suite import SUITES
-    from ..engine.connections import resolve
-    from ..engine.fmi.model_description import read_fmu
-    from ..engine.system import System
-    from .loop import default_system
-    from .ports import contract_inputs
+    from ....native_fmu.build import tiltload_version
+    from ....plant_fmu.vehicles import VEHICLES
+    from ....sensor_fmu.suite import SUITES
+    from ...engine.connections import resolve
+    from ...engine.fmi.model_description import read_fmu
+    from ...engine.system import System
+    from ..loop.ports import contract_inputs
+    from ..loop.thesis import default_system
 
     folder = Path(controller_fmu).parent
     system: System = default_system(folder)

@@ -6,21 +6,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .user_error import UserError
+from ..user_error import UserError
 
 
 def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     """The loop the options describe as an SSP package at out (SSP 2.0 when its FMUs are FMI 3.0): (path, SSP 2.0?,
     the schedule it is prepared for, the controller's loop delay in ticks or None, FMUs, stop time)."""
-    from ...controller_fmu.design.cache import cache_root
-    from ..engine.fmi.model_description import read_fmu
-    from ..engine.ssp import export as ssp1
-    from ..engine.ssp import ssp2
-    from .loop import select_loop_delay
-    from .loop_system import loop_system
-    from .options import resolve_loop
+    from ....controller_fmu.design.cache import cache_root
+    from ...engine.fmi.model_description import read_fmu
+    from ...engine.ssp import export as ssp1
+    from ...engine.ssp import ssp2
+    from ..case.options import resolve_loop
+    from ..case.system import build_system
+    from ..loop.thesis import select_loop_delay
 
-    loop = loop_system(resolve_loop(args), cache_root() / "ssp")
+    loop = build_system(resolve_loop(args), cache_root() / "ssp")
     system, stop = loop.system, loop.stop
     _mission_inside(system, cache_root() / "ssp" / "missions")
     version2 = ssp2.needs_ssp2({i.name: read_fmu(i.fmu, i.name) for i in system.instances})
@@ -35,7 +35,7 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
 
 def loop_arguments(fmus: Path, fmi_version: int) -> argparse.Namespace:
     """The options of `tiltload ssp export --fmus FMUS --fmi N`, the defaults for the rest."""
-    from . import arguments
+    from .. import arguments
 
     p = argparse.ArgumentParser(prog="tiltload", allow_abbrev=False)
     arguments.add_loop_options(p)

@@ -10,7 +10,7 @@ Two questions at every sample the controller takes (the 12 ms tick):
   method, on the plant's own parameters), every 0.12 s: its thrusts against the same limits and its tilt angles
   against max_tilt (30 degrees by default: the controllers are linearized at the hover trim).
 A problem names the quantity, the time and the margin: "f_R would need 31.4 N at t = 12.30 s; the limit is 30 N".
-(Which systems are checked and what a problem refuses: feasibility.py; the yaw a design holds: yaw_margin.py.)
+(Which systems are checked and what a problem refuses: policy.py; the yaw a design holds: yaw_margin.py.)
 """
 
 from __future__ import annotations
@@ -21,9 +21,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ...plant_fmu.vehicles import VEHICLES
-from ...scenario_fmu import twin, waypoints
-from ...scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
+from ....plant_fmu.parameters import ACTUATOR_LIMIT
+from ....plant_fmu.vehicles import VEHICLES
+from ....scenario_fmu import twin, waypoints
+from ....scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
+from ..loop.defaults import MAX_TILT, VEHICLE
 from .yaw_margin import yaw_problem
 
 INPUT_NAMES = ("f_R", "f_L", "tau_R", "tau_L")
@@ -34,10 +36,10 @@ CHUNK = 2**14  # ticks sampled at once: the check's memory is bounded whatever t
 
 @dataclass(frozen=True)
 class Limits:
-    f_min: float = 0.0  # N, Table 5.2
-    f_max: float = 30.0
-    tau_max: float = 2.0  # N m
-    max_tilt: float = 30.0  # degrees, any trim angle (load roll/pitch, UAV tilt to the rod, thruster tilts)
+    f_min: float = ACTUATOR_LIMIT["f_min"]  # N, Table 5.2
+    f_max: float = ACTUATOR_LIMIT["f_max"]
+    tau_max: float = ACTUATOR_LIMIT["tau_max"]  # N m
+    max_tilt: float = MAX_TILT  # degrees, any trim angle (load roll/pitch, UAV tilt to the rod, thruster tilts)
 
 
 @dataclass
@@ -56,7 +58,7 @@ class Report:
 def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0):
     """The trim at ref by Newton (plant_fmu.trim.newton) from the trim at ref_prev, by halving the way when Newton
     strays (a solution far from the previous one is another branch: the vehicle upside down)."""
-    from ...plant_fmu.trim import newton
+    from ....plant_fmu.trim import newton
     from .trim_residual import compiled_newton
 
     solve = compiled_newton(vehicle)  # the same steps in C, the same bits (trim_residual.py)
@@ -74,7 +76,7 @@ def _trim(vehicle: str, z_prev, ref_prev, ref, p, n_angles: int, depth: int = 0)
 def _hover(vehicle: str, p: bytes):
     """The hover trim of a parameter vector (its bytes), solved once per vector: a search over other inputs checks
     the same plant again and again (read only)."""
-    from ...plant_fmu.trim import hover_trim
+    from ....plant_fmu.trim import hover_trim
     from .trim_residual import compiled_newton
 
     return hover_trim(np.frombuffer(p), vehicle=vehicle, solve=compiled_newton(vehicle))
@@ -83,7 +85,7 @@ def _hover(vehicle: str, p: bytes):
 @lru_cache(maxsize=64)
 def _trim_start(vehicle: str, p: bytes) -> np.ndarray:
     """The trims' unknowns at the hover trim of a parameter vector (its bytes): the first trim's start (read only)."""
-    from ...plant_fmu.trim import unknown_coordinates
+    from ....plant_fmu.trim import unknown_coordinates
 
     hover = _hover(vehicle, p)
     z = np.r_[hover.x[unknown_coordinates(vehicle)], hover.u]
@@ -205,14 +207,14 @@ def _parameter_index(vehicle: str) -> dict[str, int]:
 
 
 
-def check_reference(scenario: dict, stop: float, vehicle: str = "load", plant: dict | None = None,
+def check_reference(scenario: dict, stop: float, vehicle: str = VEHICLE, plant: dict | None = None,
                     limits: Limits = Limits(), tick: float = 0.012, design: tuple[str, int] | None = None,
                     explain: bool = True) -> Report:
     """The feedforward and the trim along the reference of these scenario FMU parameters, over [0, stop] (at most
     MAX_SPAN: the reference is sampled CHUNK ticks at a time, so time and memory grow linearly with the span and
     stay bounded); with design = (dlqr or mixed, loop delay), the yaw that design holds. explain=False: the problems
     alone, the same ones (no summary, no notes: what a search's or a campaign's worker reads)."""
-    from ...plant_fmu.trim import TrimError, unknown_coordinates
+    from ....plant_fmu.trim import TrimError, unknown_coordinates
     from .trim_residual import compiled_newton, feedforward
 
     ff = feedforward(vehicle)

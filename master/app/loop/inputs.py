@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ...scenario_fmu import choice, wind
-from ..engine import user_files
+from ....scenario_fmu import choice, wind
+from ...engine import user_files
 
 
 class _Files:

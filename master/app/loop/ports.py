@@ -6,16 +6,17 @@ controller_fmu/fmu/fmu_variables.py, one source), plus the LKF sensor's flag and
 
 from __future__ import annotations
 
-from ..engine.errors import DescriptionError
+from ...engine.errors import DescriptionError
+from .defaults import VEHICLE
 
 REQUIRED_OUTPUTS = ("f_R", "f_L", "tau_R", "tau_L")
 OUTPUT_UNITS = {"f_R": "N", "f_L": "N", "tau_R": "N.m", "tau_L": "N.m"}
 
 
-def contract_inputs(trim_x, pi_eq, vehicle: str = "load") -> dict[str, tuple[str, str, object, str]]:
+def contract_inputs(trim_x, pi_eq, vehicle: str = VEHICLE) -> dict[str, tuple[str, str, object, str]]:
     """Every input a controller may declare: name -> (type, unit, start value, description)."""
-    from ...controller_fmu.fmu import fmu_variables as cv
-    from ...plant_fmu.vehicles import VEHICLES
+    from ....controller_fmu.fmu import fmu_variables as cv
+    from ....plant_fmu.vehicles import VEHICLES
 
     d = cv.definition(trim_x, pi_eq, 0.012, "0", vehicle)
     inputs = {v.name: (v.type, v.unit, v.start, v.description) for v in d.variables if v.causality == "input"}
@@ -26,17 +27,17 @@ def contract_inputs(trim_x, pi_eq, vehicle: str = "load") -> dict[str, tuple[str
     return inputs
 
 
-def contract_names(vehicle: str = "load") -> set[str]:
+def contract_names(vehicle: str = VEHICLE) -> set[str]:
     """The names of every input the contract has (their types, units and start values: contract_inputs)."""
     import numpy as np
 
-    from ...plant_fmu.vehicles import VEHICLES
-    from ...sensor_fmu.suite import SUITES
+    from ....plant_fmu.vehicles import VEHICLES
+    from ....sensor_fmu.suite import SUITES
 
     return set(contract_inputs(np.zeros(VEHICLES[vehicle].nx), np.zeros(len(SUITES[vehicle].pi_names)), vehicle))
 
 
-def check_controller(md, allow_unknown_inputs: bool = False, vehicle: str = "load") -> None:
+def check_controller(md, allow_unknown_inputs: bool = False, vehicle: str = VEHICLE) -> None:
     """Refuse a controller FMU that lacks a required output, declares one with the wrong type or causality, or
     has an input the contract does not know (it would sit at its start value: a misspelt port) unless allowed."""
     import difflib
