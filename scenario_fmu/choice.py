@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import shapes, trajectories, twin, waypoints
+from . import knot_file, shapes, trajectories, twin, waypoints
 from .files import Reader, ScenarioFileError, read_rows, read_structured
 
 THESIS = (0, 1, 2, 3)
@@ -65,7 +65,7 @@ class Trajectory:
         import hashlib
 
         knots = np.array(self.knots)
-        text = waypoints.knot_text(knots)
+        text = knot_file.knot_text(knots)
         data = text.encode()
         where = str(_resolved(str(folder), "" if os.path.isabs(folder) else os.getcwd()))
         path = os.path.join(where, f"mission-{hashlib.sha256(data).hexdigest()[:20]}.csv")  # (str: a search writes one
@@ -82,7 +82,7 @@ class Trajectory:
                 os.makedirs(where, exist_ok=True)
                 info = _write(partial, data)
             os.replace(partial, path)  # whole or not at all, for a reader in another process
-        waypoints.known_knots(path, info, knots)  # the feasibility check reads it next: not parsed again
+        knot_file.known_knots(path, info, knots)  # the feasibility check reads it next: not parsed again
         if len(path) > waypoints.PATH_LENGTH:
             raise ScenarioFileError(f"the knot file's path {path[:60]}... is longer than {waypoints.PATH_LENGTH} characters")
         return {**self.parameters, "waypoints_file": path}

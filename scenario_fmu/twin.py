@@ -12,7 +12,7 @@ from functools import cache
 
 import numpy as np
 
-from . import shapes, trajectories, waypoints
+from . import knot_file, shapes, trajectories
 
 WAYPOINTS = 4  # the scenario FMU's trajectory code of a waypoint file
 
@@ -50,7 +50,7 @@ def evaluate(parameters: dict, times) -> Samples:
         z3 = np.zeros((t.size, 3))
         return Samples(t, z3, z3, z3, zeros, zeros)
     if code == WAYPOINTS:
-        pos, vel, acc = waypoints.from_parameters(parameters).evaluate(t)
+        pos, vel, acc = knot_file.from_parameters(parameters).evaluate(t)
         return Samples(t, pos[:, :3], vel[:, :3], acc[:, :3], pos[:, 3], vel[:, 3])
     f = _casadi(code)
     args = [t[None, :]] + ([np.repeat(shape_vector(parameters)[:, None], t.size, axis=1)] if code in shapes.SHAPES else [])
@@ -62,7 +62,7 @@ def duration(parameters: dict) -> float:
     """The duration output of the scenario FMU with these parameters (hover: 40 s, as the FMU says)."""
     code = int(parameters.get("trajectory", 1))
     if code == WAYPOINTS:
-        return waypoints.from_parameters(parameters).duration
+        return knot_file.from_parameters(parameters).duration
     if code in shapes.SHAPES:
         return float(parameters.get("shape_duration", shape_vector({})[shapes.SHAPE_NAMES.index("duration")]))
     return trajectories.DURATION.get(code, 40.0)

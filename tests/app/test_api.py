@@ -216,7 +216,7 @@ def test_falsify_returns_its_result(fmus, tmp_path):
 
 
 def _record(**changes) -> dict:
-    from tiltload.master.app.regression.case import record
+    from tiltload.master.app.case.record import record
 
     base = {"scenario": "zse", "trajectory": 1, "controller": "mixed", "seed": 1, "stop_time": 40.0}
     return {k: str(v) for k, v in record(**{**base, **changes}).items()}

@@ -1391,7 +1391,7 @@ def test_the_pytest_plugin_prints_a_baseline_report_once(tmp_path):
         json.dumps({"metrics": {"ISE(x)": 0.5, "IADU(f_R)": 2.0}, "tolerances": {"rtol": 1e-6, "atol": 1e-12}}))
     (tmp_path / "pytest.ini").write_text("[pytest]\ntiltload_baselines = baselines\n")
     (tmp_path / "test_user.py").write_text(
-        "import tiltload as tl\nfrom tiltload.master.app.regression.case import record\n\n"
+        "import tiltload as tl\nfrom tiltload.master.app.case.record import record\n\n"
         "def test_off(tiltload_baseline):\n"
         "    case = {k: str(v) for k, v in record(scenario='zse', trajectory=1, controller='mixed', seed=1, stop_time=40.0).items()}\n"
         "    result = tl.Result(metrics={'ISE(x)': 0.55, 'IADU(f_R)': 2.0}, case=None, options=None, record=case, log=None,\n"

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 from support import T
+from tiltload.scenario_fmu import knot_file as knots
 from tiltload.scenario_fmu import twin, waypoints
 
 REF_NAMES = ["x_ref", "y_ref", "z_ref", "vx_ref", "vy_ref", "vz_ref", "ax_ref", "ay_ref", "az_ref", "psi_ref", "psi_dot_ref"]
@@ -34,7 +35,7 @@ def knot_file(tmp_path_factory):
     waypoints.check(rows, [f"row {i}" for i in range(N)], "mission")
     ref = waypoints.minimum_jerk(rows)
     path = tmp_path_factory.mktemp("mission") / "knots.csv"
-    path.write_text(waypoints.knot_text(ref.knots()))
+    path.write_text(knots.knot_text(ref.knots()))
     return path
 
 

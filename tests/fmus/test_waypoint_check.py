@@ -7,6 +7,7 @@ from __future__ import annotations
 import jsonschema
 import numpy as np
 import pytest
+from tiltload.scenario_fmu import knot_file
 from tiltload.scenario_fmu import waypoints as W
 from tiltload.scenario_fmu.files import ScenarioFileError
 
@@ -66,18 +67,18 @@ def test_a_knot_file_is_read_again_when_it_changes(tmp_path):
     first = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 4.0, "x": 1.0, "y": 0.0, "z": 1.0}])
     second = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 5.0, "x": 2.0, "y": 1.0, "z": 1.5}])
     path = tmp_path / "mission.csv"
-    path.write_text(W.knot_text(first.knots()))
-    read = W.read_knots(path)
-    assert np.array_equal(read.knots(), first.knots()) and W.read_knots(path) is read  # unchanged: read once
+    path.write_text(knot_file.knot_text(first.knots()))
+    read = knot_file.read_knots(path)
+    assert np.array_equal(read.knots(), first.knots()) and knot_file.read_knots(path) is read  # unchanged: read once
     with pytest.raises(ValueError):
         read.p[0, 0] = 9.0  # shared by later reads: read-only
     stamp = path.stat().st_mtime_ns
-    path.write_text(W.knot_text(second.knots()))  # the same path, other knots (kept at the same time stamp too)
+    path.write_text(knot_file.knot_text(second.knots()))  # the same path, other knots (kept at the same time stamp too)
     os.utime(path, ns=(stamp, stamp))
-    assert np.array_equal(W.read_knots(path).knots(), second.knots())
+    assert np.array_equal(knot_file.read_knots(path).knots(), second.knots())
     path.write_text("t,x\n")
     with pytest.raises(ScenarioFileError, match="header"):
-        W.read_knots(path)
+        knot_file.read_knots(path)
 
 
 def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
@@ -94,14 +95,14 @@ def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
     ref = W.minimum_jerk(rows)
     trajectory = Trajectory("m", 4, (), ref.start, ref.duration, "", tuple(map(tuple, ref.knots().tolist())))
     path = trajectory.fmu_parameters(tmp_path)["waypoints_file"]
-    given = W.read_knots(path)
+    given = knot_file.read_knots(path)
     copy = tmp_path / "copy.csv"
     copy.write_bytes(open(path, "rb").read())
-    parsed = W.read_knots(copy)  # another path: parsed from its text
+    parsed = knot_file.read_knots(copy)  # another path: parsed from its text
     assert given is not parsed
     for a, b in zip((given.t, given.p, given.v, given.a), (parsed.t, parsed.p, parsed.v, parsed.a)):
         assert np.array_equal(a.view(np.int64), b.view(np.int64))  # the same doubles, the sign of zero too
-    assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path and W.read_knots(path) is given  # kept
+    assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path and knot_file.read_knots(path) is given  # kept
     deeper = trajectory.fmu_parameters(tmp_path / "new" / "folder")["waypoints_file"]  # the folder made for it
     assert open(deeper, "rb").read() == open(path, "rb").read()
     piped = tmp_path / "piped"
@@ -111,14 +112,14 @@ def test_a_mission_file_written_for_the_fmu_is_read_as_its_text_reads(tmp_path):
     other = W.minimum_jerk([{"t": 0.0, "x": 0.0, "y": 0.0, "z": 1.0}, {"t": 3.0, "x": 1.0, "y": 2.0, "z": 1.0}])
     stamp = os.stat(path).st_mtime_ns
     with open(path, "w") as f:
-        f.write(W.knot_text(other.knots()))
+        f.write(knot_file.knot_text(other.knots()))
     os.utime(path, ns=(stamp, stamp))
-    assert np.array_equal(W.read_knots(path).knots(), other.knots())  # changed: read again
+    assert np.array_equal(knot_file.read_knots(path).knots(), other.knots())  # changed: read again
     assert trajectory.fmu_parameters(tmp_path)["waypoints_file"] == path  # and written again by the mission it names
-    assert open(path).read() == W.knot_text(ref.knots()) and np.array_equal(W.read_knots(path).knots(), ref.knots())
+    assert open(path).read() == knot_file.knot_text(ref.knots()) and np.array_equal(knot_file.read_knots(path).knots(), ref.knots())
     backwards = ref.knots()[::-1].copy()  # a table read_knots refuses: not remembered, the file's reader refuses it
     fresh = tmp_path / "fresh.csv"
-    fresh.write_text(W.knot_text(backwards))
-    W.known_knots(fresh, os.stat(fresh), backwards)
+    fresh.write_text(knot_file.knot_text(backwards))
+    knot_file.known_knots(fresh, os.stat(fresh), backwards)
     with pytest.raises(ScenarioFileError, match="times that do not increase"):
-        W.read_knots(fresh)
+        knot_file.read_knots(fresh)

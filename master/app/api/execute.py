@@ -108,7 +108,7 @@ def _with_token(system, token_file: Path | None) -> None:
 
 def _metadata(opts, stop: float, schedule: str | None) -> dict:
     """The log's "run" record: which case this run was, as it ran (a system file's own settings are in the file)."""
-    from ..regression.case import file_digest, record
+    from ..case.record import file_digest, record
 
     if opts.system is not None:
         meta = {"system": str(opts.system), "system_sha256": file_digest(opts.system), "stop_time": stop}

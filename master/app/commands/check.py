@@ -105,9 +105,9 @@ def run(args: argparse.Namespace) -> int:
 def _write_report(path: Path, reqs, per_log: dict, requirement_file: Path | None) -> None:
     """The HTML report of the logs judged: a test per log, its replay command with the requirement file."""
     from ..evidence import Report, test_of_log, write_report
-    from ..evidence.model import this_environment
+    from ..evidence.model import environment_of_tests
 
     tests = [test_of_log(log, results, requirement_file) for log, results in per_log.items()]
     title = f"Requirements {requirement_file.name if requirement_file else '(--formula)'} on {len(tests)} log" + "s" * (len(tests) != 1)
-    write_report(Report(title, "check", tests, this_environment(), declared=list(reqs)), path)
+    write_report(Report(title, "check", tests, environment_of_tests(tests), declared=list(reqs)), path)
     print(f"report: {path}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .model import Report, Table, png_uri, this_environment
+from .model import Report, Table, environment_of_tests, png_uri
 from .page import write_report
 from .tests_from_logs import test_of_log
 
@@ -33,7 +33,7 @@ def write_falsification_report(name: str, summary: str, requirements: list, dime
         f"not falsified in {len(rows)} simulations (a search is no proof)"
     search = Table("The search", ("simulations", "outcome", "least robustness"), (
         (str(len(rows)), found, f"{best['robustness']:.6g}" if best is not None else "—"),))
-    report = Report(f"Falsification {name}", "falsification", tests, this_environment(), declared=list(requirements),
+    report = Report(f"Falsification {name}", "falsification", tests, environment_of_tests(tests), declared=list(requirements),
                     figures=[(Path(p).stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()],
                     tables=[search, space], summary=summary.splitlines()[0] if summary else "")
     return write_report(report, Path(out) / "report.html")

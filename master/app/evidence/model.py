@@ -9,21 +9,12 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..case.record import FmuRecord, fmus_of_metadata, fmus_of_system
+
 # a cell of the traceability matrix, and what the summary counts
 PASS, VACUOUS, FAIL, INCONCLUSIVE, ZERO, ERROR, NOT_EXERCISED = (
     "PASS", "PASS (vacuous)", "FAIL", "INCONCLUSIVE", "ZERO", "ERROR", "not exercised")
 COUNTED = (PASS, FAIL, INCONCLUSIVE, VACUOUS, ZERO, ERROR)
-
-
-@dataclass(frozen=True)
-class FmuRecord:
-    """One FMU of the system under test: its instance name, model name, GUID (FMI 3.0: instantiation token), SHA-256."""
-
-    instance: str
-    model: str
-    guid: str
-    sha256: str
-    path: str
 
 
 @dataclass(frozen=True)
@@ -155,18 +146,22 @@ def sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def environment_of_system(system, controller: str = "controller") -> Environment:
+def environment_of_system(system) -> Environment:
     """The environment of a run of `system` (engine.system.System): each instance's FMU (model, GUID, digest) and the
-    controller instance's parameters (its FMU's start values, overridden by what the run set)."""
-    from ...engine.fmi.model_description import read_fmu
+    controller instance's parameters (its FMU's start values, overridden by what the run set): case/record.py."""
+    return this_environment(*fmus_of_system(system))
 
-    fmus, params = [], {}
-    for inst in system.instances:
-        md = read_fmu(inst.fmu, inst.name)
-        fmus.append(FmuRecord(inst.name, md.modelName, md.guid or "", sha256(Path(inst.fmu)), str(inst.fmu)))
-        if inst.name == controller:
-            for v in md.modelVariables:
-                if v.causality == "parameter":
-                    params[v.name] = "" if v.start is None else str(v.start)
-            params.update({k: str(v) for k, v in inst.parameters.items()})
-    return this_environment(fmus, sorted(params.items()))
+
+def environment_of_log(metadata: dict) -> Environment | None:
+    """The environment a log's record names (its "fmus" metadata); None for a log without one."""
+    fmus, parameters = fmus_of_metadata(metadata.get("fmus", {}) if isinstance(metadata.get("fmus"), dict) else {})
+    return this_environment(fmus, parameters) if fmus else None
+
+
+def environment_of_tests(tests: list[Test], fmus=(), controller_parameters=()) -> Environment:
+    """A report's environment: the FMUs its tests' records name when every test that has one names the same (each test
+    keeps its own where they differ, and the page shows them by test); else the FMUs given (a campaign's: its spec's)."""
+    known = [t.environment for t in tests if t.environment is not None and t.environment.fmus]
+    if known and all(e.fmus == known[0].fmus and e.controller_parameters == known[0].controller_parameters for e in known):
+        return known[0]
+    return this_environment(fmus, controller_parameters)

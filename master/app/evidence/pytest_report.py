@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .model import ERROR, FAIL, PASS, Report, Test, this_environment
+from .model import ERROR, FAIL, PASS, Report, Test, environment_of_tests
 from .page import write_report
 
 
@@ -38,4 +38,5 @@ def tests_of(records: list[TestRecord]) -> list[Test]:
 def write_pytest_report(records: list[TestRecord], path: Path, title: str) -> Path:
     counts = {o: sum(1 for r in records if r.outcome == o) for o in (PASS, FAIL, ERROR)}
     summary = f"{len(records)} tests: {counts[PASS]} passed, {counts[FAIL]} failed, {counts[ERROR]} errors."
-    return write_report(Report(title, "pytest", tests_of(records), this_environment(), summary=summary), path)
+    tests = tests_of(records)
+    return write_report(Report(title, "pytest", tests, environment_of_tests(tests), summary=summary), path)

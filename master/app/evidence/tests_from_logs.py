@@ -6,7 +6,7 @@ from __future__ import annotations
 import shlex
 from pathlib import Path
 
-from .model import Test
+from .model import Test, environment_of_log
 
 # "run" record key -> the `tiltload run` option that sets it (flags: the value that turns them on)
 _OPTIONS = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
@@ -53,4 +53,5 @@ def test_of_log(log: Path, results, requirements: Path | None = None, name: str 
             continue
     metrics = {k: v for k, v in metrics.items() if k not in ("ticks", "complete")}
     error = meta.get("error", {}).get("message") if isinstance(meta.get("error"), dict) else None
-    return Test(name or Path(log).stem, replay_command(run, requirements), run, Path(log), list(results), metrics, error)
+    return Test(name or Path(log).stem, replay_command(run, requirements), run, Path(log), list(results), metrics, error,
+                environment=environment_of_log(meta))

@@ -23,7 +23,7 @@ import numpy as np
 
 from ....plant_fmu.parameters import ACTUATOR_LIMIT
 from ....plant_fmu.vehicles import VEHICLES
-from ....scenario_fmu import twin, waypoints
+from ....scenario_fmu import knot_file, twin
 from ....scenario_fmu.waypoints import MAX_TIME as WAYPOINT_MAX_TIME
 from ..loop.defaults import MAX_TILT, VEHICLE
 from .yaw_margin import yaw_problem
@@ -180,7 +180,7 @@ def _samples(vehicle: str, scenario: dict, t: np.ndarray) -> tuple[twin.Samples,
     if mission is None:
         s = twin.evaluate(scenario, t)
         return s, np.column_stack([s.p, s.psi, s.v, s.psi_dot, s.a])
-    rows = mission(waypoints.from_parameters(scenario), t)
+    rows = mission(knot_file.from_parameters(scenario), t)
     return twin.Samples(t, rows[:, 0:3], rows[:, 4:7], rows[:, 8:11], rows[:, 3], rows[:, 7]), rows[:, :11]
 
 

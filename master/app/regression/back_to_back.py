@@ -152,9 +152,9 @@ def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, h
     """One run of the case on this side (on the pool's execution of its structure, if any): (its log, how it ended
     early or None, the controller's time per tick in s, None when it runs in this process)."""
     from ...engine.lifecycle import RunPlan, run_plan
+    from ..case.record import record
     from ..loop.fmus import is_foreign
     from ..loop.thesis import default_stop, loop_metrics
-    from .case import record
 
     controller = side.controller or case.controller
     if controller.endswith(".fmu") and not Path(controller).is_file():

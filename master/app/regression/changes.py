@@ -89,7 +89,7 @@ def what_changed(base: dict[str, str] | None, run: dict[str, str] | None) -> lis
 
 def settings_changed(base_case: dict | None, run_case: dict | None, instance: str = "controller") -> list[str]:
     """For records without FMUs: the instance's --set values that differ ("controller --set x_0=1.75 vs none")."""
-    from .case import instance_settings
+    from ..case.record import instance_settings
 
     if base_case is None or run_case is None:
         return []

@@ -169,7 +169,7 @@ def different_cases(run_name: str, base_name: str, what: list[str]) -> str:
 def compare_cases(run_case: dict | None, base_case: dict | None, run_name: str, base_name: str, any_case: bool,
                   notes: list[str]) -> list[str]:
     """What differs between the two cases; a DescriptionError saying it in one line unless any_case."""
-    from .case import differences
+    from ..case.record import differences
 
     if run_case is None or base_case is None:
         which = [n for n, c in ((run_name, run_case), (base_name, base_case)) if c is None]

@@ -35,10 +35,10 @@ def run_case(fmus: str, out: str, scenario: str, trajectory: int, controller: st
              clocked: bool = False) -> dict:
     """Worker: one case, its log and its figures (fmi, clocked: the FMU set of fmus, docs/fmi3.md)."""
     from ...engine.lifecycle import RunPlan, run_plan
+    from ..case.record import record
     from ..loop.scene import scene_channels
     from ..loop.thesis import default_stop, default_system, loop_metrics
     from ..views.plot import plot_run
-    from .case import record
 
     name = case_name(scenario, trajectory, controller)
     stop = default_stop(trajectory) if stop is None else stop
@@ -100,7 +100,7 @@ def _fmus(r: dict) -> dict | None:
 
 def baseline_case(r: dict) -> dict[str, str]:
     """The case record a baseline file keeps (as a log's "run" record has it: text), for `tiltload compare`."""
-    from .case import record
+    from ..case.record import record
 
     rec = record(scenario=r["scenario"], trajectory=r["trajectory"], controller=r["controller"], seed=SEED, stop_time=r["stop"])
     return {k: str(v) for k, v in rec.items()}

@@ -199,7 +199,7 @@ class SignalComparison:
 
     def report(self, baseline: Path | str, command: str = "", what: str = "the run", update_hint: str | None = None) -> str:
         """The message of a run whose signals leave their tubes: what changed first, then each signal outside."""
-        from .case import describe
+        from ..case.record import describe
 
         bad = [r for r in self.rows if not r.passed]
         counted = f"{len(bad)} of {len(self.rows)} signals outside their tolerance tubes"

@@ -7,7 +7,7 @@ import math
 from collections.abc import Mapping
 from pathlib import Path
 
-from ..regression.case import describe as case_words
+from ..case.record import describe as case_words
 from ..regression.compare import Comparison
 
 

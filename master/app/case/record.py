@@ -1,5 +1,6 @@
-"""Which case a run is: the record a log carries (its "run" metadata) and a baseline file copies, and what differs
-between two of them, said in one line.
+"""The record of what ran, written into every log (its "run" and "fmus" metadata) and copied by baselines, and read back
+here by every face: which case a run is, what differs between two of them said in one line, and which FMUs ran it
+(each instance's model, GUID, SHA-256 and parameters).
 
 A case is what decides a run's metrics: the vehicle, scenario, trajectory, controller, seed, stop time, the
 --set parameters, the faults, the wind, the delay, the gusts and the schedule (or a system file). Where the FMUs
@@ -13,6 +14,7 @@ wind file is named by its stem and a digest of its content, so an edited file is
 from __future__ import annotations
 
 import hashlib
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..loop.defaults import FMI, GUSTS, VEHICLE
@@ -20,8 +22,8 @@ from ..loop.defaults import FMI, GUSTS, VEHICLE
 # the keys compared, in the order a difference is told; with the value a record that lacks the key means (logs written
 # before the key was recorded: no wind, the ordered schedule)
 CASE_KEYS: dict[str, str | None] = {
-    "system": "", "vehicle": "load", "scenario": None, "trajectory": None, "controller": None, "seed": None,
-    "stop_time": None, "set": "", "faults": "", "wind": "", "delay": "False", "gusts": "True", "schedule": "ordered",
+    "system": "", "vehicle": VEHICLE, "scenario": None, "trajectory": None, "controller": None, "seed": None,
+    "stop_time": None, "set": "", "faults": "", "wind": "", "delay": "False", "gusts": str(GUSTS), "schedule": "ordered",
 }
 UNDER_TEST = "controller"  # the instance a regression test changes: its settings are not the case
 _LABELS = {"stop_time": "stop time", "set": "--set", "gusts": "gusts", "delay": "delay"}
@@ -105,3 +107,43 @@ def describe(rec: dict) -> str:
     words += ["delay"] * (c.get("delay") == "True") + ["calm"] * (c.get("gusts") == "False")
     words += [f"schedule {c['schedule']}"] * (c.get("schedule", "ordered") != "ordered")
     return ", ".join(words)
+
+
+@dataclass(frozen=True)
+class FmuRecord:
+    """One FMU of the system under test: its instance name, model name, GUID (FMI 3.0: instantiation token), SHA-256."""
+
+    instance: str
+    model: str
+    guid: str
+    sha256: str
+    path: str
+
+
+def fmus_of_metadata(fmus: dict) -> tuple[tuple[FmuRecord, ...], tuple[tuple[str, str], ...]]:
+    """The FMUs a log's "fmus" record names (engine.log.provenance.fmus_record), and the controller's parameters as the
+    run set them; empty for a log that has none."""
+    instances = [key.removesuffix(".fmu") for key in fmus if key.endswith(".fmu") and "." not in key.removesuffix(".fmu")]
+    records = tuple(FmuRecord(i, str(fmus.get(f"{i}.model", "")), str(fmus.get(f"{i}.guid", "")),
+                              str(fmus.get(f"{i}.sha256", "")), str(fmus.get(f"{i}.fmu", ""))) for i in instances)
+    prefix = f"{UNDER_TEST}.param."
+    parameters = tuple(sorted((k.removeprefix(prefix), str(v)) for k, v in fmus.items() if k.startswith(prefix)))
+    return records, parameters
+
+
+def fmus_of_system(system) -> tuple[tuple[FmuRecord, ...], tuple[tuple[str, str], ...]]:
+    """The same of a system about to run (engine.system.System): each instance's FMU, and the controller instance's
+    parameters (its FMU's start values, overridden by what the run sets)."""
+    from ...engine.fmi.model_description import read_fmu
+    from ...engine.log.provenance import fmu_digest
+
+    fmus, params = [], {}
+    for inst in system.instances:
+        md = read_fmu(inst.fmu, inst.name)
+        fmus.append(FmuRecord(inst.name, md.modelName, md.guid or "", fmu_digest(Path(inst.fmu)), str(inst.fmu)))
+        if inst.name == UNDER_TEST:
+            for v in md.modelVariables:
+                if v.causality == "parameter":
+                    params[v.name] = "" if v.start is None else str(v.start)
+            params.update({k: str(v) for k, v in inst.parameters.items()})
+    return tuple(fmus), tuple(sorted(params.items()))
