@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from ..command_line.argument_types import DAY, integer, positive_number, positive_time, real_in, run_time, time_span, tolerance
@@ -32,7 +33,10 @@ def assignment(text: str) -> tuple[str, object]:
     key, sep, value = text.partition("=")
     if not sep or "." not in key or not value:
         raise argparse.ArgumentTypeError(f"must be INSTANCE.NAME=VALUE (e.g. plant.m_L=0.2), got {text!r}")
-    return key.strip(), parse_value(value.strip())
+    parsed = parse_value(value.strip())
+    if isinstance(parsed, float) and not math.isfinite(parsed) or type(parsed) is int and abs(parsed) >= 2**63:
+        raise argparse.ArgumentTypeError(f"{key.strip()}: {value.strip()[:40]} is not a finite number an FMU parameter can hold")
+    return key.strip(), parsed
 
 
 tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")

@@ -13,6 +13,7 @@ from ..loop.defaults import FMU_DIR, WORKER_TIMEOUT
 from . import field_types as kinds
 from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
+from .field_types import closest_field
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -20,6 +21,7 @@ if TYPE_CHECKING:
 HOUR = 3600.0
 
 
+@closest_field
 @dataclass(frozen=True, kw_only=True)
 class CampaignOptions:
     """How a campaign runs, field names as `tiltload campaign`'s options: out (default runs/campaigns/<name>), the FMU
@@ -40,12 +42,13 @@ class CampaignOptions:
         fix("out", kinds.path(owner, "out", self.out))
         fix("fmus", kinds.path(owner, "fmus", self.fmus, False))
         kinds.text(owner, "scheduler", self.scheduler)
-        if kinds.whole(owner, "workers", self.workers) is not None:
+        if fix("workers", kinds.whole(owner, "workers", self.workers)) is not None:
             arguments.checked(arguments.whole_number, "--workers", self.workers, "campaign")
         for name, high in (("connect_timeout", HOUR), ("worker_timeout", arguments.DAY)):
-            kinds.number(owner, name, getattr(self, name), False)
+            fix(name, kinds.number(owner, name, getattr(self, name), False))
             fix(name, arguments.checked(arguments.time_span(high), f"--{name.replace('_', '-')}", getattr(self, name), "campaign"))
-        arguments.checked(arguments.integer(0, 100), "--retries", kinds.whole(owner, "retries", self.retries, False), "campaign")
+        retries = fix("retries", kinds.whole(owner, "retries", self.retries, False))
+        arguments.checked(arguments.integer(0, 100), "--retries", retries, "campaign")
         kinds.flag(owner, "retry_failed", self.retry_failed)
         kinds.flag(owner, "verbose", self.verbose)
 

@@ -12,12 +12,14 @@ from .. import arguments
 from ..loop.defaults import MAX_TILT, SCENARIOS
 from . import field_types as kinds
 from .command_line import text_of
+from .field_types import closest_field
 from .python_controller import PythonController, controller_fmu_path
 
 if TYPE_CHECKING:
     from ..case.options import LoopOptions
 
 
+@closest_field
 @dataclass(frozen=True, kw_only=True)
 class Case:
     """One run: the field names are `tiltload run`'s options (``--stop-time`` is ``stop_time``); None is the
@@ -59,9 +61,9 @@ class Case:
         arguments.chosen("--scenario", self.scenario, SCENARIOS)
         arguments.chosen("--schedule", self.schedule, ("ordered", "jacobi"))
         self._trajectory_and_controller()
-        if kinds.whole("Case", "seed", self.seed) is not None:
+        if fix("seed", kinds.whole("Case", "seed", self.seed)) is not None:
             arguments.checked(arguments.seed, "--seed", self.seed)
-        if kinds.number("Case", "stop_time", self.stop_time) is not None:
+        if fix("stop_time", kinds.number("Case", "stop_time", self.stop_time)) is not None:
             fix("stop_time", arguments.checked(arguments.run_time, "--stop-time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):
             kinds.flag("Case", name, getattr(self, name))
@@ -69,10 +71,9 @@ class Case:
             fix(name, kinds.path("Case", name, getattr(self, name)))
         if self.fmus is not None:
             arguments.checked(arguments.folder, "--fmus", self.fmus)
-        if kinds.whole("Case", "fmi", self.fmi) is not None:
+        if fix("fmi", kinds.whole("Case", "fmi", self.fmi)) is not None:
             arguments.chosen("--fmi", self.fmi, (2, 3))
-        kinds.number("Case", "max_tilt", self.max_tilt, False)
-        fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", self.max_tilt))
+        fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", kinds.number("Case", "max_tilt", self.max_tilt, False)))
         self._settings_and_remotes()
         if self._python_controller() and self.system is None:  # with a system file the controller is refused below
             fix("controller", controller_fmu_path(self.controller, self.fmi or 2))  # its path: what the run and log name

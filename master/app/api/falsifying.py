@@ -14,6 +14,7 @@ from ..loop.defaults import FMU_DIR
 from . import field_types as kinds
 from .command_line import options_argv
 from .errors import TiltloadError, as_tiltload_errors
+from .field_types import closest_field
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
 OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
 
 
+@closest_field
 @dataclass(frozen=True, kw_only=True)
 class FalsifyOptions:
     """How a search runs, field names as `tiltload falsify`'s options; None: the spec's own (optimizer, seed,
@@ -49,11 +51,11 @@ class FalsifyOptions:
         kinds.text(owner, "scheduler", self.scheduler)
         for name, check in (("seed", arguments.integer(0, 2**32 - 1)), ("simulations", arguments.integer(1, 1000000)),
                             ("workers", arguments.whole_number), ("neighbourhood_points", arguments.integer(2, 15))):
-            if kinds.whole(owner, name, getattr(self, name)) is not None:
+            if fix(name, kinds.whole(owner, name, getattr(self, name))) is not None:
                 arguments.checked(check, f"--{name.replace('_', '-')}", getattr(self, name), "falsify")
-        if kinds.number(owner, "seconds", self.seconds) is not None:
+        if fix("seconds", kinds.number(owner, "seconds", self.seconds)) is not None:
             fix("seconds", arguments.checked(arguments.positive_time, "--seconds", self.seconds, "falsify"))
-        kinds.number(owner, "neighbourhood_fraction", self.neighbourhood_fraction, False)
+        fix("neighbourhood_fraction", kinds.number(owner, "neighbourhood_fraction", self.neighbourhood_fraction, False))
         fix("neighbourhood_fraction", arguments.checked(arguments.positive_number, "--neighbourhood-fraction",
                                                         self.neighbourhood_fraction, "falsify"))
         kinds.flag(owner, "no_early_stop", self.no_early_stop)

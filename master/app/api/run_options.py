@@ -8,8 +8,10 @@ from pathlib import Path
 
 from .. import arguments
 from . import field_types as kinds
+from .field_types import closest_field
 
 
+@closest_field
 @dataclass(frozen=True, kw_only=True)
 class RunOptions:
     """The options of `tiltload run` that are not the case: field names as the options' (``--no-plots`` is
@@ -40,7 +42,8 @@ class RunOptions:
             arguments.checked(arguments.file_stem, "--name", self.name)
         for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet"):
             kinds.flag("RunOptions", name, getattr(self, name))
-        arguments.checked(arguments.whole_number, "--log-every", kinds.whole("RunOptions", "log_every", self.log_every, False))
+        log_every = fix("log_every", kinds.whole("RunOptions", "log_every", self.log_every, False))
+        arguments.checked(arguments.whole_number, "--log-every", log_every)
         for name in ("requirements", "from_snapshot", "token_file", "report"):
             fix(name, kinds.path("RunOptions", name, getattr(self, name)))
         if self.report is not None:
@@ -48,11 +51,11 @@ class RunOptions:
         self._snapshot_at()
         if self.realtime is True:
             fix("realtime", 1.0)
-        if kinds.number("RunOptions", "realtime", self.realtime) is not None:
+        if fix("realtime", kinds.number("RunOptions", "realtime", self.realtime)) is not None:
             fix("realtime", arguments.checked(arguments.realtime_factor, "--realtime", self.realtime))
-        if kinds.whole("RunOptions", "max_overruns", self.max_overruns) is not None:
+        if fix("max_overruns", kinds.whole("RunOptions", "max_overruns", self.max_overruns)) is not None:
             arguments.checked(arguments.integer(0), "--max-overruns", self.max_overruns)
-        if kinds.number("RunOptions", "step_timeout", self.step_timeout) is not None:
+        if fix("step_timeout", kinds.number("RunOptions", "step_timeout", self.step_timeout)) is not None:
             fix("step_timeout", arguments.checked(arguments.time_span(arguments.DAY), "--step-timeout", self.step_timeout))
 
     def _fix(self, name: str, value: object) -> object:

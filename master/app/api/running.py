@@ -79,8 +79,12 @@ def run(case: Case | None = None, options: RunOptions | None = None, /, *, progr
     instances between runs, a run of the same structure restarting them (fmi2Reset) instead of loading them again.
     Raises TiltloadError for what the user can fix (its message the command's one line), TypeError for a wrong type
     or an unknown keyword, KeyboardInterrupt if interrupted (the log is finalized first)."""
+    from . import field_types as kinds
     from .execute import execute, preparing
 
+    if progress is not None:
+        kinds.flag("run()", "progress", progress)
+    kinds.flag("run()", "echo", echo)
     with as_tiltload_errors():
         case, options = requests(case, options, keywords)
     if not (sys.stderr.isatty() if progress is None else progress):
