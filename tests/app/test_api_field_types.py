@@ -10,10 +10,9 @@ from dataclasses import fields
 
 import numpy as np
 import pytest
+import tiltload as tl
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import tiltload as tl
 
 REQUESTS = (tl.Case, tl.RunOptions, tl.CampaignOptions, tl.FalsifyOptions)
 NUMPY_INTS = (np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16, np.uint32, np.uint64)
