@@ -99,19 +99,12 @@ def main(argv: list[str] | None = None) -> int:
         print("tiltload: stopped: standard output was closed (broken pipe)", file=sys.stderr)
         return 141
     except Exception as err:
-        from ...native_fmu.compile import BuildError
-        from .errors import USER_ERRORS
-        from .user_error import TiltloadError
+        from .errors import kind_of, line_of
 
-        if isinstance(err, TiltloadError):  # the API's checks too: the line the command's own parser would print
-            print(err.cli_line, file=sys.stderr)
-            return 2
-        if isinstance(err, USER_ERRORS):
-            print(f"tiltload: error: {err}", file=sys.stderr)
-            return 2
-        if isinstance(err, BuildError):  # the compiler failed or is missing: the environment, not a bug
-            print(f"tiltload: error: building the FMUs failed: {err}", file=sys.stderr)
-            return 1
+        kind = kind_of(err)  # the one table of errors (errors.py): the user's to fix, a failed build
+        if kind is not None:
+            print(line_of(err), file=sys.stderr)
+            return getattr(err, "exit_code", kind.exit_code)  # a TiltloadError says its kind's code (a failed build: 1)
         if os.environ.get("TILTLOAD_DEBUG"):  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
             raise
         print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)

@@ -9,9 +9,10 @@ class TiltloadError(Exception):
     ended early. ``str(err)`` is the message; ``err.cli_line`` is the line the `tiltload` command prints for it (exit 2).
     Public as tiltload.TiltloadError."""
 
-    def __init__(self, message: str, cli_line: str | None = None) -> None:
+    def __init__(self, message: str, cli_line: str | None = None, exit_code: int = 2) -> None:
         super().__init__(message)
         self.cli_line = cli_line if cli_line is not None else f"tiltload: error: {message}"
+        self.exit_code = exit_code  # 2: the user's to fix; 1: a build that failed (errors.KINDS)
 
 
 class UserError(TiltloadError):

@@ -14,14 +14,14 @@ __all__ = ["TiltloadError", "as_tiltload_errors", "usage_error"]
 @contextmanager
 def as_tiltload_errors() -> Iterator[None]:
     """Inside: the errors the `tiltload` command reports in one line (exit 2, or a failed build) become TiltloadError."""
-    from ....native_fmu.compile import BuildError
-    from ..errors import USER_ERRORS
+    from ..errors import kind_of
 
     try:
         yield
     except TiltloadError:
         raise
-    except USER_ERRORS as err:
-        raise TiltloadError(str(err)) from None
-    except BuildError as err:
-        raise TiltloadError(f"building the FMUs failed: {err}") from None
+    except Exception as err:
+        kind = kind_of(err)  # the one table of errors (errors.py), as the command classifies them
+        if kind is None:
+            raise
+        raise TiltloadError(f"{kind.prefix}{err}", exit_code=kind.exit_code) from None

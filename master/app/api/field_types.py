@@ -73,16 +73,13 @@ def whole(owner: str, name: str, value: object, optional: bool = True) -> int | 
     return int(value)
 
 
-def number(owner: str, name: str, value: object, optional: bool = True) -> float | None:
+def number(owner: str, name: str, value: object, optional: bool = True) -> float | int | None:
     if value is None and optional:
         return None
-    number = as_number(value)
+    number = as_number(value)  # an int stays an int: the value's check says it as the command line would ("got -1")
     if number is None:
         raise _refuse(owner, name, NUMBER + " or None" * optional, value)
-    try:
-        return float(number)
-    except OverflowError:  # an int beyond a double: refused by the value's check as not finite
-        return math.inf if number > 0 else -math.inf
+    return number
 
 
 def text(owner: str, name: str, value: object, optional: bool = True) -> str | None:

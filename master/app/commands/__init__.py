@@ -1,2 +1,2 @@
 """One module per `tiltload` command: add_parser(subparsers) declares its options, run(args) does it and returns
-the exit code. Errors the user can fix are raised (errors.USER_ERRORS) and reported by cli.main in one line."""
+the exit code. Errors are raised and reported by cli.main in one line, with the exit code of their kind (errors.KINDS)."""
