@@ -4,7 +4,6 @@ the same line and the same exit code (issue 61)."""
 from __future__ import annotations
 
 import pytest
-
 import tiltload as tl
 from tiltload.master.app.cli import main
 
