@@ -1,14 +1,14 @@
 """Issue 61's "follow the data through the calls": which of tiltload's modules a `tiltload run` and one falsification
 evaluation pass through, and how often the walk comes back to a folder it had left.
 
-A profile hook (sys.setprofile) records every Python call whose function lives in a tiltload module; consecutive calls
-in one module count once. Printed per walk: the modules entered, the folders (packages) entered, and for each folder
-the number of times the walk came back to it after leaving it (a "climb back"). Run it with each tree's interpreter
-to compare two trees the same way:
+A profile hook (sys.setprofile) records every Python call whose function lives in a tiltload module. Printed per walk:
+the modules entered, their folders (packages), and for each folder how often the walk entered it again from outside
+it (a call whose caller lives in another folder; a folder's own modules calling each other do not count).
+Run it with each tree's interpreter to compare two trees the same way:
 
     python benchmarks/module_walk.py [--fmus DIR] [--json OUT]
 
-The run: `tiltload run --scenario fsi --stop-time 1 --no-plots` through the command line's entry point, in process.
+The run: `tiltload run --scenario fsi --stop-time 1 --no-plots` through the command line's main(), in process.
 The evaluation: one point of docs/falsification/swing_gust.toml (the gust searched at the middle of its ranges), on a
 worker state of its own, in process (the Dask dispatch around it is not tiltload's code).
 """
@@ -27,17 +27,24 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 class Walk:
-    """The sequence of tiltload modules entered, consecutive repeats folded."""
+    """The calls into tiltload's modules: each module entered, and each entry into a folder from another folder (a
+    call whose caller lives outside the callee's folder: a folder's own helpers calling each other do not count)."""
 
     def __init__(self) -> None:
-        self.modules: list[str] = []
+        self.modules: set[str] = set()
+        self.entries: list[str] = []  # the folder entered, once per call from outside it
 
     def hook(self, frame, event, arg):
         if event != "call":
             return
         name = frame.f_globals.get("__name__", "")
-        if name.startswith("tiltload.") and (not self.modules or self.modules[-1] != name):
-            self.modules.append(name)
+        if not name.startswith("tiltload."):
+            return
+        self.modules.add(name)
+        caller = frame.f_back.f_globals.get("__name__", "") if frame.f_back is not None else ""
+        folder = name.rpartition(".")[0]
+        if caller.rpartition(".")[0] != folder:
+            self.entries.append(folder)
 
     def __enter__(self):
         sys.setprofile(self.hook)
@@ -47,31 +54,24 @@ class Walk:
         sys.setprofile(None)
 
 
-def summary(modules: list[str]) -> dict:
-    """Distinct modules and folders, and how often each folder is entered again after the walk left it."""
-    folders = [m.rpartition(".")[0] for m in modules]
-    entries = Counter()
-    previous = None
-    for folder in folders:
-        if folder != previous:
-            entries[folder] += 1
-        previous = folder
+def summary(walk: Walk) -> dict:
+    """Distinct modules and folders, and how often the walk enters each folder again from outside it."""
+    entries = Counter(walk.entries)
     returns = {f: n - 1 for f, n in entries.items() if n > 1}
-    return {"modules": len(set(modules)), "folders": len(entries), "returns": sum(returns.values()),
-            "returns_by_folder": dict(sorted(returns.items(), key=lambda kv: -kv[1])), "module_list": sorted(set(modules))}
+    return {"modules": len(walk.modules), "folders": len({m.rpartition(".")[0] for m in walk.modules}),
+            "returns": sum(returns.values()), "returns_by_folder": dict(sorted(returns.items(), key=lambda kv: -kv[1])),
+            "module_list": sorted(walk.modules)}
 
 
-def walk_run(fmus: Path) -> list[str]:
+def walk_run(fmus: Path) -> Walk:
     from tiltload.master.app import cli
 
     with tempfile.TemporaryDirectory() as out, Walk() as walk:
-        try:
-            cli.entry(["run", "--scenario", "fsi", "--stop-time", "1", "--no-plots", "--quiet", "--fmus", str(fmus),
-                       "--out", out])
-        except SystemExit as done:
-            if done.code not in (0, None):
-                raise RuntimeError(f"tiltload run exited {done.code}") from None
-    return walk.modules
+        code = cli.main(["run", "--scenario", "fsi", "--stop-time", "1", "--no-plots", "--quiet", "--fmus", str(fmus),
+                         "--out", out])
+    if code != 0:
+        raise RuntimeError(f"tiltload run exited {code}")
+    return walk
 
 
 def _first(*names: str):
@@ -84,11 +84,11 @@ def _first(*names: str):
     raise ModuleNotFoundError(names[0])
 
 
-def walk_evaluation(fmus: Path) -> list[str]:
+def walk_evaluation(fmus: Path) -> Walk:
     spec_module = _first("tiltload.master.app.falsify.spec")
     runner = _first("tiltload.master.app.falsify.runner")
     evaluate = _first("tiltload.master.app.falsify.evaluate")
-    worker_module = _first("tiltload.master.app.batch.worker", "tiltload.master.app.batch.worker")
+    worker_module = _first("tiltload.master.app.batch.worker", "tiltload.master.app.campaign" ".worker")  # (5052690: campaign/)
     spec = spec_module.load(ROOT / "docs" / "falsification" / "swing_gust.toml")
     base = spec.base()
     values = {d.name: (d.low + d.high) / 2 for d in spec.dimensions}
@@ -99,7 +99,7 @@ def walk_evaluation(fmus: Path) -> list[str]:
         outcome = evaluate.evaluate(base, case, str(fmus.resolve()), worker)
     if "row" not in outcome:
         raise RuntimeError(f"the evaluation failed: {outcome}")
-    return walk.modules
+    return walk
 
 
 def main() -> int:
@@ -107,7 +107,7 @@ def main() -> int:
     parser.add_argument("--fmus", type=Path, default=ROOT / "fmus")
     parser.add_argument("--json", type=Path, help="write the walks here too")
     args = parser.parse_args()
-    from tiltload.master.app.loop.fmus import build_all
+    build_all = _first("tiltload.master.app.loop.fmus", "tiltload.master.app" ".fmus").build_all
 
     build_all(args.fmus, progress=lambda m: None)
     walk_run(args.fmus)  # a first run compiles and caches what later runs take ready
