@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from .master.app.api.errors import TiltloadError
     from .master.app.api.falsifying import FalsifyOptions, FalsifyResult, falsify
     from .master.app.api.python_controller import PythonController
-    from .master.app.api.result import Result, Signals
+    from .master.app.api.result import Result, Signals, open_log
     from .master.app.api.run_options import RunOptions
     from .master.app.api.running import run
     from .master.app.api.signal_comparing import compare_signals, save_signal_baseline
@@ -45,7 +45,8 @@ if TYPE_CHECKING:
 
 _API = "tiltload.master.app.api."
 _PUBLIC = {  # name: the module it is defined in
-    "run": _API + "running", "Result": _API + "result", "Signals": _API + "result", "compare": _API + "comparing",
+    "run": _API + "running", "Result": _API + "result", "open_log": _API + "result", "Signals": _API + "result",
+    "compare": _API + "comparing",
     "save_baseline": _API + "comparing", "campaign": _API + "campaigns", "CampaignResult": _API + "campaigns", "check": _API + "checking",
     "TiltloadError": _API + "errors", "Case": _API + "case", "RunOptions": _API + "run_options",
     "PythonController": _API + "python_controller",
@@ -59,7 +60,7 @@ _PUBLIC = {  # name: the module it is defined in
 _NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
 __all__ = ["B2BCase", "B2BSide", "BackToBack", "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions",
            "FalsifyResult", "MetricRow", "PythonController", "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError",
-           "b2b", "campaign", "check", "compare", "compare_signals", "falsify",
+           "b2b", "campaign", "check", "compare", "compare_signals", "falsify", "open_log",
            "run", "save_baseline", "save_signal_baseline", "plant", "design"]
 
 

@@ -30,7 +30,8 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
     assert set(tl.__all__) == {"B2BCase", "B2BSide", "BackToBack", "b2b", "PythonController",
                                "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow",
                                "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare",
-                               "compare_signals", "falsify", "run", "save_baseline", "save_signal_baseline", "plant", "design"}
+                               "compare_signals", "falsify", "open_log", "run", "save_baseline", "save_signal_baseline", "plant",
+                               "design"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
 
 

@@ -204,3 +204,47 @@ def test_a_campaign_case_a_branch_and_a_search_point_build_with_the_one_builder(
 
     system, _ = branch_system(fmus, snapshot.read(snap), None, {}, "mixed")
     assert builds == [True] and {i.name for i in system.instances} == {"plant", "sensors", "controller", "scenario"}
+
+
+# ---- one record, read back ---------------------------------------------------------------------------------------------
+
+def test_a_log_opens_as_the_result_its_run_returned(fmus, tmp_path):
+    """tl.open_log reads the record every log carries: the same case, metrics, verdicts, FMUs and replay command as the
+    Result tl.run returned, and the FMUs' digests are the files' own (an independent SHA-256)."""
+    import hashlib
+
+    import tiltload as tl
+
+    ran = tl.run(scenario="fsi", stop_time=12.0, fmus=fmus, out=tmp_path, no_plots=True, quiet=True, seed=3,
+                 requirements=ROOT / "docs" / "requirements" / "thesis.yaml", set={"plant.m_L": 0.06})
+    opened = tl.open_log(ran.log)
+    from dataclasses import replace
+
+    def described(case):  # the case with every default filled in; where the FMUs were built is no part of it
+        return replace(case.loop_options(), fmus=None)
+
+    assert described(opened.case) == described(ran.case) and opened.record == ran.record
+    import shlex
+
+    from tiltload.master.app.cli import parser
+    from tiltload.master.app.commands.run import case_of
+
+    replayed = case_of(parser().parse_args([*shlex.split(opened.command)[1:], "--fmus", str(fmus)]))  # the record's replay
+    assert described(replayed) == described(ran.case)
+    assert opened.metrics == ran.metrics and opened.ticks == ran.ticks
+    assert [(r.name, r.verdict, r.robustness) for r in opened.requirements] == \
+           [(r.name, r.verdict, r.robustness) for r in ran.requirements] and opened.verdicts
+    assert opened.fmus == ran.fmus and {f.instance for f in opened.fmus} == {"plant", "sensors", "controller", "scenario"}
+    for f in opened.fmus:
+        assert f.sha256 == hashlib.sha256((fmus / f.path).read_bytes()).hexdigest()
+    assert opened.signals("/plant")["x"].shape == ran.signals("/plant")["x"].shape
+
+
+def test_a_file_that_is_no_log_is_one_line(tmp_path):
+    import tiltload as tl
+
+    bad = tmp_path / "notes.mcap"
+    bad.write_text("hello")
+    with pytest.raises(tl.TiltloadError) as err:
+        tl.open_log(bad)
+    assert str(bad) in str(err.value) and "\n" not in str(err.value)

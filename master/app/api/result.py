@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from ...engine.requirement.check import Result as RequirementResult
+    from ..case.record import FmuRecord
     from .case import Case
     from .run_options import RunOptions
 
@@ -61,13 +62,13 @@ def read_signals(log: Path, topic: str) -> Signals:
 
 @dataclass(frozen=True)
 class Result:
-    """A run of the loop (or of a system file) made by tiltload.run.
+    """A run of the loop (or of a system file) made by tiltload.run, or read back from its log by tiltload.open_log.
 
     metrics: ISE and IADU by name (floats), as the `tiltload run` table and the log's metrics record have them.
     case, options: the Case and RunOptions it ran. record: the log's "run" record (what `tiltload compare` checks
     before the metrics), values as text. log: the MCAP log (None with no_log=True). command: the `tiltload run`
     command line that makes the same run. requirements: each monitored requirement's result (name, verdict,
-    robustness, first_violation, values).
+    robustness, first_violation, values). fmus: the FMUs the log records.
     """
 
     metrics: dict[str, float]
@@ -83,6 +84,7 @@ class Result:
     plots: tuple[Path, ...] = ()
     transcript: str = ""  # what the command would have printed on stdout
     requirements: tuple[RequirementResult, ...] = ()
+    fmus: tuple[FmuRecord, ...] = ()  # each instance's FMU as the log records it (model, GUID, SHA-256)
     _cache: dict[str, Signals] = field(default_factory=dict, repr=False, compare=False)
 
     @property
@@ -101,3 +103,68 @@ class Result:
     def to_dataframe(self, topic: str = "/plant") -> pd.DataFrame:
         """A channel of the log as a pandas DataFrame indexed by time (s)."""
         return self.signals(topic).to_dataframe()
+
+
+def open_log(log: Path | str) -> Result:
+    """The log of any earlier run as the Result tiltload.run returned for it, from the record the log carries (the
+    case, its FMUs, metrics, the requirements' formulas): the case rebuilt as a Case where every file it names still
+    exists (else None: the record keeps it as text), the requirements judged again on the log with the formulas the
+    run monitored (the same verdicts), the command that replays it. A file that is no tiltload log is a TiltloadError."""
+    from ...engine.log.reader import DamagedLog, ForeignLog, read_metadata
+    from ...engine.requirement.check import check_log
+    from ...engine.requirement.files import requirement
+    from ..case.record import fmus_of_metadata, replay_command
+    from .errors import as_tiltload_errors
+
+    log = Path(log)
+    with as_tiltload_errors():
+        try:
+            meta = read_metadata(log)
+        except (DamagedLog, ForeignLog, OSError) as err:
+            raise TiltloadError(f"{log}: {err}") from None
+        run = {k: str(v) for k, v in meta.get("run", {}).items()}
+        if not run:
+            raise TiltloadError(f"{log}: no run record: not a log of `tiltload run` (or tl.run)")
+        formulas = meta.get("requirement_formulas", {})
+        reqs = [requirement(name, text) for name, text in formulas.items()] if isinstance(formulas, dict) else []
+        judged = tuple(check_log(log, reqs, missing="inconclusive")) if reqs else ()
+    numbers = {}
+    for key, value in meta.get("metrics", {}).items():
+        try:
+            numbers[key] = float(value)
+        except ValueError:
+            continue
+    ticks = int(numbers.pop("ticks", 0))
+    numbers.pop("complete", None)
+    fmus, _ = fmus_of_metadata(meta.get("fmus", {}) if isinstance(meta.get("fmus"), dict) else {})
+    stop = float(run.get("stop_time") or "nan")
+    return Result(metrics=numbers, case=case_of_record(run), options=None, record=run, log=log,
+                  command=replay_command(run), stop_time=stop, sim_time=float(meta.get("metrics", {}).get("sim_time", stop)),
+                  wall_time=float("nan"), ticks=ticks, requirements=judged, fmus=fmus)
+
+
+def case_of_record(run: dict) -> Case | None:
+    """The Case a log's "run" record describes, or None where it cannot be rebuilt (a file it names is gone, a
+    trajectory file recorded by its label). Where the FMUs were built is no part of the record: the default folder."""
+    import argparse
+
+    from ..arguments import assignment
+    from .case import Case
+
+    fields = {}
+    if run.get("system"):
+        fields = {"system": run["system"], "faults": run.get("faults") or None}
+    else:
+        trajectory = run.get("trajectory", "")
+        fields = {"vehicle": run.get("vehicle"), "scenario": run.get("scenario"),
+                  "trajectory": int(trajectory) if trajectory.isdecimal() else trajectory, "controller": run.get("controller"),
+                  "seed": int(run["seed"]) if run.get("seed", "").isdecimal() else None, "delay": run.get("delay") == "True",
+                  "no_gusts": run.get("gusts") == "False", "fmi": int(run["fmi"]) if run.get("fmi", "").isdecimal() else None,
+                  "clocks": run.get("clocks") == "True", "faults": run.get("faults") or None, "wind": run.get("wind") or None,
+                  "schedule": run.get("schedule") or None,
+                  "set": tuple(assignment(s) for s in run.get("set", "").split())}
+    try:
+        return Case(**{k: v for k, v in fields.items() if v is not None},
+                    stop_time=float(run["stop_time"]) if run.get("stop_time") else None)
+    except (TiltloadError, TypeError, ValueError, argparse.ArgumentTypeError):
+        return None

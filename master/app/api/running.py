@@ -104,8 +104,19 @@ def run(case: Case | None = None, options: RunOptions | None = None, /, *, progr
             raise KeyboardInterrupt(outcome.failure)
         raise TiltloadError(outcome.failure)
     res = outcome.result
-    return Result(metrics={k: float(v) for k, v in res.metrics.items()}, case=case, options=options,
+    return Result(fmus=_recorded_fmus(outcome.log), metrics={k: float(v) for k, v in res.metrics.items()}, case=case, options=options,
                   record={k: str(v) for k, v in outcome.metadata.items()}, log=outcome.log, command=command_line(case, options),
                   stop_time=float(outcome.metadata["stop_time"]), sim_time=res.sim_time, wall_time=res.wall, ticks=res.ticks,
                   plots=tuple(outcome.plots), transcript="".join(f"{line}\n" for line in lines),
                   requirements=tuple(outcome.requirements))
+
+
+def _recorded_fmus(log) -> tuple:
+    """The FMUs the run's log records (the same record tiltload.open_log reads); none without a log."""
+    if log is None or not log.is_file():
+        return ()
+    from ...engine.log.reader import read_metadata
+    from ..case.record import fmus_of_metadata
+
+    fmus = read_metadata(log).get("fmus", {})
+    return fmus_of_metadata(fmus if isinstance(fmus, dict) else {})[0]

@@ -14,6 +14,7 @@ wind file is named by its stem and a digest of its content, so an edited file is
 from __future__ import annotations
 
 import hashlib
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -147,3 +148,33 @@ def fmus_of_system(system) -> tuple[tuple[FmuRecord, ...], tuple[tuple[str, str]
                     params[v.name] = "" if v.start is None else str(v.start)
             params.update({k: str(v) for k, v in inst.parameters.items()})
     return tuple(fmus), tuple(sorted(params.items()))
+
+
+# "run" record key -> the `tiltload run` option that sets it (flags: the value that turns them on)
+_OPTIONS = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
+            ("controller", "--controller"), ("seed", "--seed"), ("stop_time", "--stop-time"), ("faults", "--faults"),
+            ("wind", "--wind"), ("schedule", "--schedule"), ("fmi", "--fmi"))
+_FLAGS = (("delay", "True", "--delay"), ("gusts", "False", "--no-gusts"), ("clocks", "True", "--clocks"))
+
+
+def replay_command(run: dict, requirements: Path | None = None) -> str:
+    """The `tiltload run` command line of a log's "run" record, runnable as printed (a user's controller FMU by the
+    path the run was given); empty for a record that names no case."""
+    if run.get("system"):
+        argv = ["tiltload", "run", "--system", str(run["system"]), "--stop-time", str(run.get("stop_time", ""))]
+        if run.get("faults"):
+            argv += ["--faults", str(run["faults"])]
+    elif "scenario" in run:
+        argv = ["tiltload", "run"]
+        for key, option in _OPTIONS:
+            value = run.get(key)
+            if value not in (None, "") and not (key == "fmi" and str(value) == "2") and not (key == "vehicle" and value == VEHICLE):
+                argv += [option, str(value)]
+        argv += [flag for key, on, flag in _FLAGS if str(run.get(key, "")) == on]
+        for setting in str(run.get("set", "")).split():
+            argv += ["--set", setting]
+    else:
+        return ""
+    if requirements is not None:
+        argv += ["--requirements", str(requirements)]
+    return shlex.join(argv)
