@@ -66,7 +66,7 @@ def first_difference(a: Path, b: Path) -> str | None:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--before", type=Path, required=True, help="the other tree")
     parser.add_argument("--before-python", required=True, help="the other tree's interpreter (tiltload installed from it)")
     parser.add_argument("--fmus", type=Path, default=ROOT / "fmus")

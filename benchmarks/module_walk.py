@@ -103,7 +103,7 @@ def walk_evaluation(fmus: Path) -> Walk:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     parser.add_argument("--fmus", type=Path, default=ROOT / "fmus")
     parser.add_argument("--json", type=Path, help="write the walks here too")
     args = parser.parse_args()

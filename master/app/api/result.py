@@ -146,9 +146,7 @@ def open_log(log: Path | str) -> Result:
 def case_of_record(run: dict) -> Case | None:
     """The Case a log's "run" record describes, or None where it cannot be rebuilt (a file it names is gone, a
     trajectory file recorded by its label). Where the FMUs were built is no part of the record: the default folder."""
-    import argparse
-
-    from ..arguments import assignment
+    from ..loop.thesis import parse_value
     from .case import Case
 
     fields = {}
@@ -162,9 +160,9 @@ def case_of_record(run: dict) -> Case | None:
                   "no_gusts": run.get("gusts") == "False", "fmi": int(run["fmi"]) if run.get("fmi", "").isdecimal() else None,
                   "clocks": run.get("clocks") == "True", "faults": run.get("faults") or None, "wind": run.get("wind") or None,
                   "schedule": run.get("schedule") or None,
-                  "set": tuple(assignment(s) for s in run.get("set", "").split())}
+                  "set": tuple((k, parse_value(v)) for k, _, v in (s.partition("=") for s in run.get("set", "").split()))}
     try:
         return Case(**{k: v for k, v in fields.items() if v is not None},
                     stop_time=float(run["stop_time"]) if run.get("stop_time") else None)
-    except (TiltloadError, TypeError, ValueError, argparse.ArgumentTypeError):
+    except (TiltloadError, TypeError, ValueError):
         return None
