@@ -9,10 +9,9 @@ import math
 
 import numpy as np
 import pytest
+from bad_input_62a import FORMAT, bad_headers, bad_metric_baselines, bad_tables, good_header, write_parquet
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-from bad_input_62a import FORMAT, bad_headers, bad_metric_baselines, bad_tables, good_header, write_parquet
 from tiltload.master.app.regression import signal_baseline
 from tiltload.master.app.regression.compare import load_metrics
 from tiltload.master.engine.errors import DescriptionError
