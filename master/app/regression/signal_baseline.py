@@ -30,15 +30,16 @@ def write(path: Path, signals: dict[str, tuple[np.ndarray, np.ndarray]], header:
         "t": pa.array(np.concatenate([np.asarray(signals[n][0], dtype=float) for n in names])),
         "value": pa.array(np.concatenate([np.asarray(signals[n][1], dtype=float) for n in names])),
     })
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     # the header once, in the file's key-value metadata (store_schema would copy it again, base64, into the Arrow
     # schema); floats split by byte, which zstd compresses better
-    with pq.ParquetWriter(path, table.schema, compression="zstd", compression_level=9, store_schema=False,
+    buffer = pa.BufferOutputStream()
+    with pq.ParquetWriter(buffer, table.schema, compression="zstd", compression_level=9, store_schema=False,
                           use_byte_stream_split=["t", "value"]) as writer:
         writer.write_table(table)
         writer.add_key_value_metadata({KEY.decode(): json.dumps({"format": FORMAT, **header})})
-    return path
+    from ..output_folder import write_file
+
+    return write_file(Path(path), buffer.getvalue().to_pybytes())  # whole or not at all, a refused write one line
 
 
 def _checked(path: Path) -> Path:
