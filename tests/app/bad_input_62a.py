@@ -154,6 +154,26 @@ def baseline_cases(folder: Path, log: Path) -> list[tuple]:
     return cases
 
 
+def log_with_metrics(path: Path) -> Path:
+    """A run's log as tiltload writes one (its run and metrics records), of two plant signals."""
+    from tiltload.master.engine.log.encoding import LAYOUT, FixedMessage
+    from tiltload.master.engine.log.writer import McapWriter, MessageBatch
+
+    w = McapWriter(Path(path))
+    w.add_metadata("run", {"scenario": "fsi", "trajectory": "1", "controller": "dlqr", "seed": "1", "stop_time": "2.0"})
+    w.add_metadata("metrics", {"ISE_x": "0.5", "IADU_f": "1.5", "ticks": "200", "complete": "True"})
+    t = np.arange(201) * 0.01
+    enc = FixedMessage("plant", ["x", "z"], [], [])
+    channel = w.add_channel("/plant", w.add_schema(enc.full_name, "protobuf", enc.schema()), "protobuf", {"layout": LAYOUT})
+    batch = MessageBatch()
+    for k, tk in enumerate(t):
+        batch.add(channel, int(round(tk * 1e9)), enc.encode(float(tk), np.array([np.sin(tk), -2.0]), np.zeros(0, np.int32),
+                                                           np.zeros(0, bool)))
+    w.add_messages(batch)
+    w.close()
+    return Path(path)
+
+
 def writer_cases(folder: Path, log: Path) -> list[tuple]:
     """tl.save_baseline, tl.save_signal_baseline, tl.b2b(out=...) onto places no file can be written, or onto the
     log they read."""
@@ -162,8 +182,7 @@ def writer_cases(folder: Path, log: Path) -> list[tuple]:
     fifo = folder / "fifo"
     if not fifo.exists():
         os.mkfifo(fifo)
-    copy = folder / "own.mcap"
-    copy.write_bytes(Path(log).read_bytes())
+    copy = log_with_metrics(folder / "own.mcap")
     link = folder / "link.mcap"
     if not link.is_symlink():
         link.symlink_to(copy)

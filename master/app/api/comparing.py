@@ -73,6 +73,8 @@ def save_baseline(result: Source, path: str | Path, *, rtol: float = 1e-6, atol:
     import json
 
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+    with as_tiltload_errors():
+        path = _output(path, result)  # the place first: nothing is read for a baseline that cannot be written
     if isinstance(result, Result):
         metrics, record = dict(result.metrics), dict(result.record)
     elif isinstance(result, (str, Path)):
@@ -92,7 +94,6 @@ def save_baseline(result: Source, path: str | Path, *, rtol: float = 1e-6, atol:
     from ..output_folder import write_file
 
     with as_tiltload_errors():
-        path = _output(path, result)
         write_file(path, json.dumps(data, indent=1) + "\n")
     return path
 
@@ -104,5 +105,7 @@ def _output(path: object, source: Source) -> Path:
 
     if not isinstance(path, (str, Path)):
         raise TypeError(f"path must be a str or a pathlib.Path, got {type(path).__name__}")
+    if not str(path):
+        raise TiltloadError("path: an empty path")
     log = source.log if isinstance(source, Result) else source
     return writable_file(Path(path), "path", {"the log it records": Path(log) if log is not None else None})

@@ -95,7 +95,8 @@ def render(report: Report, standard_figures: bool = True) -> str:
                        for t in report.tables],
             "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
                       | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
-    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+                             finalize=visible)
     env.filters["num"] = lambda x: "" if x is None else f"{x:.6g}"
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
@@ -104,9 +105,26 @@ def render(report: Report, standard_figures: bool = True) -> str:
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
 
 
+# JSON's own escapes for what HTML gives meaning to inside a script or data block: '<' (</script, <!--, <script: the
+# script data states), '>' (-->), '&', and U+2028/2029 (line ends to JavaScript before ES2019); the JSON means the same
+_SCRIPT_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
+# bidirectional-text controls (embeddings, overrides, isolates, marks): in user text they reorder what a reader sees
+# ("Trojan Source"), so the page shows them as their escapes
+BIDI = "\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\u200e\u200f\u061c"
+_VISIBLE = str.maketrans({c: f"\\u{ord(c):04x}" for c in BIDI})
+
+
 def _script_safe(text: str) -> str:
-    """JSON inside <script type="application/json">: no '</' can end the element early."""
-    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+    """JSON inside <script type="application/json">: nothing in it can end or change the element (every character
+    _SCRIPT_ESCAPES names written as JSON's escape of it)."""
+    return "".join(_SCRIPT_ESCAPES.get(c, c) for c in text)
+
+
+def visible(value):
+    """Text of the page with each bidirectional control shown as its escape (\\u202e); markup (figures) kept markup."""
+    if hasattr(value, "__html__"):  # jinja2's Markup: kept markup, not escaped again
+        return type(value)(str(value).translate(_VISIBLE))
+    return value.translate(_VISIBLE) if isinstance(value, str) else value
 
 
 def write_report(report: Report, path: Path, standard_figures: bool = True, inputs=None) -> Path:
