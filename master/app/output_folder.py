@@ -75,7 +75,7 @@ def writable_file(path: Path, what: str, inputs: dict[str, Path | None] | list[t
     except argparse.ArgumentTypeError as err:
         raise UserError(f"{what}: {err}") from None
     for role, given in inputs.items() if isinstance(inputs, dict) else inputs or ():
-        if given is not None and Path(given).exists() and same_file(path, Path(given)):
+        if given is not None and same_file(path, Path(given)):  # one not made yet (the run's log) by its path
             raise UserError(f"{what} {path} is {role} ({given}): refused, it would be written over")
     writable_folder(path.parent if str(path.parent) else Path("."), f"{what}: the folder of", min_free=0)
     return path

@@ -166,7 +166,7 @@ def log_with_metrics(path: Path) -> Path:
     enc = FixedMessage("plant", ["x", "z"], [], [])
     channel = w.add_channel("/plant", w.add_schema(enc.full_name, "protobuf", enc.schema()), "protobuf", {"layout": LAYOUT})
     batch = MessageBatch()
-    for k, tk in enumerate(t):
+    for tk in t:
         batch.add(channel, int(round(tk * 1e9)), enc.encode(float(tk), np.array([np.sin(tk), -2.0]), np.zeros(0, np.int32),
                                                            np.zeros(0, bool)))
     w.add_messages(batch)
@@ -185,7 +185,7 @@ def writer_cases(folder: Path, log: Path) -> list[tuple]:
     copy = log_with_metrics(folder / "own.mcap")
     link = folder / "link.mcap"
     if not link.is_symlink():
-        link.symlink_to(copy)
+        link.symlink_to(copy.name)  # relative: a copy of the folder (the census's) keeps it pointing at its own log
     places = {"a FIFO": fifo, "a folder": folder, "under a file": folder / "a_file" / "b.json", "/dev/null": Path("/dev/null"),
               "its own log": copy, "a link to its own log": link, "its own log by another path": folder / ".." / folder.name / "own.mcap",
               "an empty path": Path("")}
@@ -200,4 +200,157 @@ def writer_cases(folder: Path, log: Path) -> list[tuple]:
         cases.append((WRITERS, f"tl.b2b(out=) {label}", None,
                       f"tl.b2b([{{'scenario': 'fsi', 'trajectory': 1, 'stop_time': 0.1}}], out={str(where)!r})", "2"))
     cases.append((WRITERS, "compare --save onto its own log", None, f"tl.save_baseline({str(copy)!r}, {str(copy)!r})", "2"))
+    return cases
+
+
+def _case_list_api(cases: str, fmus: Path, out: Path, **sides: str) -> str:
+    given = "".join(f", {k}={v}" for k, v in sides.items())
+    return (f"tl.b2b({cases}, reference={{'fmus': {str(fmus)!r}}}{given or f', candidate={{{chr(39)}fmus{chr(39)}: {str(fmus)!r}}}'}"
+            f", out={str(out)!r})")
+
+
+def b2b_cases(folder: Path, fmus: Path) -> list[tuple]:
+    """tl.b2b's case lists and sides, and the command's sides that do not start: each refused in one line before any
+    run (the case list file's schema, run's checks of --set and of a controller FMU)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    out = folder / "out"
+    one = "'scenario': 'fsi', 'trajectory': 1, 'stop_time': 0.2"
+    cases = []
+    lists = {"stop time 1e300": "[{'scenario': 'fsi', 'trajectory': 1, 'stop_time': 1e300}]",
+             "stop time NaN": "[{'scenario': 'fsi', 'trajectory': 1, 'stop_time': float('nan')}]",
+             "stop time inf": "[{'scenario': 'fsi', 'trajectory': 1, 'stop_time': float('inf')}]",
+             "stop time text": "[{'scenario': 'fsi', 'trajectory': 1, 'stop_time': '1'}]",
+             "an unknown scenario": "[{'scenario': 'ekf', 'trajectory': 1}]", "a scenario a number": "[{'scenario': 3, 'trajectory': 1}]",
+             "trajectory 9": "[{'scenario': 'fsi', 'trajectory': 9}]", "trajectory True": "[{'scenario': 'fsi', 'trajectory': True}]",
+             "controller pid": f"[{{{one}, 'controller': 'pid'}}]", "seed -1": f"[{{{one}, 'seed': -1}}]",
+             "seed 2**40": f"[{{{one}, 'seed': 2**40}}]", "an unknown key": f"[{{{one}, 'bogus': 1}}]",
+             "a key not text": f"[{{{one}, 1: 2}}]", "no trajectory": "[{'scenario': 'fsi'}]",
+             "B2BCase of an unknown scenario": "[tl.B2BCase('nowhere', 1)]",
+             "B2BCase stop time NaN": "[tl.B2BCase('fsi', 1, stop_time=float('nan'))]",
+             "B2BCase stop time 1e300": "[tl.B2BCase('fsi', 1, stop_time=1e300)]",
+             "B2BCase seed text": "[tl.B2BCase('fsi', 1, seed='1')]"}
+    for label, given in lists.items():
+        cases.append((B2B, f"tl.b2b case list: {label}", None, _case_list_api(given, fmus, out), "2"))
+    good = f"[{{{one}}}]"
+    fm = str(fmus)
+    sides = {"a NaN gain": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': (0, 0, float('nan'))}}",
+             "an infinite gain": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': (0, 0, float('inf'))}}",
+             "a gain of text": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': 'abc'}}",
+             "a gain of one number": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': (0,)}}",
+             "a gain entry out of K": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': (99, 0, 1.0)}}",
+             "a gain of a negative entry": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': (-1, 0, 1.0)}}",
+             "a gain of text entries": f"{{'fmus': {fm!r}, 'stage': 'mil', 'gain': ('a', 'b', 'c')}}",
+             "an unknown parameter": f"{{'fmus': {fm!r}, 'settings': {{'plant.nothing': 1}}}}",
+             "a parameter of text": f"{{'fmus': {fm!r}, 'settings': {{'controller.Tc': 'abc'}}}}",
+             "a NaN parameter": f"{{'fmus': {fm!r}, 'settings': {{'plant.m_L': float('nan')}}}}",
+             "a parameter of no instance": f"{{'fmus': {fm!r}, 'settings': {{'nothing.x': 1}}}}",
+             "a controller a number": f"{{'fmus': {fm!r}, 'controller': 3}}",
+             "a stage xil": f"{{'fmus': {fm!r}, 'stage': 'xil'}}", "fmus a number": "{'fmus': 3}"}
+    for label, side in sides.items():
+        cases.append((B2B, f"tl.b2b candidate: {label}", None, _case_list_api(good, fmus, out, candidate=side), "2"))
+    case_file = folder / "one.toml"
+    case_file.write_text('cases = [{scenario = "fsi", trajectory = 1, stop_time = 0.2}]\n')
+    not_a_controller = fmus / "TiltloadPlant.fmu"
+    base = ["b2b", "--cases", str(case_file), "--reference-fmus", str(fmus), "--candidate-fmus", str(fmus), "--out", str(out)]
+    for label, extra in {"--candidate-set of an unknown parameter": ["--candidate-set", "plant.nothing=1"],
+                         "--candidate-set of text for a Real": ["--candidate-set", "controller.Tc=abc"],
+                         "--candidate-set of no instance": ["--candidate-set", "nothing.x=1"],
+                         "--candidate-set nan": ["--candidate-set", "plant.m_L=nan"],
+                         "--reference-set of an output": ["--reference-set", "plant.x=1"],
+                         "--candidate-controller the plant's FMU": ["--candidate-controller", str(not_a_controller)]}.items():
+        cases.append((B2B, f"b2b {label}", [*base, *extra], None, "2"))
+    return cases
+
+
+REQS = "requirements:\n  - name: low\n    formula: plant.z < 5\n"
+CONTROLLER = ("class C:\n    inputs = ['x_ref', 'x']\n    def step(self, t, i):\n        return 0.0, 0.0, 0.0, 0.0\n")
+
+
+def readonly_mount(where: Path) -> Path | None:
+    """A read-only tmpfs at where holding a log (a.mcap) and a requirement file (r.yaml); None where this machine does not
+    let us mount (then the read-only cases are left out). Mounted once: a second call finds it."""
+    import subprocess
+
+    where.mkdir(parents=True, exist_ok=True)
+    if (where / "a.mcap").is_file():
+        return where
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(where)], capture_output=True).returncode:
+        return None
+    log_with_metrics(where / "a.mcap")
+    (where / "r.yaml").write_text(REQS)
+    subprocess.run(["mount", "-o", "remount,ro", str(where)], check=True)
+    return where
+
+
+def readonly_cases(folder: Path, fmus: Path, ro: Path) -> list[tuple]:
+    """Every writer onto a read-only disk: one line, exit 2, before any work."""
+    folder.mkdir(parents=True, exist_ok=True)
+    source = folder / "ctrl.py"
+    source.write_text(CONTROLLER)
+    log, reqs = ro / "a.mcap", ro / "r.yaml"
+    fm = str(fmus)
+    b2b = ["b2b", "--cases", str(folder / "one.toml"), "--reference-fmus", fm, "--candidate-fmus", fm]
+    (folder / "one.toml").write_text('cases = [{scenario = "fsi", trajectory = 1, stop_time = 0.2}]\n')
+    run = ["run", "--scenario", "fsi", "--stop-time", "0.2", "--fmus", fm, "--out", str(folder / "runs"), "--quiet", "--no-plots"]
+    cases = []
+    for where, label in ((ro, "a read-only disk"), (ro / "sub" / "deeper", "a folder to make on a read-only disk")):
+        argvs = {"check --report": ["check", str(reqs), str(log), "--report", str(where / "r.html")],
+                 "b2b --out": [*b2b, "--out", str(where / "b2b")],
+                 "wrap --out": ["wrap", str(source), "--out", str(where / "w.fmu")],
+                 "wrap --native --out": ["wrap", "--native", str(source), "--out", str(where / "n.fmu")],
+                 "run --report": [*run, "--report", str(where / "r.html")],
+                 "compare --record-baseline (.json)": ["compare", str(log), str(where / "b.json"), "--record-baseline"],
+                 "compare --record-baseline (.parquet)": ["compare", str(log), str(where / "b.parquet"), "--record-baseline",
+                                                          "--signals", "plant.x"]}
+        for name, argv in argvs.items():
+            cases.append((READ_ONLY, f"{name} on {label}", argv, None, "2"))
+        apis = {"tl.save_baseline": f"tl.save_baseline({str(log)!r}, {str(where / 'b.json')!r})",
+                "tl.save_signal_baseline": f"tl.save_signal_baseline({str(log)!r}, {str(where / 'b.parquet')!r}, ['plant.x'])",
+                "tl.b2b(out=)": f"tl.b2b([{{'scenario': 'fsi', 'trajectory': 1, 'stop_time': 0.2}}], reference={{'fmus': {fm!r}}}, "
+                                f"candidate={{'fmus': {fm!r}}}, out={str(where / 'b2b')!r})",
+                "tl.run(report=)": f"tl.run(tl.Case(stop_time=0.2, fmus={fm!r}), tl.RunOptions(out={str(folder / 'runs')!r}, "
+                                   f"quiet=True, no_plots=True, report={str(where / 'r.html')!r}))"}
+        for name, code in apis.items():
+            cases.append((READ_ONLY, f"{name} on {label}", None, code, "2"))
+    return cases
+
+
+def report_cases(folder: Path, fmus: Path) -> list[tuple]:
+    """A report pointed at one of its command's inputs: refused in one line, the input unchanged (the tests compare
+    its bytes; the census counts the line)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    log = log_with_metrics(folder / "a.mcap")
+    reqs = folder / "r.yaml"
+    reqs.write_text(REQS)
+    link = folder / "link.mcap"
+    if not link.is_symlink():
+        link.symlink_to(log.name)  # relative, as above
+    hard = folder / "hard.mcap"
+    if not hard.exists():
+        os.link(log, hard)
+    fm = str(fmus)
+    runs = folder / "runs"
+    run = ["run", "--scenario", "fsi", "--stop-time", "0.2", "--fmus", fm, "--out", str(runs), "--quiet", "--no-plots"]
+    cases = [(REPORTS, "check --report the log it judges", ["check", str(reqs), str(log), "--report", str(log)], None, "2"),
+             (REPORTS, "check --report the requirement file", ["check", str(reqs), str(log), "--report", str(reqs)], None, "2"),
+             (REPORTS, "check --report a link to the log", ["check", str(reqs), str(log), "--report", str(link)], None, "2"),
+             (REPORTS, "check --report a hard link to the log", ["check", "--formula", "a: plant.z < 5", str(log), "--report",
+                                                                str(hard)], None, "2"),
+             (REPORTS, "check --report the log by another path", ["check", str(reqs), str(log), "--report",
+                                                                 str(folder / ".." / folder.name / "a.mcap")], None, "2"),
+             (REPORTS, "check --report the second log", ["check", str(reqs), str(log), str(hard), "--report", str(hard)], None, "2"),
+             (REPORTS, "run --report its requirement file", [*run, "--requirements", str(reqs), "--report", str(reqs)], None, "2"),
+             (REPORTS, "run --report its own log", [*run, "--name", "own", "--report", str(runs / "own.mcap")], None, "2"),
+             (REPORTS, "tl.run(report=) its requirement file", None,
+              f"tl.run(tl.Case(stop_time=0.2, fmus={fm!r}), tl.RunOptions(out={str(runs)!r}, quiet=True, no_plots=True, "
+              f"requirements={str(reqs)!r}, report={str(reqs)!r}))", "2")]
+    for command in ("campaign", "falsify"):
+        out = folder / f"{command}_out"
+        out.mkdir(exist_ok=True)
+        spec = folder / f"{command}.toml"
+        spec.write_text("# never read: its report would be written over it\n")
+        if not (out / "report.html").is_symlink():
+            (out / "report.html").symlink_to(Path("..") / spec.name)
+        cases.append((REPORTS, f"{command}: its report.html a link to its spec", [command, str(spec), "--out", str(out),
+                                                                                 "--fmus", fm, "--workers", "1"], None, "2"))
     return cases
