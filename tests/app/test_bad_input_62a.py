@@ -212,3 +212,12 @@ def test_bidirectional_controls_in_user_text_are_shown_escaped(tmp_path):
     for c in BIDI:
         assert c not in page, f"U+{ord(c):04X} reached the page raw"
         assert f"\\u{ord(c):04x}" in page
+
+
+def test_the_pytest_plugins_failure_messages_show_bidirectional_controls_escaped():
+    from tiltload.master.app.testing.report import limits_report
+
+    name = "ISE\u202e)x(" + "\u2066"
+    text = limits_report({name: 2.0}, {name: 1.0}, {"scenario": "fsi\u202e"}, "tiltload run")
+    assert text is not None and not any(c in text for c in BIDI)
+    assert "ISE\\u202e)x(\\u2066" in text

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import jinja2
 
+from ..visible_text import visible
 from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
 
 _TEMPLATE = Path(__file__).with_name("report.html.j2")
@@ -108,39 +109,9 @@ def render(report: Report, standard_figures: bool = True) -> str:
 # JSON's own escapes for what HTML gives meaning to inside a script or data block: '<' (</script, <!--, <script: the
 # script data states), '>' (-->), '&', and U+2028/2029 (line ends to JavaScript before ES2019); the JSON means the same
 _SCRIPT_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
-# bidirectional-text controls (embeddings, overrides, isolates, marks): in user text they reorder what a reader sees
-# ("Trojan Source"), so the page shows them as their escapes
-BIDI = "\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\u200e\u200f\u061c"
-_VISIBLE = str.maketrans({c: f"\\u{ord(c):04x}" for c in BIDI})
 
 
 def _script_safe(text: str) -> str:
     """JSON inside <script type="application/json">: nothing in it can end or change the element (every character
     _SCRIPT_ESCAPES names written as JSON's escape of it)."""
     return "".join(_SCRIPT_ESCAPES.get(c, c) for c in text)
-
-
-def visible(value):
-    """Text of the page with each bidirectional control shown as its escape (\\u202e); markup (figures) kept markup."""
-    if hasattr(value, "__html__"):  # jinja2's Markup: kept markup, not escaped again
-        return type(value)(str(value).translate(_VISIBLE))
-    return value.translate(_VISIBLE) if isinstance(value, str) else value
-
-
-def write_report(report: Report, path: Path, standard_figures: bool = True, inputs=None) -> Path:
-    """Write the report to path (a folder is made as needed); returns path. inputs: the command's inputs ({"the log it
-    judges": log} or pairs): a path that is one of them is refused (output_folder.writable_file), the input kept."""
-    from ..output_folder import writable_file, write_file
-
-    path = writable_file(Path(path), "the report", list(_inputs_of(report)) + list(
-        inputs.items() if isinstance(inputs, dict) else inputs or ()))
-    return write_file(path, render(report, standard_figures))
-
-
-def _inputs_of(report: Report):
-    """What every report judges: each test's log."""
-    for test in report.tests:
-        if test.log:
-            yield "the log it judges", Path(test.log)
-
-
