@@ -115,3 +115,20 @@ def _script_safe(text: str) -> str:
     """JSON inside <script type="application/json">: nothing in it can end or change the element (every character
     _SCRIPT_ESCAPES names written as JSON's escape of it)."""
     return "".join(_SCRIPT_ESCAPES.get(c, c) for c in text)
+
+
+def write_report(report: Report, path: Path, standard_figures: bool = True, inputs=None) -> Path:
+    """Write the report to path (a folder is made as needed); returns path. inputs: the command's inputs ({"the log it
+    judges": log} or pairs): a path that is one of them is refused (output_folder.writable_file), the input kept."""
+    from ..output_folder import writable_file, write_file
+
+    path = writable_file(Path(path), "the report", list(_inputs_of(report)) + list(
+        inputs.items() if isinstance(inputs, dict) else inputs or ()))
+    return write_file(path, render(report, standard_figures))
+
+
+def _inputs_of(report: Report):
+    """What every report judges: each test's log."""
+    for test in report.tests:
+        if test.log:
+            yield "the log it judges", Path(test.log)
