@@ -174,32 +174,49 @@ def log_with_metrics(path: Path) -> Path:
     return Path(path)
 
 
+def _own_inputs(where: Path) -> tuple[Path, Path, Path, Path]:
+    """A folder of a case's own: (a run's log, a relative link to it, a hard link to it, a requirement file). Each case
+    has its own, so that an input one tiltload wrote over cannot decide how the next case ends."""
+    where.mkdir(parents=True, exist_ok=True)
+    log = log_with_metrics(where / "a.mcap")
+    link, hard, reqs = where / "link.mcap", where / "hard.mcap", where / "r.yaml"
+    if not link.is_symlink():
+        link.symlink_to(log.name)  # relative: a copy of the folder (the census's) keeps it pointing at its own log
+    if not hard.exists():
+        os.link(log, hard)
+    reqs.write_text(REQS)
+    return log, link, hard, reqs
+
+
 def writer_cases(folder: Path, log: Path) -> list[tuple]:
     """tl.save_baseline, tl.save_signal_baseline, tl.b2b(out=...) onto places no file can be written, or onto the
-    log they read."""
+    log they read (each case with its own log)."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "a_file").write_text("x")
     fifo = folder / "fifo"
     if not fifo.exists():
         os.mkfifo(fifo)
-    copy = log_with_metrics(folder / "own.mcap")
-    link = folder / "link.mcap"
-    if not link.is_symlink():
-        link.symlink_to(copy.name)  # relative: a copy of the folder (the census's) keeps it pointing at its own log
-    places = {"a FIFO": fifo, "a folder": folder, "under a file": folder / "a_file" / "b.json", "/dev/null": Path("/dev/null"),
-              "its own log": copy, "a link to its own log": link, "its own log by another path": folder / ".." / folder.name / "own.mcap",
-              "an empty path": Path("")}
+    places = {"a FIFO": lambda d, own: fifo, "a folder": lambda d, own: d, "under a file": lambda d, own: folder / "a_file" / "b.json",
+              "/dev/null": lambda d, own: Path("/dev/null"), "its own log": lambda d, own: own[0],
+              "a link to its own log": lambda d, own: own[1], "its own log by another path": lambda d, own: d / ".." / d.name / "a.mcap",
+              "an empty path": lambda d, own: Path("")}
     cases = []
-    for label, where in places.items():
-        target = "''" if label == "an empty path" else repr(str(where))
-        cases.append((WRITERS, f"tl.save_baseline onto {label}", None, f"tl.save_baseline({str(copy)!r}, {target})", "2"))
-        cases.append((WRITERS, f"tl.save_signal_baseline onto {label}", None,
-                      f"tl.save_signal_baseline({str(copy)!r}, {target}, ['plant.x'])", "2"))
+    for i, (label, place) in enumerate(places.items()):
+        for writer, extra in (("tl.save_baseline", ""), ("tl.save_signal_baseline", ", ['plant.x']")):
+            where = folder / f"{writer[3:]}{i}"
+            own = _own_inputs(where)
+            target = "''" if label == "an empty path" else repr(str(place(where, own)))
+            cases.append((WRITERS, f"{writer} onto {label}", None, f"{writer}({str(own[0])!r}, {target}{extra})", "2"))
     for label, where in (("a file", folder / "a_file"), ("a FIFO", fifo), ("under a file", folder / "a_file" / "out"),
                          ("an empty path", "")):
         cases.append((WRITERS, f"tl.b2b(out=) {label}", None,
                       f"tl.b2b([{{'scenario': 'fsi', 'trajectory': 1, 'stop_time': 0.1}}], out={str(where)!r})", "2"))
-    cases.append((WRITERS, "compare --save onto its own log", None, f"tl.save_baseline({str(copy)!r}, {str(copy)!r})", "2"))
+    log, _, hard, _ = _own_inputs(folder / "record")
+    json_link = folder / "record" / "b.json"
+    if not json_link.exists():
+        os.link(log, json_link)  # a baseline's name that is the log itself (a hard link)
+    cases.append((WRITERS, "compare --record-baseline onto a hard link of its log", ["compare", str(log), str(json_link),
+                                                                                     "--record-baseline"], None, "2"))
     return cases
 
 
@@ -317,38 +334,49 @@ def readonly_cases(folder: Path, fmus: Path, ro: Path) -> list[tuple]:
 
 def report_cases(folder: Path, fmus: Path) -> list[tuple]:
     """A report pointed at one of its command's inputs: refused in one line, the input unchanged (the tests compare
-    its bytes; the census counts the line)."""
+    its bytes; the census counts the line). Each case with its own inputs (_own_inputs)."""
     folder.mkdir(parents=True, exist_ok=True)
-    log = log_with_metrics(folder / "a.mcap")
-    reqs = folder / "r.yaml"
-    reqs.write_text(REQS)
-    link = folder / "link.mcap"
-    if not link.is_symlink():
-        link.symlink_to(log.name)  # relative, as above
-    hard = folder / "hard.mcap"
-    if not hard.exists():
-        os.link(log, hard)
     fm = str(fmus)
-    runs = folder / "runs"
-    run = ["run", "--scenario", "fsi", "--stop-time", "0.2", "--fmus", fm, "--out", str(runs), "--quiet", "--no-plots"]
-    cases = [(REPORTS, "check --report the log it judges", ["check", str(reqs), str(log), "--report", str(log)], None, "2"),
-             (REPORTS, "check --report the requirement file", ["check", str(reqs), str(log), "--report", str(reqs)], None, "2"),
-             (REPORTS, "check --report a link to the log", ["check", str(reqs), str(log), "--report", str(link)], None, "2"),
-             (REPORTS, "check --report a hard link to the log", ["check", "--formula", "a: plant.z < 5", str(log), "--report",
-                                                                str(hard)], None, "2"),
-             (REPORTS, "check --report the log by another path", ["check", str(reqs), str(log), "--report",
-                                                                 str(folder / ".." / folder.name / "a.mcap")], None, "2"),
-             (REPORTS, "check --report the second log", ["check", str(reqs), str(log), str(hard), "--report", str(hard)], None, "2"),
-             (REPORTS, "run --report its requirement file", [*run, "--requirements", str(reqs), "--report", str(reqs)], None, "2"),
-             (REPORTS, "run --report its own log", [*run, "--name", "own", "--report", str(runs / "own.mcap")], None, "2"),
-             (REPORTS, "tl.run(report=) its requirement file", None,
-              f"tl.run(tl.Case(stop_time=0.2, fmus={fm!r}), tl.RunOptions(out={str(runs)!r}, quiet=True, no_plots=True, "
-              f"requirements={str(reqs)!r}, report={str(reqs)!r}))", "2")]
+
+    def run(d: Path) -> list[str]:
+        return ["run", "--scenario", "fsi", "--stop-time", "0.2", "--fmus", fm, "--out", str(d / "runs"), "--quiet", "--no-plots"]
+
+    made = {name: (folder / name, *_own_inputs(folder / name)) for name in
+            ("log", "reqs", "link", "hard", "path", "second", "run_reqs", "run_log", "api")}
+    d, log, link, hard, reqs = made["log"]
+    cases = [(REPORTS, "check --report the log it judges", ["check", str(reqs), str(log), "--report", str(log)], None, "2")]
+    d, log, link, hard, reqs = made["reqs"]
+    cases.append((REPORTS, "check --report the requirement file", ["check", str(reqs), str(log), "--report", str(reqs)], None, "2"))
+    d, log, link, hard, reqs = made["link"]
+    cases.append((REPORTS, "check --report a link to the log", ["check", str(reqs), str(log), "--report", str(link)], None, "2"))
+    d, log, link, hard, reqs = made["hard"]
+    cases.append((REPORTS, "check --report a hard link to the log", ["check", "--formula", "a: plant.z < 5", str(log),
+                                                                    "--report", str(hard)], None, "2"))
+    d, log, link, hard, reqs = made["path"]
+    cases.append((REPORTS, "check --report the log by another path", ["check", str(reqs), str(log), "--report",
+                                                                      str(d / ".." / d.name / "a.mcap")], None, "2"))
+    d, log, link, hard, reqs = made["second"]
+    second = log_with_metrics(d / "second.mcap")
+    cases.append((REPORTS, "check --report the second log", ["check", str(reqs), str(log), str(second), "--report", str(second)],
+                  None, "2"))
+    d, log, link, hard, reqs = made["run_reqs"]
+    cases.append((REPORTS, "run --report its requirement file", [*run(d), "--requirements", str(reqs), "--report", str(reqs)],
+                  None, "2"))
+    d, log, link, hard, reqs = made["run_log"]
+    cases.append((REPORTS, "run --report its own log", [*run(d), "--name", "own", "--report", str(d / "runs" / "own.mcap")],
+                  None, "2"))
+    d, log, link, hard, reqs = made["api"]
+    cases.append((REPORTS, "tl.run(report=) its requirement file", None,
+                  f"tl.run(tl.Case(stop_time=0.2, fmus={fm!r}), tl.RunOptions(out={str(d / 'runs')!r}, quiet=True, "
+                  f"no_plots=True, requirements={str(reqs)!r}, report={str(reqs)!r}))", "2"))
+    from test_bad_input import CAMPAIGN_SPEC, FALSIFY_SPEC
+
+    specs = {"campaign": CAMPAIGN_SPEC, "falsify": FALSIFY_SPEC}
     for command in ("campaign", "falsify"):
         out = folder / f"{command}_out"
         out.mkdir(exist_ok=True)
         spec = folder / f"{command}.toml"
-        spec.write_text("# never read: its report would be written over it\n")
+        spec.write_text(specs[command])  # a spec that runs: the old tiltload ran it and wrote its report
         if not (out / "report.html").is_symlink():
             (out / "report.html").symlink_to(Path("..") / spec.name)
         cases.append((REPORTS, f"{command}: its report.html a link to its spec", [command, str(spec), "--out", str(out),
