@@ -93,6 +93,25 @@ def test_a_side_that_does_not_start_says_its_own_error(fmus, tmp_path, monkeypat
                out=tmp_path / "out")
 
 
+def test_a_candidate_controller_whose_import_fails_says_the_fmus_own_line(fmus, tmp_path, capsys):
+    """A wrapped class whose module raises on import once run (here: once a flag file exists) ends b2b in the side's
+    own line, as `run` says it, not "log ..._candidate.mcap: no such file"."""
+    flag = tmp_path / "flag"
+    source = tmp_path / "ctrl.py"
+    source.write_text(f"import os\nif os.path.exists({str(flag)!r}):\n    raise ImportError('No module named mylib')\n\n"
+                      + gen.CONTROLLER)
+    assert command_exit_code(["wrap", str(source), "--out", str(tmp_path / "c.fmu")]) == 0
+    capsys.readouterr()
+    flag.touch()
+    cases = tmp_path / "one.toml"
+    cases.write_text('cases = [{scenario = "fsi", trajectory = 1, stop_time = 0.2}]\n')
+    code = command_exit_code(["b2b", "--cases", str(cases), "--reference-fmus", str(fmus), "--candidate-fmus", str(fmus),
+                              "--candidate-controller", str(tmp_path / "c.fmu"), "--out", str(tmp_path / "out")])
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert code == 2 and len(err) == 1, err
+    assert "the candidate did not start: controller:" in err[0] and "no such file" not in err[0], err
+
+
 # ---- a report pointed at one of its command's inputs: refused, the input unchanged, per report kind -------------------
 
 def _refused_unchanged(argv: list[str], inputs: list[Path], capsys) -> None:
