@@ -19,7 +19,9 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..foxglove_layout import write
+    from ..output_folder import writable_file
 
+    writable_file(args.out, "OUT")
     try:
         path = write(args.out, args.formation)
     except OSError as err:
