@@ -22,9 +22,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from ..bundle import write
-    from ..output_folder import writable_file
 
-    writable_file(args.out, "OUT")  # before the FMUs are built: a place the archive cannot go is one line
     contents = write(args.out, args.fmus, args.force, progress=lambda m: print(m, file=sys.stderr))
     fmus = sum(m.endswith(".fmu") for m in contents)
     packages = sum(m.endswith(".ssp") for m in contents)
