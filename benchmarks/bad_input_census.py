@@ -132,7 +132,22 @@ def generate(folder: Path, fmus: Path) -> list[dict]:
         add("path options by their kind", label, argv)
     for cls, label, argv, api, expect in inputs.surface_cases(folder / "surfaces", Path(FMUS)):
         add(cls, label, argv, api, expect)
+    for case in issue62a_cases(folder, Path(FMUS)):
+        add(*case)
     return cases
+
+
+def issue62a_cases(folder: Path, fmus: Path) -> list[tuple]:
+    """Issue 62's classes (part A): baselines, API writers, b2b's case lists and sides, read-only places, reports that
+    are their command's inputs (tests/app/bad_input_62a.py). The read-only disk is a tmpfs mounted beside the folder
+    (not in it: each tiltload's copy of the folder would be writable); without mount rights those cases are left out."""
+    import bad_input_62a as more
+
+    log = more.log_with_metrics(folder / "issue62_log.mcap")
+    cases = [*more.baseline_cases(folder / "baselines", log), *more.writer_cases(folder / "writers", log),
+             *more.b2b_cases(folder / "b2b62", fmus), *more.report_cases(folder / "reports62", fmus)]
+    readonly = more.readonly_mount(folder.parent / f"ro_{folder.name}")
+    return cases + (more.readonly_cases(folder / "readonly62", fmus, readonly) if readonly is not None else [])
 
 
 def _sine_log():
@@ -154,7 +169,7 @@ def _write_part(name: Path, part) -> None:
 
 # ---- run (in the target tiltload's interpreter) --------------------------------------------------------------------
 
-def run(folder: Path, fmus: str, name: str, timeout_s: float, first: int = 0) -> None:
+def run(folder: Path, fmus: str, name: str, timeout_s: float, first: int = 0, only: list[str] | None = None) -> None:
     spec = importlib.util.spec_from_file_location("isolated_case", ROOT / "tests" / "support" / "isolated_case.py")
     isolated = importlib.util.module_from_spec(spec)
     sys.modules["isolated_case"] = isolated  # its dataclass looks itself up there
@@ -168,9 +183,10 @@ def run(folder: Path, fmus: str, name: str, timeout_s: float, first: int = 0) ->
     cases = json.loads(json.dumps(cases).replace(str(folder), str(copy)))
     cwd = folder / f"cwd_{name}"
     cwd.mkdir(exist_ok=True)
-    with open(folder / (f"results_{name}.jsonl" if not first else f"results_{name}.from{first}.jsonl"), "w") as results:
+    results_file = f"results_{name}.jsonl" if not first else f"results_{name}.from{first}.jsonl"
+    with open(folder / results_file, "a" if only else "w") as results:  # --only: added to what ran before
         for i, case in enumerate(cases):
-            if i < first:
+            if i < first or (only and not case["class"].startswith(tuple(only))):
                 continue
             if case["api"] is not None:
                 code = case["api"].replace(FMUS, fmus)
@@ -232,6 +248,8 @@ def table(folder: Path, before: str, after: str) -> str:
            "| --- | ---: | ---: | --- | ---: | --- |"]
     for cls, by in [*rows.items(), ("**all**", totals)]:
         n = sum(by[after].values()) or sum(by[before].values())
+        if not n:  # a class neither tiltload ran (run --only)
+            continue
         cells = []
         for name in (before, after):
             wrong = ", ".join(f"{k} {v}" for k in OUTCOMES[1:] if (v := by[name][k]))
@@ -253,6 +271,8 @@ def main() -> int:
     r.add_argument("--tiltload", help="the tiltload executable whose interpreter runs the cases (default: this one)")
     r.add_argument("--timeout", type=float, default=120.0, help="s per case; past it, a hang")
     r.add_argument("--first", type=int, default=0, help="start at this case (a second runner beside a first)")
+    r.add_argument("--only", action="append", default=[], metavar="CLASS",
+                   help="run only the classes starting with this (repeatable; results added to the name's file)")
     t = sub.add_parser("table")
     t.add_argument("folder", type=Path)
     t.add_argument("before")
@@ -265,9 +285,10 @@ def main() -> int:
     elif args.what == "run" and args.tiltload:  # the executable's own interpreter, from its first line
         python = Path(args.tiltload).read_text().splitlines()[0].removeprefix("#!").strip()
         return subprocess.call([python, __file__, "run", str(args.folder), "--fmus", args.fmus, "--name", args.name,
-                                "--timeout", str(args.timeout), "--first", str(args.first)])
+                                "--timeout", str(args.timeout), "--first", str(args.first),
+                                *(f"--only={c}" for c in args.only)])
     elif args.what == "run":
-        run(args.folder.resolve(), str(Path(args.fmus).resolve()), args.name, args.timeout, args.first)
+        run(args.folder.resolve(), str(Path(args.fmus).resolve()), args.name, args.timeout, args.first, args.only)
     else:
         print(table(args.folder, args.before, args.after))
     return 0

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import fields
+from dataclasses import asdict, fields
 from pathlib import Path
 
 from ..regression.back_to_back import BackToBack, Case, Side
@@ -27,18 +27,20 @@ def _side(value: Side | Mapping | None, role: str) -> Side:
     if unknown:
         raise TiltloadError(f"{role}: unknown field {unknown[0]!r} (a side has {', '.join(sorted(known))})")
     given = dict(value)
-    if "fmus" in given:
+    if isinstance(given.get("fmus"), str) and given["fmus"]:
         given["fmus"] = Path(given["fmus"])
     if isinstance(given.get("settings"), Mapping):
         given["settings"] = tuple(given["settings"].items())
-    if given.get("gain") is not None:
+    elif isinstance(given.get("settings"), list):
+        given["settings"] = tuple(tuple(p) if isinstance(p, (list, tuple)) else p for p in given["settings"])
+    if isinstance(given.get("gain"), list):
         given["gain"] = tuple(given["gain"])
-    return Side(**given)
+    return Side(**given)  # its values checked with the command's (regression.back_to_back.check_side)
 
 
 def case_list(cases) -> list[Case]:
     """The cases b2b takes: 'reproduction', a case list file, or a list of B2BCase / mappings."""
-    from ..regression.back_to_back import load_cases, reproduction_cases
+    from ..regression.back_to_back import checked_cases, load_cases, reproduction_cases
 
     if isinstance(cases, str) and cases == "reproduction":
         return reproduction_cases()
@@ -47,15 +49,15 @@ def case_list(cases) -> list[Case]:
     if not isinstance(cases, Sequence) or isinstance(cases, (bytes, str)) or not cases:
         raise TypeError(f"cases must be 'reproduction', a case list file or a non-empty list of tiltload.B2BCase, got "
                         f"{type(cases).__name__}")
-    out = []
+    given = []
     for case in cases:
         if isinstance(case, Case):
-            out.append(case)
+            given.append({k: v for k, v in asdict(case).items() if v is not None})
         elif isinstance(case, Mapping):
-            out.append(Case(**dict(case)))
+            given.append(dict(case))
         else:
             raise TypeError(f"a case must be a tiltload.B2BCase or a mapping {{scenario, trajectory, ...}}, got {type(case).__name__}")
-    return out
+    return checked_cases({"cases": given}, "cases")  # the case list file's schema, whatever gives the cases
 
 
 def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapping | None = None,
@@ -72,10 +74,18 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
     mapping as compare_signals takes, abs/rel/lead/lag for every signal. progress(line): told as each case ends. The
     runs go through one execution pool (each side's execution restarted for the next case). Returns a BackToBack
     (``.ok``, ``.results`` per case: ``.rows``, ``.deviation``, ``.per_tick``; ``.table()``)."""
+    from ..arguments import folder, named
     from ..regression.back_to_back import back_to_back
     from ..regression.signal_compare import Tolerances, check_names, load_tolerances, parse_tolerances
 
     with as_tiltload_errors():
+        if not isinstance(out, (str, Path)):
+            raise TypeError(f"out must be a folder (str or pathlib.Path), got {type(out).__name__}")
+        named(folder, "out", str(out))  # the command's --out type: a folder, or a path where one can be made
+        if stop_time is not None:
+            from ...command_line.argument_types import run_time
+
+            named(run_time, "stop_time", stop_time)
         case_list_ = case_list(cases)
         sides = _side(reference, "reference"), _side(candidate, "candidate")
         names = check_names(list(signals), "signals") if signals else None

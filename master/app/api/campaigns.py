@@ -81,12 +81,22 @@ def run_campaign(spec: Path, options: CampaignOptions, progress: Callable[[str],
     from ..user_error import UserError
 
     how = {f.name: getattr(options, f.name) for f in fields(options) if f.name not in ("out", "fmus")}
+    report_beside(spec, options.out)
     try:
         results, counts = run(Path(spec), options.out, options.fmus, progress=progress, **how)
     except ClusterError as err:
         raise UserError(str(err)) from None
     _report(Path(results), progress)
     return results, counts
+
+
+def report_beside(spec: Path, out: Path | None) -> None:
+    """The report.html a campaign or search writes into its folder must not be its spec: refused before it runs."""
+    from ..output_folder import same_file
+    from ..user_error import UserError
+
+    if out is not None and Path(spec).exists() and same_file(Path(out) / "report.html", Path(spec)):
+        raise UserError(f"--out {out}: its report.html is the spec ({spec}): refused, it would be written over")
 
 
 def _report(results: Path, progress: Callable[[str], None] | None) -> None:

@@ -73,6 +73,8 @@ def save_baseline(result: Source, path: str | Path, *, rtol: float = 1e-6, atol:
     import json
 
     rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+    with as_tiltload_errors():
+        path = _output(path, result)  # the place first: nothing is read for a baseline that cannot be written
     if isinstance(result, Result):
         metrics, record = dict(result.metrics), dict(result.record)
     elif isinstance(result, (str, Path)):
@@ -85,11 +87,25 @@ def save_baseline(result: Source, path: str | Path, *, rtol: float = 1e-6, atol:
             record = load_case(Path(result)) or {}
     else:
         raise TypeError(f"save_baseline() takes a Result or a log (.mcap), got {type(result).__name__}")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     data = {"run": record, "metrics": metrics, "tolerances": {"rtol": rtol, "atol": atol}}
     fmus = _fmus(result)
     if fmus is not None:  # what ran, so that a failing comparison can say what changed
         data["fmus"] = fmus
-    path.write_text(json.dumps(data, indent=1) + "\n")
+    from ..output_folder import write_file
+
+    with as_tiltload_errors():
+        write_file(path, json.dumps(data, indent=1) + "\n")
     return path
+
+
+def _output(path: object, source: Source) -> Path:
+    """The baseline's path through the command's checks (output_folder.writable_file); the log it records is its
+    input, never its output."""
+    from ..output_folder import writable_file
+
+    if not isinstance(path, (str, Path)):
+        raise TypeError(f"path must be a str or a pathlib.Path, got {type(path).__name__}")
+    if not str(path):
+        raise TiltloadError("path: an empty path")
+    log = source.log if isinstance(source, Result) else source
+    return writable_file(Path(path), "path", {"the log it records": Path(log) if log is not None else None})

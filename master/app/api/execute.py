@@ -63,6 +63,10 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     _with_token(system, options.token_file)
     system, schedule = _scheduled(case, loop, system, snap, say)
     label, log = _log_path(case, options, opts, loop, snap, say)
+    if options.report is not None:  # before the run: a report that cannot be written, or would overwrite an input
+        from ..output_folder import writable_file
+
+        writable_file(options.report, "--report", _run_inputs(case, options, log))
     metrics = loop_metrics() if is_loop(system) else None
     meta = _metadata(opts, stop, schedule)
     checkpoints = _checkpoints(checkpoint, opts, schedule, stop, say)
@@ -241,6 +245,15 @@ def _failed_run_plots(options: RunOptions, log: Path | None, say: Say) -> list[P
     return files
 
 
+def _run_inputs(case: Case, options: RunOptions, log: Path | None) -> list[tuple[str, Path | None]]:
+    """What a run reads (and its log, which the report judges): none of them may be its report."""
+    controller = case.controller if isinstance(case.controller, Path) or str(case.controller).endswith(".fmu") else None
+    return [("the run's log", log), ("the requirement file", options.requirements), ("the snapshot", options.from_snapshot),
+            ("the token file", options.token_file), ("the faults file", case.faults), ("the wind file", case.wind),
+            ("the system file", case.system), ("the controller FMU", Path(controller) if controller else None),
+            ("the trajectory file", case.trajectory if isinstance(case.trajectory, Path) else None)]
+
+
 def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, say: Say) -> None:
     """--report FILE: the run as a one-test report (its requirements, figures, environment, replay command)."""
     from ..evidence import Report, environment_of_system, test_of_log, write_report
@@ -257,7 +270,7 @@ def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, 
                     dict(outcome.result.metrics), outcome.failure)
     declared = list(monitor.requirements) if monitor is not None else []
     report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared)
-    say(f"report: {write_report(report, options.report)}")
+    say(f"report: {write_report(report, options.report, inputs=_run_inputs(case, options, outcome.log))}")
 
 
 def _monitor(options: RunOptions, system, span: float):

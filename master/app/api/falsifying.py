@@ -112,8 +112,10 @@ def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[s
     from ..batch.errors import ClusterError
     from ..falsify.runner import falsify as search
     from ..user_error import UserError
+    from .campaigns import report_beside
 
     o = options
+    report_beside(spec, o.out)
     try:
         found = search(Path(spec), o.out, o.fmus, o.optimizer, o.seed, o.simulations, o.seconds, o.scheduler, o.workers,
                        progress=progress, early_stop=not o.no_early_stop, branch=o.branch, neighbourhood=o.neighbourhood,

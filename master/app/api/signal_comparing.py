@@ -60,7 +60,11 @@ def save_signal_baseline(result: Source, path: str | Path, signals: Sequence[str
 
     if isinstance(signals, str):
         signals = [signals]
+    if not isinstance(path, (str, Path)):
+        raise TypeError(f"path must be a str or a pathlib.Path, got {type(path).__name__}")
+    if not str(path):
+        raise TiltloadError("path: an empty path")
     with as_tiltload_errors():
         mapping, file = _tolerances(tolerances)
         tol = mapping if mapping is not None else load_tolerances(file) if file is not None else Tolerances()
-        return record(_log(result, "run"), Path(path), list(signals), tol)
+        return record(_log(result, "run"), Path(path), list(signals), tol, {"the tolerance file": file})

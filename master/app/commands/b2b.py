@@ -55,7 +55,10 @@ def run(args: argparse.Namespace) -> int:
     signals = check_names(args.signals, "--signals") if args.signals else None
     sides = [B2BSide(getattr(args, f"{s}_fmus"), getattr(args, f"{s}_controller"), tuple(getattr(args, f"{s}_set")),
                      getattr(args, f"{s}_stage")) for s in ("reference", "candidate")]
+    from ..output_folder import writable_folder
+
     cases = case_list(args.cases)
+    writable_folder(args.out, "--out", min_free=0)  # before anything is said or run: a read-only place is one line
     print(f"back to back: {len(cases)} cases, each run as the reference ({sides[0].label}) and as the candidate "
           f"({sides[1].label}) (logs in {args.out}/)", flush=True)
     result = b2b(cases, reference=sides[0], candidate=sides[1], signals=signals, tolerances=args.tolerances,

@@ -76,6 +76,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not logs:
         raise UserError("no log to check: give one or more MCAP logs after the requirements")
+    if args.report is not None:  # before judging: a report that cannot be written, or would overwrite an input
+        from ..output_folder import writable_file
+
+        writable_file(args.report, "--report", _inputs(args, logs))
     spans = {log: log_span(log) for log in logs}
     longest = max(spans, key=spans.get)
     for r in reqs:
@@ -102,6 +106,11 @@ def run(args: argparse.Namespace) -> int:
     return PASSED if verdicts == {"PASS"} else UNDECIDED
 
 
+def _inputs(args: argparse.Namespace, logs: list[Path]) -> list[tuple[str, Path]]:
+    files = [("the log it judges", log) for log in logs]
+    return files + [("the requirement file", f) for f in args.files if f not in logs]
+
+
 def _write_report(path: Path, reqs, per_log: dict, requirement_file: Path | None) -> None:
     """The HTML report of the logs judged: a test per log, its replay command with the requirement file."""
     from ..evidence import Report, test_of_log, write_report
@@ -109,5 +118,6 @@ def _write_report(path: Path, reqs, per_log: dict, requirement_file: Path | None
 
     tests = [test_of_log(log, results, requirement_file) for log, results in per_log.items()]
     title = f"Requirements {requirement_file.name if requirement_file else '(--formula)'} on {len(tests)} log" + "s" * (len(tests) != 1)
-    write_report(Report(title, "check", tests, environment_of_tests(tests), declared=list(reqs)), path)
+    write_report(Report(title, "check", tests, environment_of_tests(tests), declared=list(reqs)), path,
+                 inputs=[("the requirement file", requirement_file)] if requirement_file else None)
     print(f"report: {path}")

@@ -18,8 +18,10 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..output_folder import writable_file
     from ..views.foxglove_layout import write
 
+    writable_file(args.out, "OUT")
     try:
         path = write(args.out, args.formation)
     except OSError as err:

@@ -37,6 +37,10 @@ def run(args: argparse.Namespace) -> int:
     if args.clocks and args.fmi != 3:
         raise UserError("--clocks: clocks are FMI 3.0's; add --fmi 3")
     reqs = [r for path in args.requirements for r in load(path)]  # a bad file is refused before anything runs
+    if args.docs is not None:  # before the runs: a place the document cannot go, or one of the requirement files
+        from ..output_folder import writable_file
+
+        writable_file(args.docs, "--docs", [("a requirement file", p) for p in args.requirements])
     folder = fmu_folder(args.fmus, args.fmi)
     build_all(folder, progress=lambda m: print(m, file=sys.stderr), fmi_version=args.fmi, clocked=args.clocks)
     code = main(folder, args.out, args.docs, args.baselines, args.write_baselines, args.check, args.workers, args.fmi,

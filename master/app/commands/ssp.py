@@ -22,7 +22,9 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..export.ssp import export
+    from ..output_folder import writable_file
 
+    writable_file(args.out, "OUT")  # before the FMUs are built: a place the package cannot go is one line
     path, version2, schedule, delay, count, stop = export(args, args.out, args.schedule)
     print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for a "
           f"{schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))

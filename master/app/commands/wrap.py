@@ -21,8 +21,11 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..output_folder import writable_file
     from ..wrap.wrap import wrap
 
+    if args.out is not None:  # before the class is run: a place the FMU cannot go, or the class's own file
+        writable_file(args.out, "--out", [("the controller's source", args.controller)])
     if args.native:
         from ..wrap.native import wrap_native
 

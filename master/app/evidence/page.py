@@ -12,6 +12,7 @@ from pathlib import Path
 
 import jinja2
 
+from ..visible_text import visible
 from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
 
 _TEMPLATE = Path(__file__).with_name("report.html.j2")
@@ -95,7 +96,8 @@ def render(report: Report, standard_figures: bool = True) -> str:
                        for t in report.tables],
             "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
                       | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
-    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+                             finalize=visible)
     env.filters["num"] = lambda x: "" if x is None else f"{x:.6g}"
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
@@ -104,19 +106,29 @@ def render(report: Report, standard_figures: bool = True) -> str:
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
 
 
+# JSON's own escapes for what HTML gives meaning to inside a script or data block: '<' (</script, <!--, <script: the
+# script data states), '>' (-->), '&', and U+2028/2029 (line ends to JavaScript before ES2019); the JSON means the same
+_SCRIPT_ESCAPES = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028", "\u2029": "\\u2029"}
+
+
 def _script_safe(text: str) -> str:
-    """JSON inside <script type="application/json">: no '</' can end the element early."""
-    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+    """JSON inside <script type="application/json">: nothing in it can end or change the element (every character
+    _SCRIPT_ESCAPES names written as JSON's escape of it)."""
+    return "".join(_SCRIPT_ESCAPES.get(c, c) for c in text)
 
 
-def write_report(report: Report, path: Path, standard_figures: bool = True) -> Path:
-    """Write the report to path (a folder is made as needed); returns path."""
-    path = Path(path)
-    text = render(report, standard_figures)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
-    return path
+def write_report(report: Report, path: Path, standard_figures: bool = True, inputs=None) -> Path:
+    """Write the report to path (a folder is made as needed); returns path. inputs: the command's inputs ({"the log it
+    judges": log} or pairs): a path that is one of them is refused (output_folder.writable_file), the input kept."""
+    from ..output_folder import writable_file, write_file
+
+    path = writable_file(Path(path), "the report", list(_inputs_of(report)) + list(
+        inputs.items() if isinstance(inputs, dict) else inputs or ()))
+    return write_file(path, render(report, standard_figures))
 
 
+def _inputs_of(report: Report):
+    """What every report judges: each test's log."""
+    for test in report.tests:
+        if test.log:
+            yield "the log it judges", Path(test.log)

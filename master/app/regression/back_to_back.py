@@ -20,8 +20,9 @@ import numpy as np
 from ...command_line.argument_types import MAX_RUN
 from ...engine.errors import DescriptionError
 from ...engine.observers import Observer
-from ...engine.user_files import UserFileError, read_document, schema_problem
+from ...engine.user_files import UserFileError, check_values, read_document, schema_problem
 from ..loop.defaults import FMU_DIR, SEED
+from ..user_error import UserError
 from .signal_compare import SignalRow, Tolerances, compare_signals, log_signals
 
 SIGNALS = ["plant.x", "plant.y", "plant.z", "plant.psi", "controller.f_R", "controller.f_L", "controller.tau_R",
@@ -70,6 +71,15 @@ class Side:
 
 def check_side(side: Side, role: str) -> None:
     """A side that cannot run, refused before anything runs: one line."""
+    if not isinstance(side.fmus, (str, Path)) or not str(side.fmus):
+        raise DescriptionError(f"the {role}'s fmus must be a folder (str or pathlib.Path), got {_shown(side.fmus)}")
+    if side.controller is not None and not isinstance(side.controller, str):
+        raise DescriptionError(f"the {role}'s controller must be dlqr, mixed or a controller FMU, got {_shown(side.controller)}")
+    if not isinstance(side.settings, tuple) or not all(isinstance(p, tuple) and len(p) == 2 and isinstance(p[0], str)
+                                                        for p in side.settings):
+        raise DescriptionError(f"the {role}'s settings must be pairs ('instance.name', value), got {_shown(side.settings)}")
+    if not isinstance(side.stage, str):
+        raise DescriptionError(f"the {role}'s stage must be one of {', '.join(STAGES)}, got {_shown(side.stage)}")
     if side.stage not in STAGES:
         raise DescriptionError(f"the {role}'s stage {side.stage!r} is none of {', '.join(STAGES)}")
     if side.controller and side.controller.endswith(".fmu") and not Path(side.controller).is_file():
@@ -79,6 +89,46 @@ def check_side(side: Side, role: str) -> None:
                                "form here (its pythonfmu or native wrap is the same class run as sil)")
     if side.gain is not None and side.stage != "mil":
         raise DescriptionError(f"the {role}'s gain change applies to the mil stage (the numpy reference) only")
+    gain = side.gain
+    if gain is not None and not (isinstance(gain, tuple) and len(gain) == 3 and all(_whole(i) and 0 <= i < 64 for i in gain[:2])
+                                 and _finite(gain[2])):
+        raise DescriptionError(f"the {role}'s gain must be (i, j, factor): two entries of K from 0 and a finite number, "
+                               f"got {_shown(gain)}")
+
+
+def _whole(x) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
+
+
+def _finite(x) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool) and bool(np.isfinite(x))
+
+
+def _shown(value) -> str:
+    """A value in an error line: short, its control characters escaped (one line)."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def check_side_system(case: Case, side: Side, role: str) -> None:
+    """What `run` checks before its first step, for this side's system: each --set a parameter the FMU has, of its type
+    and range; a user's controller FMU with the ports the loop needs. One line naming the side."""
+    from ...engine.fmi.model_description import checked_value, read_fmu
+    from ..parameter_types import check_settings
+    from ..ports import check_controller
+
+    try:
+        system = side_system(case, side)
+        check_settings(system, side.settings)
+        for key, value in side.settings:
+            instance, _, name = key.partition(".")
+            variables = {v.name: v for v in read_fmu(system.instance(instance).fmu, instance).modelVariables}
+            checked_value(instance, variables.get(name), name, value)
+        controller = side.controller or case.controller
+        if controller.endswith(".fmu"):
+            check_controller(read_fmu(Path(controller), "controller"))
+    except (DescriptionError, UserFileError, UserError) as err:
+        raise DescriptionError(f"the {role}: {err}") from None
 
 
 @contextlib.contextmanager
@@ -127,9 +177,19 @@ def load_cases(path: Path) -> list[Case]:
         data = read_document(Path(path))
     except UserFileError as err:
         raise DescriptionError(str(err)) from None
-    problem = schema_problem(data, CASES_SCHEMA)
+    return checked_cases(data, str(path))
+
+
+def checked_cases(data: object, where: str) -> list[Case]:
+    """A case list ({"cases": [...]}, from a file or the API) through CASES_SCHEMA: every number finite, the stop time
+    run's bound, scenarios and controllers by name; one line naming the place."""
+    try:
+        check_values(data, where)
+    except UserFileError as err:
+        raise DescriptionError(f"{where} is not a case list: {str(err).removeprefix(where + ': ')}") from None
+    problem = schema_problem(data, CASES_SCHEMA, limit=120)
     if problem:
-        raise DescriptionError(f"{path} is not a case list: {problem}")
+        raise DescriptionError(f"{where} is not a case list: {problem}")
     return [Case(**c) for c in data["cases"]]
 
 
@@ -148,7 +208,8 @@ def side_system(case: Case, side: Side, host=None):
     return system
 
 
-def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, host=None) -> tuple[Path, str | None, float | None]:
+def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, host=None, role: str = "side"
+             ) -> tuple[Path, str | None, float | None]:
     """One run of the case on this side (on the pool's execution of its structure, if any): (its log, how it ended
     early or None, the controller's time per tick in s, None when it runs in this process)."""
     from ...engine.lifecycle import RunPlan, run_plan
@@ -157,14 +218,14 @@ def run_side(case: Case, side: Side, log: Path, stop: float | None, pool=None, h
     from ..loop.thesis import default_stop, loop_metrics
 
     controller = side.controller or case.controller
-    if controller.endswith(".fmu") and not Path(controller).is_file():
-        raise DescriptionError(f"controller {controller} does not exist")
     stop = stop if stop is not None else case.stop_time if case.stop_time is not None else default_stop(case.trajectory)
     system = side_system(case, side, host)
     meta = record(scenario=case.scenario, trajectory=case.trajectory, controller=controller, seed=case.seed, stop_time=stop,
                   settings=side.settings)
     timer = ControllerTime()
     result = run_plan(RunPlan(system, stop, log, meta, metrics=loop_metrics(), observers=(timer,), isolate=is_foreign), pool)
+    if result.error is not None and (not result.ticks or not log.is_file()):  # nothing to compare: the side's own line
+        raise DescriptionError(f"{case.name}: the {role} did not start: {result.error}")
     return log, result.error, (timer.per_tick if host is not None else None)
 
 
@@ -248,7 +309,11 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
     unknown = [n for n in tolerances.signals if n not in names]
     if unknown:  # a tolerance for a signal not compared: a typo would go unnoticed
         raise DescriptionError(f"the tolerances name {', '.join(unknown)}, which are not among the compared signals ({', '.join(names)})")
-    out = Path(out)
+    from ..output_folder import writable_folder
+
+    out = writable_folder(Path(out), "--out", min_free=0)
+    for side, role in ((reference, "reference"), (candidate, "candidate")):
+        check_side_system(cases[0], side, role)  # run's checks, before anything runs
     out.mkdir(parents=True, exist_ok=True)
     results, changes = [], None
     with contextlib.ExitStack() as stack:
@@ -257,11 +322,13 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
         if pool is None:
             pool = stack.enter_context(contextlib.closing(ExecutionPool()))
         for k, case in enumerate(cases, start=1):
-            ref_log, ref_error, ref_time = run_side(case, reference, out / f"{case.name}_reference.mcap", stop, pool, hosts[0])
+            ref_log, ref_error, ref_time = run_side(case, reference, out / f"{case.name}_reference.mcap", stop, pool, hosts[0],
+                                                  "reference")
             if ref_error is not None:
                 raise DescriptionError(f"{case.name}: the reference run failed ({ref_error}): nothing to compare with")
             ref, units = log_signals(ref_log, names)  # a signal the log does not have: refused before the candidate runs
-            cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop, pool, hosts[1])
+            cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop, pool, hosts[1],
+                                                     "candidate")
             if changes is None:
                 changes = what_changed(read_metadata(ref_log).get("fmus"), read_metadata(cand_log).get("fmus"))
             mine, _ = log_signals(cand_log, names)

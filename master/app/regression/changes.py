@@ -20,7 +20,8 @@ def load_fmus(path: Path) -> dict[str, str] | None:
     if path.suffix == ".json":
         from ...engine.user_files import read_json
 
-        record = read_json(path).get("fmus")
+        data = read_json(path)
+        record = data.get("fmus") if isinstance(data, dict) else None
     elif path.suffix == ".parquet":
         from .signal_baseline import read_header
 

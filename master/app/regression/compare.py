@@ -14,15 +14,19 @@ from typing import NamedTuple
 
 from ...engine.errors import DescriptionError
 from ...engine.log.reader import DamagedLog, check, read_log, read_metadata
+from .baseline_schema import FMUS, MAX_KEYS, MAX_NAME, RUN, checked
 
 _TOLERANCE = {"type": "number", "minimum": 0}
-BASELINE_SCHEMA = {  # a baseline .json (regression/reproduce.write_baselines writes them; case, seed, spread are notes)
+_TOLERANCES = {"type": "object", "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE},
+               "additionalProperties": {"type": "object", "additionalProperties": False,
+                                        "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE}}}
+BASELINE_SCHEMA = {  # a baseline .json (regression/reproduce.write_baselines writes them; seed, spread are notes)
     "type": "object", "required": ["metrics"],
     "properties": {
-        "metrics": {"type": "object", "additionalProperties": {"type": "number"}},
-        "tolerances": {"type": "object", "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE},
-                       "additionalProperties": {"type": "object", "additionalProperties": False,
-                                                "properties": {"rtol": _TOLERANCE, "atol": _TOLERANCE}}},
+        "metrics": {"type": "object", "maxProperties": MAX_KEYS,
+                    "propertyNames": {"maxLength": MAX_NAME, "pattern": r"^[^\x00-\x1f\x7f]+$"},
+                    "additionalProperties": {"type": "number"}},
+        "tolerances": _TOLERANCES, "run": RUN, "fmus": FMUS,
     },
 }
 
@@ -33,7 +37,8 @@ def load_case(path: Path) -> dict | None:
     if path.suffix == ".json":
         from ...engine.user_files import read_json
 
-        record = read_json(path).get("run")  # load_metrics has checked it: a bounded JSON object
+        data = read_json(path)  # load_metrics has checked it (BASELINE_SCHEMA)
+        record = data.get("run") if isinstance(data, dict) else None
         return record if isinstance(record, dict) else None
     return read_metadata(path).get("run")
 
@@ -48,15 +53,13 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
     path = regular_file(path)
     if path.suffix == ".json":
 
-        from ...engine.user_files import UserFileError, read_json, schema_problem
+        from ...engine.user_files import UserFileError, read_json
 
         try:
             data = read_json(path)
         except UserFileError as err:
             raise DescriptionError(f"{path} is not a metrics file: {str(err).removeprefix(f'{path}: ')}") from None
-        problem = schema_problem(data, BASELINE_SCHEMA)
-        if problem:
-            raise DescriptionError(f"{path} is not a metrics file: {problem}")
+        checked(data, BASELINE_SCHEMA, str(path), "a metrics file")
         metrics, tolerances = {k: float(v) for k, v in data["metrics"].items()}, data.get("tolerances", {})
         if not metrics:
             raise DescriptionError(f"{path} holds no metrics: nothing to compare")

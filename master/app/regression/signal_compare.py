@@ -313,11 +313,15 @@ def _check_known(tolerances: Tolerances, names: list[str], source: Path | str) -
         raise DescriptionError(f"{source}: {unknown[0]} names no compared signal (the signals compared: {', '.join(names)})")
 
 
-def record(log: Path, path: Path, signals: list[str], tolerances: Tolerances = Tolerances()) -> Path:
-    """A signal baseline of these signals of a run's log, with its case, FMUs and these tolerances."""
+def record(log: Path, path: Path, signals: list[str], tolerances: Tolerances = Tolerances(),
+           inputs: dict[str, Path | None] | None = None) -> Path:
+    """A signal baseline of these signals of a run's log, with its case, FMUs and these tolerances; path is none of
+    the log and the other inputs named ({"the tolerance file": ...})."""
     from ...engine.log.reader import read_metadata
+    from ..output_folder import writable_file
     from . import signal_baseline
 
+    writable_file(Path(path), "the signal baseline", {"the log it records": Path(log), **(inputs or {})})  # before the log is read
     names = check_names(signals, "signals")
     if not names:
         raise DescriptionError("a signal baseline needs at least one signal (instance.variable)")

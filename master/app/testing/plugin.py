@@ -44,14 +44,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 def pytest_configure(config: pytest.Config) -> None:
     if config.getoption(REPORT, None):
-        import argparse
-
-        from ...command_line.path_types import output_file
+        from ..output_folder import writable_file
+        from ..user_error import UserError
 
         try:  # checked as the commands' --report is, before any test runs (not a traceback when the session ends)
-            output_file(config.getoption(REPORT))
-        except argparse.ArgumentTypeError as err:
-            raise pytest.UsageError(f"{REPORT}: {err}") from None
+            writable_file(Path(config.getoption(REPORT)), REPORT, _session_inputs(config, Path(config.getoption(REPORT))))
+        except UserError as err:
+            raise pytest.UsageError(str(err)) from None
         config.pluginmanager.register(SessionReport(Path(config.getoption(REPORT)).resolve()), "tiltload-report")
     config.addinivalue_line("markers", f"{MARKER}(**axes): run the test once per combination of the axes' values "
                             "(e.g. scenario=['zse', 'lkf'], trajectory=[1, 2], seed=[1, 2]), each given to the test as "
@@ -151,6 +150,19 @@ def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], 
 
 
 RUNS = pytest.StashKey[list]()
+
+
+def _session_inputs(config: pytest.Config, report: Path) -> list[tuple[str, Path]]:
+    """The session's inputs a report must not overwrite: each test file named, a test file or conftest.py inside a
+    folder named, the ini file."""
+    inputs = [("the ini file", Path(config.inipath))] if config.inipath else []
+    for arg in config.args:
+        given = Path(str(arg).split("::")[0])
+        if given.is_file():
+            inputs.append(("a test file of the session", given))
+        elif given.is_dir() and report.resolve().is_relative_to(given.resolve()) and report.suffix == ".py":
+            inputs.append(("a Python file among the session's tests", report))
+    return inputs
 
 
 class SessionReport:

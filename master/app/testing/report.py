@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..case.record import describe as case_words
 from ..regression.compare import Comparison
+from ..visible_text import visible
 
 
 def _signed(x: float) -> str:
@@ -42,7 +43,7 @@ def baseline_report(comparison: Comparison, case: Mapping[str, str], command: st
     lines.append(f"  rerun:    {command}")
     if update_hint:
         lines.append(f"  if the change is intended, record the new baseline: {update_hint}")
-    return "\n".join(lines)
+    return visible("\n".join(lines))
 
 
 def limits_report(metrics: Mapping[str, float], limits: Mapping[str, float], case: Mapping[str, str], command: str,
@@ -59,7 +60,7 @@ def limits_report(metrics: Mapping[str, float], limits: Mapping[str, float], cas
                      f"    {k:<{width}}  {v:.6g} > limit {lim:.6g} (by {v - lim:.4g}, {100 * (v - lim) / abs(lim):.3g} %)"
                      if lim else f"    {k:<{width}}  {v:.6g} > limit {lim:g}")
     lines.append(f"  rerun: {command}")
-    return "\n".join(lines)
+    return visible("\n".join(lines))
 
 
 def requirements_report(results, case: Mapping[str, str], command: str, what: str = "the run") -> str | None:
@@ -78,4 +79,4 @@ def requirements_report(results, case: Mapping[str, str], command: str, what: st
             lines.append(f"    {r.name:<{width}}  {r.verdict}" + (f": {r.why}" if r.why else ""))
         lines.append(f"    {'':<{width}}  {r.formula}")
     lines.append(f"  rerun: {command}")
-    return "\n".join(lines)
+    return visible("\n".join(lines))
