@@ -21,8 +21,6 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..wrap.wrap import wrap
-
     if args.native:
         from ..wrap.native import wrap_native
 
@@ -34,6 +32,8 @@ def run(args: argparse.Namespace) -> int:
         from ..errors import UserError
 
         raise UserError("wrap --fmi 3 is for --native (a pythonfmu FMU is FMI 2.0)")
-    target = wrap(args.controller, args.out, args.cls)
+    from ..wrap.sandbox import wrap_python
+
+    target = wrap_python(args.controller, args.out, args.cls)
     print(f"{target}: controller FMU (use it with: tiltload run --controller {target})")
     return 0

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ....native_fmu.build import tiltload_version
 from ....native_fmu.cache import cache_root
-from .wrap import WrapError, describe, load_class, wrap
+from .wrap import WrapError, describe_class
 
 
 def _source(cls: object, field: str) -> Path:
@@ -46,33 +46,29 @@ def _key(path: Path, spec: dict, native: bool | None, fmi_version: int) -> str:
 
 
 def _build(path: Path, spec: dict, native: bool | None, fmi_version: int, out: Path) -> Path:
-    """Wrap the class into out: natively if it traces (or native), else with pythonfmu."""
-    from .native import wrap_native
-    from .trace import InitError, TraceError, instantiate
+    """Wrap the class into out: natively if it traces (or native), else with pythonfmu. The class's code runs in wrap's
+    child process (sandbox.py)."""
+    from .native import build_traced
+    from .sandbox import traced, wrap_python
 
     name = spec["class"]
     if native is not False:
-        try:
-            return wrap_native(path, out, name, fmi_version, progress=lambda line: None)
-        except InitError:
-            raise
-        except TraceError as err:
-            if native:
-                raise
-            if fmi_version != 2:
-                raise WrapError(f"{err}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
-                                "(run it with fmi=2)") from None
+        child_spec, t = traced(path, name, fall_back=not native)
+        if not isinstance(t, str):
+            return build_traced(child_spec, t, path, out, fmi_version, progress=lambda line: None)
+        if fmi_version != 2:
+            raise WrapError(f"{t}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
+                            "(run it with fmi=2)")
     elif fmi_version != 2:
         raise WrapError(f"{name}: a pythonfmu FMU is FMI 2.0 only (run it with fmi=2, or trace it: native=True)")
-    instantiate(load_class(path, name), spec["parameters"], path)  # an __init__ that raises: refused now, not in the run
-    return wrap(path, out, name)
+    return wrap_python(path, out, name)  # its __init__ run once there: one that raises is refused now, not in the run
 
 
 def controller_fmu(cls: type, native: bool | None = None, fmi_version: int = 2, field: str = "Case.controller") -> Path:
     """The controller FMU of cls (a class with a step method, at the top level of its .py file): from the machine's
     cache, or wrapped now and kept there. WrapError (a TraceError) says in one line what is wrong."""
     path = _source(cls, field)
-    spec = describe(path, cls.__name__)
+    spec = describe_class(cls, path)  # the class the caller imported: its declarations, none of its code run
     key = _key(path, spec, native, fmi_version)
     target = cache_root() / "controllers" / key[:32] / f"{spec['class']}.fmu"
     if target.is_file():
