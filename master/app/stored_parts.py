@@ -10,6 +10,14 @@ from pathlib import Path
 from .user_error import UserError
 
 
+def part_paths(folder: Path) -> list[Path]:
+    """The .parquet files of <out>/parts (none if it is not there yet); anything else where that folder goes (a file, a
+    FIFO) refused in one line, before any cluster starts: the command would fail making it after the runs began."""
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"{folder} is not a folder: the command stores its runs there; move it away or choose another --out")
+    return sorted(folder.glob("*.parquet")) if folder.is_dir() else []
+
+
 def read_part(path: Path, columns: dict[str, type | tuple[type, ...]]) -> list[dict]:
     """The rows of one stored part, each holding the columns with values of their types (a bool is no int unless bool is named)."""
     import pyarrow.parquet as pq
