@@ -47,7 +47,9 @@ class OneLineParser(argparse.ArgumentParser):
 
     @staticmethod
     def usage_line(prog: str, message: str) -> str:
-        return f"{prog}: error: {_unechoed(message)} (see: {prog} --help)"
+        from .user_error import one_line
+
+        return f"{prog}: error: {one_line(_unechoed(message))} (see: {prog} --help)"
 
 
 def _unechoed(message: str) -> str:
@@ -101,20 +103,21 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as err:
         from ...native_fmu.compile import BuildError
         from .errors import USER_ERRORS
-        from .user_error import TiltloadError
+        from .user_error import TiltloadError, one_line
 
         if isinstance(err, TiltloadError):  # the API's checks too: the line the command's own parser would print
             print(err.cli_line, file=sys.stderr)
             return 2
         if isinstance(err, USER_ERRORS):
-            print(f"tiltload: error: {err}", file=sys.stderr)
+            print(f"tiltload: error: {one_line(str(err))}", file=sys.stderr)  # a user's value may hold a newline
             return 2
         if isinstance(err, BuildError):  # the compiler failed or is missing: the environment, not a bug
-            print(f"tiltload: error: building the FMUs failed: {err}", file=sys.stderr)
+            print(f"tiltload: error: building the FMUs failed: {one_line(str(err))}", file=sys.stderr)
             return 1
         if os.environ.get("TILTLOAD_DEBUG"):  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
             raise
-        print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)
+        print(f"tiltload: error: unexpected failure, a bug ({one_line(str(err))[:300]}); TILTLOAD_DEBUG=1 shows where",
+              file=sys.stderr)
         return 1
 
 

@@ -43,8 +43,8 @@ MAX_TICK = 86400.0  # s: a day, the longest wait any command line allows (comman
 DEFAULT_PORT = 7390
 GRACE = 2.0  # s a worker has to end once its client has left, before it is killed
 RELEASE_WAIT = 0.5  # s a client asking for a busy FMU waits for a place given back (a client that just left) first
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
-_TEXT = re.compile(r"^[\x20-\x7e]{1,200}$")  # printable ASCII: what may reach the log from a client
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}\Z")
+_TEXT = re.compile(r"^[\x20-\x7e]{1,200}\Z")  # printable ASCII: what may reach the log from a client
 
 
 @dataclass(frozen=True)
