@@ -132,7 +132,19 @@ def generate(folder: Path, fmus: Path) -> list[dict]:
         add("path options by their kind", label, argv)
     for cls, label, argv, api, expect in inputs.surface_cases(folder / "surfaces", Path(FMUS)):
         add(cls, label, argv, api, expect)
+
+    # ---- issue 62, part B: the user's code in wrap; parts and controllers of searches and campaigns; names, newlines
+    # and the design API (tests/app/test_bad_input_user_code.py)
+    for cls, label, argv, api, expect in _user_code_generator().user_code_cases(folder / "user_code"):
+        add(cls, label, argv, api, expect)
     return cases
+
+
+def _user_code_generator():
+    _generators()  # the tests' folders on sys.path
+    import test_bad_input_user_code
+
+    return test_bad_input_user_code
 
 
 def _sine_log():
