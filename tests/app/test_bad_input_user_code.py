@@ -47,7 +47,6 @@ def wrap_sources() -> dict[str, tuple[str, str]]:
     init = {"sys.exit()": "        sys.exit()\n", "sys.exit('bye')": "        sys.exit('bye')\n",
             "raise KeyboardInterrupt": "        raise KeyboardInterrupt\n", "os._exit(3)": "        os._exit(3)\n",
             "SIGSEGV to itself": "        os.kill(os.getpid(), signal.SIGSEGV)\n",
-            "os.chdir('/') then a gain": "        os.chdir('/')\n        self.k = 2.0\n",
             "a long C call (regex backtracking)": f"        {_BACKTRACK}\n        self.k = 1.0\n",
             "a 16 GiB array (the limit: 4 GiB)": "        self.big = np.empty(2 << 30)\n        self.k = 1.0\n",
             "a name with a dash": "        setattr(self, 'a-b', 1.0)\n        self.k = 1.0\n",
@@ -91,12 +90,13 @@ def user_code_cases(folder: Path) -> list[tuple[str, str, list[str] | None, str 
         path = folder / f"ctrl{i}.py"
         path.write_bytes(source.encode())
         slow = any(s in label for s in SLOW)
-        routes = [("wrap --native", ["--native"])] if where == "step" or (slow and where == "init") else \
+        traced = where == "step" or " name" in label  # a traced step, the numbers' names: what only --native has
+        routes = [("wrap --native", ["--native"])] if traced or (slow and where == "init") else \
             [("wrap", [])] if slow else [("wrap", []), ("wrap --native", ["--native"])]
         for name, extra in routes:
             cases.append((WRAP, f"{name}: {label}", ["wrap", *extra, str(path), "--out", str(folder / f"w{i}.fmu")], None, "2"))
         if where in ("init", "step") and not slow and "16 GiB" not in label:
-            for native in (["True"] if where == "step" else ["True", "False"]):
+            for native in (["True"] if traced else ["True", "False"]):
                 cases.append((WRAP, f"tl.Case(controller=..., native={native}): {label}", None, _api(path, native), "2"))
     return cases + _runs_cases(folder / "runs") + _small_cases(folder / "small")
 
@@ -161,10 +161,16 @@ def _small_cases(folder: Path) -> list[tuple[str, str, list[str] | None, str | N
         path.write_text(f'requirements:\n  - name: "{name}"\n    formula: plant.x < 5\n')
         cases.append((SMALL, f"check: a requirement name with {label}", ["check", str(path), str(log)], None, "2"))
         cases.append((SMALL, f"check --explain: a requirement name with {label}", ["check", str(path), "--explain"], None, "2"))
-    spec = folder / "f.toml"
-    spec.write_text(FALSIFY_SPEC.replace('name = "swing"', 'name = "swing\\n"'))
-    cases.append((SMALL, "falsify: a requirement name with a trailing newline",
-                  ["falsify", str(spec), "--out", str(folder / "fo"), "--workers", "1", "--fmus", FMUS], None, "2"))
+    specs = {"falsify: a requirement name with a trailing newline": FALSIFY_SPEC.replace('name = "swing"', 'name = "swing\\n"'),
+             "falsify: a search name with a trailing newline": FALSIFY_SPEC.replace('name = "amp"', 'name = "amp\\n"'),
+             "falsify: a search target with a trailing newline": FALSIFY_SPEC.replace('"gust.amplitude"', '"gust.amplitude\\n"'),
+             "campaign: a name with a trailing newline": CAMPAIGN_SPEC.replace('name = "small"', 'name = "small\\n"')}
+    for i, (label, text) in enumerate(specs.items()):
+        spec = folder / f"s{i}.toml"
+        spec.write_text(text)
+        command = label.partition(":")[0]
+        cases.append((SMALL, label, [command, str(spec), "--out", str(folder / f"o{i}"), "--workers", "1", "--fmus", FMUS],
+                      None, "2"))
     values = {"run --set with a newline": ["run", "--set", "plant.m_L=a\nb", "--stop-time", "1", "--no-log", "--fmus", FMUS],
               "run --stop-time with a newline": ["run", "--stop-time", "1\n2"],
               "run --controller with an escape sequence": ["run", "--controller", "pid\x1b[2J", "--fmus", FMUS],
@@ -261,7 +267,7 @@ def test_chdir_in_init_changes_nothing_of_tiltloads_paths(tmp_path, monkeypatch,
     from tiltload.master.app.cli import main
 
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "c.py").write_text(wrap_sources()["__init__: os.chdir('/') then a gain"][1])
+    (tmp_path / "c.py").write_text(_cls(init="        os.chdir('/')\n        self.k = 2.0\n"))
     assert main(["wrap", "--native", "c.py", "--out", "c.fmu"]) == 0, capsys.readouterr().err
     assert Path.cwd() == tmp_path and (tmp_path / "c.fmu").is_file()
 
