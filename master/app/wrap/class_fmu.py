@@ -1,7 +1,7 @@
 """A Python controller class given to the API (`tiltload.Case(controller=MyController)`) as a controller FMU: wrapped the
 way `tiltload wrap` wraps it, from the class's file, and kept in the machine's cache under the digest of what decides
-the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version), so a
-second run, in this process or another, uses the same FMU without tracing or building again.
+the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version and its
+wrapping code), so a second run, in this process or another, uses the same FMU without tracing or building again.
 
 The route: `wrap --native` (a C FMU, native.py) when the class traces, else pythonfmu's (wrap.py); native=True
 refuses a class that cannot be traced, native=False always takes pythonfmu's."""
@@ -40,8 +40,18 @@ def _source(cls: object, field: str) -> Path:
     return Path(source)
 
 
+def _wrap_code() -> str:
+    """The digest of the wrapping code (this folder: the tracer, the child it runs in, the slave, the C): an FMU that
+    another tiltload of the same version number wrapped (one that froze a step's I/O, say) is not this one's."""
+    digest = hashlib.sha256()
+    for f in sorted(p for p in Path(__file__).parent.rglob("*") if p.suffix in (".py", ".c", ".h")):
+        digest.update(f.name.encode() + b"\0" + f.read_bytes())
+    return digest.hexdigest()
+
+
 def _key(path: Path, spec: dict, native: bool | None, fmi_version: int) -> str:
-    what = json.dumps({"spec": spec, "native": native, "fmi": fmi_version, "tiltload": tiltload_version()}, sort_keys=True)
+    what = json.dumps({"spec": spec, "native": native, "fmi": fmi_version, "tiltload": tiltload_version(),
+                       "wrap": _wrap_code()}, sort_keys=True)
     return hashlib.sha256(path.read_bytes() + b"\0" + what.encode()).hexdigest()
 
 
