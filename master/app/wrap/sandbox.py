@@ -80,7 +80,12 @@ def _watch(proc: subprocess.Popen, path: Path) -> dict:
         buffer += chunk
         *lines, buffer = buffer.split(b"\n")
         for line in lines:
-            message = json.loads(line)
+            try:
+                message = json.loads(line)
+                message.get("part")
+            except (ValueError, AttributeError):  # the user's code wrote into the reports (it has their descriptor)
+                raise _error("WrapError", f"{path.name}: the class's code wrote into the channel tiltload reads its "
+                                          f"results from, while {what}") from None
             if "part" in message:
                 what, limit = (message["part"], message["limit"] + GRACE_S) if message["part"] else (
                     "tiltload's own work", OWN_LIMIT_S)
