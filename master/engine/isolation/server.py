@@ -13,7 +13,8 @@ What keeps one client from harming the server or the others:
   dropped with a log line, and at most max_pending connections are being admitted at a time;
 - each FMU runs in its own process (a crash costs that session only), which checks every frame
   against the model's sizes and inputs, and ends its session after idle_timeout without a request;
-- each FMU serves clients_per_fmu sessions at a time (default one), the others are refused;
+- each FMU serves clients_per_fmu sessions at a time (default one), the others are refused; a session's place is
+  given back when its client's connection closes (a killed master's too), not when its worker ends;
 - the server keeps its copy of each session's socket to see the client leave: if the worker is
   then still running (hung in the FMU), it is killed. Workers die with the server (PR_SET_PDEATHSIG,
   which follows the spawning thread: hence the main thread spawns them).
