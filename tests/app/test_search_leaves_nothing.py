@@ -3,27 +3,45 @@ folder of the command's own), and what they refuse they refuse before any cluste
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
-from support.isolated_case import run_isolated, tiltload_entry
+from support.isolated_case import GRACE_S, group_members
 from test_bad_input import CAMPAIGN_SPEC, FALSIFY_SPEC
 
 
 @pytest.mark.slow
 def test_falsify_with_a_private_empty_tmpdir_leaves_it_empty(fmus, tmp_path):
-    """A real search (two simulations on a local cluster of one worker), TMPDIR a fresh empty folder: it ends with
-    exit 0 and its results, and the folder is empty again, no process of its session alive."""
+    """A real search (two simulations on a local cluster of one worker), the command in a process and session of its
+    own (not a fork of this one, whose earlier tests may hold Dask's threads), TMPDIR a fresh empty folder: exit 0 and
+    its results, and the folder is empty again, no process of its session alive."""
     spec = tmp_path / "f.toml"
     spec.write_text(FALSIFY_SPEC)
-    out = tmp_path / "out"
-    outcome = run_isolated(lambda: tiltload_entry(["falsify", str(spec), "--out", str(out), "--workers", "1",
-                                                   "--fmus", str(fmus)]), timeout_s=600, cwd=tmp_path)
-    assert outcome.code == 0, outcome.err[-2000:]
-    assert (out / "falsification.parquet").is_file()
-    assert outcome.left_files == [], outcome.left_files  # dask-scratch-space/{global,purge}.lock before issue 62
-    assert outcome.left_processes == [], outcome.left_processes
+    out, scratch = tmp_path / "out", tmp_path / "tmpdir"
+    scratch.mkdir()
+    proc = subprocess.Popen([sys.executable, "-m", "tiltload.master.app.cli", "falsify", str(spec), "--out", str(out),
+                             "--workers", "1", "--fmus", str(fmus)], env={**os.environ, "TMPDIR": str(scratch)},
+                            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    try:
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err[-2000:]
+        assert (out / "falsification.parquet").is_file()
+        assert sorted(p.name for p in scratch.iterdir()) == []  # dask-scratch-space/{global,purge}.lock before issue 62
+        deadline = time.monotonic() + GRACE_S  # a resource tracker ends when its pipe closes
+        while group_members(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert group_members(proc.pid) == []
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
 
 
 def _no_cluster(monkeypatch) -> None:
