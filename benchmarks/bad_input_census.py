@@ -134,6 +134,11 @@ def generate(folder: Path, fmus: Path) -> list[dict]:
         add(cls, label, argv, api, expect)
     for case in issue62a_cases(folder, Path(FMUS)):
         add(*case)
+
+    # ---- issue 62, part B: the user's code in wrap; parts and controllers of searches and campaigns; names, newlines
+    # and the design API (tests/app/test_bad_input_user_code.py)
+    for cls, label, argv, api, expect in _user_code_generator().user_code_cases(folder / "user_code"):
+        add(cls, label, argv, api, expect)
     return cases
 
 
@@ -148,6 +153,13 @@ def issue62a_cases(folder: Path, fmus: Path) -> list[tuple]:
              *more.b2b_cases(folder / "b2b62", fmus), *more.report_cases(folder / "reports62", fmus)]
     readonly = more.readonly_mount(folder.parent / f"ro_{folder.name}")
     return cases + (more.readonly_cases(folder / "readonly62", fmus, readonly) if readonly is not None else [])
+
+
+def _user_code_generator():
+    _generators()  # the tests' folders on sys.path
+    import test_bad_input_user_code
+
+    return test_bad_input_user_code
 
 
 def _sine_log():

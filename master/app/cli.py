@@ -47,7 +47,9 @@ class OneLineParser(argparse.ArgumentParser):
 
     @staticmethod
     def usage_line(prog: str, message: str) -> str:
-        return f"{prog}: error: {_unechoed(message)} (see: {prog} --help)"
+        from .user_error import one_line
+
+        return f"{prog}: error: {one_line(_unechoed(message))} (see: {prog} --help)"
 
 
 def _unechoed(message: str) -> str:
@@ -103,11 +105,12 @@ def main(argv: list[str] | None = None) -> int:
 
         kind = kind_of(err)  # the one table of errors (errors.py): the user's to fix, a failed build
         if kind is not None:
-            print(line_of(err), file=sys.stderr)
+            print(line_of(err), file=sys.stderr)  # a user's value in it may hold a newline: line_of shows it escaped
             return getattr(err, "exit_code", kind.exit_code)  # a TiltloadError says its kind's code (a failed build: 1)
         if os.environ.get("TILTLOAD_DEBUG"):  # one line for the user; TILTLOAD_DEBUG=1 shows the traceback
             raise
-        print(f"tiltload: error: unexpected failure, a bug ({err!s:.300}); TILTLOAD_DEBUG=1 shows where", file=sys.stderr)
+        print(f"tiltload: error: unexpected failure, a bug ({one_line(str(err))[:300]}); TILTLOAD_DEBUG=1 shows where",
+              file=sys.stderr)
         return 1
 
 

@@ -14,7 +14,7 @@ from ..engine.user_files import UserFileError
 from .campaign.report import ReportError
 from .case.spec_file import SpecError
 from .feasibility.policy import InfeasibleReference
-from .user_error import TiltloadError, UserError
+from .user_error import TiltloadError, UserError, one_line
 from .wrap.wrap import WrapError
 
 
@@ -52,7 +52,7 @@ def line_of(err: BaseException) -> str:
     if isinstance(err, TiltloadError):
         return err.cli_line
     kind = kind_of(err)
-    return f"tiltload: error: {kind.prefix if kind else ''}{err}"
+    return f"tiltload: error: {kind.prefix if kind else ''}{one_line(str(err))}"
 
 
 def failure_line(error: str, log, sim_time: float) -> str:

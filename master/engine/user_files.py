@@ -239,6 +239,19 @@ def check_values(data, source: str) -> None:
             stack.extend((value[i], f"{where}.{i}" if where else str(i), depth + 1) for i in reversed(range(len(value))))
 
 
+def _validator(jsonschema):
+    """Draft 2020-12, its "pattern" anchored at the very end: Python's `$` (which jsonschema's re.search uses) also
+    matches before a final newline, so "name\\n" passed every "^...$" of a spec's names."""
+    import re
+
+    def pattern(validator, regex, instance, schema):
+        if validator.is_type(instance, "string") and (
+                re.search(regex, instance) is None or (regex.endswith("$") and instance.endswith("\n"))):
+            yield jsonschema.ValidationError(f"{instance!r} does not match {regex!r}")
+
+    return jsonschema.validators.extend(jsonschema.Draft202012Validator, {"pattern": pattern})
+
+
 def schema_problem(data, schema: dict, top: str = "(top level)", limit: int = 200) -> str | None:
     """The first place where data breaks the JSON Schema, as "path: message" (None: it fits). The first by path, so
     the same document always gets the same line; the message cut at limit characters (a long enum or a long value)."""
@@ -247,7 +260,7 @@ def schema_problem(data, schema: dict, top: str = "(top level)", limit: int = 20
     def place(err) -> list:  # list indexes in order, before names (as a document reads)
         return [(0, p, "") if isinstance(p, int) else (1, 0, str(p)) for p in err.absolute_path]
 
-    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(data), key=place)
+    errors = sorted(_validator(jsonschema)(schema).iter_errors(data), key=place)
     if not errors:
         return None
     err = errors[0]

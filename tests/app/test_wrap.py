@@ -55,7 +55,8 @@ BAD = {
     "period": ("class C:\n    inputs = ['x_ref']\n    period = 0.02\n    def step(self, t, i):\n        return 0, 0, 0, 0\n",
                "must be a whole multiple of the 12 ms tick"),
     "no_inputs": ("class C:\n    def step(self, t, i):\n        return 0, 0, 0, 0\n", "inputs must be a non-empty list"),
-    "import_error": ("import no_such_module_anywhere\n", "importing import_error.py failed: No module named"),
+    "import_error": ("import no_such_module_anywhere\n",
+                     "importing import_error.py failed at line 1 (`import no_such_module_anywhere`): No module named"),
     "bad_parameter": ("class C:\n    inputs = ['x_ref']\n    parameters = {'k': float('nan')}\n    def step(self, t, i):\n"
                       "        return 0, 0, 0, 0\n", "parameters: k = nan must be a finite number"),
     "parameter_clash": ("class C:\n    inputs = ['x_ref']\n    parameters = {'f_R': 1.0}\n    def step(self, t, i):\n"

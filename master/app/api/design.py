@@ -8,6 +8,7 @@ that the shipped controller FMU embeds, taken from the designs shipped with tilt
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,6 +84,28 @@ def _matrix(name: str, value: object) -> np.ndarray:
         raise TypeError(f"{name} must be a matrix of numbers, got {type(value).__name__}") from None
 
 
+@contextmanager
+def _numerically(kind: str, dt: float):
+    """A design's own refusal, or its numerics failing on a model of a huge sample time (an SVD that does not converge
+    on matrices near a double's range), as one TiltloadError; numpy's overflow warnings on the way are not the user's
+    to read (the outcome is checked: K finite)."""
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            yield
+    except DesignError as err:
+        raise TiltloadError(str(err)) from None
+    except (np.linalg.LinAlgError, FloatingPointError) as err:
+        raise TiltloadError(f"the {kind} design at dt = {dt:g} s failed numerically ({err}): the model of so long a "
+                            "sample time is beyond what the design can solve (the loop's is tl.plant.TICK, 12 ms)") from None
+
+
+def _finite_gain(kind: str, dt: float, K) -> np.ndarray:
+    if not np.isfinite(K).all():
+        raise TiltloadError(f"the {kind} design at dt = {dt:g} s gave a gain that is not finite: the model of so long a "
+                            "sample time is beyond what the design can solve (the loop's is tl.plant.TICK, 12 ms)")
+    return _frozen(K)
+
+
 def dlqr(model: LinearModel | None = None, Q=None, R=None) -> Design:
     """The discrete LQR gain: K minimizing sum(chi' Q chi + du' R du) on a discrete model, from the discrete Riccati
     equation (scipy). Defaults: the thesis's DLQR, the model with the integral states at the loop's tick and its
@@ -93,11 +116,9 @@ def dlqr(model: LinearModel | None = None, Q=None, R=None) -> Design:
         Q = default_Q if Q is None else Q
         R = default_R if R is None else R
     Q, R = _matrix("Q", Q), _matrix("R", R)
-    try:
+    with _numerically("dlqr", model.dt):
         found = design_dlqr(ErrorDynamics(model.A, model.B, model.F, model.dt, model.trim, model.trim.parameters.vector), Q, R)
-    except DesignError as err:
-        raise TiltloadError(str(err)) from None
-    K = _frozen(found.K)
+    K = _finite_gain("dlqr", model.dt, found.K)
     return Design("dlqr", K, np.linalg.eigvals(model.A - model.B @ K), _frozen(Q), _frozen(R), model, "computed")
 
 
@@ -105,12 +126,10 @@ def _lmi(kind: str, dt: float, delay_ticks: int, progress: Callable[[str], None]
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a function of one str, got {type(progress).__name__}")
     model = linearize(trim(), dt=dt, delay_ticks=delay_ticks, integral=True)  # checks dt and delay_ticks
-    try:
+    with _numerically(kind, model.dt):
         found = thesis_design(kind, model.dt, use_cache=True, loop_delay=delay_ticks, progress=progress)
-    except DesignError as err:
-        raise TiltloadError(str(err)) from None
     report: Mapping = found.report
-    K = _frozen(found.K)
+    K = _finite_gain(kind, model.dt, found.K)
     return Design(kind, K, np.linalg.eigvals(model.A - model.B @ K), _frozen(found.omega_chi), _frozen(found.omega_u), model,
                   found.origin, REGIONS, report.get("gamma_bound"), report.get("h2_bound"))
 

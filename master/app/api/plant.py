@@ -245,7 +245,12 @@ def linearize(at: Trim | None = None, *, dt: float | None = None, delay_ticks: i
     lin = _jacobians(at.x, at.u, at.parameters.vector, vehicle=vehicle)
     A, B, F = augmented_continuous(lin.A, lin.B, lin.F) if integral else (lin.A, lin.B, lin.F)
     if dt is not None:  # B and F in one hold, as the thesis's error dynamics are discretized
-        A, BF = zoh(A, np.hstack([B, F]), dt)
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below, in one line
+            A, BF = zoh(A, np.hstack([B, F]), dt)
+        if not (np.isfinite(A).all() and np.isfinite(BF).all()):
+            raise TiltloadError(f"dt = {dt:g} s: the discrete model overflows (the hovering plant is unstable: over this "
+                                "step its modes grow past a double's range); a sample time of seconds at most (the "
+                                "loop's is tl.plant.TICK, 12 ms)")
         B, F = BF[:, :4], BF[:, 4:]
         if delay_ticks:
             delayed = with_loop_delay(ErrorDynamics(A, B, F, dt, at, at.parameters.vector), delay_ticks)

@@ -16,7 +16,7 @@ from .errors import ClusterError
 
 SCHEMES = ("tcp", "tls")
 SCHEDULER_PORT, DASHBOARD_PORT = 8786, 8787  # Dask's defaults
-_HOSTNAME = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?(\.[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?)*\.?$")
+_HOSTNAME = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?(\.[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?)*\.?\Z")
 
 
 @dataclass(frozen=True)

@@ -182,7 +182,9 @@ def local_cluster(workers: int | None, verbose: bool = False, scratch: Path | No
     n = workers or os.cpu_count() or 1
     cluster = client = None
     try:
-        with dask.config.set(QUIET), _workers_ignore_sigint(scratch), _interrupt_deferred() as interrupted:
+        # the scheduler's and nannies' scratch space too (each Dask server makes one, with lock files): in scratch
+        where = {"temporary-directory": str(scratch)} if scratch is not None else {}
+        with dask.config.set({**QUIET, **where}), _workers_ignore_sigint(scratch), _interrupt_deferred() as interrupted:
             # (the nannies hand their workers the config of this moment)
             try:
                 cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",

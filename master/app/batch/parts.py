@@ -5,9 +5,18 @@ another type) named in one line and refused before any cluster starts, never rea
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from ..user_error import UserError
+
+
+def part_paths(folder: Path) -> list[Path]:
+    """The .parquet files of <out>/parts (none if it is not there yet); anything else where that folder goes (a file, a
+    FIFO) refused in one line, before any cluster starts: the command would fail making it after the runs began."""
+    if os.path.lexists(folder) and not folder.is_dir():  # a dangling link too: making the folder would fail
+        raise UserError(f"{folder} is not a folder: the command stores its runs there; move it away or choose another --out")
+    return sorted(folder.glob("*.parquet")) if folder.is_dir() else []
 
 
 def read_part(path: Path, columns: dict[str, type | tuple[type, ...]]) -> list[dict]:

@@ -84,11 +84,11 @@ def _warm_writer() -> None:
 def _newest_rows(parts: Path) -> dict[str, tuple[bool, int, int]]:
     """Where each stored run's newest row is: (its completed, its part's number in sorted order, its row there); rows
     of older versions' parts (one run a part, no _stored_at) count as oldest. Every part is checked
-    (stored_parts.read_part: one that is not a part is refused with its name), none kept: bounded memory."""
-    from ..batch.parts import read_part
+    (batch/parts.read_part: one that is not a part is refused with its name), none kept: bounded memory."""
+    from ..batch.parts import part_paths, read_part
 
     newest: dict[str, tuple[bool, int, int, int]] = {}
-    for number, path in enumerate(sorted(parts.glob("*.parquet")) if parts.is_dir() else ()):
+    for number, path in enumerate(part_paths(parts)):
         for at, row in enumerate(read_part(path, {"run_id": str, "completed": bool})):
             old = newest.get(row["run_id"])
             stored_at = row.get("_stored_at") or 0
@@ -220,6 +220,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
                     _check_branches(campaign, Path(fmus).resolve())
+                else:
+                    _check_controllers(campaign, todo, Path(fmus).resolve())
                 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
                 if client is None:
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
@@ -286,6 +288,20 @@ def _check_branches(campaign: Campaign, fmus: Path) -> None:
             snapshot.check(Execution(system, []), branch)
         except DescriptionError as err:
             raise SpecError(f"{campaign.source}: base.snapshot: {err}") from None
+
+
+def _check_controllers(campaign: Campaign, todo: list[Case], fmus: Path) -> None:
+    """Each user's controller file described into its first case's system before any cluster starts, as a worker will:
+    one that is not an FMU (or not one of a tick's period) is the spec's error, not a failure of each of its runs."""
+    from ...engine.errors import DescriptionError
+    from .case_system import case_system
+
+    firsts = {c.controller: c for c in reversed(todo) if c.controller not in ("dlqr", "mixed")}
+    for controller, case in firsts.items():
+        try:
+            case_system(fmus, campaign.base(), controller, case.seed, case.parameters)
+        except DescriptionError as err:
+            raise SpecError(f"{campaign.source}: base.controllers: {err}") from None
 
 
 def _see(log: Path | None) -> str:

@@ -22,7 +22,6 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..output_folder import writable_file
-    from ..wrap.wrap import wrap
 
     if args.out is not None:  # before the class is run: a place the FMU cannot go, or the class's own file
         writable_file(args.out, "--out", [("the controller's source", args.controller)])
@@ -37,6 +36,8 @@ def run(args: argparse.Namespace) -> int:
         from ..errors import UserError
 
         raise UserError("wrap --fmi 3 is for --native (a pythonfmu FMU is FMI 2.0)")
-    target = wrap(args.controller, args.out, args.cls)
+    from ..wrap.sandbox import wrap_python
+
+    target = wrap_python(args.controller, args.out, args.cls)
     print(f"{target}: controller FMU (use it with: tiltload run --controller {target})")
     return 0

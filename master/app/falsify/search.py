@@ -65,13 +65,11 @@ def _stamp(path: Path) -> int:
 
 def read_parts(folder: Path) -> dict[int, dict]:
     """The stored evaluations by index (an index stored twice, by a rerun with another spec: the newer part's row); a
-    part that is not one is refused with its name (stored_parts.read_part)."""
-    from ..batch.parts import read_part
+    part that is not one is refused with its name (batch/parts.read_part)."""
+    from ..batch.parts import part_paths, read_part
 
-    if not folder.is_dir():
-        return {}
     out = {}
-    paths = sorted(folder.glob("*.parquet"))
+    paths = part_paths(folder)
     try:
         paths.sort(key=_stamp)
     except ValueError:  # a name this command did not write: read in name order, refused there if it is not a part

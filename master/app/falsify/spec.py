@@ -148,13 +148,11 @@ class Falsification:
 
 
 def _validate(data: dict, path: Path) -> None:
-    import jsonschema
+    from ...engine.user_files import schema_problem
 
-    errors = sorted(jsonschema.Draft202012Validator(SCHEMA).iter_errors(data), key=lambda e: list(e.path))
-    if errors:
-        err = errors[0]
-        where = ".".join(str(p) for p in err.absolute_path) or "(top level)"
-        raise SpecError(f"{path}: {where}: {err.message}")
+    problem = schema_problem(data, SCHEMA)  # the one validator of the user's files
+    if problem is not None:
+        raise SpecError(f"{path}: {problem}")
 
 
 def _from_file(item: dict, i: int, path: Path) -> list[dict]:

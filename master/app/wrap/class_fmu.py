@@ -1,7 +1,7 @@
 """A Python controller class given to the API (`tiltload.Case(controller=MyController)`) as a controller FMU: wrapped the
 way `tiltload wrap` wraps it, from the class's file, and kept in the machine's cache under the digest of what decides
-the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version), so a
-second run, in this process or another, uses the same FMU without tracing or building again.
+the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version and its
+wrapping code), so a second run, in this process or another, uses the same FMU without tracing or building again.
 
 The route: `wrap --native` (a C FMU, native.py) when the class traces, else pythonfmu's (wrap.py); native=True
 refuses a class that cannot be traced, native=False always takes pythonfmu's."""
@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ....native_fmu.build import tiltload_version
 from ....native_fmu.cache import cache_root
-from .wrap import WrapError, describe, load_class, wrap
+from .wrap import WrapError, describe_class
 
 
 def _source(cls: object, field: str) -> Path:
@@ -40,39 +40,45 @@ def _source(cls: object, field: str) -> Path:
     return Path(source)
 
 
+def _wrap_code() -> str:
+    """The digest of the wrapping code (this folder: the tracer, the child it runs in, the slave, the C): an FMU that
+    another tiltload of the same version number wrapped (one that froze a step's I/O, say) is not this one's."""
+    digest = hashlib.sha256()
+    for f in sorted(p for p in Path(__file__).parent.rglob("*") if p.suffix in (".py", ".c", ".h")):
+        digest.update(f.name.encode() + b"\0" + f.read_bytes())
+    return digest.hexdigest()
+
+
 def _key(path: Path, spec: dict, native: bool | None, fmi_version: int) -> str:
-    what = json.dumps({"spec": spec, "native": native, "fmi": fmi_version, "tiltload": tiltload_version()}, sort_keys=True)
+    what = json.dumps({"spec": spec, "native": native, "fmi": fmi_version, "tiltload": tiltload_version(),
+                       "wrap": _wrap_code()}, sort_keys=True)
     return hashlib.sha256(path.read_bytes() + b"\0" + what.encode()).hexdigest()
 
 
 def _build(path: Path, spec: dict, native: bool | None, fmi_version: int, out: Path) -> Path:
-    """Wrap the class into out: natively if it traces (or native), else with pythonfmu."""
-    from .native import wrap_native
-    from .trace import InitError, TraceError, instantiate
+    """Wrap the class into out: natively if it traces (or native), else with pythonfmu. The class's code runs in wrap's
+    child process (sandbox.py)."""
+    from .native import build_traced
+    from .sandbox import traced, wrap_python
 
     name = spec["class"]
     if native is not False:
-        try:
-            return wrap_native(path, out, name, fmi_version, progress=lambda line: None)
-        except InitError:
-            raise
-        except TraceError as err:
-            if native:
-                raise
-            if fmi_version != 2:
-                raise WrapError(f"{err}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
-                                "(run it with fmi=2)") from None
+        child_spec, t = traced(path, name, fall_back=not native)
+        if not isinstance(t, str):
+            return build_traced(child_spec, t, path, out, fmi_version, progress=lambda line: None)
+        if fmi_version != 2:
+            raise WrapError(f"{t}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
+                            "(run it with fmi=2)")
     elif fmi_version != 2:
         raise WrapError(f"{name}: a pythonfmu FMU is FMI 2.0 only (run it with fmi=2, or trace it: native=True)")
-    instantiate(load_class(path, name), spec["parameters"], path)  # an __init__ that raises: refused now, not in the run
-    return wrap(path, out, name)
+    return wrap_python(path, out, name)  # its __init__ run once there: one that raises is refused now, not in the run
 
 
 def controller_fmu(cls: type, native: bool | None = None, fmi_version: int = 2, field: str = "Case.controller") -> Path:
     """The controller FMU of cls (a class with a step method, at the top level of its .py file): from the machine's
     cache, or wrapped now and kept there. WrapError (a TraceError) says in one line what is wrong."""
     path = _source(cls, field)
-    spec = describe(path, cls.__name__)
+    spec = describe_class(cls, path)  # the class the caller imported: its declarations, none of its code run
     key = _key(path, spec, native, fmi_version)
     target = cache_root() / "controllers" / key[:32] / f"{spec['class']}.fmu"
     if target.is_file():

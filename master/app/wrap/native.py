@@ -14,7 +14,7 @@ from ....native_fmu import casadi_c
 from ....native_fmu.build import Prepared, Recipe, build
 from ....native_fmu.compile import NativeSources
 from ....native_fmu.variables import FmuDefinition, Variable
-from .trace import Traced, trace
+from .trace import Traced
 
 HERE = Path(__file__).parent
 MODEL_C = [HERE / "c" / "traced_model.c", HERE / "c" / "traced_model.h"]
@@ -89,17 +89,21 @@ def recipe(spec: dict, traced: Traced, source: Path, fmu_name: str) -> Recipe:
     return Recipe(fmu_name, (source, *MODEL_C, Path(__file__), HERE / "trace.py"), (ca.__version__, identity), prepare)
 
 
+def build_traced(spec: dict, traced: Traced, path: Path, target: Path, fmi_version: int = 2, progress=print) -> Path:
+    """The native FMU of a traced controller at target."""
+    return build(recipe(spec, traced, path, target.name), target.parent, progress=progress, fmi_version=fmi_version).path
+
+
 def wrap_native(path: Path, out: Path | None = None, class_name: str | None = None, fmi_version: int = 2,
                 progress=print) -> Path:
-    """Trace the controller class of path and build it as a native FMU (default: next to the file, <stem>.fmu)."""
-    from .wrap import WrapError, describe, load_class
+    """Trace the controller class of path (in wrap's child process: sandbox.py) and build it as a native FMU (default:
+    next to the file, <stem>.fmu)."""
+    from .sandbox import traced
+    from .wrap import WrapError
 
     path = Path(path)
-    spec = describe(path, class_name)
     target = Path(out) if out else path.with_suffix(".fmu")
     if target.suffix != ".fmu":
         raise WrapError(f"the output {target} must end in .fmu")
-    cls = load_class(path, spec["class"])
-    traced = trace(cls, spec["parameters"], list(spec["inputs"]), path)
-    built = build(recipe(spec, traced, path, target.name), target.parent, progress=progress, fmi_version=fmi_version)
-    return built.path
+    spec, t = traced(path, class_name)
+    return build_traced(spec, t, path.resolve(), target, fmi_version, progress)

@@ -13,9 +13,9 @@ naming the line of the class."""
 
 from __future__ import annotations
 
-import linecache
 import math
-import traceback
+import re
+import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +23,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .wrap import WrapError
+from .wrap import USER_ENDS, WrapError, user_line
 
 
 class TraceError(WrapError):
@@ -42,12 +42,18 @@ class _TooLong(BaseException):
     """Raised in the traced code at the time limit (a BaseException: the user's own `except Exception` lets it by)."""
 
 
+WATCH = None  # in wrap's child process (sandbox.py): told (what, seconds) as each part of the user's code starts
+
+
 @contextmanager
-def _time_limit(what: str):
-    """Run the block for at most TIME_LIMIT_S (SIGALRM's timer; off the main thread, unbounded)."""
+def time_limit(what: str, error: type[TraceError] = TraceError):
+    """Run the block for at most TIME_LIMIT_S (SIGALRM's timer; off the main thread, unbounded). In wrap's child the
+    parent is told too: its watchdog cuts what a signal cannot (a long call into C)."""
     import signal
     import threading
 
+    if WATCH is not None:
+        WATCH(what, TIME_LIMIT_S)
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -60,10 +66,12 @@ def _time_limit(what: str):
     try:
         yield
     except _TooLong:
-        raise TraceError(f"{what} did not return within {TIME_LIMIT_S:g} s (a loop without end?)") from None
+        raise error(f"{what} did not return within {TIME_LIMIT_S:g} s (a loop without end?)") from None
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+        if WATCH is not None:
+            WATCH("", 0.0)
 
 
 @dataclass
@@ -133,6 +141,8 @@ def _no_numbers_of_symbols():
 def _operation(err: BaseException) -> str:
     """What the traced code did that needs a number, in the user's words, and what to write instead."""
     text = str(err)
+    if isinstance(err, SystemExit):
+        return "it calls sys.exit(), which a controller's code may not"
     if "truth value" in text:
         return ("a Python decision on a traced value (if, while, and/or, min, max, sorted); write it with "
                 "ca.if_else(condition, a, b), ca.fmin, ca.fmax (docs/ports.md)")
@@ -142,25 +152,109 @@ def _operation(err: BaseException) -> str:
     return f"{type(err).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
 
 
-def _where(err: BaseException, source: Path) -> str:
-    """'line N (`code`)' of the innermost frame in the user's file, or ''."""
-    frames = [f for f in traceback.extract_tb(err.__traceback__) if Path(f.filename).resolve() == source.resolve()]
-    if not frames:
-        return ""
-    f = frames[-1]
-    code = (f.line or linecache.getline(f.filename, f.lineno)).strip()
-    return f"line {f.lineno} (`{code}`)"
+C_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")  # each number kept is an FMU variable, named in C and XML
+
+
+def _check_names(name: str, numbers: dict[str, np.ndarray]) -> None:
+    """Every number's FMU name a C identifier, and no two the same (self.K_0 beside self.K's first element)."""
+    seen: dict[str, str] = {}
+    for k, v in numbers.items():
+        if not C_NAME.fullmatch(k):
+            raise TraceError(f"{name}: self.{k!r} (set with setattr or __dict__) holds a number but its name is not an "
+                             "identifier of letters, digits and _ (ASCII); each number kept becomes an FMU parameter "
+                             "named after it: rename it")
+        for element in _element_names(k, v.shape):
+            if element in seen:
+                raise TraceError(f"{name}: self.{k} and self.{seen[element]} both give the FMU parameter {element}; "
+                                 "rename one")
+            seen[element] = k
+
+
+class _IoInStep(BaseException):
+    """Raised at I/O while step is traced (a BaseException: the user's own `except Exception` lets it by)."""
+
+
+_IO_EVENTS = ("open", "os.remove", "os.rename", "os.replace", "os.mkdir", "os.rmdir", "os.truncate", "os.chmod",
+              "os.chown", "os.link", "os.symlink", "os.utime", "os.system", "os.exec", "os.posix_spawn", "os.spawn",
+              "os.fork", "os.kill", "os.killpg", "shutil.", "socket.connect", "socket.bind", "socket.sendto",
+              "subprocess.Popen", "sqlite3.connect", "urllib.Request", "webbrowser.open")
+
+
+class _NoIo:
+    """While step is traced, I/O (files, processes, sockets) is refused: it would run once, at trace time, and its
+    result be frozen into the FMU, never run at a tick. Imports still read their files. An audit hook (PEP 578):
+    installed once per process, active only inside this block."""
+
+    active: _NoIo | None = None
+    _installed = False
+
+    def __init__(self, source: Path):
+        self.source = str(source)
+        self.seen: tuple[str, str] | None = None  # (what, 'line N (`code`)')
+
+    def __enter__(self):
+        if not _NoIo._installed:
+            sys.addaudithook(_NoIo._hook)
+            _NoIo._installed = True
+        _NoIo.active = self
+        return self
+
+    def __exit__(self, *exc) -> None:
+        _NoIo.active = None
+
+    @staticmethod
+    def _hook(event: str, args: tuple) -> None:
+        me = _NoIo.active
+        if me is None or not event.startswith(_IO_EVENTS) or (event == "open" and me._an_import()):
+            return
+        if event != "open" and event.startswith("open"):
+            return  # openpty and the like are not in the list; "open" itself is the file
+        if me.seen is None:
+            _NoIo.active = None  # finding the line reads the file: not an event of the user's
+            try:
+                what = f"open({args[0]!r})" if event == "open" and args else event
+                me.seen = (what, me._user_line())
+            finally:
+                _NoIo.active = me
+        raise _IoInStep(me.seen[0])
+
+    def _an_import(self) -> bool:
+        frame = sys._getframe(2)
+        while frame is not None:
+            if frame.f_code.co_filename.startswith("<frozen importlib"):
+                return True
+            frame = frame.f_back
+        return False
+
+    def _user_line(self) -> str:
+        frame = sys._getframe(2)
+        while frame is not None and frame.f_code.co_filename != self.source:
+            frame = frame.f_back
+        if frame is None:
+            return f"a line outside {Path(self.source).name}"
+        import linecache
+
+        return f"line {frame.f_lineno} (`{linecache.getline(self.source, frame.f_lineno).strip()}`)"
+
+    def refusal(self, name: str) -> str:
+        what, where = self.seen
+        return (f"{name}.step cannot be traced at {where}: it does I/O ({what}), which would run once while tracing "
+                "and be frozen into the FMU, never at a tick; read files in __init__, write none in step")
 
 
 def instantiate(cls: type, parameters: dict[str, float], source: Path):
     """cls(**parameters), as the FMU will make it; InitError names the error and its line in the class's file."""
     try:
-        with _time_limit(f"{cls.__name__}()"):
+        with time_limit(f"{cls.__name__}()", InitError):
             return cls(**parameters) if parameters else cls()
     except TraceError:
         raise
-    except Exception as err:
-        raise InitError(f"{cls.__name__}(): __init__ raised {type(err).__name__} ({err}) {_where(err, source)}".rstrip()) from None
+    except SystemExit as err:
+        where = f" at {line}" if (line := user_line(err, source)) else ""
+        raise InitError(f"{cls.__name__}(): __init__ calls sys.exit({'' if err.code is None else repr(err.code)}){where}, "
+                        "which a controller's code may not") from None
+    except USER_ENDS as err:
+        raise InitError(f"{cls.__name__}(): __init__ raised {type(err).__name__} ({err}) {user_line(err, source)}".rstrip()) from None
 
 
 def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
@@ -168,6 +262,7 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
     name = cls.__name__
     controller = instantiate(cls, parameters, source)
     numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
+    _check_names(name, numbers)
     if sum(v.size for v in numbers.values()) > MAX_NUMBERS:
         biggest = max(numbers, key=lambda k: numbers[k].size)
         raise TraceError(f"{name}: its numbers after __init__ are {sum(v.size for v in numbers.values()):,} (self.{biggest} "
@@ -178,14 +273,19 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
         setattr(controller, k, s)
     t = ca.SX.sym("t")
     u = {n: ca.SX.sym(n) for n in inputs}
+    io = _NoIo(source)
     try:
-        with _no_numbers_of_symbols(), _time_limit(f"{name}.step"):
+        with _no_numbers_of_symbols(), time_limit(f"{name}.step"), io:
             command = controller.step(t, dict(u))
     except TraceError:
         raise
-    except Exception as err:
-        where = _where(err, source) or f"a line outside {source.name}"
+    except (*USER_ENDS, _IoInStep) as err:
+        if io.seen:  # the I/O refused, even where the user's own except swallowed it and went on
+            raise TraceError(io.refusal(name)) from None
+        where = user_line(err, source) or f"a line outside {source.name}"
         raise TraceError(f"{name}.step cannot be traced at {where}: {_operation(err)}") from None
+    if io.seen:
+        raise TraceError(io.refusal(name))
     out = _flat(np.asarray(command, dtype=object)) if not isinstance(command, (ca.SX, ca.DM)) else _flat(command)
     if len(out) != 4:
         raise TraceError(f"{name}.step returns {len(out)} values; it must return (f_R, f_L, tau_R, tau_L)")
@@ -222,4 +322,4 @@ def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: n
     return np.array(y).ravel(), np.array(s).ravel()
 
 
-__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "trace"]
+__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "time_limit", "trace"]

@@ -39,7 +39,23 @@ class WrapError(ValueError):
     """A user controller that cannot be wrapped; the message names the file, the class and the problem."""
 
 
-def _load(path: Path):
+def user_line(err: BaseException, source: Path) -> str:
+    """'line N (`code`)' of the innermost frame of err in the user's file, or ''."""
+    import linecache
+    import traceback
+
+    frames = [f for f in traceback.extract_tb(err.__traceback__) if Path(f.filename).resolve() == source.resolve()]
+    if not frames:
+        return ""
+    f = frames[-1]
+    code = (f.line or linecache.getline(f.filename, f.lineno)).strip()
+    return f"line {f.lineno} (`{code}`)"
+
+
+USER_ENDS = (Exception, SystemExit, KeyboardInterrupt)  # what the user's code may raise: sys.exit() is a refusal too
+
+
+def load_module(path: Path):
     from ...engine.user_files import UserFileError, open_binary
 
     try:
@@ -48,20 +64,33 @@ def _load(path: Path):
         raise WrapError(str(err)) from None
     if path.suffix != ".py":
         raise WrapError(f"{path} is not a Python file (.py)")
+    data = path.read_bytes()
+    if b"\0" in data:  # compile() says so without a line
+        line = data.count(b"\n", 0, data.index(b"\0")) + 1
+        raise WrapError(f"importing {path.name} failed at line {line}: a NUL byte (a Python file is text)")
     name = f"tiltload_wrap_{hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:8]}"
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
-    except Exception as err:  # the user's code: one line, what and where
-        where = f" at line {err.lineno}" if isinstance(err, SyntaxError) else ""
-        raise WrapError(f"importing {path.name} failed{where}: {err} ({type(err).__name__})") from None
+    except USER_ENDS as err:  # the user's code: one line, what and where
+        where = f" at line {err.lineno}" if isinstance(err, SyntaxError) and err.lineno else ""
+        where = where or (f" at {line}" if (line := user_line(err, path)) else "")
+        raise WrapError(f"importing {path.name} failed{where}: {_what(err)}") from None
     finally:
         sys.modules.pop(name, None)
     return module
 
 
-def _find_class(module, path: Path, class_name: str | None):
+def _what(err: BaseException) -> str:
+    """What the user's code raised, in words; sys.exit() named as such."""
+    if isinstance(err, SystemExit):
+        return f"it calls sys.exit({'' if err.code is None else repr(err.code)}), which a controller's code may not"
+    text = str(err).splitlines()[0] if str(err) else ""
+    return f"{text} ({type(err).__name__})" if text else type(err).__name__
+
+
+def find_class(module, path: Path, class_name: str | None):
     candidates = {n: c for n, c in inspect.getmembers(module, inspect.isclass)
                   if c.__module__ == module.__name__ and callable(getattr(c, "step", None))}
     if class_name:
@@ -74,19 +103,14 @@ def _find_class(module, path: Path, class_name: str | None):
     return next(iter(candidates.items()))
 
 
-def load_class(path: Path, class_name: str | None = None) -> type:
-    """The controller class of a file (the one with a step method, or the one named)."""
-    return _find_class(_load(Path(path)), Path(path), class_name)[1]
-
-
-def describe(path: Path, class_name: str | None = None) -> dict:
-    """Check the user's controller against the contract; the ports, parameters and period it declares."""
+def describe_class(cls: type, path: Path) -> dict:
+    """Check the controller class (imported from the file path) against the contract: the ports, parameters and period
+    it declares, from its declarations alone (none of its methods run)."""
     from ....plant_fmu import parameters as P
     from ....plant_fmu.trim import hover_trim
     from ....sensor_fmu.measurement import pi
 
-    path = Path(path)
-    name, cls = _find_class(_load(path), path, class_name)
+    name = cls.__name__
     trim = hover_trim(P.default_vector())
     contract = contract_inputs(trim.x, pi(trim.x, P.default_vector()))
     wanted = getattr(cls, "inputs", None)
@@ -151,15 +175,10 @@ def add_units(fmu: Path, units: dict[str, str]) -> None:
             z.writestr(info, data)
 
 
-def wrap(path: Path, out: Path | None = None, class_name: str | None = None) -> Path:
-    """Build the controller FMU; returns its path (default: next to the file, <stem>.fmu)."""
-    path = Path(path)
-    spec = describe(path, class_name)
-    model = spec["class"]
-    spec["model"] = model
-    target = Path(out) if out else path.with_suffix(".fmu")
-    if target.suffix != ".fmu":
-        raise WrapError(f"the output {target} must end in .fmu")
+def package(path: Path, spec: dict, target: Path) -> Path:
+    """Build the pythonfmu FMU of a described class at target. pythonfmu imports the user's file to build: this runs in
+    wrap's child process (sandbox.wrap_python), never in tiltload's own."""
+    model = spec["model"] = spec["class"]
     digest = hashlib.sha256(path.read_bytes() + json.dumps(spec, sort_keys=True).encode()).hexdigest()
     with tempfile.TemporaryDirectory(prefix="tiltload_wrap_") as tmp:
         stage = Path(tmp)

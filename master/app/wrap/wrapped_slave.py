@@ -51,7 +51,7 @@ class TiltloadWrapped(Fmi2Slave):
         cls = getattr(_USER, _SPEC["class"])
         try:
             self._controller = cls(**self._par) if self._par else cls()
-        except Exception as err:  # the user's code: say what it raised, in one line
+        except (Exception, SystemExit) as err:  # the user's code (sys.exit() too): say what it raised, in one line
             self.log(f"{_SPEC['class']}() raised {type(err).__name__} ({err})", Fmi2Status.error)
             raise
 
@@ -59,7 +59,7 @@ class TiltloadWrapped(Fmi2Slave):
         try:
             u = self._controller.step(current_time, dict(self._in))
             u = [float(v) for v in u]
-        except Exception as err:
+        except (Exception, SystemExit) as err:
             self.log(f"{_SPEC['class']}.step raised {type(err).__name__} at t={current_time:.6g} s ({err})", Fmi2Status.error)
             return False
         if len(u) != 4:

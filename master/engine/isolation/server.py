@@ -13,7 +13,8 @@ What keeps one client from harming the server or the others:
   dropped with a log line, and at most max_pending connections are being admitted at a time;
 - each FMU runs in its own process (a crash costs that session only), which checks every frame
   against the model's sizes and inputs, and ends its session after idle_timeout without a request;
-- each FMU serves clients_per_fmu sessions at a time (default one), the others are refused;
+- each FMU serves clients_per_fmu sessions at a time (default one), the others are refused; a session's place is
+  given back when its client's connection closes (a killed master's too), not when its worker ends;
 - the server keeps its copy of each session's socket to see the client leave: if the worker is
   then still running (hung in the FMU), it is killed. Workers die with the server (PR_SET_PDEATHSIG,
   which follows the spawning thread: hence the main thread spawns them).
@@ -42,8 +43,9 @@ MAX_TICK = 86400.0  # s: a day, the longest wait any command line allows (comman
 
 DEFAULT_PORT = 7390
 GRACE = 2.0  # s a worker has to end once its client has left, before it is killed
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
-_TEXT = re.compile(r"^[\x20-\x7e]{1,200}$")  # printable ASCII: what may reach the log from a client
+RELEASE_WAIT = 0.5  # s a client asking for a busy FMU waits for a place given back (a client that just left) first
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}\Z")
+_TEXT = re.compile(r"^[\x20-\x7e]{1,200}\Z")  # printable ASCII: what may reach the log from a client
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,7 @@ class Session:
     proc: subprocess.Popen | None = None
     pidfd: int | None = None
     left_at: float | None = field(default=None)  # when the client was seen to leave
+    released: bool = False  # its place among the FMU's clients given back (when the client left, or at its end)
 
     @property
     def label(self) -> str:
@@ -86,7 +89,7 @@ class Server:
         self._say_lock = threading.Lock()
         self._external_say = say
         self.catalogue = Catalogue(options.fmus, self.say)
-        self._lock = threading.Lock()  # pending, in_use
+        self._lock = threading.Condition()  # pending, in_use; notified when a place is given back
         self._pending = 0
         self._in_use: dict[Path, int] = {}
         self._admitted: queue.Queue[Session] = queue.Queue()
@@ -145,6 +148,8 @@ class Server:
             instance, tick = self._check_request(request, label)
             fmu = self.catalogue.find(request["model_identifier"], request["guid"])
             with self._lock:
+                # a client killed a moment ago: the main thread gives its place back as it sees the connection close
+                self._lock.wait_for(lambda: self._in_use.get(fmu, 0) < self.options.clients_per_fmu, RELEASE_WAIT)
                 if self._in_use.get(fmu, 0) >= self.options.clients_per_fmu:
                     raise Refused(f"{fmu.name} is serving {self._in_use[fmu]} client(s) already "
                                   "(tiltload serve --clients-per-fmu allows more)")
@@ -199,6 +204,14 @@ class Server:
     def _release(self, fmu: Path) -> None:
         with self._lock:
             self._in_use[fmu] -= 1
+            self._lock.notify_all()
+
+    def _give_back(self, s: Session) -> None:
+        """The session's place among its FMU's clients, once: when its client leaves (a worker still busy in the FMU
+        is then the server's to end, not a client's) or when its process ends."""
+        if not s.released:
+            s.released = True
+            self._release(s.fmu)
 
     # --- the main thread: accept, start workers, watch sessions ---
 
@@ -249,12 +262,13 @@ class Server:
         except OSError:
             pass
         s.sock.close()
-        self._release(s.fmu)
+        self._give_back(s)
 
     def _client_left(self, s: Session) -> None:
         if s.left_at is None:
             s.left_at = time.monotonic()
             self._poll.unregister(s.sock.fileno())
+            self._give_back(s)  # the next client is served now, not after its worker's end (up to GRACE later)
 
     def _check_sessions(self) -> None:
         now = time.monotonic()

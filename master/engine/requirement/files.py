@@ -24,8 +24,8 @@ from .stl import StlError, bounded_horizon, parse, signals, unparse
 from .stl.grammar import number_text
 
 MAX_BYTES = 1 << 20  # a requirement file is text a person writes: a larger one is a mistake (or an attack on the parser)
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
-_SIGNAL = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)+$")  # instance.variable, as the grammar's
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*\Z")
+_SIGNAL = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)+\Z")  # instance.variable, as the grammar's
 _KEYS = {"name", "description", "source", "formula", "bounds", "response"}
 _BOUNDS = {"signal", "min", "max", "from", "to"}
 _RESPONSE = {"trigger", "response", "within", "hold", "from", "to"}
