@@ -102,6 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         return 141
     except Exception as err:
         from .errors import kind_of, line_of
+        from .user_error import one_line
 
         kind = kind_of(err)  # the one table of errors (errors.py): the user's to fix, a failed build
         if kind is not None:

@@ -4,17 +4,30 @@ the option parsing included, without importing errors.py's gathering of every er
 from __future__ import annotations
 
 _ESCAPES = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+# bidirectional-text controls: embeddings, overrides, isolates and marks reorder what a reader sees ("Trojan Source",
+# CVE-2021-42574), so that a name or description could read as something it is not
+BIDI = "\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069\u200e\u200f\u061c"
+_VISIBLE = str.maketrans({c: f"\\u{ord(c):04x}" for c in BIDI})
 
 
 def one_line(text: str) -> str:
-    """text with its control characters and line separators shown as escapes (\\n, \\x1b): a user's value quoted into
-    an error (a name with a newline, a terminal's escape sequence) cannot split the line or act on the terminal."""
+    """text with its control characters, line separators and bidirectional controls shown as escapes (\\n, \\x1b,
+    \\u202e): a user's value quoted into an error (a name with a newline, a terminal's escape sequence) cannot split the
+    line, act on the terminal or read as something it is not."""
     import unicodedata
 
-    if text.isprintable():
+    if text.isprintable() and not any(c in BIDI for c in text):
         return text
     return "".join(_ESCAPES.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
-                   if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in text)
+                   if unicodedata.category(c) in ("Cc", "Zl", "Zp") or c in BIDI else c for c in text)
+
+
+def visible(value):
+    """User text in what tiltload shows (the HTML reports, the pytest plugin's messages) with each bidirectional control
+    written as its escape; markup (an object with __html__, jinja2's Markup) kept markup; anything else as it is."""
+    if hasattr(value, "__html__"):
+        return type(value)(str(value).translate(_VISIBLE))
+    return value.translate(_VISIBLE) if isinstance(value, str) else value
 
 
 class TiltloadError(Exception):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import jinja2
 
-from ..visible_text import visible
+from ..user_error import visible
 from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
 
 _TEMPLATE = Path(__file__).with_name("report.html.j2")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..case.record import describe as case_words
 from ..regression.compare import Comparison
-from ..visible_text import visible
+from ..user_error import visible
 
 
 def _signed(x: float) -> str:
