@@ -24,7 +24,7 @@ from tiltload.master.engine.requirement.stl import (
     verdict,
 )
 from tiltload.master.engine.requirement.stl import syntax as S
-from tiltload.master.engine.requirement.stl.robustness import first_read
+from tiltload.master.engine.requirement.stl.verdicts import first_read
 from tiltload.master.engine.requirement.stl.windows import sliding_min, sliding_min_deque
 
 
