@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import connections
+from . import connections, edges
 from .errors import DescriptionError
 from .fmi.model_description import checked_value, read_fmu, steps_every
 from .fmi.slave import C_TYPES, Slave
@@ -143,9 +143,12 @@ class Execution:
             self.instances[spec.name].initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
         self.resumed_at = None
+        self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
         if resume is not None:
             snapshot.restore(self, resume)
             self.resumed_at = resume.time
+        else:
+            self._propagate()
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
@@ -156,6 +159,26 @@ class Execution:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)
         self._held = self._values() if self.stepwise_observers() else None
+
+    def _propagate(self) -> None:
+        """After initialization: the connected inputs of every instance whose outputs are logged at t = 0 set from their
+        sources' outputs, sources first (edges.propagation_order), its outputs read again, so that a feedthrough FMU's
+        sample at t = 0 holds the connected values. An FMI 3.0 FMU with clocks or discrete connected inputs (settable in
+        Event Mode only) is left as initialized."""
+        for name in edges.propagation_order(self.system, self.links):
+            inst, groups = self.instances[name], self.groups.get(name, ())
+            kinds = getattr(inst, "input_kind", {})
+            if not groups or getattr(inst, "clocked", False) or any(
+                    kinds.get((g.type, vr), "continuous") != "continuous" for g in groups for vr in g.dst_vrs):
+                continue
+            for g in groups:
+                g.view[:] = self.instances[g.source].values[g.type][g.src_index]
+            self.set_gathered_inputs(name, 0.0)
+            inst.read_outputs()
+
+    def stop_plan(self, stop: float) -> edges.StopPlan:
+        """Where a run asked to stop at `stop` ends (edges.stop_plan): its note, if any, is for the user before the run."""
+        return edges.stop_plan(stop, self.system.tick, edges.variable_steps(self._mds))
 
     def _values(self) -> dict[str, dict[str, np.ndarray]]:
         """Every instance's output values now (a copy): what a per-step observer sees of an instance that has not
@@ -238,6 +261,20 @@ class Execution:
         n = int(round(stop / self.system.tick))
         if self.ticks_done < n:
             self.loop.run(n - self.ticks_done, realtime)
+
+    def end(self, stop: float, realtime=None) -> None:
+        """The run's last stretch: to the end of stop_plan(stop) (a shorter last step, or the nearest tick), then the
+        closing samples there (edges.py); the execution's time is then the run's end."""
+        plan = self.stop_plan(stop)
+        self.loop.plan.stop_time = plan.end if plan.shortened else 0.0
+        try:
+            if self.ticks_done < plan.ticks:
+                self.loop.run(plan.ticks - self.ticks_done, realtime)
+        finally:
+            self.loop.plan.stop_time = 0.0
+        if self.ticks_done == plan.ticks:
+            self.loop.close(plan.end)
+            self.time = plan.end
 
     def finish(self, error: str | None = None) -> None:
         """Finish the observers (the log first: its last chunks and summary written); safe to call twice."""

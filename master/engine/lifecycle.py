@@ -191,15 +191,15 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
 
 
 def _advance(ex: Execution, plan: RunPlan) -> None:
-    """To the stop time, through the checkpoints; with plan.segment, in calls that end on its multiples."""
+    """To the stop time, through the checkpoints; with plan.segment, in calls that end on its multiples; then the run's
+    end (Execution.end: a shorter last step or the nearest tick, and the closing samples)."""
     for t, fn in sorted(plan.checkpoints, key=lambda c: c[0]):
         if t <= plan.stop:
             ex.run(t, plan.realtime)
             fn(ex)
-    if plan.segment is None:
-        ex.run(plan.stop, plan.realtime)
-        return
-    tick = ex.system.tick
-    n = int(round(plan.stop / tick))
-    while ex.ticks_done < n:
-        ex.run(min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
+    if plan.segment is not None:
+        tick = ex.system.tick
+        n = ex.stop_plan(plan.stop).ticks - 1  # the last tick, possibly shortened, is the end's
+        while ex.ticks_done < n:
+            ex.run(min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
+    ex.end(plan.stop, plan.realtime)

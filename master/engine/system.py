@@ -21,7 +21,9 @@ class Instance:
     fmu: Path
     period: float | None = None  # s; None: the tick
     parameters: dict[str, object] = field(default_factory=dict)
-    timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
+    # when the outputs after doStep(t, h) belong (edges.py): "continuous", at t + h (FMI's rule, the default); "sample", at
+    # t (a sampled-data element that computes them at its step's start and holds them; it gets a closing sample at T)
+    timing: str = "continuous"
     remote: str | None = None  # "HOST:PORT": the FMU runs on the `tiltload serve` there (fmu is the local copy it must match)
     token_file: Path | None = None  # the shared secret for remote: the run's, never written into a description
     fmi: int | None = None  # the FMI version the description names (2 or 3; checked against the FMU), None: any
@@ -155,7 +157,7 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "sample"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
+                              i.get("timing", "continuous"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
         if "faults" in data:

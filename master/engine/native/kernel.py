@@ -107,7 +107,8 @@ class Plan(ctypes.Structure):
                 ("n_faults", ctypes.c_int), ("faults", ctypes.POINTER(Fault)), ("fault_on", ctypes.c_void_p),
                 ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
                 ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
-                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
+                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p), ("stop_time", ctypes.c_double),
+                ("closing", ctypes.c_int)]
 
 
 # the structs tl_loop.h shares, by their C names (layout.check compares each with the library's layout)
@@ -185,6 +186,8 @@ def library() -> ctypes.CDLL:
     layout.check(lib, STRUCTURES)
     lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_run.restype = ctypes.c_int64
+    lib.tl_close.argtypes = [ctypes.POINTER(Plan), ctypes.c_double]
+    lib.tl_close.restype = ctypes.c_int
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_store_history.restype = None
     lib.tl_monotonic_ns.argtypes = []

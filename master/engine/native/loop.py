@@ -262,6 +262,26 @@ class NativeLoop(FaultPlan):
                 realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
             ticks -= done
 
+    def close(self, t: float) -> None:
+        """The run's closing samples at its end t (tl_close; edges.py), handed to the observers as a closing batch."""
+        self._queue.events = []
+        for clocked in self.clocked:
+            clocked.push()
+        failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
+        for clocked in self.clocked:
+            clocked.pull()
+        failure = self._error() if failed else None
+        batch = self._batch(int(self.plan.ticks_done), 0)
+        batch.closing = True
+        try:
+            self.ex.deliver(batch)
+        except Exception as err:
+            if failure is not None:
+                raise failure from err
+            raise
+        if failure is not None:
+            raise failure
+
     def _batch(self, first: int, done: int) -> Batch:
         r = int(self.plan.records)
         rows = {name: {typ: rec[typ][:int(self.rows[i])] for typ in TYPES} for i, (name, rec) in enumerate(zip(self.names, self.records))}

@@ -479,6 +479,8 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
     double h = in->every * plan->tick;
+    int cut = !plan->closing && plan->stop_time > 0 && t + h > plan->stop_time + 1e-9 * plan->tick;
+    if (cut) h = plan->stop_time - t; /* the shorter last communication step: it ends at the stop time */
     for (int g = 0; g < in->n_groups; g++) gather(&in->groups[g], group_source(plan, &in->groups[g], k));
     if (plan->n_faults) apply_faults(plan, i, TL_INPUTS, t);
     if (in->hook_inputs && plan->hook_callback(i, TL_INPUTS, t) != 0) {
@@ -505,11 +507,12 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
-    if (plan->record_capacity > 0) record(plan, i, k, in->continuous ? t + h : t);
+    /* the time the outputs belong to: the step's end (FMI's rule), or its start for an instance that computes them there */
+    if (plan->record_capacity > 0) record(plan, i, k, in->continuous ? (cut ? plan->stop_time : t + h) : t);
     return 0;
 }
 
-TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
+static void forget_records(tl_plan *plan) {
     plan->error_kind = TL_ERROR_NONE;
     plan->records = 0;
     plan->events = 0;
@@ -517,6 +520,20 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
         plan->rows[i] = 0;
         if (plan->instances[i].clocks != NULL) plan->instances[i].clocks->activations = 0;
     }
+}
+
+TL_EXPORT int tl_close(tl_plan *plan, double t) {
+    forget_records(plan);
+    plan->closing = 1;
+    int failed = 0;
+    for (int i = 0; i < plan->n_instances && !failed; i++)
+        if (!plan->instances[i].continuous) failed = step_instance(plan, i, plan->ticks_done, t);
+    plan->closing = 0;
+    return failed;
+}
+
+TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
+    forget_records(plan);
     int64_t done = 0;
     for (; done < n; done++) {
         int64_t k = plan->ticks_done;

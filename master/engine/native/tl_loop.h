@@ -219,11 +219,18 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(int8_t *, event_start)        /* 1 start, 0 end */ \
     F(double *, event_time) \
     F(double *, lateness)           /* per tick run in this call: how late it started, s (NULL: not kept) */ \
-    F(int8_t *, overrun)            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
+    F(int8_t *, overrun)            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */ \
+    /* the run's edges (docs/master.md, "Signals at a run's edges") */ \
+    F(double, stop_time)            /* > 0: a step that would pass it is shortened to end there (0: none is) */ \
+    F(int, closing)                 /* set by tl_close while it takes the closing samples (no step is shortened) */
 typedef struct { TL_PLAN_FIELDS(TL_FIELD, TL_ARRAY) } tl_plan;
 
 /* Run up to n ticks; stop early after an error (error_kind != TL_ERROR_NONE). Returns the ticks run. */
 int64_t tl_run(tl_plan *plan, int64_t n);
+/* The closing samples at time t (the run's end): every instance whose outputs belong to the start of its step (not
+   continuous) is stepped once more at tick ticks_done, time t, in the system's order, and recorded at t; the others
+   are not stepped (their last step's outputs already belong to t). Returns 0, or 1 after an error. */
+int tl_close(tl_plan *plan, double t);
 /* Copy every instance's outputs into its delay-line slot for the entry j (the values after tick j - 1). */
 void tl_store_history(tl_plan *plan, int64_t j);
 int64_t tl_monotonic_ns(void);

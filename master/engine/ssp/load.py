@@ -106,7 +106,7 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
         if fmi not in (None, "2", "3"):
             raise DescriptionError(f"{path}: component {name}: the FMI version must be 2 or 3, got {fmi!r}")
         instances.append(Instance(name, fmu, period, params,
-                                  extra.get("timing", "sample") if extra is not None else "sample",
+                                  extra.get("timing", "continuous") if extra is not None else "continuous",
                                   remote=extra.get("remote") if extra is not None else None, fmi=int(fmi) if fmi else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
