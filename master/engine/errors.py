@@ -10,3 +10,12 @@ class DescriptionError(ValueError):
 
 class ExecutionError(RuntimeError):
     """A failure while running; the message names the instance, the call and the FMU's own words."""
+
+
+class FmuEndedRun(Exception):
+    """Not a failure: an FMU asked to end the simulation (FMI 2.0 fmi2Discard with fmi2Terminated, FMI 3.0
+    terminateSimulation from doStep) at `time`; its outputs there are valid (docs/master.md, "Signals at a run's edges")."""
+
+    def __init__(self, instance: str, time: float) -> None:
+        super().__init__(f"{instance} ended the run at t = {time:.6g} s")
+        self.instance, self.time = instance, time

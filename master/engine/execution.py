@@ -104,6 +104,7 @@ class Execution:
         self.manipulator = None
         self.loop: NativeLoop | None = None
         self.resumed_at: float | None = None  # the time of the snapshot this run continues from
+        self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
         self._held: dict | None = None  # the outputs at the end of the last batch replayed (deliver)
         if system.faults:
             from .faults.apply import Manipulator
@@ -257,9 +258,10 @@ class Execution:
         self.loop.run(1)
 
     def run(self, stop: float, realtime=None) -> None:
-        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py)."""
+        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py). Nothing
+        once an FMU ended the run (ended_by)."""
         n = int(round(stop / self.system.tick))
-        if self.ticks_done < n:
+        if self.ticks_done < n and self.ended_by is None:
             self.loop.run(n - self.ticks_done, realtime)
 
     def end(self, stop: float, realtime=None) -> None:
@@ -268,11 +270,11 @@ class Execution:
         plan = self.stop_plan(stop)
         self.loop.plan.stop_time = plan.end if plan.shortened else 0.0
         try:
-            if self.ticks_done < plan.ticks:
+            if self.ticks_done < plan.ticks and self.ended_by is None:
                 self.loop.run(plan.ticks - self.ticks_done, realtime)
         finally:
             self.loop.plan.stop_time = 0.0
-        if self.ticks_done == plan.ticks:
+        if self.ticks_done == plan.ticks and self.ended_by is None:
             self.loop.close(plan.end)
             self.time = plan.end
 

@@ -33,6 +33,7 @@ class RunResult:
     signal: int | None = None  # the signal that interrupted the run (SIGINT 2, SIGTERM 15)
     failure: BaseException | None = None  # what ended the run early (one of the plan's outcomes), its own words
     setup: float = 0.0  # s from the plan's start to the first step (instantiation or restart)
+    ended_by: tuple[str, float] | None = None  # (instance, time): an FMU ended the run there (not an error: edges.py)
 
 
 @dataclass(frozen=True)
@@ -187,7 +188,8 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
         else:
             ex.close(error)  # a failure outside the run's outcomes
     return RunResult(plan.metrics.table() if plan.metrics else {}, Path(plan.log) if plan.log is not None else None,
-                     ex.ticks_done, ex.time, time.perf_counter() - started, error, signum, failure, setup)
+                     ex.ticks_done, ex.time, time.perf_counter() - started, error, signum, failure, setup,
+                     getattr(ex, "ended_by", None))
 
 
 def _advance(ex: Execution, plan: RunPlan) -> None:

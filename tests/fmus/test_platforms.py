@@ -326,8 +326,8 @@ def test_fmi3_clocked_sensors_and_scenario_on_aarch64_and_win64_equal_x86_64(fmi
     from tiltload.sensor_fmu.fmu_variables import channel_names
     from tiltload.sensor_fmu.suite import GROUPS
 
-    system = System(0.012, [Instance("scenario", fmi3_fmus["TiltloadScenario"], parameters={"trajectory": 2}),
-                            Instance("sensors", fmi3_fmus["TiltloadSensorsClocked"], parameters={"seed": 5})],
+    system = System(0.012, [Instance("scenario", fmi3_fmus["TiltloadScenario"], parameters={"trajectory": 2}, timing="sample"),
+                            Instance("sensors", fmi3_fmus["TiltloadSensorsClocked"], parameters={"seed": 5}, timing="sample")],
                     auto_connect=False)
     record = [("scenario", "x_ref"), ("scenario", "z_ref")] + [("sensors", n) for g in GROUPS for n in channel_names(g)]
     ticks = round(1.2 / system.tick)

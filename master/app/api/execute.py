@@ -188,6 +188,8 @@ def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesi
     """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
     verdicts, the pacer's overruns and where the log went."""
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
+    if getattr(result, "ended_by", None):
+        say(f"{result.ended_by[0]} ended the run at t = {result.ended_by[1]:.6g} s (the FMU asked to terminate the simulation)")
     shown = f"{simulated:.2f}" if abs(simulated - round(simulated, 2)) < 1e-9 else f"{simulated:.6g}"  # never rounded
     say(f"{shown} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
         + (f", from t = {snap.time:.3f} s" if snap else ""))

@@ -21,6 +21,7 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 
+from ..errors import FmuEndedRun
 from .binaries import library_path
 from .binding import Binding, c_function
 from .pythonfmu_guard import pin
@@ -91,8 +92,22 @@ class InProcessFmu(Binding):
         started = time.perf_counter()
         status = self._do_step(self.component, t, h, 1)
         self.fmi_seconds += time.perf_counter() - started
+        if status == 2 and self._terminated():  # fmi2Discard, and the FMU says it ended the simulation
+            raise FmuEndedRun(self.name, self._last_successful_time(t))
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
+
+    def _terminated(self) -> bool:
+        try:
+            return bool(self.slave.getBooleanStatus(3))  # fmi2Terminated
+        except Exception:
+            return False
+
+    def _last_successful_time(self, t: float) -> float:
+        try:
+            return float(self.slave.getRealStatus(2))  # fmi2LastSuccessfulTime
+        except Exception:
+            return t
 
     def get_state(self) -> bytes:
         def serialize():
