@@ -7,6 +7,7 @@ stop time asked for (a shorter last step: the counter takes one), FMPy's last ti
 from __future__ import annotations
 
 import json
+
 import numpy as np
 import pytest
 from fmpy import simulate_fmu

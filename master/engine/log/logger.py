@@ -1,9 +1,9 @@
 """MCAP logging (docs/master.md, "Logs"): one channel per FMU instance, log time = simulation time in ns.
 
 Every output of every instance is logged after each of its steps at the time it belongs to (and once at t = 0 after
-initialization, or at the closing samples: edges.py), or every n-th of those with `log_every`. Instance channels are protobuf messages of a fixed layout
-(log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
-case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
+initialization, or at the closing samples: edges.py), or every n-th of those with `log_every`. Instance channels are
+protobuf messages of a fixed layout (log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN
+needs no special case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
 which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
 load), are JSON messages computed from one instance's outputs. The writer (log/writer.py) takes
 each call of the tick loop's messages at once and compresses beside the loop; the file is finalized

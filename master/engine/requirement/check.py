@@ -64,7 +64,8 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     values). The tick is the shortest time between two messages of an instance; each message belongs to the tick
     nearest its time (instances compute their times each their own way: 3 * 0.012 and 0.036 differ in the last bit);
     a signal holds its last message's value (the latest of those at one tick) until its next; the trace ends at the
-    last tick every instance has reached, or at the run's end off the tick after a shorter last step. cache: a dict kept across calls on the same series (held signals)."""
+    last tick every instance has reached, or at the run's end off the tick after a shorter last step. cache: a dict
+    kept across calls on the same series (held signals)."""
     used = sorted({split(n)[0] for n in names})
     if not used:
         raise StlError("no signal")
