@@ -57,4 +57,4 @@ def formation_system(fmu_dir: Path, controller: str = "backstepping", disturbanc
         for a, force in EXTERNAL_FORCES.items():
             faults += [Fault("override", [f"plant_{a}.d_{ax}"], DISTURBANCE_START, None, v, name=f"external force on {a}, {ax}")
                        for ax, v in zip("xyz", force) if v]
-    return System(TICK, instances, conns, auto_connect=False, faults=faults)
+    return System(TICK, instances, conns, auto_connect=False, faults=faults, fmu_end="error")  # a diverged plant fails

@@ -96,7 +96,7 @@ def default_system(fmu_dir: Path, scenario: str = "zse", trajectory: int | Traje
         Instance(SENSORS, fmu_dir / named(loop.sensors), parameters={"seed": seed}, fmi=fmi, timing="sample"),
         ctrl,
         Instance(PLANT, fmu_dir / loop.plant, parameters=plant_start, timing="continuous", fmi=fmi),
-    ], conns)
+    ], conns, fmu_end="error")  # the plant stops when its state diverges: for the loop, a failure
 
 
 def is_loop(system: System) -> bool:

@@ -74,7 +74,7 @@ def structure(system: System, isolate: IsolationPolicy | None, step_timeout: flo
     their instances, periods and hosts, the connections, the tick and where the FMUs run."""
     instances = tuple((i.name, str(i.fmu), i.period, i.timing, i.remote, str(i.token_file), i.fmi) for i in system.instances)
     wires = tuple((c.source, c.target, c.delay) for c in system.connections)
-    return system.tick, instances, wires, system.auto_connect, isolate, step_timeout
+    return system.tick, instances, wires, system.auto_connect, system.fmu_end, isolate, step_timeout
 
 
 class ExecutionPool:

@@ -43,6 +43,9 @@ class System:
     connections: list[Connection] = field(default_factory=list)  # explicit; the rest by unique name
     auto_connect: bool = True
     faults: list = field(default_factory=list)  # faults.schedule.Fault: injected between outputs and inputs
+    # an FMU asking to end the simulation (edges.py): "end" ends the run there, as FMPy does; "error" fails it (a loop
+    # whose plant stops when its state diverges: the thesis's)
+    fmu_end: str = "end"
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -114,6 +117,7 @@ SCHEMA = {
     "properties": {
         "tick": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
         "auto_connect": {"type": "boolean"},
+        "fmu_end": {"enum": ["end", "error"]},
         "instances": {"type": "array", "minItems": 1, "items": {
             "type": "object", "additionalProperties": False, "required": ["name", "fmu"],
             "properties": {
@@ -159,7 +163,8 @@ def load(path: Path) -> System:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
                               i.get("timing", "continuous"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
-        system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
+        system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)),
+                        fmu_end=data.get("fmu_end", "end"))
         if "faults" in data:
             from .faults.parse import parse
 
@@ -172,7 +177,7 @@ def load(path: Path) -> System:
 
 
 def save(system: System, path: Path) -> Path:
-    data = {"tick": system.tick, "auto_connect": system.auto_connect,
+    data = {"tick": system.tick, "auto_connect": system.auto_connect, **({"fmu_end": "error"} if system.fmu_end == "error" else {}),
             "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
                            **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {})}
                           for i in system.instances],

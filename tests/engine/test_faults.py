@@ -55,7 +55,8 @@ def test_each_manipulator_changes_the_signal_exactly_and_only_while_active(fmus,
 
 def test_a_delay_longer_than_the_history_s_trim_reads_its_own_lag(fmus, tmp_path):
     """300 ticks (3.6 s) back, past 8 s: the manipulator trims each target's history, never below the longest lag."""
-    t, x, _ = scenario_run(fmus, tmp_path, {"action": "delay", "value": 300, "start": 0.0, "end": 100.0}, stop=8.0)
+    # 667 whole ticks: at 8.0 s the run would end with a shorter last step, whose sample is 300 samples, not 3.6 s, on
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "delay", "value": 300, "start": 0.0, "end": 100.0}, stop=8.004)
     late = t >= 300 * T
     assert t[-1] > 7.9 and np.allclose(x[late], truth(t[late] - 300 * T), rtol=0, atol=1e-12)
     assert np.array_equal(x[~late], np.full((~late).sum(), truth(0.0)))  # before 3.6 s: the oldest value there is

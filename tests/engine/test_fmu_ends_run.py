@@ -91,3 +91,20 @@ def test_the_command_line_says_which_fmu_ended_the_run_and_exits_0(counter, tmp_
     said = said.out + said.err
     assert code == 0, said
     assert "counter ended the run at t = 0.4 s" in said and "0.40 s simulated" in said
+
+
+@pytest.mark.parametrize("by_callback", [False, True])
+def test_a_system_that_takes_the_request_as_a_failure_fails_there(counter, tmp_path, by_callback):
+    """System.fmu_end "error" (the thesis's loop: its plant stops when its state diverges): the run fails at the request,
+    in the C loop and through its Python callback alike."""
+    version, fmu = counter
+    system = System(TICK, [Instance("counter", fmu, parameters={"limit": 2})], fmu_end="error")
+    ex = Execution(system)
+    ex.instantiate()
+    if by_callback:
+        ex.loop = NativeLoop(ex, by_callback=frozenset({"counter"}))
+    with pytest.raises(Exception) as err:
+        ex.end(1.0)
+    ex.close()
+    said = "doStep at t=0.2 s failed (discard)" if version == 2 else "the FMU asked to terminate the simulation at t=0.2 s"
+    assert said in str(err.value) and ex.ended_by is None

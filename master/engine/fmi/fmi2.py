@@ -93,7 +93,7 @@ class InProcessFmu(Binding):
         status = self._do_step(self.component, t, h, 1)
         self.fmi_seconds += time.perf_counter() - started
         if status == 2 and self._terminated():  # fmi2Discard, and the FMU says it ended the simulation
-            raise FmuEndedRun(self.name, self._last_successful_time(t))
+            raise FmuEndedRun(self.name, self._last_successful_time(t), self.failed(f"doStep at t={t:.6g} s", status))
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
 

@@ -109,7 +109,8 @@ class Plan(ctypes.Structure):
                 ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
                 ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
                 ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p), ("stop_time", ctypes.c_double),
-                ("closing", ctypes.c_int), ("ended_instance", ctypes.c_int), ("ended_time", ctypes.c_double)]
+                ("closing", ctypes.c_int), ("ended_instance", ctypes.c_int), ("ended_time", ctypes.c_double),
+                ("ends_allowed", ctypes.c_int)]
 
 
 # the structs tl_loop.h shares, by their C names (layout.check compares each with the library's layout)

@@ -165,6 +165,7 @@ class NativeLoop(FaultPlan):
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
                                 ticks_done=execution.ticks_done, slots=self.slots, profile=Profile(int(execution.profile)),
                                 record_capacity=chunk)
+        self.plan.ends_allowed = int(execution.system.fmu_end == "end")
         self._index = index
         self._bound = self._binding()
         self._plan_faults(manipulator)
@@ -198,6 +199,8 @@ class NativeLoop(FaultPlan):
             try:
                 slave.do_step(t, h)
             except FmuEndedRun as end:  # not a failure: its outputs there are its last valid ones (edges.py)
+                if not self.plan.ends_allowed:
+                    raise end.failure from None
                 slave.read_outputs()
                 self.plan.ended_time = end.time
                 return 2
@@ -324,6 +327,9 @@ class NativeLoop(FaultPlan):
             return self._scheduled_error(slave, kind, t)
         if kind == ErrorKind.DO_STEP:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
+        if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"
+            h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
+            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
         if kind == ErrorKind.SET:
             group = self.ex.groups[self.names[p.error_instance]][p.error_group]
             return slave.failed(f"set{name(group.type)} from {group.source} at t={t:.6g} s", p.error_status)

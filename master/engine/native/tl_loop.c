@@ -462,6 +462,10 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
         bool event_needed = false, terminate = false, early_return = false;
         double last_time = t;
         status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
+        if (status <= 1 && terminate && !plan->ends_allowed) {
+            fail(plan, TL_ERROR_TERMINATED_IN_STEP, i, status, -1, -1, t);
+            return 1;
+        }
         if (status <= 1 && terminate) { /* the run ends at the step's end (or where it returned early), as FMPy's */
             plan->ended_instance = i;
             plan->ended_time = early_return && last_time < t + h ? last_time : t + h;
@@ -471,7 +475,7 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
         status = in->do_step(in->component, t, h, 1);
         int terminated = 0;
         double last_time = t + h;
-        if (status == TL_DISCARD && in->boolean_status != NULL && in->boolean_status(in->component, TL_TERMINATED, &terminated) <= 1 &&
+        if (status == TL_DISCARD && plan->ends_allowed && in->boolean_status != NULL && in->boolean_status(in->component, TL_TERMINATED, &terminated) <= 1 &&
             terminated) { /* fmi2Discard, fmi2Terminated: the run ends at the last successful time, as FMPy's */
             if (in->real_status == NULL || in->real_status(in->component, TL_LAST_SUCCESSFUL_TIME, &last_time) > 1) last_time = t;
             plan->ended_instance = i;

@@ -230,7 +230,9 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(int, closing)                 /* set by tl_close while it takes the closing samples (no step is shortened) */ \
     F(int, ended_instance)          /* >= 0: this instance asked to end the run (FMI 2.0 fmi2Terminated, FMI 3.0 \
                                        terminateSimulation from doStep); its last outputs were recorded; -1: none */ \
-    F(double, ended_time)           /* the time it ended the run at (the step callback sets it before returning 2) */
+    F(double, ended_time)           /* the time it ended the run at (the step callback sets it before returning 2) */ \
+    F(int, ends_allowed)            /* 1: such a request ends the run; 0: it fails it (TL_ERROR_TERMINATED_IN_STEP, or \
+                                       fmi2Discard's TL_ERROR_DO_STEP) */
 typedef struct { TL_PLAN_FIELDS(TL_FIELD, TL_ARRAY) } tl_plan;
 
 /* Run up to n ticks; stop early after an error (error_kind != TL_ERROR_NONE). Returns the ticks run. */
