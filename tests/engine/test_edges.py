@@ -168,3 +168,17 @@ def test_no_channel_has_two_samples_at_one_time(every_fmu_set, tmp_path, scenari
     res = run_system(system, 0.24, tmp_path / "run.mcap", progress=False)
     assert res.error is None
     assert_one_sample_a_tick(tmp_path / "run.mcap", LOOP, 0.24, 20)
+
+
+def test_an_isolated_fmu_follows_the_same_rule(fmus, tmp_path):
+    """The controller in a worker process of its own (stepped through the loop's Python callback): the same samples, the
+    same values, as in this process."""
+    logs = {}
+    for where, isolate in (("here", None), ("worker", lambda fmu, md: "Controller" in fmu.name)):
+        res = run_system(default_system(fmus, "zse", 1, "mixed"), 0.24, tmp_path / f"{where}.mcap", progress=False,
+                         isolate=isolate)
+        assert res.error is None
+        logs[where] = assert_one_sample_a_tick(tmp_path / f"{where}.mcap", LOOP, 0.24, 20)
+    for name in LOOP:
+        for field, values in logs["here"][name][1].items():
+            np.testing.assert_array_equal(logs["worker"][name][1][field], values, err_msg=f"{name}.{field}")
