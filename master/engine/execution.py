@@ -140,8 +140,14 @@ class Execution:
         snapshot resume was taken)."""
         from . import snapshot
 
-        for spec in self.system.instances:
-            self.instances[spec.name].initialize(spec.parameters)
+        order = edges.propagation_order(self.system, self.links) if resume is None else []
+        for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
+            inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
+            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
+                inst.initialize(spec.parameters, connect=lambda name=spec.name: self._connect_initial(name))
+                order.remove(spec.name)
+            else:
+                inst.initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
         self.resumed_at = None
         self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
@@ -149,7 +155,7 @@ class Execution:
             snapshot.restore(self, resume)
             self.resumed_at = resume.time
         else:
-            self._propagate()
+            self._propagate(order)
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
@@ -161,20 +167,25 @@ class Execution:
             snapshot.restore_observers(self, resume)
         self._held = self._values() if self.stepwise_observers() else None
 
-    def _propagate(self) -> None:
-        """After initialization: the connected inputs of every instance whose outputs are logged at t = 0 set from their
-        sources' outputs, sources first (edges.propagation_order), its outputs read again, so that a feedthrough FMU's
-        sample at t = 0 holds the connected values. An FMI 3.0 FMU with clocks or discrete connected inputs (settable in
-        Event Mode only) is left as initialized."""
-        for name in edges.propagation_order(self.system, self.links):
+    def _connect_initial(self, name: str) -> None:
+        """An instance's connected inputs set from its sources' outputs now (their values at t = 0)."""
+        for g in self.groups.get(name, ()):
+            g.view[:] = self.instances[g.source].values[g.type][g.src_index]
+        self.set_gathered_inputs(name, 0.0)
+
+    def _propagate(self, order: list[str]) -> None:
+        """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
+        Initialization Mode (an FMI 2.0 FMU in this process is: Execution._initialize): their connected inputs set
+        after it, their outputs read again (an FMU that computes its outputs when they are read shows the connected
+        values at t = 0; an FMU in another process sends its outputs with its first step: its sample at 0 stays). An FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left
+        as initialized."""
+        for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())
             kinds = getattr(inst, "input_kind", {})
             if not groups or getattr(inst, "clocked", False) or any(
                     kinds.get((g.type, vr), "continuous") != "continuous" for g in groups for vr in g.dst_vrs):
                 continue
-            for g in groups:
-                g.view[:] = self.instances[g.source].values[g.type][g.src_index]
-            self.set_gathered_inputs(name, 0.0)
+            self._connect_initial(name)
             inst.read_outputs()
 
     def stop_plan(self, stop: float) -> edges.StopPlan:

@@ -17,7 +17,7 @@ from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.log.logger import McapLogger
 from tiltload.master.engine.native.loop import NativeLoop
 from tiltload.master.engine.run import run_system
-from tiltload.master.engine.system import Instance, System
+from tiltload.master.engine.system import Connection, Instance, System
 
 TICK = 0.1
 
@@ -108,3 +108,18 @@ def test_a_system_that_takes_the_request_as_a_failure_fails_there(counter, tmp_p
     ex.close()
     said = "doStep at t=0.2 s failed (discard)" if version == 2 else "the FMU asked to terminate the simulation at t=0.2 s"
     assert said in str(err.value) and ex.ended_by is None
+
+
+def test_a_feedthrough_fmus_sample_at_zero_holds_its_connected_input(counter, tmp_path):
+    """source.x -> sink.u, sink.y = u: the sink's sample at t = 0 is the source's x at 0 (1.5), not u's start value (0),
+    and after that y at t_(k+1) is the x at t_(k+1) the source output in the same tick."""
+    version, fmu = counter
+    system = System(TICK, [Instance("source", fmu, parameters={"first": 3, "limit": 100}),
+                           Instance("sink", fmu, parameters={"limit": 100})], auto_connect=False)
+    system.connections = [Connection("source.x", "sink.u")]
+    res = run_system(system, 0.3, tmp_path / "chain.mcap", progress=False)
+    assert res.error is None
+    columns, _ = log_reader.read_columns(tmp_path / "chain.mcap")
+    x, y = columns["/source"][1]["x"], columns["/sink"][1]["y"]
+    np.testing.assert_array_equal(columns["/sink"][0], columns["/source"][0])
+    assert list(x) == [1.5, 2.0, 2.5, 3.0] and list(y) == list(x)

@@ -68,10 +68,16 @@ class InProcessFmu(Binding):
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
         self.component = self.slave.component
 
-    def initialize(self, parameters: dict) -> None:
+    connects_in_initialization = True  # the master may set its connected inputs in Initialization Mode
+
+    def initialize(self, parameters: dict, connect=None) -> None:
+        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py), where the FMU's
+        outputs follow them (a feedthrough's sample at t = 0 holds the connected values)."""
         self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
         self.call("enterInitializationMode", self.slave.enterInitializationMode)
         self.set_parameters(parameters)
+        if connect is not None:
+            connect()
         self.call("exitInitializationMode", self.slave.exitInitializationMode)
         self.read_outputs()
 

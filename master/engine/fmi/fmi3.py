@@ -214,9 +214,17 @@ class Fmu3Slave(Binding):
         if status > 1:
             raise self.failed(f"{what} at t={t:.6g} s", status)
 
-    def initialize(self, parameters: dict) -> None:
+    @property
+    def connects_in_initialization(self) -> bool:
+        """The master may set its connected inputs in Initialization Mode (initialize's connect): without clocks."""
+        return not self.clocked
+
+    def initialize(self, parameters: dict, connect=None) -> None:
+        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py; not with clocks)."""
         self.call("enterInitializationMode", lambda: self.fmu.enterInitializationMode(startTime=0.0))
         self.set_parameters(parameters)
+        if connect is not None and not self.clocked:
+            connect()
         if self.clocked:  # clocked outputs are accessible at initialization, not in Event Mode before their clock ticks
             self._read(self._reads + [e for es in self._clocked_outputs.values() for e in es], "get at initialization")
         self.call("exitInitializationMode", self.fmu.exitInitializationMode)

@@ -20,7 +20,8 @@ def _prepare(folder: Path, progress) -> Prepared:
                  Variable("y", "Real", "output", 0.0, "u, fed through"),
                  Variable("u", "Real", "input", 0.0, "an input fed through to y"),
                  Variable("gain", "Real", "parameter", 0.5, "x per count"),
-                 Variable("limit", "Integer", "parameter", 5, "the count at which it ends the simulation")]
+                 Variable("limit", "Integer", "parameter", 5, "the count at which it ends the simulation"),
+                 Variable("first", "Integer", "parameter", 0, "the count after initialization")]
     definition = FmuDefinition("TiltloadTestCounter", "a counter that ends the simulation", variables, "counter_model.h",
                                (0.0, 1.0, 0.1))
     return Prepared(definition, NativeSources(SOURCES))

@@ -14,7 +14,7 @@ TlStatus tl_model_outputs(TlInstance* c) {
 }
 
 TlStatus tl_model_initialize(TlInstance* c) {
-  c->s.integer[TL_INTEGER_count] = 0;
+  c->s.integer[TL_INTEGER_count] = c->s.integer[TL_INTEGER_first];
   return tl_model_outputs(c);
 }
 
