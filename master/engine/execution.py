@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import connections
+from . import connections, edges
 from .errors import DescriptionError
 from .fmi.model_description import checked_value, read_fmu, steps_every
 from .fmi.slave import C_TYPES, Slave
@@ -104,6 +104,7 @@ class Execution:
         self.manipulator = None
         self.loop: NativeLoop | None = None
         self.resumed_at: float | None = None  # the time of the snapshot this run continues from
+        self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
         self._held: dict | None = None  # the outputs at the end of the last batch replayed (deliver)
         if system.faults:
             from .faults.apply import Manipulator
@@ -139,13 +140,22 @@ class Execution:
         snapshot resume was taken)."""
         from . import snapshot
 
-        for spec in self.system.instances:
-            self.instances[spec.name].initialize(spec.parameters)
+        order = edges.propagation_order(self.system, self.links) if resume is None else []
+        for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
+            inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
+            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
+                inst.initialize(spec.parameters, connect=lambda name=spec.name: self._connect_initial(name))
+                order.remove(spec.name)
+            else:
+                inst.initialize(spec.parameters)
         self.time, self.ticks_done = 0.0, 0
         self.resumed_at = None
+        self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
         if resume is not None:
             snapshot.restore(self, resume)
             self.resumed_at = resume.time
+        else:
+            self._propagate(order)
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
@@ -156,6 +166,31 @@ class Execution:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)
         self._held = self._values() if self.stepwise_observers() else None
+
+    def _connect_initial(self, name: str) -> None:
+        """An instance's connected inputs set from its sources' outputs now (their values at t = 0)."""
+        for g in self.groups.get(name, ()):
+            g.view[:] = self.instances[g.source].values[g.type][g.src_index]
+        self.set_gathered_inputs(name, 0.0)
+
+    def _propagate(self, order: list[str]) -> None:
+        """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
+        Initialization Mode (an FMU in this process without clocks is: Execution._initialize): their connected inputs
+        set after it, their outputs read again (an FMU that computes its outputs when they are read shows the connected
+        values at t = 0; an FMU in another process sends its outputs with its first step: its sample at 0 stays). An
+        FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as initialized."""
+        for name in order:
+            inst, groups = self.instances[name], self.groups.get(name, ())
+            kinds = getattr(inst, "input_kind", {})
+            if not groups or getattr(inst, "clocked", False) or any(
+                    kinds.get((g.type, vr), "continuous") != "continuous" for g in groups for vr in g.dst_vrs):
+                continue
+            self._connect_initial(name)
+            inst.read_outputs()
+
+    def stop_plan(self, stop: float) -> edges.StopPlan:
+        """Where a run asked to stop at `stop` ends (edges.stop_plan): its note, if any, is for the user before the run."""
+        return edges.stop_plan(stop, self.system.tick, edges.variable_steps(self._mds))
 
     def _values(self) -> dict[str, dict[str, np.ndarray]]:
         """Every instance's output values now (a copy): what a per-step observer sees of an instance that has not
@@ -234,10 +269,25 @@ class Execution:
         self.loop.run(1)
 
     def run(self, stop: float, realtime=None) -> None:
-        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py)."""
+        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py). Nothing
+        once an FMU ended the run (ended_by)."""
         n = int(round(stop / self.system.tick))
-        if self.ticks_done < n:
+        if self.ticks_done < n and self.ended_by is None:
             self.loop.run(n - self.ticks_done, realtime)
+
+    def end(self, stop: float, realtime=None) -> None:
+        """The run's last stretch: to the end of stop_plan(stop) (a shorter last step, or the nearest tick), then the
+        closing samples there (edges.py); the execution's time is then the run's end."""
+        plan = self.stop_plan(stop)
+        self.loop.plan.stop_time = plan.end if plan.shortened else 0.0
+        try:
+            if self.ticks_done < plan.ticks and self.ended_by is None:
+                self.loop.run(plan.ticks - self.ticks_done, realtime)
+        finally:
+            self.loop.plan.stop_time = 0.0
+        if self.ticks_done == plan.ticks and self.ended_by is None:
+            self.loop.close(plan.end)
+            self.time = plan.end
 
     def finish(self, error: str | None = None) -> None:
         """Finish the observers (the log first: its last chunks and summary written); safe to call twice."""

@@ -33,6 +33,7 @@ class RunResult:
     signal: int | None = None  # the signal that interrupted the run (SIGINT 2, SIGTERM 15)
     failure: BaseException | None = None  # what ended the run early (one of the plan's outcomes), its own words
     setup: float = 0.0  # s from the plan's start to the first step (instantiation or restart)
+    ended_by: tuple[str, float] | None = None  # (instance, time): an FMU ended the run there (not an error: edges.py)
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ def structure(system: System, isolate: IsolationPolicy | None, step_timeout: flo
     their instances, periods and hosts, the connections, the tick and where the FMUs run."""
     instances = tuple((i.name, str(i.fmu), i.period, i.timing, i.remote, str(i.token_file), i.fmi) for i in system.instances)
     wires = tuple((c.source, c.target, c.delay) for c in system.connections)
-    return system.tick, instances, wires, system.auto_connect, isolate, step_timeout
+    return system.tick, instances, wires, system.auto_connect, system.fmu_end, isolate, step_timeout
 
 
 class ExecutionPool:
@@ -187,19 +188,20 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
         else:
             ex.close(error)  # a failure outside the run's outcomes
     return RunResult(plan.metrics.table() if plan.metrics else {}, Path(plan.log) if plan.log is not None else None,
-                     ex.ticks_done, ex.time, time.perf_counter() - started, error, signum, failure, setup)
+                     ex.ticks_done, ex.time, time.perf_counter() - started, error, signum, failure, setup,
+                     getattr(ex, "ended_by", None))
 
 
 def _advance(ex: Execution, plan: RunPlan) -> None:
-    """To the stop time, through the checkpoints; with plan.segment, in calls that end on its multiples."""
+    """To the stop time, through the checkpoints; with plan.segment, in calls that end on its multiples; then the run's
+    end (Execution.end: a shorter last step or the nearest tick, and the closing samples)."""
     for t, fn in sorted(plan.checkpoints, key=lambda c: c[0]):
         if t <= plan.stop:
             ex.run(t, plan.realtime)
             fn(ex)
-    if plan.segment is None:
-        ex.run(plan.stop, plan.realtime)
-        return
-    tick = ex.system.tick
-    n = int(round(plan.stop / tick))
-    while ex.ticks_done < n:
-        ex.run(min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
+    if plan.segment is not None:
+        tick = ex.system.tick
+        n = ex.stop_plan(plan.stop).ticks - 1  # the last tick, possibly shortened, is the end's
+        while ex.ticks_done < n:
+            ex.run(min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
+    ex.end(plan.stop, plan.realtime)

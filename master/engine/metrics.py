@@ -72,6 +72,8 @@ class Metrics(Observer):
         self._fixed = tuple(a.ctypes.data for a in (self._sizes, self._cols))
 
     def on_batch(self, execution, batch: Batch) -> None:
+        if batch.closing:  # the samples at the run's end (edges.py) start no tick: the sums run over [0, T)
+            return
         if self._who is None or self._who[1] is not batch.names:
             names = batch.names
             self._who = (np.array([names.index(self.plant), names.index(self.reference), names.index(self.actuators)],

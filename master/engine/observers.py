@@ -34,6 +34,7 @@ class Batch:
     row: np.ndarray
     rows: dict[str, dict[str, np.ndarray]]
     events: list = field(default_factory=list)
+    closing: bool = False  # the run's closing samples at its end (edges.py): steps at tick first_tick, none of them a tick
 
     def positions(self, name: str) -> np.ndarray:
         """The records of one instance, in order."""
@@ -47,7 +48,7 @@ class Batch:
             rows[name] = {typ: r[:n] for typ, r in self.rows[name].items()}
         ticks = int(self.tick[cut - 1]) - self.first_tick + 1 if cut else 0
         return Batch(self.first_tick, ticks, self.names, self.instance[:cut], self.tick[:cut], self.time[:cut], self.row[:cut],
-                     rows, [e for e in self.events if e[0] < cut])
+                     rows, [e for e in self.events if e[0] < cut], self.closing)
 
     def latest_before(self, name: str, positions: np.ndarray) -> np.ndarray:
         """For each record position, the row of the named instance's last record before it (-1: none in this batch)."""
@@ -121,26 +122,31 @@ def _replay(execution, batch: Batch, observers, held: dict | None) -> dict:
         for typ, values in slave.values.items():
             values[:] = held[name][typ]
     events = iter(batch.events)
-    event = next(events, None)
+    pending = [next(events, None)]  # the next fault event
     tick_of, tick = batch.tick, execution.system.tick
+
+    def deliver(p: int) -> None:
+        """Record p to the observers, the fault events before it first."""
+        while pending[0] is not None and pending[0][0] <= p:
+            for obs in observers:
+                obs.on_fault(*pending[0][1:])
+            pending[0] = next(events, None)
+        i = int(batch.instance[p])
+        slave, rows = slaves[i], batch.rows[batch.names[i]]
+        for typ, values in slave.values.items():
+            values[:] = rows[typ][batch.row[p]]
+        try:
+            for obs in observers:
+                obs.on_step(slave, float(batch.time[p]))
+        except BaseException as err:
+            raise _Stopped(p + 1) from err
+
     p, n = 0, len(batch.instance)
     try:
         for k in range(batch.first_tick, batch.first_tick + batch.ticks):
             execution.ticks_done, execution.time = k, k * tick  # where the observers see the run: an exception stops it here
             while p < n and tick_of[p] == k:
-                while event is not None and event[0] <= p:
-                    for obs in observers:
-                        obs.on_fault(*event[1:])
-                    event = next(events, None)
-                i = int(batch.instance[p])
-                slave, rows = slaves[i], batch.rows[batch.names[i]]
-                for typ, values in slave.values.items():
-                    values[:] = rows[typ][batch.row[p]]
-                try:
-                    for obs in observers:
-                        obs.on_step(slave, float(batch.time[p]))
-                except BaseException as err:
-                    raise _Stopped(p + 1) from err
+                deliver(p)
                 p += 1
             execution.ticks_done, execution.time = k + 1, (k + 1) * tick
             try:
@@ -148,10 +154,13 @@ def _replay(execution, batch: Batch, observers, held: dict | None) -> dict:
                     obs.on_tick(k + 1, (k + 1) * tick)
             except BaseException as err:
                 raise _Stopped(p) from err
-        while event is not None:  # faults that started in a call that then failed
+        while batch.closing and p < n:  # a closing batch's samples (edges.py): steps at the run's end, after its last tick
+            deliver(p)
+            p += 1
+        while pending[0] is not None:  # faults that started in a call that then failed
             for obs in observers:
-                obs.on_fault(*event[1:])
-            event = next(events, None)
+                obs.on_fault(*pending[0][1:])
+            pending[0] = next(events, None)
     finally:
         for slave, values in zip(slaves, live):
             for typ, v in values.items():

@@ -21,7 +21,9 @@ class Instance:
     fmu: Path
     period: float | None = None  # s; None: the tick
     parameters: dict[str, object] = field(default_factory=dict)
-    timing: str = "sample"  # "sample": outputs of doStep(t) hold the value at t; "continuous": they are at t + h
+    # when the outputs after doStep(t, h) belong (edges.py): "continuous", at t + h (FMI's rule, the default); "sample", at
+    # t (a sampled-data element that computes them at its step's start and holds them; it gets a closing sample at T)
+    timing: str = "continuous"
     remote: str | None = None  # "HOST:PORT": the FMU runs on the `tiltload serve` there (fmu is the local copy it must match)
     token_file: Path | None = None  # the shared secret for remote: the run's, never written into a description
     fmi: int | None = None  # the FMI version the description names (2 or 3; checked against the FMU), None: any
@@ -41,6 +43,9 @@ class System:
     connections: list[Connection] = field(default_factory=list)  # explicit; the rest by unique name
     auto_connect: bool = True
     faults: list = field(default_factory=list)  # faults.schedule.Fault: injected between outputs and inputs
+    # an FMU asking to end the simulation (edges.py): "end" ends the run there, as FMPy does; "error" fails it (a loop
+    # whose plant stops when its state diverges: the thesis's)
+    fmu_end: str = "end"
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -112,6 +117,7 @@ SCHEMA = {
     "properties": {
         "tick": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
         "auto_connect": {"type": "boolean"},
+        "fmu_end": {"enum": ["end", "error"]},
         "instances": {"type": "array", "minItems": 1, "items": {
             "type": "object", "additionalProperties": False, "required": ["name", "fmu"],
             "properties": {
@@ -155,9 +161,10 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "sample"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
+                              i.get("timing", "continuous"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
-        system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)))
+        system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)),
+                        fmu_end=data.get("fmu_end", "end"))
         if "faults" in data:
             from .faults.parse import parse
 
@@ -170,7 +177,7 @@ def load(path: Path) -> System:
 
 
 def save(system: System, path: Path) -> Path:
-    data = {"tick": system.tick, "auto_connect": system.auto_connect,
+    data = {"tick": system.tick, "auto_connect": system.auto_connect, **({"fmu_end": "error"} if system.fmu_end == "error" else {}),
             "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
                            **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {})}
                           for i in system.instances],

@@ -21,12 +21,12 @@ W = math.pi / 20  # trajectory 1: x_ref = 2 cos(W t)
 
 def scenario_run(fmus, tmp_path, fault: dict, stop=1.2) -> tuple[np.ndarray, np.ndarray, list]:
     """The scenario FMU alone, one fault on x_ref: the logged x_ref at every tick, and the fault events."""
-    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
+    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False}, timing="sample")])
     system.faults = parse([{"target": "scenario.x_ref", "start": 0.36, "end": 0.72, **fault}])
     res = run_system(system, stop, tmp_path / "s.mcap", progress=False)
     assert res.error is None
     data = log_reader.read(res.log)
-    msgs = data["/scenario"][1:]  # after the t = 0 message: one per step
+    msgs = data["/scenario"][1:]  # a sample-timed FMU: one message a step, at its start, from t = 0 (skipped here) to T
     return np.array([m["t"] for m in msgs]), np.array([m["x_ref"] for m in msgs]), data["/faults"]
 
 
@@ -55,7 +55,8 @@ def test_each_manipulator_changes_the_signal_exactly_and_only_while_active(fmus,
 
 def test_a_delay_longer_than_the_history_s_trim_reads_its_own_lag(fmus, tmp_path):
     """300 ticks (3.6 s) back, past 8 s: the manipulator trims each target's history, never below the longest lag."""
-    t, x, _ = scenario_run(fmus, tmp_path, {"action": "delay", "value": 300, "start": 0.0, "end": 100.0}, stop=8.0)
+    # 667 whole ticks: at 8.0 s the run would end with a shorter last step, whose sample is 300 samples, not 3.6 s, on
+    t, x, _ = scenario_run(fmus, tmp_path, {"action": "delay", "value": 300, "start": 0.0, "end": 100.0}, stop=8.004)
     late = t >= 300 * T
     assert t[-1] > 7.9 and np.allclose(x[late], truth(t[late] - 300 * T), rtol=0, atol=1e-12)
     assert np.array_equal(x[~late], np.full((~late).sum(), truth(0.0)))  # before 3.6 s: the oldest value there is
@@ -72,7 +73,7 @@ def test_a_stale_for_ever_holds_the_first_value(fmus, tmp_path):
 
 def test_two_python_faults_on_one_target_keep_one_history_sample_a_tick(fmus, tmp_path):
     """A delay and a second fault on the same target: the delay still reads n ticks back, not n / 2."""
-    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False})])
+    system = System(T, [Instance("scenario", fmus / "TiltloadScenario.fmu", parameters={"gusts": False}, timing="sample")])
     system.faults = parse([{"target": "scenario.x_ref", "action": "delay", "value": 4, "start": 0.36, "end": 0.72},
                            {"target": "scenario.x_ref", "action": "bias", "value": 0.5, "start": 0.36, "end": 0.72}])
     res = run_system(system, 1.2, tmp_path / "two.mcap", progress=False)
@@ -109,7 +110,7 @@ def test_jitter_and_noise_drawn_in_c_are_numpy_s_draws(fmus, tmp_path, monkeypat
 
 
 def test_dropout_holds_the_last_sample_and_keeps_the_flag_down(fmus, tmp_path):
-    system = System(T, [Instance("sensors", fmus / "TiltloadSensors.fmu")])
+    system = System(T, [Instance("sensors", fmus / "TiltloadSensors.fmu", timing="sample")])
     system.faults = parse([{"action": "dropout", "targets": ["sensors.meas_x_B", "sensors.meas_y_B"], "flag": "sensors.gps_new",
                             "start": 0.5, "end": 1.0}])
     res = run_system(system, 1.5, tmp_path / "d.mcap", progress=False)

@@ -38,21 +38,23 @@ def protobuf_messages(path: Path, topic: str) -> list:
 
 
 def test_every_logged_value_is_what_the_fmu_output(fmus, tmp_path):
-    """ZSE loop, 1.2 s: the last message of each instance, decoded by protobuf, equals the instance's outputs."""
+    """ZSE loop, 1.2 s: the last message of each instance, decoded by protobuf, equals the instance's outputs; every
+    channel has one message a tick from 0 to 1.2 s (docs/master.md, "Signals at a run's edges")."""
     log = tmp_path / "run.mcap"
     ex = Execution(default_system(fmus, "zse", 1, "mixed"), [McapLogger(log, derived=scene_channels("plant"))])
     ex.instantiate()
-    ex.run(1.2)
+    ex.end(1.2)
     final = {name: {v.name: inst.values[t][i] for t in ("Real", "Integer", "Boolean") for i, v in enumerate(inst.outputs[t])}
              for name, inst in ex.instances.items()}
     ex.close()
     ours = log_reader.read(log)
     for name, values in final.items():
         pb = protobuf_messages(log, f"/{name}")
-        assert len(pb) == len(ours[f"/{name}"]) == 101  # t = 0, then 100 steps
+        assert len(pb) == len(ours[f"/{name}"]) == 101  # 0, 0.012, ..., 1.2
+        assert [m["t"] for m in ours[f"/{name}"]] == pytest.approx([k * 0.012 for k in range(101)], abs=1e-12), name
         for key, value in values.items():
             assert getattr(pb[-1], key) == value == ours[f"/{name}"][-1][key], (name, key)
-    assert math.isclose(ours["/plant"][-1]["t"], 1.2) and ours["/controller"][-1]["t"] == pytest.approx(1.188)
+    assert math.isclose(ours["/plant"][-1]["t"], 1.2) and ours["/controller"][-1]["t"] == pytest.approx(1.2)
     assert len(ours["/scene"]) == 26  # every 4th plant step: 21 Hz
 
 

@@ -77,7 +77,8 @@ def test_the_command_line_branches_a_run_at_a_snapshot(fmus, tmp_path, capsys):
     assert main(["run", "--from-snapshot", str(tmp_path / "s.snapshot"), "--name", "rest", *common]) == 0
     assert "continuing from" in capsys.readouterr().out
     a, b = messages(tmp_path / "whole.mcap"), messages(tmp_path / "rest.mcap")
-    assert b["/plant"] == a["/plant"][-len(b["/plant"]):] and len(b["/plant"]) == 166
+    # 4 s is 333.33 ticks: the run ends at the first tick after it (334, 4.008 s), 167 steps after the snapshot's tick 167
+    assert b["/plant"] == a["/plant"][-len(b["/plant"]):] and len(b["/plant"]) == 167
     # a branch: another fault from the snapshot on, another stop time
     faults = tmp_path / "f.json"
     faults.write_text(json.dumps([{"action": "scale", "target": "plant.f_L", "value": 0.7, "start": 2.5}]))

@@ -178,6 +178,9 @@ def test_ordered_package_reproduces_tiltload_run_exactly(pipeline_fmus, packages
     system, stop, schedule = load(packages["zse", "ordered"], UNPACK)
     assert schedule == "ordered" and system.instance("controller").parameters["loop_delay_ticks"] == 0
     assert stop == pytest.approx(TICKS * TICK)
+    # what the loop's instances' outputs belong to, and what its plant's request to end is, survive the export
+    assert [i.timing for i in system.instances] == [i.timing for i in default_system(fmus, "zse", 1, "mixed").instances]
+    assert system.fmu_end == "error"
     ran = [run_system(s, stop, None, loop_metrics(), progress=False).metrics
            for s in (system, default_system(fmus, "zse", 1, "mixed"))]
     assert ran[0] == ran[1]

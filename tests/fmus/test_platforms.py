@@ -171,7 +171,8 @@ def test_the_closed_loop_on_win64_gives_linux_ise(unpacked, hosts, tmp_path, all
     plan, tracked = loop_plan(system, folders, LINUX64, tmp_path, seconds, every=25)
     linux = hosts("linux64").run(plan)
     win = windows.run(loop_plan(system, folders, WIN64, tmp_path, seconds, every=25)[0])
-    ours = run_system(system, seconds, None, loop_metrics(), progress=False)
+    # the C host runs round(40 / 0.012) = 3333 ticks; tiltload would end at the first tick after 40 s: the same ticks
+    ours = run_system(system, round(seconds / system.tick) * system.tick, None, loop_metrics(), progress=False)
     assert ours.error is None and ours.ticks == round(seconds / system.tick)
     for axis, vr in tracked.items():
         mine, native, windows_ise = ours.metrics[f"ISE({axis})"], linux.ise["plant", vr], win.ise["plant", vr]
@@ -326,8 +327,8 @@ def test_fmi3_clocked_sensors_and_scenario_on_aarch64_and_win64_equal_x86_64(fmi
     from tiltload.sensor_fmu.fmu_variables import channel_names
     from tiltload.sensor_fmu.suite import GROUPS
 
-    system = System(0.012, [Instance("scenario", fmi3_fmus["TiltloadScenario"], parameters={"trajectory": 2}),
-                            Instance("sensors", fmi3_fmus["TiltloadSensorsClocked"], parameters={"seed": 5})],
+    system = System(0.012, [Instance("scenario", fmi3_fmus["TiltloadScenario"], parameters={"trajectory": 2}, timing="sample"),
+                            Instance("sensors", fmi3_fmus["TiltloadSensorsClocked"], parameters={"seed": 5}, timing="sample")],
                     auto_connect=False)
     record = [("scenario", "x_ref"), ("scenario", "z_ref")] + [("sensors", n) for g in GROUPS for n in channel_names(g)]
     ticks = round(1.2 / system.tick)

@@ -78,7 +78,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
     plan = RunPlan(system, stop, log, meta, tuple(scene_channels(scene)) if scene else (), options.log_every, metrics,
                    (monitor,) if monitor else (), not options.quiet, None if options.trust_fmus else is_foreign,
-                   options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say))
+                   options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say, stop))
     result = run_plan(plan, pool)
     _say_results(result, snap, monitor, pacer, log, say, beside_run(opts, stop))
     outcome = _outcome(options, opts, meta, result, log, monitor, say)
@@ -87,8 +87,12 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     return outcome
 
 
-def _announce(execution, say: Say) -> None:
-    """Before the first step: the inputs nothing feeds (a misspelt port shows up here), the instances run elsewhere."""
+def _announce(execution, say: Say, stop: float) -> None:
+    """Before the first step: where the run ends if not at the stop time asked (engine/edges.py), the inputs nothing
+    feeds (a misspelt port shows up here), the instances run elsewhere."""
+    note = execution.stop_plan(stop).note
+    if note:
+        say(note)
     if execution.unconnected:
         say(f"unconnected inputs, held for the whole run: {', '.join(execution.unconnected)}")
     remote = [i for i in execution.system.instances if i.remote]
@@ -188,7 +192,10 @@ def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesi
     """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
     verdicts, the pacer's overruns and where the log went."""
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
-    say(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
+    if getattr(result, "ended_by", None):
+        say(f"{result.ended_by[0]} ended the run at t = {result.ended_by[1]:.6g} s (the FMU asked to terminate the simulation)")
+    shown = f"{simulated:.2f}" if abs(simulated - round(simulated, 2)) < 1e-9 else f"{simulated:.6g}"  # never rounded
+    say(f"{shown} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
         + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
         what, values = thesis

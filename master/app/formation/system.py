@@ -42,8 +42,8 @@ def formation_system(fmu_dir: Path, controller: str = "backstepping", disturbanc
         params["disturbance_start"] = DISTURBANCE_START
         for a, values in ACCELERATION_DISTURBANCES.items():
             params.update({f"{a}_a{ax}_disturbance": v for ax, v in zip("xyz", values)})
-    instances = [Instance("formation", fmu_dir / "FormationController.fmu", parameters=params)]
-    instances += [Instance(f"tracker_{a}", fmu_dir / "TiltrotorTracker.fmu") for a in AGENTS]
+    instances = [Instance("formation", fmu_dir / "FormationController.fmu", parameters=params, timing="sample")]
+    instances += [Instance(f"tracker_{a}", fmu_dir / "TiltrotorTracker.fmu", timing="sample") for a in AGENTS]
     instances += [Instance(f"plant_{a}", fmu_dir / "TiltrotorUAV.fmu", timing="continuous",
                            parameters={f"{ax}_0": float(v) for ax, v in zip("xyz", starts[a])}) for a in AGENTS]
     conns = []
@@ -57,4 +57,4 @@ def formation_system(fmu_dir: Path, controller: str = "backstepping", disturbanc
         for a, force in EXTERNAL_FORCES.items():
             faults += [Fault("override", [f"plant_{a}.d_{ax}"], DISTURBANCE_START, None, v, name=f"external force on {a}, {ax}")
                        for ax, v in zip("xyz", force) if v]
-    return System(TICK, instances, conns, auto_connect=False, faults=faults)
+    return System(TICK, instances, conns, auto_connect=False, faults=faults, fmu_end="error")  # a diverged plant fails

@@ -76,9 +76,10 @@ def default_system(fmu_dir: Path, scenario: str = defaults.SCENARIO, trajectory:
     if controller_fmu is None:
         known = {**plant_start} if vehicle == "load" else {}  # the load's LKF knows the start (Sec. 5.3)
         ctrl = Instance(CONTROLLER, fmu_dir / named(loop.controller),
-                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **known}, fmi=fmi)
+                        parameters={"controller": controller, "estimator": SCENARIOS[scenario], **known}, fmi=fmi,
+                        timing="sample")
     else:
-        ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)))
+        ctrl = Instance(CONTROLLER, Path(controller_fmu), period=controller_period(Path(controller_fmu)), timing="sample")
     conns = [Connection(f"{CONTROLLER}.{u}", f"{PLANT}.{u}", delay=1) for u in COMMANDS] if delay else []
     if trajectory.knots:  # a mission's knot file goes into the machine's cache (the others need no folder)
         from ....controller_fmu.design.cache import cache_root
@@ -90,12 +91,14 @@ def default_system(fmu_dir: Path, scenario: str = defaults.SCENARIO, trajectory:
         scenario_parameters["gust_magnitude"] = loop.gust_magnitude
     if wind:
         scenario_parameters.update({"seed": seed, **wind})
+    # the sensors, the controller and the scenario compute their outputs at their step's start (timing "sample"), the
+    # plant's are at its step's end (docs/master.md, "Signals at a run's edges")
     return System(TICK, [
-        Instance(SCENARIO, fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters, fmi=fmi),
-        Instance(SENSORS, fmu_dir / named(loop.sensors), parameters={"seed": seed}, fmi=fmi),
+        Instance(SCENARIO, fmu_dir / "TiltloadScenario.fmu", parameters=scenario_parameters, fmi=fmi, timing="sample"),
+        Instance(SENSORS, fmu_dir / named(loop.sensors), parameters={"seed": seed}, fmi=fmi, timing="sample"),
         ctrl,
         Instance(PLANT, fmu_dir / loop.plant, parameters=plant_start, timing="continuous", fmi=fmi),
-    ], conns)
+    ], conns, fmu_end="error")  # the plant stops when its state diverges: for the loop, a failure
 
 
 def is_loop(system: System) -> bool:

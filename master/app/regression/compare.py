@@ -80,7 +80,11 @@ def load_metrics(path: Path, notes=None) -> tuple[dict[str, float], dict]:
         data, truncated = read_log(path, topics=["/plant", "/scenario", "/controller"])
         if not data.get("/controller") or not data.get("/plant"):
             raise DescriptionError(f"{path} has no metrics record and no loop messages (not a tiltload run of the thesis loop?)")
-        metrics, last = metrics_from_messages(data)
+        try:
+            end = float(meta["run"]["stop_time"])  # a closing sample is at or after it (engine/edges.py)
+        except (KeyError, TypeError, ValueError):
+            end = None
+        metrics, last = metrics_from_messages(data, end=end)
         if notes is not None:
             notes.append(f"{path} {'is truncated (no footer: a killed run)' if truncated else 'has no metrics record'}: "
                          f"metrics recomputed from its messages up to t = {last:.3f} s")

@@ -10,11 +10,13 @@ TRACKED = (("x", "x_ref"), ("y", "y_ref"), ("z", "z_ref"), ("psi", "psi_ref"))
 INPUTS = ("f_R", "f_L", "tau_R", "tau_L")
 
 
-def metrics_from_messages(data: dict[str, list[dict]], tick: float = 0.012) -> tuple[dict[str, float], float]:
-    """(metrics, the last controller time used) from the /plant, /scenario and /controller messages."""
+def metrics_from_messages(data: dict[str, list[dict]], tick: float = 0.012, end: float | None = None) -> tuple[dict[str, float], float]:
+    """(metrics, the last controller time used) from the /plant, /scenario and /controller messages. The controller's
+    messages are its steps, from t = 0 (engine/edges.py); end: the stop time the run was asked for, at or after which
+    a message is a closing sample, not a tick (None: every message is a tick's)."""
     plant = {round(m["t"], 6): m for m in data.get("/plant", [])}
     scenario = {round(m["t"], 6): m for m in data.get("/scenario", [])}
-    ctrl = data.get("/controller", [])[1:]  # the t = 0 message is the initial outputs, before any tick
+    ctrl = [m for m in data.get("/controller", []) if end is None or m["t"] < end - 1e-9]
     ise = dict.fromkeys(TRACKED, 0.0)
     iadu = dict.fromkeys(INPUTS, 0.0)
     prev, last = None, 0.0

@@ -21,6 +21,7 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 
+from ..errors import FmuEndedRun
 from .binaries import library_path
 from .binding import Binding, c_function
 from .pythonfmu_guard import pin
@@ -67,10 +68,16 @@ class InProcessFmu(Binding):
                 self._reads.append((t, self.getters[t], (ctypes.c_uint * n)(*self.out_vrs[t]), n, buf))
         self.component = self.slave.component
 
-    def initialize(self, parameters: dict) -> None:
+    connects_in_initialization = True  # the master may set its connected inputs in Initialization Mode
+
+    def initialize(self, parameters: dict, connect=None) -> None:
+        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py), where the FMU's
+        outputs follow them (a feedthrough's sample at t = 0 holds the connected values)."""
         self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
         self.call("enterInitializationMode", self.slave.enterInitializationMode)
         self.set_parameters(parameters)
+        if connect is not None:
+            connect()
         self.call("exitInitializationMode", self.slave.exitInitializationMode)
         self.read_outputs()
 
@@ -91,8 +98,22 @@ class InProcessFmu(Binding):
         started = time.perf_counter()
         status = self._do_step(self.component, t, h, 1)
         self.fmi_seconds += time.perf_counter() - started
+        if status == 2 and self._terminated():  # fmi2Discard, and the FMU says it ended the simulation
+            raise FmuEndedRun(self.name, self._last_successful_time(t), self.failed(f"doStep at t={t:.6g} s", status))
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
+
+    def _terminated(self) -> bool:
+        try:
+            return bool(self.slave.getBooleanStatus(3))  # fmi2Terminated
+        except Exception:
+            return False
+
+    def _last_successful_time(self, t: float) -> float:
+        try:
+            return float(self.slave.getRealStatus(2))  # fmi2LastSuccessfulTime
+        except Exception:
+            return t
 
     def get_state(self) -> bytes:
         def serialize():

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from fmpy.fmi3 import FMU3Slave
 
-from ..errors import ExecutionError
+from ..errors import ExecutionError, FmuEndedRun
 from .binding import Binding, c_function
 from .fmi3_state import Fmu3State
 from .model_description import clock_ticks, clocks_of
@@ -214,9 +214,17 @@ class Fmu3Slave(Binding):
         if status > 1:
             raise self.failed(f"{what} at t={t:.6g} s", status)
 
-    def initialize(self, parameters: dict) -> None:
+    @property
+    def connects_in_initialization(self) -> bool:
+        """The master may set its connected inputs in Initialization Mode (initialize's connect): without clocks."""
+        return not self.clocked
+
+    def initialize(self, parameters: dict, connect=None) -> None:
+        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py; not with clocks)."""
         self.call("enterInitializationMode", lambda: self.fmu.enterInitializationMode(startTime=0.0))
         self.set_parameters(parameters)
+        if connect is not None and not self.clocked:
+            connect()
         if self.clocked:  # clocked outputs are accessible at initialization, not in Event Mode before their clock ticks
             self._read(self._reads + [e for es in self._clocked_outputs.values() for e in es], "get at initialization")
         self.call("exitInitializationMode", self.fmu.exitInitializationMode)
@@ -315,10 +323,10 @@ class Fmu3Slave(Binding):
         self.fmi_seconds += time.perf_counter() - started
         if status > 1:
             raise self.failed(f"doStep at t={t:.6g} s", status)
-        event_needed, terminate, _, _ = self._step_out
-        if terminate.value:
-            raise ExecutionError(f"{self.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
+        event_needed, terminate, early, last = self._step_out
         self._event_asked = bool(event_needed.value)
+        if terminate.value:  # the run ends at the step's end (or where it returned early), as FMPy's
+            raise FmuEndedRun(self.name, last.value if early.value and last.value < t + h else t + h)
 
     def read_outputs(self) -> None:
         """The outputs after a step: those not clocked from the FMU, the clocked ones as read at their clock's last

@@ -13,6 +13,7 @@ from __future__ import annotations
 import ctypes
 import sys
 
+from ..errors import FmuEndedRun
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -92,7 +93,10 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                 sets, t, h = wire.decode_step(body, inputs, checked)
                 for typ, vrs, values, n in sets:
                     apply(typ, vrs, values, n, t)
-                inst.do_step(t, h)
+                try:
+                    inst.do_step(t, h)
+                except FmuEndedRun as end:  # the request is not passed on from here yet: the run fails, as it did
+                    raise end.failure from None
                 inst.read_outputs()
                 channel.send(wire.encode_outputs(inst.values, new_log()))
                 continue

@@ -1,9 +1,9 @@
 """MCAP logging (docs/master.md, "Logs"): one channel per FMU instance, log time = simulation time in ns.
 
-Every output of every instance is logged after each of its steps (and once at t = 0), or after
-every n-th step with `log_every`. Instance channels are protobuf messages of a fixed layout
-(log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN needs no special
-case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
+Every output of every instance is logged after each of its steps at the time it belongs to (and once at t = 0 after
+initialization, or at the closing samples: edges.py), or every n-th of those with `log_every`. Instance channels are
+protobuf messages of a fixed layout (log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN
+needs no special case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
 which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
 load), are JSON messages computed from one instance's outputs. The writer (log/writer.py) takes
 each call of the tick loop's messages at once and compresses beside the loop; the file is finalized
@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import edges
 from ..observers import Observer
 from . import provenance
 from .encoding import LAYOUT, FixedMessage, fits
@@ -117,12 +118,14 @@ class McapLogger(Observer):
                 "t": {"type": "number"}, "event": {"type": "string"}, "name": {"type": "string"}, "action": {"type": "string"},
                 "targets": {"type": "array"}, "value": {}, "start": {"type": "number"}, "end": {}}}, {})
         self._batch = MessageBatch()
-        if execution.resumed_at is None:
-            for inst in execution.instances.values():
-                self.on_step(inst, 0.0)
+        timing = {i.name: i.timing for i in execution.system.instances}
+        if execution.resumed_at is None:  # the outputs after initialization, of the instances whose sample at 0 they are
+            for name, inst in execution.instances.items():
+                if edges.logs_initial(timing[name]):
+                    self.on_step(inst, 0.0)
         else:  # a run continued from a snapshot logs from where it goes on, in the cadence of the uninterrupted run
-            for name in self._steps:  # the step at t = 0, then one per period of the ticks done
-                self._steps[name] = 1 + -(-execution.ticks_done // execution.every[name])
+            for name in self._steps:
+                self._steps[name] = edges.messages_before(timing[name], execution.ticks_done, execution.every[name])
         self._flush_batch()
 
     def _json_channel(self, topic: str, schema: dict, metadata: dict, name: str | None = None) -> int:

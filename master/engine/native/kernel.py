@@ -85,7 +85,8 @@ class Clocks(ctypes.Structure):
 
 class Instance(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
-                ("get", ctypes.c_void_p * TYPES), ("do_step3", ctypes.c_void_p), ("set3", ctypes.c_void_p * TYPES),
+                ("get", ctypes.c_void_p * TYPES), ("boolean_status", ctypes.c_void_p), ("real_status", ctypes.c_void_p),
+                ("do_step3", ctypes.c_void_p), ("set3", ctypes.c_void_p * TYPES),
                 ("get3", ctypes.c_void_p * TYPES), ("every", ctypes.c_int), ("continuous", ctypes.c_int),
                 ("by_callback", ctypes.c_int), ("fmi3", ctypes.c_int), ("booleans", ctypes.c_void_p),
                 ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
@@ -107,7 +108,9 @@ class Plan(ctypes.Structure):
                 ("n_faults", ctypes.c_int), ("faults", ctypes.POINTER(Fault)), ("fault_on", ctypes.c_void_p),
                 ("event_capacity", ctypes.c_int64), ("events", ctypes.c_int64), ("event_record", ctypes.c_void_p),
                 ("event_fault", ctypes.c_void_p), ("event_start", ctypes.c_void_p), ("event_time", ctypes.c_void_p),
-                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p)]
+                ("lateness", ctypes.c_void_p), ("overrun", ctypes.c_void_p), ("stop_time", ctypes.c_double),
+                ("closing", ctypes.c_int), ("ended_instance", ctypes.c_int), ("ended_time", ctypes.c_double),
+                ("ends_allowed", ctypes.c_int)]
 
 
 # the structs tl_loop.h shares, by their C names (layout.check compares each with the library's layout)
@@ -185,6 +188,8 @@ def library() -> ctypes.CDLL:
     layout.check(lib, STRUCTURES)
     lib.tl_run.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_run.restype = ctypes.c_int64
+    lib.tl_close.argtypes = [ctypes.POINTER(Plan), ctypes.c_double]
+    lib.tl_close.restype = ctypes.c_int
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_store_history.restype = None
     lib.tl_monotonic_ns.argtypes = []

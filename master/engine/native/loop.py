@@ -18,7 +18,7 @@ import ctypes
 
 import numpy as np
 
-from ..errors import ExecutionError
+from ..errors import ExecutionError, FmuEndedRun
 from ..fmi.fmi2 import InProcessFmu
 from ..fmi.fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS, Fmu3Slave
 from ..fmi.slave import TYPES
@@ -109,6 +109,8 @@ class NativeLoop(FaultPlan):
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
+                c.boolean_status = slave.function_pointer("fmi2GetBooleanStatus")  # asked after fmi2Discard only
+                c.real_status = slave.function_pointer("fmi2GetRealStatus")
             elif fmi3:
                 c.component = slave.component
                 if not getattr(slave, "scheduled", False):  # no fmi3DoStep in Scheduled Execution
@@ -163,6 +165,7 @@ class NativeLoop(FaultPlan):
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
                                 ticks_done=execution.ticks_done, slots=self.slots, profile=Profile(int(execution.profile)),
                                 record_capacity=chunk)
+        self.plan.ends_allowed = int(execution.system.fmu_end == "end")
         self._index = index
         self._bound = self._binding()
         self._plan_faults(manipulator)
@@ -193,7 +196,14 @@ class NativeLoop(FaultPlan):
         try:
             slave, name = self.slaves[i], self.names[i]
             self.ex.set_gathered_inputs(name, t)
-            slave.do_step(t, h)
+            try:
+                slave.do_step(t, h)
+            except FmuEndedRun as end:  # not a failure: its outputs there are its last valid ones (edges.py)
+                if not self.plan.ends_allowed:
+                    raise end.failure from None
+                slave.read_outputs()
+                self.plan.ended_time = end.time
+                return 2
             slave.read_outputs()
             return 0
         except BaseException as err:  # a failure, or Ctrl-C arriving while Python runs: the kernel stops, we re-raise
@@ -250,17 +260,45 @@ class NativeLoop(FaultPlan):
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
             failure = self._error() if self.plan.error_kind != _NO_ERROR else None
+            ended = int(self.plan.ended_instance)
+            batch = self._batch(first, done)
+            if ended >= 0:  # an FMU ended the run: its step's records are the run's last (edges.py)
+                self.ex.ended_by = (self.names[ended], float(self.plan.ended_time))
+                batch.closing = True
             try:
-                self.ex.deliver(self._batch(first, done))
+                self.ex.deliver(batch)
             except Exception as err:
                 if failure is not None:  # an observer tripping on the failed call's partial batch: the run's failure is the cause
                     raise failure from err
                 raise
             if failure is not None:
                 raise failure
+            if ended >= 0:
+                self.ex.time = self.ex.ended_by[1]
+                return
             if realtime is not None:
                 realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
             ticks -= done
+
+    def close(self, t: float) -> None:
+        """The run's closing samples at its end t (tl_close; edges.py), handed to the observers as a closing batch."""
+        self._queue.events = []
+        for clocked in self.clocked:
+            clocked.push()
+        failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
+        for clocked in self.clocked:
+            clocked.pull()
+        failure = self._error() if failed else None
+        batch = self._batch(int(self.plan.ticks_done), 0)
+        batch.closing = True
+        try:
+            self.ex.deliver(batch)
+        except Exception as err:
+            if failure is not None:
+                raise failure from err
+            raise
+        if failure is not None:
+            raise failure
 
     def _batch(self, first: int, done: int) -> Batch:
         r = int(self.plan.records)
@@ -289,12 +327,12 @@ class NativeLoop(FaultPlan):
             return self._scheduled_error(slave, kind, t)
         if kind == ErrorKind.DO_STEP:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
+        if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"
+            h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
+            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
         if kind == ErrorKind.SET:
             group = self.ex.groups[self.names[p.error_instance]][p.error_group]
             return slave.failed(f"set{name(group.type)} from {group.source} at t={t:.6g} s", p.error_status)
-        if kind == ErrorKind.TERMINATED_IN_STEP:
-            h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
-            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
         if kind in _EVENT_CALLS:
             return slave.failed(f"{_EVENT_CALLS[kind]} at t={t:.6g} s", p.error_status)
         if kind == ErrorKind.TERMINATED_IN_EVENT:

@@ -18,6 +18,8 @@
 
 static size_t width(int type) { return type == TL_REAL ? sizeof(double) : sizeof(int); }
 
+enum { TL_DISCARD = 2, TL_LAST_SUCCESSFUL_TIME = 2, TL_TERMINATED = 3 }; /* fmi2Discard; fmi2StatusKind's values */
+
 TL_EXPORT int64_t tl_monotonic_ns(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -460,13 +462,26 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
         bool event_needed = false, terminate = false, early_return = false;
         double last_time = t;
         status = in->do_step3(in->component, t, h, true, &event_needed, &terminate, &early_return, &last_time);
-        if (status <= 1 && terminate) {
+        if (status <= 1 && terminate && !plan->ends_allowed) {
             fail(plan, TL_ERROR_TERMINATED_IN_STEP, i, status, -1, -1, t);
             return 1;
+        }
+        if (status <= 1 && terminate) { /* the run ends at the step's end (or where it returned early), as FMPy's */
+            plan->ended_instance = i;
+            plan->ended_time = early_return && last_time < t + h ? last_time : t + h;
         }
         if (in->clocks != NULL) in->clocks->event_asked = event_needed;
     } else {
         status = in->do_step(in->component, t, h, 1);
+        int terminated = 0;
+        double last_time = t + h;
+        if (status == TL_DISCARD && plan->ends_allowed && in->boolean_status != NULL && in->boolean_status(in->component, TL_TERMINATED, &terminated) <= 1 &&
+            terminated) { /* fmi2Discard, fmi2Terminated: the run ends at the last successful time, as FMPy's */
+            if (in->real_status == NULL || in->real_status(in->component, TL_LAST_SUCCESSFUL_TIME, &last_time) > 1) last_time = t;
+            plan->ended_instance = i;
+            plan->ended_time = last_time;
+            status = 0;
+        }
     }
     if (status > 1) {
         fail(plan, TL_ERROR_DO_STEP, i, status, -1, -1, t);
@@ -479,6 +494,8 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
     double h = in->every * plan->tick;
+    int cut = !plan->closing && plan->stop_time > 0 && t + h > plan->stop_time + 1e-9 * plan->tick;
+    if (cut) h = plan->stop_time - t; /* the shorter last communication step: it ends at the stop time */
     for (int g = 0; g < in->n_groups; g++) gather(&in->groups[g], group_source(plan, &in->groups[g], k));
     if (plan->n_faults) apply_faults(plan, i, TL_INPUTS, t);
     if (in->hook_inputs && plan->hook_callback(i, TL_INPUTS, t) != 0) {
@@ -486,7 +503,10 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         return 1;
     }
     if (in->by_callback) {
-        if (plan->step_callback(i, t, h) != 0) {
+        int done = plan->step_callback(i, t, h);
+        if (done == 2) {
+            plan->ended_instance = i;
+        } else if (done != 0) {
             fail(plan, TL_ERROR_STEP_CALLBACK, i, 0, -1, -1, t);
             return 1;
         }
@@ -505,18 +525,39 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
-    if (plan->record_capacity > 0) record(plan, i, k, in->continuous ? t + h : t);
-    return 0;
+    /* the time the outputs belong to: the step's end (FMI's rule), or its start for an instance that computes them there */
+    double when = in->continuous ? (cut ? plan->stop_time : t + h) : t;
+    int ended = plan->ended_instance == i;
+    if (ended && in->continuous) when = plan->ended_time;
+    /* a step that ended the run without advancing (fmi2Discard: its last successful time is its start) has no sample:
+       the last valid one is logged already */
+    if (plan->record_capacity > 0 && !(ended && plan->ended_time <= t + 1e-9 * h)) record(plan, i, k, when);
+    return ended; /* an end asked for stops the tick here, without an error */
 }
 
-TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
+static void forget_records(tl_plan *plan) {
     plan->error_kind = TL_ERROR_NONE;
+    plan->ended_instance = -1;
     plan->records = 0;
     plan->events = 0;
     for (int i = 0; i < plan->n_instances; i++) {
         plan->rows[i] = 0;
         if (plan->instances[i].clocks != NULL) plan->instances[i].clocks->activations = 0;
     }
+}
+
+TL_EXPORT int tl_close(tl_plan *plan, double t) {
+    forget_records(plan);
+    plan->closing = 1;
+    int failed = 0;
+    for (int i = 0; i < plan->n_instances && !failed; i++)
+        if (!plan->instances[i].continuous) failed = step_instance(plan, i, plan->ticks_done, t);
+    plan->closing = 0;
+    return failed;
+}
+
+TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
+    forget_records(plan);
     int64_t done = 0;
     for (; done < n; done++) {
         int64_t k = plan->ticks_done;

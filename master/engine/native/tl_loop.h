@@ -22,6 +22,9 @@
 #include "tl_draw.h"
 
 typedef int (*tl_do_step_fn)(void *component, double t, double h, int no_set_prior);
+/* fmi2GetBooleanStatus and fmi2GetRealStatus: what an FMI 2.0 FMU says after a doStep that returned fmi2Discard */
+typedef int (*tl_boolean_status_fn)(void *component, int kind, int *value);
+typedef int (*tl_real_status_fn)(void *component, int kind, double *value);
 typedef int (*tl_set_fn)(void *component, const unsigned int *vrs, size_t n, const void *values);
 typedef int (*tl_get_fn)(void *component, const unsigned int *vrs, size_t n, void *values);
 /* FMI 3.0 (an FMU without clocks): the value arrays' length is passed too; fmi3Boolean is a C bool */
@@ -37,7 +40,7 @@ typedef int (*tl_update3_fn)(void *instance, bool *need_update, bool *terminate,
 /* FMI 3.0 Scheduled Execution: fmi3ActivateModelPartition */
 typedef int (*tl_activate3_fn)(void *instance, unsigned int clock, double t);
 /* Python callbacks: return 0 when done; any other value stops the run (the Python side keeps the reason). */
-typedef int (*tl_step_callback)(int instance, double t, double h);
+typedef int (*tl_step_callback)(int instance, double t, double h); /* 0 done, 1 failed, 2 the FMU ended the run */
 typedef int (*tl_hook_callback)(int instance, int side, double t); /* side: tl_side */
 
 /* Each struct below is declared by a table of its fields, F(type, name) or A(type, name, length) for an array, so that
@@ -159,6 +162,8 @@ typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
     F(tl_do_step_fn, do_step) \
     A(tl_set_fn, set, TL_TYPES) \
     A(tl_get_fn, get, TL_TYPES) \
+    F(tl_boolean_status_fn, boolean_status) /* FMI 2.0: asked after fmi2Discard whether the FMU ended the run (NULL: not) */ \
+    F(tl_real_status_fn, real_status) \
     F(tl_do_step3_fn, do_step3)     /* fmi3: the FMI 3.0 functions instead (do_step, set and get unused) */ \
     A(tl_set3_fn, set3, TL_TYPES) \
     A(tl_get3_fn, get3, TL_TYPES) \
@@ -219,11 +224,23 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(int8_t *, event_start)        /* 1 start, 0 end */ \
     F(double *, event_time) \
     F(double *, lateness)           /* per tick run in this call: how late it started, s (NULL: not kept) */ \
-    F(int8_t *, overrun)            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */
+    F(int8_t *, overrun)            /* per tick: 1 if it arrived after its deadline (the tick before overran its slot) */ \
+    /* the run's edges (docs/master.md, "Signals at a run's edges") */ \
+    F(double, stop_time)            /* > 0: a step that would pass it is shortened to end there (0: none is) */ \
+    F(int, closing)                 /* set by tl_close while it takes the closing samples (no step is shortened) */ \
+    F(int, ended_instance)          /* >= 0: this instance asked to end the run (FMI 2.0 fmi2Terminated, FMI 3.0 \
+                                       terminateSimulation from doStep); its last outputs were recorded; -1: none */ \
+    F(double, ended_time)           /* the time it ended the run at (the step callback sets it before returning 2) */ \
+    F(int, ends_allowed)            /* 1: such a request ends the run; 0: it fails it (TL_ERROR_TERMINATED_IN_STEP, or \
+                                       fmi2Discard's TL_ERROR_DO_STEP) */
 typedef struct { TL_PLAN_FIELDS(TL_FIELD, TL_ARRAY) } tl_plan;
 
 /* Run up to n ticks; stop early after an error (error_kind != TL_ERROR_NONE). Returns the ticks run. */
 int64_t tl_run(tl_plan *plan, int64_t n);
+/* The closing samples at time t (the run's end): every instance whose outputs belong to the start of its step (not
+   continuous) is stepped once more at tick ticks_done, time t, in the system's order, and recorded at t; the others
+   are not stepped (their last step's outputs already belong to t). Returns 0, or 1 after an error. */
+int tl_close(tl_plan *plan, double t);
 /* Copy every instance's outputs into its delay-line slot for the entry j (the values after tick j - 1). */
 void tl_store_history(tl_plan *plan, int64_t j);
 int64_t tl_monotonic_ns(void);

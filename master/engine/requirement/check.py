@@ -64,7 +64,8 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     values). The tick is the shortest time between two messages of an instance; each message belongs to the tick
     nearest its time (instances compute their times each their own way: 3 * 0.012 and 0.036 differ in the last bit);
     a signal holds its last message's value (the latest of those at one tick) until its next; the trace ends at the
-    last tick every instance has reached. cache: a dict kept across calls on the same series (held signals)."""
+    last tick every instance has reached, or at the run's end off the tick after a shorter last step. cache: a dict
+    kept across calls on the same series (held signals)."""
     used = sorted({split(n)[0] for n in names})
     if not used:
         raise StlError("no signal")
@@ -72,16 +73,18 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
     span_key = ("span", *used)
     if span_key not in cache:  # the tick and the span: once per set of instances
         every = np.concatenate([series[i][0] for i in used])
-        gaps = np.concatenate([np.diff(_sorted(series[i][0])) for i in used])
+        # an instance's last gap may be a shorter last step (docs/master.md, "Signals at a run's edges"): not the tick
+        gaps = np.concatenate([np.diff(_sorted(series[i][0]))[:-1 if len(series[i][0]) > 2 else None] for i in used])
         gaps = gaps[gaps > 1e-9]
         if not len(gaps):
             return Trace.uniform(every[:1], {n: _held(series, n, np.zeros(1, dtype=np.int64), 1.0)[:1] for n in names}, 1.0)
         tick = float(gaps.min())
         # from the first message to the last tick every instance has reached (past its last message an instance's value
         # is not known: the plant's state after the last step has no controller's output of that time)
-        first, last = int(np.rint(every.min() / tick)), int(np.rint(min(series[i][0].max() for i in used) / tick))
-        cache[span_key] = (tick, first, last, np.arange(first, last + 1))
-    tick, first, last, keys = cache[span_key]
+        end = min(series[i][0].max() for i in used)
+        first, last = int(np.rint(every.min() / tick)), int(np.rint(end / tick))
+        cache[span_key] = (tick, first, last, np.arange(first, last + 1), end)
+    tick, first, last, keys, end = cache[span_key]
     values = {}
     for n in names:
         key = (n, tick, first, last)
@@ -95,7 +98,10 @@ def build_trace(series: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]], nam
             column = column if order is None else column[order]
             cache[key] = np.where(at >= 0, column[np.maximum(at, 0)], np.nan)
         values[n] = cache[key]
-    return Trace.uniform(keys * tick, values, tick)
+    times = keys * tick
+    if len(times) > 1 and abs(times[-1] - end) > 1e-6 * tick:  # the run ended off the tick (a shorter last step)
+        times[-1] = end
+    return Trace.uniform(times, values, tick)
 
 
 def _sorted(x: np.ndarray) -> np.ndarray:

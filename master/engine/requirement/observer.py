@@ -19,6 +19,7 @@ import re
 
 import numpy as np
 
+from .. import edges
 from ..observers import Observer, StopRun
 from .check import Result, build_trace, check_trace, split
 from .files import Requirement, check_signals
@@ -56,12 +57,14 @@ class RequirementObserver(Observer):
                         self._columns.setdefault(instance, {})[variable] = (typ, i)
         self._times: dict[str, list[np.ndarray]] = {i: [] for i in self._columns}
         self._values: dict[str, dict[str, list[np.ndarray]]] = {i: {v: [] for v in cols} for i, cols in self._columns.items()}
-        self._steps = dict.fromkeys(self._columns, 1)  # the message at t = 0 is step 0, as the logger counts
-        if getattr(execution, "resumed_at", None) is not None:  # the logger's cadence of a continued run
-            self._steps = {i: 1 + -(-execution.ticks_done // execution.every[i]) for i in self._columns}
-        else:  # the values at t = 0, as the log has them
+        timing = {i.name: i.timing for i in execution.system.instances}
+        # the logger's count of each instance's messages (edges.py): one at t = 0 after initialization if its kind has it
+        self._steps = {i: edges.messages_before(timing[i], execution.ticks_done, execution.every[i]) for i in self._columns}
+        if getattr(execution, "resumed_at", None) is None:  # the values at t = 0, as the log has them
             for instance, cols in self._columns.items():
                 inst = execution.instances[instance]
+                if not edges.logs_initial(timing[instance]):
+                    continue
                 self._times[instance].append(np.zeros(1))
                 for variable, (typ, i) in cols.items():
                     self._values[instance][variable].append(np.array([inst.values[typ][i]], dtype=float))

@@ -88,7 +88,8 @@ def master_annotation(system: System, schedule: str, delays: list[Connection]):
 
     note = Annotation(ANNOTATION)
     master = etree.SubElement(note.root, f"{{{TL_NS}}}Master", nsmap={"tl": TL_NS},
-                              tick=repr(system.tick), schedule=schedule)
+                              tick=repr(system.tick), schedule=schedule,
+                              **({"fmu_end": system.fmu_end} if system.fmu_end != "end" else {}))  # engine/edges.py
     for inst in system.instances:
         attrs = {"name": inst.name, "timing": inst.timing}
         if inst.period is not None:

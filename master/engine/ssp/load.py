@@ -106,7 +106,7 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
         if fmi not in (None, "2", "3"):
             raise DescriptionError(f"{path}: component {name}: the FMI version must be 2 or 3, got {fmi!r}")
         instances.append(Instance(name, fmu, period, params,
-                                  extra.get("timing", "sample") if extra is not None else "sample",
+                                  extra.get("timing", "continuous") if extra is not None else "continuous",
                                   remote=extra.get("remote") if extra is not None else None, fmi=int(fmi) if fmi else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
@@ -127,7 +127,10 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
     if delays:
         (src, dst), _ = next(iter(delays.items()))
         raise DescriptionError(f"{path}: a delay names the connection {src} -> {dst}, which the system does not have")
-    system = System(tick, instances, conns, auto_connect=False)
+    fmu_end = master.get("fmu_end", "end") if master is not None else "end"  # what an FMU's request to end is
+    if fmu_end not in ("end", "error"):
+        raise DescriptionError(f"{path}: fmu_end must be 'end' or 'error', got {fmu_end!r}")
+    system = System(tick, instances, conns, auto_connect=False, fmu_end=fmu_end)
     faults = master.find("tl:Faults", SSD_NS) if master is not None else None
     if faults is not None and faults.text:
         from ..faults.parse import parse

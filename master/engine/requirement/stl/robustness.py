@@ -43,7 +43,9 @@ _SLACK = 1e-9  # of a tick: a time bound this close to a whole number of ticks i
 
 @dataclass
 class Trace:
-    """Samples on a uniform grid: times[i] = times[0] + i * period, and each signal's value at each sample."""
+    """Samples on a uniform grid: times[i] = times[0] + i * period, and each signal's value at each sample; the last
+    sample may be off the grid, up to half a period either way (a run that ended with a shorter last step: the
+    edges of docs/master.md). A window that reaches the trace's end from a sample holds that last sample."""
 
     times: np.ndarray
     signals: dict[str, np.ndarray]
@@ -56,7 +58,9 @@ class Trace:
             if len(times) < 2:
                 raise StlError("a trace of one sample has no period: give it")
             period = (times[-1] - times[0]) / (len(times) - 1)
-        if len(times) > 1 and np.max(np.abs(np.diff(times) - period)) > 1e-6 * period:
+        gaps = np.diff(times)
+        if len(times) > 1 and (np.max(np.abs(gaps[:-1] - period), initial=0.0) > 1e-6 * period
+                               or not 0 < gaps[-1] <= 1.5 * period + 1e-6 * period):
             raise StlError(f"the samples are not uniformly spaced (period {period:g} s): STL's discrete time needs the tick")
         data = {k: np.asarray(v, dtype=float) for k, v in signals.items()}
         for k, v in data.items():
@@ -79,7 +83,14 @@ class Trace:
     def ticks_end(self, seconds: float) -> int:
         """A window's end in ticks: the last tick at or before the bound (len(self) for no bound: the end of the trace;
         a bound past the trace is len(self) too, for the same reason as ticks)."""
-        return len(self) if math.isinf(seconds) else min(len(self), math.floor(min(seconds / self.period, len(self) + 1.0) + _SLACK))
+        if math.isinf(seconds):
+            return len(self)
+        k = math.floor(min(seconds / self.period, len(self) + 1.0) + _SLACK)
+        n = len(self)
+        if n > 1 and k == n - 2 and abs(self.times[-1] - self.times[0] - (n - 1) * self.period) > 1e-6 * self.period \
+                and seconds >= self.times[-1] - self.times[0] - _SLACK * self.period:
+            k = n - 1  # the last sample off the grid (a shorter last step): a window reaching the end holds it
+        return min(n, k)
 
 
 _FLIP = {"value": "value", "lower": "upper", "upper": "lower"}
