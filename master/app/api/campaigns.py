@@ -17,6 +17,8 @@ from .errors import TiltloadError, as_tiltload_errors
 if TYPE_CHECKING:
     import pandas as pd
 
+    from ..case.verdict_counts import RequirementCount
+
 HOUR = 3600.0
 
 
@@ -57,11 +59,13 @@ class CampaignOptions:
 @dataclass(frozen=True)
 class CampaignResult:
     """A campaign's results file and what it holds: total (the spec's runs), stored, completed, failed, diverged,
-    skipped (stored before), ran (stored now)."""
+    skipped (stored before), ran (stored now); requirements: each requirement's verdict counts, as the terminal and the
+    reports print them (a failed or diverged run is ERROR)."""
 
     results: Path
     counts: dict[str, int]
     command: str
+    requirements: tuple[RequirementCount, ...] = ()
 
     def to_dataframe(self) -> pd.DataFrame:
         """One row per run: its parameters, metrics and state."""
@@ -108,6 +112,7 @@ def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, pro
     options a CampaignOptions or keywords (out=, workers=, scheduler=, retries=, fmus=, ...). A campaign that ends with
     runs still missing raises TiltloadError (the results hold the others)."""
     from ..batch.errors import CampaignIncomplete
+    from ..case.verdict_counts import counts_of_results
 
     if not isinstance(spec, (str, Path)):
         raise TypeError(f"campaign() takes the spec's path (str or pathlib.Path), got {type(spec).__name__}")
@@ -125,4 +130,4 @@ def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, pro
         except CampaignIncomplete as err:
             raise TiltloadError(str(err)) from None
     command = shlex.join(["tiltload", "campaign", Path(spec).as_posix(), *options_argv(options)])
-    return CampaignResult(Path(results), dict(counts), command)
+    return CampaignResult(Path(results), dict(counts), command, tuple(counts_of_results(Path(results))))

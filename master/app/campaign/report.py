@@ -352,25 +352,25 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
 
 
 def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
-    """keep.requirements' columns: the pass rate of each requirement, and its worst runs by robustness with their
-    rerun commands (none: no requirement columns)."""
-    names = [k[:-len("_verdict")] for k in (rows[0] if rows else {}) if k.endswith("_verdict") and f"{k[:-8]}_robustness" in rows[0]]
-    if not names:
+    """keep.requirements' columns: each requirement's counts (case.verdict_counts, as every face prints them), and its
+    worst runs by robustness with their rerun commands (none: no requirement columns)."""
+    from ..case.verdict_counts import VERDICTS, requirement_counts, row_verdict
+
+    tallies = requirement_counts(rows)
+    if not tallies:
         return []
-    lines = ["## Requirements", "", "| requirement | PASS | FAIL | INCONCLUSIVE | ZERO | pass rate | least robustness |",
-             "|---|---|---|---|---|---|---|"]
-    for n in names:
-        verdicts = [r[f"{n}_verdict"] for r in rows]
-        robust = [r[f"{n}_robustness"] for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
-        counts = {v: verdicts.count(v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
-        vacuous = verdicts.count("PASS (vacuous)")  # passed with its trigger never held: a pass, said so
-        counts["PASS"] += vacuous
-        shown = f"{counts['PASS']} ({vacuous} vacuous)" if vacuous else f"{counts['PASS']}"
-        lines.append(f"| {n} | {shown} | {counts['FAIL']} | {counts['INCONCLUSIVE']} | {counts['ZERO']} | "
-                     f"{100 * counts['PASS'] / len(rows):.0f} % | {min(robust, default=math.nan):.4g} |")
+    names = [t.name for t in tallies]
+    lines = ["## Requirements", "", f"| requirement | {' | '.join(VERDICTS)} | pass rate | least robustness |",
+             "|---" * (len(VERDICTS) + 3) + "|"]
+    for t in tallies:
+        cells = [f"{t.counts[v]} ({t.vacuous} vacuous)" if v == "PASS" and t.vacuous else str(t.counts[v]) for v in VERDICTS]
+        least = "—" if t.least_robustness is None else f"{t.least_robustness:.4g}"
+        lines.append(f"| {t.name} | {' | '.join(cells)} | {100 * t.pass_rate:.0f} % | {least} |")
+    if any(t.counts["ERROR"] for t in tallies):
+        lines += ["", "ERROR: the run failed or diverged (its error and time are in the worst runs above) and judged nothing."]
     lines.append("")
     for n in names:
-        judged = [r for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
+        judged = [r for r in rows if row_verdict(r, n)[2] is not None]
         worst = sorted(judged, key=lambda r: r[f"{n}_robustness"])[:3]
         if not worst:
             continue

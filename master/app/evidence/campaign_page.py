@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..case.verdict_counts import requirement_counts, requirement_names
 from .model import Report, Table, Test, png_uri, this_environment
 from .page import write_report
 
@@ -25,10 +26,6 @@ class StoredVerdict:
     description: str = ""
     why: str = ""
     values: dict = field(default_factory=dict)  # a row keeps no signal values
-
-
-def requirement_names(row: dict) -> list[str]:
-    return [k[:-len("_verdict")] for k in row if k.endswith("_verdict") and f"{k[:-8]}_robustness" in row]
 
 
 def _number(x) -> float | None:
@@ -66,20 +63,15 @@ def write_campaign_report(name: str, rows: list[dict], varied: list[str], comman
     names = requirement_names(rows[0]) if rows else []
     tests = [_test(r, varied, names, c, formulas or {}) for r, c in zip(rows, commands)]
     tables = []
-    if names:
+    if names:  # the counts every face prints (case.verdict_counts): a failed or diverged run is ERROR
         body = []
-        for n in names:
-            verdicts = [t for t in tests if not t.error]
-            cells = [next(r for r in t.results if r.name == n) for t in verdicts]
-            plain = [c for c in cells if not c.vacuous]
-            robust = [c.robustness for c in cells if c.robustness is not None]
-            tally = {v: sum(1 for c in plain if c.verdict == v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
-            vacuous = sum(1 for c in cells if c.vacuous)
-            body.append((n, str(tally["PASS"]), str(vacuous), str(tally["FAIL"]), str(tally["INCONCLUSIVE"]), str(tally["ZERO"]),
-                         str(len(tests) - len(verdicts)), f"{100 * (tally['PASS'] + vacuous) / max(len(tests), 1):.0f} %",
-                         f"{min(robust):.4g}" if robust else "—"))
+        for t in requirement_counts(rows):
+            c = t.counts
+            body.append((t.name, str(c["PASS"] - t.vacuous), str(t.vacuous), str(c["FAIL"]), str(c["INCONCLUSIVE"]),
+                         str(c["ZERO"]), str(c["ERROR"]), f"{100 * t.pass_rate:.0f} %",
+                         "—" if t.least_robustness is None else f"{t.least_robustness:.4g}"))
         tables.append(Table("Pass rate per requirement", ("requirement", "PASS", "PASS (vacuous)", "FAIL", "INCONCLUSIVE",
-                                                          "ZERO", "ERROR (run failed)", "pass rate", "least robustness"),
+                                                          "ZERO", "ERROR", "pass rate", "least robustness"),
                             tuple(body), "A run that failed or diverged judged no requirement: it counts as ERROR."))
     worst = sorted(range(len(rows)), key=lambda i: (not tests[i].error, -(_number(rows[i].get("max_tracking_error")) or 0.0)))[:10]
     tables.append(Table("Worst runs", ("run", "controller", "seed", *varied, "outcome", "rerun"), tuple(
