@@ -58,6 +58,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     checkpoint = None if options.snapshot_at is None else (options.snapshot_time, options.snapshot_at[1])
     loop = build_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
+    _check_expected(system, options.expect_fmu)
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
     _with_token(system, options.token_file)
@@ -90,6 +91,22 @@ def _announce(execution, say: Say) -> None:
     remote = [i for i in execution.system.instances if i.remote]
     if remote:
         say(f"remote: {', '.join(f'{i.name} on tiltload serve at {i.remote}' for i in remote)}")
+
+
+def _check_expected(system, expected: tuple[tuple[str, str], ...]) -> None:
+    """--expect-fmu: each named instance's FMU is the build of that SHA-256, checked before anything runs (a file
+    rebuilt at the same path is another FMU: its run would say nothing of the one expected)."""
+    from ...engine.log.provenance import fmu_digest
+
+    fmus = {i.name: i.fmu for i in system.instances}
+    for name, digest in expected:
+        if name not in fmus:
+            raise UserError(f"--expect-fmu {name}: no instance {name} in this run (have: {', '.join(fmus)})")
+        found = fmu_digest(fmus[name])
+        if found != digest:
+            raise UserError(f"--expect-fmu {name}: {fmus[name]} is not the FMU expected (sha256 {found[:12]}..., expected "
+                            f"{digest[:12]}...): it was rebuilt or replaced since; run on it without --expect-fmu to judge "
+                            "the new build")
 
 
 def _with_token(system, token_file: Path | None) -> None:

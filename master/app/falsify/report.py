@@ -10,7 +10,7 @@ import math
 import shlex
 from pathlib import Path
 
-from ..loop.defaults import MAX_TILT
+from ..loop.defaults import MAX_TILT, OUR_CONTROLLERS
 from .search import Outcome
 from .spec import Falsification
 
@@ -59,6 +59,17 @@ def replay_case(spec: Falsification, row: dict, out: Path, fmus: Path | None = N
 REPLAY_OUT = ("counterexample", "counterexample")  # the replay's log: <out>/counterexample/counterexample.mcap
 
 
+def searched_fmus(spec: Falsification) -> tuple[tuple[str, str], ...]:
+    """(instance, SHA-256) of the user's controller FMU the search ran: the replay refuses another build at its path
+    (the loop's own FMUs are rebuilt from tiltload's sources and named by the log's record)."""
+    from ...engine.log.provenance import fmu_digest
+    from ..loop.thesis import CONTROLLER
+
+    if spec.controller in OUR_CONTROLLERS:
+        return ()
+    return ((CONTROLLER, fmu_digest(Path(spec.controller))),)
+
+
 def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
     """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
     case = replay_case(spec, row, out, fmus)
@@ -78,6 +89,8 @@ def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None 
         args += ["--set", f"{key}={_number(value)}"]
     if fmus is not None:
         args += ["--fmus", str(fmus)]
+    for instance, digest in searched_fmus(spec):  # pinned: a rebuild at the same path is refused, not replayed
+        args += ["--expect-fmu", f"{instance}={digest}"]
     args += ["--out", str((out / REPLAY_OUT[0]).resolve()), "--name", REPLAY_OUT[1]]
     return args
 
