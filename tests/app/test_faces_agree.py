@@ -116,3 +116,48 @@ def test_a_diverged_campaign_s_requirement_counts_agree_in_every_face(fmus, tmp_
     assert {"PASS": int(html["PASS"]) + int(html["PASS (vacuous)"]),
             **{v: int(html[v]) for v in EXPECTED if v != "PASS"}} == EXPECTED
     assert float(html["least robustness"]) == pytest.approx(light["near_robustness"], rel=1e-3)
+
+
+FMU_SPEC = """
+name = "two-builds"
+[base]
+scenario = "fsi"
+trajectory = 1
+controllers = ["dlqr", "mine.fmu"]
+stop_time = 1.0
+[vary]
+seeds = [1]
+"""
+
+
+def _environment_rows(page: str) -> list[list[str]]:
+    """The rows of report.html's FMU table in its Environment section (instance, model, GUID, SHA-256)."""
+    parser = _Tables()
+    parser.feed(page[page.index('id="environment"'):])
+    return next(rows_[1:] for _, rows_ in parser.tables if rows_ and "SHA-256" in " ".join(rows_[0]))
+
+
+@pytest.mark.slow
+def test_the_campaign_report_names_the_sha256_of_each_fmu_it_ran(fmus, tmp_path):
+    """A campaign of our dlqr and a user's controller FMU (another build: its own SHA-256): report.html's environment
+    and report.md name every FMU the runs loaded, each with the digest of its file."""
+    import hashlib
+    import shutil
+    import zipfile
+
+    mine = tmp_path / "mine.fmu"
+    shutil.copy(fmus / "TiltloadController.fmu", mine)
+    with zipfile.ZipFile(mine, "a") as z:  # another build of the same controller: another file
+        z.comment = b"the user's build"
+    (tmp_path / "two.toml").write_text(FMU_SPEC)
+    result = tl.campaign(tmp_path / "two.toml", out=tmp_path / "out", workers=1, fmus=fmus, progress=lambda _: None)
+    digest = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in [*fmus.glob("*.fmu"), mine]}
+    assert len(set(digest.values())) == 5
+
+    rows = _environment_rows((result.results.parent / "report.html").read_text(encoding="utf-8"))
+    named = {r[0]: r[-1] for r in rows}
+    assert named == {"plant": digest["TiltloadPlant.fmu"], "sensors": digest["TiltloadSensors.fmu"],
+                     "scenario": digest["TiltloadScenario.fmu"], "controller (dlqr)": digest["TiltloadController.fmu"],
+                     "controller (mine)": digest["mine.fmu"]}
+    text = (result.results.parent / "report.md").read_text()
+    assert "not recorded" not in text.lower() and all(f"`{d}`" in text for d in named.values())

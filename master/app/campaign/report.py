@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..loop.defaults import OUR_CONTROLLERS, SCENARIO
+from .fmus_record import FMUS, recorded_fmus
 
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
 DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
@@ -342,13 +343,23 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         lines += [f"- {r['controller']}{seed}{', ' + values if values else ''}: {what}", "",
                   f"  `{rerun_command(r, spec, spec_folder)}`", ""]
     lines += requirement_section(rows, varied, spec, spec_folder)
+    fmus, parameters = recorded_fmus(folder)
+    lines += fmu_section(fmus)
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
     from ..evidence.campaign_page import write_campaign_report
 
     write_campaign_report(results.parent.name, rows, varied, [rerun_command(r, spec) for r in rows],
-                          [folder / f for f in figures], folder / "report.html")
+                          [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters)
     return path
+
+
+def fmu_section(fmus) -> list[str]:
+    """The FMUs the campaign ran (fmus.json), or a line saying the results do not record them."""
+    if not fmus:
+        return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
+    return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
+            *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]
 
 
 def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:

@@ -215,11 +215,13 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                 from ..batch.shipping import WithShippedFmus, ship
                 from ..batch.worker import feasibility_verdicts
                 from ..loop.fmus import build_all, loop_recipes  # these import the controller's design tools: seconds, so only now
+                from .fmus_record import record_fmus
                 from .run_case import run_case
 
                 build_all(fmus, progress=say)
                 if campaign.snapshot is not None:
                     _check_branches(campaign, Path(fmus).resolve())
+                record_fmus(campaign, Path(fmus).resolve(), out)  # what the report names as the FMUs run
                 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
                 if client is None:
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))

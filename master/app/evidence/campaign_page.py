@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..case.verdict_counts import requirement_counts, requirement_names
-from .model import Report, Table, Test, png_uri, this_environment
+from .model import Report, Table, Test, environment_of_tests, png_uri
 from .page import write_report
 
 
@@ -58,8 +58,9 @@ LISTED = 500  # runs the page shows one by one
 
 
 def write_campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
-                          out: Path, formulas: dict[str, str] | None = None) -> Path:
-    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results)."""
+                          out: Path, formulas: dict[str, str] | None = None, fmus=(), controller_parameters=()) -> Path:
+    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results;
+    fmus, controller_parameters: what the campaign ran, case.record's FmuRecords)."""
     names = requirement_names(rows[0]) if rows else []
     tests = [_test(r, varied, names, c, formulas or {}) for r, c in zip(rows, commands)]
     tables = []
@@ -88,7 +89,8 @@ def write_campaign_report(name: str, rows: list[dict], varied: list[str], comman
     if len(tests) > LISTED:
         summary += (f" The page lists {LISTED} of the {len(tests)} runs one by one: the failed or diverged first, then those "
                     "that failed a requirement, then in run order; results.parquet holds every run.")
-    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], this_environment(), declared=[], listed=LISTED,
+    environment = environment_of_tests(tests, fmus, controller_parameters)  # the rows hold no FMUs: fmus.json's
+    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=[], listed=LISTED,
                     figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()], tables=tables,
                     summary=summary)
     return write_report(report, Path(out), standard_figures=False)
