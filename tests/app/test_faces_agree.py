@@ -118,6 +118,26 @@ def test_a_diverged_campaign_s_requirement_counts_agree_in_every_face(fmus, tmp_
     assert float(html["least robustness"]) == pytest.approx(light["near_robustness"], rel=1e-3)
 
 
+@pytest.mark.slow
+def test_the_campaign_report_is_titled_by_the_spec_and_names_the_page_it_writes(fmus, tmp_path, capsys):
+    """Results in a folder named otherwise than the spec: the reports take the spec's name; campaign-report says the
+    report.html it rewrites (the page is written anew: its time changes), not only report.md."""
+    import os
+
+    (tmp_path / "c.toml").write_text(FMU_SPEC.replace('controllers = ["dlqr", "mine.fmu"]', 'controllers = ["dlqr"]'))
+    results = tl.campaign(tmp_path / "c.toml", out=tmp_path / "elsewhere", workers=1, fmus=fmus,
+                          progress=lambda _: None).results
+    page = results.parent / "report.html"
+    os.utime(page, (0, 0))
+    capsys.readouterr()
+    assert main(["campaign-report", str(results)]) == 0
+    said = capsys.readouterr().out
+    assert str(page) in said and "report.md" in said and page.stat().st_mtime > 0
+    assert (results.parent / "report.md").read_text().startswith("# Campaign report: two-builds\n")
+    title = re.search(r"<title>(.*?)</title>", page.read_text(encoding="utf-8"), re.S).group(1)
+    assert "two-builds" in title and "elsewhere" not in title
+
+
 FMU_SPEC = """
 name = "two-builds"
 [base]

@@ -95,7 +95,7 @@ def _report(results: Path, progress: Callable[[str], None] | None) -> None:
     said in one line, the results kept."""
     import sys
 
-    from ..campaign.report import ReportError, report
+    from ..campaign.report import ReportError, report, written
 
     say = progress or (lambda line: print(line, file=sys.stderr))
     try:
@@ -103,7 +103,7 @@ def _report(results: Path, progress: Callable[[str], None] | None) -> None:
     except ReportError as err:
         say(f"report: none ({err})")
         return
-    say(f"report: {path.with_name('report.html')} (and {path.name})")
+    say(written(path))
 
 
 def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, progress: Callable[[str], None] | None = None,

@@ -234,8 +234,9 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     rows, varied = _load(results, spec)
     writable_folder(results.parent, "the results' folder (report.md goes there)")
     folder = results.parent
+    campaign_title = str((spec or {}).get("name") or folder.name)  # the spec's name (its copy beside the results), not --out's
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
-    lines = [f"# Campaign report: {results.parent.name}", "",
+    lines = [f"# Campaign report: {campaign_title}", "",
              f"{len(rows)} runs; controllers {', '.join(controllers)}; varied: {', '.join(varied) or 'seeds only'}.", ""]
     lines += ["## Per controller", "", "| controller | runs | completed, not diverged | median ISE(x) | median ISE(z) | "
               "median max tracking error (m) | worst max tracking error (m) | median time saturated |", "|---|---|---|---|---|---|---|---|"]
@@ -266,7 +267,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
             draw_distribution(ax, key, data, controllers, panel_colours(rows, controllers, key, by) if by else None, norm)
         for ax in axes.ravel()[len(panels):]:
             ax.remove()
-        fig.suptitle(f"Campaign {results.parent.name}: the metrics of the runs completed without diverging"
+        fig.suptitle(f"Campaign {campaign_title}: the metrics of the runs completed without diverging"
                      + (f"; each run a point coloured by its {by}" if by else ""), fontsize=10)
         fig.tight_layout()
         if by is not None:
@@ -316,7 +317,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
                     im = ax.imshow(grid, origin="lower", cmap=cmap, aspect="auto",
                                    **({"vmin": 0, "vmax": 1} if i == 0 else {}))
                     fig.colorbar(im, ax=ax, label=unit)
-            fig.suptitle(f"Campaign {results.parent.name}: over {x} and {y}", fontsize=10)
+            fig.suptitle(f"Campaign {campaign_title}: over {x} and {y}", fontsize=10)
             fig.tight_layout()
             fig.savefig(folder / "maps.png", dpi=110)
             plt.close(fig)
@@ -349,7 +350,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     path.write_text("\n".join(lines) + "\n")
     from ..evidence.campaign_page import write_campaign_report
 
-    write_campaign_report(results.parent.name, rows, varied, [rerun_command(r, spec) for r in rows],
+    write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec) for r in rows],
                           [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters)
     return path
 
@@ -360,6 +361,11 @@ def fmu_section(fmus) -> list[str]:
         return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
     return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
             *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]
+
+
+def written(path: Path) -> str:
+    """The line that says what report() wrote (its report.md path): the page first, the text beside it."""
+    return f"report: {path.with_name('report.html')} (and {path.name}, with its figures)"
 
 
 def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
