@@ -200,8 +200,10 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) 
 def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesis: tuple = ("", None)) -> None:
     """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
     verdicts, the pacer's overruns and where the log went."""
+    from ...engine.observers import seconds, speed  # the progress bar's words and clock: the two agree
+
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
-    say(f"{simulated:.2f} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
+    say(f"{simulated:.2f} s simulated in {seconds(result.wall)} ({speed(simulated, result.wall)})"
         + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
         what, values = thesis
