@@ -54,6 +54,17 @@ def controller(text: str) -> str:
     raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed nor an existing FMU file")
 
 
+def expected_fmu(text: str) -> tuple[str, str]:
+    """INSTANCE=SHA256: the FMU an instance must run (a replay pinned to the build it replays)."""
+    import re
+
+    instance, sep, digest = text.partition("=")
+    digest = digest.strip().lower()
+    if not sep or not instance.strip() or not re.fullmatch(r"[0-9a-f]{64}", digest):
+        raise argparse.ArgumentTypeError(f"must be INSTANCE=SHA256 (64 hex digits, e.g. controller=3f2a...), got {text!r}")
+    return instance.strip(), digest
+
+
 def file_stem(text: str) -> str:
     if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text or "\n" in text:
         raise argparse.ArgumentTypeError(f"must be a plain file name (no folders), got {text!r}")

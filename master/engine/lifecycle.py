@@ -146,9 +146,10 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
     observers = [*([logger] if logger else []), *plan.observers]
     if plan.metrics is not None:
         observers.append(plan.metrics)
-    if plan.progress:
-        observers.append(Progress(plan.stop))
-    started = time.perf_counter()
+    started = time.perf_counter()  # the run's one clock: the bar's and the result's wall (loading included)
+    progress = Progress(plan.stop, started=started) if plan.progress else None
+    if progress is not None:
+        observers.append(progress)
     ex = pool.take(plan.system, plan.isolate, plan.step_timeout)
     fresh = ex is None
     if fresh:
@@ -187,9 +188,11 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
             pool.give_back(ex)  # closed there after fmi2Fatal: the next run starts afresh
         else:
             ex.close(error)  # a failure outside the run's outcomes
+    wall = time.perf_counter() - started
+    if progress is not None:
+        progress.done(ex.time, wall)  # the bar ends on the figures the result holds
     return RunResult(plan.metrics.table() if plan.metrics else {}, Path(plan.log) if plan.log is not None else None,
-                     ex.ticks_done, ex.time, time.perf_counter() - started, error, signum, failure, setup,
-                     getattr(ex, "ended_by", None))
+                     ex.ticks_done, ex.time, wall, error, signum, failure, setup, getattr(ex, "ended_by", None))
 
 
 def _advance(ex: Execution, plan: RunPlan) -> None:

@@ -185,19 +185,20 @@ class Progress(Observer):
     twice a second; otherwise (a file, a pipe, CI's log) a plain line every `every` s of wall time, so that a log
     holds readable lines and no carriage-return frames."""
 
-    def __init__(self, stop: float, stream=None, every: float = 10.0) -> None:
+    def __init__(self, stop: float, stream=None, every: float = 10.0, started: float | None = None) -> None:
         self.stop, self.stream = stop, sys.stderr if stream is None else stream
         isatty = getattr(self.stream, "isatty", None)
         self.terminal = bool(isatty and isatty())
         self.interval = 0.5 if self.terminal else every
-        self._t0 = time.perf_counter()
+        # the run's clock (time.perf_counter() when it began, loading included): the one its summary's wall time reads,
+        # so the bar's rate and the summary's agree (a clock started after loading said 180x where the run did 35x)
+        self._t0 = time.perf_counter() if started is None else started
         self._last = self._t0  # first refresh after 0.5 s, when the rate means something
         self._t_first = 0.0  # the simulated time at the start (a resumed run starts past 0)
         self._drawn = False
 
     def start(self, execution) -> None:
-        """The clock starts once the FMUs are loaded, so that the rate and the time left are the stepping's own."""
-        self._t0 = self._last = time.perf_counter()
+        self._last = time.perf_counter()
         self._t_first = execution.resumed_at or 0.0
 
     def on_batch(self, execution, batch: Batch) -> None:
@@ -223,8 +224,7 @@ class Progress(Observer):
     def line(self, t: float, elapsed: float) -> str:
         frac = min(t / self.stop, 1.0) if self.stop > 0 else 1.0
         left = self.remaining(t, elapsed)
-        rate = (t - self._t_first) / max(elapsed, 1e-9)
-        return (f"  {100 * frac:5.1f} %  t = {t:6.2f} of {self.stop:g} s  ({rate:.0f}x real time, "
+        return (f"  {100 * frac:5.1f} %  t = {t:6.2f} of {self.stop:g} s  ({speed(t - self._t_first, elapsed)}, "
                 f"{'?' if left is None else _duration(left)} left)")
 
     def frame(self, t: float, elapsed: float) -> str:
@@ -232,10 +232,23 @@ class Progress(Observer):
         bar = "#" * int(30 * frac)
         return f"\r  [{bar:<30}]" + self.line(t, elapsed) + "   "  # trailing blanks: a shorter frame erases a longer one
 
-    def finish(self, execution, error) -> None:
-        if self.terminal and self._drawn:  # end the bar's line; a redirected stream's lines are whole already
-            self.stream.write("\n")
+    def done(self, t: float, wall: float) -> None:
+        """The last frame, at the run's end: t and wall are the run's result's (its summary's figures). On a terminal
+        it ends the bar; a redirected stream has its lines already and gets no other."""
+        if self.terminal:
+            self.stream.write(self.frame(t, wall) + "\n")
             self.stream.flush()
+
+
+def speed(simulated: float, wall: float) -> str:
+    """How fast a run went, as the bar and the run's summary both say it: "35x real time" (two digits below 1x)."""
+    rate = simulated / max(wall, 1e-9)
+    return f"{rate:.0f}x real time" if rate >= 1 else f"{rate:.2g}x real time"
+
+
+def seconds(wall: float) -> str:
+    """A wall time as the summary says it: 0.042 s for a run too short for tenths, else 3.4 s."""
+    return f"{wall:.2g} s" if wall < 1 else f"{wall:.1f} s"
 
 
 def _duration(seconds: float) -> str:

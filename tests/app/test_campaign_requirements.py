@@ -52,7 +52,7 @@ def test_requirement_columns_equal_the_offline_check(fmus, tmp_path):
     from tiltload.master.app.campaign.report import report
 
     text = report(results).read_text()
-    assert "| thrust | 2 | 0 | 0 | 0 | 100 % |" in text and "| later | 0 | 0 | 2 | 0 | 0 % | nan |" in text
+    assert "| thrust | 2 | 0 | 0 | 0 | 0 | 100 % |" in text and "| later | 0 | 0 | 2 | 0 | 0 | 0 % | — |" in text
     assert "### thrust: the least robust runs" in text and "tiltload run" in text
 
 

@@ -92,7 +92,7 @@ def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0):
     from tiltload.master.engine import observers
 
     stream = Stream(tty)
-    p = observers.Progress(stop, stream, every=every)
+    p = observers.Progress(stop, stream, every=every, started=0.0)  # the run's clock: the mocked one's zero
     clock = iter([0.0, *(elapsed_per_tick * (i + 1) for i in range(len(ticks)))])
     real = observers.time.perf_counter
     observers.time.perf_counter = lambda: next(clock)
@@ -100,7 +100,7 @@ def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0):
         p.start(FakeExecution())
         for t in ticks:
             p.on_tick(0, t)
-        p.finish(None, None)
+        p.done(ticks[-1], elapsed_per_tick * len(ticks))  # the run's result's figures
     finally:
         observers.time.perf_counter = real
     return stream.getvalue()
@@ -117,7 +117,7 @@ def test_progress_to_a_file_is_plain_lines_with_the_time_left():
 
 def test_progress_on_a_terminal_redraws_one_line_in_place():
     text = _progress(True, 60.0, [1.0, 2.0])  # a slow run: 60 s per simulated second
-    assert text.count("\r") == 2 and text.endswith("\n") and text.count("\n") == 1
+    assert text.count("\r") == 3 and text.endswith("\n") and text.count("\n") == 1  # two frames, then the last
     assert "8 min 00 s left" in text
 
 

@@ -18,6 +18,8 @@ from .field_types import closest_field
 if TYPE_CHECKING:
     import pandas as pd
 
+    from ..case.verdict_counts import RequirementCount
+
 HOUR = 3600.0
 
 
@@ -60,11 +62,13 @@ class CampaignOptions:
 @dataclass(frozen=True)
 class CampaignResult:
     """A campaign's results file and what it holds: total (the spec's runs), stored, completed, failed, diverged,
-    skipped (stored before), ran (stored now)."""
+    skipped (stored before), ran (stored now); requirements: each requirement's verdict counts, as the terminal and the
+    reports print them (a failed or diverged run is ERROR)."""
 
     results: Path
     counts: dict[str, int]
     command: str
+    requirements: tuple[RequirementCount, ...] = ()
 
     def to_dataframe(self) -> pd.DataFrame:
         """One row per run: its parameters, metrics and state."""
@@ -104,7 +108,7 @@ def _report(results: Path, progress: Callable[[str], None] | None) -> None:
     said in one line, the results kept."""
     import sys
 
-    from ..campaign.report import ReportError, report
+    from ..campaign.report import ReportError, report, written
 
     say = progress or (lambda line: print(line, file=sys.stderr))
     try:
@@ -112,7 +116,7 @@ def _report(results: Path, progress: Callable[[str], None] | None) -> None:
     except ReportError as err:
         say(f"report: none ({err})")
         return
-    say(f"report: {path.with_name('report.html')} (and {path.name})")
+    say(written(path))
 
 
 def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, progress: Callable[[str], None] | None = None,
@@ -121,6 +125,7 @@ def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, pro
     options a CampaignOptions or keywords (out=, workers=, scheduler=, retries=, fmus=, ...). A campaign that ends with
     runs still missing raises TiltloadError (the results hold the others)."""
     from ..batch.errors import CampaignIncomplete
+    from ..case.verdict_counts import counts_of_results
 
     if not isinstance(spec, (str, Path)):
         raise TypeError(f"campaign() takes the spec's path (str or pathlib.Path), got {type(spec).__name__}")
@@ -138,4 +143,4 @@ def campaign(spec: str | Path, options: CampaignOptions | None = None, /, *, pro
         except CampaignIncomplete as err:
             raise TiltloadError(str(err)) from None
     command = shlex.join(["tiltload", "campaign", Path(spec).as_posix(), *options_argv(options)])
-    return CampaignResult(Path(results), dict(counts), command)
+    return CampaignResult(Path(results), dict(counts), command, tuple(counts_of_results(Path(results))))

@@ -29,7 +29,7 @@ def options_argv(request: object) -> list[str]:
             continue
         if value is True:
             argv.append(flag)
-        elif f.name in ("set", "remote"):
+        elif f.name in ("set", "remote", "expect_fmu"):
             for key, item in value:
                 argv += _option(flag, f"{key}={text_of(item)}")
         elif isinstance(value, tuple):  # --snapshot-at T FILE

@@ -58,6 +58,7 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     checkpoint = None if options.snapshot_at is None else (options.snapshot_time, options.snapshot_at[1])
     loop = build_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
+    _check_expected(system, options.expect_fmu)
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
     _with_token(system, options.token_file)
@@ -98,6 +99,22 @@ def _announce(execution, say: Say, stop: float) -> None:
     remote = [i for i in execution.system.instances if i.remote]
     if remote:
         say(f"remote: {', '.join(f'{i.name} on tiltload serve at {i.remote}' for i in remote)}")
+
+
+def _check_expected(system, expected: tuple[tuple[str, str], ...]) -> None:
+    """--expect-fmu: each named instance's FMU is the build of that SHA-256, checked before anything runs (a file
+    rebuilt at the same path is another FMU: its run would say nothing of the one expected)."""
+    from ...engine.log.provenance import fmu_digest
+
+    fmus = {i.name: i.fmu for i in system.instances}
+    for name, digest in expected:
+        if name not in fmus:
+            raise UserError(f"--expect-fmu {name}: no instance {name} in this run (have: {', '.join(fmus)})")
+        found = fmu_digest(fmus[name])
+        if found != digest:
+            raise UserError(f"--expect-fmu {name}: {fmus[name]} is not the FMU expected (sha256 {found[:12]}..., expected "
+                            f"{digest[:12]}...): it was rebuilt or replaced since; run on it without --expect-fmu to judge "
+                            "the new build")
 
 
 def _with_token(system, token_file: Path | None) -> None:
@@ -191,11 +208,13 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) 
 def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesis: tuple = ("", None)) -> None:
     """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
     verdicts, the pacer's overruns and where the log went."""
+    from ...engine.observers import seconds, speed  # the progress bar's words and clock: the two agree
+
     simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
     if getattr(result, "ended_by", None):
         say(f"{result.ended_by[0]} ended the run at t = {result.ended_by[1]:.6g} s (the FMU asked to terminate the simulation)")
     shown = f"{simulated:.2f}" if abs(simulated - round(simulated, 2)) < 1e-9 else f"{simulated:.6g}"  # never rounded
-    say(f"{shown} s simulated in {result.wall:.1f} s ({simulated / max(result.wall, 1e-9):.0f}x real time)"
+    say(f"{shown} s simulated in {seconds(result.wall)} ({speed(simulated, result.wall)})"
         + (f", from t = {snap.time:.3f} s" if snap else ""))
     if result.metrics and result.ticks:
         what, values = thesis

@@ -128,7 +128,7 @@ def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[s
 
 def report(spec, outcome, out: Path, fmus: Path) -> Path:
     """The search's report.html: its best case replayed with a log (as replay.sh runs it) and judged on it."""
-    from ..falsify.report import REPLAY_OUT, SUMMARY, html_report, replay_case, replay_command
+    from ..falsify.report import REPLAY_OUT, SUMMARY, html_report, replay_case, replay_command, searched_fmus
     from .case import Case
     from .execute import execute
     from .run_options import RunOptions
@@ -137,7 +137,8 @@ def report(spec, outcome, out: Path, fmus: Path) -> Path:
     if outcome.best is not None:
         command = replay_command(spec, outcome.best, out, fmus)
         fields = replay_case(spec, outcome.best, out, fmus)
-        options = RunOptions(out=out / REPLAY_OUT[0], name=REPLAY_OUT[1], quiet=True, no_plots=True)
+        options = RunOptions(out=out / REPLAY_OUT[0], name=REPLAY_OUT[1], quiet=True, no_plots=True,
+                             expect_fmu=searched_fmus(spec))
         try:
             with as_tiltload_errors():
                 log = execute(Case(**fields), options, lambda line: None).log

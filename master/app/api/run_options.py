@@ -33,6 +33,7 @@ class RunOptions:
     token_file: Path | None = None
     quiet: bool = False
     report: Path | None = None  # a self-contained HTML report of the run (docs/reports.md)
+    expect_fmu: tuple[tuple[str, str], ...] = ()  # (instance, SHA-256): refused before the run when its FMU differs
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -49,6 +50,8 @@ class RunOptions:
         if self.report is not None:
             arguments.checked(arguments.output_file, "--report", self.report)
         self._snapshot_at()
+        expected = kinds.pairs("RunOptions", "expect_fmu", self.expect_fmu, (str,), "a str SHA-256")
+        fix("expect_fmu", tuple(arguments.checked(arguments.expected_fmu, "--expect-fmu", f"{k}={v}") for k, v in expected))
         if self.realtime is True:
             fix("realtime", 1.0)
         if fix("realtime", kinds.number("RunOptions", "realtime", self.realtime)) is not None:

@@ -48,6 +48,8 @@ def requests(case: Case | None, options: RunOptions | None, keywords: Mapping[st
     given = {k: v for k, v in keywords.items() if v is not None}
     if "set" in given:
         given["set"] = _assignments(given["set"], "--set", arguments.assignment)
+    if "expect_fmu" in given:
+        given["expect_fmu"] = _assignments(given["expect_fmu"], "--expect-fmu", arguments.expected_fmu)
     if "remote" in given:
         given["remote"] = _assignments(given["remote"], "--remote", arguments.remote)
     if given.get("realtime") is False:

@@ -150,8 +150,9 @@ class Dispatch:
                  done_before: int, policy: Policy | None = None, progress: Callable[[str], None] | None = None,
                  shared: dict | None = None, chunked: bool = False,
                  store_many: Callable[[list[dict]], None] | None = None,
-                 sizes: Callable[[int, int], list[int]] | None = None) -> None:
+                 sizes: Callable[[int, int], list[int]] | None = None, started: float | None = None) -> None:
         self.client, self.task, self.store, self.where = client, task, store, where
+        self.started = started  # the caller's clock (time.perf_counter(), its cluster's start included); None: run()'s
         self.chunked = chunked  # several runs a task: chunk_size's, decided as each task is made; or all at once by
         self.sizes = sizes  # sizes(runs, workers) (even_chunks, for a batch)
         self.store_many = store_many  # stores a task's outcomes at once (default: store, one by one)
@@ -173,7 +174,7 @@ class Dispatch:
 
         if self.client.status != "running":
             self._lost()
-        started = time.perf_counter()
+        started = self.started if self.started is not None else time.perf_counter()
         threads = self._threads()
         fixed = iter(self.sizes(len(cases), threads)) if self.chunked and self.sizes is not None else None
 

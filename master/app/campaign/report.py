@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..loop.defaults import OUR_CONTROLLERS, SCENARIO
+from .fmus_record import FMUS, recorded_fmus
 
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
 DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
@@ -233,8 +234,9 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     rows, varied = _load(results, spec)
     writable_folder(results.parent, "the results' folder (report.md goes there)")
     folder = results.parent
+    campaign_title = str((spec or {}).get("name") or folder.name)  # the spec's name (its copy beside the results), not --out's
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
-    lines = [f"# Campaign report: {results.parent.name}", "",
+    lines = [f"# Campaign report: {campaign_title}", "",
              f"{len(rows)} runs; controllers {', '.join(controllers)}; varied: {', '.join(varied) or 'seeds only'}.", ""]
     lines += ["## Per controller", "", "| controller | runs | completed, not diverged | median ISE(x) | median ISE(z) | "
               "median max tracking error (m) | worst max tracking error (m) | median time saturated |", "|---|---|---|---|---|---|---|---|"]
@@ -265,7 +267,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
             draw_distribution(ax, key, data, controllers, panel_colours(rows, controllers, key, by) if by else None, norm)
         for ax in axes.ravel()[len(panels):]:
             ax.remove()
-        fig.suptitle(f"Campaign {results.parent.name}: the metrics of the runs completed without diverging"
+        fig.suptitle(f"Campaign {campaign_title}: the metrics of the runs completed without diverging"
                      + (f"; each run a point coloured by its {by}" if by else ""), fontsize=10)
         fig.tight_layout()
         if by is not None:
@@ -315,7 +317,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
                     im = ax.imshow(grid, origin="lower", cmap=cmap, aspect="auto",
                                    **({"vmin": 0, "vmax": 1} if i == 0 else {}))
                     fig.colorbar(im, ax=ax, label=unit)
-            fig.suptitle(f"Campaign {results.parent.name}: over {x} and {y}", fontsize=10)
+            fig.suptitle(f"Campaign {campaign_title}: over {x} and {y}", fontsize=10)
             fig.tight_layout()
             fig.savefig(folder / "maps.png", dpi=110)
             plt.close(fig)
@@ -342,35 +344,50 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         lines += [f"- {r['controller']}{seed}{', ' + values if values else ''}: {what}", "",
                   f"  `{rerun_command(r, spec, spec_folder)}`", ""]
     lines += requirement_section(rows, varied, spec, spec_folder)
+    fmus, parameters = recorded_fmus(folder)
+    lines += fmu_section(fmus)
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
     from ..evidence.campaign_page import write_campaign_report
 
-    write_campaign_report(results.parent.name, rows, varied, [rerun_command(r, spec) for r in rows],
-                          [folder / f for f in figures], folder / "report.html")
+    write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec) for r in rows],
+                          [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters)
     return path
 
 
+def fmu_section(fmus) -> list[str]:
+    """The FMUs the campaign ran (fmus.json), or a line saying the results do not record them."""
+    if not fmus:
+        return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
+    return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
+            *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]
+
+
+def written(path: Path) -> str:
+    """The line that says what report() wrote (its report.md path): the page first, the text beside it."""
+    return f"report: {path.with_name('report.html')} (and {path.name}, with its figures)"
+
+
 def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
-    """keep.requirements' columns: the pass rate of each requirement, and its worst runs by robustness with their
-    rerun commands (none: no requirement columns)."""
-    names = [k[:-len("_verdict")] for k in (rows[0] if rows else {}) if k.endswith("_verdict") and f"{k[:-8]}_robustness" in rows[0]]
-    if not names:
+    """keep.requirements' columns: each requirement's counts (case.verdict_counts, as every face prints them), and its
+    worst runs by robustness with their rerun commands (none: no requirement columns)."""
+    from ..case.verdict_counts import VERDICTS, requirement_counts, row_verdict
+
+    tallies = requirement_counts(rows)
+    if not tallies:
         return []
-    lines = ["## Requirements", "", "| requirement | PASS | FAIL | INCONCLUSIVE | ZERO | pass rate | least robustness |",
-             "|---|---|---|---|---|---|---|"]
-    for n in names:
-        verdicts = [r[f"{n}_verdict"] for r in rows]
-        robust = [r[f"{n}_robustness"] for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
-        counts = {v: verdicts.count(v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
-        vacuous = verdicts.count("PASS (vacuous)")  # passed with its trigger never held: a pass, said so
-        counts["PASS"] += vacuous
-        shown = f"{counts['PASS']} ({vacuous} vacuous)" if vacuous else f"{counts['PASS']}"
-        lines.append(f"| {n} | {shown} | {counts['FAIL']} | {counts['INCONCLUSIVE']} | {counts['ZERO']} | "
-                     f"{100 * counts['PASS'] / len(rows):.0f} % | {min(robust, default=math.nan):.4g} |")
+    names = [t.name for t in tallies]
+    lines = ["## Requirements", "", f"| requirement | {' | '.join(VERDICTS)} | pass rate | least robustness |",
+             "|---" * (len(VERDICTS) + 3) + "|"]
+    for t in tallies:
+        cells = [f"{t.counts[v]} ({t.vacuous} vacuous)" if v == "PASS" and t.vacuous else str(t.counts[v]) for v in VERDICTS]
+        least = "—" if t.least_robustness is None else f"{t.least_robustness:.4g}"
+        lines.append(f"| {t.name} | {' | '.join(cells)} | {100 * t.pass_rate:.0f} % | {least} |")
+    if any(t.counts["ERROR"] for t in tallies):
+        lines += ["", "ERROR: the run failed or diverged (its error and time are in the worst runs above) and judged nothing."]
     lines.append("")
     for n in names:
-        judged = [r for r in rows if r[f"{n}_robustness"] is not None and math.isfinite(r[f"{n}_robustness"])]
+        judged = [r for r in rows if row_verdict(r, n)[2] is not None]
         worst = sorted(judged, key=lambda r: r[f"{n}_robustness"])[:3]
         if not worst:
             continue

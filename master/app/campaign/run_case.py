@@ -14,6 +14,7 @@ from ...engine.requirement.observer import RequirementObserver
 from ..batch.worker import RUN_FAILURES, CaseWorker, MissingFmu, environment_failure, this_worker
 from ..case.flight import flight_of, stop_of
 from ..case.system import branch_system, case_system
+from ..case.verdict_counts import ERROR
 from ..loop.fmus import is_foreign
 from ..loop.scene import scene_channels
 from ..loop.thesis import PLANT
@@ -21,11 +22,12 @@ from .metrics import CampaignMetrics
 from .spec import CampaignBase
 
 
-def error_row(case: dict, error: str) -> dict:
-    """The row of a run that produced no metrics."""
+def error_row(case: dict, error: str, requirements: tuple = ()) -> dict:
+    """The row of a run that produced no metrics: each requirement ERROR (it judged nothing)."""
     controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
     return {"run_id": case["run_id"], "controller": controller, "seed": case["seed"], **case["values"], "completed": False,
-            "diverged": False, "diverged_at": math.nan, "error": error}
+            "diverged": False, "diverged_at": math.nan, "error": error,
+            **{k: v for name, _ in requirements for k, v in ((f"{name}_verdict", ERROR), (f"{name}_robustness", math.nan))}}
 
 
 def run_case(base: CampaignBase, case: dict, fmu_dir: str, log_dir: str | None, snapshot: bytes | None = None,
@@ -74,12 +76,12 @@ def _run_case(worker: CaseWorker, base: CampaignBase, case: dict, fmu_dir: str, 
     try:
         system = case_system(Path(fmu_dir), base, case["controller"], case["seed"], case["parameters"])
     except DescriptionError as err:  # the case's own (its controller file is not an FMU, or not one of a tick's period)
-        return {"row": error_row(case, str(err)), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
+        return {"row": error_row(case, str(err), base.requirements), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     worker.check_fmus(system)
     stop = stop_of(base)
     refused = worker.infeasible(system, stop, flight_of(base))
     if refused:  # before the first step, as tiltload run refuses it
-        return {"row": error_row(case, refused), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
+        return {"row": error_row(case, refused, base.requirements), "wall": time.perf_counter() - started, "setup": 0.0, "sim_time": 0.0}
     metrics = CampaignMetrics(bounds=base.scenario == "zse", settle=min(5.0, stop / 2))
     observers = [metrics, *_monitor(base)]
     if log_dir:
@@ -108,7 +110,8 @@ def _execute(worker: CaseWorker, system, observers, metrics, base, case, started
         if isinstance(obs, RequirementObserver):  # NAME_verdict, NAME_robustness (NaN: undecided)
             results = {r.name: r for r in obs.results}
             for name, _ in base.requirements:
-                r = results.get(name)
-                row[f"{name}_verdict"] = r.shown if r is not None else "INCONCLUSIVE"  # "PASS (vacuous)" too
-                row[f"{name}_robustness"] = r.robustness if r is not None and r.robustness is not None else math.nan
+                r = results.get(name)  # a failed or diverged run judged nothing: ERROR, not the FAIL of its NaN
+                row[f"{name}_verdict"] = ERROR if error else r.shown if r is not None else "INCONCLUSIVE"  # "PASS (vacuous)" too
+                decided = r is not None and r.robustness is not None and not error
+                row[f"{name}_robustness"] = r.robustness if decided else math.nan
     return {"row": row, "wall": time.perf_counter() - started, "setup": setup, "sim_time": sim_time}

@@ -178,6 +178,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
     done = _stored(out / "parts", campaign.cases, opts.retry_failed)
     todo = [c for c in campaign.cases if c.run_id not in done]
     say = progress or (lambda text: print(text, file=sys.stderr))
+    clock = time.perf_counter()  # the campaign's clock, start-up included: its progress lines' elapsed time
     counts = {"total": len(campaign.cases), "skipped": len(campaign.cases) - len(todo), "ran": 0, "retried": 0}
     incomplete = None
     import tempfile
@@ -215,6 +216,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                 from ..batch.shipping import WithShippedFmus, ship
                 from ..batch.worker import feasibility_verdicts
                 from ..loop.fmus import build_all, loop_recipes  # these import the controller's design tools: seconds, so only now
+                from .fmus_record import record_fmus
                 from .run_case import run_case
 
                 build_all(fmus, progress=say)
@@ -222,9 +224,12 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                     _check_branches(campaign, Path(fmus).resolve())
                 else:
                     _check_controllers(campaign, todo, Path(fmus).resolve())
+                record_fmus(campaign, Path(fmus).resolve(), out)  # what the report names as the FMUs run
                 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # the workers' numpy: one thread each
                 if client is None:
+                    say(f"starting a local Dask cluster ({workers or os.cpu_count()} workers)")  # seconds: said
                     client, cluster = local_cluster(workers, opts.verbose, Path(scratch))
+                    say(f"  cluster ready, {time.perf_counter() - clock:.0f} s")
                 where = str(parse(scheduler)) if cluster is None else f"{cluster.scheduler_address} (the local cluster's)"
                 base = campaign.base()
                 shared, shipped = {}, None
@@ -245,7 +250,7 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                 dispatch = Dispatch(client, task, partial(write_part, out / "parts"), where, len(campaign.cases),
                                     len(campaign.cases) - len(todo),
                                     Policy(opts.retries, opts.worker_timeout, opts.connect_timeout), say, shared,
-                                    chunked=True, store_many=partial(write_parts, out / "parts"))
+                                    chunked=True, store_many=partial(write_parts, out / "parts"), started=clock)
                 started = time.perf_counter()
                 try:
                     dispatch.run(todo)
@@ -253,7 +258,8 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
                         incomplete = _not_run(dispatch.failures, len(todo), opts.retries, log.path)
                 except CampaignIncomplete as err:
                     incomplete = CampaignIncomplete(f"{err}{_see(log.path)}")
-                counts["seconds"] = time.perf_counter() - started  # submitting to the last result: no cluster start or stop
+                counts["seconds"] = time.perf_counter() - started  # throughput: submitting to the last result (the progress
+                # lines' clock is the campaign's, the cluster's start included)
                 counts["ran"], counts["retried"] = dispatch.stored, dispatch.retried
         finally:
             if prepared:  # one whose worker died would wait for it for ever
@@ -294,9 +300,10 @@ def _check_controllers(campaign: Campaign, todo: list[Case], fmus: Path) -> None
     """Each user's controller file described into its first case's system before any cluster starts, as a worker will:
     one that is not an FMU (or not one of a tick's period) is the spec's error, not a failure of each of its runs."""
     from ...engine.errors import DescriptionError
-    from .case_system import case_system
+    from ..case.system import case_system
+    from ..loop.defaults import OUR_CONTROLLERS
 
-    firsts = {c.controller: c for c in reversed(todo) if c.controller not in ("dlqr", "mixed")}
+    firsts = {c.controller: c for c in reversed(todo) if c.controller not in OUR_CONTROLLERS}
     for controller, case in firsts.items():
         try:
             case_system(fmus, campaign.base(), controller, case.seed, case.parameters)

@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         from ..regression.tube_plot import tube_figures
 
         for r in result.results:
-            for path in tube_figures(r.rows, args.out, r.case.name, r.case.name):
+            for path in tube_figures(r.rows, args.out, r.name, r.name):
                 print(f"figure: {path}")
     print("same within tolerance" if result.ok else "DIFFERENT: at least one signal leaves its tolerance tube")
     return 0 if result.ok else 1

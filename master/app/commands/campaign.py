@@ -65,30 +65,24 @@ def run(args: argparse.Namespace) -> int:
     except CampaignIncomplete as err:
         print(f"tiltload: error: {err}", file=sys.stderr)
         return 1
+    from ..case.verdict_counts import counts_of_results
+
+    tallies = counts_of_results(results)
     print(summary(counts))
+    for t in tallies:  # the counts report.md, report.html and tl.campaign's result show
+        print(t.line())
     print(f"results: {results}")
-    failing = failures(results, counts)
+    failing = failures(counts, tallies)
     if failing and not args.allow_failures:
         print(f"tiltload: campaign: {failing} (exit 1; --allow-failures exits 0)", file=sys.stderr)
         return 1
     return 0
 
 
-def failures(results: Path, counts: dict) -> str:
+def failures(counts: dict, tallies: list) -> str:
     """What in the results fails the campaign as a test: runs that failed, requirements' FAILs ("" for none)."""
-    import pyarrow.parquet as pq
-
     said = [f"{counts['failed']} run(s) failed"] if counts.get("failed") else []
-    try:
-        table = pq.read_table(results, columns=None)
-    except (OSError, ValueError):
-        return "; ".join(said)
-    for name in table.column_names:
-        if name.endswith("_verdict"):
-            n = table.column(name).to_pylist().count("FAIL")
-            if n:
-                said.append(f"requirement {name[:-len('_verdict')]} FAILed in {n} run(s)")
-    return "; ".join(said)
+    return "; ".join(said + [f"requirement {t.name} FAILed in {t.counts['FAIL']} run(s)" for t in tallies if t.counts["FAIL"]])
 
 
 def execute(args: argparse.Namespace) -> tuple[Path, dict]:

@@ -49,12 +49,15 @@ def add_parser(sub) -> None:
                         f"{1 / arguments.MAX_REALTIME_FACTOR:g} to {arguments.MAX_REALTIME_FACTOR:g}); overruns are reported")
     r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
                    help="with --realtime: stop the run once more than N ticks missed their deadline")
+    r.add_argument("--expect-fmu", type=arguments.expected_fmu, action="append", default=[], metavar="INSTANCE=SHA256",
+                   help="refuse the run (exit 2) unless INSTANCE runs the FMU of this SHA-256 (a replay names the build it "
+                        "replays: a rebuild at the same path is another controller)")
     r.set_defaults(func=run)
 
 
 # the options of `tiltload run` that say how the case runs (the rest of its options are the Case's)
 RUN_OPTIONS = ("out", "name", "no_log", "no_plots", "log_every", "requirements", "stop_on_violation", "snapshot_at",
-               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet", "report")
+               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet", "report", "expect_fmu")
 
 
 def case_of(args: argparse.Namespace):
@@ -72,7 +75,8 @@ def run_options_of(args: argparse.Namespace):
     from ..api.run_options import RunOptions
 
     given = {name: getattr(args, name) for name in RUN_OPTIONS}
-    return RunOptions(**{**given, "snapshot_at": None if args.snapshot_at is None else tuple(args.snapshot_at)})
+    return RunOptions(**{**given, "snapshot_at": None if args.snapshot_at is None else tuple(args.snapshot_at),
+                         "expect_fmu": tuple(args.expect_fmu)})
 
 
 def run(args: argparse.Namespace) -> int:

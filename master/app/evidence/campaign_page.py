@@ -7,7 +7,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .model import Report, Table, Test, png_uri, this_environment
+from ..case.verdict_counts import requirement_counts, requirement_names
+from .model import Report, Table, Test, environment_of_tests, png_uri
 from .page import write_report
 
 
@@ -25,10 +26,6 @@ class StoredVerdict:
     description: str = ""
     why: str = ""
     values: dict = field(default_factory=dict)  # a row keeps no signal values
-
-
-def requirement_names(row: dict) -> list[str]:
-    return [k[:-len("_verdict")] for k in row if k.endswith("_verdict") and f"{k[:-8]}_robustness" in row]
 
 
 def _number(x) -> float | None:
@@ -61,25 +58,21 @@ LISTED = 500  # runs the page shows one by one
 
 
 def write_campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
-                          out: Path, formulas: dict[str, str] | None = None) -> Path:
-    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results)."""
+                          out: Path, formulas: dict[str, str] | None = None, fmus=(), controller_parameters=()) -> Path:
+    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results;
+    fmus, controller_parameters: what the campaign ran, case.record's FmuRecords)."""
     names = requirement_names(rows[0]) if rows else []
     tests = [_test(r, varied, names, c, formulas or {}) for r, c in zip(rows, commands)]
     tables = []
-    if names:
+    if names:  # the counts every face prints (case.verdict_counts): a failed or diverged run is ERROR
         body = []
-        for n in names:
-            verdicts = [t for t in tests if not t.error]
-            cells = [next(r for r in t.results if r.name == n) for t in verdicts]
-            plain = [c for c in cells if not c.vacuous]
-            robust = [c.robustness for c in cells if c.robustness is not None]
-            tally = {v: sum(1 for c in plain if c.verdict == v) for v in ("PASS", "FAIL", "INCONCLUSIVE", "ZERO")}
-            vacuous = sum(1 for c in cells if c.vacuous)
-            body.append((n, str(tally["PASS"]), str(vacuous), str(tally["FAIL"]), str(tally["INCONCLUSIVE"]), str(tally["ZERO"]),
-                         str(len(tests) - len(verdicts)), f"{100 * (tally['PASS'] + vacuous) / max(len(tests), 1):.0f} %",
-                         f"{min(robust):.4g}" if robust else "—"))
+        for t in requirement_counts(rows):
+            c = t.counts
+            body.append((t.name, str(c["PASS"] - t.vacuous), str(t.vacuous), str(c["FAIL"]), str(c["INCONCLUSIVE"]),
+                         str(c["ZERO"]), str(c["ERROR"]), f"{100 * t.pass_rate:.0f} %",
+                         "—" if t.least_robustness is None else f"{t.least_robustness:.4g}"))
         tables.append(Table("Pass rate per requirement", ("requirement", "PASS", "PASS (vacuous)", "FAIL", "INCONCLUSIVE",
-                                                          "ZERO", "ERROR (run failed)", "pass rate", "least robustness"),
+                                                          "ZERO", "ERROR", "pass rate", "least robustness"),
                             tuple(body), "A run that failed or diverged judged no requirement: it counts as ERROR."))
     worst = sorted(range(len(rows)), key=lambda i: (not tests[i].error, -(_number(rows[i].get("max_tracking_error")) or 0.0)))[:10]
     tables.append(Table("Worst runs", ("run", "controller", "seed", *varied, "outcome", "rerun"), tuple(
@@ -96,7 +89,8 @@ def write_campaign_report(name: str, rows: list[dict], varied: list[str], comman
     if len(tests) > LISTED:
         summary += (f" The page lists {LISTED} of the {len(tests)} runs one by one: the failed or diverged first, then those "
                     "that failed a requirement, then in run order; results.parquet holds every run.")
-    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], this_environment(), declared=[], listed=LISTED,
+    environment = environment_of_tests(tests, fmus, controller_parameters)  # the rows hold no FMUs: fmus.json's
+    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=[], listed=LISTED,
                     figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()], tables=tables,
                     summary=summary)
     return write_report(report, Path(out), standard_figures=False)

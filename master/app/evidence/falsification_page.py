@@ -11,6 +11,11 @@ from .page import write_report
 from .tests_from_logs import test_of_log
 
 
+def simulations(n: int) -> str:
+    """n simulations, as every line of a search says it: "1 simulation", "40 simulations"."""
+    return f"{n} simulation{'' if n == 1 else 's'}"
+
+
 def write_falsification_report(name: str, summary: str, requirements: list, dimensions: list[tuple[str, str, float, float]],
                                rows: list[dict], falsified_at: int | None, replay: list[str] | None, log: Path | None,
                                figures: list[Path], out: Path) -> Path:
@@ -29,8 +34,8 @@ def write_falsification_report(name: str, summary: str, requirements: list, dime
     best = min((r for r in rows if _finite(r.get("robustness"))), key=lambda r: r["robustness"], default=None)
     space = Table("Search space", ("dimension", "target", "low", "high", "best case"), tuple(
         (n, t, f"{lo:g}", f"{hi:g}", f"{best[n]:.6g}" if best is not None and n in best else "—") for n, t, lo, hi in dimensions))
-    found = ("falsified after " + str(falsified_at + 1) + " simulations") if falsified_at is not None else \
-        f"not falsified in {len(rows)} simulations (a search is no proof)"
+    found = f"falsified after {simulations(falsified_at + 1)}" if falsified_at is not None else \
+        f"not falsified in {simulations(len(rows))} (a search is no proof)"
     search = Table("The search", ("simulations", "outcome", "least robustness"), (
         (str(len(rows)), found, f"{best['robustness']:.6g}" if best is not None else "—"),))
     report = Report(f"Falsification {name}", "falsification", tests, environment_of_tests(tests), declared=list(requirements),

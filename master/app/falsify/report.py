@@ -10,7 +10,7 @@ import math
 import shlex
 from pathlib import Path
 
-from ..loop.defaults import MAX_TILT
+from ..loop.defaults import MAX_TILT, OUR_CONTROLLERS
 from .search import Outcome
 from .spec import Falsification
 
@@ -59,6 +59,17 @@ def replay_case(spec: Falsification, row: dict, out: Path, fmus: Path | None = N
 REPLAY_OUT = ("counterexample", "counterexample")  # the replay's log: <out>/counterexample/counterexample.mcap
 
 
+def searched_fmus(spec: Falsification) -> tuple[tuple[str, str], ...]:
+    """(instance, SHA-256) of the user's controller FMU the search ran: the replay refuses another build at its path
+    (the loop's own FMUs are rebuilt from tiltload's sources and named by the log's record)."""
+    from ...engine.log.provenance import fmu_digest
+    from ..loop.thesis import CONTROLLER
+
+    if spec.controller in OUR_CONTROLLERS:
+        return ()
+    return ((CONTROLLER, fmu_digest(Path(spec.controller))),)
+
+
 def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None = None) -> list[str]:
     """The `tiltload run` arguments that run the row's case as the evaluation ran it; writes its fault file in out."""
     case = replay_case(spec, row, out, fmus)
@@ -78,6 +89,8 @@ def replay_command(spec: Falsification, row: dict, out: Path, fmus: Path | None 
         args += ["--set", f"{key}={_number(value)}"]
     if fmus is not None:
         args += ["--fmus", str(fmus)]
+    for instance, digest in searched_fmus(spec):  # pinned: a rebuild at the same path is refused, not replayed
+        args += ["--expect-fmu", f"{instance}={digest}"]
     args += ["--out", str((out / REPLAY_OUT[0]).resolve()), "--name", REPLAY_OUT[1]]
     return args
 
@@ -119,23 +132,25 @@ def whole_run(spec: Falsification, row: dict, fmus: Path) -> dict:
 
 
 def summary(spec: Falsification, outcome: Outcome, command: list[str] | None, notes=(), whole: dict | None = None) -> str:
+    from ..evidence.falsification_page import simulations  # the page's words: "1 simulation"
+
     n = outcome.simulations
     lines = [f"falsification {spec.name}: optimizer {spec.optimizer} (seed {spec.seed}), {len(spec.dimensions)} dimensions, "
-             f"{n} simulations in {outcome.seconds:.1f} s" + (f" ({outcome.reused} from the previous run)" if outcome.reused else "")]
+             f"{simulations(n)} in {outcome.seconds:.1f} s" + (f" ({outcome.reused} from the previous run)" if outcome.reused else "")]
     for r in spec.requirements:
         lines.append(f"  requirement {r.name}: {r.formula}")
     lines.append("  search space: " + ", ".join(f"{d.name} = {d.target} in [{d.low:g}, {d.high:g}]" for d in spec.dimensions))
     best = outcome.best
     if outcome.falsified_at is not None and best is not None:
         k = outcome.falsified_at + 1
-        lines.append(f"FALSIFIED after {k} simulation{'s' if k != 1 else ''}; the most negative robustness "
+        lines.append(f"FALSIFIED after {simulations(k)}; the most negative robustness "
                      f"{best['robustness']:.6g} at:")
     else:
-        lines.append(f"NOT FALSIFIED in {n} simulations (a search is no proof); lowest robustness "
-                     f"{best['robustness']:.6g} at:" if best else f"NOT FALSIFIED in {n} simulations (none had a robustness)")
+        lines.append(f"NOT FALSIFIED in {simulations(n)} (a search is no proof); lowest robustness "
+                     f"{best['robustness']:.6g} at:" if best else f"NOT FALSIFIED in {simulations(n)} (none had a robustness)")
     failed = [r for r in outcome.rows if r.get("error")]
     if failed:  # the run's own line (a controller that raised, a diverged loop): what the user fixes
-        lines.append(f"  {len(failed)} of {n} simulations ended in an error; the first: {failed[0]['error']}")
+        lines.append(f"  {len(failed)} of {simulations(n)} ended in an error; the first: {failed[0]['error']}")
     if best is not None:
         lines.append("  " + ", ".join(f"{d.name} = {best[d.name]:.6g}" for d in spec.dimensions))
         for r in spec.requirements:

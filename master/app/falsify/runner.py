@@ -167,9 +167,7 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = FMU_DIR, opti
                     client, cluster = local_cluster(workers, scratch=Path(scratch))
                     where = f"{cluster.scheduler_address} (the local cluster's)"
             (out / f"spec{Path(spec_path).suffix}").write_bytes(Path(spec_path).read_bytes())
-            base, notes = cheaper_base(spec, fmus, early_stop, branch)
-            for line in notes:
-                say(line)
+            base, notes = cheaper_base(spec, fmus, early_stop, branch)  # said once, in the summary (not here too)
             batch = cluster_batch(client, where, base, fmus, ship=own and scheduler is not None)
             outcome = search(spec.dimensions, spec.optimizer, spec.seed, batch, make_case(base), spec.simulations,
                              spec.seconds, out, identity(spec, early_stop), spec.batch, say, stop_when_falsified)

@@ -249,7 +249,9 @@ def _loop(dimensions, optimizer, seed, evaluate_batch, make_case, limit, seconds
             if parts is not None and kept:
                 write_part(parts, kept)
             best = min((_told(r) for r in rows), default=math.nan)
-            say(f"  {len(rows)} simulations, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
+            from ..evidence.falsification_page import simulations  # the report's words: "1 simulation"
+
+            say(f"  {simulations(len(rows))}, best robustness {best:.6g}, {time.perf_counter() - started:.0f} s")
             if done:
                 break  # the groups out are dropped: the sender waits for their evaluations to end
             group = out.popleft() if out else (ask(len(rows)) if more(len(rows)) else None)

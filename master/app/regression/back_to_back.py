@@ -48,7 +48,19 @@ class Case:
 
     @property
     def name(self) -> str:
-        return f"{self.scenario}_traj{self.trajectory}_{self.controller}" + (f"_seed{self.seed}" if self.seed != SEED else "")
+        return self.named(self.controller)
+
+    def named(self, controller: str) -> str:
+        """The case's name with another word for its controller (row_name's: what the sides ran)."""
+        return f"{self.scenario}_traj{self.trajectory}_{controller}" + (f"_seed{self.seed}" if self.seed != SEED else "")
+
+
+def row_name(case: Case, reference: Side, candidate: Side) -> str:
+    """A case's row (and its logs) named by what the sides ran, not by the case file's controller where a side
+    replaces it: fsi_traj1_mine_vs_theirs; one name when both ran the same controller (the sides differ otherwise)."""
+    ran = [Path(c).stem if c.endswith(".fmu") else c for c in (side.controller or case.controller
+                                                               for side in (reference, candidate))]
+    return case.named(ran[0] if ran[0] == ran[1] else f"{ran[0]}_vs_{ran[1]}")
 
 
 @dataclass(frozen=True)
@@ -114,8 +126,8 @@ def check_side_system(case: Case, side: Side, role: str) -> None:
     """What `run` checks before its first step, for this side's system: each --set a parameter the FMU has, of its type
     and range; a user's controller FMU with the ports the loop needs. One line naming the side."""
     from ...engine.fmi.model_description import checked_value, read_fmu
-    from ..parameter_types import check_settings
-    from ..ports import check_controller
+    from ..loop.parameter_types import check_settings
+    from ..loop.ports import check_controller
 
     try:
         system = side_system(case, side)
@@ -252,6 +264,7 @@ class CaseResult:
     deviation: dict[str, float] = field(default_factory=dict)  # per signal: the largest |candidate - reference|
     per_tick: tuple[float | None, float | None] = (None, None)  # the controller's time per tick (s), reference and
     # candidate: the round trip of a remote (mil, pil) controller; None in this process
+    name: str = ""  # the row's: row_name (the case's own name where both sides ran its controller)
 
     @property
     def ok(self) -> bool:
@@ -276,7 +289,7 @@ class BackToBack:
         return all(r.ok for r in self.results)
 
     def table(self) -> str:
-        width = max([4] + [len(r.case.name) for r in self.results])
+        width = max([4] + [len(r.name) for r in self.results])
         timed = [k for k in (0, 1) if any(r.per_tick[k] is not None for r in self.results)]
         head = "".join(f" {('ref' if k == 0 else 'cand') + ' us/tick':>13}" for k in timed)
         lines = [f"{'case':<{width}}  {'signals in':>10}  {'first out':<16} {'at (s)':>9} {'largest excess':>14} {'out %':>6}{head}"]
@@ -285,9 +298,9 @@ class BackToBack:
             worst = r.worst()
             times = "".join(f" {'-' if r.per_tick[k] is None else f'{1e6 * r.per_tick[k]:.0f}':>13}" for k in timed)
             if worst is None:
-                lines.append(f"{r.case.name:<{width}}  {inside:>10}  {'-':<16} {'-':>9} {'-':>14} {'0':>6}{times}")
+                lines.append(f"{r.name:<{width}}  {inside:>10}  {'-':<16} {'-':>9} {'-':>14} {'0':>6}{times}")
             else:
-                lines.append(f"{r.case.name:<{width}}  {inside:>10}  {worst.signal:<16} {worst.first_outside:>9.6g} "
+                lines.append(f"{r.name:<{width}}  {inside:>10}  {worst.signal:<16} {worst.first_outside:>9.6g} "
                              f"{worst.largest_excess:>14.4g} {100 * worst.share_outside:>6.3g}{times}")
             if r.error:
                 lines.append(f"{'':<{width}}  ended early: {r.error}")
@@ -322,19 +335,20 @@ def back_to_back(cases: list[Case], reference: Side, candidate: Side, out: Path,
         if pool is None:
             pool = stack.enter_context(contextlib.closing(ExecutionPool()))
         for k, case in enumerate(cases, start=1):
-            ref_log, ref_error, ref_time = run_side(case, reference, out / f"{case.name}_reference.mcap", stop, pool, hosts[0],
+            name = row_name(case, reference, candidate)
+            ref_log, ref_error, ref_time = run_side(case, reference, out / f"{name}_reference.mcap", stop, pool, hosts[0],
                                                   "reference")
             if ref_error is not None:
-                raise DescriptionError(f"{case.name}: the reference run failed ({ref_error}): nothing to compare with")
+                raise DescriptionError(f"{name}: the reference run failed ({ref_error}): nothing to compare with")
             ref, units = log_signals(ref_log, names)  # a signal the log does not have: refused before the candidate runs
-            cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{case.name}_candidate.mcap", stop, pool, hosts[1],
+            cand_log, cand_error, cand_time = run_side(case, candidate, out / f"{name}_candidate.mcap", stop, pool, hosts[1],
                                                      "candidate")
             if changes is None:
                 changes = what_changed(read_metadata(ref_log).get("fmus"), read_metadata(cand_log).get("fmus"))
             mine, _ = log_signals(cand_log, names)
             result = CaseResult(case, compare_signals(mine, ref, tolerances, units), cand_error,
-                                {n: largest_deviation(mine[n], ref[n]) for n in names}, (ref_time, cand_time))
+                                {n: largest_deviation(mine[n], ref[n]) for n in names}, (ref_time, cand_time), name)
             results.append(result)
-            echo(f"  [{k}/{len(cases)}] {case.name}: {'same' if result.ok else 'DIFFERENT'}")
+            echo(f"  [{k}/{len(cases)}] {name}: {'same' if result.ok else 'DIFFERENT'}")
     staged = [f"controller run as {reference.label} -> {candidate.label}"] if reference.label != candidate.label else []
     return BackToBack(results, staged + (changes or []), reference, candidate, tolerances)

@@ -103,7 +103,7 @@ def tiltload_fmus(pytestconfig: pytest.Config) -> Path:
 def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
     """controller(source, class_name=None) -> the controller FMU: a .fmu as is; a Python file, or a class, wrapped
     as `tiltload wrap` does, once per session (into the session's temporary folder)."""
-    from ..wrap.wrap import wrap
+    from ..wrap.sandbox import wrap_python
 
     made: dict[tuple[str, str | None], Path] = {}
     where = tmp_path_factory.mktemp("tiltload_controllers")
@@ -117,7 +117,7 @@ def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.Te
         key = (str(path), class_name)
         if key not in made:
             out = where / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
-            made[key] = wrap(path, out, class_name)
+            made[key] = wrap_python(path, out, class_name)
         return made[key]
     return controller
 
@@ -135,18 +135,39 @@ def tiltload_pool():
 @pytest.fixture
 def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path,
                  request: pytest.FixtureRequest, tiltload_pool) -> Callable[..., Result]:
-    """run(controller=..., **options) -> tiltload.Result: a run of the loop with the session's FMUs into this test's
-    own folder, no figures; controller a .fmu, a Python file or class (wrapped), or dlqr / mixed."""
+    """run(case=None, options=None, *, controller=..., **options) -> tiltload.Result: tiltload.run with the session's
+    FMUs into this test's own folder, no figures (where the case and options leave them at their defaults); it takes
+    every object tiltload.run takes, and a controller's file or class is wrapped once per session
+    (tiltload_controller)."""
     from ..api.running import run
 
-    def run_case(*, controller: str | Path | type | None = None, **options: object) -> Result:
-        if controller is not None and not (isinstance(controller, str) and controller in ("dlqr", "mixed")):
+    def run_case(case=None, options=None, /, *, controller: object = None, **keywords: object) -> Result:
+        if _session_wrapped(controller):
             controller = tiltload_controller(controller)
-        options = {"fmus": tiltload_fmus, "out": tmp_path, "no_plots": True, **options}
-        result = run(controller=controller, pool=tiltload_pool, **options)
+        ours = {"fmus": (case, tiltload_fmus), "out": (options, tmp_path), "no_plots": (options, True)}
+        for key, (given, value) in ours.items():  # the session's, where neither a keyword nor an object set it
+            if key not in keywords and (given is None or getattr(given, key) == _default(type(given), key)):
+                keywords[key] = value
+        result = run(case, options, pool=tiltload_pool, **({"controller": controller} if controller is not None else {}),
+                     **keywords)
         request.node.stash.setdefault(RUNS, []).append(result)  # for --tiltload-report
         return result
     return run_case
+
+
+def _session_wrapped(controller: object) -> bool:
+    """A controller the session wraps itself (a Python file or class, an FMU's path relative to the rootdir); the rest
+    (dlqr, mixed, a PythonController, None) goes to tiltload.run as it is, which takes them."""
+    if isinstance(controller, type):
+        return True
+    return isinstance(controller, (str, Path)) and str(controller) not in ("dlqr", "mixed")
+
+
+def _default(cls: type, name: str) -> object:
+    from dataclasses import MISSING, fields
+
+    found = next(f for f in fields(cls) if f.name == name)
+    return found.default if found.default is not MISSING else None
 
 
 RUNS = pytest.StashKey[list]()

@@ -1,0 +1,183 @@
+"""Issue 61's contradictions: two faces over the same case say the same thing.
+
+A campaign whose left rotor's thrust is scaled by -1e30 or -1e29 from t = 1 s in two of its runs (the plant's state is then not
+finite: diverged): its
+requirement counts are the same in the terminal, report.md, report.html, the results Parquet and tl.campaign's result,
+and a diverged run counts as ERROR, never as a FAIL with a NaN robustness.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from html.parser import HTMLParser
+
+import pyarrow.parquet as pq
+import pytest
+import tiltload as tl
+from tiltload.master.app.cli import main
+
+SPEC = """
+name = "blown-up"
+[base]
+scenario = "fsi"
+trajectory = 1
+controllers = ["dlqr"]
+stop_time = 2.5
+faults = [{action = "scale", target = "plant.f_L", value = 1.0, start = 1.0}]
+[vary]
+seeds = [1]
+[[vary.parameters]]
+name = "thrust_left"
+targets = ["faults.0.value"]
+values = [1.0, -1e30, -1e29]
+[keep]
+requirements = "reqs.yaml"
+"""
+REQS = """requirements:
+  - {name: near, formula: "always abs(plant.x) <= 50"}
+"""
+# what each run does, known independently of the counts: the unfaulted run flies, the two blown-up ones diverge
+EXPECTED = {"PASS": 1, "FAIL": 0, "INCONCLUSIVE": 0, "ZERO": 0, "ERROR": 2}
+
+
+class _Tables(HTMLParser):
+    """Every <table>'s rows as lists of cell texts, with the text just before the table (its title)."""
+
+    def __init__(self):
+        super().__init__()
+        self.tables, self._text, self._cell, self._row = [], "", None, None
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "table":
+            self.tables.append((self._text.strip(), []))
+        elif tag == "tr" and self.tables:
+            self._row = []
+            self.tables[-1][1].append(self._row)
+        elif tag in ("td", "th"):
+            self._cell = ""
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._row is not None and self._cell is not None:
+            self._row.append(self._cell.strip())
+            self._cell = None
+        elif tag in ("h2", "h3", "caption", "summary", "p"):
+            pass
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+        elif data.strip():
+            self._text = data
+
+
+@pytest.mark.slow
+def test_a_diverged_campaign_s_requirement_counts_agree_in_every_face(fmus, tmp_path, capsys):
+    (tmp_path / "reqs.yaml").write_text(REQS)
+    spec = tmp_path / "blown.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "out"
+    api = tl.campaign(spec, out=out, workers=1, fmus=fmus, progress=lambda _: None)
+    rows = pq.read_table(api.results).to_pylist()
+    diverged = [r for r in rows if r["diverged"]]
+    assert [r["thrust_left"] for r in diverged] == [-1e30, -1e29] and all(r["diverged_at"] >= 1.0 for r in diverged)
+
+    # the Parquet: ERROR in the verdict column of the diverged runs
+    verdicts = [r["near_verdict"] for r in rows]
+    assert {v: verdicts.count(v) for v in EXPECTED} == EXPECTED
+    # the API's object
+    (near,) = api.requirements
+    assert near.name == "near" and near.counts == EXPECTED
+    assert near.least_robustness is not None and math.isfinite(near.least_robustness)
+    light = next(r for r in rows if not r["diverged"])
+    assert near.least_robustness == light["near_robustness"]  # the only run that judged it
+
+    # the terminal (the runs are stored: the command line reads the same results)
+    capsys.readouterr()
+    assert main(["campaign", str(spec), "--out", str(out), "--fmus", str(fmus), "--workers", "1"]) == 1  # runs failed
+    said = capsys.readouterr()
+    line = next(x for x in said.out.splitlines() if x.startswith("requirement near:"))
+    assert {v: int(re.search(rf"(\d+) {v}\b", line).group(1)) for v in EXPECTED} == EXPECTED
+    assert "FAILed" not in said.err and "2 run(s) failed" in said.err
+
+    # report.md
+    text = (out / "report.md").read_text()
+    header = next(x for x in text.splitlines() if x.startswith("| requirement |"))
+    md_row = next(x for x in text.splitlines() if x.startswith("| near |"))
+    cells = dict(zip([c.strip() for c in header.strip("|").split("|")], [c.strip() for c in md_row.strip("|").split("|")]))
+    assert {v: int(cells[v]) for v in EXPECTED} == EXPECTED
+    assert float(cells["least robustness"]) == pytest.approx(light["near_robustness"], rel=1e-3)
+
+    # report.html: its table, parsed
+    parser = _Tables()
+    parser.feed((out / "report.html").read_text(encoding="utf-8"))
+    table = next(rows_ for _, rows_ in parser.tables if rows_ and rows_[0][:2] == ["requirement", "PASS"])
+    html = dict(zip(table[0], next(r for r in table[1:] if r[0] == "near")))
+    assert {"PASS": int(html["PASS"]) + int(html["PASS (vacuous)"]),
+            **{v: int(html[v]) for v in EXPECTED if v != "PASS"}} == EXPECTED
+    assert float(html["least robustness"]) == pytest.approx(light["near_robustness"], rel=1e-3)
+
+
+@pytest.mark.slow
+def test_the_campaign_report_is_titled_by_the_spec_and_names_the_page_it_writes(fmus, tmp_path, capsys):
+    """Results in a folder named otherwise than the spec: the reports take the spec's name; campaign-report says the
+    report.html it rewrites (the page is written anew: its time changes), not only report.md."""
+    import os
+
+    (tmp_path / "c.toml").write_text(FMU_SPEC.replace('controllers = ["dlqr", "mine.fmu"]', 'controllers = ["dlqr"]'))
+    results = tl.campaign(tmp_path / "c.toml", out=tmp_path / "elsewhere", workers=1, fmus=fmus,
+                          progress=lambda _: None).results
+    page = results.parent / "report.html"
+    os.utime(page, (0, 0))
+    capsys.readouterr()
+    assert main(["campaign-report", str(results)]) == 0
+    said = capsys.readouterr().out
+    assert str(page) in said and "report.md" in said and page.stat().st_mtime > 0
+    assert (results.parent / "report.md").read_text().startswith("# Campaign report: two-builds\n")
+    title = re.search(r"<title>(.*?)</title>", page.read_text(encoding="utf-8"), re.S).group(1)
+    assert "two-builds" in title and "elsewhere" not in title
+
+
+FMU_SPEC = """
+name = "two-builds"
+[base]
+scenario = "fsi"
+trajectory = 1
+controllers = ["dlqr", "mine.fmu"]
+stop_time = 1.0
+[vary]
+seeds = [1]
+"""
+
+
+def _environment_rows(page: str) -> list[list[str]]:
+    """The rows of report.html's FMU table in its Environment section (instance, model, GUID, SHA-256)."""
+    parser = _Tables()
+    parser.feed(page[page.index('id="environment"'):])
+    return next(rows_[1:] for _, rows_ in parser.tables if rows_ and "SHA-256" in " ".join(rows_[0]))
+
+
+@pytest.mark.slow
+def test_the_campaign_report_names_the_sha256_of_each_fmu_it_ran(fmus, tmp_path):
+    """A campaign of our dlqr and a user's controller FMU (another build: its own SHA-256): report.html's environment
+    and report.md name every FMU the runs loaded, each with the digest of its file."""
+    import hashlib
+    import shutil
+    import zipfile
+
+    mine = tmp_path / "mine.fmu"
+    shutil.copy(fmus / "TiltloadController.fmu", mine)
+    with zipfile.ZipFile(mine, "a") as z:  # another build of the same controller: another file
+        z.comment = b"the user's build"
+    (tmp_path / "two.toml").write_text(FMU_SPEC)
+    result = tl.campaign(tmp_path / "two.toml", out=tmp_path / "out", workers=1, fmus=fmus, progress=lambda _: None)
+    digest = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in [*fmus.glob("*.fmu"), mine]}
+    assert len(set(digest.values())) == 5
+
+    rows = _environment_rows((result.results.parent / "report.html").read_text(encoding="utf-8"))
+    named = {r[0]: r[-1] for r in rows}
+    assert named == {"plant": digest["TiltloadPlant.fmu"], "sensors": digest["TiltloadSensors.fmu"],
+                     "scenario": digest["TiltloadScenario.fmu"], "controller (dlqr)": digest["TiltloadController.fmu"],
+                     "controller (mine)": digest["mine.fmu"]}
+    text = (result.results.parent / "report.md").read_text()
+    assert "not recorded" not in text.lower() and all(f"`{d}`" in text for d in named.values())
