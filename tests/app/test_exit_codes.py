@@ -133,7 +133,7 @@ def test_campaign_a_failed_requirement_fails_it_unless_allowed(fmus, runs, tmp_p
     assert row["r_verdict"] == "PASS (vacuous)"  # a vacuous pass passes the campaign, and its column says so
     assert _code(["campaign-report", str(tmp_path / "pass" / "out" / "results.parquet")]) == 0
     report = next((tmp_path / "pass" / "out").rglob("*.md")).read_text()
-    assert "| r | 1 (1 vacuous) | 0 | 0 | 0 | 100 % |" in report
+    assert "| r | 1 (1 vacuous) | 0 | 0 | 0 | 0 | 100 % |" in report  # PASS, FAIL, INCONCLUSIVE, ZERO, ERROR
 
 
 def test_the_builders_exit_0_when_done_and_2_on_bad_input(fmus, tmp_path):
