@@ -174,7 +174,10 @@ def _child(request: dict) -> None:
 
     report = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)  # the user's prints go to stderr; stdout carries the reports
-    sys.path[:] = request["sys_path"]  # the caller's: the user's file may import its neighbours as it did there
+    # the caller's folders after the child's own: the user's file may import its neighbours as it did there, but a
+    # folder the caller added (a pinned pythonfmu FMU's resources, which bundle a pythonfmu without its binaries)
+    # shadows no package of tiltload's
+    sys.path.extend(p for p in request["sys_path"] if p not in sys.path)
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
     trace.WATCH = lambda what, seconds: report.write(json.dumps({"part": what, "limit": seconds}) + "\n")
