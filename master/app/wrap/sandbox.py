@@ -43,6 +43,10 @@ def _error(kind: str, message: str) -> Exception:
 def _run(job: str, path: Path, use=lambda result: result, **args):
     """Run job in a child on the user's file; use(its result) (a dict, before its folder goes), or its refusal raised
     as WrapError and kin."""
+    from ...engine.user_files import open_binary
+
+    with open_binary(path, "controller"):  # the file this process was handed opens here, as every input file does: what
+        pass  # it is instead (a FIFO, a folder, behind a permission) is this one line, not the child's
     work = Path(tempfile.mkdtemp(prefix="tiltload_wrap_"))
     (work / "tmp").mkdir()
     request = {"job": job, "path": str(path), "limit": _limit_s(), "work": str(work), "sys_path": sys.path, **args}
