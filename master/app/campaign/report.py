@@ -347,8 +347,20 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     from ..evidence.campaign_page import write_campaign_report
 
     write_campaign_report(results.parent.name, rows, varied, [rerun_command(r, spec) for r in rows],
-                          [folder / f for f in figures], folder / "report.html")
+                          [folder / f for f in figures], folder / "report.html", requirements=_requirements(spec, spec_folder))
     return path
+
+
+def _requirements(spec: dict | None, spec_folder: Path | None) -> list:
+    """keep.requirements' file, loaded (the report's sources and formulas), or none where it is no longer there."""
+    from ...engine.requirement.files import RequirementError, load
+
+    name = (spec or {}).get("keep", {}).get("requirements")
+    path = Path(spec_folder or ".") / name if name else None
+    try:
+        return load(path) if path is not None and path.is_file() else []
+    except RequirementError:
+        return []
 
 
 def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
