@@ -161,3 +161,54 @@ def test_the_pdf_holds_every_requirement_and_has_pages(pages, tmp_path):
     flat = re.sub(r"\s+", "", text)
     for req in load(pages[1]):
         assert re.sub(r"\s+", "", req.name) in flat, req.name
+
+
+# a requirement's figure: its title's lines, whether any of its text leaves the figure, the bounds in the page's data
+FIGURE = """(() => { const out = {};
+  for (const f of document.querySelectorAll('figure[aria-label^="requirement "]')) {
+    const svg = f.querySelector('svg'), box = svg.getBoundingClientRect();
+    const texts = [...svg.querySelectorAll('text')];
+    out[f.getAttribute('aria-label').slice(12)] = {text: texts.map(t => t.textContent).join(' '),
+      cut: texts.filter(t => { const r = t.getBoundingClientRect(); return r.left < box.left - 1 || r.right > box.right + 1; }).length};
+  }
+  return out; })()"""
+
+
+def test_a_failing_requirement_s_figure_is_titled_in_full_with_its_bound_on_its_signal(pages, browser):
+    from tiltload.master.engine.requirement.files import load
+
+    page = pages[0]["run"]
+    data = _data(page)
+    test = data["tests"][0]
+    verdicts = {r["name"]: r["verdict"] for r in test["results"]}
+    assert verdicts["x_close"] == "FAIL"
+    seen = browser.measure(page, 794, FIGURE)
+    for req in load(pages[1]):
+        figure = seen[req.name]
+        assert f"{req.name}: {verdicts[req.name]}" in figure["text"]
+        assert re.sub(r"\s+", "", req.text) in re.sub(r"\s+", "", figure["text"])  # the formula in full ...
+        assert figure["cut"] == 0  # ... and none of the figure's text beyond its edge, at A4 width
+    # the bounds the requirement file states, on the signals they bound: f_R in [0, 30]; plant.x within x_ref ± 0.2
+    thrust = test["curves"]["thrust_within_the_actuator_limits"]
+    assert sorted({v for c in thrust if c["label"] == "bound on controller.f_R" for v in c["values"]}) == [0, 30]
+    x = [c for c in test["curves"]["x_close"] if c["label"] == "bound on plant.x"]
+    ref = next(c for c in test["curves"]["x_close"] if c["label"] == "scenario.x_ref")
+    assert len(x) == 2
+    for curve, c in zip(sorted(x, key=lambda k: k["values"][0]), (-0.2, 0.2)):
+        assert curve["times"] == ref["times"]
+        assert curve["values"] == pytest.approx([v + c for v in ref["values"]], abs=1e-6)
+
+
+GAIN = """[...document.querySelectorAll('table.gain[data-matrix="K"] tr')].slice(1).map(
+  tr => [...tr.querySelectorAll('td')].map(td => td.textContent))"""
+
+
+def test_a_gain_matrix_reads_as_a_matrix_in_numeric_order(browser, tmp_path):
+    """K_i_j (3 x 11) shown as a matrix: row i, column j holds K_i_j's value, 10 after 9, not text-sorted."""
+    from tiltload.master.app.evidence import Report, write_report
+    from tiltload.master.app.evidence.model import this_environment
+
+    gains = {f"K_{i}_{j}": str(100 * i + j) for i in range(3) for j in range(11)}
+    env = this_environment((), [("Tc", "0.012"), *sorted(gains.items())])  # text-sorted, as a record lists them
+    page = write_report(Report("gains", "run", [], env), tmp_path / "gains.html")
+    assert browser.measure(page, 1400, GAIN) == [[str(100 * i + j) for j in range(11)] for i in range(3)]

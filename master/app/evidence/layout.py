@@ -24,12 +24,12 @@ def overall(counts: dict[str, int]) -> str:
 def _rank(test: dict, matrix: dict[str, dict[str, str]]) -> int:
     cells = {row[test["name"]] for row in matrix.values()} | {test.get("outcome")}
     cells |= {ERROR} if test.get("error") else set()
-    return next((k for k, v in enumerate(_WORST_FIRST) if v in cells), len(_WORST_FIRST))
+    return 0 if cells & {FAIL, ERROR} else 1 if cells & {INCONCLUSIVE, ZERO} else 2  # a failure and an error alike
 
 
 def columns(tests: list[dict], matrix: dict[str, dict[str, str]], kind: str) -> dict:
     """The matrix's columns: {"shown": [(label, test name)], "rest": [names], "rows": {requirement: counts of the rest}}.
-    Failing tests first (then errors, inconclusive, zero), else in the report's order; labelled R1.. (a campaign's
+    Failing tests and errors first (then inconclusive, zero), else in the report's order; labelled R1.. (a campaign's
     runs) or T1.. in the order shown, so the key below the matrix reads left to right."""
     order = sorted(range(len(tests)), key=lambda i: (_rank(tests[i], matrix), i))
     prefix = "R" if kind == "campaign" else "T"
