@@ -34,12 +34,23 @@ def columns(tests: list[dict], matrix: dict[str, dict[str, str]], kind: str) -> 
     order = sorted(range(len(tests)), key=lambda i: (_rank(tests[i], matrix), i))
     prefix = "R" if kind == "campaign" else "T"
     shown = [(f"{prefix}{k + 1}", tests[i]["name"]) for k, i in enumerate(order[:COLUMNS])]
+    # a campaign's run is told apart by what varied: its case (controller, seed, the varied values) in the key
+    cases = {tests[i]["name"]: ", ".join(f"{k} {_short(v)}" for k, v in tests[i]["case"].items()) if kind == "campaign"
+             else "" for i in order[:COLUMNS]}
     rest = [tests[i]["name"] for i in order[COLUMNS:]]
     summary = {}
     for req, row in matrix.items():
         tally = {v: sum(1 for n in rest if row[n] == v) for v in (*COUNTED, NOT_EXERCISED)}
         summary[req] = [(v, c) for v, c in tally.items() if c]
-    return {"shown": shown, "rest": rest, "rows": summary}
+    return {"shown": shown, "rest": rest, "rows": summary, "cases": cases}
+
+
+def _short(text: str) -> str:
+    """A number as 6 significant digits (0.6000000000000001 reads 0.6); any other text as it is."""
+    try:
+        return f"{float(text):.6g}" if any(c in text for c in ".eE") else text
+    except ValueError:
+        return text
 
 
 _GAIN = re.compile(r"^(.*?)_(\d+)_(\d+)$")
