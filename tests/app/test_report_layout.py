@@ -212,3 +212,15 @@ def test_a_gain_matrix_reads_as_a_matrix_in_numeric_order(browser, tmp_path):
     env = this_environment((), [("Tc", "0.012"), *sorted(gains.items())])  # text-sorted, as a record lists them
     page = write_report(Report("gains", "run", [], env), tmp_path / "gains.html")
     assert browser.measure(page, 1400, GAIN) == [[str(100 * i + j) for j in range(11)] for i in range(3)]
+
+
+def test_without_chromium_the_pdf_is_refused_in_one_line_and_the_page_written(tmp_path, monkeypatch):
+    from tiltload.master.app.evidence import Report, paper, write_report
+    from tiltload.master.app.evidence.model import this_environment
+    from tiltload.master.app.user_error import UserError
+
+    monkeypatch.setattr(paper, "chromium", lambda: None)
+    with pytest.raises(UserError) as err:
+        write_report(Report("no browser", "check", [], this_environment()), tmp_path / "r.pdf")
+    assert "\n" not in str(err.value) and "Chromium is not installed" in str(err.value)
+    assert (tmp_path / "r.html").is_file() and not (tmp_path / "r.pdf").exists()
