@@ -58,3 +58,11 @@ def recorded_fmus(folder: Path) -> tuple[tuple[FmuRecord, ...], tuple[tuple[str,
             records.setdefault((f.instance, f.sha256), f)
     parameters = next(iter(per_controller.values()))[1] if len(per_controller) == 1 else {}
     return tuple(records.values()), tuple(sorted((str(k), str(v)) for k, v in parameters.items()))
+
+
+def fmu_section(fmus) -> list[str]:
+    """The FMUs the campaign ran (fmus.json), or a line saying the results do not record them."""
+    if not fmus:
+        return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
+    return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
+            *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]

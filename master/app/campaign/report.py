@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..loop.defaults import OUR_CONTROLLERS, SCENARIO
-from .fmus_record import FMUS, recorded_fmus
+from .fmus_record import fmu_section, recorded_fmus
 
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
 DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
@@ -349,18 +349,12 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
     from ..evidence.campaign_page import write_campaign_report
+    from .spec import kept_requirements
 
     write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec) for r in rows],
-                          [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters)
+                          [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters,
+                          requirements=kept_requirements(spec, spec_folder))
     return path
-
-
-def fmu_section(fmus) -> list[str]:
-    """The FMUs the campaign ran (fmus.json), or a line saying the results do not record them."""
-    if not fmus:
-        return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
-    return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
-            *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]
 
 
 def written(path: Path) -> str:

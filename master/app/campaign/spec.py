@@ -306,3 +306,15 @@ def _load_branches(data: dict, path: Path, branching: Branching) -> Campaign:
     flight = Flight(Trajectory.from_dict(reference) if reference else as_trajectory(options["trajectory"]))
     return Campaign(data["name"], options["scenario"], flight, stop, options["gusts"], tuple(keep.get("metrics", METRICS)),
                     keep.get("logs", False), faults, list(targets), cases, path, branching.path, branching.time)
+
+
+def kept_requirements(spec: dict | None, spec_folder: Path | None) -> list:
+    """A spec's keep.requirements file, loaded (a report's sources and formulas), or none where it is no longer there."""
+    from ...engine.requirement.files import RequirementError, load
+
+    name = (spec or {}).get("keep", {}).get("requirements")
+    path = Path(spec_folder or ".") / name if name else None
+    try:
+        return load(path) if path is not None and path.is_file() else []
+    except RequirementError:
+        return []

@@ -36,17 +36,18 @@ def _number(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _stored(name: str, row: dict, formulas: dict[str, str]) -> StoredVerdict:
+def _stored(name: str, row: dict, formulas: dict[str, str], sources: dict[str, str]) -> StoredVerdict:
     """A requirement's stored verdict; the column says "PASS (vacuous)" for a vacuous pass."""
     shown = str(row[f"{name}_verdict"])
     vacuous = shown.endswith("(vacuous)")
     return StoredVerdict(name, shown.split(" ")[0] if vacuous else shown, _number(row[f"{name}_robustness"]), vacuous,
-                         formula=formulas.get(name, ""))
+                         formula=formulas.get(name, ""), source=sources.get(name, ""))
 
 
-def _test(row: dict, varied: list[str], names: list[str], command: str, formulas: dict[str, str]) -> Test:
+def _test(row: dict, varied: list[str], names: list[str], command: str, formulas: dict[str, str],
+          sources: dict[str, str]) -> Test:
     failed = bool(row.get("error")) or not row.get("completed", True)
-    results = [] if failed else [_stored(n, row, formulas) for n in names]
+    results = [] if failed else [_stored(n, row, formulas, sources) for n in names]
     metrics = {k: v for k, v in row.items() if k.startswith(("ISE(", "IADU(")) or k in (
         "max_tracking_error", "time_saturated", "zse_containment")}
     case = {"controller": row.get("controller"), "seed": row.get("seed"), **{k: row.get(k) for k in varied}}
@@ -58,11 +59,15 @@ LISTED = 500  # runs the page shows one by one
 
 
 def write_campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
-                          out: Path, formulas: dict[str, str] | None = None, fmus=(), controller_parameters=()) -> Path:
+                          out: Path, formulas: dict[str, str] | None = None, fmus=(), controller_parameters=(),
+                          requirements=()) -> Path:
     """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results;
-    fmus, controller_parameters: what the campaign ran, case.record's FmuRecords)."""
+    fmus, controller_parameters: what the campaign ran, case.record's FmuRecords; requirements: keep.requirements'
+    file, loaded, for each requirement's formula and source)."""
     names = requirement_names(rows[0]) if rows else []
-    tests = [_test(r, varied, names, c, formulas or {}) for r, c in zip(rows, commands)]
+    formulas = (formulas or {}) | {r.name: r.text for r in requirements}
+    sources = {r.name: r.source for r in requirements}
+    tests = [_test(r, varied, names, c, formulas, sources) for r, c in zip(rows, commands)]
     tables = []
     if names:  # the counts every face prints (case.verdict_counts): a failed or diverged run is ERROR
         body = []
@@ -90,7 +95,8 @@ def write_campaign_report(name: str, rows: list[dict], varied: list[str], comman
         summary += (f" The page lists {LISTED} of the {len(tests)} runs one by one: the failed or diverged first, then those "
                     "that failed a requirement, then in run order; results.parquet holds every run.")
     environment = environment_of_tests(tests, fmus, controller_parameters)  # the rows hold no FMUs: fmus.json's
-    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=[], listed=LISTED,
+    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=list(requirements),
+                    listed=LISTED,
                     figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()], tables=tables,
                     summary=summary)
     return write_report(report, Path(out), standard_figures=False)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import io
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -70,8 +71,9 @@ def requirement_figure(req, trace, result, unit_of, final: bool = True) -> tuple
             ax.plot(c.times, [np.nan if v is None else v for v in c.values], lw=0.9, color=f"C{k}", label=name)
             diverged.append(_finite_until(trace.times, values))
         ax.set_ylabel(f"({unit})", fontsize=7)
-        ax.legend(fontsize=6, loc="best", framealpha=0.6)
-        blown = scale_to_sane(ax)  # a diverged run: scaled to its samples before the divergence, which it marks
+        blown = scale_to_sane(ax)
+        curves += _draw_bounds(ax, trace, [b for b in bounds_of(req.formula) if b[0] in names])
+        ax.legend(fontsize=6, loc="best", framealpha=0.6)  # a diverged run: scaled to its samples before the divergence, which it marks
         _mark(ax, bad, first, None if blown is not None else min((d for d in diverged if d is not None), default=None))
     ax = axes[-1, 0]
     c = decimated("margin", times, np.asarray(margin, dtype=float))
@@ -89,9 +91,54 @@ def requirement_figure(req, trace, result, unit_of, final: bool = True) -> tuple
     for a in axes[:, 0]:
         a.tick_params(labelsize=7)
     verdict = getattr(result, "verdict", "")
-    fig.suptitle(f"{req.name} ({verdict}): {req.text}", fontsize=8)
-    fig.tight_layout()
+    # the name and verdict first, the formula in full below, wrapped to the figure's width (about 150 characters at 8 pt)
+    title = "\n".join([f"{req.name}: {verdict}", *textwrap.wrap(req.text, 150)])
+    fig.suptitle(title, fontsize=8, x=0.01, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.11 * title.count("\n") / fig.get_size_inches()[1]))
     return _svg(fig, req.name), curves
+
+
+def bounds_of(tree) -> list[tuple[str, float, str | None]]:
+    """The bounds a formula puts on a signal, to draw on that signal: (signal, c, None) for `s op c` (a line at c),
+    (a, c, b) for `abs(a - b) op c` or `a - b op c` (lines at b ± c: a band around the reference b). Other
+    comparisons (a product, two signals' sum) have no bound on one signal: the margin panel shows them."""
+    from ...engine.requirement.stl.syntax import Arith, Compare, Const, Signal
+
+    out = []
+    if isinstance(tree, Compare):
+        side, c = (tree.left, tree.right) if isinstance(tree.right, Const) else (tree.right, tree.left)
+        if isinstance(c, Const):
+            band = isinstance(side, Arith) and side.op == "abs"
+            inner = side.args[0] if band else side
+            if isinstance(inner, Signal):
+                out.append((inner.name, c.value, None))
+            elif isinstance(inner, Arith) and inner.op == "-" and all(isinstance(a, Signal) for a in inner.args):
+                a, b = inner.args[0].name, inner.args[1].name
+                out += [(a, c.value, b)] + ([(a, -c.value, b)] if band else [])
+        return out
+    for child in ("arg", "left", "right"):
+        if hasattr(tree, child):
+            out += bounds_of(getattr(tree, child))
+    return out
+
+
+def _draw_bounds(ax, trace, bounds) -> list[Curve]:
+    """Each bound on its signal's panel, dashed red (a band: the reference ± c, decimated as the reference is); the
+    curves drawn, labelled "bound on SIGNAL", for the page's data."""
+    out = []
+    for k, (signal, c, reference) in enumerate(dict.fromkeys(bounds)):
+        if reference is None:
+            t = [_short(trace.times[0]), _short(trace.times[-1])] if len(trace.times) else []
+            curve = Curve(f"bound on {signal}", t, [_short(c)] * len(t))
+        elif reference in trace.signals:
+            ref = decimated(reference, trace.times, np.asarray(trace.signals[reference], dtype=float))
+            curve = Curve(f"bound on {signal}", ref.times, [None if v is None else _short(v + c) for v in ref.values])
+        else:
+            continue
+        ax.plot(curve.times, [np.nan if v is None else v for v in curve.values], color="C3", lw=0.8, ls="--",
+                label="bound" if k == 0 else None)
+        out.append(curve)
+    return out
 
 
 def _mark(ax, bad, first, diverged) -> None:

@@ -13,10 +13,10 @@ from pathlib import Path
 import jinja2
 
 from ..user_error import visible
+from . import layout
 from .model import COUNTED, NOT_EXERCISED, Report, counts, matrix, requirement_ids, verdict_of
 
 _TEMPLATE = Path(__file__).with_name("report.html.j2")
-WIDE = 12  # more tests than this: the traceability matrix has a row per test (a column each would not fit)
 
 
 def _number(x):
@@ -101,8 +101,11 @@ def render(report: Report, standard_figures: bool = True) -> str:
     env.filters["num"] = lambda x: "" if x is None else f"{x:.6g}"
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
+    matrices, scalars = layout.parameters(data["environment"]["controller_parameters"])
     return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
-                       wide=len(tests) > WIDE,
+                       overall=layout.overall(data["counts"]), columns=layout.columns(tests, data["matrix"], report.kind),
+                       tested=layout.what_was_tested(data["environment"], tests, len(report.tests), report.kind),
+                       gain_matrices=matrices, scalars=scalars,
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
 
 
@@ -118,13 +121,20 @@ def _script_safe(text: str) -> str:
 
 
 def write_report(report: Report, path: Path, standard_figures: bool = True, inputs=None) -> Path:
-    """Write the report to path (a folder is made as needed); returns path. inputs: the command's inputs ({"the log it
+    """Write the report to path (a folder is made as needed); returns path. A path ending .pdf: the page beside it
+    (.html) and its print to PDF. inputs: the command's inputs ({"the log it
     judges": log} or pairs): a path that is one of them is refused (output_folder.writable_file), the input kept."""
     from ..output_folder import writable_file, write_file
 
-    path = writable_file(Path(path), "the report", list(_inputs_of(report)) + list(
-        inputs.items() if isinstance(inputs, dict) else inputs or ()))
-    return write_file(path, render(report, standard_figures))
+    refused = list(_inputs_of(report)) + list(inputs.items() if isinstance(inputs, dict) else inputs or ())
+    path = writable_file(Path(path), "the report", refused)
+    if path.suffix.lower() != ".pdf":
+        return write_file(path, render(report, standard_figures))
+    # a report for paper: the page beside it (same name, .html), printed by headless Chromium (paper.py)
+    from .paper import print_pdf
+
+    page = write_file(writable_file(path.with_suffix(".html"), "the report's page", refused), render(report, standard_figures))
+    return print_pdf(page, path)
 
 
 def _inputs_of(report: Report):

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .model import ERROR, FAIL, PASS, Report, Test, environment_of_tests
+from .model import ERROR, FAIL, PASS, Report, Test, environment_of_log, environment_of_tests
 from .page import write_report
 
 
@@ -31,8 +31,15 @@ def tests_of(records: list[TestRecord]) -> list[Test]:
         for k, run in enumerate(rec.runs):
             name = rec.nodeid if len(rec.runs) == 1 else f"{rec.nodeid} (run {k + 1})"
             tests.append(Test(name, run.command, dict(run.record), run.log, list(run.requirements), dict(run.metrics),
-                              error=error, outcome=rec.outcome, failure=failure))
+                              error=error, outcome=rec.outcome, failure=failure, environment=_environment(run.log)))
     return tests
+
+
+def _environment(log):
+    """The FMUs a run's log records (its "fmus" metadata): the report's first screen names the controller by them."""
+    from ...engine.log.reader import read_metadata
+
+    return environment_of_log(read_metadata(Path(log))) if log and Path(log).is_file() else None
 
 
 def write_pytest_report(records: list[TestRecord], path: Path, title: str) -> Path:
