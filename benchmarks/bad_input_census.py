@@ -135,6 +135,9 @@ def generate(folder: Path, fmus: Path) -> list[dict]:
     for case in issue62a_cases(folder, Path(FMUS)):
         add(*case)
 
+    for label, api in api_field_cases():
+        add("the public API's field types", label, api=api)
+
     # ---- issue 62, part B: the user's code in wrap; parts and controllers of searches and campaigns; names, newlines
     # and the design API (tests/app/test_bad_input_user_code.py)
     for cls, label, argv, api, expect in _user_code_generator().user_code_cases(folder / "user_code"):
@@ -153,6 +156,23 @@ def issue62a_cases(folder: Path, fmus: Path) -> list[tuple]:
              *more.b2b_cases(folder / "b2b62", fmus), *more.report_cases(folder / "reports62", fmus)]
     readonly = more.readonly_mount(folder.parent / f"ro_{folder.name}")
     return cases + (more.readonly_cases(folder / "readonly62", fmus, readonly) if readonly is not None else [])
+
+
+def api_field_cases() -> list[tuple[str, str]]:
+    """Issue 62's "the public API checks less than the command line": numbers beyond a double's range, non-finite FMU
+    parameters and misspelt keywords, given to the request objects (tests/app/test_api_field_types.py: the same, as
+    property tests)."""
+    huge = "10 ** 400"
+    return [(f"Case(stop_time={huge})", f"tl.Case(stop_time={huge})"), (f"RunOptions(realtime={huge})", f"tl.RunOptions(realtime={huge})"),
+            (f"FalsifyOptions(seconds={huge})", f"tl.FalsifyOptions(seconds={huge})"),
+            (f"CampaignOptions(worker_timeout={huge})", f"tl.CampaignOptions(worker_timeout={huge})"),
+            (f"Case(max_tilt={huge})", f"tl.Case(max_tilt={huge})"), (f"Case(seed={huge})", f"tl.Case(seed={huge})"),
+            (f"Case(set={{plant.m_L: {huge}}})", f"tl.Case(set={{'plant.m_L': {huge}}})"),
+            ("Case(set={plant.m_L: nan})", "tl.Case(set={'plant.m_L': float('nan')})"),
+            ("Case(set={plant.m_L: -inf})", "tl.Case(set={'plant.m_L': float('-inf')})"),
+            ("Case(set={plant.m_L: numpy nan})", "import numpy as np; tl.Case(set={'plant.m_L': np.float64('nan')})"),
+            ("Case(stop_tme=3): a misspelt keyword", "tl.Case(stop_tme=3)"),
+            ("RunOptions(no_plot=True): a misspelt keyword", "tl.RunOptions(no_plot=True)")]
 
 
 def _user_code_generator():
