@@ -45,7 +45,7 @@ def test_falsify_with_a_private_empty_tmpdir_leaves_it_empty(fmus, tmp_path):
 
 
 def _no_cluster(monkeypatch) -> None:
-    from tiltload.master.app.campaign import cluster
+    from tiltload.master.app.batch import cluster
 
     def refuse(*args, **kwargs):
         raise AssertionError("a cluster was started")

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 from support.stl_oracle import brute
-from tiltload.master.app.loop import default_system
+from tiltload.master.app.loop.thesis import default_system
 from tiltload.master.engine import edges
 from tiltload.master.engine.log import reader as log_reader
 from tiltload.master.engine.requirement.check import build_trace, check_log
@@ -150,7 +150,7 @@ CASES = [(scenario, vehicle, fmi, clocked) for scenario in ("fsi", "lkf", "zse")
 
 @pytest.fixture(scope="module")
 def every_fmu_set(fmus, fmi3_fmus):
-    from tiltload.master.app.fmus import build_all
+    from tiltload.master.app.loop.fmus import build_all
 
     fmi3 = fmi3_fmus["TiltloadPlant"].parent
     build_all(fmus, progress=lambda *_: None, vehicles=("uav",))
