@@ -113,7 +113,7 @@ def open_log(log: Path | str) -> Result:
     from ...engine.log.reader import DamagedLog, ForeignLog, read_metadata
     from ...engine.requirement.check import check_log
     from ...engine.requirement.files import requirement
-    from ..case.record import fmus_of_metadata, replay_command
+    from ..case.record import fmus_of_metadata, metrics_of_metadata, replay_command
     from .errors import as_tiltload_errors
 
     log = Path(log)
@@ -128,14 +128,7 @@ def open_log(log: Path | str) -> Result:
         formulas = meta.get("requirement_formulas", {})
         reqs = [requirement(name, text) for name, text in formulas.items()] if isinstance(formulas, dict) else []
         judged = tuple(check_log(log, reqs, missing="inconclusive")) if reqs else ()
-    numbers = {}
-    for key, value in meta.get("metrics", {}).items():
-        try:
-            numbers[key] = float(value)
-        except ValueError:
-            continue
-    ticks = int(numbers.pop("ticks", 0))
-    numbers.pop("complete", None)
+    numbers, ticks = metrics_of_metadata(meta)
     fmus, _ = fmus_of_metadata(meta.get("fmus", {}) if isinstance(meta.get("fmus"), dict) else {})
     stop = float(run.get("stop_time") or "nan")
     return Result(metrics=numbers, case=case_of_record(run), options=None, record=run, log=log,

@@ -178,3 +178,17 @@ def replay_command(run: dict, requirements: Path | None = None) -> str:
     if requirements is not None:
         argv += ["--requirements", str(requirements)]
     return shlex.join(argv)
+
+
+def metrics_of_metadata(meta: dict) -> tuple[dict[str, float], int]:
+    """A log's metrics record as numbers (the ISE and IADU by name), and the ticks it counts; a value that is no number
+    is left out."""
+    numbers = {}
+    for key, value in (meta.get("metrics", {}) if isinstance(meta.get("metrics"), dict) else {}).items():
+        try:
+            numbers[key] = float(value)
+        except ValueError:
+            continue
+    ticks = int(numbers.pop("ticks", 0))
+    numbers.pop("complete", None)
+    return numbers, ticks

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..case.record import replay_command
+from ..case.record import metrics_of_metadata, replay_command
 from .model import Test, environment_of_log
 
 
@@ -16,13 +16,7 @@ def test_of_log(log: Path, results, requirements: Path | None = None, name: str 
 
     meta = read_metadata(Path(log))
     run = dict(meta.get("run", {}))
-    metrics = {}
-    for key, value in meta.get("metrics", {}).items():
-        try:
-            metrics[key] = float(value)
-        except ValueError:
-            continue
-    metrics = {k: v for k, v in metrics.items() if k not in ("ticks", "complete")}
+    metrics, _ = metrics_of_metadata(meta)
     error = meta.get("error", {}).get("message") if isinstance(meta.get("error"), dict) else None
     return Test(name or Path(log).stem, replay_command(run, requirements), run, Path(log), list(results), metrics, error,
                 environment=environment_of_log(meta))
