@@ -1,5 +1,5 @@
-"""One campaign run, as a Dask worker executes it: the case's system (case_system.py) run through the engine's one life
-cycle (engine/lifecycle.py) on the worker's execution pool (worker.py), its metrics (metrics.py) and its row."""
+"""One campaign run, as a Dask worker executes it: the case's system (case/system.py) run through the engine's one life
+cycle (engine/lifecycle.py) on the worker's execution pool (batch/worker.py), its metrics (metrics.py) and its row."""
 
 from __future__ import annotations
 
