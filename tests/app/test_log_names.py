@@ -28,6 +28,7 @@ SAME_RUN = {
     "no_log": "no log at all",
     "quiet": "no progress bar",
     "report": "an HTML report beside the log; the run is the same",
+    "expect_fmu": "refuses an FMU that is not the build named (a replay pinned by digest); the run it allows is the same",
 }
 # an option -> (the command line without it, the command line with it): the two must be named apart
 CHANGES = {
