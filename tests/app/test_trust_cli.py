@@ -184,10 +184,14 @@ def test_a_spec_that_is_not_a_file_is_one_line(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_a_controller_that_is_not_an_fmu_is_its_case_error_and_dask_leaves_nothing_in_tmpdir(fmus, tmp_path, monkeypatch):
+def test_a_controller_that_is_not_an_fmu_is_refused_before_a_cluster_and_leaves_nothing_in_tmpdir(fmus, tmp_path,
+                                                                                                  monkeypatch):
+    """A campaign whose controller is no FMU is the spec's error, said in one line before any cluster starts (issue 62:
+    it ran and failed each of its runs), and nothing is left in TMPDIR."""
     import tempfile
 
     from tiltload.master.app.campaign import runner
+    from tiltload.master.app.case.spec_file import SpecError
 
     scratch = tmp_path / "tmpdir"
     scratch.mkdir()
@@ -196,10 +200,7 @@ def test_a_controller_that_is_not_an_fmu_is_its_case_error_and_dask_leaves_nothi
     (tmp_path / "text.fmu").write_text("not an FMU")
     spec = tmp_path / "spec.toml"
     spec.write_text('name = "c"\n[base]\nstop_time = 0.2\ncontrollers = ["dlqr", "text.fmu"]\n[vary]\nseeds = [1]\n')
-    results, counts = runner.run(spec, tmp_path / "out", workers=1, fmus=fmus, progress=lambda _: None)
-    assert (counts["total"], counts["completed"], counts["failed"], counts["retried"]) == (2, 1, 1, 0)
-    import pandas as pd
-
-    rows = pd.read_parquet(results).set_index("controller")
-    assert rows.loc["text", "error"] == f"controller: {tmp_path / 'text.fmu'} is not an FMU (not a zip archive)"
+    with pytest.raises(SpecError, match=r"base\.controllers: controller: .*text\.fmu is not an FMU \(not a zip archive\)"):
+        runner.run(spec, tmp_path / "out", workers=1, fmus=fmus, progress=lambda _: None)
+    assert not (tmp_path / "out" / "parts").exists() or not list((tmp_path / "out" / "parts").iterdir())
     assert not list(scratch.iterdir())  # no dask-scratch-space/{global,purge}.lock
