@@ -95,6 +95,9 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except KeyboardInterrupt:
         print("tiltload: interrupted", file=sys.stderr)
+        # what an interrupted campaign leaves (Dask's futures) is collected after its event loop closed: their __del__'s
+        # complaint ("Exception ignored in ...", a traceback) is no news to whoever pressed Ctrl-C
+        sys.unraisablehook = lambda unraisable: None
         return 130
     except BrokenPipeError:  # the reader of our output went away (e.g. `| head`): stop, as a pipe writer does
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
