@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import os
 import re
@@ -1331,9 +1332,20 @@ def test_the_reports_rerun_commands_name_a_users_controller_fmu_by_its_path(user
     mine = [c for c in commands if "mine" in c]
     fmu = (user_campaign.parent.parent / "ctrl" / "mine.fmu").resolve()
     assert mine and all(f"--controller {fmu}" in c for c in mine), commands
+    digest = hashlib.sha256(fmu.read_bytes()).hexdigest()  # pinned to the build the campaign ran (issue 61)
+    assert all(f"--expect-fmu controller={digest}" in c for c in mine), commands
     os.chdir(tmp_path)
     argv = shlex.split(mine[0])[1:] + ["--fmus", str(fmus), "--no-log", "--quiet", "--no-plots"]
     assert main(argv) == 0, capsys.readouterr().err
+    kept = fmu.read_bytes()
+    try:  # another build at the same path: the rerun refuses it in one line rather than rerunning another controller
+        with zipfile.ZipFile(fmu, "a") as rebuilt:  # the same controller, another build: its digest differs
+            rebuilt.writestr("documentation/rebuilt.txt", "rebuilt")
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "is not the FMU expected" in err[0], err
+    finally:
+        fmu.write_bytes(kept)
 
 
 # ====================================================================================================================
