@@ -1198,27 +1198,14 @@ def test_the_surfaces_added_last_refuse_bad_input_in_one_line(fmus, tmp_path, ca
     """Generated: b2b and compare's tubes, wrap --native, the API's Case and RunOptions, campaign-report on garbage;
     each one line, exit 2 (a TypeError or TiltloadError from the API), nothing left behind. A traced loop without end
     is cut at the tracer's time limit (here 2 s)."""
-    from support.isolated_case import api_call, run_isolated
+    from support.isolated_case import case_problems
     from tiltload.master.app.wrap import trace
 
     monkeypatch.setattr(trace, "TIME_LIMIT_S", 2.0)
     monkeypatch.chdir(tmp_path)
     cases = surface_cases(tmp_path / "surfaces", fmus)
     assert len(cases) >= 120, len(cases)
-    problems = []
-    for cls, label, argv, api, _ in cases:
-        if argv is not None:
-            code = exit_code(argv)
-            lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
-        else:
-            import tiltload as tl
-
-            outcome = run_isolated(lambda a=api: api_call(lambda: exec(a, {"tl": tl})))  # noqa: S102 (the case's own code)
-            code, lines = outcome.code, [ln for ln in outcome.err.splitlines() if ln.strip()]
-            if outcome.left_behind:
-                lines.append(outcome.left_behind)
-        if code != 2 or len(lines) != 1 or "a bug" in lines[0] or "Traceback" in lines[0]:
-            problems.append(f"{cls}: {label}: exit {code}: {lines[-3:]}")
+    problems = case_problems(cases, capsys, exception_names=True)  # the API's TypeError says its name, as Python's do
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
 
 
