@@ -18,7 +18,7 @@ from pathlib import Path
 from lxml import etree
 
 from ..errors import DescriptionError
-from ..fmi.model_description import FMI3_TYPE, clocks_of, fmi_version, read_fmu
+from ..fmi.model_description import FMI2_TYPE, clocks_of, fmi_type, fmi_version, read_fmu
 from ..system import Instance, System
 from .export import check_members, master_annotation, osp_annotation, write_package
 from .schema import FMU_TYPE, OSP_NS, PARAMETER_SET, SSD_NAME, TL_NS, schema_errors
@@ -42,7 +42,9 @@ def _q(ns: str, tag: str) -> str:
 
 
 def _type_name(md, v) -> str:
-    return FMI3_TYPE.get(v.type, v.type) if fmi_version(md) == 3 else v.type
+    """The connector type SSP names a variable by: FMI 3.0's type, or FMI 2.0's for an FMI 2.0 FMU (SSP 1.0's)."""
+    name = fmi_type(v)
+    return name if fmi_version(md) == 3 else next(k for k, x in FMI2_TYPE.items() if x == name)
 
 
 def _clock_elements(fmu: Path) -> dict[str, etree._Element]:

@@ -55,7 +55,7 @@ def _fmi2_xml() -> str:
     outputs = []
     for i, t in enumerate(FMI2_TYPES):
         kind = "continuous" if t == "Real" else "discrete"
-        element = (f'<Enumeration declaredType="Colour"' if t == "Enumeration" else f"<{t}")
+        element = ('<Enumeration declaredType="Colour"' if t == "Enumeration" else f"<{t}")
         for prefix, vr, causality in (("p", 100, "parameter"), ("u", 200, "input"), ("y", 300, "output")):
             variability = "fixed" if causality == "parameter" else kind
             start = "" if causality == "output" else f' start="{_start(t)}"'
