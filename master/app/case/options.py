@@ -19,7 +19,7 @@ from ..user_error import UserError
 # the options that describe the thesis's loop, which a system file describes itself: given with --system, an error
 LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
              ("controller", "--controller"), ("seed", "--seed"), ("delay", "--delay"), ("no_gusts", "--no-gusts"),
-             ("set", "--set"), ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
+             ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
              ("clocks", "--clocks"))
 
 
@@ -183,7 +183,8 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
         load = LOOPS[DEFAULT_VEHICLE]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
         return LoopOptions(vehicle=DEFAULT_VEHICLE, scenario=DEFAULT_SCENARIO, trajectory=load.default_trajectory,
                            controller=load.default_controller, controller_fmu=None, seed=DEFAULT_SEED, stop_time=args.stop_time,
-                           delay=False, gusts=True, faults=args.faults, settings=(), system=args.system, fmus=DEFAULT_FMU_DIR,
+                           delay=False, gusts=True, faults=args.faults, settings=tuple(getattr(args, "set", None) or ()),
+                           system=args.system, fmus=DEFAULT_FMU_DIR,
                            allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
                            remotes=tuple(getattr(args, "remote", ())))
     if getattr(args, "allow_external_fmus", False):

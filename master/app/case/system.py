@@ -42,6 +42,7 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
+        set_parameters(system, dict(opts.settings))  # --set over the file's values, checked by the engine's type table
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
         if not prepared and build:

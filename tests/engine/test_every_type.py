@@ -1,0 +1,205 @@
+"""Every FMI value type (issue 64): set, connected and logged with its type, FMI 2.0 and 3.0. The FMUs
+(support/every_type_fmu) have a parameter, an input and an output of each type; FMPy's simulate_fmu of the same FMU with
+the same start values is the reference at every time tiltload logs (0 difference: the model is discrete arithmetic).
+A connection carries a type into the same or a wider one; anything lossy is refused naming both ends; array variables
+are refused when the system is read."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from support.every_type_fmu import FMI2_TYPES, FMI3_TYPES, every_type_fmu
+from tiltload.master.engine.errors import DescriptionError
+from tiltload.master.engine.execution import Execution
+from tiltload.master.engine.log import reader as log_reader
+from tiltload.master.engine.run import run_system
+from tiltload.master.engine.system import Connection, Instance, System
+
+TICK = 0.1
+# values beyond the narrower types' ranges where the type allows: a wrong carrier or conversion shows
+START = {"Float32": 0.1, "Float64": 0.3, "Int8": -7, "UInt8": 11, "Int16": -300, "UInt16": 600, "Int32": -70000,
+         "UInt32": 3_000_000_000, "Int64": -(2**40) - 3, "UInt64": 2**45 + 5, "Boolean": True, "Enumeration": 2,
+         "Real": 0.3, "Integer": -70000}
+INPUT = {"Float32": 0.5, "Float64": 1.25, "Int8": 100, "UInt8": 200, "Int16": 30000, "UInt16": 60000, "Int32": 2**30,
+         "UInt32": 4_000_000_000, "Int64": 2**50, "UInt64": 2**51, "Boolean": True, "Enumeration": 3, "Real": 1.25,
+         "Integer": 2**30}
+INTEGERS = {"Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Enumeration", "Integer"}
+
+
+@pytest.fixture(scope="module", params=[2, 3], ids=["fmi2", "fmi3"])
+def fmu(request, tmp_path_factory):
+    return request.param, every_type_fmu(tmp_path_factory.mktemp(f"types{request.param}"), request.param)
+
+
+def _types(version: int) -> tuple[str, ...]:
+    return FMI3_TYPES if version == 3 else FMI2_TYPES
+
+
+def _start_values(version: int) -> dict:
+    # Float64 -2^40 and beyond need 53 bits: the k steps' product stays exact
+    return {**{f"p_{t}": START[t] for t in _types(version)}, **{f"u_{t}": INPUT[t] for t in _types(version)}}
+
+
+def _logged(log, topic: str) -> list[dict]:
+    return log_reader.read(log)[f"/{topic}"]
+
+
+def _equals_fmpy(fmu, messages: list[dict], version: int, stop: float, start_values: dict, outputs=None) -> None:
+    """Every logged message equals FMPy's row at its time, value and kind (int, bool, float) alike."""
+    ref = simulate_fmu(str(fmu), stop_time=stop, output_interval=TICK, start_values=start_values)
+    times = [m["t"] for m in messages]
+    assert len(times) == len(set(times)) == len(np.unique(np.round(ref["time"], 9)))
+    for m in messages:
+        row = np.flatnonzero(np.isclose(ref["time"], m["t"], rtol=0, atol=1e-9))[-1]
+        for t in outputs or _types(version):
+            expected, got = ref[f"y_{t}"][row].item(), m[f"y_{t}"]
+            assert got == expected, (m["t"], t, got, expected)
+            kind = bool if t == "Boolean" else int if t in INTEGERS else float
+            assert type(got) is kind, (t, type(got))
+
+
+def test_every_type_is_set_and_logged_as_fmpy_simulates_it(fmu, tmp_path):
+    version, path = fmu
+    values = _start_values(version)
+    res = run_system(System(TICK, [Instance("e", path, parameters=values)]), 0.5, tmp_path / "run.mcap", progress=False)
+    assert res.error is None
+    messages = _logged(tmp_path / "run.mcap", "e")
+    assert len(messages) == 6 and messages[-1]["t"] == pytest.approx(0.5)
+    _equals_fmpy(path, messages, version, 0.5, values)
+
+
+def test_the_log_schema_gives_each_output_its_type(fmu, tmp_path):
+    from mcap.reader import make_reader
+
+    version, path = fmu
+    run_system(System(TICK, [Instance("e", path)]), 0.1, tmp_path / "run.mcap", progress=False)
+    with open(tmp_path / "run.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    channel = next(c for c in summary.channels.values() if c.topic == "/e")
+    schema = json.loads(summary.schemas[channel.schema_id].data)["properties"]
+    assert schema["y_Enumeration"]["oneOf"] == [{"const": 1, "title": "red"}, {"const": 2, "title": "green"},
+                                                {"const": 3, "title": "blue"}]
+    assert schema["y_Boolean"] == {"type": "boolean"}
+    if version == 3:
+        assert schema["y_Int8"] == {"type": "integer", "description": "Int8", "minimum": -128, "maximum": 127}
+        assert schema["y_UInt64"]["maximum"] == 2**64 - 1 and schema["y_Float32"]["description"] == "Float32"
+
+
+def test_the_isolated_worker_converts_the_same_way(tmp_path):
+    """The FMI 3.0 FMU in a worker process of its own: the same log as FMPy's result."""
+    path = every_type_fmu(tmp_path, 3)
+    values = _start_values(3)
+    ex = Execution(System(TICK, [Instance("e", path, parameters=values)]), isolate=lambda fmu, md: True)
+    from tiltload.master.engine.log.logger import McapLogger
+
+    ex.observers = [McapLogger(tmp_path / "iso.mcap")]
+    ex.instantiate()
+    try:
+        assert ex.loop.paths["e"] == "callback: worker process"
+        ex.end(0.3)
+    finally:
+        ex.close()
+    _equals_fmpy(path, _logged(tmp_path / "iso.mcap", "e"), 3, 0.3, values)
+
+
+def test_a_connection_of_every_type_carries_it_exactly(fmu, tmp_path):
+    """source.y_T -> sink.u_T for every type, the sink's own parameters neutral (p = 0, Boolean false, Enumeration
+    items such that y = u): the sink's output equals the source's at every logged time, t = 0 included (set in
+    Initialization Mode), and the source's equals FMPy's."""
+    version, path = fmu
+    types = _types(version)
+    values = _start_values(version)
+    neutral = {f"p_{t}": (False if t == "Boolean" else 0) for t in types if t != "Enumeration"}
+    neutral["p_Enumeration"] = 2  # y = 1 + (u + 2 + k) % 3: u's item at k = 0, the same shift a step as the source's
+    system = System(TICK, [Instance("source", path, parameters=values), Instance("sink", path, parameters=neutral)],
+                    auto_connect=False)
+    system.connections = [Connection(f"source.y_{t}", f"sink.u_{t}") for t in types]
+    res = run_system(system, 0.3, tmp_path / "chain.mcap", progress=False)
+    assert res.error is None
+    source, sink = _logged(tmp_path / "chain.mcap", "source"), _logged(tmp_path / "chain.mcap", "sink")
+    _equals_fmpy(path, source, version, 0.3, values)
+    assert [m["t"] for m in sink] == [m["t"] for m in source]
+    for a, b in zip(source, sink):
+        for t in types:
+            if t == "Enumeration":  # the sink adds k + 2 (mod 3) to its input: one item on per step beyond the source's
+                continue
+            assert b[f"y_{t}"] == a[f"y_{t}"], (a["t"], t)
+
+
+@pytest.mark.parametrize("source, target", [("Int8", "Int16"), ("UInt16", "Int32"), ("Float32", "Float64"),
+                                            ("UInt32", "Int64"), ("UInt32", "UInt64"), ("UInt32", "Float64")])
+def test_a_lossless_conversion_is_carried(tmp_path, source, target):
+    """A wider target takes the source's values exactly (compared with FMPy's source run)."""
+    path = every_type_fmu(tmp_path, 3)
+    values = _start_values(3)
+    system = System(TICK, [Instance("a", path, parameters=values), Instance("b", path, parameters={
+        f"p_{target}": 0})], auto_connect=False)
+    system.connections = [Connection(f"a.y_{source}", f"b.u_{target}")]
+    assert run_system(system, 0.3, tmp_path / "run.mcap", progress=False).error is None
+    a, b = _logged(tmp_path / "run.mcap", "a"), _logged(tmp_path / "run.mcap", "b")
+    _equals_fmpy(path, a, 3, 0.3, values, outputs=[source])
+    assert [m[f"y_{target}"] for m in b] == [m[f"y_{source}"] for m in a]
+
+
+@pytest.mark.parametrize("source, target, said", [
+    ("Float64", "Float32", "a.y_Float64 -> b.u_Float32: Float64 -> Float32 would lose values"),
+    ("Int16", "Int8", "a.y_Int16 -> b.u_Int8: Int16 -> Int8 would lose values"),
+    ("Int8", "UInt8", "Int8 -> UInt8 would lose values"),
+    ("Int64", "Float64", "Int64 -> Float64 would lose values"),
+    ("Float32", "Int32", "Float32 -> Int32 would lose values"),
+    ("Boolean", "Int8", "Boolean -> Int8 would lose values"),
+    ("Enumeration", "Int64", "an Enumeration connects only to an Enumeration of the same items"),
+    ("Int32", "Float64", "Int32 -> Float64 is lossless but not supported"),
+    ("UInt8", "UInt64", "UInt8 -> UInt64 is lossless but not supported")])
+def test_a_lossy_or_unsupported_connection_is_refused_naming_both_ends(tmp_path, source, target, said):
+    path = every_type_fmu(tmp_path, 3)
+    system = System(TICK, [Instance("a", path), Instance("b", path)], auto_connect=False)
+    system.connections = [Connection(f"a.y_{source}", f"b.u_{target}")]
+    with pytest.raises(DescriptionError, match=said.replace("(", r"\(").replace(")", r"\)")) as err:
+        Execution(system)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("name, value, said", [
+    ("p_Int8", 128, "must be a whole number in Int8's range [-128, 127]"),
+    ("p_UInt64", -1, "must be a whole number in UInt64's range [0, 18446744073709551615]"),
+    ("p_Enumeration", 4, "not one of its items (red=1, green=2, blue=3)"),
+    ("p_Float32", 1e39, "beyond Float32's range"),
+    ("p_Int16", 1.5, "must be a whole number")])
+def test_a_value_outside_its_type_is_refused(tmp_path, name, value, said):
+    path = every_type_fmu(tmp_path, 3)
+    with pytest.raises(DescriptionError, match=said.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")
+                       .replace("]", r"\]")):
+        Execution(System(TICK, [Instance("e", path, parameters={name: value})]))
+
+
+def test_an_array_variable_is_refused_when_the_system_is_read(tmp_path):
+    """FMI 3.0 arrays are not supported: refused before anything is loaded, naming the variable (not at t = 0 with
+    the FMU's own message)."""
+    path = every_type_fmu(tmp_path, 3, '<Float64 name="a" valueReference="500" causality="output" '
+                                       'variability="continuous"><Dimension start="3"/></Float64>')
+    with pytest.raises(DescriptionError, match="has the array variable a .Float64 with dimensions.: array variables are "
+                                               "not supported"):
+        Execution(System(TICK, [Instance("e", path)]))
+
+
+def test_the_command_line_sets_every_type_from_a_system_file_and_set(fmu, tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    version, path = fmu
+    values = _start_values(version)
+    description = tmp_path / "system.json"
+    description.write_text(json.dumps({"tick": TICK, "instances": [{"name": "e", "fmu": str(path),
+                                                                     "parameters": values}]}))
+    code = main(["run", "--system", str(description), "--stop-time", "0.3", "--out", str(tmp_path / "out"),
+                 "--no-plots", "--quiet", "--set", "e.p_Enumeration=3"])
+    assert code == 0, capsys.readouterr()
+    log = next((tmp_path / "out").rglob("*.mcap"))
+    _equals_fmpy(path, _logged(log, "e"), version, 0.3, {**values, "p_Enumeration": 3})
+    code = main(["run", "--system", str(description), "--stop-time", "0.3", "--out", str(tmp_path / "bad"),
+                 "--no-plots", "--quiet", "--set", "e.p_Enumeration=7"])
+    said = capsys.readouterr().err.strip()
+    assert code == 2 and "e.p_Enumeration = 7: not one of its items" in said and len(said.splitlines()) == 1
