@@ -239,6 +239,11 @@ def checked_value(instance: str, v, key: str, value):
     where = f"{instance}.{key} = {value!r}"
     name = fmi_type(v)
     kind = FMI_TYPES.get(name)
+    if name == "Enumeration" and isinstance(value, str):  # an item by its name (SSV writes them so)
+        items = dict(enumeration_items(v))
+        if value.strip() not in items:
+            raise DescriptionError(f"{where}: not one of its items ({', '.join(f'{n}={x}' for n, x in items.items())})")
+        value = items[value.strip()]
     if kind is not None and kind.carrier in ("Real", "Integer"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise DescriptionError(f"{where}: must be a number")

@@ -44,8 +44,10 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
     for p in root.iterfind("ssv:Parameters/ssv:Parameter", SSD_NS):
         typed = p[0]
         kind, text = etree.QName(typed).localname, typed.get("value")
-        convert = {"Real": float, "Float64": float, "Integer": int, "Int32": int, "Boolean": lambda s: s.strip() in ("true", "1"),
-                   "String": str}.get(kind)
+        convert = {"Real": float, "Float64": float, "Float32": float, "Integer": int,
+                   **dict.fromkeys(("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64"), int),
+                   "Boolean": lambda s: s.strip() in ("true", "1"), "String": str,
+                   "Enumeration": str, "Binary": bytes.fromhex}.get(kind)  # an item's name: checked_value maps it
         if convert is None:
             raise DescriptionError(f"{where}: parameter {p.get('name')} has the unsupported type {kind}")
         try:
