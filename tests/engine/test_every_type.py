@@ -234,3 +234,53 @@ def test_an_ssp_export_of_every_type_runs_back_as_the_system_file_does(fmu, tmp_
     for topic in ("source", "sink"):
         assert _logged(logs["ssp"], topic) == _logged(logs["json"], topic)
     _equals_fmpy(path, _logged(logs["ssp"], "source"), version, 0.3, {**values, "p_Enumeration": 2})
+
+
+def _standard_package(tmp_path, fmu, start: float = 0.0, stop: float = 0.3):
+    """An SSP 1.0 package as another tool writes one: no tiltload or libcosim annotation, so no master step."""
+    import zipfile
+
+    ssd = f"""<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"
+    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="standard">
+  <ssd:System name="standard">
+    <ssd:Elements>
+      <ssd:Component name="e" type="application/x-fmu-sharedlibrary" source="resources/{fmu.name}"/>
+    </ssd:Elements>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="{start}" stopTime="{stop}"/>
+</ssd:SystemStructureDescription>
+"""
+    package = tmp_path / f"standard{start:g}.ssp"
+    with zipfile.ZipFile(package, "w") as z:
+        z.writestr("SystemStructure.ssd", ssd)
+        z.write(fmu, f"resources/{fmu.name}")
+    return package
+
+
+def test_a_standard_ssp_package_runs_on_its_fmus_declared_step_to_its_stop_time(fmu, tmp_path, capsys):
+    """No step annotation: the FMUs' DefaultExperiment stepSize (0.1 s) is the step, said in one line; the SSD's stop
+    time ends the run (no --stop-time); the log equals FMPy's run of the FMU to that time."""
+    from tiltload.master.app.cli import main
+
+    version, path = fmu
+    package = _standard_package(tmp_path, path)
+    code = main(["run", "--system", str(package), "--out", str(tmp_path / "out"), "--no-plots"])
+    said = capsys.readouterr()
+    assert code == 0, said
+    lines = [line for line in said.out.splitlines() if "no step annotation" in line]
+    assert len(lines) == 1 and "step 0.1 s, the smallest of its FMUs' DefaultExperiment step sizes (e 0.1 s)" in lines[0]
+    messages = _logged(next((tmp_path / "out").rglob("*.mcap")), "e")
+    assert messages[-1]["t"] == pytest.approx(0.3)
+    _equals_fmpy(path, messages, version, 0.3, {})
+
+
+def test_a_standard_package_that_starts_later_than_zero_is_refused_in_one_line(fmu, tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    version, path = fmu
+    code = main(["run", "--system", str(_standard_package(tmp_path, path, start=1.0, stop=2.0)), "--out",
+                 str(tmp_path / "out"), "--no-plots", "--quiet"])
+    said = capsys.readouterr().err.strip()
+    assert code == 2 and len(said.splitlines()) == 1
+    assert "its DefaultExperiment starts at 1 s; tiltload runs a system from t = 0 only" in said

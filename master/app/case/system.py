@@ -41,7 +41,7 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
     from ..loop.fmus import build_all, fmu_folder
 
     if opts.system is not None:
-        system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
+        system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus, say)
         set_parameters(system, dict(opts.settings))  # --set over the file's values, checked by the engine's type table
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
@@ -132,13 +132,14 @@ def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str
     return system, dataclasses.replace(snap, settings=settings)
 
 
-def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False):
-    """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule)."""
+def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False, say=None):
+    """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule).
+    say: where a standard package's step rule is told (ssp/load.py)."""
     from ...engine import system as sysdesc
     from ...engine.ssp.load import load
 
     if path.suffix.lower() in (".ssp", ".ssd"):
-        return load(path, unpack_into, allow_external=allow_external_fmus)
+        return load(path, unpack_into, allow_external=allow_external_fmus, say=say)
     if allow_external_fmus:
         raise UserError(f"--allow-external-fmus is for SSP packages (.ssp/.ssd); {path} is a JSON description, "
                         "whose FMU paths are the user's own")
