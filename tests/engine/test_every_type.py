@@ -284,3 +284,15 @@ def test_a_standard_package_that_starts_later_than_zero_is_refused_in_one_line(f
     said = capsys.readouterr().err.strip()
     assert code == 2 and len(said.splitlines()) == 1
     assert "its DefaultExperiment starts at 1 s; tiltload runs a system from t = 0 only" in said
+
+
+def test_a_stop_time_off_the_tick_grid_is_met_with_a_shorter_last_step(tmp_path):
+    """0.25 s on a 0.1 s tick: the FMU takes a variable step (canHandleVariableCommunicationStepSize), so the last step
+    is 0.05 s and the last sample is at 0.25 s, FMPy's last time and values too (through the converting callback)."""
+    path = every_type_fmu(tmp_path, 3)
+    values = _start_values(3)
+    res = run_system(System(TICK, [Instance("e", path, parameters=values)]), 0.25, tmp_path / "run.mcap", progress=False)
+    assert res.error is None and res.sim_time == 0.25
+    messages = _logged(tmp_path / "run.mcap", "e")
+    assert [m["t"] for m in messages][-2:] == [pytest.approx(0.2), 0.25]
+    _equals_fmpy(path, messages, 3, 0.25, values)
