@@ -90,6 +90,10 @@ class Execution:
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
         self.links = connections.resolve(system, mds)
+        loop = edges.algebraic_loop(system, self.links, mds)
+        if loop is not None:  # no order of the connected inputs at t = 0 sets each from a final value
+            raise DescriptionError(f"algebraic loop: {' -> '.join(loop)} (each output depends directly on the input "
+                                   "before it); give one of its connections a delay")
         self._variables, self._fed = _variables(mds), _fed(self.links)  # what every run's parameters are checked against
         _check_parameters(system, self._variables, self._fed)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts

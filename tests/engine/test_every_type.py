@@ -296,3 +296,38 @@ def test_a_stop_time_off_the_tick_grid_is_met_with_a_shorter_last_step(tmp_path)
     messages = _logged(tmp_path / "run.mcap", "e")
     assert [m["t"] for m in messages][-2:] == [pytest.approx(0.2), 0.25]
     _equals_fmpy(path, messages, 3, 0.25, values)
+
+
+def test_an_algebraic_loop_is_refused_in_one_line_and_a_delay_breaks_it(fmu, tmp_path):
+    """a.y -> b.u and b.y -> a.u, each output depending directly on its input (declared in the model descriptions): no
+    order sets the inputs at t = 0 from final values, so the system is refused naming the cycle; with a delay on one
+    connection it runs."""
+    version, path = fmu
+    real = "Float64" if version == 3 else "Real"
+    system = System(TICK, [Instance("a", path), Instance("b", path)], auto_connect=False)
+    system.connections = [Connection(f"a.y_{real}", f"b.u_{real}"), Connection(f"b.y_{real}", f"a.u_{real}")]
+    with pytest.raises(DescriptionError) as err:
+        Execution(system)
+    said = str(err.value)
+    assert "\n" not in said and said.startswith("algebraic loop: ") and "give one of its connections a delay" in said
+    assert {f"a.y_{real}", f"b.u_{real}", f"b.y_{real}", f"a.u_{real}"} <= set(said.split(": ", 1)[1].split(" (")[0]
+                                                                          .split(" -> "))
+    system.connections[1] = Connection(f"b.y_{real}", f"a.u_{real}", 1)
+    assert run_system(system, 0.2, tmp_path / "run.mcap", progress=False).error is None
+
+
+def test_a_chain_of_three_is_initialized_sources_first(fmu, tmp_path):
+    """c <- b <- a, listed the other way round: each sample at t = 0 holds its connected value (y = u + p * 0), so the
+    three are equal at 0 whatever the system's order (after it, the steps follow the system's order: c, then b, a
+    tick behind their sources)."""
+    version, path = fmu
+    real = "Float64" if version == 3 else "Real"
+    system = System(TICK, [Instance("c", path, parameters={f"p_{real}": 0}), Instance("b", path, parameters={f"p_{real}": 0}),
+                           Instance("a", path, parameters={f"p_{real}": 0.5, f"u_{real}": 2.0})], auto_connect=False)
+    system.connections = [Connection(f"b.y_{real}", f"c.u_{real}"), Connection(f"a.y_{real}", f"b.u_{real}")]
+    assert run_system(system, 0.3, tmp_path / "run.mcap", progress=False).error is None
+    a, b, c = (_logged(tmp_path / "run.mcap", name) for name in "abc")
+    assert a[0][f"y_{real}"] == b[0][f"y_{real}"] == c[0][f"y_{real}"] == 2.0
+    _equals_fmpy(path, a, version, 0.3, {f"p_{real}": 0.5, f"u_{real}": 2.0}, outputs=[real])
+    ys = {name: [m[f"y_{real}"] for m in log] for name, log in (("a", a), ("b", b), ("c", c))}
+    assert ys["b"][1:] == ys["a"][:-1] and ys["c"][1:] == ys["b"][:-1]

@@ -33,7 +33,8 @@ def _fmi3_xml(extra: str = "") -> str:
         rows.append(f'<{t} name="u_{t}" valueReference="{200 + i}" causality="input" variability="{kind}"{declared} '
                     f'start="{_start(t)}"/>')
         rows.append(f'<{t} name="y_{t}" valueReference="{300 + i}" causality="output" variability="{kind}"{declared}/>')
-    outputs = "".join(f'<Output valueReference="{300 + i}"/>' for i in range(len(FMI3_TYPES)))
+    # each output depends directly on its input (declared: the engine finds an algebraic loop by it)
+    outputs = "".join(f'<Output valueReference="{300 + i}" dependencies="{200 + i}"/>' for i in range(len(FMI3_TYPES)))
     unknowns = "".join(f'<InitialUnknown valueReference="{300 + i}"/>' for i in range(len(FMI3_TYPES)))
     items = "".join(f'<Item name="{n}" value="{v}"/>' for n, v in ITEMS)
     return f"""<?xml version="1.0" encoding="UTF-8"?>
@@ -52,7 +53,7 @@ def _fmi3_xml(extra: str = "") -> str:
 
 def _fmi2_xml() -> str:
     rows, index = [], 0
-    outputs = []
+    outputs, inputs = [], []
     for i, t in enumerate(FMI2_TYPES):
         kind = "continuous" if t == "Real" else "discrete"
         element = ('<Enumeration declaredType="Colour"' if t == "Enumeration" else f"<{t}")
@@ -64,8 +65,10 @@ def _fmi2_xml() -> str:
             index += 1
             if causality == "output":
                 outputs.append(index)
+            if causality == "input":
+                inputs.append(index)
     items = "".join(f'<Item name="{n}" value="{v}"/>' for n, v in ITEMS)
-    unknowns = "".join(f'<Unknown index="{k}"/>' for k in outputs)
+    unknowns = "".join(f'<Unknown index="{k}" dependencies="{u}"/>' for k, u in zip(outputs, inputs))
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="EveryType" guid="{{every-type-2}}" variableNamingConvention="flat">
   <CoSimulation modelIdentifier="every_type2" canHandleVariableCommunicationStepSize="true"/>
