@@ -331,3 +331,62 @@ def test_a_chain_of_three_is_initialized_sources_first(fmu, tmp_path):
     _equals_fmpy(path, a, version, 0.3, {f"p_{real}": 0.5, f"u_{real}": 2.0}, outputs=[real])
     ys = {name: [m[f"y_{real}"] for m in log] for name, log in (("a", a), ("b", b), ("c", c))}
     assert ys["b"][1:] == ys["a"][:-1] and ys["c"][1:] == ys["b"][:-1]
+
+
+def _table(version: int) -> tuple[list[str], list[list]]:
+    """Inputs over time: continuous ones change between the ticks, discrete ones on a tick (0.2 s, FMPy's input event
+    there is a communication point of ours too), a jump at 0.2 s (two rows)."""
+    floats = ["u_Float64", "u_Float32"] if version == 3 else ["u_Real"]
+    whole = ["u_Int8", "u_UInt64"] if version == 3 else ["u_Integer"]
+    names = ["time", *floats, *whole, "u_Boolean", "u_Enumeration"]
+    rows = [(0.0, 0.5, 1, 0, 1), (0.15, 2.0, 1, 0, 1), (0.2, 2.0, 3, 1, 2), (0.2, -1.0, 4, 0, 3), (0.45, 4.0, 4, 0, 3)]
+    table = [[t, *[x] * len(floats), *[n * (2**40 if w == "u_UInt64" else 1) for w in whole], b, e]
+             for t, x, n, b, e in rows]
+    return names, table
+
+
+@pytest.mark.parametrize("kind", ["csv", "parquet"])
+def test_an_input_file_drives_an_fmu_as_fmpy_s_input_file_does(fmu, tmp_path, kind):
+    """An input file (CSV, Parquet) for the FMU's inputs: continuous ones interpolated, discrete ones held, a jump at
+    0.2 s; the log equals FMPy's simulate_fmu with the same table (read by FMPy's read_csv) at every logged time."""
+    from fmpy.util import read_csv
+
+    version, path = fmu
+    names, rows = _table(version)
+    csv = tmp_path / "inputs.csv"
+    csv.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(x) for x in row) for row in rows) + "\n")
+    table = csv
+    if kind == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        table = tmp_path / "inputs.parquet"
+        pq.write_table(pa.table({n: [row[j] for row in rows] for j, n in enumerate(names)}), table)
+    values = {f"p_{t}": START[t] for t in _types(version) if t != "Boolean"}
+    system = System(TICK, [Instance("e", path, parameters=values, input_file=table)])
+    assert run_system(system, 0.5, tmp_path / "run.mcap", progress=False).error is None
+    ref = simulate_fmu(str(path), stop_time=0.5, output_interval=TICK, start_values=values, input=read_csv(csv))
+    messages = _logged(tmp_path / "run.mcap", "e")
+    assert len(messages) == 6
+    for m in messages:
+        row = np.flatnonzero(np.isclose(ref["time"], m["t"], rtol=0, atol=1e-9))[-1]
+        for name in names[1:]:
+            y = "y_" + name[2:]
+            assert m[y] == ref[y][row].item(), (m["t"], y)
+    assert len({m["y_" + names[1][2:]] for m in messages}) >= 4  # the input moved the output
+
+
+def test_a_bad_input_file_is_refused_in_one_line(fmu, tmp_path):
+    version, path = fmu
+    real = "Float64" if version == 3 else "Real"
+    cases = {"time,u_nothing\n0,1\n": "column 'u_nothing' is not an input of the FMU",
+             f"t,u_{real}\n0,1\n": "its first column must be the time",
+             f"time,u_{real}\n1,1\n0,2\n": "the times must be finite and non-decreasing",
+             f"time,u_{real}\n0,x\n": "line 2: a value that is no number",
+             "time,u_Enumeration\n0,5\n": "not one of its items"}
+    for k, (text, said) in enumerate(cases.items()):
+        table = tmp_path / f"bad{k}.csv"
+        table.write_text(text)
+        with pytest.raises(DescriptionError, match=said.replace("(", r"\(")) as err:
+            Execution(System(TICK, [Instance("e", path, input_file=table)]))
+        assert "\n" not in str(err.value)

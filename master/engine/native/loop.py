@@ -197,6 +197,9 @@ class NativeLoop(FaultPlan):
         """A slave the kernel cannot call: set its inputs (gathered by the kernel), step it, read its outputs."""
         try:
             slave, name = self.slaves[i], self.names[i]
+            table = self.ex.tables.get(name)
+            if table is not None:  # its input file's values at the step's start (inputs.py)
+                slave.set_values(table.values(t))
             self.ex.set_gathered_inputs(name, t)
             try:
                 slave.do_step(t, h)
