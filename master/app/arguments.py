@@ -40,6 +40,7 @@ def assignment(text: str) -> tuple[str, object]:
 
 
 tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")
+step_size = real_in(lambda value: 0 < value <= 3600, "a step in seconds, above 0 and at most 3600")
 seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
@@ -115,8 +116,11 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
     p.add_argument("--system", type=Path, default=None,
                    help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop (the loop's options "
-                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --set, --fmus do "
-                        "not apply to it; --faults and --stop-time do)")
+                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --fmus do "
+                        "not apply to it; --faults, --set and --stop-time do)")
+    p.add_argument("--step", type=step_size, default=None, metavar="S",
+                   help="--system: the step of an SSP package that declares none (default: the smallest of its FMUs' "
+                        "DefaultExperiment step sizes)")
     p.add_argument("--allow-external-fmus", action="store_true",
                    help="--system: let a component's FMU lie outside the package or the system file's folder")
     p.add_argument("--fmus", type=folder, default=None, help="FMU folder (default: fmus)")

@@ -269,7 +269,8 @@ def test_a_standard_ssp_package_runs_on_its_fmus_declared_step_to_its_stop_time(
     said = capsys.readouterr()
     assert code == 0, said
     lines = [line for line in said.out.splitlines() if "no step annotation" in line]
-    assert len(lines) == 1 and "step 0.1 s, the smallest of its FMUs' DefaultExperiment step sizes (e 0.1 s)" in lines[0]
+    assert len(lines) == 1 and "step 0.1 s (the smallest of its FMUs' DefaultExperiment step sizes" in lines[0]
+    assert "declared: e 0.1 s" in lines[0]
     messages = _logged(next((tmp_path / "out").rglob("*.mcap")), "e")
     assert messages[-1]["t"] == pytest.approx(0.3)
     _equals_fmpy(path, messages, version, 0.3, {})
@@ -390,3 +391,26 @@ def test_a_bad_input_file_is_refused_in_one_line(fmu, tmp_path):
         with pytest.raises(DescriptionError, match=said.replace("(", r"\(")) as err:
             Execution(System(TICK, [Instance("e", path, input_file=table)]))
         assert "\n" not in str(err.value)
+
+
+def test_step_sets_the_step_of_a_standard_package_and_only_of_one(fmu, tmp_path, capsys):
+    """--step 0.05 on a package that declares no step: the run steps at 0.05 s (said), FMPy's result at its 0.05 s
+    output interval; a package or a JSON file that declares its step refuses --step in one line."""
+    from tiltload.master.app.cli import main
+
+    version, path = fmu
+    package = _standard_package(tmp_path, path, stop=0.2)
+    code = main(["run", "--system", str(package), "--step", "0.05", "--out", str(tmp_path / "out"), "--no-plots"])
+    said = capsys.readouterr()
+    assert code == 0, said
+    assert "no step annotation; step 0.05 s (--step, every FMU at it; declared: e 0.1 s)" in said.out
+    messages = _logged(next((tmp_path / "out").rglob("*.mcap")), "e")
+    ref = simulate_fmu(str(path), stop_time=0.2, output_interval=0.05)
+    assert [m["t"] for m in messages] == pytest.approx(list(ref["time"]), abs=1e-12)
+    for m, row in zip(messages, ref):
+        assert all(m[f"y_{t}"] == row[f"y_{t}"].item() for t in _types(version))
+    description = tmp_path / "s.json"
+    description.write_text(json.dumps({"tick": TICK, "instances": [{"name": "e", "fmu": str(path)}]}))
+    code = main(["run", "--system", str(description), "--step", "0.05", "--out", str(tmp_path / "bad"), "--quiet"])
+    said = capsys.readouterr().err.strip()
+    assert code == 2 and "declares its tick" in said and len(said.splitlines()) == 1

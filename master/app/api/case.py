@@ -52,6 +52,7 @@ class Case:
     max_tilt: float = MAX_TILT  # degrees
     allow_unknown_inputs: bool = False
     allow_external_fmus: bool = False
+    step: float | None = None  # s: the step of a system package that declares none
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -63,6 +64,8 @@ class Case:
         self._trajectory_and_controller()
         if fix("seed", kinds.whole("Case", "seed", self.seed)) is not None:
             arguments.checked(arguments.seed, "--seed", self.seed)
+        if fix("step", kinds.number("Case", "step", self.step)) is not None:
+            fix("step", arguments.checked(arguments.step_size, "--step", self.step))
         if fix("stop_time", kinds.number("Case", "stop_time", self.stop_time)) is not None:
             fix("stop_time", arguments.checked(arguments.run_time, "--stop-time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):

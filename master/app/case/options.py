@@ -41,6 +41,7 @@ OPTIONS_SCHEMA = {
         "allow_unknown_inputs": {"type": "boolean"}, "allow_infeasible": {"type": "boolean"},
         "allow_external_fmus": {"type": "boolean"}, "clocks": {"type": "boolean"}, "fmi": {"enum": [2, 3]},
         "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
+        "step": {"type": ["number", "null"], "exclusiveMinimum": 0, "maximum": 3600},  # not required: older snapshots
         "remotes": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "string"}}},
         "reference": {"oneOf": [{"type": "null"}, {
             "type": "object", "additionalProperties": False, "required": ["label", "code", "settings", "start", "duration"],
@@ -100,6 +101,7 @@ class LoopOptions:
     remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order (where, not which loop)
     fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
     clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
+    step: float | None = None  # --step: the step of a system package that declares none (s)
     # a case set's wind, read once for all its runs (the scenario FMU's parameters); a run's own is its wind file
     wind_parameters: tuple[tuple[str, object], ...] = ()
 
@@ -148,6 +150,8 @@ class LoopOptions:
             parts.append("remote-" + "-".join(name for name, _ in self.remotes))
         if self.settings:
             parts.append("set-" + _settings_tag(self.settings))
+        if self.step is not None:
+            parts.append(f"step{self.step:g}s")
         if self.stop_time is not None and self.stop_time != default_stop_time:
             parts.append(f"t{self.stop_time:g}s")
         return file_safe("_".join(parts))
@@ -186,7 +190,9 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
                            delay=False, gusts=True, faults=args.faults, settings=tuple(getattr(args, "set", None) or ()),
                            system=args.system, fmus=DEFAULT_FMU_DIR,
                            allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
-                           remotes=tuple(getattr(args, "remote", ())))
+                           remotes=tuple(getattr(args, "remote", ())), step=getattr(args, "step", None))
+    if getattr(args, "step", None) is not None:
+        raise UserError("--step is for --system (an SSP package that declares no step); the loop's tick is its own")
     if getattr(args, "allow_external_fmus", False):
         raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
     vehicle = args.vehicle or DEFAULT_VEHICLE

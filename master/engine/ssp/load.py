@@ -57,12 +57,13 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
     return values
 
 
-def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None) -> tuple[System, float | None, str]:
+def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None,
+         step: float | None = None) -> tuple[System, float | None, str]:
     """An SSP archive (.ssp) or a bare SystemStructure file (.ssd, FMUs relative to it) as a System, with the default
     experiment's stop time and the schedule it was prepared for. An archive is unpacked once into a folder of
     unpack_into named by its content (_unpack: its limits). Every component's FMU and parameter set must lie in the
     package (the .ssd's folder for a bare one) unless allow_external. A package without a step annotation (tiltload's
-    or libcosim's) takes its step from its FMUs (_declared_steps), which say(line) tells."""
+    or libcosim's) takes its step from step (--step) or its FMUs (_declared_steps), which say(line) tells."""
     path = Path(path)
     if not path.exists():
         raise DescriptionError(f"SSP package {path} does not exist")
@@ -90,6 +91,10 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None) 
     top = root.find("ssd:System", SSD_NS)
     master = top.find("ssd:Annotations/ssc:Annotation[@type='" + ANNOTATION + "']/tl:Master", SSD_NS)
     tick = float(master.get("tick")) if master is not None else _osp_step(root)
+    if tick is not None and step is not None:
+        raise DescriptionError(f"{path}: the package declares its step ({tick:g} s, in its "
+                               f"{ANNOTATION if master is not None else OSP_ANNOTATION} annotation); --step is for a "
+                               "package that declares none")
     experiment = root.find("ssd:DefaultExperiment", SSD_NS)
     start = float(experiment.get("startTime") or 0) if experiment is not None else 0.0
     if start != 0:
@@ -117,7 +122,7 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None) 
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
     if tick is None:
-        tick = _declared_steps(path, instances, say)
+        tick = _declared_steps(path, instances, say, step)
     delays = {}
     if master is not None:
         for d in master.iterfind("tl:Delay", SSD_NS):
@@ -151,10 +156,10 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None) 
     return validate(system), stop, schedule
 
 
-def _declared_steps(path: Path, instances: list[Instance], say) -> float:
-    """The step of a package that declares none (SSP has no master step; libcosim reads its own annotation): the
-    smallest of its FMUs' DefaultExperiment step sizes is the tick, and an FMU whose step is a whole number of ticks
-    steps at its own (its period); said in one line."""
+def _declared_steps(path: Path, instances: list[Instance], say, given: float | None = None) -> float:
+    """The step of a package that declares none (SSP has no master step; libcosim reads its own annotation): given
+    (--step: every FMU steps at it), else the smallest of its FMUs' DefaultExperiment step sizes is the tick, and an
+    FMU whose step is a whole number of ticks steps at its own (its period); said in one line."""
     from ..fmi.model_description import read_fmu
 
     steps = {}
@@ -163,18 +168,20 @@ def _declared_steps(path: Path, instances: list[Instance], say) -> float:
         step = experiment.stepSize if experiment is not None else None
         if step is not None and float(step) > 0:
             steps[inst.name] = float(step)
-    if not steps:
+    if not steps and given is None:
         raise DescriptionError(f"{path}: no step size: neither a {ANNOTATION} nor a {OSP_ANNOTATION} annotation, nor a "
-                               "DefaultExperiment stepSize in any of its FMUs")
-    tick = min(steps.values())
-    for inst in instances:
+                               "DefaultExperiment stepSize in any of its FMUs; give one with --step")
+    tick = given if given is not None else min(steps.values())
+    for inst in instances if given is None else ():
         n = round(steps.get(inst.name, tick) / tick)
         if n > 1 and abs(n * tick - steps[inst.name]) <= 1e-9 * steps[inst.name]:
             inst.period = n * tick
     if say is not None:
-        declared = ", ".join(f"{name} {step:g} s" for name, step in steps.items())
-        say(f"{path.name}: no step annotation; step {tick:g} s, the smallest of its FMUs' DefaultExperiment step sizes "
-            f"({declared}), each FMU at its own where it is a whole number of steps")
+        declared = ", ".join(f"{name} {step:g} s" for name, step in steps.items()) or "none"
+        why = ("--step, every FMU at it" if given is not None else
+               "the smallest of its FMUs' DefaultExperiment step sizes, each FMU at its own where it is a whole number "
+               "of steps")
+        say(f"{path.name}: no step annotation; step {tick:g} s ({why}; declared: {declared})")
     return tick
 
 
