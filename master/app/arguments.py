@@ -72,6 +72,14 @@ def file_stem(text: str) -> str:
     return text
 
 
+def input_file(text: str) -> tuple[str, str]:
+    """INSTANCE=FILE: a table of that instance's inputs over time (CSV or Parquet, engine/inputs.py)."""
+    name, sep, path = text.partition("=")
+    if not sep or not name.strip() or not path.strip():
+        raise argparse.ArgumentTypeError(f"must be INSTANCE=FILE (e.g. plant=inputs.csv), got {text!r}")
+    return name.strip(), path.strip()
+
+
 def remote(text: str) -> tuple[str, str]:
     """INSTANCE=HOST:PORT: that instance's FMU runs on the `tiltload serve` at HOST:PORT."""
     from ..engine.system import parse_address
@@ -118,6 +126,9 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop (the loop's options "
                         "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --fmus do "
                         "not apply to it; --faults, --set and --stop-time do)")
+    p.add_argument("--input-file", type=input_file, action="append", default=[], metavar="INSTANCE=FILE",
+                   help="--system: a CSV or Parquet table of that instance's inputs over time (first column time), as "
+                        "FMPy's --input-file: continuous inputs interpolated, discrete ones held; repeatable")
     p.add_argument("--step", type=step_size, default=None, metavar="S",
                    help="--system: the step of an SSP package that declares none (default: the smallest of its FMUs' "
                         "DefaultExperiment step sizes)")

@@ -414,3 +414,30 @@ def test_step_sets_the_step_of_a_standard_package_and_only_of_one(fmu, tmp_path,
     code = main(["run", "--system", str(description), "--step", "0.05", "--out", str(tmp_path / "bad"), "--quiet"])
     said = capsys.readouterr().err.strip()
     assert code == 2 and "declares its tick" in said and len(said.splitlines()) == 1
+
+
+def test_the_command_line_s_input_file_drives_a_system_file_s_instance(tmp_path, capsys):
+    """run --system s.json --input-file e=inputs.csv: the log equals FMPy's simulate_fmu(input=...) of the FMU."""
+    from fmpy.util import read_csv
+    from tiltload.master.app.cli import main
+
+    path = every_type_fmu(tmp_path, 2)
+    names, rows = _table(2)
+    csv = tmp_path / "inputs.csv"
+    csv.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(x) for x in row) for row in rows) + "\n")
+    description = tmp_path / "s.json"
+    description.write_text(json.dumps({"tick": TICK, "instances": [{"name": "e", "fmu": str(path),
+                                                                     "parameters": {"p_Real": 0.25}}]}))
+    code = main(["run", "--system", str(description), "--stop-time", "0.5", "--input-file", f"e={csv}",
+                 "--out", str(tmp_path / "out"), "--no-plots", "--quiet"])
+    assert code == 0, capsys.readouterr()
+    log = next((tmp_path / "out").rglob("*.mcap"))
+    assert "inputs-inputs" in log.name
+    ref = simulate_fmu(str(path), stop_time=0.5, output_interval=TICK, start_values={"p_Real": 0.25}, input=read_csv(csv))
+    messages = _logged(log, "e")
+    assert [m["t"] for m in messages] == pytest.approx(list(ref["time"]), abs=1e-12)
+    for m, row in zip(messages, ref):
+        assert all(m[f"y_{t}"] == row[f"y_{t}"].item() for t in FMI2_TYPES)
+    code = main(["run", "--input-file", f"e={csv}", "--quiet"])
+    said = capsys.readouterr().err.strip()
+    assert code == 2 and "--input-file is for --system" in said and len(said.splitlines()) == 1

@@ -53,6 +53,7 @@ class Case:
     allow_unknown_inputs: bool = False
     allow_external_fmus: bool = False
     step: float | None = None  # s: the step of a system package that declares none
+    input_file: tuple[tuple[str, str], ...] = ()  # {instance: CSV or Parquet file of its inputs over time}
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -119,3 +120,5 @@ class Case:
         self._fix("set", settings)
         remotes = kinds.pairs("Case", "remote", self.remote, (str,), "a str host:port")
         self._fix("remote", tuple(arguments.checked(arguments.remote, "--remote", f"{k}={v}") for k, v in remotes))
+        tables = kinds.pairs("Case", "input_file", self.input_file, (str, Path), "a file path")
+        self._fix("input_file", tuple(arguments.checked(arguments.input_file, "--input-file", f"{k}={v}") for k, v in tables))

@@ -43,6 +43,8 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus, say, opts.step)
         set_parameters(system, dict(opts.settings))  # --set over the file's values, checked by the engine's type table
+        for name, table in opts.input_files:  # --input-file over the file's own (engine/inputs.py reads and checks it)
+            system.instance(name).input_file = Path(table).resolve()
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
         if not prepared and build:
