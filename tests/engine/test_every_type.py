@@ -441,3 +441,11 @@ def test_the_command_line_s_input_file_drives_a_system_file_s_instance(tmp_path,
     code = main(["run", "--input-file", f"e={csv}", "--quiet"])
     said = capsys.readouterr().err.strip()
     assert code == 2 and "--input-file is for --system" in said and len(said.splitlines()) == 1
+
+
+def test_a_64_bit_output_beyond_what_a_double_holds_is_an_error_naming_it(tmp_path):
+    """Int64 travels as a double, exact within +-2^53: a value beyond is not rounded in silence."""
+    path = every_type_fmu(tmp_path, 3)
+    res = run_system(System(TICK, [Instance("e", path, parameters={"p_Int64": 2**60})]), 0.3, tmp_path / "run.mcap",
+                     progress=False)
+    assert res.error is not None and "Int64 output y_Int64 = 1152921504606846976 is beyond +-2^53" in res.error
