@@ -59,8 +59,14 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
                    help="set an FMU parameter, e.g. --set plant.m_L=0.2 (repeatable)")
     p.add_argument("--system", type=Path, default=None,
                    help="an SSP package (.ssp/.ssd) or a JSON system description instead of the loop (the loop's options "
-                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --set, --fmus do "
-                        "not apply to it; --faults and --stop-time do)")
+                        "--vehicle, --scenario, --trajectory, --controller, --seed, --delay, --no-gusts, --fmus do "
+                        "not apply to it; --faults, --set and --stop-time do)")
+    p.add_argument("--input-file", **CASE.option("input_file"), action="append", default=[], metavar="INSTANCE=FILE",
+                   help="--system: a CSV or Parquet table of that instance's inputs over time (first column time), as "
+                        "FMPy's --input-file: continuous inputs interpolated, discrete ones held; repeatable")
+    p.add_argument("--step", **CASE.option("step"), default=None, metavar="S",
+                   help="--system: the step of an SSP package that declares none (default: the smallest of its FMUs' "
+                        "DefaultExperiment step sizes)")
     p.add_argument("--allow-external-fmus", action="store_true",
                    help="--system: let a component's FMU lie outside the package or the system file's folder")
     p.add_argument("--fmus", **CASE.option("fmus"), default=None, help="FMU folder (default: fmus)")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .errors import DescriptionError
+from .fmi.model_description import FMI_TYPES, enumeration_items, fmi_type
 from .fmi.slave import TYPES
 from .system import System
 
@@ -38,6 +39,26 @@ def _var(mds, inst, name):
     raise DescriptionError(f"{inst} has no variable '{name}'")
 
 
+def check_types(label: str, src, dst) -> None:
+    """A connection carries its source's type into its target's: the same type, or a conversion that loses nothing
+    and that the engine carries in one of its arrays (FMI_TYPES); anything else refused in one line naming both ends."""
+    s, d = fmi_type(src), fmi_type(dst)
+    ks, kd = FMI_TYPES.get(s), FMI_TYPES.get(d)
+    if ks is None or kd is None or ks.carrier is None or kd.carrier is None:
+        raise DescriptionError(f"connection {label}: {s} -> {d}: {s if ks is None or ks.carrier is None else d} "
+                               "connections are not supported (numbers, Booleans and Enumerations are)")
+    if "Enumeration" in (s, d):
+        if s != d or enumeration_items(src) != enumeration_items(dst):
+            raise DescriptionError(f"connection {label}: {s} -> {d}: an Enumeration connects only to an Enumeration of "
+                                   "the same items")
+        return
+    if not kd.holds(ks):
+        raise DescriptionError(f"connection {label}: {s} -> {d} would lose values: a lossy conversion is refused")
+    if ks.carrier != kd.carrier:
+        raise DescriptionError(f"connection {label}: {s} -> {d} is lossless but not supported (the engine carries "
+                               f"{s} with its {ks.carrier} values, {d} with its {kd.carrier} values)")
+
+
 def resolve(system: System, mds: dict) -> list[Link]:
     links: list[Link] = []
     taken: set[tuple[str, str]] = set()
@@ -49,8 +70,7 @@ def resolve(system: System, mds: dict) -> list[Link]:
             raise DescriptionError(f"connection {c.source} -> {c.target}: {c.source} is a {src.causality}, not an output")
         if dst.causality != "input":
             raise DescriptionError(f"connection {c.source} -> {c.target}: {c.target} is a {dst.causality}, not an input")
-        if src.type != dst.type:
-            raise DescriptionError(f"connection {c.source} -> {c.target}: type mismatch ({src.type} -> {dst.type})")
+        check_types(f"{c.source} -> {c.target}", src, dst)
         if (ti, tv) in taken:
             raise DescriptionError(f"{c.target} is connected twice")
         taken.add((ti, tv))
@@ -70,8 +90,7 @@ def resolve(system: System, mds: dict) -> list[Link]:
                                        f"{', '.join(i for i, _ in candidates)}; connect it explicitly")
             if candidates:
                 si, o = candidates[0]
-                if o.type != v.type:
-                    raise DescriptionError(f"{si}.{o.name} -> {inst.name}.{v.name}: type mismatch ({o.type} -> {v.type})")
+                check_types(f"{si}.{o.name} -> {inst.name}.{v.name}", o, v)
                 links.append(Link(si, o.valueReference, inst.name, v.valueReference, v.type, 0, o.name, v.name))
             elif v.start is None:
                 raise DescriptionError(f"{inst.name}.{v.name} is an input with no connection and no start value")

@@ -84,3 +84,40 @@ def propagation_order(system, links) -> list[str]:
         ready = [n for n in names if n not in order and not (before[n] - set(order))]
         order.extend(ready[:1] or [next(n for n in names if n not in order)])
     return order
+
+
+def algebraic_loop(system, links, mds: dict) -> list[str] | None:
+    """An algebraic loop among the instances whose outputs are logged at t = 0: undelayed connections closing a cycle in
+    which every FMU's output depends directly on the connected input before it, as its model description declares
+    (ModelStructure Outputs' dependencies; an output that declares none is not taken for one). The cycle as
+    "instance.variable" names, or None: then propagation_order sets every connected input from values already final."""
+    wanted = {i.name for i in system.instances if logs_initial(i.timing)}
+    after: dict[tuple[str, str], list[tuple[str, str]]] = {}
+    for link in links:
+        if link.delay == 0 and link.source in wanted and link.target in wanted:
+            after.setdefault((link.source, link.source_name), []).append((link.target, link.target_name))
+    for name in wanted:
+        for unknown in getattr(mds[name], "outputs", None) or ():
+            for dep in unknown.dependencies or ():
+                if dep.causality == "input":
+                    after.setdefault((name, dep.name), []).append((name, unknown.variable.name))
+    done: set = set()
+    for start in list(after):  # depth first, without recursion (a system may chain many variables)
+        if start in done:
+            continue
+        path, on_path, stack = [start], {start}, [iter(after.get(start, ()))]
+        while stack:
+            nxt = next(stack[-1], None)
+            if nxt is None:
+                node = path.pop()
+                on_path.discard(node)
+                done.add(node)
+                stack.pop()
+                continue
+            if nxt in on_path:
+                return [f"{i}.{v}" for i, v in path[path.index(nxt):] + [nxt]]
+            if nxt not in done:
+                path.append(nxt)
+                on_path.add(nxt)
+                stack.append(iter(after.get(nxt, ())))
+    return None

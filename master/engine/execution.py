@@ -90,9 +90,20 @@ class Execution:
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
         self.links = connections.resolve(system, mds)
+        loop = edges.algebraic_loop(system, self.links, mds)
+        if loop is not None:  # no order of the connected inputs at t = 0 sets each from a final value
+            raise DescriptionError(f"algebraic loop: {' -> '.join(loop)} (each output depends directly on the input "
+                                   "before it); give one of its connections a delay")
         self._variables, self._fed = _variables(mds), _fed(self.links)  # what every run's parameters are checked against
         _check_parameters(system, self._variables, self._fed)
         self.unconnected = connections.unconnected(system, mds, self.links)  # held for the whole run: said before it starts
+        self.tables = {}  # instance -> its input file (inputs.py), applied before each of its steps
+        for spec in system.instances:
+            if spec.input_file is not None:
+                from .inputs import InputTable
+
+                fed = {link.target_name for link in self.links if link.target == spec.name}
+                self.tables[spec.name] = InputTable(spec.name, spec.input_file, mds[spec.name], fed)
         self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
         groups: dict[tuple, list] = {}
         for link in self.links:
@@ -143,11 +154,13 @@ class Execution:
         order = edges.propagation_order(self.system, self.links) if resume is None else []
         for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
             inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
+            parameters = {**spec.parameters, **self.tables[spec.name].values(0.0)} if spec.name in self.tables else \
+                spec.parameters  # an input file's values at t = 0 are set in Initialization Mode
             if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
-                inst.initialize(spec.parameters, connect=lambda name=spec.name: self._connect_initial(name))
+                inst.initialize(parameters, connect=lambda name=spec.name: self._connect_initial(name))
                 order.remove(spec.name)
             else:
-                inst.initialize(spec.parameters)
+                inst.initialize(parameters)
         self.time, self.ticks_done = 0.0, 0
         self.resumed_at = None
         self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
@@ -161,7 +174,9 @@ class Execution:
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
             self.loop.restart()
         else:
-            self.loop = NativeLoop(self)  # the plan of the C tick loop over these instances, groups and faults
+            # the plan of the C tick loop over these instances, groups and faults; an instance with an input file is
+            # stepped through its callback, which sets the file's values first
+            self.loop = NativeLoop(self, by_callback=frozenset(self.tables))
         if resume is not None:
             snapshot.restore_loop(self, resume)
             snapshot.restore_observers(self, resume)

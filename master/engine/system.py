@@ -27,6 +27,7 @@ class Instance:
     remote: str | None = None  # "HOST:PORT": the FMU runs on the `tiltload serve` there (fmu is the local copy it must match)
     token_file: Path | None = None  # the shared secret for remote: the run's, never written into a description
     fmi: int | None = None  # the FMI version the description names (2 or 3; checked against the FMU), None: any
+    input_file: Path | None = None  # a table of its inputs over time, CSV or Parquet (inputs.py), as FMPy's --input-file
 
 
 @dataclass
@@ -128,7 +129,8 @@ SCHEMA = {
                                "additionalProperties": {"type": ["number", "string", "boolean"]}},
                 "timing": {"enum": ["sample", "continuous"]},
                 "remote": {"type": "string", "minLength": 3, "maxLength": 300},
-                "fmi": {"enum": [2, 3]}}}},
+                "fmi": {"enum": [2, 3]},
+                "input_file": {"type": "string", "minLength": 1, "maxLength": 4096}}}},
         "connections": {"type": "array", "items": {
             "type": "object", "additionalProperties": False, "required": ["source", "target"],
             "properties": {"source": {"type": "string", "pattern": _REF}, "target": {"type": "string", "pattern": _REF},
@@ -161,7 +163,9 @@ def load(path: Path) -> System:
     _check_schema(data, path)
     try:
         instances = [Instance(i["name"], (path.parent / i["fmu"]).resolve(), i.get("period"), dict(i.get("parameters", {})),
-                              i.get("timing", "continuous"), remote=i.get("remote"), fmi=i.get("fmi")) for i in data["instances"]]
+                              i.get("timing", "continuous"), remote=i.get("remote"), fmi=i.get("fmi"),
+                              input_file=(path.parent / i["input_file"]).resolve() if i.get("input_file") else None)
+                     for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)),
                         fmu_end=data.get("fmu_end", "end"))
@@ -179,7 +183,8 @@ def load(path: Path) -> System:
 def save(system: System, path: Path) -> Path:
     data = {"tick": system.tick, "auto_connect": system.auto_connect, **({"fmu_end": "error"} if system.fmu_end == "error" else {}),
             "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
-                           **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {})}
+                           **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {}),
+                           **({"input_file": str(i.input_file)} if i.input_file is not None else {})}
                           for i in system.instances],
             "connections": [{"source": c.source, "target": c.target, "delay": c.delay} for c in system.connections]}
     Path(path).write_text(json.dumps(data, indent=1))

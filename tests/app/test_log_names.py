@@ -44,6 +44,8 @@ CHANGES = {
     "faults": ([], ["--faults", "docs/faults/gps_dropout.json"]),
     "set": ([], ["--set", "plant.m_L=0.2"]),
     "system": ([], ["--system", "docs/loop.ssp"]),
+    "step": (["--system", "standard.ssp"], ["--system", "standard.ssp", "--step", "0.05"]),
+    "input_file": (["--system", "docs/loop.ssp"], ["--system", "docs/loop.ssp", "--input-file", "plant=gusts.csv"]),
     "fmi": ([], ["--fmi", "3"]),
     "clocks": (["--fmi", "3"], ["--fmi", "3", "--clocks"]),
     "remote": ([], ["--remote", "controller=127.0.0.1:7390"]),

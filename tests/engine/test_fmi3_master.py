@@ -415,8 +415,11 @@ def test_a_scheduled_execution_slave_takes_its_own_kernel_path():
 
     scheduled, clocked = object.__new__(Fmu3ScheduledSlave), object.__new__(Fmu3Slave)
     scheduled.clocked = clocked.clocked = True
+    scheduled.api = clocked.api = {}  # every variable of the kernel's types (Float64, Int32, Boolean)
     assert path_of(scheduled) == "kernel: FMI 3.0 Scheduled Execution"
     assert path_of(clocked) == "kernel: FMI 3.0 with clocks"
+    clocked.api = {("Real", 7): "Float32"}  # a Float32 variable: the callback converts it
+    assert path_of(clocked) == "callback: FMI 3.0 types the kernel does not convert"
 
 
 def test_the_kernel_s_event_mode_makes_the_calls_fmi3_py_makes(tmp_path, monkeypatch):

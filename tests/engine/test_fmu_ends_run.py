@@ -123,3 +123,43 @@ def test_a_feedthrough_fmus_sample_at_zero_holds_its_connected_input(counter, tm
     x, y = columns["/source"][1]["x"], columns["/sink"][1]["y"]
     np.testing.assert_array_equal(columns["/sink"][0], columns["/source"][0])
     assert list(x) == [1.5, 2.0, 2.5, 3.0] and list(y) == list(x)
+
+
+def test_an_fmu_in_a_worker_process_ends_the_run_the_same_way(counter, tmp_path):
+    """The counter in a worker process of its own (isolation): its host replies to the step with the end (an E frame,
+    its outputs there): the run ends at 0.3 s without an error, its last sample kept, FMPy's log."""
+    version, fmu = counter
+    system = System(TICK, [Instance("counter", fmu, parameters={"limit": 3})])
+    res = run_system(system, 1.0, tmp_path / "iso.mcap", progress=False, isolate=lambda path, md: True)
+    assert res.error is None and res.ended_by == ("counter", pytest.approx(0.3))
+    _equals_fmpy(fmu, tmp_path / "iso.mcap", 3, 1.0)
+
+
+def test_an_fmu_on_tiltload_serve_ends_the_run_the_same_way(counter, tmp_path):
+    """The counter served by `tiltload serve` (its worker replies across the network as in a local worker)."""
+    from support.remote import ServerProcess, token_file
+
+    version, fmu = counter
+    token = token_file(tmp_path)
+    server = ServerProcess(fmu.parent, token, "--idle-timeout", "20")
+    try:
+        system = System(TICK, [Instance("counter", fmu, parameters={"limit": 4}, remote=server.address,
+                                        token_file=token)])
+        res = run_system(system, 1.0, tmp_path / "remote.mcap", progress=False)
+        assert res.error is None and res.ended_by == ("counter", pytest.approx(0.4))
+        _equals_fmpy(fmu, tmp_path / "remote.mcap", 4, 1.0)
+        assert "exit 0" in server.wait_for("session ended")
+    finally:
+        server.stop()
+
+
+def test_a_worker_s_end_is_a_failure_where_the_system_says_so(counter, tmp_path):
+    version, fmu = counter
+    system = System(TICK, [Instance("counter", fmu, parameters={"limit": 2})], fmu_end="error")
+    ex = Execution(system, isolate=lambda path, md: True)
+    ex.instantiate()
+    with pytest.raises(Exception) as err:
+        ex.end(1.0)
+    ex.close()
+    said = "doStep at t=0.2 s failed (discard)" if version == 2 else "the FMU asked to terminate the simulation at t=0.2 s"
+    assert said in str(err.value) and ex.ended_by is None  # the worker's line, as in this process

@@ -52,6 +52,8 @@ class Case:
     max_tilt: float = MAX_TILT  # degrees
     allow_unknown_inputs: bool = False
     allow_external_fmus: bool = False
+    step: float | None = None  # s: the step of a system package that declares none
+    input_file: tuple[tuple[str, str], ...] = ()  # {instance: CSV or Parquet file of its inputs over time}
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -61,6 +63,8 @@ class Case:
         self._trajectory_and_controller()
         if fix("seed", kinds.whole("Case", "seed", self.seed)) is not None:
             CASE.check("seed", self.seed)
+        if fix("step", kinds.number("Case", "step", self.step)) is not None:
+            fix("step", CASE.check("step", self.step))
         if fix("stop_time", kinds.number("Case", "stop_time", self.stop_time)) is not None:
             fix("stop_time", CASE.check("stop_time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):
@@ -114,3 +118,5 @@ class Case:
         self._fix("set", settings)
         remotes = kinds.pairs("Case", "remote", self.remote, (str,), "a str host:port")
         self._fix("remote", tuple(CASE.check("remote", f"{k}={v}") for k, v in remotes))
+        tables = kinds.pairs("Case", "input_file", self.input_file, (str, Path), "a file path")
+        self._fix("input_file", tuple(CASE.check("input_file", f"{k}={v}") for k, v in tables))

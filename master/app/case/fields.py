@@ -131,13 +131,22 @@ def remote(text: str) -> tuple[str, str]:
     return name.strip(), address.strip()
 
 
+def input_file(text: str) -> tuple[str, str]:
+    """INSTANCE=FILE: a table of that instance's inputs over time (CSV or Parquet, engine/inputs.py)."""
+    name, sep, path = text.partition("=")
+    if not sep or not name.strip() or not path.strip():
+        raise argparse.ArgumentTypeError(f"must be INSTANCE=FILE (e.g. plant=inputs.csv), got {text!r}")
+    return name.strip(), path.strip()
+
+
 tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")
+step_size = real_in(lambda value: 0 < value <= 3600, "a step in seconds, above 0 and at most 3600")
 seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
 # Case: what one run is (tiltload run's loop options)
 CASE = Fields("run", {"seed": seed, "stop_time": run_time, "fmus": folder, "max_tilt": tilt_limit, "set": assignment,
-                      "remote": remote},
+                      "remote": remote, "step": step_size, "input_file": input_file},
               {"vehicle": ("load", "uav"), "scenario": SCENARIOS, "schedule": ("ordered", "jacobi"), "fmi": (2, 3)})
 # RunOptions: how it runs and what is kept of it (tiltload run's other options)
 RUN = Fields("run", {"out": folder, "name": file_stem, "log_every": whole_number, "report": output_file,

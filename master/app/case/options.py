@@ -19,7 +19,7 @@ from ..user_error import UserError
 # the options that describe the thesis's loop, which a system file describes itself: given with --system, an error
 LOOP_ONLY = (("vehicle", "--vehicle"), ("scenario", "--scenario"), ("trajectory", "--trajectory"),
              ("controller", "--controller"), ("seed", "--seed"), ("delay", "--delay"), ("no_gusts", "--no-gusts"),
-             ("set", "--set"), ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
+             ("fmus", "--fmus"), ("allow_unknown_inputs", "--allow-unknown-inputs"), ("fmi", "--fmi"),
              ("clocks", "--clocks"))
 
 
@@ -41,6 +41,9 @@ OPTIONS_SCHEMA = {
         "allow_unknown_inputs": {"type": "boolean"}, "allow_infeasible": {"type": "boolean"},
         "allow_external_fmus": {"type": "boolean"}, "clocks": {"type": "boolean"}, "fmi": {"enum": [2, 3]},
         "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
+        "step": {"type": ["number", "null"], "exclusiveMinimum": 0, "maximum": 3600},  # not required: older snapshots
+        "input_files": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2,
+                                                   "items": {"type": "string"}}},
         "remotes": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "string"}}},
         "reference": {"oneOf": [{"type": "null"}, {
             "type": "object", "additionalProperties": False, "required": ["label", "code", "settings", "start", "duration"],
@@ -100,6 +103,8 @@ class LoopOptions:
     remotes: tuple[tuple[str, str], ...] = ()  # --remote INSTANCE=HOST:PORT, in order (where, not which loop)
     fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
     clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
+    step: float | None = None  # --step: the step of a system package that declares none (s)
+    input_files: tuple[tuple[str, str], ...] = ()  # --input-file INSTANCE=FILE, in order
     # a case set's wind, read once for all its runs (the scenario FMU's parameters); a run's own is its wind file
     wind_parameters: tuple[tuple[str, object], ...] = ()
 
@@ -114,6 +119,7 @@ class LoopOptions:
             d[key] = None if d[key] is None else str(Path(d[key]).resolve())
         d["settings"] = [list(s) for s in self.settings]
         d["remotes"] = [list(r) for r in self.remotes]
+        d["input_files"] = [[name, str(Path(f).resolve())] for name, f in self.input_files]
         d["reference"] = None if self.reference is None else asdict(self.reference)
         return d
 
@@ -124,6 +130,7 @@ class LoopOptions:
             d[key] = None if d[key] is None else Path(d[key])
         d["settings"] = tuple(tuple(s) for s in d["settings"])
         d["remotes"] = tuple(tuple(r) for r in d.get("remotes", ()))
+        d["input_files"] = tuple(tuple(r) for r in d.get("input_files", ()))
         r = d["reference"]
         d["reference"] = None if r is None else Trajectory.from_dict(r)
         return cls(**d)
@@ -148,6 +155,10 @@ class LoopOptions:
             parts.append("remote-" + "-".join(name for name, _ in self.remotes))
         if self.settings:
             parts.append("set-" + _settings_tag(self.settings))
+        if self.step is not None:
+            parts.append(f"step{self.step:g}s")
+        if self.input_files:
+            parts.append("inputs-" + "-".join(Path(f).stem for _, f in self.input_files))
         if self.stop_time is not None and self.stop_time != default_stop_time:
             parts.append(f"t{self.stop_time:g}s")
         return file_safe("_".join(parts))
@@ -183,9 +194,15 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
         load = LOOPS[DEFAULT_VEHICLE]  # unused by a system file but for the stop time a JSON description may lack (the loop's)
         return LoopOptions(vehicle=DEFAULT_VEHICLE, scenario=DEFAULT_SCENARIO, trajectory=load.default_trajectory,
                            controller=load.default_controller, controller_fmu=None, seed=DEFAULT_SEED, stop_time=args.stop_time,
-                           delay=False, gusts=True, faults=args.faults, settings=(), system=args.system, fmus=DEFAULT_FMU_DIR,
+                           delay=False, gusts=True, faults=args.faults, settings=tuple(getattr(args, "set", None) or ()),
+                           system=args.system, fmus=DEFAULT_FMU_DIR,
                            allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
-                           remotes=tuple(getattr(args, "remote", ())))
+                           remotes=tuple(getattr(args, "remote", ())), step=getattr(args, "step", None),
+                           input_files=tuple(getattr(args, "input_file", ())))
+    if getattr(args, "step", None) is not None:
+        raise UserError("--step is for --system (an SSP package that declares no step); the loop's tick is its own")
+    if getattr(args, "input_file", ()):
+        raise UserError("--input-file is for --system: the loop's inputs are its own FMUs' outputs")
     if getattr(args, "allow_external_fmus", False):
         raise UserError("--allow-external-fmus is for --system (a package's FMUs); the loop's FMUs are built into --fmus")
     vehicle = args.vehicle or DEFAULT_VEHICLE

@@ -41,7 +41,10 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
     from ..loop.fmus import build_all, fmu_folder
 
     if opts.system is not None:
-        system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus)
+        system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus, say, opts.step)
+        set_parameters(system, dict(opts.settings))  # --set over the file's values, checked by the engine's type table
+        for name, table in opts.input_files:  # --input-file over the file's own (engine/inputs.py reads and checks it)
+            system.instance(name).input_file = Path(table).resolve()
     else:
         folder = fmu_folder(opts.fmus, opts.fmi)
         if not prepared and build:
@@ -131,13 +134,17 @@ def branch_system(fmu_dir: Path, snap, faults, parameters: dict, controller: str
     return system, dataclasses.replace(snap, settings=settings)
 
 
-def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False):
-    """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule)."""
+def read_system(path: Path, unpack_into: Path, allow_external_fmus: bool = False, say=None, step: float | None = None):
+    """A system file: an SSP package (.ssp, or a bare .ssd) or a JSON description; (system, stop or None, schedule).
+    say: where a standard package's step rule is told (ssp/load.py); step: --step, for a package that declares none."""
     from ...engine import system as sysdesc
     from ...engine.ssp.load import load
 
     if path.suffix.lower() in (".ssp", ".ssd"):
-        return load(path, unpack_into, allow_external=allow_external_fmus)
+        return load(path, unpack_into, allow_external=allow_external_fmus, say=say, step=step)
+    if step is not None:
+        raise UserError(f"--step: {path} declares its tick (a JSON description's \"tick\"); --step is for an SSP package "
+                        "that declares no step")
     if allow_external_fmus:
         raise UserError(f"--allow-external-fmus is for SSP packages (.ssp/.ssd); {path} is a JSON description, "
                         "whose FMU paths are the user's own")

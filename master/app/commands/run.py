@@ -68,7 +68,8 @@ def case_of(args: argparse.Namespace):
     from ..api.case import Case
 
     given = {f.name: getattr(args, f.name) for f in fields(Case) if hasattr(args, f.name)}
-    return Case(**{**given, "set": tuple(args.set), "remote": tuple(args.remote)})
+    return Case(**{**given, "set": tuple(args.set), "remote": tuple(args.remote),
+                   "input_file": tuple(getattr(args, "input_file", ()))})
 
 
 def run_options_of(args: argparse.Namespace):

@@ -20,6 +20,8 @@ def export(args: argparse.Namespace, out: Path, schedule: str | None = None):
     from ..case.system import build_system
     from ..loop.thesis import select_loop_delay
 
+    if getattr(args, "input_file", ()):
+        raise UserError("--input-file: an SSP package does not carry input files (give them to `tiltload run --system`)")
     loop = build_system(resolve_loop(args), cache_root() / "ssp")
     system, stop = loop.system, loop.stop
     _mission_inside(system, cache_root() / "ssp" / "missions")

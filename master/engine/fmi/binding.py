@@ -14,7 +14,7 @@ from fmpy.fmi1 import FMICallException
 
 from ..errors import ExecutionError
 from .fmu_cache import unpacked
-from .model_description import checked_value
+from .model_description import checked_value, fmi_type
 from .slave import Slave
 
 
@@ -42,7 +42,7 @@ def c_function(dll, name: str, argtypes: list):
 class Binding(Slave):
     """An FMU instantiated in this process through FMPy's object for its standard (FMU2Slave, FMU3Slave)."""
 
-    # FMPy's setter of a parameter of each type, by method name: the standards name the types differently
+    # FMPy's setter of a parameter of each type (fmi_type), by method name: the standards name the types differently
     PARAMETER_SETTERS: dict[str, str] = {}
 
     def __init__(self, name: str, path: Path, md) -> None:
@@ -79,7 +79,7 @@ class Binding(Slave):
         for key, value in params.items():
             v = self.vars.get(key)
             value = checked_value(self.name, v, key, value)
-            setter = getattr(self._fmpy, self.PARAMETER_SETTERS[v.type])
+            setter = getattr(self._fmpy, self.PARAMETER_SETTERS[fmi_type(v)])
             self.call(f"setting {key}", lambda s=setter, vr=v.valueReference, x=value: s([vr], [x]))
 
     def close(self) -> None:

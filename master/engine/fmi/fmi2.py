@@ -31,7 +31,8 @@ from .slave import C_TYPES, TYPES
 class InProcessFmu(Binding):
     """One instantiated FMU in this process: typed output tables, captured log, fatal-aware teardown."""
 
-    PARAMETER_SETTERS = {"Real": "setReal", "Integer": "setInteger", "Boolean": "setBoolean", "String": "setString"}
+    PARAMETER_SETTERS = {"Float64": "setReal", "Int32": "setInteger", "Enumeration": "setInteger", "Boolean": "setBoolean",
+                         "String": "setString"}
 
     def __init__(self, name: str, path: Path, md) -> None:
         super().__init__(name, path, md)

@@ -36,12 +36,19 @@ from fmpy.fmi3 import FMU3Slave
 from ..errors import ExecutionError, FmuEndedRun
 from .binding import Binding, c_function
 from .fmi3_state import Fmu3State
-from .model_description import clock_ticks, clocks_of
+from .model_description import EXACT, FMI_TYPES, clock_ticks, clocks_of, fmi_type
 from .slave import TYPES
 
 FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
-FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}  # each carrier's own FMI 3.0 type
 MAX_EVENT_ITERATIONS = 100
+# The FMI 3.0 get and set functions of every carried type (an Enumeration's are Int64's)
+API = {name: "Int64" if name == "Enumeration" else name for name, kind in FMI_TYPES.items() if kind.carrier is not None}
+
+
+def _api(slave, t: str, vr: int) -> str:
+    """The FMI 3.0 function type of a carried variable (by its carrier t and value reference)."""
+    return slave.api.get((t, vr), FMI3_NAME[t])
 
 
 class _Inputs:
@@ -50,20 +57,20 @@ class _Inputs:
 
     def __init__(self, slave: Fmu3Slave, t: str, vrs, n: int) -> None:
         self.type, self.n = t, n
-        kinds: dict[object, list[int]] = {}
+        kinds: dict[tuple, list[int]] = {}
         for i in range(n):
-            kinds.setdefault(slave.input_kind.get((t, vrs[i]), "continuous"), []).append(i)
+            kinds.setdefault((slave.input_kind.get((t, vrs[i]), "continuous"), _api(slave, t, vrs[i])), []).append(i)
         self.buffer = (FMI3_C[t] * n)()
         self.staged = np.ctypeslib.as_array(self.buffer)
         self.sources: dict[int, np.ndarray] = {}  # address of a values buffer the execution sets from -> its view
-        self.parts = []  # (kind, vrs, n, buffer, its view, indices into staged; None: the whole buffer)
-        for kind, idx in kinds.items():
+        self.parts = []  # (kind, vrs, n, buffer, its view, indices into staged; None: the whole buffer, FMI 3.0 type)
+        for (kind, api), idx in kinds.items():
             part_vrs = (ctypes.c_uint * len(idx))(*[vrs[i] for i in idx])
-            if len(kinds) == 1:
-                self.parts.append((kind, part_vrs, n, self.buffer, self.staged, None))
+            if len(kinds) == 1 and api == FMI3_NAME[t]:
+                self.parts.append((kind, part_vrs, n, self.buffer, self.staged, None, api))
             else:
-                buf = (FMI3_C[t] * len(idx))()
-                self.parts.append((kind, part_vrs, len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx)))
+                buf = (FMI_TYPES[api].c_type * len(idx))()
+                self.parts.append((kind, part_vrs, len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx), api))
         self.discrete = [p for p in self.parts if p[0] == "discrete"]
         self.applied: dict[int, np.ndarray] = {}  # discrete part -> the values last set
 
@@ -75,13 +82,13 @@ class _Inputs:
 
     def changed_discrete(self) -> bool:
         return any(not np.array_equal(self.staged if idx is None else self.staged[idx], self.applied.get(id(vrs)))
-                   for _, vrs, _, _, _, idx in self.discrete)
+                   for _, vrs, _, _, _, idx, _ in self.discrete)
 
 
 class Fmu3Slave(Binding):
     """One instantiated FMI 3.0 co-simulation FMU in this process; tick: the execution's, to place the clock ticks."""
 
-    PARAMETER_SETTERS = {"Real": "setFloat64", "Integer": "setInt32", "Boolean": "setBoolean", "String": "setString"}
+    PARAMETER_SETTERS = {name: f"set{API.get(name, name)}" for name in FMI_TYPES}
 
     def __init__(self, name: str, path: Path, md, tick: float | None = None) -> None:
         super().__init__(name, path, md)
@@ -94,6 +101,9 @@ class Fmu3Slave(Binding):
         self.schedule = [(j, k, *ticks[k.name]) for j, k in enumerate(self.clocks)]  # (index, clock, n, s)
         self.activations: dict[str, list[int]] = {k.name: [] for k in self.clocks}  # clock -> the ticks it was activated
         self.input_kind = {}
+        # (carrier, value reference) -> the FMI 3.0 function type, for the variables whose type is not their carrier's
+        self.api = {(v.type, v.valueReference): API[fmi_type(v)] for v in md.modelVariables
+                    if v.causality in ("input", "output") and v.type in TYPES and API[fmi_type(v)] != FMI3_NAME[v.type]}
         self._clocked_outputs: dict[int, list] = {}
         by_name = {k.name: j for j, k in enumerate(self.clocks)}
         for v in md.modelVariables:
@@ -119,12 +129,15 @@ class Fmu3Slave(Binding):
     def _bind(self) -> None:
         dll = self.fmu.dll
         self.component = self.fmu.component
-        self._raw = {}
-        for t in TYPES:
+        self._raw = {}  # (Get or Set, FMI 3.0 type): the FMU's function; the carriers' own under their names too
+        for api in {*FMI3_NAME.values(), *self.api.values()}:
             for kind in ("Get", "Set"):
-                self._raw[kind, t] = c_function(dll, f"fmi3{kind}{FMI3_NAME[t]}",
-                                                [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
-                                                 ctypes.POINTER(FMI3_C[t]), ctypes.c_size_t])
+                self._raw[kind, api] = c_function(dll, f"fmi3{kind}{api}",
+                                                  [ctypes.c_void_p, ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                                   ctypes.POINTER(FMI_TYPES[api].c_type), ctypes.c_size_t])
+        for t, api in FMI3_NAME.items():
+            for kind in ("Get", "Set"):
+                self._raw[kind, t] = self._raw[kind, api]
         self._do_step = c_function(dll, "fmi3DoStep", [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
                                                        *([ctypes.POINTER(ctypes.c_bool)] * 3), ctypes.POINTER(ctypes.c_double)])
         self._step_out = (ctypes.c_bool(), ctypes.c_bool(), ctypes.c_bool(), ctypes.c_double())
@@ -144,23 +157,27 @@ class Fmu3Slave(Binding):
             for v in self.outputs[t]:
                 clock_of[t, v.valueReference] = next((by_name[c.name] for c in (v.clocks or ()) if c.name in by_name), None)
         self._reads, self._clocked_outputs = [], {}
+        self._wide: dict[int, str] = {}  # id of a read of 64-bit integers -> its type: a double holds them within 2^53
         for t in TYPES:
             n = len(self.out_vrs[t])
             self.values[t] = np.zeros(n, dtype=np.float64 if t == "Real" else np.int32)
             self.setters[t] = self._setter(t)
-            groups: dict[object, list[int]] = {}
+            groups: dict[tuple, list[int]] = {}
             for i, vr in enumerate(self.out_vrs[t]):
-                groups.setdefault(clock_of[t, vr], []).append(i)
-            for clock, idx in groups.items():
-                buf = (FMI3_C[t] * len(idx))()
-                entry = (self._raw["Get", t], self.values[t], (ctypes.c_uint * len(idx))(*[self.out_vrs[t][i] for i in idx]),
+                groups.setdefault((clock_of[t, vr], _api(self, t, vr)), []).append(i)
+            for (clock, api), idx in groups.items():
+                buf = (FMI_TYPES[api].c_type * len(idx))()
+                entry = (self._raw["Get", api], self.values[t], (ctypes.c_uint * len(idx))(*[self.out_vrs[t][i] for i in idx]),
                          len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx) if len(idx) < n else slice(None))
+                if api in ("Int64", "UInt64"):
+                    self._wide[id(entry)] = api
                 if clock is None:
                     self._reads.append(entry)
                 else:
                     self._clocked_outputs.setdefault(clock, []).append(entry)
         self._held = [e for entries in self._clocked_outputs.values() for e in entries]
         self._staged: dict[int, _Inputs] = {}
+        self._converted: dict[int, _Inputs] = {}  # set at once, converted (set_converted)
         self._discrete_inputs: list[_Inputs] = []
         self._clock_calls: dict[tuple[int, ...], tuple] = {}  # due clocks -> the arrays of their fmi3SetClock
         self._in_event = False  # the Event Mode right after initialization is the first tick's
@@ -171,7 +188,7 @@ class Fmu3Slave(Binding):
         """The execution's setter for type t (fmi2Set<type> signature). Without clocks it sets the values at once (in
         Step Mode, as the C loop's own calls do); with clocks it stages them for the next step, which sets each kind
         when the standard allows (Event Mode for the discrete and clocked ones)."""
-        if not self.clocked:
+        if not self.clocked and not any(key[0] == t for key in self.api):
             raw = self._raw["Set", t]
 
             def set_now(component, vrs, n, values) -> int:
@@ -182,6 +199,19 @@ class Fmu3Slave(Binding):
                 self.fmi_seconds += time.perf_counter() - started
                 return status
             return set_now
+        if not self.clocked:  # inputs of other FMI 3.0 types than the carrier's: each part converted and set at once
+            def set_converted(component, vrs, n, values) -> int:
+                key = ctypes.addressof(vrs)
+                entry = self._converted.get(key)
+                if entry is None:
+                    entry = self._converted[key] = _Inputs(self, t, vrs, n)
+                entry.stage(values)
+                try:
+                    self._set_parts(entry, None, None)
+                except ExecutionError:
+                    return 3
+                return 0
+            return set_converted
 
         def stage(component, vrs, n, values) -> int:
             entry = self._staged.get(ctypes.addressof(vrs))
@@ -242,32 +272,48 @@ class Fmu3Slave(Binding):
 
     def _set(self, kinds, t: float) -> None:
         """Set the staged inputs whose kind is in kinds (a set of "continuous", "discrete", clock indices)."""
-        started = time.perf_counter()
         for entry in self._staged.values():
-            setter = self._raw["Set", entry.type]
-            for kind, vrs, n, buf, view, idx in entry.parts:
-                if kind not in kinds:
-                    continue
-                if idx is not None:
-                    view[:] = entry.staged[idx]
-                status = setter(self.component, vrs, n, buf, n)
-                if status > 1:
-                    self.fmi_seconds += time.perf_counter() - started
-                    raise self.failed(f"set{FMI3_NAME[entry.type]} at t={t:.6g} s", status)
-                if kind == "discrete":
-                    entry.applied[id(vrs)] = view.copy()
+            self._set_parts(entry, kinds, t)
+
+    def _set_parts(self, entry: _Inputs, kinds, t: float | None) -> None:
+        """Set an entry's parts of those kinds (None: all), each converted to its FMI 3.0 type."""
+        started = time.perf_counter()
+        for kind, vrs, n, buf, view, idx, api in entry.parts:
+            if kinds is not None and kind not in kinds:
+                continue
+            if idx is not None:
+                view[:] = entry.staged[idx]
+            status = self._raw["Set", api](self.component, vrs, n, buf, n)
+            if status > 1:
+                self.fmi_seconds += time.perf_counter() - started
+                raise self.failed(f"set{api}" + ("" if t is None else f" at t={t:.6g} s"), status)
+            if kind == "discrete":
+                entry.applied[id(vrs)] = view.copy()
         self.fmi_seconds += time.perf_counter() - started
 
     def _read(self, entries, what: str, t: float | None = None) -> None:
         started = time.perf_counter()
         component = self.component
-        for get, out, vrs, n, buf, view, idx in entries:
+        for entry in entries:
+            get, out, vrs, n, buf, view, idx = entry
             status = get(component, vrs, n, buf, n)
             if status > 1:
                 self.fmi_seconds += time.perf_counter() - started
                 raise self.failed(what if t is None else f"{what} at t={t:.6g} s", status)
+            if self._wide and id(entry) in self._wide and n and np.abs(view.astype(np.float64)).max() > EXACT:
+                name = next(v.name for v in self.outputs["Real"] if v.valueReference == vrs[int(np.argmax(
+                    np.abs(view.astype(np.float64))))])
+                raise ExecutionError(f"{self.name}: {self._wide[id(entry)]} output {name} = "
+                                     f"{view[np.argmax(np.abs(view.astype(np.float64)))]} is beyond +-2^53, which the "
+                                     "engine carries exactly")
             out[idx] = view
         self.fmi_seconds += time.perf_counter() - started
+
+    @property
+    def kernel_types(self) -> bool:
+        """Are its connected and logged variables all of the types the C tick loop gets and sets itself (Float64,
+        Int32, Boolean)? Otherwise the loop steps it through its Python callback, which converts."""
+        return not self.api
 
     # ---- a step -------------------------------------------------------------------------------------------------
     def _due(self, k: int) -> list[int]:

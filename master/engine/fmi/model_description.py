@@ -1,14 +1,17 @@
 """What the engine reads of an FMU before loading it: its model description, and values checked against it.
 
 FMI 2.0 and FMI 3.0 co-simulation FMUs are read into one view, the one the engine works with: FMPy's model
-description; for an FMI 3.0 FMU, a view of it (Fmi3Description) where the Float64 and Int32 variables take the
-engine's type names Real and Integer (the FMI 3.0 names stay in `fmi3_types`), and the Clock variables are not
-variables to connect but the FMU's schedule, `clocks` (read here from the XML: FMPy does not parse intervals).
+description where each variable's `type` is the engine's array that carries it (Real, Integer, Boolean: FMI_TYPES,
+the one table of the value types) and its standard type is `fmi_type(v)`; for an FMI 3.0 FMU, a view of it
+(Fmi3Description) where the Clock variables are not variables to connect but the FMU's schedule, `clocks` (read
+here from the XML: FMPy does not parse intervals). Array variables (FMI 3.0 dimensions) are refused when read.
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
+import weakref
 import xml.etree.ElementTree as ET
 import zipfile
 from dataclasses import dataclass
@@ -18,8 +21,83 @@ from fmpy import read_model_description
 
 from ..errors import DescriptionError
 
-ENGINE_TYPE = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
-FMI3_TYPE = {engine: fmi3 for fmi3, engine in ENGINE_TYPE.items()}
+
+@dataclass(frozen=True)
+class FmiType:
+    """One FMI value type: the engine's array that carries it between FMUs and into the log (None: not carried), its
+    C type in FMI 3.0's get and set functions, and the whole numbers it holds (None: not an integer type)."""
+
+    carrier: str | None
+    c_type: object
+    bounds: tuple[int, int] | None = None
+
+    def holds(self, other: FmiType) -> bool:
+        """Does every value of other convert to this type without loss (a connection other -> self)?"""
+        if None in (self.carrier, other.carrier) or "Boolean" in (self.carrier, other.carrier):
+            return self is other
+        if self.bounds is not None:  # an integer takes the integers within its range
+            return other.bounds is not None and self.bounds[0] <= other.bounds[0] and other.bounds[1] <= self.bounds[1]
+        if other.bounds is not None:  # a float takes the integers its mantissa holds exactly
+            digits = 53 if self.c_type is ctypes.c_double else 24
+            return -2**digits <= other.bounds[0] and other.bounds[1] <= 2**digits
+        return ctypes.sizeof(self.c_type) >= ctypes.sizeof(other.c_type)
+
+
+# The value types by their FMI 3.0 names (FMI 2.0's: FMI2_TYPE). A double carries the 64-bit integers and UInt32: exact
+# within +-2^53 (a value beyond is refused when read, fmi3.py); Enumerations travel as whole numbers (FMI 3.0 gets and
+# sets them as Int64, FMI 2.0 as Integer).
+FMI_TYPES = {
+    "Float64": FmiType("Real", ctypes.c_double),
+    "Float32": FmiType("Real", ctypes.c_float),
+    "Int8": FmiType("Integer", ctypes.c_int8, (-2**7, 2**7 - 1)),
+    "UInt8": FmiType("Integer", ctypes.c_uint8, (0, 2**8 - 1)),
+    "Int16": FmiType("Integer", ctypes.c_int16, (-2**15, 2**15 - 1)),
+    "UInt16": FmiType("Integer", ctypes.c_uint16, (0, 2**16 - 1)),
+    "Int32": FmiType("Integer", ctypes.c_int32, (-2**31, 2**31 - 1)),
+    "UInt32": FmiType("Real", ctypes.c_uint32, (0, 2**32 - 1)),
+    "Int64": FmiType("Real", ctypes.c_int64, (-2**63, 2**63 - 1)),
+    "UInt64": FmiType("Real", ctypes.c_uint64, (0, 2**64 - 1)),
+    "Boolean": FmiType("Boolean", ctypes.c_bool),
+    "Enumeration": FmiType("Integer", ctypes.c_int64, (-2**31, 2**31 - 1)),
+    "String": FmiType(None, ctypes.c_char_p),
+    "Binary": FmiType(None, ctypes.c_void_p),
+}
+FMI2_TYPE = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String", "Enumeration": "Enumeration"}
+EXACT = 2**53  # a double holds every whole number up to this
+
+
+_FMI_TYPE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # variable -> its standard type (FMPy's are slotted)
+
+
+def fmi_type(v) -> str:
+    """A variable's type as its standard names it in FMI 3.0 terms (Float64, Int8, Enumeration, ...)."""
+    try:
+        known = _FMI_TYPE.get(v)
+    except TypeError:  # a variable no model description was read for (a test's stand-in)
+        known = None
+    return known or FMI2_TYPE.get(v.type, v.type)
+
+
+def enumeration_items(v) -> list[tuple[str, int]]:
+    """An Enumeration variable's items (name, value), as its declared type lists them."""
+    declared = getattr(v, "declaredType", None)
+    return [(item.name, int(item.value)) for item in getattr(declared, "items", None) or ()]
+
+
+def _carried(md, instance: str, path: Path) -> None:
+    """Each variable's type becomes the engine's carrier, its standard type kept for fmi_type(v); arrays refused."""
+    for v in md.modelVariables:
+        name = v.type if fmi_version(md) == 3 else FMI2_TYPE.get(v.type, v.type)
+        if getattr(v, "dimensions", None) or getattr(v, "dimensionValueReferences", None):
+            raise DescriptionError(f"{instance}: {path.name} has the array variable {v.name} ({name} with dimensions): "
+                                   "array variables are not supported; only scalar variables can be set, connected "
+                                   "and logged")
+        if name == "Enumeration" and any(not -2**31 <= value < 2**31 for _, value in enumeration_items(v)):
+            raise DescriptionError(f"{instance}: enumeration {v.name} has items beyond 32 bits; not supported")
+        _FMI_TYPE[v] = name
+        kind = FMI_TYPES.get(name)
+        if kind is not None and kind.carrier is not None:
+            v.type = kind.carrier
 PERIODIC = ("constant", "fixed", "tunable")  # time-based clocks whose interval the model description gives
 
 
@@ -38,10 +116,9 @@ class Clock:
 class Fmi3Description:
     """FMPy's description of an FMI 3.0 FMU in the engine's terms; every other attribute is FMPy's."""
 
-    def __init__(self, md, clocks: tuple[Clock, ...], fmi3_types: dict[str, str]) -> None:
+    def __init__(self, md, clocks: tuple[Clock, ...]) -> None:
         self._md = md
         self.clocks = clocks
-        self.fmi3_types = fmi3_types  # variable name -> its FMI 3.0 type (Float64, Int32, Boolean, String, ...)
 
     def __getattr__(self, name):
         return getattr(self._md, name)
@@ -84,7 +161,10 @@ def read_fmu(path: Path, instance: str):
     if md.coSimulation is None and not is_scheduled(md):
         raise DescriptionError(f"{instance}: {path} is a model-exchange-only FMU; a co-simulation or an FMI 3.0 Scheduled "
                                "Execution FMU is needed")
-    return _engine_view(md, path, instance) if fmi_version(md) == 3 else md
+    if fmi_version(md) == 3:
+        return _engine_view(md, path, instance)
+    _carried(md, instance, path)
+    return md
 
 
 def _engine_view(md, path: Path, instance: str) -> Fmi3Description:
@@ -115,10 +195,8 @@ def _engine_view(md, path: Path, instance: str) -> Fmi3Description:
     if clocks and not is_scheduled(md) and not md.coSimulation.hasEventMode:
         raise DescriptionError(f"{instance}: {path} has clocks but hasEventMode is false")
     md.modelVariables = [v for v in md.modelVariables if v.type != "Clock"]
-    fmi3_types = {v.name: v.type for v in md.modelVariables}
-    for v in md.modelVariables:
-        v.type = ENGINE_TYPE.get(v.type, v.type)
-    return Fmi3Description(md, tuple(clocks), fmi3_types)
+    _carried(md, instance, path)
+    return Fmi3Description(md, tuple(clocks))
 
 
 def clocks_of(md) -> tuple[Clock, ...]:
@@ -156,32 +234,53 @@ def steps_every(spec, md, tick: float) -> int:
 
 def checked_value(instance: str, v, key: str, value):
     """A parameter (or unconnected input) value converted to the variable's FMI type, or a DescriptionError
-    naming it: unknown or unsettable variable, wrong kind, non-finite, outside the declared min/max or int32."""
+    naming it: unknown or unsettable variable, wrong kind, non-finite, outside its type's or its declared range, not
+    one of an Enumeration's items."""
     if v is None:
         raise DescriptionError(f"{instance} has no variable '{key}' to set")
     if v.causality not in ("parameter", "input") or v.variability == "constant":
         raise DescriptionError(f"{instance}.{key} is a {v.causality} ({v.variability}); only parameters and inputs can be set")
     where = f"{instance}.{key} = {value!r}"
-    if v.type in ("Real", "Integer"):
+    name = fmi_type(v)
+    kind = FMI_TYPES.get(name)
+    if name == "Enumeration" and isinstance(value, str):  # an item by its name (SSV writes them so)
+        items = dict(enumeration_items(v))
+        if value.strip() not in items:
+            raise DescriptionError(f"{where}: not one of its items ({', '.join(f'{n}={x}' for n, x in items.items())})")
+        value = items[value.strip()]
+    if kind is not None and kind.carrier in ("Real", "Integer"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise DescriptionError(f"{where}: must be a number")
         if not math.isfinite(value):
             raise DescriptionError(f"{where}: must be finite")
-        if v.type == "Integer":
-            if value != int(value) or not -2**31 <= value < 2**31:
-                raise DescriptionError(f"{where}: must be a whole number that fits 32 bits")
+        if kind.bounds is not None:
+            lo, hi = kind.bounds
+            if value != int(value) or not lo <= value <= hi:
+                raise DescriptionError(f"{where}: must be a whole number in {name}'s range [{lo}, {hi}]")
             value = int(value)
+            items = enumeration_items(v) if name == "Enumeration" else []
+            if items and value not in {x for _, x in items}:
+                raise DescriptionError(f"{where}: not one of its items ({', '.join(f'{n}={x}' for n, x in items)})")
         else:
             value = float(value)
+            if name == "Float32" and abs(value) > 3.4028234663852886e38:
+                raise DescriptionError(f"{where}: beyond Float32's range")
         lo, hi = (None if b is None else float(b) for b in (v.min, v.max))
         if (lo is not None and value < lo) or (hi is not None and value > hi):
             raise DescriptionError(f"{where}: outside its declared range [{lo if lo is not None else '-inf'}, "
                                    f"{hi if hi is not None else 'inf'}]")
         return value
-    if v.type == "Boolean":
+    if name == "Boolean":
         if isinstance(value, bool) or value in (0, 1):
             return bool(value)
         raise DescriptionError(f"{where}: must be true or false")
-    if v.type != "String":
-        raise DescriptionError(f"{where}: {v.type} variables cannot be set by the engine")
+    if name == "Binary":
+        if isinstance(value, (bytes, bytearray)):
+            return bytes(value)
+        try:  # a Binary value given as text is its bytes in hexadecimal
+            return bytes.fromhex(str(value))
+        except ValueError:
+            raise DescriptionError(f"{where}: a Binary value is bytes in hexadecimal (\"0a1b\")") from None
+    if name != "String":
+        raise DescriptionError(f"{where}: {name} variables cannot be set by the engine")
     return str(value)

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DescriptionError, ExecutionError
+from ..errors import DescriptionError, ExecutionError, FmuEndedRun
 from ..fmi import slave
 from . import wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
@@ -166,6 +166,10 @@ class IsolatedFmu(slave.Slave):
             if body[:1] == wire.OUTPUTS:  # a step's (or the initialization's) raw reply
                 self.log.extend(wire.decode_outputs(body, self.values))
                 return None
+            if body[:1] == wire.ENDED:  # a step's: the FMU ended the run, its outputs there are valid
+                t, failure, log = wire.decode_ended(body, self.values)
+                self.log.extend(log)
+                raise FmuEndedRun(self.name, t, ExecutionError(failure))
             if body[:1] == wire.STATE:  # get_state's reply
                 state, log = wire.decode_state(body)
                 self.log.extend(log)

@@ -10,6 +10,8 @@ JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requ
   T n state                     restore a state get_state gave (n bytes); reply: the outputs
   J {"op": "close"}             terminate, free, exit
 Replies: O outputs [log lines as JSON]           the outputs, raw, plus the FMU's new log lines if any
+         E t n failure outputs [log lines]       a step's: the FMU ended the run at t, its outputs there (valid);
+                                                 failure (n bytes): what the request is where a system takes it as one
          T n state [log lines as JSON]           the FMU's serialized state (n bytes, STATE_LIMIT at most)
          J {"ok": true, "log": [...]}
          J {"error": kind, "message": ..., "fatal": bool, "log": [...]}  kind: description, execution, protocol
@@ -25,7 +27,7 @@ import struct
 
 import numpy as np
 
-STEP, CONTROL, OUTPUTS, STATE = b"S", b"J", b"O", b"T"
+STEP, CONTROL, OUTPUTS, STATE, ENDED = b"S", b"J", b"O", b"T", b"E"
 TYPES = ("Real", "Integer", "Boolean")  # the order outputs travel in (slave.TYPES)
 WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}
 LOG_LIMIT = 256 * 1024  # bytes of log lines one reply carries at most (the rest is summarized in one line)
@@ -186,6 +188,28 @@ def reply_limit(counts: dict[str, int]) -> int:
 def encode_outputs(values: dict, log: list) -> bytes:
     return b"".join([OUTPUTS, *(values[t].astype(_DTYPE[t], copy=False).tobytes() for t in TYPES),
                      json.dumps(fitting_log(log)).encode() if log else b""])
+
+
+_ENDED = struct.Struct("<dI")  # the time, the failure's length
+_FAILURE_LIMIT = 4096
+
+
+def encode_ended(t: float, failure: str, values: dict, log: list) -> bytes:
+    """A step's reply when the FMU ended the run (FmuEndedRun) at t: its outputs there, the last valid ones, and the
+    failure's line (for a system that takes the request as a failure)."""
+    text = failure.encode("utf-8", "replace")[:_FAILURE_LIMIT]
+    return ENDED + _ENDED.pack(t, len(text)) + text + encode_outputs(values, log)[1:]
+
+
+def decode_ended(body: bytes, targets: dict) -> tuple[float, str, list]:
+    """(the time the FMU ended the run, the failure's line, log lines) of an E reply, its outputs copied into targets."""
+    if len(body) < 1 + _ENDED.size:
+        raise ProtocolError(f"an end of the run of {len(body)} bytes")
+    t, n = _ENDED.unpack_from(body, 1)
+    at = 1 + _ENDED.size
+    if n > _FAILURE_LIMIT or at + n > len(body):
+        raise ProtocolError(f"an end of the run announces a failure of {n} bytes and has {len(body) - at}")
+    return t, body[at:at + n].decode("utf-8", "replace"), decode_outputs(OUTPUTS + body[at + n:], targets)
 
 
 def decode_outputs(body: bytes, targets: dict) -> list:

@@ -95,8 +95,10 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                     apply(typ, vrs, values, n, t)
                 try:
                     inst.do_step(t, h)
-                except FmuEndedRun as end:  # the request is not passed on from here yet: the run fails, as it did
-                    raise end.failure from None
+                except FmuEndedRun as end:  # not a failure: the master ends the run there, with these outputs
+                    inst.read_outputs()
+                    channel.send(wire.encode_ended(end.time, str(end.failure), inst.values, new_log()))
+                    continue
                 inst.read_outputs()
                 channel.send(wire.encode_outputs(inst.values, new_log()))
                 continue

@@ -3,7 +3,9 @@
 Every output of every instance is logged after each of its steps at the time it belongs to (and once at t = 0 after
 initialization, or at the closing samples: edges.py), or every n-th of those with `log_every`. Instance channels are
 protobuf messages of a fixed layout (log/encoding.py: the encoding measured cheapest, about 2 us a message, and NaN
-needs no special case); an instance whose output names are not identifiers gets a JSON channel. Derived channels,
+needs no special case); an instance whose output names are not identifiers, or with outputs of other types than
+Float64, Int32 and Boolean (FMI 3.0's Float32, Int8..UInt64, an Enumeration of either standard), gets a JSON channel
+whose schema gives each output its type (integer with its type's range, an Enumeration's items by name). Derived channels,
 which the application supplies (DerivedChannel: tiltload's 3D scene of the UAV, thrusters, rod and
 load), are JSON messages computed from one instance's outputs. The writer (log/writer.py) takes
 each call of the tick loop's messages at once and compresses beside the loop; the file is finalized
@@ -22,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import edges
+from ..fmi.model_description import FMI_TYPES, enumeration_items, fmi_type
 from ..observers import Observer
 from . import provenance
 from .encoding import LAYOUT, FixedMessage, fits
@@ -37,6 +40,31 @@ CHUNK_TICK_BY_TICK = 32 * 1024
 
 def _clean(x: float):
     return x if math.isfinite(x) else None
+
+
+KERNEL_TYPES = ("Float64", "Int32", "Boolean")  # the types a fixed-layout message holds (double, sfixed32, bool)
+
+
+def _json_type(v) -> dict:
+    """An output's JSON schema: its FMI type, an integer type's range, an Enumeration's items."""
+    name = fmi_type(v)
+    kind = FMI_TYPES[name]
+    if name == "Boolean":
+        return {"type": "boolean"}
+    if name == "Enumeration":
+        return {"type": "integer", "description": f"Enumeration {getattr(v.declaredType, 'name', '')}".strip(),
+                "oneOf": [{"const": value, "title": item} for item, value in enumeration_items(v)]}
+    if kind.bounds is None:
+        return {"type": "number", "description": name}
+    return {"type": "integer", "description": name, "minimum": kind.bounds[0], "maximum": kind.bounds[1]}
+
+
+def _converter(v):
+    """How a carried value becomes its JSON value: whole numbers as integers, non-finite numbers as null."""
+    name = fmi_type(v)
+    if name == "Boolean":
+        return bool
+    return int if FMI_TYPES[name].bounds is not None else _clean
 
 
 @dataclass(frozen=True)
@@ -91,18 +119,20 @@ class McapLogger(Observer):
         w.add_metadata("fmus", provenance.fmus_record(execution.system.instances, execution.model_descriptions))
         w.add_metadata("units", provenance.units_record(execution.system.instances, execution.model_descriptions))
         self._channels, self._encoders, self._steps = {}, {}, {}
-        self._outputs = {name: inst.outputs for name, inst in execution.instances.items()}
+        self._outputs = {name: {t: [(v.name, _converter(v)) for v in vs] for t, vs in inst.outputs.items()}
+                         for name, inst in execution.instances.items()}
         for name, inst in execution.instances.items():
             names = {t: [v.name for v in inst.outputs[t]] for t in ("Real", "Integer", "Boolean")}
             meta = {"fmu": str(inst.path)}
-            if fits(["t", *names["Real"], *names["Integer"], *names["Boolean"]]):
+            standard = all(fmi_type(v) in KERNEL_TYPES for t in ("Real", "Integer", "Boolean") for v in inst.outputs[t])
+            if standard and fits(["t", *names["Real"], *names["Integer"], *names["Boolean"]]):
                 enc = FixedMessage(name, names["Real"], names["Integer"], names["Boolean"])
                 schema = w.add_schema(enc.full_name, "protobuf", enc.schema())
                 self._channels[name] = w.add_channel(f"/{name}", schema, "protobuf", {**meta, "layout": LAYOUT})
                 self._encoders[name] = enc
             else:
-                props = {n: {"type": "number" if t == "Real" else "integer" if t == "Integer" else "boolean"}
-                         for t in ("Real", "Integer", "Boolean") for n in names[t]}
+                props = {"t": {"type": "number"}, **{v.name: _json_type(v) for t in ("Real", "Integer", "Boolean")
+                                                       for v in inst.outputs[t]}}
                 self._channels[name] = self._json_channel(f"/{name}", {"type": "object", "title": f"{name} outputs",
                                                                         "properties": props}, meta)
             self._steps[name] = 0
@@ -224,9 +254,9 @@ class McapLogger(Observer):
     def _json(self, name: str, t: float, reals, integers, booleans) -> bytes:
         """A JSON message (for outputs whose names are not identifiers). JSON has no NaN: non-finite values are null."""
         outputs = self._outputs[name]
-        msg = {"t": t, **{v.name: _clean(x) for v, x in zip(outputs["Real"], reals.tolist())}}
-        msg.update({v.name: int(x) for v, x in zip(outputs["Integer"], integers.tolist())})
-        msg.update({v.name: bool(x) for v, x in zip(outputs["Boolean"], booleans.tolist())})
+        msg = {"t": t}
+        for typ, values in (("Real", reals), ("Integer", integers), ("Boolean", booleans)):
+            msg.update({n: convert(x) for (n, convert), x in zip(outputs[typ], values.tolist())})
         return json.dumps(msg).encode()
 
     def snapshot_state(self) -> dict:

@@ -51,13 +51,15 @@ class _EventQueue:
 
 
 def _native_fmi3(slave) -> bool:
-    """An FMI 3.0 FMU in this process: the kernel calls its fmi3 functions itself (with clocks, its Event Mode too; a
-    Scheduled Execution one's partitions, fmi3_scheduled.py's sequence)."""
-    return isinstance(slave, Fmu3Slave)
+    """An FMI 3.0 FMU in this process whose variables are of the kernel's types: the kernel calls its fmi3 functions
+    itself (with clocks, its Event Mode too; a Scheduled Execution one's partitions, fmi3_scheduled.py's sequence)."""
+    return isinstance(slave, Fmu3Slave) and slave.kernel_types
 
 
 def path_of(slave) -> str:
     """How the loop steps this slave (NativeLoop.paths): the kernel's own calls, or the callback and why."""
+    if isinstance(slave, Fmu3Slave) and not slave.kernel_types:
+        return "callback: FMI 3.0 types the kernel does not convert"
     if _native_fmi3(slave):
         if getattr(slave, "scheduled", False):
             return "kernel: FMI 3.0 Scheduled Execution"
@@ -195,6 +197,9 @@ class NativeLoop(FaultPlan):
         """A slave the kernel cannot call: set its inputs (gathered by the kernel), step it, read its outputs."""
         try:
             slave, name = self.slaves[i], self.names[i]
+            table = self.ex.tables.get(name)
+            if table is not None:  # its input file's values at the step's start (inputs.py)
+                slave.set_values(table.values(t))
             self.ex.set_gathered_inputs(name, t)
             try:
                 slave.do_step(t, h)

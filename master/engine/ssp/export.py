@@ -28,14 +28,58 @@ from .schema import (
 _FIXED_DATE = (2016, 1, 1, 0, 0, 0)  # zip member times: the same export twice is the same bytes
 
 
+def enumeration_name(v) -> str:
+    """The SSP name of an Enumeration variable's type: its declared type's (the SSD's Enumerations list its items)."""
+    return getattr(v.declaredType, "name", None) or v.name
+
+
+def enumerations(ssd_ns: str, ssc_ns: str, mds: dict, wanted) -> etree._Element | None:
+    """The SSD's Enumerations element: every enumeration type a connector or parameter of the package uses, with its
+    items (wanted(instance, variable): is the variable in the package)."""
+    from ..fmi.model_description import enumeration_items, fmi_type
+
+    found: dict[str, list] = {}
+    for name, md in mds.items():
+        for v in md.modelVariables:
+            if fmi_type(v) == "Enumeration" and wanted(name, v):
+                found.setdefault(enumeration_name(v), enumeration_items(v))
+    if not found:
+        return None
+    element = etree.Element(f"{{{ssd_ns}}}Enumerations")
+    for name, items in found.items():
+        e = etree.SubElement(element, f"{{{ssc_ns}}}Enumeration", name=name)
+        for item, value in items:
+            etree.SubElement(e, f"{{{ssc_ns}}}Item", name=item, value=str(value))
+    return element
+
+
+def ssv_text(v, value) -> str:
+    """A parameter value as SSV writes it for the variable's type: an Enumeration by its item's name, a Binary in
+    hexadecimal, a Boolean as true/false, an integer type's digits, a float's repr."""
+    from ..fmi.model_description import FMI_TYPES, enumeration_items, fmi_type
+
+    name = fmi_type(v)
+    if name == "Enumeration":
+        return next(item for item, x in enumeration_items(v) if x == value)
+    if name == "Binary":
+        return bytes(value).hex()
+    if name == "Boolean":
+        return str(bool(value)).lower()
+    if name == "String":
+        return str(value)
+    return str(int(value)) if FMI_TYPES[name].bounds is not None else repr(float(value))
+
+
 def _connector(v):
-    from pyssp_standard.common_content_ssc import TypeBoolean, TypeInteger, TypeReal, TypeString
+    from pyssp_standard.common_content_ssc import TypeBoolean, TypeEnumeration, TypeInteger, TypeReal, TypeString
     from pyssp_standard.ssd import Connector
+
+    from ..fmi.model_description import fmi_type
 
     kind = v.causality if v.causality in ("input", "output") else "parameter"
     unit = v.declaredType.unit if v.unit is None and v.declaredType is not None else v.unit
-    type_ = {"Real": lambda: TypeReal(unit or None), "Integer": TypeInteger, "Boolean": TypeBoolean,
-             "String": TypeString}[v.type]()
+    type_ = {"Float64": lambda: TypeReal(unit or None), "Int32": TypeInteger, "Boolean": TypeBoolean,
+             "String": TypeString, "Enumeration": lambda: TypeEnumeration(enumeration_name(v))}[fmi_type(v)]()
     return Connector(name=v.name, kind=kind, type_=type_)
 
 
@@ -44,18 +88,23 @@ def _ssv(instance: Instance, md) -> bytes:
     from pyssp_standard.parameter_types import ParameterType
     from pyssp_standard.ssv import Parameter, SSVElem
 
-    from ..fmi.model_description import checked_value
+    from ..fmi.model_description import FMI2_TYPE, checked_value, fmi_type
 
     variables = {v.name: v for v in md.modelVariables}
+    ssp_type = {fmi3: fmi2 for fmi2, fmi3 in FMI2_TYPE.items()}  # SSP 1.0 names the FMI 2.0 types
     params = []
     for key, value in instance.parameters.items():
         v = variables.get(key)
         value = checked_value(instance.name, v, key, value)
-        text = repr(float(value)) if v.type == "Real" else (str(bool(value)).lower() if v.type == "Boolean" else str(value))
-        attrs = {"value": text}
+        attrs = {"value": ssv_text(v, value)}
         if v.type == "Real" and v.unit:
             attrs["unit"] = v.unit
-        params.append(Parameter(name=key, type_name=v.type, type_value=ParameterType(v.type, attrs)))
+        kind = ssp_type[fmi_type(v)]
+        if kind == "Enumeration":  # the type whose items the SSD's Enumerations list (pyssp writes None otherwise)
+            attrs["name"] = enumeration_name(v)
+        typed = ParameterType(kind, attrs)
+        typed.parameter = {k: x for k, x in typed.parameter.items() if x is not None}  # pyssp writes a missing unit as None
+        params.append(Parameter(name=key, type_name=kind, type_value=typed))
     elem = SSVElem(name=PARAMETER_SET, parameters=params)
     elem.top_level_metadata.generationTool = "tiltload"
     elem.top_level_metadata.generationDateAndTime = ""
@@ -151,6 +200,11 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
     ssd.default_experiment = experiment
     ssd.units = _units(mds)
     ssd.__write__()
+    listed = {(inst.name, name) for inst in system.instances for name in inst.parameters}
+    enums = enumerations(SSD_NS["ssd"], SSD_NS["ssc"], mds, lambda name, v: v.causality in ("input", "output")
+                         or (name, v.name) in listed)
+    if enums is not None:  # SSP 1.0 orders them after the System, before Units and DefaultExperiment
+        ssd.root.insert(list(ssd.root).index(ssd.root.find("ssd:System", SSD_NS)) + 1, enums)
     experiment_elem = ssd.root.find("ssd:DefaultExperiment", SSD_NS)
     if experiment_elem is not None:  # SSP 1.0 orders Units before DefaultExperiment; pyssp-standard 0.9 does not
         ssd.root.remove(experiment_elem)

@@ -44,8 +44,10 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
     for p in root.iterfind("ssv:Parameters/ssv:Parameter", SSD_NS):
         typed = p[0]
         kind, text = etree.QName(typed).localname, typed.get("value")
-        convert = {"Real": float, "Float64": float, "Integer": int, "Int32": int, "Boolean": lambda s: s.strip() in ("true", "1"),
-                   "String": str}.get(kind)
+        convert = {"Real": float, "Float64": float, "Float32": float, "Integer": int,
+                   **dict.fromkeys(("Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64"), int),
+                   "Boolean": lambda s: s.strip() in ("true", "1"), "String": str,
+                   "Enumeration": str, "Binary": bytes.fromhex}.get(kind)  # an item's name: checked_value maps it
         if convert is None:
             raise DescriptionError(f"{where}: parameter {p.get('name')} has the unsupported type {kind}")
         try:
@@ -55,11 +57,13 @@ def _parameters(folder: Path, binding, where: str, allow_external: bool = False)
     return values
 
 
-def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[System, float | None, str]:
+def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None,
+         step: float | None = None) -> tuple[System, float | None, str]:
     """An SSP archive (.ssp) or a bare SystemStructure file (.ssd, FMUs relative to it) as a System, with the default
     experiment's stop time and the schedule it was prepared for. An archive is unpacked once into a folder of
     unpack_into named by its content (_unpack: its limits). Every component's FMU and parameter set must lie in the
-    package (the .ssd's folder for a bare one) unless allow_external."""
+    package (the .ssd's folder for a bare one) unless allow_external. A package without a step annotation (tiltload's
+    or libcosim's) takes its step from step (--step) or its FMUs (_declared_steps), which say(line) tells."""
     path = Path(path)
     if not path.exists():
         raise DescriptionError(f"SSP package {path} does not exist")
@@ -87,8 +91,15 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
     top = root.find("ssd:System", SSD_NS)
     master = top.find("ssd:Annotations/ssc:Annotation[@type='" + ANNOTATION + "']/tl:Master", SSD_NS)
     tick = float(master.get("tick")) if master is not None else _osp_step(root)
-    if tick is None:
-        raise DescriptionError(f"{path}: no step size (neither a {ANNOTATION} nor a {OSP_ANNOTATION} annotation)")
+    if tick is not None and step is not None:
+        raise DescriptionError(f"{path}: the package declares its step ({tick:g} s, in its "
+                               f"{ANNOTATION if master is not None else OSP_ANNOTATION} annotation); --step is for a "
+                               "package that declares none")
+    experiment = root.find("ssd:DefaultExperiment", SSD_NS)
+    start = float(experiment.get("startTime") or 0) if experiment is not None else 0.0
+    if start != 0:
+        raise DescriptionError(f"{path}: its DefaultExperiment starts at {start:g} s; tiltload runs a system from t = 0 "
+                               "only (a start time is not supported)")
     schedule = master.get("schedule", "ordered") if master is not None else "jacobi"
     timing = {e.get("name"): e for e in master.iterfind("tl:Instance", SSD_NS)} if master is not None else {}
     instances = []
@@ -110,6 +121,8 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
                                   remote=extra.get("remote") if extra is not None else None, fmi=int(fmi) if fmi else None))
     if not instances:
         raise DescriptionError(f"{path}: the system has no FMU component")
+    if tick is None:
+        tick = _declared_steps(path, instances, say, step)
     delays = {}
     if master is not None:
         for d in master.iterfind("tl:Delay", SSD_NS):
@@ -139,9 +152,37 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False) -> tuple[S
             system.faults = parse(json.loads(faults.text), f"{path}: faults")
         except json.JSONDecodeError as err:
             raise DescriptionError(str(err)) from None
-    experiment = root.find("ssd:DefaultExperiment", SSD_NS)
     stop = float(experiment.get("stopTime")) if experiment is not None and experiment.get("stopTime") else None
     return validate(system), stop, schedule
+
+
+def _declared_steps(path: Path, instances: list[Instance], say, given: float | None = None) -> float:
+    """The step of a package that declares none (SSP has no master step; libcosim reads its own annotation): given
+    (--step: every FMU steps at it), else the smallest of its FMUs' DefaultExperiment step sizes is the tick, and an
+    FMU whose step is a whole number of ticks steps at its own (its period); said in one line."""
+    from ..fmi.model_description import read_fmu
+
+    steps = {}
+    for inst in instances:
+        experiment = read_fmu(inst.fmu, inst.name).defaultExperiment
+        step = experiment.stepSize if experiment is not None else None
+        if step is not None and float(step) > 0:
+            steps[inst.name] = float(step)
+    if not steps and given is None:
+        raise DescriptionError(f"{path}: no step size: neither a {ANNOTATION} nor a {OSP_ANNOTATION} annotation, nor a "
+                               "DefaultExperiment stepSize in any of its FMUs; give one with --step")
+    tick = given if given is not None else min(steps.values())
+    for inst in instances if given is None else ():
+        n = round(steps.get(inst.name, tick) / tick)
+        if n > 1 and abs(n * tick - steps[inst.name]) <= 1e-9 * steps[inst.name]:
+            inst.period = n * tick
+    if say is not None:
+        declared = ", ".join(f"{name} {step:g} s" for name, step in steps.items()) or "none"
+        why = ("--step, every FMU at it" if given is not None else
+               "the smallest of its FMUs' DefaultExperiment step sizes, each FMU at its own where it is a whole number "
+               "of steps")
+        say(f"{path.name}: no step annotation; step {tick:g} s ({why}; declared: {declared})")
+    return tick
 
 
 def _osp_step(root) -> float | None:

@@ -18,9 +18,9 @@ from pathlib import Path
 from lxml import etree
 
 from ..errors import DescriptionError
-from ..fmi.model_description import FMI3_TYPE, clocks_of, fmi_version, read_fmu
+from ..fmi.model_description import FMI2_TYPE, clocks_of, fmi_type, fmi_version, read_fmu
 from ..system import Instance, System
-from .export import check_members, master_annotation, osp_annotation, write_package
+from .export import check_members, enumeration_name, enumerations, master_annotation, osp_annotation, ssv_text, write_package
 from .schema import FMU_TYPE, OSP_NS, PARAMETER_SET, SSD_NAME, TL_NS, schema_errors
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -42,7 +42,9 @@ def _q(ns: str, tag: str) -> str:
 
 
 def _type_name(md, v) -> str:
-    return FMI3_TYPE.get(v.type, v.type) if fmi_version(md) == 3 else v.type
+    """The connector type SSP names a variable by: FMI 3.0's type, or FMI 2.0's for an FMI 2.0 FMU (SSP 1.0's)."""
+    name = fmi_type(v)
+    return name if fmi_version(md) == 3 else next(k for k, x in FMI2_TYPE.items() if x == name)
 
 
 def _clock_elements(fmu: Path) -> dict[str, etree._Element]:
@@ -68,8 +70,10 @@ def _connectors(comp, inst: Instance, md) -> None:
         c = etree.SubElement(connectors, _q(SSD, "Connector"), name=v.name, kind=kind)
         unit = v.declaredType.unit if v.unit is None and v.declaredType is not None else v.unit
         typed = etree.SubElement(c, _q(SSC, _type_name(md, v)))
-        if v.type == "Real" and unit:
+        if fmi_type(v) in ("Float64", "Float32") and unit:
             typed.set("unit", unit)
+        if fmi_type(v) == "Enumeration":
+            typed.set("name", enumeration_name(v))
         for k in v.clocks or ():
             if k.name in clock_names:
                 etree.SubElement(c, _q(SSD, "Clock"), name=k.name)
@@ -113,6 +117,10 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
                              endConnector=ec)
     notes = etree.SubElement(top, _q(SSD, "Annotations"))
     notes.append(master_annotation(system, schedule, [c for c in system.connections if c.delay]).root)
+    listed = {(inst.name, name) for inst in system.instances for name in inst.parameters}
+    enums = enumerations(SSD, SSC, mds, lambda name, v: v.causality in ("input", "output") or (name, v.name) in listed)
+    if enums is not None:
+        root.append(enums)
     _units(root, mds)
     experiment = etree.SubElement(root, _q(SSD, "DefaultExperiment"), startTime="0.0", stopTime=repr(float(stop)))
     etree.SubElement(experiment, _q(SSD, "Annotations")).append(osp_annotation(system.tick).root)
@@ -131,9 +139,10 @@ def ssv_document(inst: Instance, md) -> bytes:
     for key, value in inst.parameters.items():
         v = variables.get(key)
         value = checked_value(inst.name, v, key, value)
-        text = repr(float(value)) if v.type == "Real" else (str(bool(value)).lower() if v.type == "Boolean" else str(value))
         p = etree.SubElement(parameters, _q(SSV, "Parameter"), name=key)
-        etree.SubElement(p, _q(SSV, _type_name(md, v)), value=text)
+        typed = etree.SubElement(p, _q(SSV, _type_name(md, v)), value=ssv_text(v, value))
+        if fmi_type(v) == "Enumeration":
+            typed.set("name", enumeration_name(v))
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8")
 
 
