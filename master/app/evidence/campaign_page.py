@@ -61,7 +61,14 @@ LISTED = 500  # runs the page shows one by one
 def write_campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
                           out: Path, formulas: dict[str, str] | None = None, fmus=(), controller_parameters=(),
                           requirements=()) -> Path:
-    """report.html of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results;
+    """report.html of a campaign's rows (campaign_report's arguments)."""
+    return write_report(campaign_report(name, rows, varied, commands, figures, formulas, fmus, controller_parameters,
+                                        requirements), Path(out), standard_figures=False)
+
+
+def campaign_report(name: str, rows: list[dict], varied: list[str], commands: list[str], figures: list[Path],
+                    formulas: dict[str, str] | None = None, fmus=(), controller_parameters=(), requirements=()) -> Report:
+    """The report of a campaign's rows (commands[i] reruns rows[i]; figures: the PNGs written beside the results;
     fmus, controller_parameters: what the campaign ran, case.record's FmuRecords; requirements: keep.requirements'
     file, loaded, for each requirement's formula and source)."""
     names = requirement_names(rows[0]) if rows else []
@@ -95,8 +102,6 @@ def write_campaign_report(name: str, rows: list[dict], varied: list[str], comman
         summary += (f" The page lists {LISTED} of the {len(tests)} runs one by one: the failed or diverged first, then those "
                     "that failed a requirement, then in run order; results.parquet holds every run.")
     environment = environment_of_tests(tests, fmus, controller_parameters)  # the rows hold no FMUs: fmus.json's
-    report = Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=list(requirements),
-                    listed=LISTED,
-                    figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()], tables=tables,
-                    summary=summary)
-    return write_report(report, Path(out), standard_figures=False)
+    return Report(f"Campaign {name}", "campaign", [tests[i] for i in order], environment, declared=list(requirements),
+                  listed=LISTED, figures=[(p.stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()],
+                  tables=tables, summary=summary)

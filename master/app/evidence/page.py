@@ -69,8 +69,9 @@ def _unit_of(unit):
     return of
 
 
-def render(report: Report, standard_figures: bool = True) -> str:
-    """The report's HTML."""
+def render(report: Report, standard_figures: bool = True, fragment: bool = False) -> str:
+    """The report's HTML: a whole page, or (fragment) the same content as one <div> with its styles scoped to it and
+    without the results' JSON, for a notebook's rich display (html_fragment)."""
     from .figures import standard_figures as figures_of_log
 
     reqs_by_name = {r.name: r for r in report.declared}
@@ -102,11 +103,16 @@ def render(report: Report, standard_figures: bool = True) -> str:
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
     matrices, scalars = layout.parameters(data["environment"]["controller_parameters"])
-    return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
+    return page.render(report=data, tests=tests, fragment=fragment, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
                        overall=layout.overall(data["counts"]), columns=layout.columns(tests, data["matrix"], report.kind),
                        tested=layout.what_was_tested(data["environment"], tests, len(report.tests), report.kind),
                        gain_matrices=matrices, scalars=scalars,
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
+
+
+def html_fragment(report: Report, standard_figures: bool = True) -> str:
+    """The report as Jupyter shows it inline (an object's _repr_html_): the page's content, no script, nothing fetched."""
+    return render(report, standard_figures, fragment=True)
 
 
 # JSON's own escapes for what HTML gives meaning to inside a script or data block: '<' (</script, <!--, <script: the
