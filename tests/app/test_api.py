@@ -214,6 +214,10 @@ def test_falsify_returns_its_result(fmus, tmp_path):
                                         "--workers", "1", "--fmus", str(fmus)])
     scored = [r["robustness"] for r in found.rows]
     assert found.robustness == min(scored) and found.falsified == (min(scored) < 0)
+    html = found._repr_html_()  # in a notebook: the search's report (report.html's content), its best case judged
+    assert html.startswith('<div class="tiltload-report">') and "<script" not in html
+    failed = int(re.search(r'data-verdict="FAIL"><b>(\d+)</b>', html).group(1))
+    assert (failed > 0) == found.falsified and "The search" in html
 
 
 def _record(**changes) -> dict:

@@ -100,3 +100,12 @@ def test_the_campaigns_display_counts_its_results_file(executed):
         cells += [row[f"{name}_verdict"] for name in ("track_x", "thrust")]
     assert shown_counts(shown["campaign"]) == tally(cells)
     assert f'data-tests="{len(rows)}"' in shown["campaign"]
+
+
+@pytest.mark.slow
+def test_a_checks_display_counts_its_verdicts(executed):
+    folder, _ = executed
+    verdicts = tl.check(folder / "runs" / "notebook" / "seed2.mcap", folder / "notebook_reqs.yaml")
+    assert isinstance(verdicts, list) and len(verdicts) == 2
+    html = verdicts._repr_html_()
+    assert shown_counts(html) == tally(r.verdict for r in verdicts) and "<script" not in html
