@@ -22,6 +22,18 @@ def test_every_shipped_spec_stops_where_its_windows_end():
         assert ends == {spec["base"]["stop_time"]} == {8.0}, path.name
 
 
+def test_a_window_ending_at_the_stop_time_is_accepted_and_one_past_it_refused(tmp_path):
+    from tiltload.master.app.case.spec_file import SpecError
+    from tiltload.master.app.falsify.spec import load
+
+    for path in SPECS:
+        assert load(path).stop_time == 8.0  # 8 s runs decide always[a:8]: the spec's own check agrees
+    text = (ROOT / "docs" / "falsification" / "swing_gust.toml").read_text()
+    (tmp_path / "past.toml").write_text(text.replace("always[2:8]", "always[2:8.012]"))
+    with pytest.raises(SpecError, match=r"horizon \(8.012 s\) is longer than the run \(base.stop_time 8 s\)"):
+        load(tmp_path / "past.toml")
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["fsi", "zse"])
 def test_an_8_s_run_decides_each_shipped_requirement(scenario, fmus, tmp_path):
