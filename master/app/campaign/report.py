@@ -144,8 +144,9 @@ def _load(results: Path, spec: dict | None = None) -> tuple[list[dict], list[str
         raise ReportError(f"{results} is not a campaign's results file: {str(err).splitlines()[0]}") from None
     if not rows or "run_id" not in rows[0] or "controller" not in rows[0]:
         raise ReportError(f"{results} has no campaign rows")
-    judged = {k for k in rows[0] for n in [k.rsplit("_", 1)[0]]  # keep.requirements' columns, in pairs
-              if {f"{n}_verdict", f"{n}_robustness"} <= set(rows[0]) and k in (f"{n}_verdict", f"{n}_robustness")}
+    from ..case.verdict_counts import requirement_columns
+
+    judged = requirement_columns(rows[0])  # keep.requirements' columns
     named = [p.get("name") for p in (spec or {}).get("vary", {}).get("parameters", [])]
     if named and all(n in rows[0] for n in named):  # the spec says which columns are varied parameters
         varied = named
