@@ -33,6 +33,10 @@ def _result_json(r) -> dict:
             "description": r.description, "why": r.why}
 
 
+def _table_json(t) -> dict:
+    return {"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
+
+
 def _figures_of(test, reqs_by_name) -> dict[str, dict]:
     """Requirement name -> {"svg": ..., "curves": [...]} for each result judged on the test's log."""
     from ...engine.log import reader as log_reader
@@ -87,15 +91,17 @@ def render(report: Report, standard_figures: bool = True, fragment: bool = False
             "results": [_result_json(r) for r in test.results], "figures": figures,
             "standard": figures_of_log(test.log) if standard_figures and test.log and Path(test.log).is_file() else [],
             "environment": test.environment.to_json() if test.environment else None,
+            "baselines": [{"what": b.what, "file": b.file, "outcome": b.outcome, "tables": [_table_json(t) for t in b.tables],
+                           "figures": list(b.figures)} for b in test.baselines],
         })
     data = {"title": report.title, "kind": report.kind, "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
             "counts": counts(report), "total": len(report.tests),
             "matrix": {name: {t.name: row[t.name] for t in shown} for name, row in everything.items()},
             "requirements": [{"name": n, "source": s} for n, s in requirement_ids(report)],
             "environment": report.environment.to_json(), "summary": report.summary,
-            "tables": [{"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
-                       for t in report.tables],
-            "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
+            "tables": [_table_json(t) for t in report.tables],
+            "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard", "baselines")}
+                      | {"baselines": [{k: v for k, v in b.items() if k != "figures"} for b in t["baselines"]]}
                       | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
                              finalize=visible)
