@@ -214,6 +214,10 @@ def test_falsify_returns_its_result(fmus, tmp_path):
                                         "--workers", "1", "--fmus", str(fmus)])
     scored = [r["robustness"] for r in found.rows]
     assert found.robustness == min(scored) and found.falsified == (min(scored) < 0)
+    html = found._repr_html_()  # in a notebook: the search's report (report.html's content), its best case judged
+    assert html.startswith('<div class="tiltload-report">') and "<script" not in html
+    failed = int(re.search(r'data-verdict="FAIL"><b>(\d+)</b>', html).group(1))
+    assert (failed > 0) == found.falsified and "The search" in html
 
 
 def _record(**changes) -> dict:
@@ -311,7 +315,8 @@ def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(
     assert list(example_repo.outcomes(tmp_path / "pass.xml").values()) == [None, None, None]
 
     example_repo.regress(repo)
-    failed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "fail.xml")
+    page = tmp_path / "fail.html"
+    failed = example_repo.run_suite(sys.executable, repo, fmus, tmp_path / "fail.xml", extra=(f"--tiltload-report={page}",))
     assert failed.returncode == 1
     results = example_repo.outcomes(tmp_path / "fail.xml")
     baseline_tests = [name for name in results if name.startswith("test_the_controller_matches_its_baseline")]
@@ -319,6 +324,19 @@ def test_the_example_repository_s_suite_passes_and_reports_a_changed_controller(
     message = results[baseline_tests[0]]
     for words in example_repo.REPORT_WORDS:
         assert words in message, message
+    # the session's report: each test's baseline outcome; a failing one with its metric table (the metrics its
+    # message names out of tolerance: DIFFERS), not only the message's first line
+    data = json.loads(re.search(r'id="tiltload-results">(.*?)</script>', page.read_text(encoding="utf-8"), re.S).group(1))
+    by_name = {t["name"].split("::")[-1]: t for t in data["tests"]}
+    for name in baseline_tests:
+        (checked,) = by_name[name]["baselines"]
+        assert checked["what"] == "metrics" and checked["outcome"] == "FAIL" and checked["file"].startswith("baselines/")
+        (table,) = checked["tables"]
+        differ = [row[0] for row in table["rows"] if row[-1] != "ok"]
+        said = re.search(r"(\d+) of (\d+) metrics out of tolerance", results[name])
+        assert len(differ) == int(said.group(1)) and len(table["rows"]) == int(said.group(2))
+        assert all(re.search(rf"\n\s+{re.escape(m)}\s+run ", results[name]) for m in differ)
+    assert by_name["test_the_controller_tracks_the_circle_closely"]["baselines"] == []
 
 
 CAMPAIGN = """

@@ -3,6 +3,7 @@ file's controller (dlqr by default) ran on neither: the row, its logs and the AP
 
 from __future__ import annotations
 
+import re
 import shutil
 import zipfile
 
@@ -48,3 +49,9 @@ def test_a_row_keeps_the_case_s_name_when_neither_side_replaces_its_controller(f
     api = tl.b2b([{"scenario": "fsi", "trajectory": 1, "controller": "mixed"}], reference={"fmus": fmus},
                  candidate={"fmus": fmus, "settings": (("controller.x_0", 1.75),)}, stop_time=0.3, out=tmp_path)
     assert [r.name for r in api.results] == ["fsi_traj1_mixed"]
+    # in a notebook: the report of the comparison, a test per case, a row per signal, a tube figure per signal outside
+    html, [case] = api._repr_html_(), api.results
+    outside = [r.signal for r in case.rows if not r.passed]
+    assert f'data-verdict="{"PASS" if case.ok else "FAIL"}"><b>1</b>' in html and "<script" not in html
+    assert len(re.findall(r"<td>(?:OUTSIDE)</td>", html)) == len(outside)
+    assert html.count('<img alt="case0 tube') == len(outside)

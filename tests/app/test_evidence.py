@@ -8,6 +8,7 @@ from __future__ import annotations
 import html.parser
 import json
 import re
+import shlex
 import shutil
 import subprocess
 from pathlib import Path
@@ -255,7 +256,15 @@ def test_the_plugin_s_report_has_a_section_per_test_and_junit_links_it(fmus, tmp
     assert data["counts"]["FAIL"] == 2 and data["counts"]["PASS"] == 3
     assert all(t["command"].startswith("tiltload run ") for t in data["tests"] if t["name"] != by_name["test_without_runs"]["name"])
     properties = {p.get("name"): p.get("value") for p in ET.parse(junit).iter("property")}
-    assert properties["tiltload_report"].startswith(str(page) + "#test-")
+    link, _, anchor = properties["tiltload_report"].partition("#")
+    assert not Path(link).is_absolute() and (junit.parent / link).resolve() == page.resolve() and anchor.startswith("test-")
+    # what the page names survives pytest's temporary folders: the runs' logs and replay folders copied beside it
+    kept = page.parent / f"{page.stem}_files"
+    for t in data["tests"]:
+        if t["log"]:
+            assert Path(t["log"]).is_file() and Path(t["log"]).resolve().is_relative_to(kept.resolve())
+            words = shlex.split(t["command"])
+            assert Path(words[words.index("--out") + 1]).resolve().is_relative_to(kept.resolve())
 
 
 def test_a_diverged_signal_is_drawn_where_it_was_sane_and_the_divergence_marked():

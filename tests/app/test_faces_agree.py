@@ -8,6 +8,7 @@ and a diverged run counts as ERROR, never as a FAIL with a NaN robustness.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from html.parser import HTMLParser
@@ -116,6 +117,60 @@ def test_a_diverged_campaign_s_requirement_counts_agree_in_every_face(fmus, tmp_
     assert {"PASS": int(html["PASS"]) + int(html["PASS (vacuous)"]),
             **{v: int(html[v]) for v in EXPECTED if v != "PASS"}} == EXPECTED
     assert float(html["least robustness"]) == pytest.approx(light["near_robustness"], rel=1e-3)
+
+    # report.html's JSON (its first screen's counts: each run counted once, a diverged one as ERROR) and its matrix
+    page = (out / "report.html").read_text(encoding="utf-8")
+    data = json.loads(re.search(r'id="tiltload-results">(.*?)</script>', page, re.S).group(1))
+    assert data["counts"] == {**dict.fromkeys(data["counts"], 0), **EXPECTED}
+    assert sorted(data["matrix"]["near"].values()) == ["ERROR", "ERROR", "PASS"]
+    for r in diverged:  # each ERROR with its reason and the time the run diverged (the Parquet's diverged_at)
+        test = next(t for t in data["tests"] if t["name"] == f"run {r['run_id']}")
+        assert test["results"] == [] and "diverged" in test["error"] and f"{r['diverged_at']:.3f}" in test["error"]
+
+
+DIVERGED_RUN = ["--scenario", "fsi", "--trajectory", "1", "--controller", "dlqr", "--set", "plant.m_L=6", "--allow-infeasible",
+                "--stop-time", "3"]  # a 6 kg load: the plant's state diverges at 1.512 s
+TWO = 'requirements:\n  - {name: near, formula: "always abs(plant.x) <= 50"}\n  - {name: up, formula: "always[0:1] plant.z > -100"}\n'
+
+
+@pytest.mark.slow
+def test_a_diverged_run_is_error_in_every_face(fmus, tmp_path, capsys):
+    """A single run that diverged: each requirement ERROR, with the time it diverged and why, never the FAIL of its
+    blown-up values, in the run's terminal table, `check` (table and JSON), report.html (its JSON and matrix) and the
+    API (tl.run raises the run's line; tl.check and tl.open_log of its log say ERROR)."""
+    reqs = tmp_path / "reqs.yaml"
+    reqs.write_text(TWO)
+    code = main(["run", *DIVERGED_RUN, "--fmus", str(fmus), "--out", str(tmp_path), "--name", "d", "--no-plots",
+                 "--requirements", str(reqs), "--report", str(tmp_path / "d.html")])
+    out, err = capsys.readouterr()
+    assert code == 1 and "diverged" in err
+    log = tmp_path / "d.mcap"
+    end = tl.open_log(log).signals("/plant").time[-1]  # where the log's plant stops: the divergence
+    assert 1.0 < end < 3.0
+    at = f"t={end:.3f} s"
+
+    def rows(text: str) -> dict[str, str]:
+        return {line.split()[0]: line.split()[1] for line in text.splitlines() if line.startswith(("  near ", "  up "))}
+
+    assert rows(out) == {"near": "ERROR", "up": "ERROR"} and at in out
+    assert main(["check", str(reqs), str(log)]) == 1  # a run that failed: as the run's own exit code
+    said = capsys.readouterr().out
+    assert rows(said) == {"near": "ERROR", "up": "ERROR"}
+    assert main(["check", "--json", str(reqs), str(log)]) == 1
+    results = json.loads(capsys.readouterr().out)["logs"][0]["results"]
+    assert [(r["verdict"], r["robustness"], r["first_violation"]) for r in results] == [("ERROR", None, None)] * 2
+    assert all(at in r["why"] and "diverged" in r["why"] for r in results)
+
+    page = (tmp_path / "d.html").read_text(encoding="utf-8")
+    data = json.loads(re.search(r'id="tiltload-results">(.*?)</script>', page, re.S).group(1))
+    assert data["counts"]["ERROR"] == 1 and sum(data["counts"].values()) == 1  # the run, once
+    assert {name: set(row.values()) for name, row in data["matrix"].items()} == {"near": {"ERROR"}, "up": {"ERROR"}}
+    assert 'data-overall="ERROR"' in page and at in data["tests"][0]["error"]
+
+    with pytest.raises(tl.TiltloadError, match=f"diverged.*{at}"):  # tl.run: a run that failed raises its line
+        tl.run(scenario="fsi", trajectory=1, controller="dlqr", set=(("plant.m_L", 6.0),), allow_infeasible=True, stop_time=3,
+               fmus=fmus, out=tmp_path / "api", no_plots=True, quiet=True, requirements=reqs)
+    assert [r.verdict for r in tl.check(log, reqs)] == ["ERROR", "ERROR"] == list(tl.open_log(log).verdicts.values())
 
 
 @pytest.mark.slow

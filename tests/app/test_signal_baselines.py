@@ -211,3 +211,18 @@ def test_a_rewrapped_fmu_is_the_same_content_and_what_changed_is_told_in_order(t
     assert changed[1] == f"controller FMU's content changed (a.fmu -> c.fmu, sha256 {fmu_digest(one)[:12]} -> {fmu_digest(edited)[:12]})"
     assert changed[2:] == ["scenario and plant unchanged"]
     assert what_changed(base, None) == [] and what_changed({**base, "wind.fmu": "w.fmu"}, base)[0] == "wind removed"
+
+
+def test_a_signal_comparison_shows_in_a_notebook_with_a_figure_per_signal_outside(runs):
+    """compare_signals' verdict as a notebook shows it: a test (FAIL with a signal outside), a row per signal with its
+    first time outside as numpy finds it, a tube figure per signal outside; no script."""
+    names = ["plant.x", "plant.z"]
+    found = tl.compare_signals(runs["changed"], runs["base"].log, signals=names, abs=1e-9, any_case=True)
+    html = found._repr_html_()
+    ref, run = runs["base"].signals("/plant"), runs["changed"].signals("/plant")
+    outside = [n for n in names if _first_outside(ref, run, n.split(".")[1], 1e-9) is not None]
+    assert outside  # the gain moved the plant: the test can fail
+    assert 'data-verdict="FAIL"><b>1</b>' in html and "<script" not in html
+    assert html.count("<td>OUTSIDE</td>") == len(outside) and html.count('<img alt="case0 tube') == len(outside)
+    for n in outside:
+        assert f"<td>{_first_outside(ref, run, n.split('.')[1], 1e-9):.6g}</td>" in html

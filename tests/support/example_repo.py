@@ -26,10 +26,11 @@ def regress(repo: Path) -> None:
     controller.write_text(text.replace("10.0", "3.0"))
 
 
-def run_suite(python: Path | str, repo: Path, fmus: Path, junit: Path, env: dict | None = None) -> subprocess.CompletedProcess:
+def run_suite(python: Path | str, repo: Path, fmus: Path, junit: Path, env: dict | None = None,
+              extra: tuple[str, ...] = ()) -> subprocess.CompletedProcess:
     env = {k: v for k, v in (env or os.environ).items() if k != "PYTEST_ADDOPTS"}
     return subprocess.run([str(python), "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--tiltload-fmus={fmus}",
-                           f"--junitxml={junit}", "tests"], capture_output=True, text=True, cwd=repo, env=env, timeout=1800)
+                           f"--junitxml={junit}", *extra, "tests"], capture_output=True, text=True, cwd=repo, env=env, timeout=1800)
 
 
 def outcomes(junit: Path) -> dict[str, str | None]:

@@ -104,8 +104,19 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
         for flag, value in flags.items():
             if value is not None:
                 _check_tolerance(flag, value)
-        return back_to_back(case_list_, *sides, Path(out), names, given.with_flags(flags), stop_time,
-                            echo=progress or (lambda line: None))
+        found = back_to_back(case_list_, *sides, Path(out), names, given.with_flags(flags), stop_time,
+                             echo=progress or (lambda line: None))
+    return Shown(**{f.name: getattr(found, f.name) for f in fields(found)})
+
+
+class Shown(BackToBack):
+    """b2b's verdict (a tiltload.BackToBack), shown in a notebook as a report: a test per case, each signal's tube, a
+    figure of each signal outside."""
+
+    def _repr_html_(self) -> str:
+        from .rich_display import back_to_back_report, html_fragment
+
+        return html_fragment(back_to_back_report(self))
 
 
 def _check_tolerance(name: str, value) -> None:

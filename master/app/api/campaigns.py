@@ -75,6 +75,12 @@ class CampaignResult:
 
         return pd.read_parquet(self.results)
 
+    def _repr_html_(self) -> str:
+        """The campaign's report (its report.html's), inline in a notebook."""
+        from .rich_display import campaign_report, html_fragment
+
+        return html_fragment(campaign_report(self.results), standard_figures=False)
+
 
 def run_campaign(spec: Path, options: CampaignOptions, progress: Callable[[str], None] | None = None) -> tuple[Path, dict]:
     """The core of `tiltload campaign SPEC` and tiltload.campaign: (results file, counts). progress: where the

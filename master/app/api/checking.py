@@ -10,6 +10,20 @@ from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 
 
+class Verdicts(list):
+    """check's results: a list of each requirement's result, shown in a notebook as `tiltload check --report`'s
+    report of the log (each verdict, its first violation, its figure)."""
+
+    def __init__(self, results: Iterable[RequirementResult], log: Path | None = None) -> None:
+        super().__init__(results)
+        self.log = log
+
+    def _repr_html_(self) -> str:
+        from .rich_display import check_report, html_fragment
+
+        return html_fragment(check_report(self, self.log))
+
+
 def check(run: Result | str | Path, requirements: str | Path | None = None, *, formulas: Iterable[str] = ()
           ) -> list[RequirementResult]:
     """The verdicts of a requirement file (YAML, docs/requirements.md) and of one-off formulas ("NAME: STL", as
@@ -32,4 +46,4 @@ def check(run: Result | str | Path, requirements: str | Path | None = None, *, f
 
         if Path(log).is_file():  # as `tiltload check` refuses it: a window past the run's end can never be decided
             check_horizons(reqs, log_span(log), f"the run in {Path(log).name}")
-        return check_log(log, reqs)
+        return Verdicts(check_log(log, reqs), Path(log))

@@ -4,11 +4,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..regression.compare import Comparison
+from ..regression import compare as metric_compare
 from .errors import TiltloadError, as_tiltload_errors
 from .result import Result
 
 Source = Result | str | Path
+
+
+class Comparison(metric_compare.Comparison):
+    """compare's verdict (tiltload.Comparison), shown in a notebook as a report: PASS or FAIL and the metric table."""
+
+    def _repr_html_(self) -> str:
+        from .rich_display import comparison_report, html_fragment
+
+        return html_fragment(comparison_report(self))
 
 
 def _tolerance(name: str, value: float | None) -> float | None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import shlex
 from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,6 +19,7 @@ from .field_types import closest_field
 if TYPE_CHECKING:
     import pandas as pd
 
+    from ..evidence.model import Report
 
 
 @closest_field
@@ -77,6 +78,15 @@ class FalsifyResult:
     seconds: float
     summary: str
     command: str
+    report: Report | None = field(default=None, repr=False, compare=False)  # its report.html's, for _repr_html_
+
+    def _repr_html_(self) -> str:
+        """The search's report (its space, budget, best case and its requirements' figures), inline in a notebook."""
+        import html
+
+        from .rich_display import html_fragment
+
+        return html_fragment(self.report) if self.report is not None else f"<pre>{html.escape(self.summary)}</pre>"
 
     @property
     def falsified(self) -> bool:
@@ -103,7 +113,7 @@ class FalsifyResult:
 
 
 def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[str], None] | None = None):
-    """The core of `tiltload falsify SPEC` and tiltload.falsify: (the spec, the search's outcome, its folder).
+    """The core of `tiltload falsify SPEC` and tiltload.falsify: (the spec, the search's outcome, its folder, its report).
     progress: where the search's lines go (default stderr). CampaignIncomplete when evaluations failed for their
     environment."""
     from ..batch.errors import ClusterError
@@ -119,12 +129,12 @@ def run_falsification(spec: Path, options: FalsifyOptions, progress: Callable[[s
                        fraction=o.neighbourhood_fraction, points=o.neighbourhood_points)
     except ClusterError as err:
         raise UserError(str(err)) from None
-    report(*found, o.fmus)
-    return found
+    return (*found, report(*found, o.fmus))
 
 
-def report(spec, outcome, out: Path, fmus: Path) -> Path:
-    """The search's report.html: its best case replayed with a log (as replay.sh runs it) and judged on it."""
+def report(spec, outcome, out: Path, fmus: Path) -> Report:
+    """The search's report.html: its best case replayed with a log (as replay.sh runs it) and judged on it; the report
+    written (a notebook shows the same)."""
     from ..falsify.report import REPLAY_OUT, SUMMARY, html_report, replay_case, replay_command, searched_fmus
     from .case import Case
     from .execute import execute
@@ -164,9 +174,9 @@ def falsify(spec: str | Path, options: FalsifyOptions | None = None, /, *, progr
     with as_tiltload_errors():
         options = replace(options, **given) if options is not None else FalsifyOptions(**given)
         try:
-            _, outcome, out = run_falsification(Path(spec), options, progress)
+            _, outcome, out, page = run_falsification(Path(spec), options, progress)
         except CampaignIncomplete as err:
             raise TiltloadError(str(err)) from None
     summary = (out / SUMMARY).read_text() if (out / SUMMARY).is_file() else ""
     return FalsifyResult(Path(out), tuple(outcome.rows), outcome.falsified_at, outcome.best, outcome.seconds, summary,
-                         shlex.join(["tiltload", "falsify", Path(spec).as_posix(), *options_argv(options)]))
+                         shlex.join(["tiltload", "falsify", Path(spec).as_posix(), *options_argv(options)]), page)

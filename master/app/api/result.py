@@ -104,6 +104,12 @@ class Result:
         """A channel of the log as a pandas DataFrame indexed by time (s)."""
         return self.signals(topic).to_dataframe()
 
+    def _repr_html_(self) -> str:
+        """The run's report (`tiltload run --report`'s), inline in a notebook."""
+        from .rich_display import html_fragment, run_report
+
+        return html_fragment(run_report(self))
+
 
 def open_log(log: Path | str) -> Result:
     """The log of any earlier run as the Result tiltload.run returned for it, from the record the log carries (the

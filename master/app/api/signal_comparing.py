@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import fields
 from pathlib import Path
 
 from ..regression.signal_compare import SignalComparison, Tolerances
@@ -48,8 +49,19 @@ def compare_signals(run: Source, baseline: Source, *, signals: Sequence[str] | N
     flags = {"abs": abs, "rel": rel, "lead": lead, "lag": lag}
     with as_tiltload_errors():
         mapping, file = _tolerances(tolerances)
-        return compare_signal_files(_log(run, "run"), _log(baseline, "baseline"), list(signals) if signals else None, file,
-                                    flags, any_case, given=mapping)
+        found = compare_signal_files(_log(run, "run"), _log(baseline, "baseline"), list(signals) if signals else None, file,
+                                     flags, any_case, given=mapping)
+    return Shown(**{f.name: getattr(found, f.name) for f in fields(found)})
+
+
+class Shown(SignalComparison):
+    """compare_signals' verdict (a tiltload.SignalComparison), shown in a notebook as a report: each signal in its tube,
+    a figure of each signal outside."""
+
+    def _repr_html_(self) -> str:
+        from .rich_display import html_fragment, signal_comparison_report
+
+        return html_fragment(signal_comparison_report(self))
 
 
 def save_signal_baseline(result: Source, path: str | Path, signals: Sequence[str], *,

@@ -144,8 +144,9 @@ def _load(results: Path, spec: dict | None = None) -> tuple[list[dict], list[str
         raise ReportError(f"{results} is not a campaign's results file: {str(err).splitlines()[0]}") from None
     if not rows or "run_id" not in rows[0] or "controller" not in rows[0]:
         raise ReportError(f"{results} has no campaign rows")
-    judged = {k for k in rows[0] for n in [k.rsplit("_", 1)[0]]  # keep.requirements' columns, in pairs
-              if {f"{n}_verdict", f"{n}_robustness"} <= set(rows[0]) and k in (f"{n}_verdict", f"{n}_robustness")}
+    from ..case.verdict_counts import requirement_columns
+
+    judged = requirement_columns(rows[0])  # keep.requirements' columns
     named = [p.get("name") for p in (spec or {}).get("vary", {}).get("parameters", [])]
     if named and all(n in rows[0] for n in named):  # the spec says which columns are varied parameters
         varied = named
@@ -214,17 +215,11 @@ def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None,
     return " ".join(parts)
 
 
-def report(results: Path, spec_path: Path | None = None, x: str | None = None, y: str | None = None) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..output_folder import writable_folder
-
-    results = Path(results)
+def _spec_of(results: Path, spec_path: Path | None) -> tuple[dict | None, Path | None]:
+    """(the spec, the folder its relative paths are from): the one named, else the copy the campaign keeps beside its
+    results and where it came from."""
     spec, spec_folder = None, None
-    if spec_path is None:  # the campaign keeps a copy of its spec next to the results, and where it came from
+    if spec_path is None:
         spec_path = next((p for p in (results.parent / n for n in ("spec.toml", "spec.yaml", "spec.yml")) if p.is_file()), None)
         origin = results.parent / ORIGIN
         spec_folder = Path(origin.read_text().strip()).parent if origin.is_file() else None
@@ -234,11 +229,53 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         spec = read_spec_file(Path(spec_path))
         validate(spec, Path(spec_path))  # checked as any spec is: its rerun commands are built from it
         spec_folder = spec_folder or Path(spec_path).parent
+    return spec, spec_folder
+
+
+def _title(spec: dict | None, folder: Path) -> str:
+    return str((spec or {}).get("name") or folder.name)  # the spec's name (its copy beside the results), not --out's
+
+
+FIGURES = ("distributions.png", "maps.png")  # report() draws them beside the results; the page shows them inline
+
+
+def page(results: Path, spec_path: Path | None = None):
+    """The campaign's report.html as a Report (evidence.model), from its results and the figures report() drew: what
+    a notebook shows of tiltload.campaign. ReportError for results it cannot read."""
+    results = Path(results)
+    spec, spec_folder = _spec_of(results, spec_path)
+    rows, varied = _load(results, spec)
+    folder = results.parent
+    return _page(folder, _title(spec, folder), rows, varied, spec, spec_folder, [f for f in FIGURES if (folder / f).is_file()])
+
+
+def _page(folder: Path, title: str, rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None,
+          figures: list[str]):
+    from ..evidence.campaign_page import campaign_report
+    from .spec import kept_requirements
+
+    fmus, parameters = recorded_fmus(folder)
+    pinned = controller_digests(folder)  # a user's controller FMU, by the build the campaign ran
+    return campaign_report(title, rows, varied, [rerun_command(r, spec, spec_folder, pinned) for r in rows],
+                           [folder / f for f in figures], fmus=fmus,
+                           controller_parameters=parameters, requirements=kept_requirements(spec, spec_folder))
+
+
+def report(results: Path, spec_path: Path | None = None, x: str | None = None, y: str | None = None) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..output_folder import writable_folder
+
+    results = Path(results)
+    spec, spec_folder = _spec_of(results, spec_path)
     rows, varied = _load(results, spec)
     writable_folder(results.parent, "the results' folder (report.md goes there)")
     folder = results.parent
     pinned = controller_digests(folder)  # a user's controller FMU, by the build the campaign ran
-    campaign_title = str((spec or {}).get("name") or folder.name)  # the spec's name (its copy beside the results), not --out's
+    campaign_title = _title(spec, folder)
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     lines = [f"# Campaign report: {campaign_title}", "",
              f"{len(rows)} runs; controllers {', '.join(controllers)}; varied: {', '.join(varied) or 'seeds only'}.", ""]
@@ -348,16 +385,13 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         lines += [f"- {r['controller']}{seed}{', ' + values if values else ''}: {what}", "",
                   f"  `{rerun_command(r, spec, spec_folder, pinned)}`", ""]
     lines += requirement_section(rows, varied, spec, spec_folder, pinned)
-    fmus, parameters = recorded_fmus(folder)
-    lines += fmu_section(fmus)
+    lines += fmu_section(recorded_fmus(folder)[0])
     path = folder / "report.md"
     path.write_text("\n".join(lines) + "\n")
-    from ..evidence.campaign_page import write_campaign_report
-    from .spec import kept_requirements
+    from ..evidence.page import write_report
 
-    write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec, spec_folder, pinned) for r in rows],
-                          [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters,
-                          requirements=kept_requirements(spec, spec_folder))
+    write_report(_page(folder, campaign_title, rows, varied, spec, spec_folder, figures), folder / "report.html",
+                 standard_figures=False)
     return path
 
 

@@ -3,6 +3,7 @@ cycle (engine/lifecycle.py) on the worker's execution pool (batch/worker.py), it
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -27,7 +28,17 @@ def error_row(case: dict, error: str, requirements: tuple = ()) -> dict:
     controller = case["controller"] if case["controller"] in ("dlqr", "mixed") else Path(case["controller"]).stem
     return {"run_id": case["run_id"], "controller": controller, "seed": case["seed"], **case["values"], "completed": False,
             "diverged": False, "diverged_at": math.nan, "error": error,
-            **{k: v for name, _ in requirements for k, v in ((f"{name}_verdict", ERROR), (f"{name}_robustness", math.nan))}}
+            **{k: v for name, _ in requirements for k, v in _judged(name, ERROR, None)}}
+
+
+def _judged(name: str, verdict: str, result) -> tuple:
+    """A requirement's columns: NAME_verdict, NAME_robustness (NaN: undecided), and for a FAIL NAME_first_violation (s,
+    else NaN) and NAME_values (the signals there, JSON; "{}" else), which the report's FAIL rows show."""
+    decided = result is not None and result.robustness is not None and verdict != ERROR
+    failed = result is not None and result.first_violation is not None and verdict != ERROR
+    values = {k: float(v) for k, v in result.values.items()} if failed else {}
+    return ((f"{name}_verdict", verdict), (f"{name}_robustness", result.robustness if decided else math.nan),
+            (f"{name}_first_violation", result.first_violation if failed else math.nan), (f"{name}_values", json.dumps(values)))
 
 
 def run_case(base: CampaignBase, case: dict, fmu_dir: str, log_dir: str | None, snapshot: bytes | None = None,
@@ -111,7 +122,5 @@ def _execute(worker: CaseWorker, system, observers, metrics, base, case, started
             results = {r.name: r for r in obs.results}
             for name, _ in base.requirements:
                 r = results.get(name)  # a failed or diverged run judged nothing: ERROR, not the FAIL of its NaN
-                row[f"{name}_verdict"] = ERROR if error else r.shown if r is not None else "INCONCLUSIVE"  # "PASS (vacuous)" too
-                decided = r is not None and r.robustness is not None and not error
-                row[f"{name}_robustness"] = r.robustness if decided else math.nan
+                row.update(_judged(name, ERROR if error else r.shown if r is not None else "INCONCLUSIVE", r))  # "PASS (vacuous)" too
     return {"row": row, "wall": time.perf_counter() - started, "setup": setup, "sim_time": sim_time}

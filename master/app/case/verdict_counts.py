@@ -21,6 +21,14 @@ def requirement_names(row: dict) -> list[str]:
     return [k[:-len("_verdict")] for k in row if k.endswith("_verdict") and f"{k[:-8]}_robustness" in row]
 
 
+COLUMNS = ("verdict", "robustness", "first_violation", "values")  # a requirement's columns: NAME_verdict, ...
+
+
+def requirement_columns(row: dict) -> set[str]:
+    """Every column of a row that belongs to a requirement (COLUMNS of each of requirement_names)."""
+    return {f"{n}_{c}" for n in requirement_names(row) for c in COLUMNS} & set(row)
+
+
 def run_failed(row: dict) -> bool:
     """A run that did not complete, or ended with an error (a divergence among them)."""
     return bool(row.get("error")) or not row.get("completed", True)

@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if args.report is not None:
         _write_report(args.report, reqs, per_log, args.files[0] if args.files and not _is_log(args.files[0]) else None)
     verdicts = {r.verdict for r in everything}
-    if "FAIL" in verdicts:
+    if verdicts & {"FAIL", "ERROR"}:  # ERROR: the log's run failed or diverged (the run's own exit code: 1)
         return FAILED
     return PASSED if verdicts == {"PASS"} else UNDECIDED
 

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from ..batch.errors import CampaignIncomplete
 
     try:
-        _, outcome, out = run_falsification(args.spec, options_of(args))
+        _, outcome, out, _ = run_falsification(args.spec, options_of(args))
     except CampaignIncomplete as err:
         print(f"tiltload: error: {err}", file=sys.stderr)
         return 1

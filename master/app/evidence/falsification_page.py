@@ -19,8 +19,17 @@ def simulations(n: int) -> str:
 def write_falsification_report(name: str, summary: str, requirements: list, dimensions: list[tuple[str, str, float, float]],
                                rows: list[dict], falsified_at: int | None, replay: list[str] | None, log: Path | None,
                                figures: list[Path], out: Path) -> Path:
-    """report.html in out: dimensions (name, target, low, high); rows the evaluations in order; replay the command that
-    replays the best case and log that replay's log (None: no case had a robustness)."""
+    """report.html in out (falsification_report's arguments)."""
+    return write_report(falsification_report(name, summary, requirements, dimensions, rows, falsified_at, replay, log, figures),
+                        Path(out) / "report.html")
+
+
+def falsification_report(name: str, summary: str, requirements: list, dimensions: list[tuple[str, str, float, float]],
+                         rows: list[dict], falsified_at: int | None, replay: list[str] | None, log: Path | None,
+                         figures: list[Path]) -> Report:
+    """A search's report (report.html in its folder; a notebook's display of tiltload.falsify): dimensions (name,
+    target, low, high); rows the evaluations in order; replay the command that replays the best case and log that
+    replay's log (None: no case had a robustness)."""
     import shlex
 
     from ...engine.requirement.check import check_log
@@ -38,10 +47,9 @@ def write_falsification_report(name: str, summary: str, requirements: list, dime
         f"not falsified in {simulations(len(rows))} (a search is no proof)"
     search = Table("The search", ("simulations", "outcome", "least robustness"), (
         (str(len(rows)), found, f"{best['robustness']:.6g}" if best is not None else "—"),))
-    report = Report(f"Falsification {name}", "falsification", tests, environment_of_tests(tests), declared=list(requirements),
-                    figures=[(Path(p).stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()],
-                    tables=[search, space], summary=summary.splitlines()[0] if summary else "")
-    return write_report(report, Path(out) / "report.html")
+    return Report(f"Falsification {name}", "falsification", tests, environment_of_tests(tests), declared=list(requirements),
+                  figures=[(Path(p).stem.replace("_", " "), png_uri(p)) for p in figures if Path(p).is_file()],
+                  tables=[search, space], summary=summary.splitlines()[0] if summary else "")
 
 
 def _finite(x) -> bool:

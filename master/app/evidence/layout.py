@@ -95,6 +95,6 @@ def what_was_tested(environment: dict, tests: list[dict], total: int, kind: str)
         case = tests[0]["case"]
         lines.append(("case", ", ".join(f"{k} {v}" for k, v in case.items() if v not in ("", "None", "{}", "[]"))))
     else:
-        what = {"campaign": "runs", "pytest": "tests", "falsification": "cases"}.get(kind, "logs")
+        what = {"campaign": "runs", "pytest": "tests", "falsification": "cases", "comparison": "comparisons"}.get(kind, "logs")
         lines.append(("case set", f"{total} {what}"))
     return lines

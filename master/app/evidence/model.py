@@ -48,6 +48,19 @@ class Test:
     environment: Environment | None = None  # a test's own, where the tests ran on different FMUs (else the report's)
     outcome: str | None = None  # the test's own verdict (a pytest test: PASS, FAIL, ERROR), counted if it judged no requirement
     failure: str | None = None  # why a test failed (its assertion's first line): not an error of its run
+    baselines: list = field(default_factory=list)  # BaselineOutcome: each baseline the test checked, a failing one's tables
+
+
+@dataclass(frozen=True)
+class BaselineOutcome:
+    """A test's check of a recorded baseline: what (metrics, signals), its file, the outcome (PASS, FAIL, recorded, none
+    recorded); a FAIL's tables (the metric table, the signals' tubes) and figures (title, data: URI)."""
+
+    what: str
+    file: str
+    outcome: str
+    tables: tuple = ()
+    figures: tuple = ()
 
 
 @dataclass(frozen=True)

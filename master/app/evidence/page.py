@@ -33,6 +33,10 @@ def _result_json(r) -> dict:
             "description": r.description, "why": r.why}
 
 
+def _table_json(t) -> dict:
+    return {"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
+
+
 def _figures_of(test, reqs_by_name) -> dict[str, dict]:
     """Requirement name -> {"svg": ..., "curves": [...]} for each result judged on the test's log."""
     from ...engine.log import reader as log_reader
@@ -69,8 +73,9 @@ def _unit_of(unit):
     return of
 
 
-def render(report: Report, standard_figures: bool = True) -> str:
-    """The report's HTML."""
+def render(report: Report, standard_figures: bool = True, fragment: bool = False) -> str:
+    """The report's HTML: a whole page, or (fragment) the same content as one <div> with its styles scoped to it and
+    without the results' JSON, for a notebook's rich display (html_fragment)."""
     from .figures import standard_figures as figures_of_log
 
     reqs_by_name = {r.name: r for r in report.declared}
@@ -86,15 +91,17 @@ def render(report: Report, standard_figures: bool = True) -> str:
             "results": [_result_json(r) for r in test.results], "figures": figures,
             "standard": figures_of_log(test.log) if standard_figures and test.log and Path(test.log).is_file() else [],
             "environment": test.environment.to_json() if test.environment else None,
+            "baselines": [{"what": b.what, "file": b.file, "outcome": b.outcome, "tables": [_table_json(t) for t in b.tables],
+                           "figures": list(b.figures)} for b in test.baselines],
         })
     data = {"title": report.title, "kind": report.kind, "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
             "counts": counts(report), "total": len(report.tests),
             "matrix": {name: {t.name: row[t.name] for t in shown} for name, row in everything.items()},
             "requirements": [{"name": n, "source": s} for n, s in requirement_ids(report)],
             "environment": report.environment.to_json(), "summary": report.summary,
-            "tables": [{"title": t.title, "header": list(t.header), "rows": [list(r) for r in t.rows], "note": t.note}
-                       for t in report.tables],
-            "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard")}
+            "tables": [_table_json(t) for t in report.tables],
+            "tests": [{k: v for k, v in t.items() if k not in ("figures", "standard", "baselines")}
+                      | {"baselines": [{k: v for k, v in b.items() if k != "figures"} for b in t["baselines"]]}
                       | {"curves": {name: f["curves"] for name, f in t["figures"].items()}} for t in tests]}
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
                              finalize=visible)
@@ -102,11 +109,16 @@ def render(report: Report, standard_figures: bool = True) -> str:
     env.filters["cls"] = lambda v: v.split(" ")[0].lower() + (" vacuous" if "vacuous" in v else "") if v else ""
     page = env.from_string(_TEMPLATE.read_text(encoding="utf-8"))
     matrices, scalars = layout.parameters(data["environment"]["controller_parameters"])
-    return page.render(report=data, tests=tests, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
+    return page.render(report=data, tests=tests, fragment=fragment, counted=COUNTED, not_exercised=NOT_EXERCISED, figures=report.figures,
                        overall=layout.overall(data["counts"]), columns=layout.columns(tests, data["matrix"], report.kind),
                        tested=layout.what_was_tested(data["environment"], tests, len(report.tests), report.kind),
                        gain_matrices=matrices, scalars=scalars,
                        data_json=_script_safe(json.dumps(data, allow_nan=False, separators=(",", ":"))))
+
+
+def html_fragment(report: Report, standard_figures: bool = True) -> str:
+    """The report as Jupyter shows it inline (an object's _repr_html_): the page's content, no script, nothing fetched."""
+    return render(report, standard_figures, fragment=True)
 
 
 # JSON's own escapes for what HTML gives meaning to inside a script or data block: '<' (</script, <!--, <script: the

@@ -6,18 +6,22 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .model import ERROR, FAIL, PASS, Report, Test, environment_of_log, environment_of_tests
+from .model import ERROR, FAIL, PASS, BaselineOutcome, Report, Test, environment_of_log, environment_of_tests
+
+__all__ = ["BaselineOutcome", "TestRecord", "tests_of", "write_pytest_report"]
 from .page import write_report
 
 
 @dataclass
 class TestRecord:
-    """What one pytest test did: its runs (tiltload.Result) and its outcome with the failure's first line."""
+    """What one pytest test did: its runs (tiltload.Result), its baselines' checks (BaselineOutcome) and its outcome
+    with the failure's first line."""
 
     nodeid: str
     runs: list = field(default_factory=list)
     outcome: str | None = None  # PASS, FAIL (the test body failed), ERROR (its set-up or tear-down failed)
     failure: str | None = None
+    baselines: list = field(default_factory=list)
 
 
 def tests_of(records: list[TestRecord]) -> list[Test]:
@@ -26,12 +30,13 @@ def tests_of(records: list[TestRecord]) -> list[Test]:
         error = rec.failure if rec.outcome == ERROR else None
         failure = rec.failure if rec.outcome == FAIL else None
         if not rec.runs:
-            tests.append(Test(rec.nodeid, outcome=rec.outcome, error=error, failure=failure))
+            tests.append(Test(rec.nodeid, outcome=rec.outcome, error=error, failure=failure, baselines=list(rec.baselines)))
             continue
         for k, run in enumerate(rec.runs):
             name = rec.nodeid if len(rec.runs) == 1 else f"{rec.nodeid} (run {k + 1})"
             tests.append(Test(name, run.command, dict(run.record), run.log, list(run.requirements), dict(run.metrics),
-                              error=error, outcome=rec.outcome, failure=failure, environment=_environment(run.log)))
+                              error=error, outcome=rec.outcome, failure=failure, environment=_environment(run.log),
+                              baselines=list(rec.baselines) if k == len(rec.runs) - 1 else []))  # once, by its last run
     return tests
 
 

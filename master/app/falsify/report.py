@@ -189,12 +189,16 @@ def write(spec: Falsification, outcome: Outcome, out: Path, fmus: Path | None = 
 
 
 def html_report(spec: Falsification, outcome: Outcome, out: Path, command: list[str] | None, text: str,
-                log: Path | None) -> Path:
-    """report.html: the search, and its best case (log: that case replayed with a log) judged with its figures."""
+                log: Path | None):
+    """report.html: the search, and its best case (log: that case replayed with a log) judged with its figures; the
+    report written (evidence.model.Report)."""
     from ...engine.requirement.files import requirement
-    from ..evidence.falsification_page import write_falsification_report
+    from ..evidence.falsification_page import falsification_report
+    from ..evidence.page import write_report
 
     figures = [out / FIGURE, out / "neighbourhood" / "neighbourhood.png", out / "neighbourhood.png"]
     dims = [(d.name, d.target, float(d.low), float(d.high)) for d in spec.dimensions]
     reqs = [requirement(r.name, r.formula, description=r.description) for r in spec.requirements]
-    return write_falsification_report(spec.name, text, reqs, dims, outcome.rows, outcome.falsified_at, command, log, figures, out)
+    page = falsification_report(spec.name, text, reqs, dims, outcome.rows, outcome.falsified_at, command, log, figures)
+    write_report(page, Path(out) / "report.html")
+    return page

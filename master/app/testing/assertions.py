@@ -14,7 +14,12 @@ __tracebackhide__ = True
 
 
 class TiltloadAssertionError(AssertionError):
-    """A run that does not match its baseline or exceeds its limits; the message says which metric, by how much."""
+    """A run that does not match its baseline or exceeds its limits; the message says which metric, by how much.
+    comparison: the failing comparison where there was one (the pytest report shows its table and figures)."""
+
+    def __init__(self, message: str, comparison: object = None) -> None:
+        super().__init__(message)
+        self.comparison = comparison
 
 
 def assert_matches_baseline(result: Result, baseline: str | Path, *, rtol: float | None = None, atol: float | None = None,
@@ -28,7 +33,8 @@ def assert_matches_baseline(result: Result, baseline: str | Path, *, rtol: float
         raise TiltloadAssertionError(f"{err}\n  rerun: {result.command}"
                                      + (f"\n  to record it again: {update_hint}" if update_hint else "")) from None
     if not comparison.ok:
-        raise TiltloadAssertionError(baseline_report(comparison, result.record, result.command, baseline, update_hint=update_hint))
+        raise TiltloadAssertionError(baseline_report(comparison, result.record, result.command, baseline, update_hint=update_hint),
+                                     comparison)
 
 
 def assert_signals_match(result: Result, baseline: str | Path, *, signals=None, tolerances=None, update_hint: str | None = None,
@@ -45,7 +51,7 @@ def assert_signals_match(result: Result, baseline: str | Path, *, signals=None, 
         raise TiltloadAssertionError(f"{err}\n  rerun: {result.command}"
                                      + (f"\n  to record it again: {update_hint}" if update_hint else "")) from None
     if not comparison.ok:
-        raise TiltloadAssertionError(comparison.report(baseline, result.command, update_hint=update_hint))
+        raise TiltloadAssertionError(comparison.report(baseline, result.command, update_hint=update_hint), comparison)
 
 
 def assert_metrics_below(result: Result, limits: Mapping[str, float]) -> None:

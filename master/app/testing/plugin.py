@@ -51,7 +51,7 @@ def pytest_configure(config: pytest.Config) -> None:
             writable_file(Path(config.getoption(REPORT)), REPORT, _session_inputs(config, Path(config.getoption(REPORT))))
         except UserError as err:
             raise pytest.UsageError(str(err)) from None
-        config.pluginmanager.register(SessionReport(Path(config.getoption(REPORT)).resolve()), "tiltload-report")
+        config.pluginmanager.register(SessionReport(Path(config.getoption(REPORT)).resolve(), config), "tiltload-report")
     config.addinivalue_line("markers", f"{MARKER}(**axes): run the test once per combination of the axes' values "
                             "(e.g. scenario=['zse', 'lkf'], trajectory=[1, 2], seed=[1, 2]), each given to the test as "
                             "the tiltload_case fixture: the options of tiltload.run")
@@ -171,6 +171,7 @@ def _default(cls: type, name: str) -> object:
 
 
 RUNS = pytest.StashKey[list]()
+BASELINES = pytest.StashKey[list]()  # each check of the test's tiltload_baseline: (what, file, outcome, failing comparison)
 
 
 def _session_inputs(config: pytest.Config, report: Path) -> list[tuple[str, Path]]:
@@ -187,18 +188,27 @@ def _session_inputs(config: pytest.Config, report: Path) -> list[tuple[str, Path
 
 
 class SessionReport:
-    """--tiltload-report FILE: each test's runs and outcome, written as one HTML report when the session ends."""
+    """--tiltload-report FILE: each test's runs, baselines and outcome, written as one HTML report when the session ends;
+    the runs' logs and the files their replay commands name copied beside it (<FILE's stem>_files/), since pytest
+    deletes its temporary folders after three sessions."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, config: pytest.Config | None = None) -> None:
         self.path = path
         self.records: dict[str, object] = {}
+        xml = getattr(config.option, "xmlpath", None) if config is not None else None
+        # the JUnit XML's link to a test's section: relative to the XML's folder (else to the rootdir), never the
+        # runner's absolute path, so that it holds where CI keeps the two side by side
+        self._links_from = Path(xml).resolve().parent if xml else config.rootpath if config is not None else path.parent
 
     def _record(self, item: pytest.Item):
+        import os
+
         from ..evidence.pytest_report import TestRecord
 
         if item.nodeid not in self.records:
             self.records[item.nodeid] = TestRecord(item.nodeid)
-            item.user_properties.append(("tiltload_report", f"{self.path}#test-{len(self.records)}"))  # the JUnit XML's link
+            link = Path(os.path.relpath(self.path, self._links_from)).as_posix()
+            item.user_properties.append(("tiltload_report", f"{link}#test-{len(self.records)}"))  # the JUnit XML's link
         return self.records[item.nodeid]
 
     @pytest.hookimpl(hookwrapper=True)
@@ -207,6 +217,7 @@ class SessionReport:
         report = outcome.get_result()
         rec = self._record(item)
         rec.runs = list(item.stash.get(RUNS, []))
+        rec.baselines = _baselines(item.stash.get(BASELINES, []), item.config.rootpath)
         if report.failed:
             rec.outcome = "FAIL" if report.when == "call" else "ERROR"
             said = call.excinfo.exconly() if call.excinfo is not None else str(report.longreprtext)
@@ -218,8 +229,61 @@ class SessionReport:
         from ..evidence.pytest_report import write_pytest_report
 
         if self.records:
-            write_pytest_report(list(self.records.values()), self.path, f"pytest session in {session.config.rootpath.name}")
+            records = list(self.records.values())
+            kept = self.path.parent / f"{self.path.stem}_files"
+            factory = getattr(session.config, "_tmp_path_factory", None)  # pytest's own: where tmp_path folders are
+            tmp = factory.getbasetemp() if factory is not None else None
+            for k, rec in enumerate(records):
+                rec.runs = [_kept(run, kept / f"test-{k + 1}", tmp) for run in rec.runs]
+            write_pytest_report(records, self.path, f"pytest session in {session.config.rootpath.name}")
             session.config.get_terminal_writer().line(f"tiltload report: {self.path}")
+
+
+def _baselines(checked: list, root: Path) -> list:
+    """The report's view of a test's baseline checks: BaselineOutcome, a failing one with its comparison's table and
+    figures (the report the comparison shows in a notebook: api.rich_display)."""
+    from ..api.rich_display import comparison_report, signal_comparison_report
+    from ..evidence.pytest_report import BaselineOutcome
+
+    out = []
+    for what, path, outcome, comparison in checked:
+        shown = Path(path).relative_to(root) if Path(path).is_relative_to(root) else Path(path)
+        tables, figures = (), ()
+        if comparison is not None:
+            page = comparison_report(comparison) if what == "metrics" else signal_comparison_report(comparison)
+            tables, figures = tuple(page.tables), tuple(page.figures)
+        out.append(BaselineOutcome(what, str(shown), outcome, tables, figures))
+    return out
+
+
+def _kept(run, folder: Path, tmp: Path | None):
+    """The run as the report keeps it: its log and every file under pytest's temporary folder its replay command names
+    copied into folder, the command and the log naming the copies (the command's output folder: folder)."""
+    import dataclasses
+    import shlex
+    import shutil
+
+    if tmp is None:
+        return run
+    tmp = Path(tmp).resolve()
+    folder.mkdir(parents=True, exist_ok=True)
+
+    def kept(path: Path) -> Path:
+        if path.is_dir():
+            return folder
+        copy = folder / path.name
+        if path.is_file() and not copy.exists():
+            shutil.copy2(path, copy)
+        return copy
+
+    words = []
+    for word in shlex.split(run.command):
+        path = Path(word)
+        words.append(str(kept(path)) if path.is_absolute() and path.resolve().is_relative_to(tmp) else word)
+    log = run.log
+    if log is not None and Path(log).resolve().is_relative_to(tmp) and Path(log).is_file():
+        log = kept(Path(log))
+    return dataclasses.replace(run, command=shlex.join(words), log=log)
 
 
 def _baseline_name(node: pytest.Item) -> str:
@@ -230,8 +294,12 @@ class Baseline:
     """The recorded baseline of one test: check(result) compares a run with it (or records it with
     --tiltload-update-baselines)."""
 
-    def __init__(self, path: Path, update: bool, nodeid: str, rtol: float, atol: float) -> None:
+    def __init__(self, path: Path, update: bool, nodeid: str, rtol: float, atol: float, outcomes: list | None = None) -> None:
         self.path, self.update, self.nodeid, self.rtol, self.atol = path, update, nodeid, rtol, atol
+        self.outcomes = outcomes if outcomes is not None else []  # (what, file, outcome, failing comparison): the report's
+
+    def _said(self, what: str, path: Path, outcome: str, comparison: object = None) -> None:
+        self.outcomes.append((what, path, outcome, comparison))
 
     def check(self, result: Result, rtol: float | None = None, atol: float | None = None) -> None:
         """Record (with --tiltload-update-baselines, or rtol / atol to record) or compare; a report-like failure."""
@@ -242,14 +310,18 @@ class Baseline:
         hint = f'pytest {UPDATE} "{self.nodeid}"'
         if self.update:
             save_baseline(result, self.path, rtol=self.rtol if rtol is None else rtol, atol=self.atol if atol is None else atol)
+            self._said("metrics", self.path, "recorded")
             return
         if not self.path.is_file():
+            self._said("metrics", self.path, "none recorded")
             pytest.fail(f"no baseline recorded for {self.nodeid} ({self.path}): record it with {hint}", pytrace=False)
         try:
             assert_matches_baseline(result, self.path, rtol=rtol, atol=atol, update_hint=hint)
+            self._said("metrics", self.path, "PASS")
             return
         except AssertionError as err:
             report = str(err)
+            self._said("metrics", self.path, "FAIL", getattr(err, "comparison", None))
         # failed outside the except clause: inside it, pytest would print the report twice ("During handling of the
         # above exception, another exception occurred")
         pytest.fail(report, pytrace=False)
@@ -269,14 +341,18 @@ class Baseline:
         hint = f'pytest {UPDATE} "{self.nodeid}"'
         if self.update:
             save_signal_baseline(result, self.signals_path, signals, tolerances=tolerances)
+            self._said("signals", self.signals_path, "recorded")
             return
         if not self.signals_path.is_file():
+            self._said("signals", self.signals_path, "none recorded")
             pytest.fail(f"no signal baseline recorded for {self.nodeid} ({self.signals_path}): record it with {hint}",
                         pytrace=False)
         try:
             assert_signals_match(result, self.signals_path, signals=None if isinstance(signals, str) else signals,
                                  tolerances=tolerances, update_hint=hint, **flags)
+            self._said("signals", self.signals_path, "PASS")
         except AssertionError as err:
+            self._said("signals", self.signals_path, "FAIL", getattr(err, "comparison", None))
             pytest.fail(str(err), pytrace=False)
 
 
@@ -287,6 +363,7 @@ def tiltload_baseline(request: pytest.FixtureRequest) -> Baseline:
     config = request.config
     folder = config.rootpath / config.getini("tiltload_baselines") / Path(request.node.path).stem
     return Baseline(folder / f"{_baseline_name(request.node)}.json", config.getoption(UPDATE), request.node.nodeid,
-                    float(config.getini("tiltload_rtol")), float(config.getini("tiltload_atol")))
+                    float(config.getini("tiltload_rtol")), float(config.getini("tiltload_atol")),
+                    request.node.stash.setdefault(BASELINES, []))
 
 

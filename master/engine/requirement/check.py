@@ -9,7 +9,7 @@ the two agree bit for bit.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,7 @@ class Result:
     """One requirement's verdict on one run."""
 
     name: str
-    verdict: str  # PASS, FAIL, INCONCLUSIVE, ZERO (robustness exactly 0)
+    verdict: str  # PASS, FAIL, INCONCLUSIVE, ZERO (robustness exactly 0), ERROR (the run failed or diverged: ended_by_error)
     robustness: float | None  # None: not decided (INCONCLUSIVE, or a FAIL decided before the horizon: see bounds)
     first_violation: float | None  # s, FAIL only
     values: dict[str, float] = field(default_factory=dict)  # the requirement's signals at the first violation
@@ -46,6 +46,21 @@ class Result:
         d["robustness"] = None if self.robustness is None else json_number(self.robustness)
         d["values"] = {k: json_number(v) for k, v in self.values.items()}
         return d
+
+
+ERROR = "ERROR"
+STOPPED_ON_VIOLATION = "run stopped (--stop-on-violation)"  # in the error line of a run a requirement's FAIL stopped
+
+
+def ended_by_error(results: list[Result], error: str | None) -> list[Result]:
+    """The results of a run that ended with `error` (the log's error line): a run that failed or diverged judged nothing,
+    each requirement ERROR with the error's line (its time in it), never the FAIL of the values the failure cut or
+    blew up (a campaign's rows say the same); a run a requirement's FAIL stopped keeps its verdicts."""
+    if not error or STOPPED_ON_VIOLATION in error:
+        return results
+    why = f"the run ended in an error, nothing judged: {error}"
+    return [replace(r, verdict=ERROR, robustness=None, first_violation=None, values={}, bounds=(-math.inf, math.inf),
+                    why=why, vacuous=False) for r in results]
 
 
 def json_number(x: float):
@@ -222,7 +237,9 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
     if state.damage is not None:
         raise log_reader.DamagedLog(state.describe(path))
     # a run killed (no footer) or ended by an error (--stop-on-violation too) could have gone on: not the whole run
-    final = not state.torn and "error" not in log_reader.read_metadata(path)
+    error = log_reader.read_metadata(path).get("error")
+    final = not state.torn and error is None
+    error = str(error.get("message", "")) if isinstance(error, dict) else None
     series = {topic.lstrip("/"): (times, values) for topic, (times, values) in columns.items()}
     kinds = {f"{instance}.{field}": "number" for instance, (_, values) in series.items() for field in values}
     absent = [n for r in reqs for n in r.signals if n not in kinds]
@@ -230,12 +247,12 @@ def check_log(log_path, requirements, missing: str = "error") -> list[Result]:
         def trace_for(r: Requirement):
             gone = [n for n in r.signals if kinds.get(n) != "number"]
             return f"{path.name} has no signal {gone[0]}" if gone else _trace(series, r)
-        return check_trace(reqs, trace_for, final=final)
+        return ended_by_error(check_trace(reqs, trace_for, final=final), error)
     if absent:  # read every channel to name what there is (and what is there but not a number)
         kinds = log_series(log_reader.read_checked(path)[0])[1]
     check_signals(reqs, kinds, str(path))
     cache: dict = {}
-    return check_trace(reqs, lambda r: _trace(series, r, cache), final=final)
+    return ended_by_error(check_trace(reqs, lambda r: _trace(series, r, cache), final=final), error)
 
 
 def _trace(series, req: Requirement, cache: dict | None = None) -> Trace:

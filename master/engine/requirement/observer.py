@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import edges
 from ..observers import Observer, StopRun
-from .check import Result, build_trace, check_trace, split
+from .check import STOPPED_ON_VIOLATION, Result, build_trace, check_trace, ended_by_error, split
 from .files import Requirement, check_signals
 from .stl import Evaluator, decided_fail, verdict
 
@@ -115,14 +115,16 @@ class RequirementObserver(Observer):
                 v = verdict(req.formula, trace, final=False, evaluator=ev)
                 self.stopped_by = req.name
                 raise RequirementViolated(f"requirement '{req.name}' violated at t = {v.violation_time:.3f} s, its FAIL can no "
-                                          "longer change: run stopped (--stop-on-violation)")
+                                          f"longer change: {STOPPED_ON_VIOLATION}")
 
     def finish(self, execution, error) -> None:
         if not self.results:  # no log (its closing hook evaluates them otherwise)
-            self._evaluate(final=error is None)
+            self._evaluate(error)
 
-    def _evaluate(self, final: bool) -> None:
-        """The verdicts, and each requirement's robustness at every tick of its trace (one evaluation serves both)."""
+    def _evaluate(self, error: str | None) -> None:
+        """The verdicts (ERROR each for a run that failed or diverged: check.ended_by_error), and each requirement's
+        robustness at every tick of its trace (one evaluation serves both)."""
+        final = error is None
         series = self._series()
         if not any(len(t) for t, _ in series.values()):
             return
@@ -130,15 +132,15 @@ class RequirementObserver(Observer):
         cache: dict = {}
         traces = {r.name: build_trace(series, r.signals, cache) for r in self.requirements}
         evaluators = {r.name: Evaluator(traces[r.name], final) for r in self.requirements}
-        self.results = check_trace(self.requirements, lambda r: traces[r.name], final=final,
-                                   evaluator_for=lambda r: evaluators[r.name])
+        self.results = ended_by_error(check_trace(self.requirements, lambda r: traces[r.name], final=final,
+                                                  evaluator_for=lambda r: evaluators[r.name]), error)
         for r in self.requirements:
             self._rho[r.name] = (traces[r.name], evaluators[r.name](r.formula))
 
     def _to_log(self, logger, error) -> None:
         """Before the log closes: the verdicts as metadata, each requirement's robustness over time as a channel (one
         double a requirement, at every tick; NaN where its trace has no sample)."""
-        self._evaluate(final=error is None)
+        self._evaluate(error)
         if not self.results:
             return
         logger.final_metadata["requirements"] = {r.name: _summary(r) for r in self.results}
