@@ -156,7 +156,7 @@ def _job(request: dict) -> dict:
     if request["job"] == "describe":
         return spec
     if request["job"] == "package":
-        trace.instantiate(cls, spec["parameters"], path)
+        trace.step_once(trace.instantiate(cls, spec["parameters"], path), spec, path)
         target = Path(request["work"]) / "out" / request["name"]
         return {"spec": spec, "fmu": str(wrap.package(path, spec, target))}
     try:

@@ -288,6 +288,25 @@ def _kept(controller, declared: ca.SX) -> tuple[dict[str, np.ndarray], dict[str,
     return numbers, derived
 
 
+def step_once(controller, spec: dict, source: Path) -> None:
+    """One step at t = 0 on the ports' start values (the hover trim), in Python, as the pythonfmu FMU will step it:
+    a class that cannot run is refused at wrap time, not in a run."""
+    name = spec["class"]
+    inputs = {n: (bool(v[2]) if v[0] == "Boolean" else float(v[2])) for n, v in spec["inputs"].items()}
+    try:
+        with time_limit(f"{name}.step"):
+            command = [float(v) for v in controller.step(0.0, inputs)]
+    except TraceError:
+        raise
+    except USER_ENDS as err:
+        where = user_line(err, source) or f"a line outside {source.name}"
+        raise TraceError(f"{name}.step fails on the trim at t = 0 at {where}: {type(err).__name__} "
+                         f"({str(err).splitlines()[0] if str(err) else ''})") from None
+    if len(command) != 4 or not all(math.isfinite(v) for v in command):
+        raise TraceError(f"{name}.step on the trim at t = 0 returns {command}; it must return 4 finite numbers "
+                         "(f_R, f_L, tau_R, tau_L)")
+
+
 def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
     """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
     name = cls.__name__
@@ -373,4 +392,4 @@ def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: n
     return np.array(y).ravel(), np.array(s).ravel()
 
 
-__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "time_limit", "trace"]
+__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "step_once", "time_limit", "trace"]
