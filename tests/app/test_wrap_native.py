@@ -103,7 +103,8 @@ def test_the_fmu_validates_and_names_the_numbers_it_kept(tmp_path, fmi):
     assert validate_fmu(str(fmu)) == []
     md = read_model_description(str(fmu))
     params = {v.name for v in md.modelVariables if v.causality == "parameter"}
-    assert {f"K_{i}_{j}" for i in range(4) for j in range(20)} <= params and "u_max_3" in params
+    # the declared parameter, then the numbers __init__ kept (K is derived from position_scale: an expression of it)
+    assert {"position_scale", "x_eq_0", "u_max_3"} <= params and "K_0_0" not in params
     assert md.fmiVersion.startswith(fmi)
 
 
@@ -128,6 +129,32 @@ def test_what_cannot_be_traced_is_one_line_naming_its_line(tmp_path, capsys, wha
     assert len(err) == 1 and f"Bad.step cannot be traced at line {line} (`{code.splitlines()[0].strip()}`)" in err[0]
     assert said in err[0] and not (tmp_path / "bad.fmu").exists()
     assert "decision" not in said or "np.where(condition, a, b)" in err[0]  # the numpy way to write the choice
+
+
+def test_a_declared_parameter_set_on_the_native_fmu_changes_the_run_as_on_the_pythonfmu_fmu(tmp_path, fmus):
+    """--set controller.position_scale=1.3 (what the command line's --set does: thesis.set_parameters): the native
+    FMU, where the gain is recomputed from the parameter in C, and the pythonfmu FMU, where __init__ runs in Python
+    with it, give the same metrics; and they are not the defaults' (the parameter reached the gain)."""
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics, set_parameters
+    from tiltload.master.engine.run import run_system
+
+    native = _wrapped(HOVER, tmp_path / "hover_native.fmu")
+    python = tmp_path / "hover_python.fmu"
+    assert main(["wrap", str(HOVER), "--out", str(python)]) == 0
+
+    def metrics(fmu: Path, scale: float | None) -> dict[str, float]:
+        system = default_system(fmus, "fsi", 1, None, 1, fmu)
+        if scale is not None:
+            set_parameters(system, {"controller.position_scale": scale})
+        result = run_system(system, 3.0, None, loop_metrics(), progress=False)
+        assert result.error is None, result.error
+        return result.metrics
+
+    mine, theirs, default = metrics(native, 1.3), metrics(python, 1.3), metrics(native, None)
+    keys = [k for k in mine if k.startswith("ISE(")]
+    assert keys and all(abs(mine[k] - theirs[k]) <= 1e-12 * abs(theirs[k]) for k in keys), \
+        {k: (mine[k], theirs[k]) for k in keys}
+    assert all(abs(mine[k] - default[k]) > 1e-6 * abs(default[k]) for k in ("ISE(x)", "ISE(z)"))
 
 
 @pytest.mark.slow

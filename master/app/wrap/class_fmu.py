@@ -3,8 +3,9 @@ way `tiltload wrap` wraps it, from the class's file, and kept in the machine's c
 the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version and its
 wrapping code), so a second run, in this process or another, uses the same FMU without tracing or building again.
 
-The route: `wrap --native` (a C FMU, native.py) when the class traces, else pythonfmu's (wrap.py); native=True
-refuses a class that cannot be traced, native=False always takes pythonfmu's."""
+The route: `wrap --native` (a C FMU, native.py) when the class traces and keeps its declared parameters tunable, else
+pythonfmu's (wrap.py); native=True refuses a class that cannot be traced (and fixes what its __init__ needs the number
+of), native=False always takes pythonfmu's."""
 
 from __future__ import annotations
 
@@ -64,8 +65,11 @@ def _build(path: Path, spec: dict, native: bool | None, fmi_version: int, out: P
     name = spec["class"]
     if native is not False:
         child_spec, t = traced(path, name, fall_back=not native)
-        if not isinstance(t, str):
+        if not isinstance(t, str) and (native or not t.fixed):  # the automatic route keeps every parameter tunable
             return build_traced(child_spec, t, path, out, fmi_version, progress=lambda line: None)
+        if not isinstance(t, str):
+            t = (f"{name}: parameter{'s' if len(t.fixed) > 1 else ''} {', '.join(t.fixed)} would be fixed in the native "
+                 f"FMU ({t.why_fixed})")
         if fmi_version != 2:
             raise WrapError(f"{t}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
                             "(run it with fmi=2)")
