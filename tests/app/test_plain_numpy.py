@@ -85,3 +85,42 @@ def test_no_third_party_warning_reaches_the_terminal(tmp_path):
                            str(ROOT / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "h.fmu")],
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0 and done.stderr == "", done.stderr
+
+
+PD = """import numpy as np
+
+
+class AltitudeHold:
+    inputs = ["exact_z", "z_ref", "exact_z_dot", "exact_x", "exact_y", "exact_phi", "exact_theta", "exact_psi",
+              "exact_phi_dot", "exact_theta_dot", "exact_psi_dot"]
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        f = 10.2 + 4.0 * e - 2.5 * inputs["exact_z_dot"]
+        return float(np.clip(f, 0, 30)), float(np.clip(f, 0, 30)), 0.0, 0.0
+"""
+
+
+def test_run_takes_a_class_file_wraps_it_natively_once_and_says_so(pipeline_fmus, tmp_path, capsys, monkeypatch):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.wrap import class_fmu
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    source = tmp_path / "altitude_hold.py"
+    source.write_text(PD)
+    run = ["run", "--controller", str(source), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "1.2",
+           "--fmus", str(pipeline_fmus["TiltloadPlant"].parent), "--no-log", "--no-gusts"]
+    assert main(run) == 0
+    first = capsys.readouterr().out
+    assert f"--controller {source}: wrapped as a native C FMU (traced from plain numpy)" in first.splitlines()
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("wrapped again")
+    monkeypatch.setattr(class_fmu, "_build", no_build)  # the same source: the cached FMU
+    assert main(run) == 0
+    again = capsys.readouterr().out
+    metrics = [line for line in first.splitlines() if line.strip().startswith(("ISE(", "IADU("))]
+    assert metrics and metrics == [line for line in again.splitlines() if line.strip().startswith(("ISE(", "IADU("))]
+
+    assert main([*run[:2], str(tmp_path / "missing.py"), *run[3:]]) == 2
+    assert capsys.readouterr().err.strip().endswith("missing.py: no such file")
