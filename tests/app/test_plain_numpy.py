@@ -124,3 +124,36 @@ def test_run_takes_a_class_file_wraps_it_natively_once_and_says_so(pipeline_fmus
 
     assert main([*run[:2], str(tmp_path / "missing.py"), *run[3:]]) == 2
     assert capsys.readouterr().err.strip().endswith("missing.py: no such file")
+
+
+def closed_loop_deviation(cls, fmus: Path, where: Path, seconds: float = 3.0) -> float:
+    """The native FMU of cls in the closed loop (fsi, trajectory 1, 3 s), and its Python form given, tick by tick, the
+    inputs the loop gave the FMU (the sensors' and the scenario's outputs at t_k, from the log): the largest difference
+    of their commands. Validated by FMPy first."""
+    from fmpy.validation import validate_fmu
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.loop.thesis import default_system
+    from tiltload.master.engine.log import reader as log_reader
+    from tiltload.master.engine.run import run_system
+
+    fmu = where / f"{cls.__name__}.fmu"
+    assert main(["wrap", "--native", str(CORPUS), "--class", cls.__name__, "--out", str(fmu)]) == 0
+    assert validate_fmu(str(fmu)) == []
+    log = where / f"{cls.__name__}.mcap"
+    result = run_system(default_system(fmus, "fsi", 1, None, 1, fmu), seconds, log, progress=False)
+    assert result.error is None, result.error
+    data = log_reader.read(log, topics=["/sensors", "/scenario", "/controller"])
+    python, worst = cls(), 0.0
+    for sensed, scenario, command in zip(data["/sensors"], data["/scenario"], data["/controller"]):
+        assert sensed["t"] == scenario["t"] == command["t"]
+        inputs = {n: (sensed if n.startswith("exact_") else scenario)[n] for n in cls.inputs}
+        mine = [float(v) for v in python.step(command["t"], inputs)]
+        worst = max(worst, max(abs(m - command[n]) for m, n in zip(mine, ("f_R", "f_L", "tau_R", "tau_L"))))
+    assert len(data["/controller"]) > 200
+    return worst
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
+def test_each_native_fmu_equals_its_python_form_in_the_closed_loop(cls, fmus, tmp_path):
+    assert closed_loop_deviation(cls, fmus, tmp_path) <= 1e-12
