@@ -157,3 +157,38 @@ def closed_loop_deviation(cls, fmus: Path, where: Path, seconds: float = 3.0) ->
 @pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
 def test_each_native_fmu_equals_its_python_form_in_the_closed_loop(cls, fmus, tmp_path):
     assert closed_loop_deviation(cls, fmus, tmp_path) <= 1e-12
+
+
+GAIN = """import numpy as np
+
+
+class Hold:
+    inputs = ["exact_z", "z_ref", "exact_z_dot"]
+
+    def __init__(self):
+        self.kp = 4.0
+        self.kd = 2.5
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        f = 10.2 + self.kp * e - self.kd * inputs["exact_z_dot"]
+        return float(np.clip(f, 0, 30)), float(np.clip(f, 0, 30)), 0.0, 0.0
+"""
+
+
+def test_a_one_percent_gain_change_in_the_source_is_said_in_the_users_words(pipeline_fmus, tmp_path):
+    """A baseline of a class file's run records its source: the comparison after a 1 % change of a gain names the
+    parameter and the changed line of the class first, before any metric."""
+    import tiltload as tl
+
+    source = tmp_path / "hold.py"
+    source.write_text(GAIN)
+    run = dict(controller=str(source), scenario="fsi", trajectory=1, stop_time=1.2, no_gusts=True,
+               fmus=pipeline_fmus["TiltloadPlant"].parent)
+    baseline = tl.save_baseline(tl.run(**run, out=tmp_path / "a", no_plots=True), tmp_path / "hold.json")
+    source.write_text(GAIN.replace("self.kp = 4.0", "self.kp = 4.04"))
+    comparison = tl.compare(tl.run(**run, out=tmp_path / "b", no_plots=True), baseline)
+    assert not comparison.ok
+    line = GAIN.splitlines().index("        self.kp = 4.0") + 1
+    assert comparison.changed_line().startswith("what changed: controller parameter kp 4.0 -> 4.04; controller class "
+                                                f"line {line} `self.kp = 4.0` -> `self.kp = 4.04`; ")

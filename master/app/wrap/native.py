@@ -89,7 +89,8 @@ def recipe(spec: dict, traced: Traced, source: Path, fmu_name: str) -> Recipe:
         layout.write_text(layout_header(d, traced, booleans))
         generated = [*casadi_c.generate([traced.function, traced.init], folder, STEM), layout]
         return Prepared(d, NativeSources(MODEL_C, generated, []), {"traced_from": source.name, "class": spec["class"],
-                                                                    "states": [n for n, _ in traced.states]})
+                                                                    "states": [n for n, _ in traced.states],
+                                                                    "source": source.read_text(errors="replace")})
 
     return Recipe(fmu_name, (source, *MODEL_C, Path(__file__), HERE / "trace.py"), (ca.__version__, identity), prepare)
 
