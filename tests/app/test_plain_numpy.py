@@ -101,6 +101,7 @@ class AltitudeHold:
 """
 
 
+@pytest.mark.slow
 def test_run_takes_a_class_file_wraps_it_natively_once_and_says_so(pipeline_fmus, tmp_path, capsys, monkeypatch):
     from tiltload.master.app.cli import main
     from tiltload.master.app.wrap import class_fmu
@@ -176,6 +177,7 @@ class Hold:
 """
 
 
+@pytest.mark.slow
 def test_a_one_percent_gain_change_in_the_source_is_said_in_the_users_words(pipeline_fmus, tmp_path):
     """A baseline of a class file's run records its source: the comparison after a 1 % change of a gain names the
     parameter and the changed line of the class first, before any metric."""

@@ -131,6 +131,7 @@ def test_what_cannot_be_traced_is_one_line_naming_its_line(tmp_path, capsys, wha
     assert "decision" not in said or "np.where(condition, a, b)" in err[0]  # the numpy way to write the choice
 
 
+@pytest.mark.slow
 def test_a_declared_parameter_set_on_the_native_fmu_changes_the_run_as_on_the_pythonfmu_fmu(tmp_path, fmus):
     """--set controller.position_scale=1.3 (what the command line's --set does: thesis.set_parameters): the native
     FMU, where the gain is recomputed from the parameter in C, and the pythonfmu FMU, where __init__ runs in Python
