@@ -51,8 +51,8 @@ def run(source: Path, stop: float, repeat: int) -> None:
             best = min(controller_seconds(fmus, fmu, stop, isolated) for _ in range(repeat))
             rows[label] = best
         load = os.getloadavg()
-        print(f"{source.name} on {machine()}, {os.cpu_count()} cores, load average {load[0]:.1f} {load[1]:.1f} "
-              f"{load[2]:.1f} at {time.strftime('%H:%M:%S')} ({'a loaded machine: upper bounds' if load[0] > 1 else 'idle'})")
+        print(f"{source.name} on {machine()} at {time.strftime('%H:%M:%S')} "
+              f"({'a loaded machine: upper bounds' if load[0] > 1 else 'idle'})")
         print(f"fsi, trajectory 1, {stop:g} s ({ticks} ticks), best of {repeat}; the controller's FMI calls per tick:")
         for label, (seconds, _) in rows.items():
             print(f"  {label:<28} {1e6 * seconds / ticks:9.1f} us")
