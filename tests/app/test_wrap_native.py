@@ -195,3 +195,34 @@ def test_in_the_closed_loop_every_platform_equals_linux_and_the_python_class(tmp
                 (platform.folder, axis)
     if shutil.which("wineserver"):
         subprocess.run(["wineserver", "-k"], env=wine_environment(tmp_path / "wine"), capture_output=True, timeout=60)
+
+
+def test_a_parameter_init_needs_the_number_of_is_refused_when_set_on_the_native_fmu(tmp_path, capfd):
+    """hover_lqr.py's position_weight feeds a Riccati solver: fixed in the native FMU (wrap says so); set to another
+    value, the FMU's initialization fails with a line naming it, and at its default it runs."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    fmu = _wrapped(ROOT / "docs" / "examples" / "hover_lqr.py", tmp_path / "hover.fmu")
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    said = []
+
+    def instance(weight: float):
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu), str(tmp_path / str(weight))),
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="c",
+                          fmiCallLogger=None)
+        slave.instantiate(loggingOn=True, callbacks=None)
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.setReal([vr["position_weight"]], [weight])
+        try:
+            slave.exitInitializationMode()
+            return True
+        except Exception as err:  # FMPy raises on fmi2Error
+            said.append(str(err))
+            return False
+        finally:
+            slave.freeInstance()
+    assert instance(10.0) and not instance(3.0) and said
+    assert "parameter position_weight is fixed at 10 in this native FMU" in capfd.readouterr().out  # FMPy prints the log
