@@ -69,7 +69,7 @@ def elements(x) -> np.ndarray:
         return np.stack([elements(e) for e in x])
     a = _ORIGINAL["asarray"](x)
     if a.dtype.kind not in "fiub" and a.dtype != object:
-        raise TypeError(f"{a.dtype} values cannot be traced")
+        raise TypeError(f"{x!r:.40} is not a number")
     return _scalar(_sx(a[()])) if a.shape == () else _ORIGINAL["asarray"](_TO_SX(a), dtype=object)
 
 
@@ -302,6 +302,9 @@ class Sym:
         raise TypeError(REFUSED)
 
     __int__ = __index__ = __complex__ = __float__
+
+    def __round__(self, ndigits=None):
+        raise TypeError(f"{REFUSED} (round(): write np.floor(x + 0.5) or leave the rounding to the plant)")
 
     # arithmetic: numpy's ufuncs, so broadcasting is numpy's
     __add__ = lambda s, o: np.add(s, o)  # noqa: E731
