@@ -194,3 +194,44 @@ def test_a_one_percent_gain_change_in_the_source_is_said_in_the_users_words(pipe
     line = GAIN.splitlines().index("        self.kp = 4.0") + 1
     assert comparison.changed_line().startswith("what changed: controller parameter kp 4.0 -> 4.04; controller class "
                                                 f"line {line} `self.kp = 4.0` -> `self.kp = 4.04`; ")
+
+
+TAPS = """import numpy as np
+
+
+class Taps:
+    inputs = ["exact_z", "z_ref"]
+    parameters = {"taps": 3.0, "gain": 4.0}
+
+    def __init__(self, taps=3.0, gain=4.0):
+        self.n = int(taps)
+        self.gain = gain
+        self.history = np.zeros(3)
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        total = 0.0
+        for i in range(self.n):
+            total = total + self.history[i]
+        self.history = np.concatenate([[e], self.history[:-1]])
+        return float(np.clip(10.2 + self.gain * (e + total / self.n), 0, 30)), 10.2, 0.0, 0.0
+"""
+
+
+def test_a_count_from_init_traces_with_its_parameters_fixed_and_said_where(tmp_path):
+    """range(self.n) needs n's number: the parameters are fixed (named with the line), the count kept as the number it
+    is, and the traced function still computes what the class does."""
+    source = tmp_path / "taps.py"
+    source.write_text(TAPS)
+    cls = wrap.find_class(wrap.load_module(source), source, None)[1]
+    traced = trace.trace(cls, {"taps": 3.0, "gain": 4.0}, cls.inputs, source)
+    line = TAPS.splitlines().index("        for i in range(self.n):") + 1
+    assert traced.fixed == ["taps", "gain"]
+    assert traced.why_fixed == f"Taps.step needs the number at line {line} (`for i in range(self.n):`)"
+    python, p = cls(), np.array([v for _, v in traced.parameters])
+    s = np.array(traced.init(p)).ravel()
+    for k in range(60):
+        u = {"exact_z": 0.1 * np.sin(0.3 * k), "z_ref": 1.0 if k > 10 else 0.0}
+        mine = [float(v) for v in python.step(k * 0.012, dict(u))]
+        theirs, s = trace.run_traced(traced, k * 0.012, u, p, s)
+        assert np.allclose(theirs, mine, rtol=0, atol=1e-12)

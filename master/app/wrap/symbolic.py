@@ -97,13 +97,22 @@ def _wrap(r):
     return r
 
 
+def _scalar_like(v) -> bool:
+    return (isinstance(v, Sym) and v.a.ndim == 0) or (isinstance(v, ca.SX) and v.is_scalar()) or (
+        isinstance(v, (int, float, np.number)) and not isinstance(v, bool))
+
+
 def _unwrap(x):
+    """An argument of a numpy function as numpy takes it: traced values as object arrays (a list of scalars one
+    array, a list of arrays, as np.concatenate takes them, a list of arrays)."""
     if isinstance(x, Sym):
         return x.a
     if isinstance(x, ca.SX):
         return elements(x)
     if isinstance(x, (list, tuple)) and traced(x):
-        return type(x)(_unwrap(v) for v in x)
+        if all(_scalar_like(v) for v in x):
+            return elements(list(x))
+        return type(x)(elements(v) if traced(v) else _unwrap(v) for v in x)
     return x
 
 
@@ -216,7 +225,7 @@ class Sym:
             raise TypeError(f"np.{func.__name__} of a traced value needs its number: truth value unknown")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return _wrap(func(*_unwrap(list(args)), **{k: _unwrap(v) for k, v in kwargs.items()}))
+            return _wrap(func(*(_unwrap(a) for a in args), **{k: _unwrap(v) for k, v in kwargs.items()}))
 
     def __array__(self, dtype=None, copy=None):
         if all(v.is_constant() for v in self.a.ravel()):

@@ -270,10 +270,12 @@ def _symbolic_init(cls: type, declared: dict[str, ca.SX], source: Path, namespac
         return None, f"{name}.__init__ needs the number at {where}"
 
 
-def _kept(controller, declared: ca.SX) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+def _kept(controller, declared: ca.SX, ints: bool = True) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """The attributes kept: numbers (each element an FMU parameter) and expressions of the declared parameters."""
     numbers, derived = {}, {}
     for k, v in vars(controller).items():
+        if not ints and isinstance(v, int) and not isinstance(v, bool):
+            continue
         if traced(v):
             try:
                 e = elements(v)
@@ -309,14 +311,37 @@ def step_once(controller, spec: dict, source: Path) -> None:
 
 def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
     """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
-    name = cls.__name__
     namespaces = _namespaces(cls)
     declared = {k: ca.SX.sym(k) for k in parameters}
-    declared_sx = ca.vertcat(*declared.values())
     controller, fixed = _symbolic_init(cls, declared, source, namespaces) if parameters else (None, "")
-    if controller is None:
-        controller = instantiate(cls, parameters, source)
-    numbers, derived = _kept(controller, declared_sx)
+    if controller is not None:
+        try:
+            return _trace(cls, controller, parameters, declared, "", inputs, source, namespaces)
+        except InitError:
+            raise
+        except TraceError as err:  # step may need a number __init__ derived from a parameter (range(self.n)): fixed
+            where = re.search(r"cannot be traced at (line \d+ \(`.*?`\))", str(err))
+            fixed = f"{cls.__name__}.step needs the number at {where.group(1) if where else 'a line of step'}"
+    try:
+        return _trace(cls, instantiate(cls, parameters, source), parameters, declared, fixed, inputs, source, namespaces)
+    except InitError:
+        raise
+    except TraceError as err:  # a count (range(self.n)): __init__'s ints kept as the numbers they are, if that traces
+        try:
+            return _trace(cls, instantiate(cls, parameters, source), parameters, declared,
+                          fixed or (f"{cls.__name__}.step needs the number of one" if parameters else ""), inputs, source,
+                          namespaces, ints=False)
+        except TraceError:
+            raise err from None
+
+
+def _trace(cls: type, controller, parameters: dict[str, float], declared: dict[str, ca.SX], fixed: str,
+           inputs: list[str], source: Path, namespaces: list[dict], ints: bool = True) -> Traced:
+    """The trace of step on an instance (made on symbols, or on numbers with fixed saying why); ints=False keeps
+    __init__'s ints as numbers (a count a loop runs to), not parameters."""
+    name = cls.__name__
+    declared_sx = ca.vertcat(*declared.values())
+    numbers, derived = _kept(controller, declared_sx, ints)
     for k in [k for k in numbers if set(_element_names(k, numbers[k].shape)) & set(parameters)]:
         derived[k] = elements(numbers.pop(k))  # self.kp = kp of a declared parameter kp: the parameter's own name
     _check_names(name, numbers)
