@@ -235,3 +235,23 @@ def test_a_count_from_init_traces_with_its_parameters_fixed_and_said_where(tmp_p
         mine = [float(v) for v in python.step(k * 0.012, dict(u))]
         theirs, s = trace.run_traced(traced, k * 0.012, u, p, s)
         assert np.allclose(theirs, mine, rtol=0, atol=1e-12)
+
+
+def test_a_campaign_takes_a_class_file_among_its_controllers(tmp_path, monkeypatch):
+    """base.controllers = ["dlqr", "hold.py"]: the class wrapped as run --controller wraps it (here natively); its
+    runs name that FMU; a class that cannot run is the spec's one line."""
+    from tiltload.master.app.campaign import spec as campaign_spec
+    from tiltload.master.app.case.spec_file import SpecError
+    from tiltload.master.app.wrap.class_fmu import route
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    (tmp_path / "hold.py").write_text(GAIN)
+    spec = tmp_path / "c.toml"
+    spec.write_text('name = "c"\n[base]\nscenario = "fsi"\ntrajectory = 1\ncontrollers = ["dlqr", "hold.py"]\n'
+                    "stop_time = 1\n[vary]\nseeds = [1]\n")
+    controllers = [case.controller for case in campaign_spec.load(spec).cases]
+    assert len(controllers) == 2 and controllers[0] == "dlqr" and controllers[1].endswith("hold.fmu")
+    assert route(Path(controllers[1])).startswith("a native C FMU")
+    (tmp_path / "hold.py").write_text(GAIN.replace("self.kd = 2.5", "self.kd = 1 / 0"))
+    with pytest.raises(SpecError, match=r"c.toml: base.controllers: Hold\(\): __init__ raised ZeroDivisionError"):
+        campaign_spec.load(spec)
