@@ -13,6 +13,7 @@ The public API (docs/api.md)::
     tl.campaign("docs/campaigns/robustness.toml", workers=2)
     tl.falsify("docs/falsification/swing_gust.toml", simulations=20).best
     tl.plant.trim(), tl.plant.linearize(dt=tl.plant.TICK), tl.design.dlqr(), tl.design.mixed()   # docs/design_api.md
+    tl.saturate(u, lo, hi), tl.choose(e > 0, a, b), tl.dead_zone(e, w), tl.rate_limit(u, u_prev, du)  # trace into C
 
 Errors the user can fix raise TiltloadError, its message the line the `tiltload` command prints. Everything else
 (tiltload.master, tiltload.plant_fmu, ...) is the implementation, not the API. The names load on first use, so
@@ -40,6 +41,7 @@ if TYPE_CHECKING:
     from .master.app.api.run_options import RunOptions
     from .master.app.api.running import run
     from .master.app.api.signal_comparing import compare_signals, save_signal_baseline
+    from .master.app.api.signals import choose, dead_zone, rate_limit, saturate
     from .master.app.regression.compare import Comparison, MetricRow
     from .master.app.regression.signal_compare import SignalComparison
 
@@ -56,12 +58,15 @@ _PUBLIC = {  # name: the module it is defined in
     "save_signal_baseline": _API + "signal_comparing", "SignalComparison": "tiltload.master.app.regression.signal_compare",
     "b2b": _API + "back_to_back", "B2BSide": _API + "back_to_back", "B2BCase": _API + "back_to_back",
     "BackToBack": _API + "back_to_back",
+    "saturate": _API + "signals", "choose": _API + "signals", "dead_zone": _API + "signals",
+    "rate_limit": _API + "signals",
 }
 _NAMESPACES = ("plant", "design")  # modules of their own (tiltload/plant.py, design.py): tl.plant.trim(), tl.design.dlqr()
 __all__ = ["B2BCase", "B2BSide", "BackToBack", "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions",
            "FalsifyResult", "MetricRow", "PythonController", "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError",
            "b2b", "campaign", "check", "compare", "compare_signals", "falsify", "open_log",
-           "run", "save_baseline", "save_signal_baseline", "plant", "design"]
+           "run", "save_baseline", "save_signal_baseline", "plant", "design", "saturate", "choose", "dead_zone",
+           "rate_limit"]
 
 
 if "grimp" in sys.modules:  # import-linter is building its graph (pyproject.toml [tool.importlinter])

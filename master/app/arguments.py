@@ -48,7 +48,8 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-tilt", **CASE.option("max_tilt"), default=defaults.MAX_TILT, metavar="DEG",
                    help="largest trim tilt angle the feasibility check accepts (default 30 degrees)")
     p.add_argument("--controller", default=None,
-                   help="dlqr, mixed (the load's default; the UAV alone has dlqr) or PATH.fmu of your own controller")
+                   help="dlqr, mixed (the load's default; the UAV alone has dlqr), PATH.fmu of your own controller, or "
+                        "PATH.py of a controller class (run: wrapped on the fly, natively where it traces; docs/ports.md)")
     p.add_argument("--seed", **CASE.option("seed"), default=None, help="noise seed, 0 .. 2147483647 (default 1)")
     p.add_argument("--stop-time", **CASE.option("stop_time"), default=None, help="s (default: the trajectory's duration; at most 1e6)")
     p.add_argument("--delay", action="store_true", help="one-tick actuation delay (controller -> plant)")

@@ -31,7 +31,7 @@ def test_the_namespace_is_small_and_loads_nothing_heavy():
                                "CampaignOptions", "CampaignResult", "Case", "Comparison", "FalsifyOptions", "FalsifyResult", "MetricRow",
                                "Result", "RunOptions", "SignalComparison", "Signals", "TiltloadError", "campaign", "check", "compare",
                                "compare_signals", "falsify", "open_log", "run", "save_baseline", "save_signal_baseline", "plant",
-                               "design"}
+                               "design", "saturate", "choose", "dead_zone", "rate_limit"}
     assert all(getattr(tl, name) is not None for name in tl.__all__)
 
 

@@ -1108,7 +1108,7 @@ def _controllers(folder: Path) -> dict[str, str]:
     return {"no class": "def step(t, i):\n    return 0, 0, 0, 0\n", "a syntax error": "class C(:\n",
             "a decision on a traced value": "class C:\n" + ports + "    def step(self, t, i):\n        if i['x'] > 0:\n"
                                             "            return 1.0, 0.0, 0.0, 0.0\n        return 0.0, 0.0, 0.0, 0.0\n",
-            "a number of a traced value": "class C:\n" + ports + "    def step(self, t, i):\n        return float(i['x']), 0, 0, 0\n",
+            "a number of a traced value": "class C:\n" + ports + "    def step(self, t, i):\n        return round(i['x']), 0, 0, 0\n",
             "a huge array": "import numpy as np\nclass C:\n" + ports + "    def __init__(self):\n        self.k = np.ones((300, 300))\n"
                             "    def step(self, t, i):\n        return self.k[0, 0] * i['x'], 0.0, 0.0, 0.0\n",
             "__init__ raises": "class C:\n" + ports + "    def __init__(self):\n        raise ValueError('boom')\n" + step,

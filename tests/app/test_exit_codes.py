@@ -145,7 +145,11 @@ def test_the_builders_exit_0_when_done_and_2_on_bad_input(fmus, tmp_path):
     assert _code(["layout", str(tmp_path / "layout.json")]) == 0 and (tmp_path / "layout.json").is_file()
     assert _code(["wrap", str(root / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "c.fmu")]) == 0
     assert _code(["wrap", str(tmp_path / "missing.py")]) == 2
-    assert _code(["wrap", "--native", str(root / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "n.fmu")]) == 2
+    bang = tmp_path / "bang.py"  # a Python decision on a signal: no native FMU
+    bang.write_text("class Bang:\n    inputs = ['exact_z', 'z_ref']\n\n    def step(self, t, inputs):\n"
+                    "        if inputs['z_ref'] > inputs['exact_z']:\n            return 10.0, 10.0, 0.0, 0.0\n"
+                    "        return 9.0, 9.0, 0.0, 0.0\n")
+    assert _code(["wrap", "--native", str(bang), "--out", str(tmp_path / "n.fmu")]) == 2
     (tmp_path / "a_file").write_text("")
     assert _code(["build", "--out", str(tmp_path / "a_file" / "fmus")]) == 2
 

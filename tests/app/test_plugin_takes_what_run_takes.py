@@ -15,7 +15,7 @@ import pytest
 import tiltload as tl
 
 ROOT = Path(__file__).resolve().parents[2]
-TRACED = ROOT / "docs" / "examples" / "hover_lqr_traced.py"  # a controller class written with CasADi's operations
+TRACED = ROOT / "docs" / "examples" / "hover_lqr_traced.py"  # a controller class written in plain numpy, traceable
 RUN = {"scenario": "fsi", "trajectory": 0, "stop_time": 1.5, "no_gusts": True}
 
 USER_TEST = f"""

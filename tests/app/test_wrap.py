@@ -61,6 +61,13 @@ BAD = {
                       "        return 0, 0, 0, 0\n", "parameters: k = nan must be a finite number"),
     "parameter_clash": ("class C:\n    inputs = ['x_ref']\n    parameters = {'f_R': 1.0}\n    def step(self, t, i):\n"
                         "        return 0, 0, 0, 0\n", "'f_R' must be an identifier that is not a port name"),
+    # both routes run __init__ and one step on the trim at wrap time: a class that cannot run is no FMU (issue 65)
+    "init_raises": ("class C:\n    inputs = ['x_ref']\n    def __init__(self):\n        self.k = 1 / 0\n"
+                    "    def step(self, t, i):\n        return 0, 0, 0, 0\n", "C(): __init__ raised ZeroDivisionError"),
+    "step_raises": ("class C:\n    inputs = ['x_ref']\n    def step(self, t, i):\n        return i['y_ref'], 0, 0, 0\n",
+                    "C.step fails on the trim at t = 0 at line 4 (`return i['y_ref'], 0, 0, 0`): KeyError"),
+    "step_returns_three": ("class C:\n    inputs = ['x_ref']\n    def step(self, t, i):\n        return 0, 0, 0\n",
+                           "it must return 4 finite numbers"),
 }
 
 

@@ -103,15 +103,16 @@ def test_the_fmu_validates_and_names_the_numbers_it_kept(tmp_path, fmi):
     assert validate_fmu(str(fmu)) == []
     md = read_model_description(str(fmu))
     params = {v.name for v in md.modelVariables if v.causality == "parameter"}
-    assert {f"K_{i}_{j}" for i in range(4) for j in range(20)} <= params and "u_max_3" in params
+    # the declared parameter, then the numbers __init__ kept (K is derived from position_scale: an expression of it)
+    assert {"position_scale", "x_eq_0", "u_max_3"} <= params and "K_0_0" not in params
     assert md.fmiVersion.startswith(fmi)
 
 
-UNTRACEABLE = {
+UNTRACEABLE = {  # what needs the number while tracing (float(), math.* and np.clip trace: tests/app/test_plain_numpy.py)
     "an if on a value": ("        if e > 0:\n            e = -e\n", "a Python decision on a traced value"),
-    "math.sqrt": ("        e = math.sqrt(e)\n", "a traced value turned into a number"),
-    "float()": ("        e = float(e)\n", "a traced value turned into a number"),
+    "a while on a value": ("        while e > 1.0:\n            e = e / 2\n", "a Python decision on a traced value"),
     "min()": ("        e = min(e, 1.0)\n", "a Python decision on a traced value"),
+    "math.isnan": ("        e = 0.0 if math.isnan(e) else e\n", "a traced value turned into a number"),
 }
 
 
@@ -127,6 +128,34 @@ def test_what_cannot_be_traced_is_one_line_naming_its_line(tmp_path, capsys, wha
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"Bad.step cannot be traced at line {line} (`{code.splitlines()[0].strip()}`)" in err[0]
     assert said in err[0] and not (tmp_path / "bad.fmu").exists()
+    assert "decision" not in said or "np.where(condition, a, b)" in err[0]  # the numpy way to write the choice
+
+
+@pytest.mark.slow
+def test_a_declared_parameter_set_on_the_native_fmu_changes_the_run_as_on_the_pythonfmu_fmu(tmp_path, fmus):
+    """--set controller.position_scale=1.3 (what the command line's --set does: thesis.set_parameters): the native
+    FMU, where the gain is recomputed from the parameter in C, and the pythonfmu FMU, where __init__ runs in Python
+    with it, give the same metrics; and they are not the defaults' (the parameter reached the gain)."""
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics, set_parameters
+    from tiltload.master.engine.run import run_system
+
+    native = _wrapped(HOVER, tmp_path / "hover_native.fmu")
+    python = tmp_path / "hover_python.fmu"
+    assert main(["wrap", str(HOVER), "--out", str(python)]) == 0
+
+    def metrics(fmu: Path, scale: float | None) -> dict[str, float]:
+        system = default_system(fmus, "fsi", 1, None, 1, fmu)
+        if scale is not None:
+            set_parameters(system, {"controller.position_scale": scale})
+        result = run_system(system, 3.0, None, loop_metrics(), progress=False)
+        assert result.error is None, result.error
+        return result.metrics
+
+    mine, theirs, default = metrics(native, 1.3), metrics(python, 1.3), metrics(native, None)
+    keys = [k for k in mine if k.startswith("ISE(")]
+    assert keys and all(abs(mine[k] - theirs[k]) <= 1e-12 * abs(theirs[k]) for k in keys), \
+        {k: (mine[k], theirs[k]) for k in keys}
+    assert all(abs(mine[k] - default[k]) > 1e-6 * abs(default[k]) for k in ("ISE(x)", "ISE(z)"))
 
 
 @pytest.mark.slow
@@ -166,3 +195,34 @@ def test_in_the_closed_loop_every_platform_equals_linux_and_the_python_class(tmp
                 (platform.folder, axis)
     if shutil.which("wineserver"):
         subprocess.run(["wineserver", "-k"], env=wine_environment(tmp_path / "wine"), capture_output=True, timeout=60)
+
+
+def test_a_parameter_init_needs_the_number_of_is_refused_when_set_on_the_native_fmu(tmp_path, capfd):
+    """hover_lqr.py's position_weight feeds a Riccati solver: fixed in the native FMU (wrap says so); set to another
+    value, the FMU's initialization fails with a line naming it, and at its default it runs."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    fmu = _wrapped(ROOT / "docs" / "examples" / "hover_lqr.py", tmp_path / "hover.fmu")
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    said = []
+
+    def instance(weight: float):
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu), str(tmp_path / str(weight))),
+                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="c",
+                          fmiCallLogger=None)
+        slave.instantiate(loggingOn=True, callbacks=None)
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        slave.setReal([vr["position_weight"]], [weight])
+        try:
+            slave.exitInitializationMode()
+            return True
+        except Exception as err:  # FMPy raises on fmi2Error
+            said.append(str(err))
+            return False
+        finally:
+            slave.freeInstance()
+    assert instance(10.0) and not instance(3.0) and said
+    assert "parameter position_weight is fixed at 10 in this native FMU" in capfd.readouterr().out  # FMPy prints the log

@@ -13,7 +13,7 @@ from ..loop.defaults import MAX_TILT
 from . import field_types as kinds
 from .command_line import text_of
 from .field_types import closest_field
-from .python_controller import PythonController, controller_fmu_path
+from .python_controller import PythonController, controller_fmu_path, is_python_file
 
 if TYPE_CHECKING:
     from ..case.options import LoopOptions
@@ -105,11 +105,11 @@ class Case:
                             f"{type(self.trajectory).__name__} {self.trajectory!r:.80}")
         if isinstance(self.controller, Path):
             self._fix("controller", str(self.controller))
-        if not self._python_controller():
+        if not isinstance(self.controller, (type, PythonController)):
             kinds.text("Case", "controller", self.controller)
 
     def _python_controller(self) -> bool:
-        return isinstance(self.controller, (type, PythonController))
+        return isinstance(self.controller, (type, PythonController)) or is_python_file(self.controller)
 
     def _settings_and_remotes(self) -> None:
         settings = kinds.pairs("Case", "set", self.set, (int, float, bool, str), "a number, bool or str")

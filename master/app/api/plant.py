@@ -62,8 +62,8 @@ class ActuatorLimits:
 
     def clip(self, u) -> np.ndarray:
         """u = [f_R, f_L, tau_R, tau_L] saturated as the plant saturates it."""
-        u = np.asarray(u, dtype=float)
-        return np.r_[np.clip(u[:2], self.f_min, self.f_max), np.clip(u[2:4], -self.tau_max, self.tau_max)]
+        u = np.asarray(u, dtype=float)  # numpy's functions only, so a traced step (wrap --native) saturates with it too
+        return np.concatenate([np.clip(u[:2], self.f_min, self.f_max), np.clip(u[2:4], -self.tau_max, self.tau_max)])
 
 
 def limits() -> ActuatorLimits:

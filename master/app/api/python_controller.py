@@ -22,12 +22,26 @@ class PythonController:
             raise TypeError(f"PythonController.native must be None, True or False, got {type(self.native).__name__}")
 
 
-def controller_fmu_path(controller: type | PythonController, fmi_version: int) -> str:
-    """The FMU of a Python controller (a class or a PythonController), built once per content; TiltloadError if it
-    cannot be wrapped."""
-    from ..wrap.class_fmu import controller_fmu
+def is_python_file(controller: object) -> bool:
+    """A controller given as the path of a class's .py file (`--controller my_controller.py`)."""
+    return isinstance(controller, str) and controller.endswith(".py")
+
+
+def controller_fmu_path(controller: type | PythonController | str, fmi_version: int) -> str:
+    """The FMU of a Python controller (a class, a PythonController or a class's .py file), built once per content;
+    TiltloadError if it cannot be wrapped."""
+    from ..wrap.class_fmu import controller_fmu, controller_fmu_of_file
     from .errors import as_tiltload_errors
 
-    given = controller if isinstance(controller, PythonController) else PythonController(controller)
     with as_tiltload_errors():
+        if is_python_file(controller):
+            return str(controller_fmu_of_file(controller, None, fmi_version))
+        given = controller if isinstance(controller, PythonController) else PythonController(controller)
         return str(controller_fmu(given.cls, given.native, fmi_version))
+
+
+def route(fmu: str) -> str:
+    """Which route a Python controller took to its FMU, in words."""
+    from ..wrap import class_fmu
+
+    return class_fmu.route(fmu)

@@ -206,6 +206,23 @@ def _branching(base: dict, path: Path) -> Branching:
                      snap.application["options"], controller)
 
 
+def _controller(name: str, path: Path) -> str:
+    """A base.controllers entry as the runs name it: dlqr, mixed, or an FMU's absolute path (a class's .py file
+    wrapped as `tiltload run --controller FILE.py` wraps it: natively where it traces, cached by its source)."""
+    if name in OUR_CONTROLLERS:
+        return name
+    file = (path.parent / name).resolve()
+    if name.endswith(".py"):
+        from ..wrap.class_fmu import controller_fmu_of_file
+        from ..wrap.wrap import WrapError
+
+        try:
+            return str(controller_fmu_of_file(file, field=f"{path}: base.controllers"))
+        except WrapError as err:
+            raise SpecError(f"{path}: base.controllers: {err}") from None
+    return str(file)
+
+
 def load(path: Path) -> Campaign:
     """Read, validate and expand a campaign spec into its runs."""
     path = Path(path)
@@ -217,8 +234,9 @@ def load(path: Path) -> Campaign:
     controllers = base.get("controllers", [DEFAULT_CONTROLLER])
     for c in controllers:
         if c not in OUR_CONTROLLERS and not (path.parent / c).is_file():
-            raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU")
-    controllers = [c if c in OUR_CONTROLLERS else str((path.parent / c).resolve()) for c in controllers]
+            raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU (or "
+                            "a controller class's .py file)")
+    controllers = [_controller(c, path) for c in controllers]
     seeds = vary.get("seeds", [DEFAULT_SEED])
     faults = checked_faults(base, _varied_targets(vary, path), path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}

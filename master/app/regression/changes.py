@@ -1,5 +1,6 @@
 """What changed between a baseline and a run, said before any signal or metric: each FMU by its digest, model and
-GUID, and its parameters ("controller parameter x_0 1.7 -> 1.75; plant, scenario and sensors unchanged").
+GUID, and its parameters ("controller parameter x_0 1.7 -> 1.75; plant, scenario and sensors unchanged"); a wrapped
+class's changed lines from the source its FMU carries ("controller class line 27 `k = 10.0` -> `k = 10.1`").
 
 The records are engine.log.provenance's (a log's "fmus" metadata, copied into every baseline). A baseline or log without one
 (written before tiltload kept them) says what differs between the two cases' controller --set values instead.
@@ -45,6 +46,25 @@ def _fmu_change(name: str, base: dict[str, str], run: dict[str, str]) -> str | N
     return f"{name} FMU's content changed ({files}, sha256 {bd[:12]} -> {rd[:12]})"
 
 
+def _source_change(name: str, base: dict[str, str], run: dict[str, str]) -> str | None:
+    """A wrapped class's changed lines, in the user's words: "controller class line 27 `Q *= 10.0` -> `Q *= 10.1`"."""
+    import difflib
+
+    old, new = base.get(f"{name}.source"), run.get(f"{name}.source")
+    if not old or not new or old == new:
+        return None
+    a, b = old.splitlines(), new.splitlines()
+    said = []
+    for tag, i1, i2, j1, j2 in difflib.SequenceMatcher(None, a, b, autojunk=False).get_opcodes():
+        if tag == "equal":
+            continue
+        was = " / ".join(f"`{line.strip()}`" for line in a[i1:i2]) or "nothing"
+        now = " / ".join(f"`{line.strip()}`" for line in b[j1:j2]) or "nothing"
+        said.append(f"line {j1 + 1} {was} -> {now}" if j2 > j1 else f"line {i1 + 1} {was} removed")
+    shown = "; ".join(said[:3]) + (f"; {len(said) - 3} more changes" if len(said) > 3 else "")
+    return f"{name} class {shown}"
+
+
 def _parameter_changes(name: str, base: dict[str, str], run: dict[str, str]) -> list[str]:
     pb, pr = parameters(base, name), parameters(run, name)
     changed = [(k, pb.get(k, "unset"), pr.get(k, "unset")) for k in {**pb, **pr} if pb.get(k) != pr.get(k)]
@@ -73,8 +93,9 @@ def what_changed(base: dict[str, str] | None, run: dict[str, str] | None) -> lis
             contents.append(f"{name} added ({run.get(f'{name}.model', '?')})")
             continue
         mine = _parameter_changes(name, base, run)
+        source = _source_change(name, base, run)
         content = _fmu_change(name, base, run)
-        parameters += mine
+        parameters += mine + ([source] if source else [])
         contents += [content] if content else []
         if not mine and not content:
             unchanged.append(name)

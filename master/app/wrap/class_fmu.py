@@ -3,8 +3,9 @@ way `tiltload wrap` wraps it, from the class's file, and kept in the machine's c
 the build (the file, the class's declarations and parameters, the route, the FMI version, tiltload's version and its
 wrapping code), so a second run, in this process or another, uses the same FMU without tracing or building again.
 
-The route: `wrap --native` (a C FMU, native.py) when the class traces, else pythonfmu's (wrap.py); native=True
-refuses a class that cannot be traced, native=False always takes pythonfmu's."""
+The route: `wrap --native` (a C FMU, native.py) when the class traces and keeps its declared parameters tunable, else
+pythonfmu's (wrap.py); native=True refuses a class that cannot be traced (and fixes what its __init__ needs the number
+of), native=False always takes pythonfmu's."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from pathlib import Path
 from ....native_fmu.build import tiltload_version
 from ....native_fmu.cache import cache_root
 from .wrap import WrapError, describe_class
+
+__all__ = ["controller_fmu", "controller_fmu_of_file", "route"]
 
 
 def _source(cls: object, field: str) -> Path:
@@ -55,23 +58,28 @@ def _key(path: Path, spec: dict, native: bool | None, fmi_version: int) -> str:
     return hashlib.sha256(path.read_bytes() + b"\0" + what.encode()).hexdigest()
 
 
-def _build(path: Path, spec: dict, native: bool | None, fmi_version: int, out: Path) -> Path:
-    """Wrap the class into out: natively if it traces (or native), else with pythonfmu. The class's code runs in wrap's
-    child process (sandbox.py)."""
+def _build(path: Path, name: str | None, native: bool | None, fmi_version: int, out: Path) -> Path:
+    """Wrap the class (name None: the file's one class) into out: natively if it traces (or native), else with
+    pythonfmu. The class's code runs in wrap's child process (sandbox.py)."""
     from .native import build_traced
     from .sandbox import traced, wrap_python
 
-    name = spec["class"]
     if native is not False:
         child_spec, t = traced(path, name, fall_back=not native)
-        if not isinstance(t, str):
+        if not isinstance(t, str) and (native or not t.fixed):  # the automatic route keeps every parameter tunable
             return build_traced(child_spec, t, path, out, fmi_version, progress=lambda line: None)
+        if not isinstance(t, str):
+            t = (f"{child_spec['class']}: parameter{'s' if len(t.fixed) > 1 else ''} {', '.join(t.fixed)} would be fixed in the native "
+                 f"FMU ({t.why_fixed})")
         if fmi_version != 2:
             raise WrapError(f"{t}; a class that cannot be traced runs as a pythonfmu FMU, which is FMI 2.0 only "
                             "(run it with fmi=2)")
     elif fmi_version != 2:
-        raise WrapError(f"{name}: a pythonfmu FMU is FMI 2.0 only (run it with fmi=2, or trace it: native=True)")
-    return wrap_python(path, out, name)  # its __init__ run once there: one that raises is refused now, not in the run
+        raise WrapError(f"{name or path.name}: a pythonfmu FMU is FMI 2.0 only (run it with fmi=2, or trace it: native=True)")
+    built = wrap_python(path, out, name)  # its __init__ run once there: one that raises is refused now, not in the run
+    if native is not False:
+        out.with_suffix(".why").write_text(t)  # why not native: said by route() when the FMU is used
+    return built
 
 
 def controller_fmu(cls: type, native: bool | None = None, fmi_version: int = 2, field: str = "Case.controller") -> Path:
@@ -86,7 +94,47 @@ def controller_fmu(cls: type, native: bool | None = None, fmi_version: int = 2, 
     target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(dir=target.parent, prefix=".build-"))  # beside it: the rename below is atomic
     try:
-        built = _build(path, spec, native, fmi_version, stage / target.name)
+        built = _build(path, spec["class"], native, fmi_version, stage / target.name)
+        os.replace(built, target)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return target
+
+
+def route(fmu: Path) -> str:
+    """Which route a wrapped controller FMU took, in words (and why not native, where it was kept)."""
+    import zipfile
+
+    with zipfile.ZipFile(fmu) as z:
+        if "resources/slavemodule.txt" not in z.namelist():
+            return "a native C FMU (traced from plain numpy)"
+    why = Path(fmu).with_suffix(".why")
+    return f"a pythonfmu FMU (it runs in Python{': ' + why.read_text() if why.is_file() else ''})"
+
+
+def controller_fmu_of_file(path: Path, native: bool | None = None, fmi_version: int = 2,
+                           field: str = "--controller") -> Path:
+    """The controller FMU of the class in a .py file (`tiltload run --controller my_controller.py`), named after the
+    file: from the machine's cache under the digest of the source (and the route, FMI version, tiltload's version and
+    wrapping code), or wrapped now in wrap's child process and kept there. A module the file imports is not in the
+    digest: wrap it yourself (tiltload wrap) when such a module changes."""
+    from ...engine.user_files import UserFileError, open_binary
+
+    path = Path(path)
+    try:
+        open_binary(path, "controller").close()
+    except UserFileError as err:
+        raise WrapError(f"{field}: {err}") from None
+    key = _key(path, {"file": path.name}, native, fmi_version)
+    target = cache_root() / "controllers" / key[:32] / f"{path.stem}.fmu"
+    if target.is_file():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(dir=target.parent, prefix=".build-"))
+    try:
+        built = _build(path.resolve(), None, native, fmi_version, stage / target.name)
+        if built.with_suffix(".why").is_file():
+            os.replace(built.with_suffix(".why"), target.with_suffix(".why"))
         os.replace(built, target)
     finally:
         shutil.rmtree(stage, ignore_errors=True)

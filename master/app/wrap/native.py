@@ -41,6 +41,9 @@ def layout_header(definition: FmuDefinition, traced: Traced, boolean_inputs: set
              + (", ".join(str(definition.vr(n)) for n, _ in traced.parameters) or "0") + "};",
              "static const char* const tl_traced_parameter_name[TL_TRACED_NP_ROOM] = {"
              + (", ".join(f'"{n}"' for n, _ in traced.parameters) or '""') + "};",
+             "static const int tl_traced_parameter_fixed[TL_TRACED_NP_ROOM] = {"
+             + (", ".join("1" if n in traced.fixed else "0" for n, _ in traced.parameters) or "0") + "};",
+             f"static const double tl_traced_parameter_default[TL_TRACED_NP_ROOM] = {{{_c_doubles([v for _, v in traced.parameters])}}};",
              "static const int tl_traced_output[4] = {"
              + ", ".join(str(definition.vr(n)) for n in ("f_R", "f_L", "tau_R", "tau_L")) + "};",
              f"static const double tl_traced_initial_state[TL_TRACED_NS_ROOM] = {{{_c_doubles([v for _, v in traced.states])}}};",
@@ -64,7 +67,9 @@ def definition(spec: dict, traced: Traced, version: str) -> FmuDefinition:
     for name, (unit, start) in spec["outputs"].items():
         variables.append(Variable(name, "Real", "output", float(start), "command", unit=unit, discrete=True))
     for name, value in traced.parameters:
-        variables.append(Variable(name, "Real", "parameter", value, f"kept from {spec['class']}.__init__"))
+        what = ("declared by the class (fixed in this FMU: __init__ needs its number)" if name in traced.fixed else
+                "declared by the class") if name in spec["parameters"] else f"kept from {spec['class']}.__init__"
+        variables.append(Variable(name, "Real", "parameter", value, what))
     return FmuDefinition(spec["class"], spec["description"], variables, "traced_model.h",
                          (0.0, 10.0, spec["period"]), variable_step=False, version=version)
 
@@ -74,17 +79,18 @@ def recipe(spec: dict, traced: Traced, source: Path, fmu_name: str) -> Recipe:
     FMU cache serves the same controller again and an edited one is built anew."""
     from ....native_fmu.build import tiltload_version
 
-    identity = hashlib.sha256(traced.function.serialize().encode() + json.dumps(
-        [spec, traced.parameters, traced.states], sort_keys=True).encode()).hexdigest()
+    identity = hashlib.sha256(traced.function.serialize().encode() + traced.init.serialize().encode() + json.dumps(
+        [spec, traced.parameters, traced.states, traced.fixed], sort_keys=True).encode()).hexdigest()
 
     def prepare(folder: Path, progress) -> Prepared:
         d = definition(spec, traced, tiltload_version())
         booleans = {n for n, v in spec["inputs"].items() if v[0] == "Boolean"}
         layout = folder / "traced_layout.h"
         layout.write_text(layout_header(d, traced, booleans))
-        generated = [*casadi_c.generate([traced.function], folder, STEM), layout]
+        generated = [*casadi_c.generate([traced.function, traced.init], folder, STEM), layout]
         return Prepared(d, NativeSources(MODEL_C, generated, []), {"traced_from": source.name, "class": spec["class"],
-                                                                    "states": [n for n, _ in traced.states]})
+                                                                    "states": [n for n, _ in traced.states],
+                                                                    "source": source.read_text(errors="replace")})
 
     return Recipe(fmu_name, (source, *MODEL_C, Path(__file__), HERE / "trace.py"), (ca.__version__, identity), prepare)
 
@@ -106,4 +112,9 @@ def wrap_native(path: Path, out: Path | None = None, class_name: str | None = No
     if target.suffix != ".fmu":
         raise WrapError(f"the output {target} must end in .fmu")
     spec, t = traced(path, class_name)
+    if t.fixed:
+        one = len(t.fixed) == 1
+        progress(f"wrap: parameter{'' if one else 's'} {', '.join(t.fixed)} fixed at {'its' if one else 'their'} "
+                 f"default in the native FMU: {t.why_fixed}; the pythonfmu route (tiltload wrap) keeps "
+                 f"{'it' if one else 'them'} tunable")
     return build_traced(spec, t, path.resolve(), target, fmi_version, progress)

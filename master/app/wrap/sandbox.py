@@ -119,9 +119,9 @@ def traced(path: Path, class_name: str | None, fall_back: bool = False):
     t = result["traced"]
     if isinstance(t, str):
         return result["spec"], t
-    function = ca.Function.deserialize(t["function"])
-    return result["spec"], Traced(function, t["inputs"], [tuple(p) for p in t["parameters"]],
-                                  [tuple(s) for s in t["states"]])
+    return result["spec"], Traced(ca.Function.deserialize(t["function"]), t["inputs"],
+                                  [tuple(p) for p in t["parameters"]], [tuple(s) for s in t["states"]],
+                                  ca.Function.deserialize(t["init"]), t["fixed"], t["why_fixed"])
 
 
 def wrap_python(path: Path, out: Path | None = None, class_name: str | None = None) -> Path:
@@ -156,7 +156,7 @@ def _job(request: dict) -> dict:
     if request["job"] == "describe":
         return spec
     if request["job"] == "package":
-        trace.instantiate(cls, spec["parameters"], path)
+        trace.step_once(trace.instantiate(cls, spec["parameters"], path), spec, path)
         target = Path(request["work"]) / "out" / request["name"]
         return {"spec": spec, "fmu": str(wrap.package(path, spec, target))}
     try:
@@ -168,7 +168,8 @@ def _job(request: dict) -> dict:
             raise
         return {"spec": spec, "traced": str(err)}
     return {"spec": spec, "traced": {"function": t.function.serialize(), "inputs": t.inputs,
-                                     "parameters": t.parameters, "states": t.states}}
+                                     "parameters": t.parameters, "states": t.states, "init": t.init.serialize(),
+                                     "fixed": t.fixed, "why_fixed": t.why_fixed}}
 
 
 def _child(request: dict) -> None:

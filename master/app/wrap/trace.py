@@ -1,15 +1,15 @@
-"""A Python controller traced into one CasADi function, so its step can be generated as C (DESIGN §17).
+"""A Python controller traced into CasADi functions, so its step can be generated as C (DESIGN §17, §18).
 
-The class's __init__ runs here, in Python, once: its numbers (floats, ints, numpy arrays of numbers) become the FMU's
-parameters, each element a Real named after the attribute (K_0_3 for K[0, 3]). Then `step(t, inputs)` runs once on
-symbols: every input, t and every such number is a CasADi SX symbol (arrays as numpy arrays of symbols, so numpy's
-arithmetic, `@`, indexing and slicing work on them), and what it returns is the command. An attribute that step
-assigns is a discrete state, held between ticks, starting from its value after __init__.
+The class's __init__ runs first on symbols for its declared `parameters` (so what it derives from them is recomputed
+when they are set); where it needs their numbers (a design by a solver, a Python branch on one) it runs on the
+numbers and those parameters are fixed in the FMU (said at wrap time). The numbers it leaves (floats, ints, numpy
+arrays of numbers) become FMU parameters too, each element a Real named after the attribute (K_0_3 for K[0, 3]). Then
+`step(t, inputs)` runs once on traced arrays (symbolic.py): plain numpy (arithmetic, `@`, indexing, assignment,
+`np.clip`, `np.where`, elementwise functions, `float()`, `math.*`) gives symbols, and what it returns is the command.
+An attribute that step assigns is a discrete state, held between ticks, starting from its value after __init__.
 
-What can be traced: arithmetic, matrix products, elementwise functions of CasADi (`ca.sin`, `ca.sqrt`, ...),
-`ca.fmin` / `ca.fmax` for saturations, `ca.if_else(cond, a, b)` for choices. What cannot: Python control flow on a
-value (`if x > 0:`, `min(x, y)`, `np.clip`, `float(x)`), which needs the number; tracing refuses it in one line
-naming the line of the class."""
+What cannot be traced: a Python decision on a value (`if x > 0:`, `min(x, y)`), which needs the number; tracing
+refuses it in one line naming the line of the class and np.where."""
 
 from __future__ import annotations
 
@@ -23,6 +23,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from .symbolic import REFUSED, Sym, elements, flat, symbols, traced, tracing
 from .wrap import USER_ENDS, WrapError, user_line
 
 
@@ -81,7 +82,10 @@ class Traced:
     function: ca.Function
     inputs: list[str]
     parameters: list[tuple[str, float]]  # flattened numbers kept from __init__: (FMU name, value)
-    states: list[tuple[str, float]]  # flattened attributes step assigns: (name, initial value)
+    states: list[tuple[str, float]]  # flattened attributes step assigns: (name, initial value at the defaults)
+    init: ca.Function  # the states' initial values from the parameters (p -> s0)
+    fixed: list[str]  # the declared parameters __init__ needs the numbers of: fixed at their defaults in the FMU
+    why_fixed: str = ""
 
 
 def _numbers(value) -> np.ndarray | None:
@@ -104,23 +108,6 @@ def _element_names(name: str, shape: tuple[int, ...]) -> list[str]:
     return [f"{name}_{'_'.join(map(str, idx))}" for idx in np.ndindex(*shape)]
 
 
-def _symbols(name: str, shape: tuple[int, ...]):
-    """A scalar SX symbol, or a numpy array of them with the attribute's shape."""
-    names = _element_names(name, shape)
-    if not shape:
-        return ca.SX.sym(names[0])
-    return np.array([ca.SX.sym(n) for n in names], dtype=object).reshape(shape)
-
-
-def _flat(value) -> list:
-    """The SX scalars of a traced value (a scalar, an SX vector or a numpy array of them)."""
-    if isinstance(value, np.ndarray):
-        return [_flat(v)[0] if not isinstance(v, np.ndarray) else v for v in value.ravel()]
-    if isinstance(value, (ca.SX, ca.DM)):
-        return [value[i] for i in range(value.numel())]
-    return [value]
-
-
 @contextmanager
 def _no_numbers_of_symbols():
     """float() of a symbol gives NaN in CasADi, silently: while tracing it is refused, where it happens."""
@@ -129,8 +116,7 @@ def _no_numbers_of_symbols():
     def refuse(value):
         if value.is_constant():
             return original(value)
-        raise TypeError("a traced value turned into a number (float(), np.asarray(..., dtype=float), np.clip, "
-                        "math.*)")
+        raise TypeError(f"{REFUSED} (float() of a CasADi value)")
     ca.SX.__float__ = refuse
     try:
         yield
@@ -144,11 +130,11 @@ def _operation(err: BaseException) -> str:
     if isinstance(err, SystemExit):
         return "it calls sys.exit(), which a controller's code may not"
     if "truth value" in text:
-        return ("a Python decision on a traced value (if, while, and/or, min, max, sorted); write it with "
-                "ca.if_else(condition, a, b), ca.fmin, ca.fmax (docs/ports.md)")
-    if "turned into a number" in text or "setting an array element with a sequence" in text or "to_int" in text:
-        return ("a traced value turned into a number (float(), int(), np.asarray(..., dtype=float), np.clip, math.*); "
-                "keep it symbolic: ca.fmin/ca.fmax for a saturation, ca.sin and the like for math (docs/ports.md)")
+        return ("a Python decision on a traced value (if, while, and/or, min, max, sorted); write the choice with "
+                "np.where(condition, a, b) (or np.minimum, np.maximum, np.clip, tl.saturate) (docs/ports.md)")
+    if REFUSED in text or "setting an array element with a sequence" in text or "to_int" in text:
+        return (f"{text.splitlines()[0]}: keep it an array expression (numpy's functions, tl.saturate, np.where), "
+                "the number exists only when the FMU runs (docs/ports.md)")
     return f"{type(err).__name__}: {text.splitlines()[0] if text else ''}".rstrip(": ")
 
 
@@ -257,26 +243,123 @@ def instantiate(cls: type, parameters: dict[str, float], source: Path):
         raise InitError(f"{cls.__name__}(): __init__ raised {type(err).__name__} ({err}) {user_line(err, source)}".rstrip()) from None
 
 
+def _namespaces(cls: type) -> list[dict]:
+    """The module namespaces of the class's functions (and its bases' from the same files): where float, int and
+    math are bound to their symbolic forms while tracing."""
+    seen: dict[int, dict] = {}
+    for klass in cls.__mro__[:-1]:
+        for value in vars(klass).values():
+            g = getattr(value, "__globals__", None)
+            if isinstance(g, dict):
+                seen.setdefault(id(g), g)
+    return list(seen.values())
+
+
+def _symbolic_init(cls: type, declared: dict[str, ca.SX], source: Path, namespaces: list[dict]):
+    """cls(**parameters) on symbols, so what __init__ derives from its parameters is recomputed when they are set; or
+    (None, why) where __init__ needs their numbers (a design by a solver, a Python branch on one)."""
+    name = cls.__name__
+    given = {k: Sym(elements(s)) for k, s in declared.items()}
+    try:
+        with tracing(namespaces, str(source)), time_limit(f"{name}()", InitError):
+            return cls(**given), ""
+    except TraceError:
+        raise
+    except (*USER_ENDS, _IoInStep) as err:
+        where = user_line(err, source) or f"a line outside {source.name}"
+        return None, f"{name}.__init__ needs the number at {where}"
+
+
+def _kept(controller, declared: ca.SX, ints: bool = True) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The attributes kept: numbers (each element an FMU parameter) and expressions of the declared parameters."""
+    numbers, derived = {}, {}
+    for k, v in vars(controller).items():
+        if not ints and isinstance(v, int) and not isinstance(v, bool):
+            continue
+        if traced(v):
+            try:
+                e = elements(v)
+            except (TypeError, ValueError):
+                continue
+            if e.size and ca.depends_on(ca.vertcat(*e.ravel()), declared):
+                derived[k] = e
+            else:
+                numbers[k] = np.array([float(ca.evalf(x)) for x in e.ravel()]).reshape(e.shape)
+        elif (n := _numbers(v)) is not None:
+            numbers[k] = n
+    return numbers, derived
+
+
+def step_once(controller, spec: dict, source: Path) -> None:
+    """One step at t = 0 on the ports' start values (the hover trim), in Python, as the pythonfmu FMU will step it:
+    a class that cannot run is refused at wrap time, not in a run."""
+    name = spec["class"]
+    inputs = {n: (bool(v[2]) if v[0] == "Boolean" else float(v[2])) for n, v in spec["inputs"].items()}
+    try:
+        with time_limit(f"{name}.step"):
+            command = [float(v) for v in controller.step(0.0, inputs)]
+    except TraceError:
+        raise
+    except USER_ENDS as err:
+        where = user_line(err, source) or f"a line outside {source.name}"
+        raise TraceError(f"{name}.step fails on the trim at t = 0 at {where}: {type(err).__name__} "
+                         f"({str(err).splitlines()[0] if str(err) else ''})") from None
+    if len(command) != 4 or not all(math.isfinite(v) for v in command):
+        raise TraceError(f"{name}.step on the trim at t = 0 returns {command}; it must return 4 finite numbers "
+                         "(f_R, f_L, tau_R, tau_L)")
+
+
 def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Path) -> Traced:
     """Trace cls (its file: source) into one function; TraceError names what cannot be traced and where."""
+    namespaces = _namespaces(cls)
+    declared = {k: ca.SX.sym(k) for k in parameters}
+    controller, fixed = _symbolic_init(cls, declared, source, namespaces) if parameters else (None, "")
+    if controller is not None:
+        try:
+            return _trace(cls, controller, parameters, declared, "", inputs, source, namespaces)
+        except InitError:
+            raise
+        except TraceError as err:  # step may need a number __init__ derived from a parameter (range(self.n)): fixed
+            where = re.search(r"cannot be traced at (line \d+ \(`.*?`\))", str(err))
+            fixed = f"{cls.__name__}.step needs the number at {where.group(1) if where else 'a line of step'}"
+    try:
+        return _trace(cls, instantiate(cls, parameters, source), parameters, declared, fixed, inputs, source, namespaces)
+    except InitError:
+        raise
+    except TraceError as err:  # a count (range(self.n)): __init__'s ints kept as the numbers they are, if that traces
+        try:
+            return _trace(cls, instantiate(cls, parameters, source), parameters, declared,
+                          fixed or (f"{cls.__name__}.step needs the number of one" if parameters else ""), inputs, source,
+                          namespaces, ints=False)
+        except TraceError:
+            raise err from None
+
+
+def _trace(cls: type, controller, parameters: dict[str, float], declared: dict[str, ca.SX], fixed: str,
+           inputs: list[str], source: Path, namespaces: list[dict], ints: bool = True) -> Traced:
+    """The trace of step on an instance (made on symbols, or on numbers with fixed saying why); ints=False keeps
+    __init__'s ints as numbers (a count a loop runs to), not parameters."""
     name = cls.__name__
-    controller = instantiate(cls, parameters, source)
-    numbers = {k: v for k, v in ((k, _numbers(v)) for k, v in vars(controller).items()) if v is not None}
+    declared_sx = ca.vertcat(*declared.values())
+    numbers, derived = _kept(controller, declared_sx, ints)
+    for k in [k for k in numbers if set(_element_names(k, numbers[k].shape)) & set(parameters)]:
+        derived[k] = elements(numbers.pop(k))  # self.kp = kp of a declared parameter kp: the parameter's own name
     _check_names(name, numbers)
     if sum(v.size for v in numbers.values()) > MAX_NUMBERS:
         biggest = max(numbers, key=lambda k: numbers[k].size)
         raise TraceError(f"{name}: its numbers after __init__ are {sum(v.size for v in numbers.values()):,} (self.{biggest} "
                          f"holds {numbers[biggest].size:,}); at most {MAX_NUMBERS:,} are kept, each a parameter of the FMU")
-    initial = {k: v.copy() for k, v in numbers.items()}
-    symbols = {k: _symbols(k, v.shape) for k, v in numbers.items()}
-    for k, s in symbols.items():
+    kept = {**numbers, **derived}
+    syms = {k: symbols(k, v.shape, _element_names(k, v.shape)) for k, v in kept.items()}
+    before = {k: list(s.a.ravel()) for k, s in syms.items()}
+    for k, s in syms.items():
         setattr(controller, k, s)
     t = ca.SX.sym("t")
     u = {n: ca.SX.sym(n) for n in inputs}
     io = _NoIo(source)
     try:
-        with _no_numbers_of_symbols(), time_limit(f"{name}.step"), io:
-            command = controller.step(t, dict(u))
+        with _no_numbers_of_symbols(), tracing(namespaces, str(source)), time_limit(f"{name}.step"), io:
+            command = controller.step(Sym(elements(t)), {n: Sym(elements(s)) for n, s in u.items()})
     except TraceError:
         raise
     except (*USER_ENDS, _IoInStep) as err:
@@ -286,34 +369,46 @@ def trace(cls: type, parameters: dict[str, float], inputs: list[str], source: Pa
         raise TraceError(f"{name}.step cannot be traced at {where}: {_operation(err)}") from None
     if io.seen:
         raise TraceError(io.refusal(name))
-    out = _flat(np.asarray(command, dtype=object)) if not isinstance(command, (ca.SX, ca.DM)) else _flat(command)
+    try:
+        out = flat(command)
+        after = {k: flat(getattr(controller, k)) for k in kept}
+    except (TypeError, ValueError) as err:  # a value that is not a number or a symbol (a string, None)
+        raise TraceError(f"{name}.step: its command or a state is not a number ({str(err).splitlines()[0]})") from None
     if len(out) != 4:
         raise TraceError(f"{name}.step returns {len(out)} values; it must return (f_R, f_L, tau_R, tau_L)")
-    changed = [k for k in numbers if getattr(controller, k) is not symbols[k]]
+    changed = [k for k in kept if len(after[k]) != len(before[k])
+               or any(not ca.is_equal(a, b) for a, b in zip(after[k], before[k]))]
     for k in changed:
-        now = np.asarray(getattr(controller, k), dtype=object)
-        if now.shape != numbers[k].shape:
-            raise TraceError(f"{name}.step changes the shape of self.{k} ({numbers[k].shape} -> {now.shape}): a state "
-                             "keeps its shape")
-    fixed = [k for k in numbers if k not in changed]
-    par_sx = [s for k in fixed for s in _flat(symbols[k])] if fixed else []
-    state_sx = [s for k in changed for s in _flat(symbols[k])]
-    next_sx = [s for k in changed for s in _flat(np.asarray(getattr(controller, k), dtype=object))]
-    try:
-        fn = ca.Function("tl_traced_step", [t, ca.vertcat(*u.values()), ca.vertcat(*par_sx), ca.vertcat(*state_sx)],
-                         [ca.vertcat(*[ca.SX(v) for v in out]), ca.vertcat(*[ca.SX(v) for v in next_sx])],
-                         ["t", "u", "p", "s"], ["y", "s_next"])
-    except Exception as err:  # a value that is not a number or a symbol (a string, None) in the command or a state
-        raise TraceError(f"{name}.step: its command or a state is not a number ({str(err).splitlines()[0]})") from None
-    if fn.has_free():
+        if len(after[k]) != len(before[k]):
+            raise TraceError(f"{name}.step changes the shape of self.{k} ({kept[k].shape} -> {len(after[k])} values): "
+                             "a state keeps its shape")
+    fixed_numbers = [k for k in numbers if k not in changed]
+    par_sx = [*declared.values(), *(s for k in fixed_numbers for s in before[k])]
+    state_sx = [s for k in changed for s in before[k]]
+    initial_sx = [ca.SX(x) for k in changed for x in kept[k].ravel()]  # numbers, or expressions of the parameters
+    # an expression of the parameters that step only reads: the expression itself in the traced function
+    inline = [k for k in derived if k not in changed]
+    old = ca.vertcat(*(s for k in inline for s in before[k]))
+    new = ca.vertcat(*(ca.SX(x) for k in inline for x in derived[k].ravel()))
+    y, s_next = ca.vertcat(*out), ca.vertcat(*(s for k in changed for s in after[k]))
+    if inline:
+        y, s_next = ca.substitute([y, s_next], [old], [new])
+    p = ca.vertcat(*par_sx)
+    fn = ca.Function("tl_traced_step", [t, ca.vertcat(*u.values()), p, ca.vertcat(*state_sx)], [y, s_next],
+                     ["t", "u", "p", "s"], ["y", "s_next"])
+    init = ca.Function("tl_traced_init", [p], [ca.vertcat(*initial_sx)], ["p"], ["s0"])
+    if fn.has_free() or init.has_free():
         raise TraceError(f"{name}.step uses symbols that are neither inputs nor numbers of the controller: "
-                         f"{', '.join(fn.get_free())}")
-    params = [(n, float(x)) for k in fixed for n, x in zip(_element_names(k, numbers[k].shape), initial[k].ravel())]
-    states = [(n, float(x)) for k in changed for n, x in zip(_element_names(k, numbers[k].shape), initial[k].ravel())]
+                         f"{', '.join(fn.get_free() + init.get_free())}")
+    params = [(k, float(v)) for k, v in parameters.items()]
+    params += [(n, float(x)) for k in fixed_numbers for n, x in zip(_element_names(k, numbers[k].shape),
+                                                                     numbers[k].ravel())]
+    s0 = np.array(init([v for _, v in params])).ravel() if state_sx else []
+    states = [(n, float(x)) for n, x in zip([n for k in changed for n in _element_names(k, kept[k].shape)], s0)]
     bad = [n for n, x in params + states if not math.isfinite(x)]
     if bad:
         raise TraceError(f"{name}: self.{bad[0]} is not finite after __init__")
-    return Traced(fn, list(inputs), params, states)
+    return Traced(fn, list(inputs), params, states, init, list(parameters) if fixed else [], fixed)
 
 
 def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: np.ndarray, states: np.ndarray):
@@ -322,4 +417,4 @@ def run_traced(traced: Traced, t: float, inputs: dict[str, float], parameters: n
     return np.array(y).ravel(), np.array(s).ravel()
 
 
-__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "time_limit", "trace"]
+__all__ = ["InitError", "TraceError", "Traced", "instantiate", "run_traced", "step_once", "time_limit", "trace"]

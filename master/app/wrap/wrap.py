@@ -188,7 +188,8 @@ def package(path: Path, spec: dict, target: Path) -> Path:
         (stage / "__init__.py").write_text("")
         packaging.build_python_fmu(slave=slave, unique=f"tiltload_wrap_{model.lower()}_{digest[:8]}", package_files=[path],
                                    generated=[stage / "wrap.json", stage / "__init__.py"],
-                                   build_info={"source_hash": digest, "wrapped": path.name, "class": model},
+                                   build_info={"source_hash": digest, "wrapped": path.name, "class": model,
+                                               "source": path.read_text(errors="replace")},
                                    target=target)
     add_units(target, {**{n: v[1] for n, v in spec["inputs"].items()}, **{n: v[0] for n, v in spec["outputs"].items()}})
     return target

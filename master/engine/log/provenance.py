@@ -79,6 +79,8 @@ def fmus_record(instances, model_descriptions: dict) -> dict[str, str]:
             out[f"{spec.name}.content"] = content_digest(path) if path.is_file() else ""
         except (OSError, zipfile.BadZipFile):  # FMPy read it, so it is an archive; a race with a rebuild says nothing
             out[f"{spec.name}.content"] = ""
+        if path.is_file() and (source := wrapped_source(path)):
+            out[f"{spec.name}.source"] = source
         out[f"{spec.name}.model"] = str(md.modelName)
         out[f"{spec.name}.guid"] = str(getattr(md, "guid", None) or getattr(md, "instantiationToken", "") or "")
         for v in md.modelVariables:
@@ -95,6 +97,25 @@ def fmus_record(instances, model_descriptions: dict) -> dict[str, str]:
             except (TypeError, ValueError):
                 out[f"{spec.name}.param.{name}"] = _text(value)
     return out
+
+
+SOURCE_LIMIT = 65_536  # characters of a wrapped class's source kept in a record (a controller class is a few thousand)
+
+
+def wrapped_source(path: Path) -> str:
+    """The source text an FMU was wrapped from, where its build record carries one (a build_info.json under resources/
+    with a "source": what `tiltload wrap` writes, either route), so a comparison can say which lines changed; else ''."""
+    import json
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            for name in sorted(n for n in z.namelist() if n.startswith("resources/") and n.endswith("build_info.json")):
+                info = json.loads(z.read(name))
+                if isinstance(info, dict) and isinstance(info.get("source"), str):
+                    return info["source"][:SOURCE_LIMIT]
+    except (OSError, zipfile.BadZipFile, ValueError):
+        pass
+    return ""
 
 
 def units_record(instances, model_descriptions: dict) -> dict[str, str]:

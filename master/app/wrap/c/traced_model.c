@@ -13,6 +13,7 @@
 #include "traced_layout.h"
 
 TL_STATIC_ASSERT(TL_TRACED_STEP_SZ_ARG == 4 && TL_TRACED_STEP_SZ_RES == 2, "step(t, u, p, s) -> (y, s_next)");
+TL_STATIC_ASSERT(TL_TRACED_INIT_SZ_ARG == 1 && TL_TRACED_INIT_SZ_RES == 1, "init(p) -> s0");
 
 void tl_model_reset(TlInstance* c) {
   memcpy(c->s.model.state, tl_traced_initial_state, sizeof c->s.model.state);
@@ -29,6 +30,25 @@ TlStatus tl_model_initialize(TlInstance* c) {
     double v = c->s.real[tl_traced_parameter[i]];
     if (!(v == v) || v - v != 0.0) {
       tl_log(c, TL_ERROR, "parameter %s is not finite (%g)", tl_traced_parameter_name[i], v);
+      return TL_ERROR;
+    }
+    if (tl_traced_parameter_fixed[i] && v != tl_traced_parameter_default[i]) {
+      tl_log(c, TL_ERROR, "parameter %s is fixed at %g in this native FMU (the class's __init__ needs its number); "
+             "wrap the class with pythonfmu to tune it", tl_traced_parameter_name[i], tl_traced_parameter_default[i]);
+      return TL_ERROR;
+    }
+  }
+  { /* the states start from __init__'s values for these parameters */
+    double p[TL_TRACED_NP_ROOM];
+    const double* arg[TL_TRACED_INIT_SZ_ARG + 1];
+    double* res[TL_TRACED_INIT_SZ_RES + 1];
+    casadi_int iw[TL_TRACED_INIT_SZ_IW];
+    double w[TL_TRACED_INIT_SZ_W];
+    for (i = 0; i < TL_TRACED_NP; ++i) p[i] = c->s.real[tl_traced_parameter[i]];
+    arg[0] = p;
+    res[0] = c->s.model.state;
+    if (tl_traced_init(arg, res, iw, w, 0)) {
+      tl_log(c, TL_ERROR, "the traced initial states failed");
       return TL_ERROR;
     }
   }

@@ -1,0 +1,257 @@
+"""Plain numpy to C (issue 65): controllers written in numpy alone (tests/support/data/plain_numpy_corpus.py: float()
+at the return, np.clip, np.where, assignment into arrays, math.*, int(), gains and states from __init__, tl.saturate,
+tl.rate_limit, ...) trace unchanged, and the traced function gives what the class gives run in Python, tick by tick
+with its states carried and its saturations hit; with a declared parameter set away from its default too (a gain
+derived from it in __init__ is recomputed). The Python form is the oracle."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from tiltload.master.app.wrap import trace, wrap
+
+ROOT = Path(__file__).resolve().parents[2]
+CORPUS = ROOT / "tests" / "support" / "data" / "plain_numpy_corpus.py"
+MODULE = wrap.load_module(CORPUS)
+TICKS = 300
+
+
+def _inputs(rng, k: int, walk: np.ndarray) -> dict[str, float]:
+    """The trim, plus a random walk that drives the commands into their limits now and then."""
+    walk += 0.02 * rng.normal(size=walk.size)
+    x = MODULE.X_EQ + walk[:20] * (1.0 + 4.0 * (k % 97 < 20))
+    refs = walk[20:23] + (0.8 if 150 <= k < 200 else 0.0)
+    return {**dict(zip(MODULE.EXACT, map(float, x))), **dict(zip(MODULE.REFS, map(float, refs)))}
+
+
+def _deviation(cls, values: dict[str, float]) -> float:
+    spec = wrap.describe_class(cls, CORPUS)
+    traced = trace.trace(cls, spec["parameters"], list(spec["inputs"]), CORPUS)
+    assert traced.fixed == []  # every corpus __init__ traces: its parameters stay tunable
+    p = np.array([values.get(n, v) for n, v in traced.parameters])
+    s = np.array(traced.init(p)).ravel()
+    python = cls(**{k: values.get(k, v) for k, v in spec["parameters"].items()})
+    lqr = MODULE._Lqr()
+    rng, walk, worst, acted = np.random.default_rng(11), np.zeros(23), 0.0, 0
+    for k in range(TICKS):
+        t = k * cls.period
+        u = _inputs(rng, k, walk)
+        mine = np.array([float(v) for v in python.step(t, dict(u))])
+        theirs, s = trace.run_traced(traced, t, u, p, s)
+        worst = max(worst, float(np.max(np.abs(theirs - mine))))
+        acted += bool(np.max(np.abs(mine - lqr.raw(u))) > 1e-9)
+    assert acted > 5, "the class's nonlinearity (a saturation, a rate limit, a state) was never exercised"
+    return worst
+
+
+def test_the_corpus_is_the_size_the_issue_asks():
+    assert len(MODULE.CORPUS) >= 20 and "casadi" not in CORPUS.read_text()
+
+
+@pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
+def test_each_plain_numpy_controller_traces_into_what_it_computes(cls):
+    assert _deviation(cls, {}) <= 1e-12
+
+
+@pytest.mark.parametrize("name, values", [("GainsFromInit", {"position_scale": 1.6, "thrust_trim": 0.3}),
+                                          ("IntegratorHeld", {"ki": 2.0}), ("CommandFilter", {"alpha": 0.5})])
+def test_a_parameter_set_away_from_its_default_is_recomputed_through_init(name, values):
+    cls = getattr(MODULE, name)
+    assert _deviation(cls, values) <= 1e-12
+
+
+def test_a_parameter_init_needs_the_number_of_is_fixed_and_said_so(tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    source = tmp_path / "branchy.py"
+    source.write_text("import numpy as np\n\n\nclass Branchy:\n    inputs = ['exact_z', 'z_ref']\n"
+                      "    parameters = {'aggressive': 0.0}\n\n    def __init__(self, aggressive=0.0):\n"
+                      "        if aggressive > 0.5:\n            self.k = 8.0\n        else:\n            self.k = 4.0\n\n"
+                      "    def step(self, t, inputs):\n        e = inputs['z_ref'] - inputs['exact_z']\n"
+                      "        return float(np.clip(10.2 + self.k * e, 0, 30)), 10.2, 0.0, 0.0\n")
+    assert main(["wrap", "--native", str(source), "--out", str(tmp_path / "b.fmu")]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == ("wrap: parameter aggressive fixed at its default in the native FMU: Branchy.__init__ needs the "
+                      "number at line 9 (`if aggressive > 0.5:`); the pythonfmu route (tiltload wrap) keeps it tunable")
+
+
+def test_no_third_party_warning_reaches_the_terminal(tmp_path):
+    """The shipped example, wrapped natively by the command a user types: nothing on stderr."""
+    done = subprocess.run([sys.executable, "-m", "tiltload.master.app.cli", "wrap", "--native",
+                           str(ROOT / "docs" / "examples" / "hover_lqr.py"), "--out", str(tmp_path / "h.fmu")],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+
+
+PD = """import numpy as np
+
+
+class AltitudeHold:
+    inputs = ["exact_z", "z_ref", "exact_z_dot", "exact_x", "exact_y", "exact_phi", "exact_theta", "exact_psi",
+              "exact_phi_dot", "exact_theta_dot", "exact_psi_dot"]
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        f = 10.2 + 4.0 * e - 2.5 * inputs["exact_z_dot"]
+        return float(np.clip(f, 0, 30)), float(np.clip(f, 0, 30)), 0.0, 0.0
+"""
+
+
+@pytest.mark.slow
+def test_run_takes_a_class_file_wraps_it_natively_once_and_says_so(pipeline_fmus, tmp_path, capsys, monkeypatch):
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.wrap import class_fmu
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    source = tmp_path / "altitude_hold.py"
+    source.write_text(PD)
+    run = ["run", "--controller", str(source), "--scenario", "fsi", "--trajectory", "0", "--stop-time", "1.2",
+           "--fmus", str(pipeline_fmus["TiltloadPlant"].parent), "--no-log", "--no-gusts"]
+    assert main(run) == 0
+    first = capsys.readouterr().out
+    assert f"--controller {source}: wrapped as a native C FMU (traced from plain numpy)" in first.splitlines()
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("wrapped again")
+    monkeypatch.setattr(class_fmu, "_build", no_build)  # the same source: the cached FMU
+    assert main(run) == 0
+    again = capsys.readouterr().out
+    metrics = [line for line in first.splitlines() if line.strip().startswith(("ISE(", "IADU("))]
+    assert metrics and metrics == [line for line in again.splitlines() if line.strip().startswith(("ISE(", "IADU("))]
+
+    assert main([*run[:2], str(tmp_path / "missing.py"), *run[3:]]) == 2
+    assert capsys.readouterr().err.strip().endswith("missing.py: no such file")
+
+
+def closed_loop_deviation(cls, fmus: Path, where: Path, seconds: float = 3.0) -> float:
+    """The native FMU of cls in the closed loop (fsi, trajectory 1, 3 s), and its Python form given, tick by tick, the
+    inputs the loop gave the FMU (the sensors' and the scenario's outputs at t_k, from the log): the largest difference
+    of their commands. Validated by FMPy first."""
+    from fmpy.validation import validate_fmu
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.loop.thesis import default_system
+    from tiltload.master.engine.log import reader as log_reader
+    from tiltload.master.engine.run import run_system
+
+    fmu = where / f"{cls.__name__}.fmu"
+    assert main(["wrap", "--native", str(CORPUS), "--class", cls.__name__, "--out", str(fmu)]) == 0
+    assert validate_fmu(str(fmu)) == []
+    log = where / f"{cls.__name__}.mcap"
+    result = run_system(default_system(fmus, "fsi", 1, None, 1, fmu), seconds, log, progress=False)
+    assert result.error is None, result.error
+    data = log_reader.read(log, topics=["/sensors", "/scenario", "/controller"])
+    python, worst = cls(), 0.0
+    for sensed, scenario, command in zip(data["/sensors"], data["/scenario"], data["/controller"]):
+        assert sensed["t"] == scenario["t"] == command["t"]
+        inputs = {n: (sensed if n.startswith("exact_") else scenario)[n] for n in cls.inputs}
+        mine = [float(v) for v in python.step(command["t"], inputs)]
+        worst = max(worst, max(abs(m - command[n]) for m, n in zip(mine, ("f_R", "f_L", "tau_R", "tau_L"))))
+    assert len(data["/controller"]) > 200
+    return worst
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
+def test_each_native_fmu_equals_its_python_form_in_the_closed_loop(cls, fmus, tmp_path):
+    assert closed_loop_deviation(cls, fmus, tmp_path) <= 1e-12
+
+
+GAIN = """import numpy as np
+
+
+class Hold:
+    inputs = ["exact_z", "z_ref", "exact_z_dot"]
+
+    def __init__(self):
+        self.kp = 4.0
+        self.kd = 2.5
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        f = 10.2 + self.kp * e - self.kd * inputs["exact_z_dot"]
+        return float(np.clip(f, 0, 30)), float(np.clip(f, 0, 30)), 0.0, 0.0
+"""
+
+
+@pytest.mark.slow
+def test_a_one_percent_gain_change_in_the_source_is_said_in_the_users_words(pipeline_fmus, tmp_path):
+    """A baseline of a class file's run records its source: the comparison after a 1 % change of a gain names the
+    parameter and the changed line of the class first, before any metric."""
+    import tiltload as tl
+
+    source = tmp_path / "hold.py"
+    source.write_text(GAIN)
+    run = dict(controller=str(source), scenario="fsi", trajectory=1, stop_time=1.2, no_gusts=True,
+               fmus=pipeline_fmus["TiltloadPlant"].parent)
+    baseline = tl.save_baseline(tl.run(**run, out=tmp_path / "a", no_plots=True), tmp_path / "hold.json")
+    source.write_text(GAIN.replace("self.kp = 4.0", "self.kp = 4.04"))
+    comparison = tl.compare(tl.run(**run, out=tmp_path / "b", no_plots=True), baseline)
+    assert not comparison.ok
+    line = GAIN.splitlines().index("        self.kp = 4.0") + 1
+    assert comparison.changed_line().startswith("what changed: controller parameter kp 4.0 -> 4.04; controller class "
+                                                f"line {line} `self.kp = 4.0` -> `self.kp = 4.04`; ")
+
+
+TAPS = """import numpy as np
+
+
+class Taps:
+    inputs = ["exact_z", "z_ref"]
+    parameters = {"taps": 3.0, "gain": 4.0}
+
+    def __init__(self, taps=3.0, gain=4.0):
+        self.n = int(taps)
+        self.gain = gain
+        self.history = np.zeros(3)
+
+    def step(self, t, inputs):
+        e = inputs["z_ref"] - inputs["exact_z"]
+        total = 0.0
+        for i in range(self.n):
+            total = total + self.history[i]
+        self.history = np.concatenate([[e], self.history[:-1]])
+        return float(np.clip(10.2 + self.gain * (e + total / self.n), 0, 30)), 10.2, 0.0, 0.0
+"""
+
+
+def test_a_count_from_init_traces_with_its_parameters_fixed_and_said_where(tmp_path):
+    """range(self.n) needs n's number: the parameters are fixed (named with the line), the count kept as the number it
+    is, and the traced function still computes what the class does."""
+    source = tmp_path / "taps.py"
+    source.write_text(TAPS)
+    cls = wrap.find_class(wrap.load_module(source), source, None)[1]
+    traced = trace.trace(cls, {"taps": 3.0, "gain": 4.0}, cls.inputs, source)
+    line = TAPS.splitlines().index("        for i in range(self.n):") + 1
+    assert traced.fixed == ["taps", "gain"]
+    assert traced.why_fixed == f"Taps.step needs the number at line {line} (`for i in range(self.n):`)"
+    python, p = cls(), np.array([v for _, v in traced.parameters])
+    s = np.array(traced.init(p)).ravel()
+    for k in range(60):
+        u = {"exact_z": 0.1 * np.sin(0.3 * k), "z_ref": 1.0 if k > 10 else 0.0}
+        mine = [float(v) for v in python.step(k * 0.012, dict(u))]
+        theirs, s = trace.run_traced(traced, k * 0.012, u, p, s)
+        assert np.allclose(theirs, mine, rtol=0, atol=1e-12)
+
+
+def test_a_campaign_takes_a_class_file_among_its_controllers(tmp_path, monkeypatch):
+    """base.controllers = ["dlqr", "hold.py"]: the class wrapped as run --controller wraps it (here natively); its
+    runs name that FMU; a class that cannot run is the spec's one line."""
+    from tiltload.master.app.campaign import spec as campaign_spec
+    from tiltload.master.app.case.spec_file import SpecError
+    from tiltload.master.app.wrap.class_fmu import route
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    (tmp_path / "hold.py").write_text(GAIN)
+    spec = tmp_path / "c.toml"
+    spec.write_text('name = "c"\n[base]\nscenario = "fsi"\ntrajectory = 1\ncontrollers = ["dlqr", "hold.py"]\n'
+                    "stop_time = 1\n[vary]\nseeds = [1]\n")
+    controllers = [case.controller for case in campaign_spec.load(spec).cases]
+    assert len(controllers) == 2 and controllers[0] == "dlqr" and controllers[1].endswith("hold.fmu")
+    assert route(Path(controllers[1])).startswith("a native C FMU")
+    (tmp_path / "hold.py").write_text(GAIN.replace("self.kd = 2.5", "self.kd = 1 / 0"))
+    with pytest.raises(SpecError, match=r"c.toml: base.controllers: Hold\(\): __init__ raised ZeroDivisionError"):
+        campaign_spec.load(spec)
