@@ -92,13 +92,17 @@ class Instance(ctypes.Structure):
                 ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
                 ("n_out", ctypes.c_int * TYPES), ("out_vrs", ctypes.c_void_p * TYPES), ("out", ctypes.c_void_p * TYPES),
                 ("history", ctypes.c_void_p * TYPES), ("n_groups", ctypes.c_int), ("groups", ctypes.POINTER(Group)),
-                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double), ("clocks", ctypes.POINTER(Clocks))]
+                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double), ("histogram", ctypes.c_void_p),
+                ("fastest_ns", ctypes.c_int64), ("slowest_ns", ctypes.c_int64), ("host_ns", ctypes.c_int64),
+                ("clocks", ctypes.POINTER(Clocks))]
 
 
 class Plan(ctypes.Structure):
     _fields_ = [("n_instances", ctypes.c_int), ("instances", ctypes.POINTER(Instance)), ("tick", ctypes.c_double),
                 ("ticks_done", ctypes.c_int64), ("slots", ctypes.c_int), ("step_callback", STEP_CALLBACK),
-                ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("record_capacity", ctypes.c_int64),
+                ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("tick_histogram", ctypes.c_void_p),
+                ("tick_ns", ctypes.c_int64), ("fastest_tick_ns", ctypes.c_int64), ("slowest_tick_ns", ctypes.c_int64),
+                ("record_capacity", ctypes.c_int64),
                 ("records", ctypes.c_int64), ("record_instance", ctypes.c_void_p), ("record_tick", ctypes.c_void_p),
                 ("record_time", ctypes.c_void_p),
                 ("record_row", ctypes.c_void_p), ("rows", ctypes.c_void_p), ("error_kind", ctypes.c_int),

@@ -25,8 +25,11 @@ from ..fmi.slave import TYPES
 from ..observers import Batch
 from . import kernel
 from .clocks import ClockedPlan
-from .codes import ErrorKind, Profile, Side, type_name, value_type
+from .codes import Dimension, ErrorKind, Profile, Side, type_name, value_type
 from .fault_plan import SIDES, FaultPlan
+
+BUCKETS = int(Dimension.PROFILE_BUCKETS)  # a profile histogram's (profile.py)
+INT64_MAX = np.iinfo(np.int64).max
 
 _EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOCK: "setClock",
                 ErrorKind.UPDATE_DISCRETE_STATES: "updateDiscreteStates", ErrorKind.ENTER_STEP_MODE: "enterStepMode"}
@@ -160,6 +163,13 @@ class NativeLoop(FaultPlan):
         self.record_time = np.zeros(chunk * n, dtype=np.float64)
         self.record_row = np.zeros(chunk * n, dtype=np.int64)
         self.rows = np.zeros(n, dtype=np.int64)
+        # the profile's (profile.py): kept always (5 kB an instance), written by the kernel only with the profile on
+        self.histograms = np.zeros((n, BUCKETS), dtype=np.int64)
+        self.tick_histogram = np.zeros(BUCKETS, dtype=np.int64)
+        self.step_ns = np.zeros(n, dtype=np.int64)
+        self.host_ns = np.zeros(n, dtype=np.int64)
+        for i, c in enumerate(self.instances):
+            c.histogram = self.histograms[i].ctypes.data
         self.lateness = np.zeros(chunk, dtype=np.float64)
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
@@ -169,6 +179,7 @@ class NativeLoop(FaultPlan):
         self._index = index
         self._bound = self._binding()
         self._plan_faults(manipulator)
+        self.plan.tick_histogram = self.tick_histogram.ctypes.data
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
         self._pending: BaseException | None = None
@@ -254,8 +265,10 @@ class NativeLoop(FaultPlan):
             done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
             for clocked in self.clocked:
                 clocked.pull()
-            for slave, c in zip(self.slaves, self.instances):
-                slave.fmi_seconds += c.seconds
+            for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
+                if not c.by_callback:  # one stepped by the callback times its own calls
+                    slave.fmi_seconds += c.seconds
+                self.step_ns[i] += round(c.seconds * 1e9)
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
@@ -299,6 +312,21 @@ class NativeLoop(FaultPlan):
             raise
         if failure is not None:
             raise failure
+
+    def profile_from_now(self) -> None:
+        """The profile on (wall time), its histograms and sums from zero (profile.Profiler)."""
+        p = self.plan
+        p.profile = Profile.WALL
+        for array in (self.histograms, self.tick_histogram, self.step_ns, self.host_ns):
+            array[...] = 0
+        p.tick_ns, p.fastest_tick_ns, p.slowest_tick_ns = 0, INT64_MAX, 0
+        for c in self.instances:
+            c.seconds, c.fastest_ns, c.slowest_ns, c.host_ns = 0.0, INT64_MAX, 0, 0
+
+    def profile_off(self) -> None:
+        self.plan.profile = Profile(int(self.ex.profile))
+        for i, c in enumerate(self.instances):
+            self.host_ns[i] = c.host_ns
 
     def _batch(self, first: int, done: int) -> Batch:
         r = int(self.plan.records)

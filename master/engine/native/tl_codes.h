@@ -7,7 +7,9 @@
 /* The lengths of the plan's fixed arrays. */
 #define TL_DIMENSIONS(X) \
     X(TL_TYPES, 3)              /* value types: the per-type arrays of an instance */ \
-    X(TL_ENTROPY_WORDS, 16)     /* a noise or jitter fault's own seed words (seed, place) at most; the tick's are added per draw */
+    X(TL_ENTROPY_WORDS, 16)     /* a noise or jitter fault's own seed words (seed, place) at most; the tick's are added per draw */ \
+    X(TL_PROFILE_OCTAVE_BITS, 4) /* a profile histogram has 2^4 buckets per octave of nanoseconds (6 % wide) */ \
+    X(TL_PROFILE_BUCKETS, 640)  /* 40 octaves: 1 ns to 18 min */
 
 /* A value's type, the index of the per-type arrays (as the engine's TYPES). */
 #define TL_VALUE_TYPES(X) \
@@ -20,7 +22,7 @@
     X(TL_INPUTS, 0)             /* after the gather, before the inputs are set */ \
     X(TL_OUTPUTS, 1)            /* after the outputs are read */
 
-/* What tl_plan.profile times into tl_instance.seconds. */
+/* What tl_plan.profile times into tl_instance.seconds (and, with the histograms given, every step and tick). */
 #define TL_PROFILES(X) \
     X(TL_PROFILE_OFF, 0) \
     X(TL_PROFILE_WALL, 1)       /* wall time */ \

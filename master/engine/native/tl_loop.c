@@ -39,6 +39,20 @@ static int64_t profile_ns(int profile) {
     return tl_monotonic_ns();
 }
 
+/* A time into a profile histogram: bucket e S + s for ns in [2^(e-1) (1 + s / S), 2^(e-1) (1 + (s + 1) / S)), S buckets
+   an octave,
+   with ns = m 2^e, m in [0.5, 1) (frexp; no allocation, a few ns). profile.py reads the buckets back the same way. */
+#define TL_PROFILE_SUB (1 << TL_PROFILE_OCTAVE_BITS)
+static void profile_add(int64_t *histogram, int64_t *fastest, int64_t *slowest, int64_t ns) {
+    if (ns < *fastest) *fastest = ns;
+    if (ns > *slowest) *slowest = ns;
+    if (histogram == NULL) return;
+    int e = 0;
+    double m = frexp(ns > 0 ? (double)ns : 1.0, &e);
+    int b = e * TL_PROFILE_SUB + (int)((m - 0.5) * 2.0 * TL_PROFILE_SUB);
+    histogram[b < 0 ? 0 : b >= TL_PROFILE_BUCKETS ? TL_PROFILE_BUCKETS - 1 : b]++;
+}
+
 static void sleep_until(int64_t ns) {
 #if defined(CLOCK_MONOTONIC) && !defined(__APPLE__) && !defined(_WIN32)
     struct timespec ts;
@@ -502,24 +516,31 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
+    /* the profile times the FMU's calls (or the callback that makes them elsewhere); a clocked FMU's staging and held
+       outputs are the master's work */
+    int event = 0, n_due = 0;
+    if (!in->by_callback && in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
+    int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
+    int failed = 0;
     if (in->by_callback) {
         int done = plan->step_callback(i, t, h);
         if (done == 2) {
             plan->ended_instance = i;
         } else if (done != 0) {
             fail(plan, TL_ERROR_STEP_CALLBACK, i, 0, -1, -1, t);
-            return 1;
+            failed = 1;
         }
-    } else { /* the profile times the FMU's calls; a clocked FMU's staging and held outputs are the master's work */
-        int event = 0, n_due = 0;
-        if (in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
-        int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
-        int failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
-                                                                        : call_fmu(plan, i, k, t, h, event, n_due);
-        if (plan->profile) in->seconds += (double)(profile_ns(plan->profile) - started) * 1e-9;
-        if (failed) return 1;
-        if (in->clocks != NULL) held_outputs(in);
+    } else {
+        failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
+                                                                    : call_fmu(plan, i, k, t, h, event, n_due);
     }
+    if (plan->profile) {
+        int64_t took = profile_ns(plan->profile) - started;
+        in->seconds += (double)took * 1e-9;
+        profile_add(in->histogram, &in->fastest_ns, &in->slowest_ns, took);
+    }
+    if (failed) return 1;
+    if (!in->by_callback && in->clocks != NULL) held_outputs(in);
     if (plan->n_faults) apply_faults(plan, i, TL_OUTPUTS, t);
     if (in->hook_outputs && plan->hook_callback(i, TL_OUTPUTS, t) != 0) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
@@ -574,12 +595,18 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
             if (plan->lateness != NULL) plan->lateness[done] = (double)(now - deadline) * 1e-9;
             if (plan->overrun != NULL) plan->overrun[done] = (int8_t)late;
         }
+        int64_t started = plan->profile ? profile_ns(plan->profile) : 0; /* off: this branch is the profile's cost */
         for (int i = 0; i < plan->n_instances; i++) {
             if (k % plan->instances[i].every) continue;
             if (step_instance(plan, i, k, t) != 0) return done;
         }
         tl_store_history(plan, k + 1);
         plan->ticks_done = k + 1;
+        if (plan->profile) {
+            int64_t took = profile_ns(plan->profile) - started;
+            plan->tick_ns += took;
+            profile_add(plan->tick_histogram, &plan->fastest_tick_ns, &plan->slowest_tick_ns, took);
+        }
     }
     return done;
 }

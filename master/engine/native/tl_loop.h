@@ -182,6 +182,11 @@ typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
     F(tl_group *, groups) \
     A(void *, record, TL_TYPES)     /* rows x n_out values per type, one row per recorded step */ \
     F(double, seconds)              /* time in this instance's FMI calls (with profile on) */ \
+    /* with profile on and a histogram given: every step's time (its FMI calls, or its callback) */ \
+    F(int64_t *, histogram)         /* TL_PROFILE_BUCKETS counts (NULL: none kept) */ \
+    F(int64_t, fastest_ns)          /* the caller starts them at INT64_MAX and 0 */ \
+    F(int64_t, slowest_ns) \
+    F(int64_t, host_ns)             /* of those steps' time: its host's own in the FMU's calls (isolated on shared memory) */ \
     F(tl_clocks *, clocks)          /* fmi3 with clocks: its Event Mode plan (NULL: none) */
 typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
 
@@ -194,6 +199,10 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(tl_step_callback, step_callback) \
     F(tl_hook_callback, hook_callback) \
     F(int, profile)                 /* tl_profile: time every step's FMI calls into tl_instance.seconds */ \
+    F(int64_t *, tick_histogram)    /* with profile on: every tick's time (pacing's sleep not counted), as the steps' */ \
+    F(int64_t, tick_ns)             /* their sum */ \
+    F(int64_t, fastest_tick_ns) \
+    F(int64_t, slowest_tick_ns) \
     /* records of the last call: which instance stepped, the time its outputs hold, its row */ \
     F(int64_t, record_capacity)     /* rows available per instance, and entries in the arrays below */ \
     F(int64_t, records)             /* steps recorded in this call */ \
