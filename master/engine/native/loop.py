@@ -179,6 +179,7 @@ class NativeLoop(FaultPlan):
         self._index = index
         self._bound = self._binding()
         self._plan_faults(manipulator)
+        self._bind_links()
         self.plan.tick_histogram = self.tick_histogram.ctypes.data
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
@@ -200,6 +201,30 @@ class NativeLoop(FaultPlan):
                 any(self.ex.instances.get(n) is not s for n, s in zip(self.names, self.slaves)):
             return False
         return all(a[1] == b[1] and all(x is y for x, y in zip(a[2:], b[2:])) for a, b in zip(self._binding(), self._bound))
+
+    # --- isolated FMUs over shared memory (isolation/link.py) --------------------------------------------------------
+    def _bind_links(self) -> None:
+        """Which isolated FMUs the kernel steps over shared memory: those with a segment, unless asked through the
+        callback or with a fault Python applies to their inputs (it may set them directly, a call the link has not)."""
+        self._links: list[tuple[int, list]] = []
+        for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
+            if getattr(slave, "segment", None) is None or self.names[i] in self.by_callback:
+                continue
+            c.link, c.by_callback = None, 1
+            self.paths[self.names[i]] = path_of(slave)
+            if c.hook_inputs:
+                continue
+            groups = [(g.type, [int(v) for v in g.dst_vrs]) for g in self.ex.groups.get(self.names[i], [])]
+            self._links.append((i, groups))
+
+    def _take_links(self) -> None:
+        """Before a call of the kernel: every linked FMU's host on its segment (a snapshot or a reset in between
+        brought it back to its pipe)."""
+        for i, groups in self._links:
+            c = self.instances[i]
+            link = self.slaves[i].link_for(groups)
+            c.link, c.by_callback = (ctypes.pointer(link), 0) if link is not None else (None, 1)
+            self.paths[self.names[i]] = "kernel: shared memory (worker process)" if link is not None else path_of(self.slaves[i])
 
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:
@@ -244,6 +269,7 @@ class NativeLoop(FaultPlan):
                 array[:] = 0
         if self._faulted or self.ex.manipulator is not None:
             self._plan_faults(self.ex.manipulator)
+        self._bind_links()
         self.lib.tl_store_history(ctypes.byref(p), 0)  # the delay line starts with the values at t = 0
         for clocked in self.clocked:
             clocked.forget_inputs()
@@ -262,6 +288,8 @@ class NativeLoop(FaultPlan):
             self._queue.events = []
             for clocked in self.clocked:
                 clocked.push()
+            if self._links:
+                self._take_links()
             done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
             for clocked in self.clocked:
                 clocked.pull()
@@ -298,6 +326,8 @@ class NativeLoop(FaultPlan):
         self._queue.events = []
         for clocked in self.clocked:
             clocked.push()
+        if self._links:
+            self._take_links()
         failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
         for clocked in self.clocked:
             clocked.pull()
@@ -353,6 +383,8 @@ class NativeLoop(FaultPlan):
         name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
         if getattr(slave, "scheduled", False) and kind in _SCHEDULED:
             return self._scheduled_error(slave, kind, t)
+        if kind == ErrorKind.LINK:
+            return slave.link_failed(p.error_status, p.error_group, t)
         if kind == ErrorKind.DO_STEP:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
         if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"

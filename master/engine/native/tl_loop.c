@@ -3,12 +3,18 @@
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
+#define _DEFAULT_SOURCE /* syscall(SYS_futex) for the link */
 #endif
 #include "tl_loop.h"
 
 #include <math.h>
 #include <string.h>
 #include <time.h>
+#if defined(__linux__)
+#include <poll.h>
+#endif
+
+#include "tl_link.h"
 
 #if defined(__GNUC__)
 #define TL_EXPORT __attribute__((visibility("default")))
@@ -504,6 +510,116 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
     return in->clocks != NULL ? read_clock(plan, i, -1, t) : get_outputs(plan, i, t);
 }
 
+/* ---- an isolated FMU over shared memory (tl_link.h) ------------------------------------------------------------ */
+/* The host process ended: its end of the reply pipe is closed (or it wrote there, which it does only when it left the
+   link). */
+static int host_ended(const tl_link *L) {
+#if defined(__linux__)
+    struct pollfd p = {L->hung_up_fd, POLLIN, 0};
+    return poll(&p, 1, 0) > 0;
+#else
+    (void)L;
+    return 1;
+#endif
+}
+
+/* Wait for the host's answer to request seq: spin for spin_ns, then sleep on the futex in slices of at most 2 ms,
+   looking between two at the host's pipe and the watchdog. Returns 0, or a tl_link_failure (corrupt: the host wrote a
+   sequence number that is neither the last answered nor this one). */
+static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
+    uint32_t *reply = tl_link_word(L->base, TL_LINK_REPLY);
+    int64_t start = tl_monotonic_ns(), now = start;
+    for (;;) {
+        uint32_t v = __atomic_load_n(reply, __ATOMIC_ACQUIRE);
+        if (v == seq) return 0;
+        if (v != seq - 1) {
+            *corruption = TL_CORRUPT_SEQUENCE;
+            return TL_LINK_CORRUPT;
+        }
+        now = tl_monotonic_ns();
+        if (now - start < L->spin_ns) {
+            tl_cpu_relax();
+            continue;
+        }
+        if (now - start >= L->timeout_ns) return TL_LINK_TIMEOUT;
+        if (host_ended(L) && __atomic_load_n(reply, __ATOMIC_ACQUIRE) != seq) return TL_LINK_ENDED;
+        int64_t left = L->timeout_ns - (now - start);
+        tl_link_sleep(reply, v, left < 2000000 ? left : 2000000);
+    }
+}
+
+TL_EXPORT int tl_link_yield(tl_link *L) {
+    if (L == NULL) return -1;
+    unsigned char *b = L->base;
+    uint32_t op = TL_LINK_YIELD;
+    memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
+    tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), ++L->seq);
+    return 0;
+}
+
+/* A step through the link: the gathered inputs into the segment, the request published, the answer awaited and
+   checked, the outputs copied out. Whatever the host wrote, only the plan's own offsets are read (all within the
+   segment: checked when the link was made), each field checked before use. Returns 0, or stops the run. */
+static int step_linked(tl_plan *plan, int i, double t, double h) {
+    tl_instance *in = &plan->instances[i];
+    tl_link *L = in->link;
+    unsigned char *b = L->base;
+    for (int g = 0; g < in->n_groups; g++) {
+        const tl_group *gr = &in->groups[g];
+        memcpy(b + L->in_offset[g], gr->values, (size_t)gr->n * width(gr->type));
+    }
+    uint32_t op = TL_LINK_STEP;
+    memcpy(b + TL_LINK_CALL, &t, sizeof t);
+    memcpy(b + TL_LINK_CALL + 8, &h, sizeof h);
+    memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
+    uint32_t seq = ++L->seq;
+    tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), seq);
+    int corruption = 0;
+    int failure = await_reply(L, seq, &corruption);
+    tl_link_reply r;
+    memcpy(&r, b + L->out_offset, sizeof r); /* a copy: the host cannot change what is checked after the check */
+    int64_t out_bytes = 0;
+    for (int ty = 0; ty < TL_TYPES; ty++) out_bytes += (int64_t)in->n_out[ty] * (int64_t)width(ty);
+    if (!failure) {
+        if ((int64_t)r.out_bytes != out_bytes) corruption = TL_CORRUPT_LENGTH;
+        else if (r.call < TL_LINK_OK || r.call > TL_LINK_GET || r.status < 0 || r.status > 4 || (r.ended != 0 && r.ended != 1) ||
+                 (r.call == TL_LINK_SET && (r.where < 0 || r.where >= in->n_groups)) ||
+                 (r.call == TL_LINK_GET && (r.where < 0 || r.where >= TL_TYPES)))
+            corruption = TL_CORRUPT_CALL;
+        else if (r.host_ns < 0 || (r.ended && !(r.last_time >= t && r.last_time <= t + h)))
+            corruption = TL_CORRUPT_TIME;
+        if (corruption) failure = TL_LINK_CORRUPT;
+    }
+    if (failure) {
+        fail(plan, TL_ERROR_LINK, i, failure, corruption, -1, t);
+        return 1;
+    }
+    in->host_ns += r.host_ns;
+    if (r.call == TL_LINK_SET) {
+        fail(plan, TL_ERROR_SET, i, r.status, r.where, in->groups[r.where].type, t);
+        return 1;
+    }
+    if (r.call == TL_LINK_GET) {
+        fail(plan, TL_ERROR_GET, i, r.status, -1, r.where, t);
+        return 1;
+    }
+    if (r.call == TL_LINK_DO_STEP) {
+        if (!(r.ended && plan->ends_allowed)) {
+            fail(plan, TL_ERROR_DO_STEP, i, r.status, -1, -1, t);
+            return 1;
+        }
+        plan->ended_instance = i; /* fmi2Discard, fmi2Terminated: the run ends at the last successful time, as in process */
+        plan->ended_time = r.last_time;
+    }
+    int64_t at = L->out_offset + TL_LINK_HEADER;
+    for (int ty = 0; ty < TL_TYPES; ty++) {
+        size_t bytes = (size_t)in->n_out[ty] * width(ty);
+        memcpy(in->out[ty], b + at, bytes);
+        at += (int64_t)bytes;
+    }
+    return 0;
+}
+
 /* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
@@ -530,6 +646,8 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
             fail(plan, TL_ERROR_STEP_CALLBACK, i, 0, -1, -1, t);
             failed = 1;
         }
+    } else if (in->link != NULL) {
+        failed = step_linked(plan, i, t, h);
     } else {
         failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
                                                                     : call_fmu(plan, i, k, t, h, event, n_due);
