@@ -17,7 +17,6 @@ from . import handshake
 from .process import STEP_TIMEOUT, IsolatedFmu
 from .remote_client import RemoteHost
 
-
 SHARED_MEMORY = True  # a local worker's steps go over shared memory where they can (link.py)
 
 

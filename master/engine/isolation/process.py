@@ -37,6 +37,7 @@ from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 STEP_TIMEOUT = 10.0  # s a call may take before the watchdog ends it (--step-timeout)
 START_TIMEOUT = 60.0  # s for the host to start and instantiate (a pythonfmu FMU starts an interpreter)
 WORKER_MODULE = "tiltload.master.command_line.worker"  # its command line; the hosting itself is worker.py
+WORKER_COMMAND = (sys.executable, "-m", WORKER_MODULE)  # what starts a worker (a test puts a misbehaving host here)
 
 
 def _signal_name(number: int) -> str:
@@ -67,7 +68,7 @@ class WorkerProcess:
         rep_r, rep_w = os.pipe()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", WORKER_MODULE, str(path), name, "--pipes", str(req_r), str(rep_w), *placed, *shared],
+                [*WORKER_COMMAND, str(path), name, "--pipes", str(req_r), str(rep_w), *placed, *shared],
                 pass_fds=(req_r, rep_w, *([segment.fd] if segment is not None else [])), stdin=subprocess.DEVNULL,
                 stdout=self._stderr, stderr=self._stderr)
         except BaseException:
