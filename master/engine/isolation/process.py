@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import DescriptionError, ExecutionError
 from ..fmi import slave
+from ..fmi.model_description import clocks_of
 from . import link, wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -50,10 +51,6 @@ def _signal_name(number: int) -> str:
 def how_it_ended(code: int) -> str:
     """A worker's end by its exit status (Popen's returncode: negative for a signal)."""
     return f"the FMU crashed ({_signal_name(-code)})" if code < 0 else f"the FMU ended its process with exit({code})"
-
-
-def _has_clocks(md) -> bool:
-    return any(getattr(v, "type", None) == "Clock" for v in md.modelVariables)
 
 
 class WorkerProcess:
@@ -135,8 +132,7 @@ class IsolatedFmu(slave.Slave):
         self.segment = None
         self.link = None  # kernel.Link while the loop may step it over shared memory
         self.linked = False  # the host is in its C loop on the segment (not on its pipe)
-        if shared_memory and host is None and link.available() and not getattr(self, "clocked", False) and \
-                not (md.fmiVersion.startswith("3") and _has_clocks(md)):
+        if shared_memory and host is None and link.available() and not clocks_of(md):  # clocks: Event Mode on the pipe
             size, out_offset = link.segment_size(sum(1 for v in md.modelVariables if v.causality == "input"),
                                                  {t: len(vs) for t, vs in self.outputs.items()})
             self.segment = link.Segment(name, size, out_offset)
