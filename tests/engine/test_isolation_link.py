@@ -11,7 +11,7 @@ import textwrap
 import pytest
 from support.fmi2_session import foreign_copy
 from tiltload.master.app.loop.fmus import is_foreign
-from tiltload.master.app.loop.thesis import default_system, loop_metrics
+from tiltload.master.app.loop.thesis import default_stop, default_system, loop_metrics
 from tiltload.master.engine.errors import ExecutionError
 from tiltload.master.engine.execution import Execution
 from tiltload.master.engine.isolation import hosting, link, process
@@ -133,3 +133,24 @@ def test_a_snapshot_and_a_reset_of_a_linked_fmu_continue_as_in_process(fmus, for
     assert tables[True][0] == tables[False][0]
     assert (tables[True][1] == tables[False][1]).all()
     assert tables[True][2] == tables[False][2]
+
+
+def test_the_twelve_reproduction_cases_through_the_link_give_the_in_process_metrics_bit_for_bit(fmus):
+    """The shipped controller forced into a worker process (stepped over shared memory) in every case of `tiltload
+    reproduce`, each its whole length: every metric equal to the last bit to the run in process."""
+    from tiltload.master.app.regression.reproduce import CASES, SEED
+    from tiltload.master.engine.lifecycle import RunPlan, run_plan
+
+    def controller_only(fmu, md):
+        return "Controller" in fmu.name
+
+    for scenario, trajectory, controller in CASES:
+        results = []
+        for isolate in (None, controller_only):
+            system = default_system(fmus, scenario, trajectory, controller, SEED)
+            results.append(run_plan(RunPlan(system, default_stop(trajectory), metrics=loop_metrics(), isolate=isolate,
+                                            profile=isolate is not None)))
+        here, linked = results
+        assert here.error is None and linked.error is None, (scenario, trajectory, controller, linked.error)
+        assert next(f for f in linked.profile.fmus if f.name == "controller").isolated == "shared memory"  # not the pipe
+        assert here.ticks == linked.ticks and here.metrics == linked.metrics, (scenario, trajectory, controller)
