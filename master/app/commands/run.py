@@ -26,7 +26,7 @@ def add_parser(sub) -> None:
                         f"{arguments.DAY:g} s)")
     r.add_argument("--profile", action="store_true",
                    help="say where the ticks' time went: each FMU's step time (min, median, p99, max) and share, the "
-                        "isolation's, the master's, the log's, and the real-time margin (docs/performance.md)")
+                        "isolation's, the master's, the log's, and the real-time margin (docs/master.md)")
     r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
                    help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
