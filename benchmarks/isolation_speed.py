@@ -8,7 +8,7 @@ side with another (the last landing: /work/before, commit 5052690, with its own 
   native wrap         the same class wrapped with `tiltload wrap --native` (a C FMU traced from Python)
 
 The FMUs are built once, by this tree, and both trees run the same files on the thesis's loop (default_system with
-controller_fmu, trajectory 0: hover, the mixed design's parameters for the shipped one; no log). Per tick: the wall
+controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log). Per tick: the wall
 time of a --stop s run after the instantiation (worker process, FMU loaded: not timed) / its ticks; best of
 --repeats. The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
 the figures move with the other sessions' work.
@@ -82,7 +82,11 @@ def measure(config: dict) -> list[dict]:
     default_system, loop_metrics, is_foreign, Execution = _loop_api()
 
     def timed(controller, scenario, isolated):
-        system = default_system(Path(config["fmus"]), scenario, 0, "mixed", controller_fmu=Path(controller))
+        if controller == config["C controller"]:  # the shipped controller's FMU, foreign: its design's parameters kept
+            system = default_system(Path(config["fmus"]), scenario, 0, "mixed")
+            next(i for i in system.instances if i.name == "controller").fmu = Path(controller)
+        else:
+            system = default_system(Path(config["fmus"]), scenario, 0, "mixed", controller_fmu=Path(controller))
         ex = Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
         try:
             ex.instantiate()
