@@ -133,13 +133,12 @@ class RunProfile:
             out.append(f"  {label:<28} {cells[0]:>7} {cells[1]:>9} {cells[2]:>9} {cells[3]:>9} {cells[4]:>9} {share:>6.1%}")
 
         for f in self.fmus:
-            label = f.name + (f" (isolated: {f.isolated})" if f.isolated else "")
-            row(label[:28], f.steps, shares[f.name])
+            row(f.name[:28], f.steps, shares[f.name])
             if f.isolated:
                 share = shares[f"isolation of {f.name}"]
-                out.append(f"  {'  of which isolation':<28} {'':>7} {'':>9} {'':>9} {'':>9} {'':>9} {share:>6.1%}"
-                           if f.in_fmu is not None else
-                           f"  {'  (round trip, FMU and crossing together: not split on this link)':<70}")
+                out.append(f"  {'  isolation':<28} {'':>7} {'':>9} {'':>9} {'':>9} {'':>9} {share:>6.1%}  ({f.isolated}; the "
+                           "steps' times are round trips)" if f.in_fmu is not None else
+                           f"  {'':<28} ({f.isolated}: the round trip's FMU and crossing not told apart, all in its share)")
         row("master", None, shares["master"])
         row("log", None, shares["log"])
         row("observers", None, shares["observers"])
