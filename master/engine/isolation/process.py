@@ -135,6 +135,7 @@ class IsolatedFmu(slave.Slave):
         if shared_memory and host is None and link.available() and not clocks_of(md):  # clocks: Event Mode on the pipe
             size, out_offset = link.segment_size(sum(1 for v in md.modelVariables if v.causality == "input"),
                                                  {t: len(vs) for t, vs in self.outputs.items()})
+            link.host_library()  # built here, into the cache the worker loads it from (not within a step's watchdog)
             self.segment = link.Segment(name, size, out_offset)
         try:
             self.host = host if host is not None else WorkerProcess(self.path, name, tick, self.segment)
@@ -226,7 +227,7 @@ class IsolatedFmu(slave.Slave):
             self._exchange(wire.control({"op": "link", "groups": [[t, [int(v) for v in vrs]] for t, vrs in groups],
                                          "in_offset": list(self._offsets)[:len(groups)],
                                          "out_offset": self.segment.out_offset, "seq": int(self.link.seq)}),
-                           "taking the shared-memory link")
+                           "taking the shared-memory link", max(self.timeout, START_TIMEOUT))
             self.linked = True
         return self.link
 
