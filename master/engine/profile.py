@@ -154,6 +154,23 @@ class RunProfile:
             out.append(f"the whole tick: {t.p99 * us:.1f} µs at p99, {t.max * us:.1f} µs at worst, against {self.tick * 1e3:g} ms")
         return out
 
+    def table(self) -> tuple[tuple[str, ...], list[tuple[str, ...]], str]:
+        """(header, rows, note) of the figures `lines` prints, as text cells (a report's table)."""
+        shares = self.shares()
+
+        def cells(s: StepTimes | None) -> tuple[str, ...]:
+            return ("",) * 5 if s is None else (str(s.count), *(f"{x * 1e6:.1f}" for x in (s.min, s.median, s.p99, s.max)))
+
+        rows = []
+        for f in self.fmus:
+            rows.append((f.name, *cells(f.steps), f"{shares[f.name]:.1%}"))
+            if f.isolated and f.in_fmu is not None:
+                rows.append((f"{f.name}: isolation ({f.isolated})", *cells(None), f"{shares[f'isolation of {f.name}']:.1%}"))
+        rows += [(part, *cells(None), f"{shares[part]:.1%}") for part in ("master", "log", "observers")]
+        rows.append(("tick", *cells(self.tick_times), f"{self.tick_times.total / self.total:.1%}" if self.total > 0 else ""))
+        note = " ".join(self.lines()[-2:]) if self.margin() is not None else ""
+        return ("part", "steps", "min µs", "median µs", "p99 µs", "max µs", "share"), rows, note
+
     def as_dict(self) -> dict:
         """Plain numbers (the report's, the log's), times in seconds."""
         def times(s: StepTimes) -> dict:

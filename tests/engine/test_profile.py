@@ -98,3 +98,12 @@ def test_run_profile_prints_every_fmu_and_the_margin(fmus, tmp_path, capsys):
     for part in ("scenario", "sensors", "controller", "plant", "master", "log", "observers", "tick"):
         assert any(line.split()[0] == part for line in table[2:]), (part, table)
     assert any(line.startswith("real-time margin: the controller's period is 12 ms") for line in table)
+
+
+def test_run_profile_goes_into_the_report(fmus, tmp_path, capsys):
+    page = tmp_path / "run.html"
+    assert main(["run", "--stop-time", "1", "--profile", "--report", str(page), "--fmus", str(fmus), "--out", str(tmp_path),
+                 "--quiet", "--no-plots"]) == 0
+    html = page.read_text()
+    assert "Where the ticks&#39; time went (--profile)" in html or "Where the ticks' time went (--profile)" in html
+    assert "median µs" in html and "real-time margin" in html

@@ -299,7 +299,13 @@ def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, 
         test = Test(outcome.opts.run_name(), command, dict(outcome.metadata), None, results,
                     dict(outcome.result.metrics), outcome.failure)
     declared = list(monitor.requirements) if monitor is not None else []
-    report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared)
+    tables = []
+    if outcome.result.profile is not None:  # --profile: where the ticks' time went
+        from ..evidence.model import Table
+
+        header, rows, note = outcome.result.profile.table()
+        tables.append(Table("Where the ticks' time went (--profile)", header, tuple(rows), note))
+    report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared, tables=tables)
     say(f"report: {write_report(report, options.report, inputs=_run_inputs(case, options, outcome.log))}")
 
 
