@@ -154,3 +154,34 @@ def test_the_twelve_reproduction_cases_through_the_link_give_the_in_process_metr
         assert here.error is None and linked.error is None, (scenario, trajectory, controller, linked.error)
         assert next(f for f in linked.profile.fmus if f.name == "controller").isolated == "shared memory"  # not the pipe
         assert here.ticks == linked.ticks and here.metrics == linked.metrics, (scenario, trajectory, controller)
+
+
+def test_ctrl_c_stops_a_wait_on_the_link_at_once(fmus, foreign, tmp_path, monkeypatch):
+    """A host that never answers and a watchdog of 60 s: SIGINT one second into the wait ends it as KeyboardInterrupt
+    (not after the watchdog), the host killed."""
+    import os
+    import signal
+    import threading
+    import time
+
+    script = tmp_path / "hostile_worker.py"
+    script.write_text(HOSTILE)
+    monkeypatch.setenv("HOSTILE", "silent")
+    monkeypatch.setattr(process, "WORKER_COMMAND", (sys.executable, str(script)))
+    ex = _execution(fmus, foreign, timeout=60.0)
+    controller = ex.instances["controller"]
+    proc = controller.host.proc
+    try:
+        ex.run(0.1)
+        controller.set_values({})
+        timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+        started = time.monotonic()
+        timer.start()
+        with pytest.raises(KeyboardInterrupt):
+            ex.run(1.0)
+        assert time.monotonic() - started < 20
+        assert controller.fatal and ex.ticks_done == 8
+    finally:
+        ex.close()
+    assert proc.poll() is not None
+    assert signal.set_wakeup_fd(-1) == -1  # the wakeup fd given back

@@ -220,7 +220,7 @@ class IsolatedFmu(slave.Slave):
             seq = self.link.seq if self.link is not None else 0
             self.link = kernel.Link(base=self.segment.address, size=self.segment.size,
                                     in_offset=ctypes.addressof(self._offsets), out_offset=self.segment.out_offset,
-                                    seq=seq, hung_up_fd=self.channel.read_fd, timeout_ns=int(self.timeout * 1e9),
+                                    seq=seq, hung_up_fd=self.channel.read_fd, signal_fd=-1, timeout_ns=int(self.timeout * 1e9),
                                     spin_ns=link.SPIN_NS)
         if not self.linked:
             self._pending.clear()
@@ -240,12 +240,21 @@ class IsolatedFmu(slave.Slave):
         kernel.library().tl_link_yield(ctypes.byref(self.link))
         self._exchange(None, what)
 
+    def abandon_link(self) -> None:
+        """A step over the link left unanswered (a signal stopped the wait): its host, maybe hung in it, is killed."""
+        if not self._dead:
+            self._dead = self.fatal = True
+            self.linked = False
+            self.host.cut_off()
+
     def link_failed(self, failure: int, corruption: int, t: float) -> ExecutionError:
         """The error line of a step over the link that failed (tl_codes.h's TL_LINK_FAILURES)."""
         from ..native.codes import LinkCorruption, LinkFailure
 
         what = f"doStep at t={t:.6g} s"
         self.linked = False
+        if failure == LinkFailure.INTERRUPTED:  # a signal whose handler did not raise: the step is lost all the same
+            return ExecutionError(f"{self.name}: {what}: the wait for its answer was interrupted by a signal")
         if failure == LinkFailure.TIMEOUT:
             return self._fail(f"{what} did not return within {self.timeout:g} s (watchdog; --step-timeout sets the limit): "
                               f"{self.host.cut_off()}")

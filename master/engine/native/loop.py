@@ -14,7 +14,12 @@ plan: fault_plan.py.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import os
+import signal
+import threading
+import weakref
 
 import numpy as np
 
@@ -25,7 +30,7 @@ from ..fmi.slave import TYPES
 from ..observers import Batch
 from . import kernel
 from .clocks import ClockedPlan
-from .codes import Dimension, ErrorKind, Profile, Side, type_name, value_type
+from .codes import Dimension, ErrorKind, LinkFailure, Profile, Side, type_name, value_type
 from .fault_plan import SIDES, FaultPlan
 
 BUCKETS = int(Dimension.PROFILE_BUCKETS)  # a profile histogram's (profile.py)
@@ -51,6 +56,11 @@ class _EventQueue:
 
     def on_fault(self, t, fault, what) -> None:
         self.events.append((int(self.plan.records), self.side, t, fault, what))
+
+
+def _close_all(fds) -> None:
+    for fd in fds:
+        os.close(fd)
 
 
 def _native_fmi3(slave) -> bool:
@@ -207,6 +217,7 @@ class NativeLoop(FaultPlan):
         """Which isolated FMUs the kernel steps over shared memory: those with a segment, unless asked through the
         callback or with a fault Python applies to their inputs (it may set them directly, a call the link has not)."""
         self._links: list[tuple[int, list]] = []
+        self._wakeup = getattr(self, "_wakeup", None)  # the signal wakeup pipe (_signals_stop_the_wait)
         for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
             if getattr(slave, "segment", None) is None or self.names[i] in self.by_callback:
                 continue
@@ -225,6 +236,43 @@ class NativeLoop(FaultPlan):
             link = self.slaves[i].link_for(groups)
             c.link, c.by_callback = (ctypes.pointer(link), 0) if link is not None else (None, 1)
             self.paths[self.names[i]] = "kernel: shared memory (worker process)" if link is not None else path_of(self.slaves[i])
+
+    @contextlib.contextmanager
+    def _signals_stop_the_wait(self):
+        """While the kernel may wait on a link: Python's signal wakeup fd set (the main thread only, and only if none is),
+        so that a Ctrl-C stops the wait at once (TL_LINK_INTERRUPTED) instead of at the step's answer or its watchdog.
+        A step abandoned so has its host killed (it may be hung) and its FMU marked fatal."""
+        fd = -1
+        if self._links and threading.current_thread() is threading.main_thread():
+            if self._wakeup is None:  # made once, closed with the plan
+                self._wakeup = os.pipe()
+                os.set_blocking(self._wakeup[0], False)
+                os.set_blocking(self._wakeup[1], False)
+                weakref.finalize(self, _close_all, self._wakeup)
+            previous = signal.set_wakeup_fd(self._wakeup[1], warn_on_full_buffer=False)
+            if previous == -1:
+                fd = self._wakeup[0]
+            else:  # somebody else's: it stays, and the wait goes on to the answer
+                signal.set_wakeup_fd(previous)
+        for i, _ in self._links:
+            if self.slaves[i].link is not None:
+                self.slaves[i].link.signal_fd = fd
+        try:
+            yield
+        finally:
+            if fd >= 0:
+                signal.set_wakeup_fd(-1)
+                try:
+                    while os.read(fd, 512):
+                        pass
+                except BlockingIOError:
+                    pass
+            for i, _ in self._links:
+                if self.slaves[i].link is not None:
+                    self.slaves[i].link.signal_fd = -1
+            p = self.plan
+            if p.error_kind == ErrorKind.LINK and p.error_status == LinkFailure.INTERRUPTED:
+                self.slaves[p.error_instance].abandon_link()
 
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:
@@ -290,7 +338,8 @@ class NativeLoop(FaultPlan):
                 clocked.push()
             if self._links:
                 self._take_links()
-            done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
+            with self._signals_stop_the_wait():
+                done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
             for clocked in self.clocked:
                 clocked.pull()
             for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
@@ -328,7 +377,8 @@ class NativeLoop(FaultPlan):
             clocked.push()
         if self._links:
             self._take_links()
-        failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
+        with self._signals_stop_the_wait():
+            failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
         for clocked in self.clocked:
             clocked.pull()
         failure = self._error() if failed else None

@@ -72,7 +72,8 @@
 #define TL_LINK_FAILURES(X) \
     X(TL_LINK_ENDED, 1)         /* its host process ended (its pipe hung up) before it answered */ \
     X(TL_LINK_TIMEOUT, 2)       /* no answer within the watchdog's time */ \
-    X(TL_LINK_CORRUPT, 3)       /* an answer that is none (error_group says what was wrong) */
+    X(TL_LINK_CORRUPT, 3)       /* an answer that is none (error_group says what was wrong) */ \
+    X(TL_LINK_INTERRUPTED, 4)   /* a signal arrived while waiting (Ctrl-C): Python raises it once the loop returns */
 
 /* What was wrong with a corrupt reply. */
 #define TL_LINK_CORRUPTIONS(X) \

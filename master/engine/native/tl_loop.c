@@ -523,6 +523,18 @@ static int host_ended(const tl_link *L) {
 #endif
 }
 
+/* A signal arrived for Python to handle (its wakeup fd has a byte). */
+static int signalled(const tl_link *L) {
+#if defined(__linux__)
+    if (L->signal_fd < 0) return 0;
+    struct pollfd p = {L->signal_fd, POLLIN, 0};
+    return poll(&p, 1, 0) > 0;
+#else
+    (void)L;
+    return 0;
+#endif
+}
+
 /* Wait for the host's answer to request seq: spin for spin_ns, then sleep on the futex in slices of at most 2 ms,
    looking between two at the host's pipe and the watchdog. Returns 0, or a tl_link_failure (corrupt: the host wrote a
    sequence number that is neither the last answered nor this one). */
@@ -542,6 +554,7 @@ static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
             continue;
         }
         if (now - start >= L->timeout_ns) return TL_LINK_TIMEOUT;
+        if (signalled(L)) return TL_LINK_INTERRUPTED;
         if (host_ended(L) && __atomic_load_n(reply, __ATOMIC_ACQUIRE) != seq) return TL_LINK_ENDED;
         int64_t left = L->timeout_ns - (now - start);
         tl_link_sleep(reply, v, left < 2000000 ? left : 2000000);

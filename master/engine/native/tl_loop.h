@@ -165,6 +165,7 @@ typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
     F(int64_t, out_offset)          /* the reply's header; the outputs after it */ \
     F(uint32_t, seq)                /* the last request's sequence number */ \
     F(int, hung_up_fd)              /* the host's reply pipe: readable or hung up while a step waits = the host ended */ \
+    F(int, signal_fd)               /* Python's signal wakeup fd (-1: none): readable = a signal to handle, stop waiting */ \
     F(int64_t, timeout_ns)          /* the watchdog */ \
     F(int64_t, spin_ns)             /* how long to spin before sleeping on the futex */
 typedef struct { TL_LINK_FIELDS(TL_FIELD, TL_ARRAY) } tl_link;
