@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import hashlib
 import json
 import os
 import re
@@ -1197,27 +1198,14 @@ def test_the_surfaces_added_last_refuse_bad_input_in_one_line(fmus, tmp_path, ca
     """Generated: b2b and compare's tubes, wrap --native, the API's Case and RunOptions, campaign-report on garbage;
     each one line, exit 2 (a TypeError or TiltloadError from the API), nothing left behind. A traced loop without end
     is cut at the tracer's time limit (here 2 s)."""
-    from support.isolated_case import api_call, run_isolated
+    from support.isolated_case import case_problems
     from tiltload.master.app.wrap import trace
 
     monkeypatch.setattr(trace, "TIME_LIMIT_S", 2.0)
     monkeypatch.chdir(tmp_path)
     cases = surface_cases(tmp_path / "surfaces", fmus)
     assert len(cases) >= 120, len(cases)
-    problems = []
-    for cls, label, argv, api, _ in cases:
-        if argv is not None:
-            code = exit_code(argv)
-            lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
-        else:
-            import tiltload as tl
-
-            outcome = run_isolated(lambda a=api: api_call(lambda: exec(a, {"tl": tl})))  # noqa: S102 (the case's own code)
-            code, lines = outcome.code, [ln for ln in outcome.err.splitlines() if ln.strip()]
-            if outcome.left_behind:
-                lines.append(outcome.left_behind)
-        if code != 2 or len(lines) != 1 or "a bug" in lines[0] or "Traceback" in lines[0]:
-            problems.append(f"{cls}: {label}: exit {code}: {lines[-3:]}")
+    problems = case_problems(cases, capsys, exception_names=True)  # the API's TypeError says its name, as Python's do
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
 
 
@@ -1331,9 +1319,20 @@ def test_the_reports_rerun_commands_name_a_users_controller_fmu_by_its_path(user
     mine = [c for c in commands if "mine" in c]
     fmu = (user_campaign.parent.parent / "ctrl" / "mine.fmu").resolve()
     assert mine and all(f"--controller {fmu}" in c for c in mine), commands
+    digest = hashlib.sha256(fmu.read_bytes()).hexdigest()  # pinned to the build the campaign ran (issue 61)
+    assert all(f"--expect-fmu controller={digest}" in c for c in mine), commands
     os.chdir(tmp_path)
     argv = shlex.split(mine[0])[1:] + ["--fmus", str(fmus), "--no-log", "--quiet", "--no-plots"]
     assert main(argv) == 0, capsys.readouterr().err
+    kept = fmu.read_bytes()
+    try:  # another build at the same path: the rerun refuses it in one line rather than rerunning another controller
+        with zipfile.ZipFile(fmu, "a") as rebuilt:  # the same controller, another build: its digest differs
+            rebuilt.writestr("documentation/rebuilt.txt", "rebuilt")
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "is not the FMU expected" in err[0], err
+    finally:
+        fmu.write_bytes(kept)
 
 
 # ====================================================================================================================

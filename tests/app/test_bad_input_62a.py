@@ -15,32 +15,11 @@ from pathlib import Path
 import bad_input_62a as gen
 import numpy as np
 import pytest
-from support.isolated_case import api_call, command_exit_code, run_isolated
-
-EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")
+from support.isolated_case import case_problems, command_exit_code
 
 
 def _digest(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def _run_cases(cases, capsys) -> list[str]:
-    """Each case isolated (its own session and TMPDIR); the problems: not exit 2, not one line, a traceback, "a bug"."""
-    import tiltload as tl
-
-    problems = []
-    for cls, label, argv, api, _ in cases:
-        if argv is not None:
-            code = command_exit_code(argv)
-            lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
-        else:
-            outcome = run_isolated(lambda a=api: api_call(lambda: exec(a, {"tl": tl})))  # noqa: S102 (the case's own code)
-            code, lines = outcome.code, [ln for ln in outcome.err.splitlines() if ln.strip()]
-            if outcome.left_behind:
-                lines.append(outcome.left_behind)
-        if code != 2 or len(lines) != 1 or "a bug" in lines[0] or "Traceback" in lines[0] or EXCEPTION_NAME.search(lines[0]):
-            problems.append(f"{cls}: {label}: exit {code}: {lines[-3:]}")
-    return problems
 
 
 @pytest.fixture
@@ -57,7 +36,7 @@ def test_malformed_baselines_and_writers_are_one_line_each(tmp_path, capsys, mon
     log = gen.log_with_metrics(tmp_path / "run.mcap")
     cases = gen.baseline_cases(tmp_path / "baselines", log) + gen.writer_cases(tmp_path / "writers", log)
     assert len(cases) >= 150, len(cases)
-    problems = _run_cases(cases, capsys)
+    problems = case_problems(cases, capsys)
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
     # every writer's log is still the log it was (none was written over)
     logs = sorted((tmp_path / "writers").glob("*/a.mcap"))
@@ -69,7 +48,7 @@ def test_b2b_case_lists_sides_and_read_only_places_are_one_line_each(fmus, tmp_p
     cases = gen.b2b_cases(tmp_path / "b2b", fmus)
     if readonly is not None:
         cases += gen.readonly_cases(tmp_path / "readonly", fmus, readonly)
-    problems = _run_cases(cases, capsys)
+    problems = case_problems(cases, capsys)
     assert not problems, f"{len(problems)} of {len(cases)} cases:\n" + "\n".join(problems)
     assert not (tmp_path / "b2b" / "out").exists(), "a side ran (or its folder was made) for a case refused before any run"
 

@@ -248,3 +248,71 @@ def test_a_file_that_is_no_log_is_one_line(tmp_path):
     with pytest.raises(tl.TiltloadError) as err:
         tl.open_log(bad)
     assert str(bad) in str(err.value) and "\n" not in str(err.value)
+
+
+# ---- one set of field types under both faces -------------------------------------------------------------------------
+
+def _tables():
+    import tiltload as tl
+    from tiltload.master.app.campaign.options import CAMPAIGN
+    from tiltload.master.app.case.fields import CASE, RUN
+    from tiltload.master.app.falsify.options import FALSIFY
+
+    return ((CASE, tl.Case, "run"), (RUN, tl.RunOptions, "run"), (CAMPAIGN, tl.CampaignOptions, "campaign"),
+            (FALSIFY, tl.FalsifyOptions, "falsify"))
+
+
+def _option(command: str, flag: str):
+    from tiltload.master.app.cli import parser
+
+    sub = next(a for a in parser()._actions if a.choices and command in a.choices).choices[command]
+    return next(a for a in sub._actions if flag in a.option_strings)
+
+
+def test_each_option_and_its_request_field_take_one_type_from_the_core():
+    """The command's option --stop-time and the API's field stop_time are checked by the one value type or set of
+    choices the core declares (case/fields.py and its siblings), never by a copy."""
+    from dataclasses import fields
+
+    from tiltload.master.app.case.fields import flag_of
+
+    checked = 0
+    for table, request, command in _tables():
+        names = {f.name for f in fields(request)}
+        for name in [*table.types, *table.choices]:
+            assert name in names, f"{request.__name__} has no field {name}"
+            option = _option(command, flag_of(name))
+            if name in table.types:
+                assert option.type is table.types[name], flag_of(name)
+            else:
+                assert tuple(option.choices) == tuple(table.choices[name]), flag_of(name)
+            checked += 1
+    assert checked >= 30
+
+
+BAD = {"seed": -1, "stop_time": 0, "max_tilt": 181, "log_every": 0, "realtime": 1e9, "max_overruns": -2, "step_timeout": 1e9,
+       "workers": 0, "connect_timeout": -1, "worker_timeout": 1e9, "retries": 101, "simulations": 0, "seconds": -3,
+       "neighbourhood_fraction": 0, "neighbourhood_points": 16, "vehicle": "boat", "scenario": "x", "schedule": "gauss",
+       "optimizer": "annealing", "branch": "maybe", "fmi": 4, "name": "a/b"}
+
+
+def test_a_refused_value_is_the_same_line_from_the_api_and_the_command(tmp_path, capsys):
+    import tiltload as tl
+    from tiltload.master.app.case.fields import flag_of
+    from tiltload.master.app.cli import main
+
+    spec = tmp_path / "spec.toml"  # never read: the option is refused first
+    compared = set()
+    for table, request, command in _tables():
+        for name in [*table.types, *table.choices]:
+            if name not in BAD:
+                continue
+            with pytest.raises(tl.TiltloadError) as err:
+                request(**{name: BAD[name]})
+            argv = [command, *([str(spec)] if command != "run" else []), f"{flag_of(name)}={BAD[name]}"]
+            with pytest.raises(SystemExit) as stop:
+                main(argv)
+            assert stop.value.code == 2
+            assert capsys.readouterr().err.strip().splitlines() == [err.value.cli_line], name
+            compared.add(name)
+    assert compared == set(BAD)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import atexit
 import os
+import re
 import shutil
 import signal
 import sys
@@ -183,3 +184,28 @@ def api_call(call) -> int:
         print(f"{type(err).__name__}: {err}" if isinstance(err, TypeError) else str(err), file=sys.stderr)
         return 2
     return 0
+
+
+EXCEPTION_NAME = re.compile(r"\b[A-Z][A-Za-z]*(Error|Exception|Exit|Interrupt)\b\s*:")
+
+
+def case_problems(cases, capsys, exception_names: bool = False) -> list[str]:
+    """Generated bad-input cases (cls, label, argv or None, API code or None, _), each isolated (its own session and
+    TMPDIR): the problems, a case that did not end in one line and exit 2, or whose line is a traceback, "a bug" or
+    (unless exception_names: an API's TypeError, a user's own exception quoted) an exception's name."""
+    import tiltload as tl
+
+    problems = []
+    for cls, label, argv, api, _ in cases:
+        if argv is not None:
+            code = command_exit_code(argv)
+            lines = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+        else:
+            outcome = run_isolated(lambda a=api: api_call(lambda: exec(a, {"tl": tl})))  # noqa: S102 (the case's own code)
+            code, lines = outcome.code, [ln for ln in outcome.err.splitlines() if ln.strip()]
+            if outcome.left_behind:
+                lines.append(outcome.left_behind)
+        if code != 2 or len(lines) != 1 or "a bug" in lines[0] or "Traceback" in lines[0] or \
+                (not exception_names and EXCEPTION_NAME.search(lines[0])):
+            problems.append(f"{cls}: {label}: exit {code}: {lines[-3:]}")
+    return problems

@@ -74,7 +74,8 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
     mapping as compare_signals takes, abs/rel/lead/lag for every signal. progress(line): told as each case ends. The
     runs go through one execution pool (each side's execution restarted for the next case). Returns a BackToBack
     (``.ok``, ``.results`` per case: ``.rows``, ``.deviation``, ``.per_tick``; ``.table()``)."""
-    from ..arguments import folder, named
+    from ..arguments import folder
+    from ..case.fields import named
     from ..regression.back_to_back import back_to_back
     from ..regression.signal_compare import Tolerances, check_names, load_tolerances, parse_tolerances
 
@@ -109,6 +110,6 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
 
 def _check_tolerance(name: str, value) -> None:
     from ...command_line.argument_types import tolerance
-    from ..arguments import named
+    from ..case.fields import named
 
     named(tolerance, name, value)

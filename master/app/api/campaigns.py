@@ -8,7 +8,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .. import arguments
+from ..campaign.options import CAMPAIGN
 from ..loop.defaults import FMU_DIR, WORKER_TIMEOUT
 from . import field_types as kinds
 from .command_line import options_argv
@@ -20,7 +20,6 @@ if TYPE_CHECKING:
 
     from ..case.verdict_counts import RequirementCount
 
-HOUR = 3600.0
 
 
 @closest_field
@@ -45,12 +44,12 @@ class CampaignOptions:
         fix("fmus", kinds.path(owner, "fmus", self.fmus, False))
         kinds.text(owner, "scheduler", self.scheduler)
         if fix("workers", kinds.whole(owner, "workers", self.workers)) is not None:
-            arguments.checked(arguments.whole_number, "--workers", self.workers, "campaign")
-        for name, high in (("connect_timeout", HOUR), ("worker_timeout", arguments.DAY)):
+            CAMPAIGN.check("workers", self.workers)  # the campaign's field types (campaign/options.py), as its parser
+        for name in ("connect_timeout", "worker_timeout"):
             fix(name, kinds.number(owner, name, getattr(self, name), False))
-            fix(name, arguments.checked(arguments.time_span(high), f"--{name.replace('_', '-')}", getattr(self, name), "campaign"))
+            fix(name, CAMPAIGN.check(name, getattr(self, name)))
         retries = fix("retries", kinds.whole(owner, "retries", self.retries, False))
-        arguments.checked(arguments.integer(0, 100), "--retries", retries, "campaign")
+        CAMPAIGN.check("retries", retries)
         kinds.flag(owner, "retry_failed", self.retry_failed)
         kinds.flag(owner, "verbose", self.verbose)
 

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .. import arguments
-from ..loop.defaults import MAX_TILT, SCENARIOS
+from ..case.fields import CASE
+from ..loop.defaults import MAX_TILT
 from . import field_types as kinds
 from .command_line import text_of
 from .field_types import closest_field
@@ -57,23 +57,21 @@ class Case:
         fix = self._fix
         for name in ("vehicle", "scenario", "schedule"):
             fix(name, kinds.text("Case", name, getattr(self, name)))
-        arguments.chosen("--vehicle", self.vehicle, ("load", "uav"))
-        arguments.chosen("--scenario", self.scenario, SCENARIOS)
-        arguments.chosen("--schedule", self.schedule, ("ordered", "jacobi"))
+            CASE.choose(name, getattr(self, name))  # the core's field types (case/fields.py), as the command's parser
         self._trajectory_and_controller()
         if fix("seed", kinds.whole("Case", "seed", self.seed)) is not None:
-            arguments.checked(arguments.seed, "--seed", self.seed)
+            CASE.check("seed", self.seed)
         if fix("stop_time", kinds.number("Case", "stop_time", self.stop_time)) is not None:
-            fix("stop_time", arguments.checked(arguments.run_time, "--stop-time", self.stop_time))
+            fix("stop_time", CASE.check("stop_time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):
             kinds.flag("Case", name, getattr(self, name))
         for name in ("wind", "faults", "system", "fmus"):
             fix(name, kinds.path("Case", name, getattr(self, name)))
         if self.fmus is not None:
-            arguments.checked(arguments.folder, "--fmus", self.fmus)
+            CASE.check("fmus", self.fmus)
         if fix("fmi", kinds.whole("Case", "fmi", self.fmi)) is not None:
-            arguments.chosen("--fmi", self.fmi, (2, 3))
-        fix("max_tilt", arguments.checked(arguments.tilt_limit, "--max-tilt", kinds.number("Case", "max_tilt", self.max_tilt, False)))
+            CASE.choose("fmi", self.fmi)
+        fix("max_tilt", CASE.check("max_tilt", kinds.number("Case", "max_tilt", self.max_tilt, False)))
         self._settings_and_remotes()
         if self._python_controller() and self.system is None:  # with a system file the controller is refused below
             fix("controller", controller_fmu_path(self.controller, self.fmi or 2))  # its path: what the run and log name
@@ -112,7 +110,7 @@ class Case:
     def _settings_and_remotes(self) -> None:
         settings = kinds.pairs("Case", "set", self.set, (int, float, bool, str), "a number, bool or str")
         for key, value in settings:  # the command's check, on the text the command would have been given
-            arguments.checked(arguments.assignment, "--set", f"{key}={text_of(value)}")
+            CASE.check("set", f"{key}={text_of(value)}")
         self._fix("set", settings)
         remotes = kinds.pairs("Case", "remote", self.remote, (str,), "a str host:port")
-        self._fix("remote", tuple(arguments.checked(arguments.remote, "--remote", f"{k}={v}") for k, v in remotes))
+        self._fix("remote", tuple(CASE.check("remote", f"{k}={v}") for k, v in remotes))

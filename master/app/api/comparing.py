@@ -13,7 +13,7 @@ Source = Result | str | Path
 
 def _tolerance(name: str, value: float | None) -> float | None:
     from ...command_line.argument_types import tolerance
-    from ..arguments import named
+    from ..case.fields import named
 
     return None if value is None else named(tolerance, name, value)
 

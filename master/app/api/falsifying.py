@@ -9,7 +9,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .. import arguments
+from ..falsify.options import FALSIFY
 from ..loop.defaults import FMU_DIR
 from . import field_types as kinds
 from .command_line import options_argv
@@ -19,7 +19,6 @@ from .field_types import closest_field
 if TYPE_CHECKING:
     import pandas as pd
 
-OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
 
 
 @closest_field
@@ -46,18 +45,16 @@ class FalsifyOptions:
         owner, fix = "FalsifyOptions", self._fix
         fix("out", kinds.path(owner, "out", self.out))
         fix("fmus", kinds.path(owner, "fmus", self.fmus, False))
-        arguments.chosen("--optimizer", kinds.text(owner, "optimizer", self.optimizer), OPTIMIZERS, "falsify")
-        arguments.chosen("--branch", kinds.text(owner, "branch", self.branch, False), ("auto", "on", "off"), "falsify")
+        FALSIFY.choose("optimizer", kinds.text(owner, "optimizer", self.optimizer))  # falsify/options.py, as its parser
+        FALSIFY.choose("branch", kinds.text(owner, "branch", self.branch, False))
         kinds.text(owner, "scheduler", self.scheduler)
-        for name, check in (("seed", arguments.integer(0, 2**32 - 1)), ("simulations", arguments.integer(1, 1000000)),
-                            ("workers", arguments.whole_number), ("neighbourhood_points", arguments.integer(2, 15))):
+        for name in ("seed", "simulations", "workers", "neighbourhood_points"):
             if fix(name, kinds.whole(owner, name, getattr(self, name))) is not None:
-                arguments.checked(check, f"--{name.replace('_', '-')}", getattr(self, name), "falsify")
+                FALSIFY.check(name, getattr(self, name))
         if fix("seconds", kinds.number(owner, "seconds", self.seconds)) is not None:
-            fix("seconds", arguments.checked(arguments.positive_time, "--seconds", self.seconds, "falsify"))
+            fix("seconds", FALSIFY.check("seconds", self.seconds))
         fix("neighbourhood_fraction", kinds.number(owner, "neighbourhood_fraction", self.neighbourhood_fraction, False))
-        fix("neighbourhood_fraction", arguments.checked(arguments.positive_number, "--neighbourhood-fraction",
-                                                        self.neighbourhood_fraction, "falsify"))
+        fix("neighbourhood_fraction", FALSIFY.check("neighbourhood_fraction", self.neighbourhood_fraction))
         kinds.flag(owner, "no_early_stop", self.no_early_stop)
         kinds.flag(owner, "neighbourhood", self.neighbourhood)
 

@@ -1,5 +1,5 @@
 """The type checks of the request objects' fields: a wrong type is a TypeError naming the object and the field, as a
-Python function's is; the values themselves are the command's to check (arguments.checked)."""
+Python function's is; the values themselves are checked by the core's field types (case/fields.py), as the command's parser checks them."""
 
 from __future__ import annotations
 

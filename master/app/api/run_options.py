@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import arguments
+from ..case.fields import RUN, snapshot_time
 from . import field_types as kinds
 from .field_types import closest_field
 
@@ -39,28 +39,28 @@ class RunOptions:
     def __post_init__(self) -> None:
         fix = self._fix
         fix("out", kinds.path("RunOptions", "out", self.out, False))
-        arguments.checked(arguments.folder, "--out", self.out)  # the path types of the command's options
+        RUN.check("out", self.out)  # the core's field types (case/fields.py), as the command's parser
         if kinds.text("RunOptions", "name", self.name) is not None:
-            arguments.checked(arguments.file_stem, "--name", self.name)
+            RUN.check("name", self.name)
         for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet", "profile"):
             kinds.flag("RunOptions", name, getattr(self, name))
         log_every = fix("log_every", kinds.whole("RunOptions", "log_every", self.log_every, False))
-        arguments.checked(arguments.whole_number, "--log-every", log_every)
+        RUN.check("log_every", log_every)
         for name in ("requirements", "from_snapshot", "token_file", "report"):
             fix(name, kinds.path("RunOptions", name, getattr(self, name)))
         if self.report is not None:
-            arguments.checked(arguments.output_file, "--report", self.report)
+            RUN.check("report", self.report)
         self._snapshot_at()
         expected = kinds.pairs("RunOptions", "expect_fmu", self.expect_fmu, (str,), "a str SHA-256")
-        fix("expect_fmu", tuple(arguments.checked(arguments.expected_fmu, "--expect-fmu", f"{k}={v}") for k, v in expected))
+        fix("expect_fmu", tuple(RUN.check("expect_fmu", f"{k}={v}") for k, v in expected))
         if self.realtime is True:
             fix("realtime", 1.0)
         if fix("realtime", kinds.number("RunOptions", "realtime", self.realtime)) is not None:
-            fix("realtime", arguments.checked(arguments.realtime_factor, "--realtime", self.realtime))
+            fix("realtime", RUN.check("realtime", self.realtime))
         if fix("max_overruns", kinds.whole("RunOptions", "max_overruns", self.max_overruns)) is not None:
-            arguments.checked(arguments.integer(0), "--max-overruns", self.max_overruns)
+            RUN.check("max_overruns", self.max_overruns)
         if fix("step_timeout", kinds.number("RunOptions", "step_timeout", self.step_timeout)) is not None:
-            fix("step_timeout", arguments.checked(arguments.time_span(arguments.DAY), "--step-timeout", self.step_timeout))
+            fix("step_timeout", RUN.check("step_timeout", self.step_timeout))
 
     def _fix(self, name: str, value: object) -> object:
         object.__setattr__(self, name, value)  # frozen: normalized once, while built
@@ -75,7 +75,7 @@ class RunOptions:
         at, where = self.snapshot_at
         if isinstance(at, bool) or not isinstance(at, (int, float, str)):
             raise TypeError(f"RunOptions.snapshot_at's T must be a number of seconds, got {type(at).__name__} {at!r:.80}")
-        arguments.snapshot_time(at)
+        snapshot_time(at)
         self._fix("snapshot_at", (at, kinds.path("RunOptions", "snapshot_at's FILE", where, False)))
 
     @property

@@ -8,7 +8,7 @@ import sys
 from collections.abc import Mapping
 from dataclasses import fields, replace
 
-from .. import arguments
+from ..case.fields import CASE, RUN, Fields
 from .case import Case
 from .command_line import run_command
 from .errors import TiltloadError, as_tiltload_errors
@@ -26,12 +26,12 @@ def _unknown(key: str) -> TypeError:
                      + (f" (did you mean {close[0]!r}?)" if close else f"; the options are {', '.join(known)}"))
 
 
-def _assignments(value: object, flag: str, parse) -> object:
+def _assignments(value: object, fields: Fields, name: str) -> object:
     """set= / remote= as the command line's texts ("plant.m_L=0.2", or a list of them): read as the command reads them."""
     if isinstance(value, str):
         value = [value]
     if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
-        return tuple(arguments.checked(parse, flag, v) for v in value)
+        return tuple(fields.check(name, v) for v in value)
     return value
 
 
@@ -47,11 +47,11 @@ def requests(case: Case | None, options: RunOptions | None, keywords: Mapping[st
         raise TypeError(f"run() takes tiltload.RunOptions second, got {type(options).__name__}")
     given = {k: v for k, v in keywords.items() if v is not None}
     if "set" in given:
-        given["set"] = _assignments(given["set"], "--set", arguments.assignment)
+        given["set"] = _assignments(given["set"], CASE, "set")
     if "expect_fmu" in given:
-        given["expect_fmu"] = _assignments(given["expect_fmu"], "--expect-fmu", arguments.expected_fmu)
+        given["expect_fmu"] = _assignments(given["expect_fmu"], RUN, "expect_fmu")
     if "remote" in given:
-        given["remote"] = _assignments(given["remote"], "--remote", arguments.remote)
+        given["remote"] = _assignments(given["remote"], CASE, "remote")
     if given.get("realtime") is False:
         del given["realtime"]
     if isinstance(given.get("snapshot_at"), list):

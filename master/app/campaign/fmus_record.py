@@ -66,3 +66,13 @@ def fmu_section(fmus) -> list[str]:
         return ["## FMUs", "", f"Not recorded beside these results (no {FMUS}: a campaign of an older tiltload).", ""]
     return ["## FMUs", "", "| instance | model | SHA-256 |", "|---|---|---|",
             *(f"| {f.instance} | {f.model} | `{f.sha256}` |" for f in fmus), ""]
+
+
+def controller_digests(folder: Path) -> dict[str, str]:
+    """{controller label: its FMU's SHA-256} of a user's controller FMUs fmus.json records (rerun commands pin them)."""
+    try:
+        data = json.loads((Path(folder) / FMUS).read_text())
+        return {str(label): str(f["sha256"]) for label, v in data.items() if label not in OUR_CONTROLLERS
+                for f in v["fmus"] if f["instance"] == "controller"}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}

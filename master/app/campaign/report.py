@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..loop.defaults import OUR_CONTROLLERS, SCENARIO
-from .fmus_record import fmu_section, recorded_fmus
+from .fmus_record import controller_digests, fmu_section, recorded_fmus
 
 ISE_POSITION = ("ISE(x)", "ISE(y)", "ISE(z)")
 DISTRIBUTIONS = ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)", "IADU(tau_R)", "time_saturated",
@@ -185,10 +185,11 @@ def _ok(r: dict) -> bool:
     return bool(r["completed"]) and not r["diverged"]
 
 
-def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None) -> str:
+def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None, pinned: dict[str, str] | None = None) -> str:
     """The `tiltload run` that repeats one run of a campaign alone (its parameters are in the spec's targets). A user's
     controller FMU (a row names it by its stem) is named by its path, found in the spec's base.controllers relative to
-    spec_folder (the folder of the spec the campaign ran)."""
+    spec_folder (the folder of the spec the campaign ran), and pinned by the digest the campaign recorded (pinned:
+    fmus_record.controller_digests): a rebuild at that path is refused by the rerun, not run in its place."""
     import shlex
 
     base = (spec or {}).get("base", {})
@@ -198,6 +199,8 @@ def rerun_command(row: dict, spec: dict | None, spec_folder: Path | None = None)
             controller = str((spec_folder / c).resolve() if spec_folder is not None else Path(c))
     parts = ["tiltload run", f"--scenario {base.get('scenario', SCENARIO)}", f"--trajectory {shlex.quote(str(base.get('trajectory', 1)))}",
              f"--controller {shlex.quote(controller)}"] + ([f"--seed {row['seed']}"] if row.get("seed") is not None else [])
+    if (pinned or {}).get(row["controller"]) and controller != row["controller"]:
+        parts.append(f"--expect-fmu controller={pinned[row['controller']]}")
     if base.get("stop_time"):
         parts.append(f"--stop-time {base['stop_time']:g}")
     if base.get("gusts") is False:
@@ -234,6 +237,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     rows, varied = _load(results, spec)
     writable_folder(results.parent, "the results' folder (report.md goes there)")
     folder = results.parent
+    pinned = controller_digests(folder)  # a user's controller FMU, by the build the campaign ran
     campaign_title = str((spec or {}).get("name") or folder.name)  # the spec's name (its copy beside the results), not --out's
     controllers = list(dict.fromkeys(r["controller"] for r in rows))
     lines = [f"# Campaign report: {campaign_title}", "",
@@ -342,8 +346,8 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
         values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied if r.get(k) is not None)
         seed = "" if r["seed"] is None else f", seed {r['seed']}"
         lines += [f"- {r['controller']}{seed}{', ' + values if values else ''}: {what}", "",
-                  f"  `{rerun_command(r, spec, spec_folder)}`", ""]
-    lines += requirement_section(rows, varied, spec, spec_folder)
+                  f"  `{rerun_command(r, spec, spec_folder, pinned)}`", ""]
+    lines += requirement_section(rows, varied, spec, spec_folder, pinned)
     fmus, parameters = recorded_fmus(folder)
     lines += fmu_section(fmus)
     path = folder / "report.md"
@@ -351,7 +355,7 @@ def report(results: Path, spec_path: Path | None = None, x: str | None = None, y
     from ..evidence.campaign_page import write_campaign_report
     from .spec import kept_requirements
 
-    write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec) for r in rows],
+    write_campaign_report(campaign_title, rows, varied, [rerun_command(r, spec, spec_folder, pinned) for r in rows],
                           [folder / f for f in figures], folder / "report.html", fmus=fmus, controller_parameters=parameters,
                           requirements=kept_requirements(spec, spec_folder))
     return path
@@ -362,7 +366,8 @@ def written(path: Path) -> str:
     return f"report: {path.with_name('report.html')} (and {path.name}, with its figures)"
 
 
-def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None) -> list[str]:
+def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, spec_folder: Path | None = None,
+                        pinned: dict[str, str] | None = None) -> list[str]:
     """keep.requirements' columns: each requirement's counts (case.verdict_counts, as every face prints them), and its
     worst runs by robustness with their rerun commands (none: no requirement columns)."""
     from ..case.verdict_counts import VERDICTS, requirement_counts, row_verdict
@@ -389,5 +394,5 @@ def requirement_section(rows: list[dict], varied: list[str], spec: dict | None, 
         for r in worst:
             values = ", ".join(f"{k} = {r[k]:.4g}" for k in varied if r.get(k) is not None)
             lines += [f"- {r['controller']}, seed {r['seed']}{', ' + values if values else ''}: {r[f'{n}_verdict']}, "
-                      f"robustness {r[f'{n}_robustness']:.4g}", "", f"  `{rerun_command(r, spec, spec_folder)}`", ""]
+                      f"robustness {r[f'{n}_robustness']:.4g}", "", f"  `{rerun_command(r, spec, spec_folder, pinned)}`", ""]
     return lines

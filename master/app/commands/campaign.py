@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from .. import arguments
-from ..api.campaigns import HOUR
+from ..campaign.options import CAMPAIGN, HOUR
 from ..errors import UserError
 from ..loop.defaults import WORKER_TIMEOUT
 
@@ -21,14 +21,14 @@ def add_parser(sub) -> None:
     ca.add_argument("--out", type=arguments.folder, default=None, help="results folder (default runs/campaigns/<name>)")
     ca.add_argument("--scheduler", default=None,
                     help="an existing Dask scheduler, tcp://HOST:PORT or tls://HOST:PORT (default: a local cluster on 127.0.0.1)")
-    ca.add_argument("--workers", type=arguments.whole_number, default=None,
+    ca.add_argument("--workers", **CAMPAIGN.option("workers"), default=None,
                     help="local cluster size (default: one per core); with --scheduler: wait for this many workers (default 1)")
-    ca.add_argument("--connect-timeout", type=arguments.time_span(HOUR), default=5.0, metavar="S",
+    ca.add_argument("--connect-timeout", **CAMPAIGN.option("connect_timeout"), default=5.0, metavar="S",
                     help=f"s for the scheduler to answer (default 5; at most {HOUR:g})")
-    ca.add_argument("--worker-timeout", type=arguments.time_span(arguments.DAY), default=WORKER_TIMEOUT, metavar="S",
+    ca.add_argument("--worker-timeout", **CAMPAIGN.option("worker_timeout"), default=WORKER_TIMEOUT, metavar="S",
                     help=f"s to wait for workers, before the runs and whenever none is left (default 30; at most "
                          f"{arguments.DAY:g})")
-    ca.add_argument("--retries", type=arguments.integer(0, 100), default=2,
+    ca.add_argument("--retries", **CAMPAIGN.option("retries"), default=2,
                     help="further tries of a run whose environment failed (a worker without the FMUs...), default 2")
     ca.add_argument("--retry-failed", action="store_true", help="run again the stored runs that failed")
     ca.add_argument("--verbose", action="store_true", help="Dask's log on the terminal too (it is always in <out>/campaign.log)")

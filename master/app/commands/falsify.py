@@ -7,29 +7,29 @@ import sys
 from pathlib import Path
 
 from .. import arguments
-from ..api.falsifying import OPTIMIZERS
+from ..falsify.options import FALSIFY
 
 
 def add_parser(sub) -> None:
     f = sub.add_parser("falsify", help="search wind, faults and parameters for a case that breaks a requirement (STL)")
     f.add_argument("spec", type=Path, help="the falsification spec (TOML/YAML): docs/falsification.md")
     f.add_argument("--out", type=arguments.folder, default=None, help="results folder (default runs/falsify/<name>-<optimizer>-<seed>)")
-    f.add_argument("--optimizer", choices=OPTIMIZERS, default=None, help="instead of the spec's")
-    f.add_argument("--seed", type=arguments.integer(0, 2**32 - 1), default=None, help="the optimizer's seed, instead of the spec's")
-    f.add_argument("--simulations", type=arguments.integer(1, 1000000), default=None, help="budget, instead of the spec's")
-    f.add_argument("--seconds", type=arguments.positive_time, default=None, help="wall-time budget, instead of the spec's")
+    f.add_argument("--optimizer", **FALSIFY.option("optimizer"), default=None, help="instead of the spec's")
+    f.add_argument("--seed", **FALSIFY.option("seed"), default=None, help="the optimizer's seed, instead of the spec's")
+    f.add_argument("--simulations", **FALSIFY.option("simulations"), default=None, help="budget, instead of the spec's")
+    f.add_argument("--seconds", **FALSIFY.option("seconds"), default=None, help="wall-time budget, instead of the spec's")
     f.add_argument("--scheduler", default=None, help="an existing Dask scheduler (default: a local cluster on 127.0.0.1)")
-    f.add_argument("--workers", type=arguments.whole_number, default=None, help="local cluster size (default: one per core)")
+    f.add_argument("--workers", **FALSIFY.option("workers"), default=None, help="local cluster size (default: one per core)")
     f.add_argument("--fmus", type=arguments.folder, default=arguments.DEFAULT_FMU_DIR, help="FMU folder (default: fmus)")
     f.add_argument("--no-early-stop", action="store_true",
                    help="run every evaluation to the stop time (default: stop at the first violation that cannot change)")
-    f.add_argument("--branch", choices=("auto", "on", "off"), default="auto",
+    f.add_argument("--branch", **FALSIFY.option("branch"), default="auto",
                    help="branch evaluations from a snapshot where the searched inputs act late (auto: if measured faster)")
     f.add_argument("--neighbourhood", action="store_true",
                    help="then run a grid around the best case: how wide the failure region is (docs/falsification.md)")
-    f.add_argument("--neighbourhood-fraction", type=arguments.positive_number, default=0.1,
+    f.add_argument("--neighbourhood-fraction", **FALSIFY.option("neighbourhood_fraction"), default=0.1,
                    help="the grid's half-width, a fraction of each dimension's range (default 0.1)")
-    f.add_argument("--neighbourhood-points", type=arguments.integer(2, 15), default=None,
+    f.add_argument("--neighbourhood-points", **FALSIFY.option("neighbourhood_points"), default=None,
                    help="grid values per dimension (default 5, 3 from four dimensions on)")
     f.set_defaults(func=run)
 

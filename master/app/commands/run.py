@@ -8,20 +8,21 @@ import sys
 from pathlib import Path
 
 from .. import arguments
+from ..case.fields import CASE, RUN
 
 
 def add_parser(sub) -> None:
     r = sub.add_parser("run", help="main job: run the closed loop through the FMUs, log to MCAP, print ISE/IADU, plot")
     arguments.add_loop_options(r)
-    r.add_argument("--schedule", choices=("ordered", "jacobi"), default=None,
+    r.add_argument("--schedule", **CASE.option("schedule"), default=None,
                    help="ordered: tiltload's master (default); jacobi: as libcosim and Ecos step (a package's own choice "
                         "is the default for it)")
-    r.add_argument("--out", type=arguments.folder, default=Path("runs"), help="where the log and plots go (default: runs)")
-    r.add_argument("--name", type=arguments.file_stem, default=None, help="file name stem of the log")
+    r.add_argument("--out", **RUN.option("out"), default=Path("runs"), help="where the log and plots go (default: runs)")
+    r.add_argument("--name", **RUN.option("name"), default=None, help="file name stem of the log")
     r.add_argument("--trust-fmus", action="store_true",
                    help="run every FMU inside this process (default: FMUs tiltload did not build run each in its own "
                         "process, so a crash, exit() or hang in one ends the run with one line)")
-    r.add_argument("--step-timeout", type=arguments.time_span(arguments.DAY), default=None, metavar="S",
+    r.add_argument("--step-timeout", **RUN.option("step_timeout"), default=None, metavar="S",
                    help=f"watchdog for an FMU in its own process: the longest a call may take (default 10 s; at most "
                         f"{arguments.DAY:g} s)")
     r.add_argument("--profile", action="store_true",
@@ -31,13 +32,13 @@ def add_parser(sub) -> None:
                    help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     r.add_argument("--no-log", action="store_true", help="no MCAP log: metrics only (campaigns); implies --no-plots")
-    r.add_argument("--log-every", type=arguments.whole_number, default=1, metavar="N",
+    r.add_argument("--log-every", **RUN.option("log_every"), default=1, metavar="N",
                    help="log every N-th step of each FMU (default 1: every step)")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     r.add_argument("--requirements", type=Path, default=None, metavar="REQS",
                    help="monitor these requirements (STL, YAML: docs/requirements.md) while the run goes: verdicts in the "
                         "table and the log")
-    r.add_argument("--report", type=arguments.output_file, default=None, metavar="FILE",
+    r.add_argument("--report", **RUN.option("report"), default=None, metavar="FILE",
                    help="write a self-contained HTML report of the run: its requirements' verdicts with their signals "
                         "plotted, the environment (FMU digests, the controller's parameters), the command that replays it "
                         "(docs/reports.md)")
@@ -47,12 +48,12 @@ def add_parser(sub) -> None:
                    help="at t = T s write every FMU's state and the master's to FILE (the run goes on)")
     r.add_argument("--from-snapshot", type=Path, default=None, metavar="FILE",
                    help="continue the run a snapshot was taken of (with --faults, --set of tunable parameters, --stop-time)")
-    r.add_argument("--realtime", type=arguments.realtime_factor, nargs="?", const=1.0, default=None, metavar="FACTOR",
+    r.add_argument("--realtime", **RUN.option("realtime"), nargs="?", const=1.0, default=None, metavar="FACTOR",
                    help=f"pace the ticks against the monotonic clock, FACTOR x real time (default 1; from "
                         f"{1 / arguments.MAX_REALTIME_FACTOR:g} to {arguments.MAX_REALTIME_FACTOR:g}); overruns are reported")
-    r.add_argument("--max-overruns", type=arguments.integer(0), default=None, metavar="N",
+    r.add_argument("--max-overruns", **RUN.option("max_overruns"), default=None, metavar="N",
                    help="with --realtime: stop the run once more than N ticks missed their deadline")
-    r.add_argument("--expect-fmu", type=arguments.expected_fmu, action="append", default=[], metavar="INSTANCE=SHA256",
+    r.add_argument("--expect-fmu", **RUN.option("expect_fmu"), action="append", default=[], metavar="INSTANCE=SHA256",
                    help="refuse the run (exit 2) unless INSTANCE runs the FMU of this SHA-256 (a replay names the build it "
                         "replays: a rebuild at the same path is another controller)")
     r.set_defaults(func=run)

@@ -15,8 +15,7 @@ from ..case.spec_file import BASE_PROPERTIES, NAME, TARGET, SpecError, checked_f
 from ..case.spec_file import SEED as SEED_SCHEMA
 from ..case.targets import GUST_DEFAULTS, GUST_FIELDS, LOOP_INSTANCES, kind_problem
 from ..loop.defaults import CONTROLLER, GUSTS, OUR_CONTROLLERS, SCENARIO, SEED
-
-OPTIMIZERS = ("uniform", "cmaes", "tpe", "neldermead")
+from .options import OPTIMIZERS
 
 
 def _base_schema() -> dict:

@@ -67,6 +67,10 @@ def read_fmu(path: Path, instance: str):
         raise DescriptionError(f"{instance}: {err}") from None
     if not zipfile.is_zipfile(path):
         raise DescriptionError(f"{instance}: {path} is not an FMU (not a zip archive)")
+    from .description_check import structure_problem
+
+    if (problem := structure_problem(path)) is not None:  # named as the standard names it, not in FMPy's internals
+        raise DescriptionError(f"{instance}: {path} is not a valid FMU: {problem}")
     try:
         md = read_model_description(str(path), validate=False)
     except Exception as err:  # fmpy raises various types for a broken modelDescription.xml
