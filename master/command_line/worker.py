@@ -36,13 +36,15 @@ def main() -> None:
     p.add_argument("--idle-timeout", type=time_span(DAY), default=None)
     p.add_argument("--label", default="")
     p.add_argument("--tick", type=time_span(DAY), default=None)  # the master's, for an FMI 3.0 FMU's clocks
+    p.add_argument("--shm", type=int, default=None)  # the master's shared-memory segment (isolation/link.py)
     args = p.parse_args()
     if args.socket is not None:
         channel = Channel.over_socket(socket.socket(fileno=args.socket))
     else:
         channel = Channel.over_pipes(*args.pipes)
     try:
-        code = serve(args.fmu, args.name, channel, args.idle_timeout, labelled(args.label), args.tick)
+        code = serve(args.fmu, args.name, channel, args.idle_timeout, labelled(args.label), args.tick,
+                     shm=args.shm if args.pipes is not None else None)
     except LinkClosed:
         code = 0
     channel.close()  # a socket is shut down: the master sees the end at once

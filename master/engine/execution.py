@@ -83,6 +83,7 @@ class Execution:
         C cost), which a run otherwise does not pay for."""
         self.system = validate(system)
         self.profile = profile
+        self.profiler = None  # profile.Profiler while a run is profiled: it times the observers (deliver)
         self.isolate, self.step_timeout = isolate, step_timeout
         self.observers = list(observers)
         self.instances: dict[str, Slave] = {}
@@ -263,21 +264,36 @@ class Execution:
         # one that hands the batch to a thread of its own goes last: the others' Python is done before that thread's
         # starts, which then runs beside the tick loop's next call instead of competing for the interpreter
         batchwise = sorted((obs for obs in self.observers if obs not in stepwise), key=lambda obs: obs.threaded)
+        started = time.monotonic_ns() if self.profiler is not None and stepwise else 0
         try:
             self._held = replay(self, batch, stepwise, self._held)
         except ReplayStopped as stop:
             head = batch.head(stop.cut)
             for obs in batchwise:
-                obs.on_batch(self, head)
+                self._on_batch(obs, head)
             raise stop.__cause__ from None
+        finally:
+            if started:
+                self.profiler.observe(None, time.monotonic_ns() - started)
         stop = None
         for obs in batchwise:
             try:
-                obs.on_batch(self, batch)
+                self._on_batch(obs, batch)
             except StopRun as err:  # the others (the log) still take this batch
                 stop = stop or err
         if stop is not None:
             raise stop
+
+    def _on_batch(self, obs, batch: Batch) -> None:
+        """obs.on_batch(batch), timed for the profile while a run is profiled (profile.py)."""
+        if self.profiler is None:
+            obs.on_batch(self, batch)
+            return
+        started = time.monotonic_ns()
+        try:
+            obs.on_batch(self, batch)
+        finally:
+            self.profiler.observe(obs, time.monotonic_ns() - started)
 
     def step_tick(self) -> None:
         """One tick."""

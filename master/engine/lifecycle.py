@@ -34,6 +34,7 @@ class RunResult:
     failure: BaseException | None = None  # what ended the run early (one of the plan's outcomes), its own words
     setup: float = 0.0  # s from the plan's start to the first step (instantiation or restart)
     ended_by: tuple[str, float] | None = None  # (instance, time): an FMU ended the run there (not an error: edges.py)
+    profile: object = None  # profile.RunProfile of the run's ticks (the plan's profile on), else None
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,8 @@ class RunPlan:
     before any FMU is loaded. segment: the run advances in calls that end on whole multiples of that many ticks (an
     observer's decision points). outcomes: the exceptions that end the run with its error line (the execution kept
     unless an FMU is fatal); any other propagates, the execution closed. when: the error line says the time
-    (" (at t = ... s)") unless it does already; False: the exception's own words (a campaign's rows)."""
+    (" (at t = ... s)") unless it does already; False: the exception's own words (a campaign's rows). profile: the
+    result says where the ticks' time went (profile.py)."""
 
     system: System
     stop: float
@@ -67,6 +69,7 @@ class RunPlan:
     segment: int | None = None
     outcomes: tuple[type[BaseException], ...] = (KeyboardInterrupt, Exception)
     when: bool = True
+    profile: bool = False  # time every step and tick (profile.py): the result's profile
 
 
 def structure(system: System, isolate: IsolationPolicy | None, step_timeout: float | None) -> tuple:
@@ -162,12 +165,18 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
         plan.announce(ex)
     error, signum, failure, setup = None, None, None, 0.0
     kept = False
+    profiler, profile = None, None
     try:
         if fresh:
             ex.instantiate(plan.resume)
         else:
             ex.restart({i.name: i.parameters for i in plan.system.instances}, observers, plan.system.faults, resume=plan.resume)
         setup = time.perf_counter() - started
+        if plan.profile:
+            from .profile import Profiler
+
+            profiler = Profiler(ex)
+            profiler.start()
         _advance(ex, plan)
         kept = True
     except plan.outcomes as err:
@@ -179,6 +188,8 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
         else:
             error = f"{err} (at t = {ex.time:.3f} s)" if plan.when and "t=" not in str(err) else str(err)
     finally:
+        if profiler is not None and ex.loop is not None:  # what ran of the run, failed or not
+            profile = profiler.stop()
         if plan.metrics is not None and logger is not None:
             logger.final_metadata["metrics"] = {**plan.metrics.table(), "ticks": ex.ticks_done, "complete": error is None}
         if plan.realtime is not None and logger is not None:
@@ -192,7 +203,7 @@ def run_plan(plan: RunPlan, pool: ExecutionPool | None = None) -> RunResult:
     if progress is not None:
         progress.done(ex.time, wall)  # the bar ends on the figures the result holds
     return RunResult(plan.metrics.table() if plan.metrics else {}, Path(plan.log) if plan.log is not None else None,
-                     ex.ticks_done, ex.time, wall, error, signum, failure, setup, getattr(ex, "ended_by", None))
+                     ex.ticks_done, ex.time, wall, error, signum, failure, setup, getattr(ex, "ended_by", None), profile)
 
 
 def _advance(ex: Execution, plan: RunPlan) -> None:

@@ -29,6 +29,7 @@ SAME_RUN = {
     "quiet": "no progress bar",
     "report": "an HTML report beside the log; the run is the same",
     "expect_fmu": "refuses an FMU that is not the build named (a replay pinned by digest); the run it allows is the same",
+    "profile": "times the steps and ticks (tests/engine/test_profile.py); the values are the same",
 }
 # an option -> (the command line without it, the command line with it): the two must be named apart
 CHANGES = {

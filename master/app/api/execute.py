@@ -79,9 +79,13 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
     plan = RunPlan(system, stop, log, meta, tuple(scene_channels(scene)) if scene else (), options.log_every, metrics,
                    (monitor,) if monitor else (), not options.quiet, None if options.trust_fmus else is_foreign,
-                   options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say, stop))
+                   options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say, stop),
+                   profile=options.profile)
     result = run_plan(plan, pool)
     _say_results(result, snap, monitor, pacer, log, say, beside_run(opts, stop))
+    if result.profile is not None:
+        for line in result.profile.lines():
+            say(line)
     outcome = _outcome(options, opts, meta, result, log, monitor, say)
     if options.report is not None:
         _report(case, options, system, outcome, monitor, say)
@@ -295,7 +299,13 @@ def _report(case: Case, options: RunOptions, system, outcome: Outcome, monitor, 
         test = Test(outcome.opts.run_name(), command, dict(outcome.metadata), None, results,
                     dict(outcome.result.metrics), outcome.failure)
     declared = list(monitor.requirements) if monitor is not None else []
-    report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared)
+    tables = []
+    if outcome.result.profile is not None:  # --profile: where the ticks' time went
+        from ..evidence.model import Table
+
+        header, rows, note = outcome.result.profile.table()
+        tables.append(Table("Where the ticks' time went (--profile)", header, tuple(rows), note))
+    report = Report(f"Run {test.name}", "run", [test], environment_of_system(system), declared=declared, tables=tables)
     say(f"report: {write_report(report, options.report, inputs=_run_inputs(case, options, outcome.log))}")
 
 

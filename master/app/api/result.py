@@ -85,6 +85,7 @@ class Result:
     transcript: str = ""  # what the command would have printed on stdout
     requirements: tuple[RequirementResult, ...] = ()
     fmus: tuple[FmuRecord, ...] = ()  # each instance's FMU as the log records it (model, GUID, SHA-256)
+    profile: object = None  # with RunOptions(profile=True): where the ticks' time went (engine.profile.RunProfile)
     _cache: dict[str, Signals] = field(default_factory=dict, repr=False, compare=False)
 
     @property

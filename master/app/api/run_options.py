@@ -34,6 +34,7 @@ class RunOptions:
     quiet: bool = False
     report: Path | None = None  # a self-contained HTML report of the run (docs/reports.md)
     expect_fmu: tuple[tuple[str, str], ...] = ()  # (instance, SHA-256): refused before the run when its FMU differs
+    profile: bool = False  # where the ticks' time went (Result.profile; engine/profile.py)
 
     def __post_init__(self) -> None:
         fix = self._fix
@@ -41,7 +42,7 @@ class RunOptions:
         RUN.check("out", self.out)  # the core's field types (case/fields.py), as the command's parser
         if kinds.text("RunOptions", "name", self.name) is not None:
             RUN.check("name", self.name)
-        for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet"):
+        for name in ("no_log", "no_plots", "stop_on_violation", "trust_fmus", "quiet", "profile"):
             kinds.flag("RunOptions", name, getattr(self, name))
         log_every = fix("log_every", kinds.whole("RunOptions", "log_every", self.log_every, False))
         RUN.check("log_every", log_every)

@@ -110,7 +110,7 @@ def run(case: Case | None = None, options: RunOptions | None = None, /, *, progr
                   record={k: str(v) for k, v in outcome.metadata.items()}, log=outcome.log, command=command_line(case, options),
                   stop_time=float(outcome.metadata["stop_time"]), sim_time=res.sim_time, wall_time=res.wall, ticks=res.ticks,
                   plots=tuple(outcome.plots), transcript="".join(f"{line}\n" for line in lines),
-                  requirements=tuple(outcome.requirements))
+                  requirements=tuple(outcome.requirements), profile=res.profile)
 
 
 def _recorded_fmus(log) -> tuple:

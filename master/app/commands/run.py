@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
     r.add_argument("--step-timeout", **RUN.option("step_timeout"), default=None, metavar="S",
                    help=f"watchdog for an FMU in its own process: the longest a call may take (default 10 s; at most "
                         f"{arguments.DAY:g} s)")
+    r.add_argument("--profile", action="store_true",
+                   help="say where the ticks' time went: each FMU's step time (min, median, p99, max) and share, the "
+                        "isolation's, the master's, the log's, and the real-time margin (docs/master.md)")
     r.add_argument("--token-file", type=Path, default=None, metavar="FILE",
                    help="the shared secret of the tiltload serve a --remote instance runs on (docs/remote.md)")
     r.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
@@ -58,7 +61,8 @@ def add_parser(sub) -> None:
 
 # the options of `tiltload run` that say how the case runs (the rest of its options are the Case's)
 RUN_OPTIONS = ("out", "name", "no_log", "no_plots", "log_every", "requirements", "stop_on_violation", "snapshot_at",
-               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet", "report", "expect_fmu")
+               "from_snapshot", "realtime", "max_overruns", "trust_fmus", "step_timeout", "token_file", "quiet", "report", "expect_fmu",
+               "profile")
 
 
 def case_of(args: argparse.Namespace):

@@ -17,6 +17,8 @@ from . import handshake
 from .process import STEP_TIMEOUT, IsolatedFmu
 from .remote_client import RemoteHost
 
+SHARED_MEMORY = True  # a local worker's steps go over shared memory where they can (link.py)
+
 
 def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = STEP_TIMEOUT,
                tick: float | None = None) -> IsolatedFmu:
@@ -39,5 +41,5 @@ def slave_for(spec, md, isolate=None, step_timeout: float | None = None, tick: f
     if spec.remote is not None:
         return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout, tick)
     if isolate is not None and isolate(spec.fmu, md):
-        return IsolatedFmu(spec.name, spec.fmu, md, timeout, tick=tick)
+        return IsolatedFmu(spec.name, spec.fmu, md, timeout, tick=tick, shared_memory=SHARED_MEMORY)
     return load(spec.name, spec.fmu, md, tick)

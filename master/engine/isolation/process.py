@@ -31,12 +31,14 @@ import numpy as np
 
 from ..errors import DescriptionError, ExecutionError, FmuEndedRun
 from ..fmi import slave
-from . import wire
+from ..fmi.model_description import clocks_of
+from . import link, wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 STEP_TIMEOUT = 10.0  # s a call may take before the watchdog ends it (--step-timeout)
 START_TIMEOUT = 60.0  # s for the host to start and instantiate (a pythonfmu FMU starts an interpreter)
 WORKER_MODULE = "tiltload.master.command_line.worker"  # its command line; the hosting itself is worker.py
+WORKER_COMMAND = (sys.executable, "-m", WORKER_MODULE)  # what starts a worker (a test puts a misbehaving host here)
 
 
 def _signal_name(number: int) -> str:
@@ -54,15 +56,18 @@ def how_it_ended(code: int) -> str:
 class WorkerProcess:
     """The FMU's host on this machine: a worker process (worker.py) on a pipe pair."""
 
-    def __init__(self, path: Path, name: str, tick: float | None = None) -> None:
+    def __init__(self, path: Path, name: str, tick: float | None = None, segment=None) -> None:
+        """segment (link.Segment): shared with the worker, for the steps over shared memory."""
         self._stderr = tempfile.TemporaryFile()
         placed = ["--tick", repr(float(tick))] if tick is not None else []  # an FMI 3.0 FMU's clocks go on the master's tick
+        shared = ["--shm", str(segment.fd)] if segment is not None else []
         req_r, req_w = os.pipe()
         rep_r, rep_w = os.pipe()
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", WORKER_MODULE, str(path), name, "--pipes", str(req_r), str(rep_w), *placed],
-                pass_fds=(req_r, rep_w), stdin=subprocess.DEVNULL, stdout=self._stderr, stderr=self._stderr)
+                [*WORKER_COMMAND, str(path), name, "--pipes", str(req_r), str(rep_w), *placed, *shared],
+                pass_fds=(req_r, rep_w, *([segment.fd] if segment is not None else [])), stdin=subprocess.DEVNULL,
+                stdout=self._stderr, stderr=self._stderr)
         except BaseException:
             for fd in (req_w, rep_r):
                 os.close(fd)
@@ -111,10 +116,12 @@ class WorkerProcess:
 class IsolatedFmu(slave.Slave):
     """One FMU instance hosted outside this process: by a local worker unless another host is given."""
 
-    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT, host=None, tick: float | None = None) -> None:
+    def __init__(self, name: str, path: Path, md, timeout: float = STEP_TIMEOUT, host=None, tick: float | None = None,
+                 shared_memory: bool = False) -> None:
         """host: something with `channel` (transport.Channel), `ended(what)`, `cut_off()` and `close()`,
         already started (remote_client.RemoteHost); None: a worker process on this machine, told tick (the
-        execution's, on which an FMI 3.0 FMU's clocks tick)."""
+        execution's, on which an FMI 3.0 FMU's clocks tick). shared_memory: the tick loop steps a local worker's FMU
+        over shared memory (link.py) where it can (FMI 2.0, FMI 3.0 without clocks, on Linux)."""
         super().__init__(name, path, md)
         self.timeout = float(timeout)
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
@@ -122,7 +129,20 @@ class IsolatedFmu(slave.Slave):
         self._pending: list = []
         self._dead = self._closed = False
         self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
-        self.host = host if host is not None else WorkerProcess(self.path, name, tick)
+        self.segment = None
+        self.link = None  # kernel.Link while the loop may step it over shared memory
+        self.linked = False  # the host is in its C loop on the segment (not on its pipe)
+        if shared_memory and host is None and link.available() and not clocks_of(md):  # clocks: Event Mode on the pipe
+            size, out_offset = link.segment_size(sum(1 for v in md.modelVariables if v.causality == "input"),
+                                                 {t: len(vs) for t, vs in self.outputs.items()})
+            link.host_library()  # built here, into the cache the worker loads it from (not within a step's watchdog)
+            self.segment = link.Segment(name, size, out_offset)
+        try:
+            self.host = host if host is not None else WorkerProcess(self.path, name, tick, self.segment)
+        except BaseException:
+            if self.segment is not None:
+                self.segment.close()
+            raise
         self.channel = self.host.channel
         try:
             self._exchange(None, "instantiate", max(self.timeout, START_TIMEOUT))
@@ -147,6 +167,8 @@ class IsolatedFmu(slave.Slave):
         self.values, a state is returned. limit: the longest reply accepted (the model's outputs and a log)."""
         if self._dead:
             raise ExecutionError(f"{self.name}: {what}: the FMU's host has already ended")
+        if self.linked and request is not None:  # its host answers on the pipe again, once it left the segment
+            self.unlink(what)
         timeout = self.timeout if timeout is None else timeout
         started = time.perf_counter()
         try:
@@ -186,6 +208,75 @@ class IsolatedFmu(slave.Slave):
         if reply["error"] == "ended":  # the server saw the FMU's process end, and says how
             raise self._fail(f"{reply['message']} in {what}" + (f" on {self.host.where}" if hasattr(self.host, "where") else ""))
         raise (DescriptionError if reply["error"] == "description" else ExecutionError)(reply["message"])
+
+    # ---- the shared-memory link (link.py) ------------------------------------------------------------------------
+    def link_for(self, groups: list[tuple[str, np.ndarray]]) -> object | None:
+        """The kernel.Link the tick loop steps this FMU through, its host told where the groups' values (type, value
+        references, in the loop's order) go; None if this FMU has no segment. The host is in its C loop after it."""
+        if self.segment is None or self._dead:
+            return None
+        from ..native import kernel
+
+        if self.link is None or self._link_groups != groups:
+            offsets = link.plan_link([(t, len(vrs)) for t, vrs in groups], self.segment.out_offset)
+            self._offsets = (ctypes.c_int64 * max(len(offsets), 1))(*offsets)
+            self._link_groups = groups
+            seq = self.link.seq if self.link is not None else 0
+            self.link = kernel.Link(base=self.segment.address, size=self.segment.size,
+                                    in_offset=ctypes.addressof(self._offsets), out_offset=self.segment.out_offset,
+                                    seq=seq, hung_up_fd=self.channel.read_fd, signal_fd=-1, timeout_ns=int(self.timeout * 1e9),
+                                    spin_ns=link.SPIN_NS)
+        if not self.linked:
+            self._pending.clear()
+            self._exchange(wire.control({"op": "link", "groups": [[t, [int(v) for v in vrs]] for t, vrs in groups],
+                                         "in_offset": list(self._offsets)[:len(groups)],
+                                         "out_offset": self.segment.out_offset, "seq": int(self.link.seq)}),
+                           "taking the shared-memory link", max(self.timeout, START_TIMEOUT))
+            self.linked = True
+        return self.link
+
+    def unlink(self, what: str) -> None:
+        """The host back on its pipe (before a request there): a yield over the segment, answered on the pipe with the
+        FMU's log lines since."""
+        from ..native import kernel
+
+        self.linked = False
+        kernel.library().tl_link_yield(ctypes.byref(self.link))
+        self._exchange(None, what)
+
+    def abandon_link(self) -> None:
+        """A step over the link left unanswered (a signal stopped the wait): its host, maybe hung in it, is killed."""
+        if not self._dead:
+            self._dead = self.fatal = True
+            self.linked = False
+            self.host.cut_off()
+
+    def link_failed(self, failure: int, corruption: int, t: float) -> ExecutionError:
+        """The error line of a step over the link that failed (tl_codes.h's TL_LINK_FAILURES)."""
+        from ..native.codes import LinkCorruption, LinkFailure
+
+        what = f"doStep at t={t:.6g} s"
+        self.linked = False
+        if failure == LinkFailure.INTERRUPTED:  # a signal whose handler did not raise: the step is lost all the same
+            return ExecutionError(f"{self.name}: {what}: the wait for its answer was interrupted by a signal")
+        if failure == LinkFailure.TIMEOUT:
+            return self._fail(f"{what} did not return within {self.timeout:g} s (watchdog; --step-timeout sets the limit): "
+                              f"{self.host.cut_off()}")
+        if failure == LinkFailure.ENDED:
+            return self._fail(self.host.ended(what))
+        reason = {LinkCorruption.SEQUENCE: "a sequence number it was not asked for",
+                  LinkCorruption.LENGTH: "outputs of another length than the model's",
+                  LinkCorruption.CALL: "an unknown call or status",
+                  LinkCorruption.TIME: "a time outside the step"}.get(corruption, "garbage")
+        return self._fail(f"{what}: its host sent a corrupt reply on shared memory ({reason}; {self.host.cut_off()})")
+
+    def failed(self, what: str, status: int) -> ExecutionError:
+        if self.linked and not self._dead:  # the FMU's last words are in its host: fetched with the yield
+            try:
+                self.unlink(what)
+            except (ExecutionError, DescriptionError):
+                pass
+        return super().failed(what, status)
 
     def initialize(self, parameters: dict) -> None:
         self._pending.clear()
@@ -230,3 +321,5 @@ class IsolatedFmu(slave.Slave):
         finally:
             self._dead = True
             self.host.close()
+            if self.segment is not None:
+                self.segment.close()

@@ -15,6 +15,7 @@ import sys
 
 from ..errors import FmuEndedRun
 from . import wire
+from .link import HostLink, LinkRefused
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 
@@ -32,10 +33,12 @@ def model_inputs(md) -> dict[str, frozenset]:
 
 
 def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = None, say=None, tick: float | None = None,
-          loader=None) -> int:
+          loader=None, shm: int | None = None) -> int:
     """Instantiate the FMU (FMI 2.0 or 3.0; tick: the master's, for an FMU with clocks), answer the master's requests
     until it closes the link or asks to close. loader(name, fmu, md, tick): the slave that answers (default: the FMU
-    loaded in this process; another model of the same ports, e.g. a controller's prototype in Python)."""
+    loaded in this process; another model of the same ports, e.g. a controller's prototype in Python). shm: the
+    master's shared-memory segment (link.py): on its "link" request the steps go through it, answered in C, until it
+    yields."""
     from ..errors import DescriptionError, ExecutionError
     from ..fmi.in_process import load
     from ..fmi.model_description import read_fmu
@@ -75,6 +78,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
     serializes = inst.can_serialize  # only then may a peer send a state (up to wire.STATE_LIMIT bytes)
     frame_limit = max(step_limit, wire.CONTROL_LIMIT, wire.STATE_FRAME_LIMIT if serializes else 0)
     checked: set = set()
+    host_link = None
     while True:
         try:
             body = channel.receive(idle_timeout, frame_limit)
@@ -123,6 +127,14 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                     raise ExecutionError(f"{name}: its state is {len(state)} bytes, over the {wire.STATE_LIMIT >> 20} MiB "
                                          "a state may have on the link")
                 channel.send(wire.encode_state(state, new_log()))
+            elif op == "link" and shm is not None and hasattr(inst, "function_pointer"):
+                if host_link is None:
+                    host_link = HostLink(shm, channel.read_fd)
+                host_link.bind(inst, request, inputs)
+                channel.send(wire.ok(new_log()))
+                if not host_link.serve():
+                    break  # the master is gone
+                channel.send(wire.ok(new_log()))  # the master yielded: its next request comes on the pipe
             elif op == "reset":
                 inst.reset()
                 channel.send(wire.ok(new_log()))
@@ -132,7 +144,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                 break
             else:
                 raise wire.ProtocolError(f"unknown request {str(op)[:40]!r}")
-        except wire.ProtocolError as err:
+        except (wire.ProtocolError, LinkRefused) as err:
             say(f"protocol error: {err}: session ended")
             try:
                 channel.send(wire.error("protocol", str(err), False, []))

@@ -90,6 +90,7 @@ class DerivedChannel:
 
 class McapLogger(Observer):
     threaded = True  # its writer encodes, compresses and writes beside the loop
+    is_log = True  # the profile's "log" share is its calls (profile.py)
 
     def __init__(self, path: Path, metadata: dict | None = None, log_every: int = 1, derived=(), chunk_size: int | None = None) -> None:
         """chunk_size: bytes of the log's chunks; by default CHUNK, or CHUNK_TICK_BY_TICK when a per-step observer makes

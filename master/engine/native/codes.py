@@ -84,3 +84,5 @@ def value_type(typ: str) -> ValueType:
 def type_name(code: int) -> str:
     """The engine's name of the kernel's value type code."""
     return ValueType(code).name.capitalize()
+LinkFailure = enum_of(_TABLES, "TL_LINK_FAILURES", "LinkFailure", "TL_LINK_")  # ENDED, TIMEOUT, CORRUPT
+LinkCorruption = enum_of(_TABLES, "TL_LINK_CORRUPTIONS", "LinkCorruption", "TL_CORRUPT_")  # SEQUENCE ... TIME

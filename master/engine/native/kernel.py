@@ -25,7 +25,7 @@ from .codes import Dimension, FaultAction
 
 HERE = Path(__file__).parent
 SOURCES = (HERE / "tl_loop.c", HERE / "tl_mcap.c", HERE / "tl_layout.c", HERE / "tl_loop.h", HERE / "tl_mcap.h", HERE / "tl_draw.h",
-           HERE / "tl_codes.h")
+           HERE / "tl_codes.h", HERE / "tl_link.h")
 DRAWS = (HERE / "tl_draw.c",)
 ENTROPY_WORDS = int(Dimension.ENTROPY_WORDS)
 # The floating-point results that depend on these flags: t_k = k * tick (one product, exact in IEEE double) and the
@@ -83,6 +83,12 @@ class Clocks(ctypes.Structure):
                 ("activate", ctypes.c_void_p), ("order", ctypes.c_void_p), ("lock_depth", ctypes.c_void_p)]
 
 
+class Link(ctypes.Structure):
+    _fields_ = [("base", ctypes.c_void_p), ("size", ctypes.c_int64), ("in_offset", ctypes.c_void_p),
+                ("out_offset", ctypes.c_int64), ("seq", ctypes.c_uint32), ("hung_up_fd", ctypes.c_int), ("signal_fd", ctypes.c_int),
+                ("timeout_ns", ctypes.c_int64), ("spin_ns", ctypes.c_int64)]
+
+
 class Instance(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("do_step", ctypes.c_void_p), ("set", ctypes.c_void_p * TYPES),
                 ("get", ctypes.c_void_p * TYPES), ("boolean_status", ctypes.c_void_p), ("real_status", ctypes.c_void_p),
@@ -92,13 +98,17 @@ class Instance(ctypes.Structure):
                 ("hook_inputs", ctypes.c_int), ("hook_outputs", ctypes.c_int),
                 ("n_out", ctypes.c_int * TYPES), ("out_vrs", ctypes.c_void_p * TYPES), ("out", ctypes.c_void_p * TYPES),
                 ("history", ctypes.c_void_p * TYPES), ("n_groups", ctypes.c_int), ("groups", ctypes.POINTER(Group)),
-                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double), ("clocks", ctypes.POINTER(Clocks))]
+                ("record", ctypes.c_void_p * TYPES), ("seconds", ctypes.c_double), ("histogram", ctypes.c_void_p),
+                ("fastest_ns", ctypes.c_int64), ("slowest_ns", ctypes.c_int64), ("host_ns", ctypes.c_int64),
+                ("clocks", ctypes.POINTER(Clocks)), ("link", ctypes.POINTER(Link))]
 
 
 class Plan(ctypes.Structure):
     _fields_ = [("n_instances", ctypes.c_int), ("instances", ctypes.POINTER(Instance)), ("tick", ctypes.c_double),
                 ("ticks_done", ctypes.c_int64), ("slots", ctypes.c_int), ("step_callback", STEP_CALLBACK),
-                ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("record_capacity", ctypes.c_int64),
+                ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("tick_histogram", ctypes.c_void_p),
+                ("tick_ns", ctypes.c_int64), ("fastest_tick_ns", ctypes.c_int64), ("slowest_tick_ns", ctypes.c_int64),
+                ("record_capacity", ctypes.c_int64),
                 ("records", ctypes.c_int64), ("record_instance", ctypes.c_void_p), ("record_tick", ctypes.c_void_p),
                 ("record_time", ctypes.c_void_p),
                 ("record_row", ctypes.c_void_p), ("rows", ctypes.c_void_p), ("error_kind", ctypes.c_int),
@@ -115,7 +125,7 @@ class Plan(ctypes.Structure):
 
 # the structs tl_loop.h shares, by their C names (layout.check compares each with the library's layout)
 STRUCTURES = {"tl_group": Group, "tl_fault": Fault, "tl_part": Part, "tl_read": Read, "tl_clocks": Clocks,
-              "tl_instance": Instance, "tl_plan": Plan}
+              "tl_link": Link, "tl_instance": Instance, "tl_plan": Plan}
 
 
 def _cache_root() -> Path:
@@ -192,6 +202,8 @@ def library() -> ctypes.CDLL:
     lib.tl_close.restype = ctypes.c_int
     lib.tl_store_history.argtypes = [ctypes.POINTER(Plan), ctypes.c_int64]
     lib.tl_store_history.restype = None
+    lib.tl_link_yield.argtypes = [ctypes.POINTER(Link)]
+    lib.tl_link_yield.restype = ctypes.c_int
     lib.tl_monotonic_ns.argtypes = []
     lib.tl_monotonic_ns.restype = ctypes.c_int64
     p, n = ctypes.c_void_p, ctypes.c_int64  # tl_mcap.c: arrays by address

@@ -14,7 +14,12 @@ plan: fault_plan.py.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
+import os
+import signal
+import threading
+import weakref
 
 import numpy as np
 
@@ -25,8 +30,11 @@ from ..fmi.slave import TYPES
 from ..observers import Batch
 from . import kernel
 from .clocks import ClockedPlan
-from .codes import ErrorKind, Profile, Side, type_name, value_type
+from .codes import Dimension, ErrorKind, LinkFailure, Profile, Side, type_name, value_type
 from .fault_plan import SIDES, FaultPlan
+
+BUCKETS = int(Dimension.PROFILE_BUCKETS)  # a profile histogram's (profile.py)
+INT64_MAX = np.iinfo(np.int64).max
 
 _EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOCK: "setClock",
                 ErrorKind.UPDATE_DISCRETE_STATES: "updateDiscreteStates", ErrorKind.ENTER_STEP_MODE: "enterStepMode"}
@@ -48,6 +56,11 @@ class _EventQueue:
 
     def on_fault(self, t, fault, what) -> None:
         self.events.append((int(self.plan.records), self.side, t, fault, what))
+
+
+def _close_all(fds) -> None:
+    for fd in fds:
+        os.close(fd)
 
 
 def _native_fmi3(slave) -> bool:
@@ -162,6 +175,13 @@ class NativeLoop(FaultPlan):
         self.record_time = np.zeros(chunk * n, dtype=np.float64)
         self.record_row = np.zeros(chunk * n, dtype=np.int64)
         self.rows = np.zeros(n, dtype=np.int64)
+        # the profile's (profile.py): kept always (5 kB an instance), written by the kernel only with the profile on
+        self.histograms = np.zeros((n, BUCKETS), dtype=np.int64)
+        self.tick_histogram = np.zeros(BUCKETS, dtype=np.int64)
+        self.step_ns = np.zeros(n, dtype=np.int64)
+        self.host_ns = np.zeros(n, dtype=np.int64)
+        for i, c in enumerate(self.instances):
+            c.histogram = self.histograms[i].ctypes.data
         self.lateness = np.zeros(chunk, dtype=np.float64)
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
@@ -171,6 +191,8 @@ class NativeLoop(FaultPlan):
         self._index = index
         self._bound = self._binding()
         self._plan_faults(manipulator)
+        self._bind_links()
+        self.plan.tick_histogram = self.tick_histogram.ctypes.data
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
         self._pending: BaseException | None = None
@@ -191,6 +213,68 @@ class NativeLoop(FaultPlan):
                 any(self.ex.instances.get(n) is not s for n, s in zip(self.names, self.slaves)):
             return False
         return all(a[1] == b[1] and all(x is y for x, y in zip(a[2:], b[2:])) for a, b in zip(self._binding(), self._bound))
+
+    # --- isolated FMUs over shared memory (isolation/link.py) --------------------------------------------------------
+    def _bind_links(self) -> None:
+        """Which isolated FMUs the kernel steps over shared memory: those with a segment, unless asked through the
+        callback or with a fault Python applies to their inputs (it may set them directly, a call the link has not)."""
+        self._links: list[tuple[int, list]] = []
+        self._wakeup = getattr(self, "_wakeup", None)  # the signal wakeup pipe (_signals_stop_the_wait)
+        for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
+            if getattr(slave, "segment", None) is None or self.names[i] in self.by_callback:
+                continue
+            c.link, c.by_callback = None, 1
+            self.paths[self.names[i]] = path_of(slave)
+            if c.hook_inputs:
+                continue
+            groups = [(g.type, [int(v) for v in g.dst_vrs]) for g in self.ex.groups.get(self.names[i], [])]
+            self._links.append((i, groups))
+
+    def _take_links(self) -> None:
+        """Before a call of the kernel: every linked FMU's host on its segment (a snapshot or a reset in between
+        brought it back to its pipe)."""
+        for i, groups in self._links:
+            c = self.instances[i]
+            link = self.slaves[i].link_for(groups)
+            c.link, c.by_callback = (ctypes.pointer(link), 0) if link is not None else (None, 1)
+            self.paths[self.names[i]] = "kernel: shared memory (worker process)" if link is not None else path_of(self.slaves[i])
+
+    @contextlib.contextmanager
+    def _signals_stop_the_wait(self):
+        """While the kernel may wait on a link: Python's signal wakeup fd set (the main thread only, and only if none is),
+        so that a Ctrl-C stops the wait at once (TL_LINK_INTERRUPTED) instead of at the step's answer or its watchdog.
+        A step abandoned so has its host killed (it may be hung) and its FMU marked fatal."""
+        fd = -1
+        if self._links and threading.current_thread() is threading.main_thread():
+            if self._wakeup is None:  # made once, closed with the plan
+                self._wakeup = os.pipe()
+                os.set_blocking(self._wakeup[0], False)
+                os.set_blocking(self._wakeup[1], False)
+                weakref.finalize(self, _close_all, self._wakeup)
+            previous = signal.set_wakeup_fd(self._wakeup[1], warn_on_full_buffer=False)
+            if previous == -1:
+                fd = self._wakeup[0]
+            else:  # somebody else's: it stays, and the wait goes on to the answer
+                signal.set_wakeup_fd(previous)
+        for i, _ in self._links:
+            if self.slaves[i].link is not None:
+                self.slaves[i].link.signal_fd = fd
+        try:
+            yield
+        finally:
+            if fd >= 0:
+                signal.set_wakeup_fd(-1)
+                try:
+                    while os.read(fd, 512):
+                        pass
+                except BlockingIOError:
+                    pass
+            for i, _ in self._links:
+                if self.slaves[i].link is not None:
+                    self.slaves[i].link.signal_fd = -1
+            p = self.plan
+            if p.error_kind == ErrorKind.LINK and p.error_status == LinkFailure.INTERRUPTED:
+                self.slaves[p.error_instance].abandon_link()
 
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:
@@ -238,6 +322,7 @@ class NativeLoop(FaultPlan):
                 array[:] = 0
         if self._faulted or self.ex.manipulator is not None:
             self._plan_faults(self.ex.manipulator)
+        self._bind_links()
         self.lib.tl_store_history(ctypes.byref(p), 0)  # the delay line starts with the values at t = 0
         for clocked in self.clocked:
             clocked.forget_inputs()
@@ -256,11 +341,16 @@ class NativeLoop(FaultPlan):
             self._queue.events = []
             for clocked in self.clocked:
                 clocked.push()
-            done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
+            if self._links:
+                self._take_links()
+            with self._signals_stop_the_wait():
+                done = int(self.lib.tl_run(ctypes.byref(self.plan), n))
             for clocked in self.clocked:
                 clocked.pull()
-            for slave, c in zip(self.slaves, self.instances):
-                slave.fmi_seconds += c.seconds
+            for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
+                if not c.by_callback:  # one stepped by the callback times its own calls
+                    slave.fmi_seconds += c.seconds
+                self.step_ns[i] += round(c.seconds * 1e9)
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
@@ -290,7 +380,10 @@ class NativeLoop(FaultPlan):
         self._queue.events = []
         for clocked in self.clocked:
             clocked.push()
-        failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
+        if self._links:
+            self._take_links()
+        with self._signals_stop_the_wait():
+            failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
         for clocked in self.clocked:
             clocked.pull()
         failure = self._error() if failed else None
@@ -304,6 +397,21 @@ class NativeLoop(FaultPlan):
             raise
         if failure is not None:
             raise failure
+
+    def profile_from_now(self) -> None:
+        """The profile on (wall time), its histograms and sums from zero (profile.Profiler)."""
+        p = self.plan
+        p.profile = Profile.WALL
+        for array in (self.histograms, self.tick_histogram, self.step_ns, self.host_ns):
+            array[...] = 0
+        p.tick_ns, p.fastest_tick_ns, p.slowest_tick_ns = 0, INT64_MAX, 0
+        for c in self.instances:
+            c.seconds, c.fastest_ns, c.slowest_ns, c.host_ns = 0.0, INT64_MAX, 0, 0
+
+    def profile_off(self) -> None:
+        self.plan.profile = Profile(int(self.ex.profile))
+        for i, c in enumerate(self.instances):
+            self.host_ns[i] = c.host_ns
 
     def _batch(self, first: int, done: int) -> Batch:
         r = int(self.plan.records)
@@ -330,6 +438,8 @@ class NativeLoop(FaultPlan):
         name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
         if getattr(slave, "scheduled", False) and kind in _SCHEDULED:
             return self._scheduled_error(slave, kind, t)
+        if kind == ErrorKind.LINK:
+            return slave.link_failed(p.error_status, p.error_group, t)
         if kind == ErrorKind.DO_STEP:
             return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
         if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"

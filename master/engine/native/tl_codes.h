@@ -7,7 +7,9 @@
 /* The lengths of the plan's fixed arrays. */
 #define TL_DIMENSIONS(X) \
     X(TL_TYPES, 3)              /* value types: the per-type arrays of an instance */ \
-    X(TL_ENTROPY_WORDS, 16)     /* a noise or jitter fault's own seed words (seed, place) at most; the tick's are added per draw */
+    X(TL_ENTROPY_WORDS, 16)     /* a noise or jitter fault's own seed words (seed, place) at most; the tick's are added per draw */ \
+    X(TL_PROFILE_OCTAVE_BITS, 4) /* a profile histogram has 2^4 buckets per octave of nanoseconds (6 % wide) */ \
+    X(TL_PROFILE_BUCKETS, 640)  /* 40 octaves: 1 ns to 18 min */
 
 /* A value's type, the index of the per-type arrays (as the engine's TYPES). */
 #define TL_VALUE_TYPES(X) \
@@ -20,7 +22,7 @@
     X(TL_INPUTS, 0)             /* after the gather, before the inputs are set */ \
     X(TL_OUTPUTS, 1)            /* after the outputs are read */
 
-/* What tl_plan.profile times into tl_instance.seconds. */
+/* What tl_plan.profile times into tl_instance.seconds (and, with the histograms given, every step and tick). */
 #define TL_PROFILES(X) \
     X(TL_PROFILE_OFF, 0) \
     X(TL_PROFILE_WALL, 1)       /* wall time */ \
@@ -63,7 +65,22 @@
     X(TL_ERROR_UNSETTLED, 12)               /* discrete states unsettled after max_iterations updates */ \
     X(TL_ERROR_GET_CLOCKED, 13)             /* a get of a clock's outputs (error_group: the clock) */ \
     X(TL_ERROR_ACTIVATE, 14)                /* fmi3ActivateModelPartition (error_group: the clock) */ \
-    X(TL_ERROR_LOCKS_HELD, 15)              /* a partition returned holding locks (error_group: the clock, error_status: how many) */
+    X(TL_ERROR_LOCKS_HELD, 15)              /* a partition returned holding locks (error_group: the clock, error_status: how many) */ \
+    X(TL_ERROR_LINK, 16)                    /* a shared-memory link (error_status: its failure, error_group: a corruption) */
+
+/* How an isolated FMU's shared-memory link failed (tl_link.h). */
+#define TL_LINK_FAILURES(X) \
+    X(TL_LINK_ENDED, 1)         /* its host process ended (its pipe hung up) before it answered */ \
+    X(TL_LINK_TIMEOUT, 2)       /* no answer within the watchdog's time */ \
+    X(TL_LINK_CORRUPT, 3)       /* an answer that is none (error_group says what was wrong) */ \
+    X(TL_LINK_INTERRUPTED, 4)   /* a signal arrived while waiting (Ctrl-C): Python raises it once the loop returns */
+
+/* What was wrong with a corrupt reply. */
+#define TL_LINK_CORRUPTIONS(X) \
+    X(TL_CORRUPT_SEQUENCE, 1)   /* a sequence number that was not asked for */ \
+    X(TL_CORRUPT_LENGTH, 2)     /* outputs of another length than the model's */ \
+    X(TL_CORRUPT_CALL, 3)       /* an unknown call or status, or a group or type out of range */ \
+    X(TL_CORRUPT_TIME, 4)       /* a last successful time outside the step, or a host time that is no duration */
 
 #define TL_ENUMERATOR(name, value) name = value,
 enum tl_dimension { TL_DIMENSIONS(TL_ENUMERATOR) };
@@ -73,5 +90,7 @@ enum tl_profile { TL_PROFILES(TL_ENUMERATOR) };
 enum tl_fault_action { TL_FAULT_ACTIONS(TL_ENUMERATOR) };
 enum tl_part_kind { TL_PART_KINDS(TL_ENUMERATOR) };
 enum tl_error_kind { TL_ERROR_KINDS(TL_ENUMERATOR) };
+enum tl_link_failure { TL_LINK_FAILURES(TL_ENUMERATOR) };
+enum tl_link_corruption { TL_LINK_CORRUPTIONS(TL_ENUMERATOR) };
 
 #endif

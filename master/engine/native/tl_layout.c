@@ -41,6 +41,9 @@ static const tl_layout_row ROWS[] = {
 #define TL_STRUCT tl_clocks
     TL_STRUCT_ROW(tl_clocks) TL_CLOCKS_FIELDS(TL_FIELD_ROW, TL_ARRAY_ROW)
 #undef TL_STRUCT
+#define TL_STRUCT tl_link
+    TL_STRUCT_ROW(tl_link) TL_LINK_FIELDS(TL_FIELD_ROW, TL_ARRAY_ROW)
+#undef TL_STRUCT
 #define TL_STRUCT tl_instance
     TL_STRUCT_ROW(tl_instance) TL_INSTANCE_FIELDS(TL_FIELD_ROW, TL_ARRAY_ROW)
 #undef TL_STRUCT

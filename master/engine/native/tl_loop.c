@@ -3,12 +3,18 @@
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
+#define _DEFAULT_SOURCE /* syscall(SYS_futex) for the link */
 #endif
 #include "tl_loop.h"
 
 #include <math.h>
 #include <string.h>
 #include <time.h>
+#if defined(__linux__)
+#include <poll.h>
+#endif
+
+#include "tl_link.h"
 
 #if defined(__GNUC__)
 #define TL_EXPORT __attribute__((visibility("default")))
@@ -37,6 +43,20 @@ static int64_t profile_ns(int profile) {
 #endif
     (void)profile;
     return tl_monotonic_ns();
+}
+
+/* A time into a profile histogram: bucket e S + s for ns in [2^(e-1) (1 + s / S), 2^(e-1) (1 + (s + 1) / S)), S buckets
+   an octave,
+   with ns = m 2^e, m in [0.5, 1) (frexp; no allocation, a few ns). profile.py reads the buckets back the same way. */
+#define TL_PROFILE_SUB (1 << TL_PROFILE_OCTAVE_BITS)
+static void profile_add(int64_t *histogram, int64_t *fastest, int64_t *slowest, int64_t ns) {
+    if (ns < *fastest) *fastest = ns;
+    if (ns > *slowest) *slowest = ns;
+    if (histogram == NULL) return;
+    int e = 0;
+    double m = frexp(ns > 0 ? (double)ns : 1.0, &e);
+    int b = e * TL_PROFILE_SUB + (int)((m - 0.5) * 2.0 * TL_PROFILE_SUB);
+    histogram[b < 0 ? 0 : b >= TL_PROFILE_BUCKETS ? TL_PROFILE_BUCKETS - 1 : b]++;
 }
 
 static void sleep_until(int64_t ns) {
@@ -490,6 +510,129 @@ static int call_fmu(tl_plan *plan, int i, int64_t k, double t, double h, int eve
     return in->clocks != NULL ? read_clock(plan, i, -1, t) : get_outputs(plan, i, t);
 }
 
+/* ---- an isolated FMU over shared memory (tl_link.h) ------------------------------------------------------------ */
+/* The host process ended: its end of the reply pipe is closed (or it wrote there, which it does only when it left the
+   link). */
+static int host_ended(const tl_link *L) {
+#if defined(__linux__)
+    struct pollfd p = {L->hung_up_fd, POLLIN, 0};
+    return poll(&p, 1, 0) > 0;
+#else
+    (void)L;
+    return 1;
+#endif
+}
+
+/* A signal arrived for Python to handle (its wakeup fd has a byte). */
+static int signalled(const tl_link *L) {
+#if defined(__linux__)
+    if (L->signal_fd < 0) return 0;
+    struct pollfd p = {L->signal_fd, POLLIN, 0};
+    return poll(&p, 1, 0) > 0;
+#else
+    (void)L;
+    return 0;
+#endif
+}
+
+/* Wait for the host's answer to request seq: spin for spin_ns, then sleep on the futex in slices of at most 2 ms,
+   looking between two at the host's pipe and the watchdog. Returns 0, or a tl_link_failure (corrupt: the host wrote a
+   sequence number that is neither the last answered nor this one). */
+static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
+    uint32_t *reply = tl_link_word(L->base, TL_LINK_REPLY);
+    int64_t start = tl_monotonic_ns(), now = start;
+    for (;;) {
+        uint32_t v = __atomic_load_n(reply, __ATOMIC_ACQUIRE);
+        if (v == seq) return 0;
+        if (v != seq - 1) {
+            *corruption = TL_CORRUPT_SEQUENCE;
+            return TL_LINK_CORRUPT;
+        }
+        now = tl_monotonic_ns();
+        if (now - start < L->spin_ns) {
+            tl_cpu_relax();
+            continue;
+        }
+        if (now - start >= L->timeout_ns) return TL_LINK_TIMEOUT;
+        if (signalled(L)) return TL_LINK_INTERRUPTED;
+        if (host_ended(L) && __atomic_load_n(reply, __ATOMIC_ACQUIRE) != seq) return TL_LINK_ENDED;
+        int64_t left = L->timeout_ns - (now - start);
+        tl_link_sleep(reply, v, left < 2000000 ? left : 2000000);
+    }
+}
+
+TL_EXPORT int tl_link_yield(tl_link *L) {
+    if (L == NULL) return -1;
+    unsigned char *b = L->base;
+    uint32_t op = TL_LINK_YIELD;
+    memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
+    tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), ++L->seq);
+    return 0;
+}
+
+/* A step through the link: the gathered inputs into the segment, the request published, the answer awaited and
+   checked, the outputs copied out. Whatever the host wrote, only the plan's own offsets are read (all within the
+   segment: checked when the link was made), each field checked before use. Returns 0, or stops the run. */
+static int step_linked(tl_plan *plan, int i, double t, double h) {
+    tl_instance *in = &plan->instances[i];
+    tl_link *L = in->link;
+    unsigned char *b = L->base;
+    for (int g = 0; g < in->n_groups; g++) {
+        const tl_group *gr = &in->groups[g];
+        memcpy(b + L->in_offset[g], gr->values, (size_t)gr->n * width(gr->type));
+    }
+    uint32_t op = TL_LINK_STEP;
+    memcpy(b + TL_LINK_CALL, &t, sizeof t);
+    memcpy(b + TL_LINK_CALL + 8, &h, sizeof h);
+    memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
+    uint32_t seq = ++L->seq;
+    tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), seq);
+    int corruption = 0;
+    int failure = await_reply(L, seq, &corruption);
+    tl_link_reply r;
+    memcpy(&r, b + L->out_offset, sizeof r); /* a copy: the host cannot change what is checked after the check */
+    int64_t out_bytes = 0;
+    for (int ty = 0; ty < TL_TYPES; ty++) out_bytes += (int64_t)in->n_out[ty] * (int64_t)width(ty);
+    if (!failure) {
+        if ((int64_t)r.out_bytes != out_bytes) corruption = TL_CORRUPT_LENGTH;
+        else if (r.call < TL_LINK_OK || r.call > TL_LINK_GET || r.status < 0 || r.status > 4 || (r.ended != 0 && r.ended != 1) ||
+                 (r.call == TL_LINK_SET && (r.where < 0 || r.where >= in->n_groups)) ||
+                 (r.call == TL_LINK_GET && (r.where < 0 || r.where >= TL_TYPES)))
+            corruption = TL_CORRUPT_CALL;
+        else if (r.host_ns < 0 || (r.ended && !(r.last_time >= t && r.last_time <= t + h)))
+            corruption = TL_CORRUPT_TIME;
+        if (corruption) failure = TL_LINK_CORRUPT;
+    }
+    if (failure) {
+        fail(plan, TL_ERROR_LINK, i, failure, corruption, -1, t);
+        return 1;
+    }
+    in->host_ns += r.host_ns;
+    if (r.call == TL_LINK_SET) {
+        fail(plan, TL_ERROR_SET, i, r.status, r.where, in->groups[r.where].type, t);
+        return 1;
+    }
+    if (r.call == TL_LINK_GET) {
+        fail(plan, TL_ERROR_GET, i, r.status, -1, r.where, t);
+        return 1;
+    }
+    if (r.call == TL_LINK_DO_STEP) {
+        if (!(r.ended && plan->ends_allowed)) {
+            fail(plan, TL_ERROR_DO_STEP, i, r.status, -1, -1, t);
+            return 1;
+        }
+        plan->ended_instance = i; /* fmi2Discard, fmi2Terminated: the run ends at the last successful time, as in process */
+        plan->ended_time = r.last_time;
+    }
+    int64_t at = L->out_offset + TL_LINK_HEADER;
+    for (int ty = 0; ty < TL_TYPES; ty++) {
+        size_t bytes = (size_t)in->n_out[ty] * width(ty);
+        memcpy(in->out[ty], b + at, bytes);
+        at += (int64_t)bytes;
+    }
+    return 0;
+}
+
 /* One instance's step at tick k (time t): inputs, doStep, outputs. Returns 0, or stops the run. */
 static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
     tl_instance *in = &plan->instances[i];
@@ -502,24 +645,33 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
         return 1;
     }
+    /* the profile times the FMU's calls (or the callback that makes them elsewhere); a clocked FMU's staging and held
+       outputs are the master's work */
+    int event = 0, n_due = 0;
+    if (!in->by_callback && in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
+    int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
+    int failed = 0;
     if (in->by_callback) {
         int done = plan->step_callback(i, t, h);
         if (done == 2) {
             plan->ended_instance = i;
         } else if (done != 0) {
             fail(plan, TL_ERROR_STEP_CALLBACK, i, 0, -1, -1, t);
-            return 1;
+            failed = 1;
         }
-    } else { /* the profile times the FMU's calls; a clocked FMU's staging and held outputs are the master's work */
-        int event = 0, n_due = 0;
-        if (in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
-        int64_t started = plan->profile ? profile_ns(plan->profile) : 0;
-        int failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
-                                                                        : call_fmu(plan, i, k, t, h, event, n_due);
-        if (plan->profile) in->seconds += (double)(profile_ns(plan->profile) - started) * 1e-9;
-        if (failed) return 1;
-        if (in->clocks != NULL) held_outputs(in);
+    } else if (in->link != NULL) {
+        failed = step_linked(plan, i, t, h);
+    } else {
+        failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
+                                                                    : call_fmu(plan, i, k, t, h, event, n_due);
     }
+    if (plan->profile) {
+        int64_t took = profile_ns(plan->profile) - started;
+        in->seconds += (double)took * 1e-9;
+        profile_add(in->histogram, &in->fastest_ns, &in->slowest_ns, took);
+    }
+    if (failed) return 1;
+    if (!in->by_callback && in->clocks != NULL) held_outputs(in);
     if (plan->n_faults) apply_faults(plan, i, TL_OUTPUTS, t);
     if (in->hook_outputs && plan->hook_callback(i, TL_OUTPUTS, t) != 0) {
         fail(plan, TL_ERROR_HOOK_CALLBACK, i, 0, -1, -1, t);
@@ -574,12 +726,18 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
             if (plan->lateness != NULL) plan->lateness[done] = (double)(now - deadline) * 1e-9;
             if (plan->overrun != NULL) plan->overrun[done] = (int8_t)late;
         }
+        int64_t started = plan->profile ? profile_ns(plan->profile) : 0; /* off: this branch is the profile's cost */
         for (int i = 0; i < plan->n_instances; i++) {
             if (k % plan->instances[i].every) continue;
             if (step_instance(plan, i, k, t) != 0) return done;
         }
         tl_store_history(plan, k + 1);
         plan->ticks_done = k + 1;
+        if (plan->profile) {
+            int64_t took = profile_ns(plan->profile) - started;
+            plan->tick_ns += took;
+            profile_add(plan->tick_histogram, &plan->fastest_tick_ns, &plan->slowest_tick_ns, took);
+        }
     }
     return done;
 }

@@ -157,6 +157,19 @@ typedef struct { TL_READ_FIELDS(TL_FIELD, TL_ARRAY) } tl_read;
     F(const int *, lock_depth)      /* the locks the importer's lock callbacks count as held (NULL: not checked) */
 typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
 
+/* An isolated FMU stepped over shared memory (tl_link.h): the master's side of the link. */
+#define TL_LINK_FIELDS(F, A) \
+    F(unsigned char *, base)        /* the segment, mapped */ \
+    F(int64_t, size)                /* its bytes (sealed: the host cannot shrink it) */ \
+    F(const int64_t *, in_offset)   /* per group of the instance: where its values go */ \
+    F(int64_t, out_offset)          /* the reply's header; the outputs after it */ \
+    F(uint32_t, seq)                /* the last request's sequence number */ \
+    F(int, hung_up_fd)              /* the host's reply pipe: readable or hung up while a step waits = the host ended */ \
+    F(int, signal_fd)               /* Python's signal wakeup fd (-1: none): readable = a signal to handle, stop waiting */ \
+    F(int64_t, timeout_ns)          /* the watchdog */ \
+    F(int64_t, spin_ns)             /* how long to spin before sleeping on the futex */
+typedef struct { TL_LINK_FIELDS(TL_FIELD, TL_ARRAY) } tl_link;
+
 #define TL_INSTANCE_FIELDS(F, A) \
     F(void *, component) \
     F(tl_do_step_fn, do_step) \
@@ -182,7 +195,13 @@ typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
     F(tl_group *, groups) \
     A(void *, record, TL_TYPES)     /* rows x n_out values per type, one row per recorded step */ \
     F(double, seconds)              /* time in this instance's FMI calls (with profile on) */ \
-    F(tl_clocks *, clocks)          /* fmi3 with clocks: its Event Mode plan (NULL: none) */
+    /* with profile on and a histogram given: every step's time (its FMI calls, or its callback) */ \
+    F(int64_t *, histogram)         /* TL_PROFILE_BUCKETS counts (NULL: none kept) */ \
+    F(int64_t, fastest_ns)          /* the caller starts them at INT64_MAX and 0 */ \
+    F(int64_t, slowest_ns) \
+    F(int64_t, host_ns)             /* of those steps' time: its host's own in the FMU's calls (isolated on shared memory) */ \
+    F(tl_clocks *, clocks)          /* fmi3 with clocks: its Event Mode plan (NULL: none) */ \
+    F(tl_link *, link)              /* an isolated FMU the kernel steps over shared memory (NULL: none; by_callback 0) */
 typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
 
 #define TL_PLAN_FIELDS(F, A) \
@@ -194,6 +213,10 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(tl_step_callback, step_callback) \
     F(tl_hook_callback, hook_callback) \
     F(int, profile)                 /* tl_profile: time every step's FMI calls into tl_instance.seconds */ \
+    F(int64_t *, tick_histogram)    /* with profile on: every tick's time (pacing's sleep not counted), as the steps' */ \
+    F(int64_t, tick_ns)             /* their sum */ \
+    F(int64_t, fastest_tick_ns) \
+    F(int64_t, slowest_tick_ns) \
     /* records of the last call: which instance stepped, the time its outputs hold, its row */ \
     F(int64_t, record_capacity)     /* rows available per instance, and entries in the arrays below */ \
     F(int64_t, records)             /* steps recorded in this call */ \
@@ -241,6 +264,9 @@ int64_t tl_run(tl_plan *plan, int64_t n);
    continuous) is stepped once more at tick ticks_done, time t, in the system's order, and recorded at t; the others
    are not stepped (their last step's outputs already belong to t). Returns 0, or 1 after an error. */
 int tl_close(tl_plan *plan, double t);
+/* Send a yield request over an instance's link (the host goes back to its pipe; it answers there). Returns 0, or -1
+   without a link. */
+int tl_link_yield(tl_link *link);
 /* Copy every instance's outputs into its delay-line slot for the entry j (the values after tick j - 1). */
 void tl_store_history(tl_plan *plan, int64_t j);
 int64_t tl_monotonic_ns(void);

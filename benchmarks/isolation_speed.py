@@ -1,0 +1,177 @@
+"""Issue 66's table: a controller FMU's cost per tick isolated (its own process, the default for an FMU tiltload did
+not build) against in process (`--trust-fmus`), for three kinds of controller FMU on FSI and ZSE, this tree side by
+side with another (the last landing: /work/before, commit 5052690, with its own virtual environment) in one run.
+
+  C controller        the shipped native controller FMU copied without its build record (a foreign C FMU that
+                      follows docs/ports.md's contract)
+  pythonfmu           docs/examples/hover_lqr_traced.py wrapped with `tiltload wrap` (pythonfmu)
+  native wrap         the same class wrapped with `tiltload wrap --native` (a C FMU traced from Python)
+
+The FMUs are built once, by this tree, and both trees run the same files on the thesis's loop (default_system with
+controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log). Per tick: the wall
+time of a --stop s run after the instantiation (worker process, FMU loaded: not timed) / its ticks; best of
+--repeats. The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
+the figures move with the other sessions' work.
+
+Run: python benchmarks/isolation_speed.py [--before /work/before --before-python /work/venv-before/bin/python]
+         [--stop 20] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "docs" / "examples" / "hover_lqr_traced.py"
+KINDS = ("C controller", "pythonfmu", "native wrap")
+SCENARIOS = ("fsi", "zse")
+
+
+def foreign_copy(fmu: Path, dest: Path) -> Path:
+    """The FMU without resources/build_info.json: tiltload no longer recognizes it as its own (it is isolated)."""
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in src.infolist():
+            if item.filename != "resources/build_info.json":
+                out.writestr(item, src.read(item.filename))
+    return dest
+
+
+def build(folder: Path) -> dict[str, Path]:
+    """The three controllers and the loop's FMUs, built by this tree."""
+    from tiltload.master.app.cli import main
+    from tiltload.master.app.loop.fmus import build_all
+
+    fmus = folder / "fmus"
+    build_all(fmus)
+    out = {"C controller": foreign_copy(fmus / "TiltloadController.fmu", folder / "CController.fmu")}
+    for kind, flags in (("pythonfmu", []), ("native wrap", ["--native"])):
+        dest = folder / f"{kind.replace(' ', '_')}.fmu"
+        if main(["wrap", *flags, str(EXAMPLE), "--out", str(dest)]) != 0:
+            raise SystemExit(f"wrapping {EXAMPLE} ({kind}) failed")
+        out[kind] = dest
+    return {**out, "fmus": fmus}
+
+
+def _loop_api():
+    """default_system, loop_metrics, is_foreign and Execution from whichever tree this interpreter imports."""
+    from tiltload.master.engine.execution import Execution
+
+    try:
+        from tiltload.master.app.loop.fmus import is_foreign
+        from tiltload.master.app.loop.thesis import default_system, loop_metrics
+    except ImportError:  # 5052690's layout
+        from tiltload.master.app.fmus import is_foreign
+        from tiltload.master.app.loop import default_system, loop_metrics
+    return default_system, loop_metrics, is_foreign, Execution
+
+
+def measure(config: dict) -> list[dict]:
+    """In the tree this interpreter imports: every (kind, scenario, isolated) its per-tick cost and metrics. The loop
+    is instantiated first (a worker started, the FMU loaded: not timed), then config["stop"] s run and timed."""
+    import time
+
+    default_system, loop_metrics, is_foreign, Execution = _loop_api()
+
+    def timed(controller, scenario, isolated):
+        if controller == config["C controller"]:  # the shipped controller's FMU, foreign: its design's parameters kept
+            system = default_system(Path(config["fmus"]), scenario, 0, "mixed")
+            next(i for i in system.instances if i.name == "controller").fmu = Path(controller)
+        else:
+            system = default_system(Path(config["fmus"]), scenario, 0, "mixed", controller_fmu=Path(controller))
+        ex = Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
+        try:
+            ex.instantiate()
+            started = time.perf_counter()
+            ex.run(config["stop"])
+            wall = time.perf_counter() - started
+            return wall / ex.ticks_done, ex.observers[0].table()
+        finally:
+            ex.close()
+
+    rows = []
+    timed(config["C controller"], "fsi", False)  # warm: the first run of a process compiles or loads its kernels
+    for kind in KINDS:
+        for scenario in SCENARIOS:
+            for isolated in (False, True):
+                runs = [timed(config[kind], scenario, isolated) for _ in range(config["repeats"])]
+                rows.append({"kind": kind, "scenario": scenario, "isolated": isolated,
+                             "us_per_tick": min(r[0] for r in runs) * 1e6, "metrics": runs[0][1]})
+    return rows
+
+
+def machine() -> str:
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").is_file() else platform.processor()
+    return f"{platform.node()}: {cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}"
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def main() -> int:
+    p = argparse.ArgumentParser()
+    p.add_argument("--before", type=Path, default=Path("/work/before"))
+    p.add_argument("--before-python", type=Path, default=Path("/work/venv-before/bin/python"))
+    p.add_argument("--stop", type=float, default=20.0)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter
+    args = p.parse_args()
+    if args.measure is not None:
+        print(json.dumps(measure(json.loads(args.measure.read_text()))))
+        return 0
+    with tempfile.TemporaryDirectory(prefix="tl-isolation-speed-") as tmp:
+        folder = Path(tmp)
+        built = build(folder)
+        config = {k: str(v) for k, v in built.items()} | {"stop": args.stop, "repeats": args.repeats,
+                                                          "out": str(folder / "runs")}
+        (folder / "config.json").write_text(json.dumps(config))
+        trees = {"this tree": (sys.executable, ROOT)}
+        if args.before_python.is_file():
+            trees[f"before ({_commit(args.before)})"] = (str(args.before_python), args.before)
+        print(f"machine: {machine()}")
+        results = {}
+        for label, (python, root) in trees.items():
+            print(f"load average before {label}: {load()}", flush=True)
+            proc = subprocess.run([python, str(Path(__file__).resolve()), "--measure", str(folder / "config.json")],
+                                  capture_output=True, text=True, cwd=root)
+            if proc.returncode != 0:
+                print(f"{label}: failed: {proc.stderr.strip().splitlines()[-1:]}")
+                continue
+            results[label] = {(r["kind"], r["scenario"], r["isolated"]): r for r in json.loads(proc.stdout.splitlines()[-1])}
+        print(f"load average after: {load()}")
+        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s runs after instantiation; best of {args.repeats})")
+        head = f"{'controller':<14}{'scenario':<9}"
+        for label in results:
+            head += f"  | {label + ': in process':>28}{'isolated':>10}{'ratio':>7}"
+        print(head)
+        same = True
+        for kind in KINDS:
+            for scenario in SCENARIOS:
+                line = f"{kind:<14}{scenario:<9}"
+                for rows in results.values():
+                    a, b = rows[(kind, scenario, False)], rows[(kind, scenario, True)]
+                    same &= a["metrics"] == b["metrics"]
+                    line += f"  | {a['us_per_tick']:>28.1f}{b['us_per_tick']:>10.1f}{b['us_per_tick'] / a['us_per_tick']:>7.2f}"
+                print(line)
+        print(f"metrics isolated == in process in every row: {same}")
+        shutil.rmtree(folder / "runs", ignore_errors=True)
+        return 0 if same else 1
+
+
+def _commit(root: Path) -> str:
+    proc = subprocess.run(["git", "-C", str(root), "log", "-1", "--format=%h"], capture_output=True, text=True)
+    return proc.stdout.strip() or str(root)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

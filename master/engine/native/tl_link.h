@@ -1,0 +1,86 @@
+/* The shared-memory link between the tick loop and an isolated FMU's host (docs/isolation.md, "The link"): one
+   round trip a step through a sealed memfd segment both processes map, a sequence number each way and a futex to wait
+   on it (after a short spin). The master's side is tl_loop.c's step_linked, the host's tl_host.c.
+
+   The segment, at offsets the master chooses and tells the host (no pointer in it):
+     TL_LINK_REQUEST     uint32 request: the sequence number of the last request (the host waits on it)
+     +4                  uint32 the host is asleep on request (then the master wakes it)
+     TL_LINK_REPLY       uint32 reply: the sequence number of the request answered last (the master waits on it)
+     +4                  uint32 the master is asleep on reply
+     TL_LINK_CALL        double t, double h, uint32 op (tl_link_op)
+     in_offset[g]        group g's input values, as the plan's arrays hold them (double, int)
+     out_offset          the reply's header (TL_LINK_HEADER bytes: tl_link_reply below), then the outputs: Real, Integer,
+                         Boolean, as the plan's arrays hold them
+   The host can write anything anywhere in the segment: the master reads only its own offsets, copies what it reads
+   and checks every field before use (step_linked). The segment is sealed against shrinking, so no read faults. */
+#ifndef TL_LINK_H
+#define TL_LINK_H
+
+#include <stdint.h>
+#include <string.h>
+
+#define TL_LINK_REQUEST 0
+#define TL_LINK_REPLY 64 /* another cache line than the request's */
+#define TL_LINK_CALL 128
+#define TL_LINK_INPUTS 192
+#define TL_LINK_HEADER 64
+
+enum tl_link_op { TL_LINK_STEP = 1, TL_LINK_YIELD = 2 }; /* yield: the host goes back to its pipe (a rare request) */
+/* which call failed in the host (tl_link_reply.call) */
+enum tl_link_call { TL_LINK_OK = 0, TL_LINK_SET = 1, TL_LINK_DO_STEP = 2, TL_LINK_GET = 3 };
+
+/* The reply's header at out_offset. */
+typedef struct {
+    int32_t status;    /* the failed call's fmi2Status (fmi2Discard with ended: the FMU asked to end the run) */
+    int32_t call;      /* tl_link_call */
+    int32_t where;     /* set: the group; get: the type */
+    int32_t ended;     /* 1: fmi2Discard with fmi2Terminated true; last_time is its last successful time */
+    double last_time;
+    int64_t host_ns;   /* the host's time in the FMU's calls of this step (CLOCK_MONOTONIC) */
+    uint32_t out_bytes; /* the outputs' bytes that follow: the master checks them against its own count */
+    uint32_t spare;
+} tl_link_reply;
+
+static inline uint32_t *tl_link_word(unsigned char *base, int64_t offset) { return (uint32_t *)(void *)(base + offset); }
+
+#if defined(__linux__)
+#include <linux/futex.h>
+#include <sys/syscall.h>
+#include <time.h>
+#include <unistd.h>
+
+/* Wait while *word == value, at most ns (a shared futex: the other process's wake reaches it). */
+static inline void tl_futex_wait(uint32_t *word, uint32_t value, int64_t ns) {
+    struct timespec ts;
+    ts.tv_sec = (time_t)(ns / 1000000000);
+    ts.tv_nsec = (long)(ns % 1000000000);
+    syscall(SYS_futex, word, FUTEX_WAIT, value, &ts, NULL, 0);
+}
+
+static inline void tl_futex_wake(uint32_t *word) { syscall(SYS_futex, word, FUTEX_WAKE, 1, NULL, NULL, 0); }
+#define TL_LINK_AVAILABLE 1
+#else
+static inline void tl_futex_wait(uint32_t *word, uint32_t value, int64_t ns) { (void)word, (void)value, (void)ns; }
+static inline void tl_futex_wake(uint32_t *word) { (void)word; }
+#define TL_LINK_AVAILABLE 0
+#endif
+
+/* Publish sequence number seq in word (after everything written before it) and wake the other side if it sleeps on it
+   (it says so in the word after; seq_cst on both sides: a sleeper either sees the new value or is woken). */
+static inline void tl_link_publish(uint32_t *word, uint32_t seq) {
+    __atomic_store_n(word, seq, __ATOMIC_SEQ_CST);
+    if (__atomic_load_n(word + 1, __ATOMIC_SEQ_CST)) tl_futex_wake(word);
+}
+
+/* Sleep on word while it holds value, at most ns, saying so in the word after. */
+static inline void tl_link_sleep(uint32_t *word, uint32_t value, int64_t ns) {
+    __atomic_store_n(word + 1, 1u, __ATOMIC_SEQ_CST);
+    if (__atomic_load_n(word, __ATOMIC_SEQ_CST) == value) tl_futex_wait(word, value, ns);
+    __atomic_store_n(word + 1, 0u, __ATOMIC_SEQ_CST);
+}
+
+/* While spinning: give the processor to another runnable thread (the other side, if it waits for this core). */
+#include <sched.h>
+static inline void tl_cpu_relax(void) { sched_yield(); }
+
+#endif
