@@ -475,3 +475,15 @@ def test_string_and_binary_outputs_are_logged_with_their_type(tmp_path, isolated
     assert [m["y_String"] for m in messages] == ["even", "odd", "even", "odd"]
     binaries = [base64.b64decode(m["y_Binary"]) for m in messages]
     assert binaries == [bytes([0x0A, 0x0B]), bytes([0x00, 0x01]), bytes([0x0C, 0x0B]), bytes([0x02, 0x01])]
+
+
+def test_an_ssp_export_of_a_system_with_an_input_file_is_refused(tmp_path):
+    from tiltload.master.engine.ssp.export import export
+
+    path = every_type_fmu(tmp_path, 2)
+    table = tmp_path / "in.csv"
+    table.write_text("time,u_Real\n0,1\n")
+    system = System(TICK, [Instance("e", path, input_file=table)])
+    with pytest.raises(DescriptionError, match="e: its input file .* has no place in an SSP package"):
+        export(system, tmp_path / "x.ssp", 1.0)
+    assert not (tmp_path / "x.ssp").exists()
