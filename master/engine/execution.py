@@ -170,6 +170,9 @@ class Execution:
             self.resumed_at = resume.time
         else:
             self._propagate(order)
+        for inst in self.instances.values():  # String and Binary outputs at t = 0 (the loop reads them after each step)
+            if inst.text_outputs:
+                inst.read_texts()
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays

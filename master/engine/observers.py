@@ -35,6 +35,7 @@ class Batch:
     rows: dict[str, dict[str, np.ndarray]]
     events: list = field(default_factory=list)
     closing: bool = False  # the run's closing samples at its end (edges.py): steps at tick first_tick, none of them a tick
+    texts: dict = field(default_factory=dict)  # name -> {row: {output: its String or Binary value}} (read in Python)
 
     def positions(self, name: str) -> np.ndarray:
         """The records of one instance, in order."""
@@ -48,7 +49,7 @@ class Batch:
             rows[name] = {typ: r[:n] for typ, r in self.rows[name].items()}
         ticks = int(self.tick[cut - 1]) - self.first_tick + 1 if cut else 0
         return Batch(self.first_tick, ticks, self.names, self.instance[:cut], self.tick[:cut], self.time[:cut], self.row[:cut],
-                     rows, [e for e in self.events if e[0] < cut], self.closing)
+                     rows, [e for e in self.events if e[0] < cut], self.closing, self.texts)
 
     def latest_before(self, name: str, positions: np.ndarray) -> np.ndarray:
         """For each record position, the row of the named instance's last record before it (-1: none in this batch)."""

@@ -153,7 +153,9 @@ def test_a_lossless_conversion_is_carried(tmp_path, source, target):
     ("Boolean", "Int8", "Boolean -> Int8 would lose values"),
     ("Enumeration", "Int64", "an Enumeration connects only to an Enumeration of the same items"),
     ("Int32", "Float64", "Int32 -> Float64 is lossless but not supported"),
-    ("UInt8", "UInt64", "UInt8 -> UInt64 is lossless but not supported")])
+    ("UInt8", "UInt64", "UInt8 -> UInt64 is lossless but not supported"),
+    ("String", "String", "String -> String: String connections are not supported"),
+    ("Binary", "Binary", "Binary -> Binary: Binary connections are not supported")])
 def test_a_lossy_or_unsupported_connection_is_refused_naming_both_ends(tmp_path, source, target, said):
     path = every_type_fmu(tmp_path, 3)
     system = System(TICK, [Instance("a", path), Instance("b", path)], auto_connect=False)
@@ -449,3 +451,39 @@ def test_a_64_bit_output_beyond_what_a_double_holds_is_an_error_naming_it(tmp_pa
     res = run_system(System(TICK, [Instance("e", path, parameters={"p_Int64": 2**60})]), 0.3, tmp_path / "run.mcap",
                      progress=False)
     assert res.error is not None and "Int64 output y_Int64 = 1152921504606846976 is beyond +-2^53" in res.error
+
+
+@pytest.mark.parametrize("isolated", [False, True])
+def test_string_and_binary_outputs_are_logged_with_their_type(tmp_path, isolated):
+    """y_String is p_String after an even number of steps and u_String after an odd one; y_Binary the same of the
+    Binaries with its first byte plus the count (every_type3.c; FMPy records neither type, so the model is the
+    reference). Logged as JSON strings, the Binary in base64, at every time; in a worker process they are not read (its
+    link carries numbers only): the schema and the messages leave them out there."""
+    import base64
+
+    path = every_type_fmu(tmp_path, 3)
+    values = {"p_String": "even", "u_String": "odd", "p_Binary": "0a0b", "u_Binary": "ff01"}
+    system = System(TICK, [Instance("e", path, parameters=values)])
+    res = run_system(system, 0.3, tmp_path / "run.mcap", progress=False,
+                     isolate=(lambda fmu, md: True) if isolated else None)
+    assert res.error is None
+    messages = _logged(tmp_path / "run.mcap", "e")
+    assert [m["t"] for m in messages] == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    if isolated:
+        assert all("y_String" not in m for m in messages)
+        return
+    assert [m["y_String"] for m in messages] == ["even", "odd", "even", "odd"]
+    binaries = [base64.b64decode(m["y_Binary"]) for m in messages]
+    assert binaries == [bytes([0x0A, 0x0B]), bytes([0x00, 0x01]), bytes([0x0C, 0x0B]), bytes([0x02, 0x01])]
+
+
+def test_an_ssp_export_of_a_system_with_an_input_file_is_refused(tmp_path):
+    from tiltload.master.engine.ssp.export import export
+
+    path = every_type_fmu(tmp_path, 2)
+    table = tmp_path / "in.csv"
+    table.write_text("time,u_Real\n0,1\n")
+    system = System(TICK, [Instance("e", path, input_file=table)])
+    with pytest.raises(DescriptionError, match="e: its input file .* has no place in an SSP package"):
+        export(system, tmp_path / "x.ssp", 1.0)
+    assert not (tmp_path / "x.ssp").exists()

@@ -50,6 +50,7 @@ class Binding(Slave):
         self._closed = False
         self._unpacked = None  # fmu_cache.Cached or extraction.Unpacked, from _load
         self._fmpy = None
+        self.text_outputs = [v for v in md.modelVariables if v.causality == "output" and fmi_type(v) in ("String", "Binary")]
 
     def function_pointer(self, name: str) -> int:
         """The address of one of the FMU's own functions (fmi2DoStep, fmi3SetClock, ...), for the C tick loop."""
@@ -71,6 +72,16 @@ class Binding(Slave):
 
     def call(self, what: str, fn):
         return fmpy_call(self, what, fn)
+
+    def read_texts(self) -> None:
+        """The String and Binary outputs now into texts (the loop steps such an FMU through its Python callback)."""
+        for v in self.text_outputs:
+            if fmi_type(v) == "Binary":
+                value = self.call(f"getBinary({v.name})", lambda vr=v.valueReference: self._fmpy.getBinary([vr])[0])
+            else:
+                value = self.call(f"getString({v.name})", lambda vr=v.valueReference: self._fmpy.getString([vr])[0])
+                value = value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+            self.texts[v.name] = value
 
     def set_values(self, values: dict) -> None:
         self.set_parameters(values)

@@ -50,6 +50,8 @@ class Slave(ABC):
         self.out_index = {t: {v.valueReference: i for i, v in enumerate(vs)} for t, vs in self.outputs.items()}
         self.vars = {v.name: v for v in md.modelVariables}
         self.values: dict[str, np.ndarray] = {}
+        self.text_outputs: list = []  # String and Binary outputs this slave reads (read_texts), not carried in values
+        self.texts: dict[str, object] = {}  # their values after the last read
         self.setters: dict[str, object] = {}
         self.component = None  # what the setters take as their first argument
 

@@ -15,6 +15,7 @@ up to its last chunk. The readers are in log/reader.py.
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 from collections.abc import Callable
@@ -46,9 +47,13 @@ KERNEL_TYPES = ("Float64", "Int32", "Boolean")  # the types a fixed-layout messa
 
 
 def _json_type(v) -> dict:
-    """An output's JSON schema: its FMI type, an integer type's range, an Enumeration's items."""
+    """An output's JSON schema: its FMI type, an integer type's range, an Enumeration's items, a Binary's bytes."""
     name = fmi_type(v)
     kind = FMI_TYPES[name]
+    if name == "String":
+        return {"type": "string"}
+    if name == "Binary":
+        return {"type": "string", "contentEncoding": "base64", "description": "Binary"}
     if name == "Boolean":
         return {"type": "boolean"}
     if name == "Enumeration":
@@ -125,7 +130,8 @@ class McapLogger(Observer):
         for name, inst in execution.instances.items():
             names = {t: [v.name for v in inst.outputs[t]] for t in ("Real", "Integer", "Boolean")}
             meta = {"fmu": str(inst.path)}
-            standard = all(fmi_type(v) in KERNEL_TYPES for t in ("Real", "Integer", "Boolean") for v in inst.outputs[t])
+            standard = all(fmi_type(v) in KERNEL_TYPES for t in ("Real", "Integer", "Boolean") for v in inst.outputs[t]) \
+                and not inst.text_outputs
             if standard and fits(["t", *names["Real"], *names["Integer"], *names["Boolean"]]):
                 enc = FixedMessage(name, names["Real"], names["Integer"], names["Boolean"])
                 schema = w.add_schema(enc.full_name, "protobuf", enc.schema())
@@ -133,7 +139,8 @@ class McapLogger(Observer):
                 self._encoders[name] = enc
             else:
                 props = {"t": {"type": "number"}, **{v.name: _json_type(v) for t in ("Real", "Integer", "Boolean")
-                                                       for v in inst.outputs[t]}}
+                                                       for v in inst.outputs[t]},
+                         **{v.name: _json_type(v) for v in inst.text_outputs}}
                 self._channels[name] = self._json_channel(f"/{name}", {"type": "object", "title": f"{name} outputs",
                                                                         "properties": props}, meta)
             self._steps[name] = 0
@@ -189,9 +196,9 @@ class McapLogger(Observer):
 
     def on_step(self, instance, t) -> None:
         v = instance.values
-        self._write(instance.name, t, v["Real"], v["Integer"], v["Boolean"])
+        self._write(instance.name, t, v["Real"], v["Integer"], v["Boolean"], instance.texts)
 
-    def _write(self, name: str, t: float, reals, integers, booleans) -> None:
+    def _write(self, name: str, t: float, reals, integers, booleans, texts=None) -> None:
         """One step of one instance (the values at t = 0): its message and its derived channels' messages."""
         k = self._steps[name]
         self._steps[name] = k + 1
@@ -199,7 +206,8 @@ class McapLogger(Observer):
             return
         ns = int(round(t * 1e9))
         enc = self._encoders.get(name)
-        payload = enc.encode(t, reals, integers, booleans) if enc is not None else self._json(name, t, reals, integers, booleans)
+        payload = enc.encode(t, reals, integers, booleans) if enc is not None else \
+            self._json(name, t, reals, integers, booleans, texts)
         self._batch.add(self._channels[name], ns, payload)
         for channel, encode, every, _ in self._derived.get(name, ()):
             if k % every == 0:
@@ -232,9 +240,11 @@ class McapLogger(Observer):
                 fill.append(_fixed_rows(self._channels[name], enc, times, ns, reals, rows["Integer"][logged],
                                         rows["Boolean"][logged], keys))
             else:
+                texts = batch.texts.get(name, {})
                 for j, r in enumerate(logged.tolist()):
                     out.add(self._channels[name], int(ns[j]), self._json(name, float(times[j]), rows["Real"][r],
-                                                                           rows["Integer"][r], rows["Boolean"][r]), int(keys[j]))
+                                                                           rows["Integer"][r], rows["Boolean"][r],
+                                                                           texts.get(r)), int(keys[j]))
             for channel, encode, every, encode_rows in self._derived.get(name, ()):
                 picked = np.flatnonzero(k[logged] % every == 0)
                 if encode_rows is not None:
@@ -252,12 +262,15 @@ class McapLogger(Observer):
                         4 * position)
         self._flush_batch(fill)
 
-    def _json(self, name: str, t: float, reals, integers, booleans) -> bytes:
-        """A JSON message (for outputs whose names are not identifiers). JSON has no NaN: non-finite values are null."""
+    def _json(self, name: str, t: float, reals, integers, booleans, texts=None) -> bytes:
+        """A JSON message (for outputs whose names are not identifiers, or of other types than the fixed layout's). JSON
+        has no NaN: non-finite values are null; a Binary value is base64."""
         outputs = self._outputs[name]
         msg = {"t": t}
         for typ, values in (("Real", reals), ("Integer", integers), ("Boolean", booleans)):
             msg.update({n: convert(x) for (n, convert), x in zip(outputs[typ], values.tolist())})
+        for n, x in (texts or {}).items():
+            msg[n] = base64.b64encode(x).decode() if isinstance(x, bytes) else x
         return json.dumps(msg).encode()
 
     def snapshot_state(self) -> dict:

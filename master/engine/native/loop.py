@@ -116,11 +116,12 @@ class NativeLoop(FaultPlan):
             slave, c = self.slaves[i], self.instances[i]
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
-            forced = spec.name in by_callback
+            forced = spec.name in by_callback or bool(slave.text_outputs)  # String and Binary outputs read in Python
             fmi3 = _native_fmi3(slave) and not forced
             c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
-            self.paths[spec.name] = "callback: asked for" if forced else path_of(slave)
+            self.paths[spec.name] = ("callback: String or Binary outputs" if slave.text_outputs else "callback: asked for") \
+                if forced else path_of(slave)
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
@@ -196,6 +197,7 @@ class NativeLoop(FaultPlan):
         for name in ("record_instance", "record_tick", "record_time", "record_row", "rows"):
             setattr(self.plan, name, getattr(self, name).ctypes.data)
         self._pending: BaseException | None = None
+        self.texts: dict[str, dict[int, dict]] = {}  # this call's String and Binary outputs: name -> {row: values}
         self._queue = _EventQueue(self.plan)
         self.plan.step_callback = kernel.STEP_CALLBACK(self._step)
         self.plan.hook_callback = kernel.HOOK_CALLBACK(self._hook)
@@ -291,13 +293,21 @@ class NativeLoop(FaultPlan):
                 if not self.plan.ends_allowed:
                     raise end.failure from None
                 slave.read_outputs()
+                self._read_texts(i, slave)
                 self.plan.ended_time = end.time
                 return 2
             slave.read_outputs()
+            self._read_texts(i, slave)
             return 0
         except BaseException as err:  # a failure, or Ctrl-C arriving while Python runs: the kernel stops, we re-raise
             self._pending = err
             return 1
+
+    def _read_texts(self, i: int, slave) -> None:
+        """An instance's String and Binary outputs after its step, kept for the record the kernel writes next (its row)."""
+        if slave.text_outputs:
+            slave.read_texts()
+            self.texts.setdefault(self.names[i], {})[int(self.rows[i])] = dict(slave.texts)
 
     def _hook(self, i: int, side: int, t: float) -> int:
         try:
@@ -339,6 +349,7 @@ class NativeLoop(FaultPlan):
             if realtime is not None:
                 realtime.prepare(self.plan, first, self.lateness, self.overrun)
             self._queue.events = []
+            self.texts = {}
             for clocked in self.clocked:
                 clocked.push()
             if self._links:
@@ -378,6 +389,7 @@ class NativeLoop(FaultPlan):
     def close(self, t: float) -> None:
         """The run's closing samples at its end t (tl_close; edges.py), handed to the observers as a closing batch."""
         self._queue.events = []
+        self.texts = {}
         for clocked in self.clocked:
             clocked.push()
         if self._links:
@@ -426,7 +438,8 @@ class NativeLoop(FaultPlan):
             place = {id(f): k for k, f in enumerate(m.faults)}
             events.sort(key=lambda ev: (ev[0], ev[1], place[id(ev[3])]))
         return Batch(first, done, self.names, self.record_instance[:r], self.record_tick[:r], self.record_time[:r],
-                     self.record_row[:r], rows, [(record, t, f, what) for record, _, t, f, what in events])
+                     self.record_row[:r], rows, [(record, t, f, what) for record, _, t, f, what in events],
+                     texts=self.texts)
 
     def _error(self) -> BaseException:
         p = self.plan

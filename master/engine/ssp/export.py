@@ -219,8 +219,11 @@ def _fmu_member(inst: Instance) -> str:
 
 
 def check_members(system: System) -> None:
-    """Two different FMU files of one name would collide in resources/."""
+    """Two different FMU files of one name would collide in resources/; an input file has no place in a package."""
     for inst in system.instances:
+        if inst.input_file is not None:
+            raise DescriptionError(f"{inst.name}: its input file {inst.input_file} has no place in an SSP package "
+                                   "(give it to `tiltload run --system PACKAGE --input-file`)")
         same = [i for i in system.instances if _fmu_member(i) == _fmu_member(inst) and Path(i.fmu).resolve() != Path(inst.fmu).resolve()]
         if same:
             raise DescriptionError(f"{inst.name} and {same[0].name} use different FMU files both called {_fmu_member(inst)}")

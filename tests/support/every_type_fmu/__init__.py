@@ -34,8 +34,16 @@ def _fmi3_xml(extra: str = "") -> str:
                     f'start="{_start(t)}"/>')
         rows.append(f'<{t} name="y_{t}" valueReference="{300 + i}" causality="output" variability="{kind}"{declared}/>')
     # each output depends directly on its input (declared: the engine finds an algebraic loop by it)
-    outputs = "".join(f'<Output valueReference="{300 + i}" dependencies="{200 + i}"/>' for i in range(len(FMI3_TYPES)))
-    unknowns = "".join(f'<InitialUnknown valueReference="{300 + i}"/>' for i in range(len(FMI3_TYPES)))
+    rows += ['<String name="p_String" valueReference="112" causality="parameter" variability="fixed"><Start value="p"/>'
+             '</String>', '<String name="u_String" valueReference="212" causality="input" variability="discrete">'
+             '<Start value="u"/></String>', '<String name="y_String" valueReference="312" causality="output" '
+             'variability="discrete"/>',
+             '<Binary name="p_Binary" valueReference="113" causality="parameter" variability="fixed"><Start value="0a0b"/>'
+             '</Binary>', '<Binary name="u_Binary" valueReference="213" causality="input" variability="discrete">'
+             '<Start value="ff"/></Binary>', '<Binary name="y_Binary" valueReference="313" causality="output" '
+             'variability="discrete"/>']
+    outputs = "".join(f'<Output valueReference="{300 + i}" dependencies="{200 + i}"/>' for i in range(len(FMI3_TYPES) + 2))
+    unknowns = "".join(f'<InitialUnknown valueReference="{300 + i}"/>' for i in range(len(FMI3_TYPES) + 2))
     items = "".join(f'<Item name="{n}" value="{v}"/>' for n, v in ITEMS)
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="3.0" modelName="EveryType" instantiationToken="{{every-type-3}}">

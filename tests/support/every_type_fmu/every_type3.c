@@ -2,7 +2,8 @@
    written for the engine's type tests (tests/support/every_type_fmu). After k steps, computed when read (so the
    output at t = 0 follows an input set in Initialization Mode): y = u + p * k for the numbers, y = u != (p && k odd)
    for the Boolean, y = 1 + (u + p + k) % 3 for the Enumeration (items 1..3; got and set as Int64, FMI 3.0's rule).
-   Value references: p 100 + i, u 200 + i, y 300 + i for the type of index i (TYPES' order). */
+   Value references: p 100 + i, u 200 + i, y 300 + i for the type of index i (TYPES' order); then the String (12)
+   and the Binary (13): y is p after an even number of steps, u after an odd one (the Binary's first byte + k). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -19,11 +20,16 @@ typedef struct {
   TYPES(FIELDS)
   fmi3Int64 p_Enum, u_Enum;
   fmi3UInt64 k;
+  char p_String[64], u_String[64];
+  fmi3Byte p_Binary[16], u_Binary[16], y_Binary[16];
+  size_t p_BinaryN, u_BinaryN;
 } Model;
 
 static void starts(Model* m) {
   memset(m, 0, sizeof *m);
   m->p_Enum = 1; m->u_Enum = 1;
+  strcpy(m->p_String, "p");
+  strcpy(m->u_String, "u");
 }
 
 #define OUT_Float32(m) ((fmi3Float32)(m->u_Float32 + m->p_Float32 * (fmi3Float32)m->k))
@@ -120,5 +126,61 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 t, fmi3Float64 h, fmi3B
   *terminate = fmi3False;
   *early_return = fmi3False;
   *last_successful_time = t + h;
+  return fmi3OK;
+}
+
+static void copy_text(char* to, fmi3String from) {
+  strncpy(to, from != NULL ? from : "", 63);
+  to[63] = 0;
+}
+
+fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3String v[], size_t nv) {
+  Model* m = (Model*)instance;
+  if (nv != n) return fmi3Error;
+  for (size_t i = 0; i < n; i++) {
+    if (vr[i] == 112) v[i] = m->p_String;
+    else if (vr[i] == 212) v[i] = m->u_String;
+    else if (vr[i] == 312) v[i] = (m->k & 1) ? m->u_String : m->p_String;
+    else return fmi3Error;
+  }
+  return fmi3OK;
+}
+fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3String v[], size_t nv) {
+  Model* m = (Model*)instance;
+  if (nv != n) return fmi3Error;
+  for (size_t i = 0; i < n; i++) {
+    if (vr[i] == 112) copy_text(m->p_String, v[i]);
+    else if (vr[i] == 212) copy_text(m->u_String, v[i]);
+    else return fmi3Error;
+  }
+  return fmi3OK;
+}
+fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, size_t sizes[],
+                         fmi3Binary v[], size_t nv) {
+  Model* m = (Model*)instance;
+  if (nv != n) return fmi3Error;
+  for (size_t i = 0; i < n; i++) {
+    if (vr[i] == 113) { v[i] = m->p_Binary; sizes[i] = m->p_BinaryN; }
+    else if (vr[i] == 213) { v[i] = m->u_Binary; sizes[i] = m->u_BinaryN; }
+    else if (vr[i] == 313) {
+      const fmi3Byte* from = (m->k & 1) ? m->u_Binary : m->p_Binary;
+      sizes[i] = (m->k & 1) ? m->u_BinaryN : m->p_BinaryN;
+      memcpy(m->y_Binary, from, sizes[i]);
+      if (sizes[i] > 0) m->y_Binary[0] = (fmi3Byte)(m->y_Binary[0] + m->k);
+      v[i] = m->y_Binary;
+    } else return fmi3Error;
+  }
+  return fmi3OK;
+}
+fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const size_t sizes[],
+                         const fmi3Binary v[], size_t nv) {
+  Model* m = (Model*)instance;
+  if (nv != n) return fmi3Error;
+  for (size_t i = 0; i < n; i++) {
+    if (sizes[i] > 16) return fmi3Error;
+    if (vr[i] == 113) { memcpy(m->p_Binary, v[i], sizes[i]); m->p_BinaryN = sizes[i]; }
+    else if (vr[i] == 213) { memcpy(m->u_Binary, v[i], sizes[i]); m->u_BinaryN = sizes[i]; }
+    else return fmi3Error;
+  }
   return fmi3OK;
 }
