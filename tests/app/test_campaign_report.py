@@ -7,7 +7,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from tiltload.master.app.campaign import report as rp  # noqa: E402
+from tiltload.master.app.campaign import figures as rp  # noqa: E402
+from tiltload.master.app.campaign import report as campaign_report  # noqa: E402
 
 
 def _rows(per_group: int, saturated: float = 0.0) -> list[dict]:
@@ -72,7 +73,7 @@ def test_a_report_whose_metrics_are_all_zero_has_no_distributions_figure(tmp_pat
     rows = [{**r, **{k: 0.0 for k in ("ISE(x)", "ISE(y)", "ISE(z)", "max_tracking_error", "IADU(f_R)")}}
             for r in _rows(2)]
     pq.write_table(pa.Table.from_pylist(rows), tmp_path / "results.parquet")
-    text = rp.report(tmp_path / "results.parquet").read_text()
+    text = campaign_report.report(tmp_path / "results.parquet").read_text()
     assert not (tmp_path / "distributions.png").exists() and "distributions.png" not in text
 
 

@@ -35,54 +35,12 @@ from fmpy.fmi3 import FMU3Slave
 
 from ..errors import ExecutionError, FmuEndedRun
 from .binding import Binding, c_function
+from .fmi3_inputs import API, FMI3_NAME, StagedInputs, api_type
 from .fmi3_state import Fmu3State
 from .model_description import EXACT, FMI_TYPES, clock_ticks, clocks_of, fmi_type
 from .slave import TYPES
 
-FMI3_C = {"Real": ctypes.c_double, "Integer": ctypes.c_int32, "Boolean": ctypes.c_bool}  # fmi3Float64, Int32, Boolean
-FMI3_NAME = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}  # each carrier's own FMI 3.0 type
 MAX_EVENT_ITERATIONS = 100
-# The FMI 3.0 get and set functions of every carried type (an Enumeration's are Int64's)
-API = {name: "Int64" if name == "Enumeration" else name for name, kind in FMI_TYPES.items() if kind.carrier is not None}
-
-
-def _api(slave, t: str, vr: int) -> str:
-    """The FMI 3.0 function type of a carried variable (by its carrier t and value reference)."""
-    return slave.api.get((t, vr), FMI3_NAME[t])
-
-
-class _Inputs:
-    """One setter call site of the execution (its value-reference array): the values staged in FMI 3.0 buffers, split
-    by when they may be set (continuous, discrete, or clocked by clock j)."""
-
-    def __init__(self, slave: Fmu3Slave, t: str, vrs, n: int) -> None:
-        self.type, self.n = t, n
-        kinds: dict[tuple, list[int]] = {}
-        for i in range(n):
-            kinds.setdefault((slave.input_kind.get((t, vrs[i]), "continuous"), _api(slave, t, vrs[i])), []).append(i)
-        self.buffer = (FMI3_C[t] * n)()
-        self.staged = np.ctypeslib.as_array(self.buffer)
-        self.sources: dict[int, np.ndarray] = {}  # address of a values buffer the execution sets from -> its view
-        self.parts = []  # (kind, vrs, n, buffer, its view, indices into staged; None: the whole buffer, FMI 3.0 type)
-        for (kind, api), idx in kinds.items():
-            part_vrs = (ctypes.c_uint * len(idx))(*[vrs[i] for i in idx])
-            if len(kinds) == 1 and api == FMI3_NAME[t]:
-                self.parts.append((kind, part_vrs, n, self.buffer, self.staged, None, api))
-            else:
-                buf = (FMI_TYPES[api].c_type * len(idx))()
-                self.parts.append((kind, part_vrs, len(idx), buf, np.ctypeslib.as_array(buf), np.array(idx), api))
-        self.discrete = [p for p in self.parts if p[0] == "discrete"]
-        self.applied: dict[int, np.ndarray] = {}  # discrete part -> the values last set
-
-    def stage(self, values) -> None:
-        view = self.sources.get(ctypes.addressof(values))
-        if view is None:
-            view = self.sources[ctypes.addressof(values)] = np.ctypeslib.as_array(values)[:self.n]
-        self.staged[:] = view
-
-    def changed_discrete(self) -> bool:
-        return any(not np.array_equal(self.staged if idx is None else self.staged[idx], self.applied.get(id(vrs)))
-                   for _, vrs, _, _, _, idx, _ in self.discrete)
 
 
 class Fmu3Slave(Binding):
@@ -164,7 +122,7 @@ class Fmu3Slave(Binding):
             self.setters[t] = self._setter(t)
             groups: dict[tuple, list[int]] = {}
             for i, vr in enumerate(self.out_vrs[t]):
-                groups.setdefault((clock_of[t, vr], _api(self, t, vr)), []).append(i)
+                groups.setdefault((clock_of[t, vr], api_type(self, t, vr)), []).append(i)
             for (clock, api), idx in groups.items():
                 buf = (FMI_TYPES[api].c_type * len(idx))()
                 entry = (self._raw["Get", api], self.values[t], (ctypes.c_uint * len(idx))(*[self.out_vrs[t][i] for i in idx]),
@@ -176,9 +134,9 @@ class Fmu3Slave(Binding):
                 else:
                     self._clocked_outputs.setdefault(clock, []).append(entry)
         self._held = [e for entries in self._clocked_outputs.values() for e in entries]
-        self._staged: dict[int, _Inputs] = {}
-        self._converted: dict[int, _Inputs] = {}  # set at once, converted (set_converted)
-        self._discrete_inputs: list[_Inputs] = []
+        self._staged: dict[int, StagedInputs] = {}
+        self._converted: dict[int, StagedInputs] = {}  # set at once, converted (set_converted)
+        self._discrete_inputs: list[StagedInputs] = []
         self._clock_calls: dict[tuple[int, ...], tuple] = {}  # due clocks -> the arrays of their fmi3SetClock
         self._in_event = False  # the Event Mode right after initialization is the first tick's
         self._event_asked = False  # the FMU asked for an event at the next step (a time event it reached)
@@ -204,7 +162,7 @@ class Fmu3Slave(Binding):
                 key = ctypes.addressof(vrs)
                 entry = self._converted.get(key)
                 if entry is None:
-                    entry = self._converted[key] = _Inputs(self, t, vrs, n)
+                    entry = self._converted[key] = StagedInputs(self, t, vrs, n)
                 entry.stage(values)
                 try:
                     self._set_parts(entry, None, None)
@@ -216,7 +174,7 @@ class Fmu3Slave(Binding):
         def stage(component, vrs, n, values) -> int:
             entry = self._staged.get(ctypes.addressof(vrs))
             if entry is None:
-                entry = self._staged[ctypes.addressof(vrs)] = _Inputs(self, t, vrs, n)
+                entry = self._staged[ctypes.addressof(vrs)] = StagedInputs(self, t, vrs, n)
                 self._discrete_inputs = [e for e in self._staged.values() if e.discrete]
             entry.stage(values)
             return 0
@@ -275,7 +233,7 @@ class Fmu3Slave(Binding):
         for entry in self._staged.values():
             self._set_parts(entry, kinds, t)
 
-    def _set_parts(self, entry: _Inputs, kinds, t: float | None) -> None:
+    def _set_parts(self, entry: StagedInputs, kinds, t: float | None) -> None:
         """Set an entry's parts of those kinds (None: all), each converted to its FMI 3.0 type."""
         started = time.perf_counter()
         for kind, vrs, n, buf, view, idx, api in entry.parts:

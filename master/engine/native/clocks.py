@@ -21,7 +21,8 @@ import ctypes
 
 import numpy as np
 
-from ..fmi.fmi3 import FMI3_C, MAX_EVENT_ITERATIONS
+from ..fmi.fmi3 import MAX_EVENT_ITERATIONS
+from ..fmi.fmi3_inputs import FMI3_C
 from . import kernel
 from .codes import PartKind, value_type
 

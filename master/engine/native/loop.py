@@ -14,32 +14,26 @@ plan: fault_plan.py.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
-import os
-import signal
-import threading
-import weakref
 
 import numpy as np
 
-from ..errors import ExecutionError, FmuEndedRun
+from ..errors import FmuEndedRun
 from ..fmi.fmi2 import InProcessFmu
-from ..fmi.fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS, Fmu3Slave
+from ..fmi.fmi3 import FMI3_NAME
 from ..fmi.slave import TYPES
 from ..observers import Batch
 from . import kernel
 from .clocks import ClockedPlan
-from .codes import Dimension, ErrorKind, LinkFailure, Profile, Side, type_name, value_type
+from .codes import Dimension, ErrorKind, Profile, Side, value_type
+from .failures import kernel_error
 from .fault_plan import SIDES, FaultPlan
+from .links import SharedMemoryLinks
+from .paths import kernel_calls_fmi3, path_of
 
 BUCKETS = int(Dimension.PROFILE_BUCKETS)  # a profile histogram's (profile.py)
 INT64_MAX = np.iinfo(np.int64).max
 
-_EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOCK: "setClock",
-                ErrorKind.UPDATE_DISCRETE_STATES: "updateDiscreteStates", ErrorKind.ENTER_STEP_MODE: "enterStepMode"}
-# a Scheduled Execution FMU's failures, worded as fmi3_scheduled.py's
-_SCHEDULED = (ErrorKind.SET, ErrorKind.GET, ErrorKind.GET_CLOCKED, ErrorKind.ACTIVATE, ErrorKind.LOCKS_HELD)
 _NO_ERROR = int(ErrorKind.NONE)  # looked at after every call of the loop (a tick's, for per-step observers): a plain int
 _SIDE_NAME = {int(code): name for name, code in SIDES.items()}  # per hook call: a plain int key, no enum compared
 CHUNK = 256  # ticks per call: ~3 s of a 12 ms loop, a few ms of wall time between two looks at signals and observers
@@ -58,38 +52,11 @@ class _EventQueue:
         self.events.append((int(self.plan.records), self.side, t, fault, what))
 
 
-def _close_all(fds) -> None:
-    for fd in fds:
-        os.close(fd)
-
-
-def _native_fmi3(slave) -> bool:
-    """An FMI 3.0 FMU in this process whose variables are of the kernel's types: the kernel calls its fmi3 functions
-    itself (with clocks, its Event Mode too; a Scheduled Execution one's partitions, fmi3_scheduled.py's sequence)."""
-    return isinstance(slave, Fmu3Slave) and slave.kernel_types
-
-
-def path_of(slave) -> str:
-    """How the loop steps this slave (NativeLoop.paths): the kernel's own calls, or the callback and why."""
-    if isinstance(slave, Fmu3Slave) and not slave.kernel_types:
-        return "callback: FMI 3.0 types the kernel does not convert"
-    if _native_fmi3(slave):
-        if getattr(slave, "scheduled", False):
-            return "kernel: FMI 3.0 Scheduled Execution"
-        return "kernel: FMI 3.0 with clocks" if slave.clocked else "kernel: FMI 3.0"
-    if isinstance(slave, InProcessFmu):
-        return "kernel: FMI 2.0"
-    host = getattr(slave, "host", None)  # isolation.process.IsolatedFmu: a worker process, or a remote host's `where`
-    if host is not None:
-        return f"callback: {getattr(host, 'where', 'worker process')}"
-    return f"callback: {type(slave).__name__}"
-
-
 def _address(array) -> int:
     return ctypes.cast(array, ctypes.c_void_p).value if not isinstance(array, np.ndarray) else array.ctypes.data
 
 
-class NativeLoop(FaultPlan):
+class NativeLoop(SharedMemoryLinks, FaultPlan):
     """The plan of one execution and its runs; kept when the execution restarts on the same instances (restart()).
     by_callback: instances to step through the Python callback although the kernel could call them (to hold the two
     paths side by side)."""
@@ -117,7 +84,7 @@ class NativeLoop(FaultPlan):
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
             forced = spec.name in by_callback or bool(slave.text_outputs)  # String and Binary outputs read in Python
-            fmi3 = _native_fmi3(slave) and not forced
+            fmi3 = kernel_calls_fmi3(slave) and not forced
             c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
             self.paths[spec.name] = ("callback: String or Binary outputs" if slave.text_outputs else "callback: asked for") \
@@ -216,68 +183,6 @@ class NativeLoop(FaultPlan):
             return False
         return all(a[1] == b[1] and all(x is y for x, y in zip(a[2:], b[2:])) for a, b in zip(self._binding(), self._bound))
 
-    # --- isolated FMUs over shared memory (isolation/link.py) --------------------------------------------------------
-    def _bind_links(self) -> None:
-        """Which isolated FMUs the kernel steps over shared memory: those with a segment, unless asked through the
-        callback or with a fault Python applies to their inputs (it may set them directly, a call the link has not)."""
-        self._links: list[tuple[int, list]] = []
-        self._wakeup = getattr(self, "_wakeup", None)  # the signal wakeup pipe (_signals_stop_the_wait)
-        for i, (slave, c) in enumerate(zip(self.slaves, self.instances)):
-            if getattr(slave, "segment", None) is None or self.names[i] in self.by_callback:
-                continue
-            c.link, c.by_callback = None, 1
-            self.paths[self.names[i]] = path_of(slave)
-            if c.hook_inputs:
-                continue
-            groups = [(g.type, [int(v) for v in g.dst_vrs]) for g in self.ex.groups.get(self.names[i], [])]
-            self._links.append((i, groups))
-
-    def _take_links(self) -> None:
-        """Before a call of the kernel: every linked FMU's host on its segment (a snapshot or a reset in between
-        brought it back to its pipe)."""
-        for i, groups in self._links:
-            c = self.instances[i]
-            link = self.slaves[i].link_for(groups)
-            c.link, c.by_callback = (ctypes.pointer(link), 0) if link is not None else (None, 1)
-            self.paths[self.names[i]] = "kernel: shared memory (worker process)" if link is not None else path_of(self.slaves[i])
-
-    @contextlib.contextmanager
-    def _signals_stop_the_wait(self):
-        """While the kernel may wait on a link: Python's signal wakeup fd set (the main thread only, and only if none is),
-        so that a Ctrl-C stops the wait at once (TL_LINK_INTERRUPTED) instead of at the step's answer or its watchdog.
-        A step abandoned so has its host killed (it may be hung) and its FMU marked fatal."""
-        fd = -1
-        if self._links and threading.current_thread() is threading.main_thread():
-            if self._wakeup is None:  # made once, closed with the plan
-                self._wakeup = os.pipe()
-                os.set_blocking(self._wakeup[0], False)
-                os.set_blocking(self._wakeup[1], False)
-                weakref.finalize(self, _close_all, self._wakeup)
-            previous = signal.set_wakeup_fd(self._wakeup[1], warn_on_full_buffer=False)
-            if previous == -1:
-                fd = self._wakeup[0]
-            else:  # somebody else's: it stays, and the wait goes on to the answer
-                signal.set_wakeup_fd(previous)
-        for i, _ in self._links:
-            if self.slaves[i].link is not None:
-                self.slaves[i].link.signal_fd = fd
-        try:
-            yield
-        finally:
-            if fd >= 0:
-                signal.set_wakeup_fd(-1)
-                try:
-                    while os.read(fd, 512):
-                        pass
-                except BlockingIOError:
-                    pass
-            for i, _ in self._links:
-                if self.slaves[i].link is not None:
-                    self.slaves[i].link.signal_fd = -1
-            p = self.plan
-            if p.error_kind == ErrorKind.LINK and p.error_status == LinkFailure.INTERRUPTED:
-                self.slaves[p.error_instance].abandon_link()
-
     # --- callbacks: Python work the kernel asks for in the middle of a tick -----------------------------------------
     def _step(self, i: int, t: float, h: float) -> int:
         """A slave the kernel cannot call: set its inputs (gathered by the kernel), step it, read its outputs."""
@@ -365,7 +270,7 @@ class NativeLoop(FaultPlan):
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
             self.ex.time = self.ex.ticks_done * self.ex.system.tick
-            failure = self._error() if self.plan.error_kind != _NO_ERROR else None
+            failure = kernel_error(self) if self.plan.error_kind != _NO_ERROR else None
             ended = int(self.plan.ended_instance)
             batch = self._batch(first, done)
             if ended >= 0:  # an FMU ended the run: its step's records are the run's last (edges.py)
@@ -398,7 +303,7 @@ class NativeLoop(FaultPlan):
             failed = int(self.lib.tl_close(ctypes.byref(self.plan), t))
         for clocked in self.clocked:
             clocked.pull()
-        failure = self._error() if failed else None
+        failure = kernel_error(self) if failed else None
         batch = self._batch(int(self.plan.ticks_done), 0)
         batch.closing = True
         try:
@@ -440,53 +345,6 @@ class NativeLoop(FaultPlan):
         return Batch(first, done, self.names, self.record_instance[:r], self.record_tick[:r], self.record_time[:r],
                      self.record_row[:r], rows, [(record, t, f, what) for record, _, t, f, what in events],
                      texts=self.texts)
-
-    def _error(self) -> BaseException:
-        p = self.plan
-        kind = ErrorKind(p.error_kind)
-        if kind in (ErrorKind.STEP_CALLBACK, ErrorKind.HOOK_CALLBACK):
-            err, self._pending = self._pending, None
-            return err if err is not None else RuntimeError("a callback of the tick loop failed")
-        slave, t = self.slaves[p.error_instance], p.error_time
-        name = (lambda typ: FMI3_NAME[typ]) if self.instances[p.error_instance].fmi3 else (lambda typ: typ)
-        if getattr(slave, "scheduled", False) and kind in _SCHEDULED:
-            return self._scheduled_error(slave, kind, t)
-        if kind == ErrorKind.LINK:
-            return slave.link_failed(p.error_status, p.error_group, t)
-        if kind == ErrorKind.DO_STEP:
-            return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
-        if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"
-            h = self.ex.every[self.names[p.error_instance]] * self.ex.system.tick
-            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")
-        if kind == ErrorKind.SET:
-            group = self.ex.groups[self.names[p.error_instance]][p.error_group]
-            return slave.failed(f"set{name(group.type)} from {group.source} at t={t:.6g} s", p.error_status)
-        if kind in _EVENT_CALLS:
-            return slave.failed(f"{_EVENT_CALLS[kind]} at t={t:.6g} s", p.error_status)
-        if kind == ErrorKind.TERMINATED_IN_EVENT:
-            return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t:.6g} s")
-        if kind == ErrorKind.UNSETTLED:
-            return ExecutionError(f"{slave.name}: its discrete states still needed an update after {MAX_EVENT_ITERATIONS} "
-                                  f"iterations at t={t:.6g} s")
-        if kind == ErrorKind.GET_CLOCKED:
-            clock = slave.clocks[p.error_group].name
-            return slave.failed(f"get{name(type_name(p.error_type))} of {clock}'s outputs at t={t:.6g} s", p.error_status)
-        return slave.failed(f"get{name(type_name(p.error_type))}", p.error_status)
-
-    def _scheduled_error(self, slave, kind: ErrorKind, t: float) -> BaseException:
-        p = self.plan
-        if kind == ErrorKind.SET:
-            group = self.ex.groups[self.names[p.error_instance]][p.error_group]
-            return slave.failed(f"set{FMI3_NAME[group.type]} at t={t:.6g} s", p.error_status)
-        if kind == ErrorKind.GET:
-            return slave.failed("get", p.error_status)
-        if kind == ErrorKind.GET_CLOCKED:
-            return slave.failed(f"get clocked outputs at t={t:.6g} s", p.error_status)
-        clock = slave.clocks[p.error_group].name
-        if kind == ErrorKind.ACTIVATE:
-            return slave.failed(f"activateModelPartition({clock}) at t={t:.6g} s", p.error_status)
-        return ExecutionError(f"{slave.name}: partition {clock} returned at t={t:.6g} s with {p.error_status} preemption "
-                              "lock(s) held")
 
     def delay_line(self) -> list[dict[str, np.ndarray]]:
         """The delay line's slots per instance and type (a snapshot saves them)."""
