@@ -127,11 +127,13 @@ def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set,
     from support import ROOT
     from tiltload.master.engine.faults.parse import load as load_faults
     from tiltload.master.engine.native import loop as native_loop
+    from tiltload.master.engine.native import paths as native_paths
 
     runs = {}
     for path in ("kernel", "python"):
         if path == "python":
-            monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
+            for module in (native_loop, native_paths):  # the plan and what it says of each instance
+                monkeypatch.setattr(module, "kernel_calls_fmi3", lambda slave: False)
         system = default_system(fmi3_set, "zse", 1, "mixed", seed=2, fmi=3, clocked=clocked)
         system.faults = load_faults(ROOT / "docs" / "faults" / f"{fault}.json")
         rec = RecordAll()
@@ -432,12 +434,14 @@ def test_the_kernel_s_event_mode_makes_the_calls_fmi3_py_makes(tmp_path, monkeyp
 
     from support.fmi3_trace_fmu import TICK, trace_fmu
     from tiltload.master.engine.native import loop as native_loop
+    from tiltload.master.engine.native import paths as native_paths
 
     fmu = trace_fmu(tmp_path)
     runs = {}
     for path in ("kernel", "python"):
         if path == "python":
-            monkeypatch.setattr(native_loop, "_native_fmi3", lambda slave: False)
+            for module in (native_loop, native_paths):  # the plan and what it says of each instance
+                monkeypatch.setattr(module, "kernel_calls_fmi3", lambda slave: False)
         system = sysdesc.System(TICK, [sysdesc.Instance("src", fmu), sysdesc.Instance("dut", fmu)], auto_connect=False,
                                 connections=[sysdesc.Connection("src.y_a", "dut.u_c"), sysdesc.Connection("src.y", "dut.u_a"),
                                              sysdesc.Connection("src.n_b", "dut.u_d", delay=1),

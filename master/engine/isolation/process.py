@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import DescriptionError, ExecutionError, FmuEndedRun
 from ..fmi import slave
-from ..fmi.model_description import clocks_of
+from ..fmi.model_description import clocks_of, fmi_type, fmi_version
 from . import link, wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -113,6 +113,14 @@ class WorkerProcess:
             self._stderr.close()
 
 
+def _link_typed(md) -> bool:
+    """Does the shared-memory link carry each of the FMU's inputs and outputs as its own type? The host's C loop gets
+    and sets Float64, Int32 and Boolean (and FMI 2.0's Enumerations, as Integers); an FMU with other types (Float32,
+    Int8, ..., String, Binary) is stepped on its pipe, where the worker converts them. Clocks (Event Mode) too."""
+    own = ("Float64", "Int32", "Boolean", *(("Enumeration",) if fmi_version(md) == 2 else ()))
+    return all(fmi_type(v) in own for v in md.modelVariables if v.causality in ("input", "output"))
+
+
 class IsolatedFmu(slave.Slave):
     """One FMU instance hosted outside this process: by a local worker unless another host is given."""
 
@@ -132,7 +140,7 @@ class IsolatedFmu(slave.Slave):
         self.segment = None
         self.link = None  # kernel.Link while the loop may step it over shared memory
         self.linked = False  # the host is in its C loop on the segment (not on its pipe)
-        if shared_memory and host is None and link.available() and not clocks_of(md):  # clocks: Event Mode on the pipe
+        if shared_memory and host is None and link.available() and not clocks_of(md) and _link_typed(md):  # else the pipe
             size, out_offset = link.segment_size(sum(1 for v in md.modelVariables if v.causality == "input"),
                                                  {t: len(vs) for t, vs in self.outputs.items()})
             link.host_library()  # built here, into the cache the worker loads it from (not within a step's watchdog)
