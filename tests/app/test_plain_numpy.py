@@ -255,3 +255,79 @@ def test_a_campaign_takes_a_class_file_among_its_controllers(tmp_path, monkeypat
     (tmp_path / "hold.py").write_text(GAIN.replace("self.kd = 2.5", "self.kd = 1 / 0"))
     with pytest.raises(SpecError, match=r"c.toml: base.controllers: Hold\(\): __init__ raised ZeroDivisionError"):
         campaign_spec.load(spec)
+
+
+def _one_line_exit_2(argv: list[str], capsys) -> str:
+    from tiltload.master.app.cli import main
+
+    try:
+        code = main(argv)
+    except SystemExit as done:
+        code = done.code
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_falsify_takes_a_class_file_as_its_controller(tmp_path, monkeypatch, capsys):
+    """base.controller = "hold.py": the search runs the FMU `run --controller hold.py` runs (the same wrapping, the
+    same cached file); a class whose __init__ raises is the spec's one line, exit 2, before any search."""
+    from tiltload.master.app.falsify.spec import load
+    from tiltload.master.app.wrap.class_fmu import controller_fmu_of_file, route
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    (tmp_path / "hold.py").write_text(GAIN)
+    spec = tmp_path / "f.toml"
+    spec.write_text('name = "f"\n[base]\nscenario = "fsi"\ntrajectory = 1\ncontroller = "hold.py"\nstop_time = 2\n'
+                    '[[requirements]]\nname = "z"\nformula = "always (abs(plant.z) < 5)"\n'
+                    '[[search]]\nname = "m"\ntarget = "plant.m_L"\nrange = [0.1, 0.3]\n[budget]\nsimulations = 2\n')
+    controller = Path(load(spec).controller)
+    assert controller == controller_fmu_of_file(tmp_path / "hold.py") and controller.name == "hold.fmu"
+    assert route(controller).startswith("a native C FMU")
+    (tmp_path / "hold.py").write_text(GAIN.replace("self.kd = 2.5", "self.kd = 1 / 0"))
+    err = _one_line_exit_2(["falsify", str(spec), "--out", str(tmp_path / "o")], capsys)
+    assert "f.toml: base.controller: Hold(): __init__ raised ZeroDivisionError" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_b2b_takes_a_class_file_on_either_side(pipeline_fmus, tmp_path, monkeypatch, capsys):
+    """b2b --reference-controller hold.py --candidate-controller hold_1pc.py (kp 1 % larger): each wrapped on the fly,
+    the route said; the reference's logged commands are what the class computes in Python from the logged inputs (the
+    oracle); the candidate leaves its tubes and what changed names kp. The API's sides take the file the same way."""
+    import tiltload as tl
+    from tiltload.master.app.cli import main
+    from tiltload.master.engine.log import reader as log_reader
+
+    monkeypatch.setenv("TILTLOAD_CACHE", str(tmp_path / "cache"))
+    fmus = pipeline_fmus["TiltloadPlant"].parent
+    (tmp_path / "hold.py").write_text(GAIN)
+    (tmp_path / "hold_1pc.py").write_text(GAIN.replace("self.kp = 4.0", "self.kp = 4.04"))
+    (tmp_path / "cases.toml").write_text('cases = [{scenario = "fsi", trajectory = 1}]\n')
+    out = tmp_path / "b2b"
+    code = main(["b2b", "--cases", str(tmp_path / "cases.toml"), "--reference-fmus", str(fmus), "--candidate-fmus", str(fmus),
+                 "--reference-controller", str(tmp_path / "hold.py"), "--candidate-controller", str(tmp_path / "hold_1pc.py"),
+                 "--stop-time", "1.2", "--out", str(out)])
+    lines = capsys.readouterr().out.splitlines()
+    assert code == 1, lines
+    assert f"the candidate's controller {tmp_path / 'hold_1pc.py'}: wrapped as a native C FMU (traced from plain numpy)" in lines
+    assert any(line.startswith("what changed: controller parameter kp 4.0 -> 4.04") for line in lines), lines
+    module = wrap.load_module(tmp_path / "hold.py")
+    python, worst, ticks = module.Hold(), 0.0, 0
+    data = log_reader.read(out / "fsi_traj1_hold_vs_hold_1pc_reference.mcap", topics=["/sensors", "/scenario", "/controller"])
+    for sensed, scenario, command in zip(data["/sensors"], data["/scenario"], data["/controller"]):
+        inputs = {n: (sensed if n.startswith("exact_") else scenario)[n] for n in module.Hold.inputs}
+        mine = [float(v) for v in python.step(command["t"], inputs)]
+        worst = max(worst, max(abs(m - command[n]) for m, n in zip(mine, ("f_R", "f_L", "tau_R", "tau_L"))))
+        ticks += 1
+    assert ticks > 90 and worst <= 1e-12
+
+    same = tl.b2b([{"scenario": "fsi", "trajectory": 1}], reference={"fmus": fmus, "controller": str(tmp_path / "hold.py")},
+                  candidate={"fmus": fmus, "controller": str(tmp_path / "hold.py")}, stop_time=0.6, out=tmp_path / "api")
+    assert same.ok
+    (tmp_path / "broken.py").write_text(GAIN.replace("self.kd = 2.5", "self.kd = 1 / 0"))
+    with pytest.raises(tl.TiltloadError, match=r"Hold\(\): __init__ raised ZeroDivisionError"):
+        tl.b2b([{"scenario": "fsi", "trajectory": 1}], reference={"fmus": fmus},
+               candidate={"fmus": fmus, "controller": str(tmp_path / "broken.py")}, stop_time=0.6, out=tmp_path / "api2")
+    err = _one_line_exit_2(["b2b", "--candidate-controller", str(tmp_path / "missing.py"), "--out", str(out)], capsys)
+    assert "controller" in err and "missing.py does not exist" in err
