@@ -6,6 +6,7 @@ derived from it in __init__ is recomputed). The Python form is the oracle."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -331,3 +332,45 @@ def test_b2b_takes_a_class_file_on_either_side(pipeline_fmus, tmp_path, monkeypa
                candidate={"fmus": fmus, "controller": str(tmp_path / "broken.py")}, stop_time=0.6, out=tmp_path / "api2")
     err = _one_line_exit_2(["b2b", "--candidate-controller", str(tmp_path / "missing.py"), "--out", str(out)], capsys)
     assert "controller" in err and "missing.py does not exist" in err
+
+
+PLUGIN_TEST = """
+from tiltload.master.app.wrap.class_fmu import route
+
+
+def test_hold(tiltload_run, tiltload_baseline, tiltload_controller):
+    assert route(tiltload_controller("hold.py", native=True)).startswith("a native C FMU")
+    tiltload_baseline.check(tiltload_run(controller="hold.py", native=True, scenario="fsi", trajectory=1,
+                                         stop_time=1.2, no_gusts=True))
+"""
+
+
+@pytest.mark.slow
+def test_a_pytest_failure_after_a_one_percent_gain_change_names_the_line_and_the_parameter_first(fmus, tmp_path):
+    """A user's pytest session: tiltload_run(controller="hold.py", native=True) against its recorded baseline; kp
+    changed by 1 % in the source, the failure's first line names the parameter and the class's changed line."""
+    session = tmp_path / "session"
+    session.mkdir()
+    (session / "hold.py").write_text(GAIN)
+    (session / "test_user.py").write_text(PLUGIN_TEST)
+    (session / "pytest.ini").write_text("[pytest]\n")  # the user's repository: its rootdir, where hold.py is
+
+    def pytest_session(*extra: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "pytest", "-q", "-rf", "-p", "no:cacheprovider", "--rootdir", str(session),
+                               "--tiltload-fmus", str(fmus), *extra, "test_user.py"], cwd=session, capture_output=True, text=True,
+                              timeout=1200, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1",
+                                                 "TILTLOAD_CACHE": str(tmp_path / "cache")})
+
+    recorded = pytest_session("--tiltload-update-baselines")
+    assert recorded.returncode == 0, recorded.stdout[-3000:] + recorded.stderr[-2000:]
+    assert pytest_session().returncode == 0  # the same class: the same run
+    (session / "hold.py").write_text(GAIN.replace("self.kp = 4.0", "self.kp = 4.04"))
+    failed = pytest_session()
+    assert failed.returncode == 1, failed.stdout[-3000:] + failed.stderr[-2000:]
+    line = GAIN.splitlines().index("        self.kp = 4.0") + 1
+    said = failed.stdout.splitlines()
+    header = next(i for i, s in enumerate(said) if s.strip("_ ") == "test_hold")  # the failure's own section
+    first = next(s for s in said[header + 1:] if s.strip())
+    assert first.startswith("the run differs from its baseline; what changed: controller parameter kp 4.0 -> 4.04; "
+                            f"controller class line {line} `self.kp = 4.0` -> `self.kp = 4.04`; "), first
+    assert first.endswith("scenario, sensors and plant unchanged"), first
