@@ -128,37 +128,65 @@ def test_run_takes_a_class_file_wraps_it_natively_once_and_says_so(pipeline_fmus
     assert capsys.readouterr().err.strip().endswith("missing.py: no such file")
 
 
-def closed_loop_deviation(cls, fmus: Path, where: Path, seconds: float = 3.0) -> float:
-    """The native FMU of cls in the closed loop (fsi, trajectory 1, 3 s), and its Python form given, tick by tick, the
-    inputs the loop gave the FMU (the sensors' and the scenario's outputs at t_k, from the log): the largest difference
-    of their commands. Validated by FMPy first."""
-    from fmpy.validation import validate_fmu
-    from tiltload.master.app.cli import main
+def closed_loop_deviation(cls, fmus: Path, where: Path, seconds: float = 3.0, scenario: str = "fsi", trajectory: int = 1,
+                          fmu: Path | None = None) -> float:
+    """The native FMU of cls (wrapped here unless given) in the closed loop (scenario, trajectory, seconds), and its
+    Python form given, tick by tick, the inputs the loop gave the FMU (the sensors' and the scenario's outputs at t_k,
+    from the log): the largest difference of their commands."""
     from tiltload.master.app.loop.thesis import default_system
     from tiltload.master.engine.log import reader as log_reader
     from tiltload.master.engine.run import run_system
 
-    fmu = where / f"{cls.__name__}.fmu"
-    assert main(["wrap", "--native", str(CORPUS), "--class", cls.__name__, "--out", str(fmu)]) == 0
-    assert validate_fmu(str(fmu)) == []
-    log = where / f"{cls.__name__}.mcap"
-    result = run_system(default_system(fmus, "fsi", 1, None, 1, fmu), seconds, log, progress=False)
+    fmu = fmu or native_fmu(cls, where)
+    log = where / f"{cls.__name__}_{scenario}_traj{trajectory}.mcap"
+    result = run_system(default_system(fmus, scenario, trajectory, None, 1, fmu), seconds, log, progress=False)
     assert result.error is None, result.error
     data = log_reader.read(log, topics=["/sensors", "/scenario", "/controller"])
     python, worst = cls(), 0.0
-    for sensed, scenario, command in zip(data["/sensors"], data["/scenario"], data["/controller"]):
-        assert sensed["t"] == scenario["t"] == command["t"]
-        inputs = {n: (sensed if n.startswith("exact_") else scenario)[n] for n in cls.inputs}
+    for sensed, scenario_out, command in zip(data["/sensors"], data["/scenario"], data["/controller"]):
+        assert sensed["t"] == scenario_out["t"] == command["t"]
+        inputs = {n: (sensed if n.startswith("exact_") else scenario_out)[n] for n in cls.inputs}
         mine = [float(v) for v in python.step(command["t"], inputs)]
         worst = max(worst, max(abs(m - command[n]) for m, n in zip(mine, ("f_R", "f_L", "tau_R", "tau_L"))))
-    assert len(data["/controller"]) > 200
+    assert len(data["/controller"]) >= int(seconds / cls.period) - 1
     return worst
+
+
+def native_fmu(cls, where: Path) -> Path:
+    """cls wrapped by `tiltload wrap --native`, validated by FMPy."""
+    from fmpy.validation import validate_fmu
+    from tiltload.master.app.cli import main
+
+    fmu = where / f"{cls.__name__}.fmu"
+    assert main(["wrap", "--native", str(CORPUS), "--class", cls.__name__, "--out", str(fmu)]) == 0
+    assert validate_fmu(str(fmu)) == []
+    return fmu
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
 def test_each_native_fmu_equals_its_python_form_in_the_closed_loop(cls, fmus, tmp_path):
     assert closed_loop_deviation(cls, fmus, tmp_path) <= 1e-12
+
+
+REPRODUCTION_SECONDS = 3.0  # of each case, shortened from its trajectory's duration (30 s and more): 24 x 6 runs
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls", MODULE.CORPUS, ids=lambda c: c.__name__)
+def test_each_native_fmu_equals_its_python_form_over_the_twelve_reproduction_cases(cls, fmus, tmp_path):
+    """The twelve reproduction cases (ch. 5: fsi, lkf, zse x trajectories 1, 2 x dlqr, mixed) with the corpus class as
+    the controller: the case's own controller replaced, they are six loops (scenario x trajectory), each run for
+    REPRODUCTION_SECONDS. The largest deviation is printed (pytest -s) for the record."""
+    from tiltload.master.app.regression.reproduce import CASES
+
+    fmu = native_fmu(cls, tmp_path)
+    loops = list(dict.fromkeys((s, t) for s, t, _ in CASES))
+    assert len(CASES) == 12 and len(loops) == 6
+    worst = {loop: closed_loop_deviation(cls, fmus, tmp_path, REPRODUCTION_SECONDS, *loop, fmu=fmu) for loop in loops}
+    print(f"\n{cls.__name__}: largest deviation over the reproduction cases {max(worst.values()):.3g} "
+          f"({', '.join(f'{s}/traj{t} {d:.3g}' for (s, t), d in worst.items())})")
+    assert max(worst.values()) <= 1e-12, worst
 
 
 GAIN = """import numpy as np
