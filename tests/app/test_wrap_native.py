@@ -229,23 +229,22 @@ def test_a_parameter_init_needs_the_number_of_is_refused_when_set_on_the_native_
 
 
 CORPUS = ROOT / "tests" / "support" / "data" / "plain_numpy_corpus.py"
-# a representative subset of the plain-numpy corpus (issue 65), one of each kind of code the C must carry the same on
-# every platform: a clip, nested where, a held integrator, a rate limit, math.* (atan2, hypot), tanh, a Python loop
-# unrolled, int() of time
-PLATFORM_SUBSET = ("ClipFloat", "NestedWhere", "IntegratorHeld", "RateLimitHelper", "MathYaw", "TanhPosition",
-                   "PythonLoop", "IntOfTime")
 
 
 @pytest.mark.slow
 def test_the_corpus_native_fmus_on_every_platform_equal_linux(tmp_path, fmus):
-    """Each class of PLATFORM_SUBSET wrapped natively, 3 s of trajectory 1 (fsi) in the portable C host on win64 (wine)
-    and aarch64 (qemu-user): the ISE of x, y, z, psi equals tiltload's own run on Linux (1e-12)."""
+    """Each class of the plain-numpy corpus (issue 65: 24) wrapped natively, 3 s of trajectory 1 (fsi) in the portable
+    C host on win64 (wine) and aarch64 (qemu-user): the ISE of x, y, z, psi equals tiltload's own run on Linux
+    (1e-12)."""
     from support.portable import AARCH64, WIN64, Host, compile_host, loop_plan, need_platform, unpack, wine_environment
     from tiltload.master.app.loop.thesis import default_system, loop_metrics
+    from tiltload.master.app.wrap.wrap import load_module
     from tiltload.master.engine.run import run_system
 
     seconds, hosts = 3.0, {}
-    for name in PLATFORM_SUBSET:
+    names = [cls.__name__ for cls in load_module(CORPUS).CORPUS]
+    assert len(names) == 24
+    for name in names:
         native = _wrapped(CORPUS, tmp_path / f"{name}.fmu", "--class", name)
         system = default_system(fmus, "fsi", 1, None, 1, native)
         ours = run_system(system, seconds, None, loop_metrics(), progress=False)
