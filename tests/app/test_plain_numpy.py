@@ -369,11 +369,14 @@ def test_b2b_takes_a_class_file_on_either_side(pipeline_fmus, tmp_path, monkeypa
 
 
 PLUGIN_TEST = """
+from hold import Hold
 from tiltload.master.app.wrap.class_fmu import route
 
 
 def test_hold(tiltload_run, tiltload_baseline, tiltload_controller):
     assert route(tiltload_controller("hold.py", native=True)).startswith("a native C FMU")
+    assert route(tiltload_controller(Hold, native=True)).startswith("a native C FMU")  # the class, from its file
+    assert route(tiltload_controller("hold.py")).startswith("a pythonfmu FMU")  # the default: as tiltload wrap
     tiltload_baseline.check(tiltload_run(controller="hold.py", native=True, scenario="fsi", trajectory=1,
                                          stop_time=1.2, no_gusts=True))
 """

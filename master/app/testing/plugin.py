@@ -130,13 +130,10 @@ def _class_fmu(path: Path, class_name: str | None, native: bool | None) -> Path:
     """The class's FMU by the route run and the API take (wrap/class_fmu.py: one wrapping, one cache); its errors the
     API's one line."""
     from ..api.errors import as_tiltload_errors
-    from ..wrap import class_fmu, wrap
+    from ..wrap.class_fmu import controller_fmu_of_file
 
     with as_tiltload_errors():
-        if class_name is None:
-            return class_fmu.controller_fmu_of_file(path, native, field="tiltload_run controller")
-        cls = wrap.find_class(wrap.load_module(path), path, class_name)[1]
-        return class_fmu.controller_fmu(cls, native, field="tiltload_run controller")
+        return controller_fmu_of_file(path, native, field="tiltload_run controller", class_name=class_name)
 
 
 @pytest.fixture(scope="session")
