@@ -20,13 +20,17 @@ DEFAULT_FMU_DIR = defaults.FMU_DIR  # the commands' --fmus
 
 
 def controller(text: str) -> str:
-    """dlqr, mixed or an existing controller FMU file (the --controller of a side of b2b)."""
-    if text in ("dlqr", "mixed") or (text.endswith(".fmu") and Path(text).is_file()):
+    """dlqr, mixed, an existing controller FMU file or a controller class's .py file (the --controller of a side of
+    b2b)."""
+    if text in ("dlqr", "mixed") or (text.endswith((".fmu", ".py")) and Path(text).is_file()):
         return text
+    if text.endswith(".py"):
+        raise argparse.ArgumentTypeError(f"controller {text} does not exist" if not Path(text).exists() else
+                                         f"controller {text} is {kind(Path(text))}, not a Python file")
     if text.endswith(".fmu"):
         raise argparse.ArgumentTypeError(f"controller {text} does not exist" if not Path(text).exists() else
                                          f"controller {text} is {kind(Path(text))}, not an FMU file")
-    raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed nor an existing FMU file")
+    raise argparse.ArgumentTypeError(f"{text!r} is neither dlqr, mixed, an existing FMU file nor a class's .py file")
 
 
 def add_loop_options(p: argparse.ArgumentParser) -> None:

@@ -137,9 +137,10 @@ def _runs_cases(folder: Path) -> list[tuple[str, str, list[str] | None, str | No
     for i, (label, path) in enumerate(_not_fmus(folder / "controllers").items()):
         spec = folder / f"c{i}.toml"
         spec.write_text(CAMPAIGN_SPEC.replace('controllers = ["dlqr"]', f"controllers = [{json.dumps(str(path))}]"))
-        if label != "a Python file":  # a campaign wraps a class's file as run does (issue 65: test_plain_numpy.py)
-            cases.append((RUNS, f"campaign controller: {label}", ["campaign", str(spec), "--out", str(folder / f"co{i}"),
-                                                                  "--workers", "1", "--fmus", FMUS], None, "2"))
+        if label == "a Python file":  # a campaign and a falsification wrap a class's file as run does (issue 65:
+            continue  # test_plain_numpy.py)
+        cases.append((RUNS, f"campaign controller: {label}", ["campaign", str(spec), "--out", str(folder / f"co{i}"),
+                                                              "--workers", "1", "--fmus", FMUS], None, "2"))
         spec = folder / f"f{i}.toml"
         spec.write_text(FALSIFY_SPEC.replace("[base]\n", f"[base]\ncontroller = {json.dumps(str(path))}\n"))
         cases.append((RUNS, f"falsify controller: {label}", ["falsify", str(spec), "--out", str(folder / f"fo{i}"),

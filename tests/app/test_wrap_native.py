@@ -226,3 +226,43 @@ def test_a_parameter_init_needs_the_number_of_is_refused_when_set_on_the_native_
             slave.freeInstance()
     assert instance(10.0) and not instance(3.0) and said
     assert "parameter position_weight is fixed at 10 in this native FMU" in capfd.readouterr().out  # FMPy prints the log
+
+
+CORPUS = ROOT / "tests" / "support" / "data" / "plain_numpy_corpus.py"
+
+
+@pytest.mark.slow
+def test_the_corpus_native_fmus_on_every_platform_equal_linux(tmp_path, fmus):
+    """Each class of the plain-numpy corpus (issue 65: 24) wrapped natively, 3 s of trajectory 1 (fsi) in the portable
+    C host on win64 (wine) and aarch64 (qemu-user): the ISE of x, y, z, psi equals tiltload's own run on Linux
+    (1e-12)."""
+    from support.portable import AARCH64, WIN64, Host, compile_host, loop_plan, need_platform, unpack, wine_environment
+    from tiltload.master.app.loop.thesis import default_system, loop_metrics
+    from tiltload.master.app.wrap.wrap import load_module
+    from tiltload.master.engine.run import run_system
+
+    seconds, hosts = 3.0, {}
+    names = [cls.__name__ for cls in load_module(CORPUS).CORPUS]
+    assert len(names) == 24
+    for name in names:
+        native = _wrapped(CORPUS, tmp_path / f"{name}.fmu", "--class", name)
+        system = default_system(fmus, "fsi", 1, None, 1, native)
+        ours = run_system(system, seconds, None, loop_metrics(), progress=False)
+        assert ours.error is None, (name, ours.error)
+        folders = {i.name: unpack(i.fmu, tmp_path / name / "unpacked") for i in system.instances}
+        for platform in (WIN64, AARCH64):
+            need_platform(platform)
+            where = tmp_path / name / platform.folder
+            where.mkdir(parents=True)
+            if platform.folder not in hosts:  # the host and the plant's sources are the same for every controller
+                env = wine_environment(tmp_path / "wine") if platform is WIN64 else None
+                (tmp_path / platform.folder).mkdir()
+                hosts[platform.folder] = Host(platform, compile_host(platform, folders["plant"] / "sources",
+                                                                     tmp_path / platform.folder), env)
+            plan, tracked = loop_plan(system, folders, platform, where, seconds, every=25)
+            run = hosts[platform.folder].run(plan)
+            for axis, vr in tracked.items():
+                assert abs(run.ise["plant", vr] - ours.metrics[f"ISE({axis})"]) <= 1e-12 * ours.metrics[f"ISE({axis})"], \
+                    (name, platform.folder, axis)
+    if shutil.which("wineserver"):
+        subprocess.run(["wineserver", "-k"], env=wine_environment(tmp_path / "wine"), capture_output=True, timeout=60)

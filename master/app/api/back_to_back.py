@@ -38,6 +38,24 @@ def _side(value: Side | Mapping | None, role: str) -> Side:
     return Side(**given)  # its values checked with the command's (regression.back_to_back.check_side)
 
 
+def _wrapped(side: Side, role: str, echo) -> Side:
+    """A side whose controller is a class's .py file, with that class's controller FMU instead: wrapped as `run
+    --controller FILE.py` wraps it (natively where it traces, cached by its source), the route said in one line."""
+    if not (isinstance(side.controller, str) and side.controller.endswith(".py")):
+        return side
+    from dataclasses import replace
+
+    from ..wrap.class_fmu import controller_fmu_of_file, route
+    from ..wrap.wrap import WrapError
+
+    try:
+        fmu = controller_fmu_of_file(Path(side.controller), field=f"the {role}'s controller")
+    except WrapError as err:
+        raise TiltloadError(f"the {role}'s controller: {err}") from None
+    echo(f"the {role}'s controller {side.controller}: wrapped as {route(fmu)}")
+    return replace(side, controller=str(fmu))
+
+
 def case_list(cases) -> list[Case]:
     """The cases b2b takes: 'reproduction', a case list file, or a list of B2BCase / mappings."""
     from ..regression.back_to_back import checked_cases, load_cases, reproduction_cases
@@ -88,7 +106,8 @@ def b2b(cases: str | Path | Sequence = "reproduction", *, reference: Side | Mapp
 
             named(run_time, "stop_time", stop_time)
         case_list_ = case_list(cases)
-        sides = _side(reference, "reference"), _side(candidate, "candidate")
+        sides = tuple(_wrapped(_side(side, role), role, progress or (lambda line: None))
+                      for side, role in ((reference, "reference"), (candidate, "candidate")))
         names = check_names(list(signals), "signals") if signals else None
         if tolerances is None:
             given = Tolerances()

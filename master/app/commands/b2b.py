@@ -20,7 +20,8 @@ def add_parser(sub) -> None:
         bp.add_argument(f"--{side}-fmus", type=arguments.folder, default=FMU_DIR, metavar="DIR",
                         help=f"the {side}'s FMU folder (default: fmus)")
         bp.add_argument(f"--{side}-controller", type=arguments.controller, default=None, metavar="C",
-                        help=f"the {side}'s controller: dlqr, mixed or a controller FMU (default: the case's)")
+                        help=f"the {side}'s controller: dlqr, mixed, a controller FMU or a class's .py file (wrapped as run "
+                             "wraps it) (default: the case's)")
         bp.add_argument(f"--{side}-set", type=arguments.assignment, action="append", default=[], metavar="INSTANCE.NAME=VALUE",
                         help=f"set a parameter on the {side}'s side only (repeatable)")
         bp.add_argument(f"--{side}-stage", choices=("sil", "mil", "pil"), default="sil",

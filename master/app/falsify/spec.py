@@ -279,8 +279,17 @@ def load(path: Path) -> Falsification:
     controller = base.get("controller", CONTROLLER)
     if controller not in OUR_CONTROLLERS:
         if not (path.parent / controller).is_file():
-            raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed nor an existing controller FMU")
+            raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed, an existing controller FMU "
+                            "nor a class's .py file")
         controller = str((path.parent / controller).resolve())
+        if controller.endswith(".py"):  # wrapped as `run --controller FILE.py` wraps it: the search runs its FMU
+            from ..wrap.class_fmu import controller_fmu_of_file
+            from ..wrap.wrap import WrapError
+
+            try:
+                controller = str(controller_fmu_of_file(Path(controller), field=f"{path}: base.controller"))
+            except WrapError as err:
+                raise SpecError(f"{path}: base.controller: {err}") from None
     faults = checked_faults(base, [(f"search.{i}.target", s["target"]) for i, s in enumerate(data["search"])], path)
     flight = read_flight(base, path)
     requirements, signals = _requirements(data["requirements"], path)

@@ -65,7 +65,8 @@ def row_name(case: Case, reference: Side, candidate: Side) -> str:
 
 @dataclass(frozen=True)
 class Side:
-    """One of the two: its FMU folder, its controller (None: the case's; dlqr, mixed, or a controller .fmu), its --set,
+    """One of the two: its FMU folder, its controller (None: the case's; dlqr, mixed, a controller .fmu or a class's .py
+    file, wrapped as run wraps it), its --set,
     the controller's stage (sil, mil, pil) and, for mil, gain (i, j, factor): the entry K[i, j] of the gain scaled (a
     deliberately broken candidate)."""
 

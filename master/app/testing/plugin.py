@@ -101,25 +101,39 @@ def tiltload_fmus(pytestconfig: pytest.Config) -> Path:
 
 @pytest.fixture(scope="session")
 def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
-    """controller(source, class_name=None) -> the controller FMU: a .fmu as is; a Python file, or a class, wrapped
-    as `tiltload wrap` does, once per session (into the session's temporary folder)."""
+    """controller(source, class_name=None, native=False) -> the controller FMU: a .fmu as is; a Python file, or a
+    class, wrapped once per session: native False as `tiltload wrap` does (pythonfmu, into the session's temporary
+    folder); True as `wrap --native` (the C FMU, a class that cannot be traced refused); None as `run --controller
+    FILE.py` (natively where it traces). Native ones are kept in the machine's cache (wrap/class_fmu.py)."""
     from ..wrap.sandbox import wrap_python
 
-    made: dict[tuple[str, str | None], Path] = {}
+    made: dict[tuple[str, str | None, bool | None], Path] = {}
     where = tmp_path_factory.mktemp("tiltload_controllers")
 
-    def controller(source: str | Path | type, class_name: str | None = None) -> Path:
+    def controller(source: str | Path | type, class_name: str | None = None, native: bool | None = False) -> Path:
+        if native not in (None, True, False):
+            raise TypeError(f"native must be None, True or False, got {native!r:.40}")
         if isinstance(source, type):
             source, class_name = Path(inspect.getsourcefile(source) or ""), source.__name__
         path = (pytestconfig.rootpath / source).resolve()
         if path.suffix == ".fmu":
             return path
-        key = (str(path), class_name)
+        key = (str(path), class_name, native)
         if key not in made:
-            out = where / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
-            made[key] = wrap_python(path, out, class_name)
+            made[key] = (wrap_python(path, where / f"{path.stem}{'_' + class_name if class_name else ''}.fmu", class_name)
+                         if native is False else _class_fmu(path, class_name, native))
         return made[key]
     return controller
+
+
+def _class_fmu(path: Path, class_name: str | None, native: bool | None) -> Path:
+    """The class's FMU by the route run and the API take (wrap/class_fmu.py: one wrapping, one cache); its errors the
+    API's one line."""
+    from ..api.errors import as_tiltload_errors
+    from ..wrap.class_fmu import controller_fmu_of_file
+
+    with as_tiltload_errors():
+        return controller_fmu_of_file(path, native, field="tiltload_run controller", class_name=class_name)
 
 
 @pytest.fixture(scope="session")
@@ -135,15 +149,16 @@ def tiltload_pool():
 @pytest.fixture
 def tiltload_run(tiltload_fmus: Path, tiltload_controller: Callable[..., Path], tmp_path: Path,
                  request: pytest.FixtureRequest, tiltload_pool) -> Callable[..., Result]:
-    """run(case=None, options=None, *, controller=..., **options) -> tiltload.Result: tiltload.run with the session's
-    FMUs into this test's own folder, no figures (where the case and options leave them at their defaults); it takes
-    every object tiltload.run takes, and a controller's file or class is wrapped once per session
-    (tiltload_controller)."""
+    """run(case=None, options=None, *, controller=..., native=False, **options) -> tiltload.Result: tiltload.run with
+    the session's FMUs into this test's own folder, no figures (where the case and options leave them at their
+    defaults); it takes every object tiltload.run takes, and a controller's file or class is wrapped once per session
+    (tiltload_controller; native=True: its native C FMU, None: natively where it traces)."""
     from ..api.running import run
 
-    def run_case(case=None, options=None, /, *, controller: object = None, **keywords: object) -> Result:
+    def run_case(case=None, options=None, /, *, controller: object = None, native: bool | None = False,
+                 **keywords: object) -> Result:
         if _session_wrapped(controller):
-            controller = tiltload_controller(controller)
+            controller = tiltload_controller(controller, native=native)
         ours = {"fmus": (case, tiltload_fmus), "out": (options, tmp_path), "no_plots": (options, True)}
         for key, (given, value) in ours.items():  # the session's, where neither a keyword nor an object set it
             if key not in keywords and (given is None or getattr(given, key) == _default(type(given), key)):

@@ -113,11 +113,12 @@ def route(fmu: Path) -> str:
 
 
 def controller_fmu_of_file(path: Path, native: bool | None = None, fmi_version: int = 2,
-                           field: str = "--controller") -> Path:
+                           field: str = "--controller", class_name: str | None = None) -> Path:
     """The controller FMU of the class in a .py file (`tiltload run --controller my_controller.py`), named after the
     file: from the machine's cache under the digest of the source (and the route, FMI version, tiltload's version and
     wrapping code), or wrapped now in wrap's child process and kept there. A module the file imports is not in the
-    digest: wrap it yourself (tiltload wrap) when such a module changes."""
+    digest: wrap it yourself (tiltload wrap) when such a module changes. class_name: one of the file's classes (None:
+    its one class), imported in the child only."""
     from ...engine.user_files import UserFileError, open_binary
 
     path = Path(path)
@@ -125,14 +126,14 @@ def controller_fmu_of_file(path: Path, native: bool | None = None, fmi_version: 
         open_binary(path, "controller").close()
     except UserFileError as err:
         raise WrapError(f"{field}: {err}") from None
-    key = _key(path, {"file": path.name}, native, fmi_version)
-    target = cache_root() / "controllers" / key[:32] / f"{path.stem}.fmu"
+    key = _key(path, {"file": path.name, **({"class": class_name} if class_name else {})}, native, fmi_version)
+    target = cache_root() / "controllers" / key[:32] / f"{path.stem}{'_' + class_name if class_name else ''}.fmu"
     if target.is_file():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(dir=target.parent, prefix=".build-"))
     try:
-        built = _build(path.resolve(), None, native, fmi_version, stage / target.name)
+        built = _build(path.resolve(), class_name, native, fmi_version, stage / target.name)
         if built.with_suffix(".why").is_file():
             os.replace(built.with_suffix(".why"), target.with_suffix(".why"))
         os.replace(built, target)
