@@ -4,7 +4,7 @@
 reshapes and concatenations; numpy hands its ufuncs (NEP 13: `np.sin`, `np.maximum`, comparisons, ...) and its
 functions (NEP 18: `np.clip`, `np.where`, `np.concatenate`, ...) to `Sym`, which answers with symbols.
 
-What numpy's protocols cannot reach is bound while a class is traced (`tracing`):
+What numpy's protocols cannot reach is bound while a class is traced (tracing_scope.py's `tracing`):
 - `float(x)` and `int(x)` in the class's module: a traced value handed on stays a symbol (`int` truncates). A real
   float cannot hold a symbol, so `float` there is a subclass of float whose constructor returns the symbol when given
   one (and `isinstance(v, float)` still answers for real floats);
@@ -18,16 +18,14 @@ from __future__ import annotations
 import builtins
 import math
 import operator
-import sys
 import warnings
-from contextlib import contextmanager
 from functools import reduce
 
 import casadi as ca
 import numpy as np
 
 REFUSED = "a traced value turned into a number"  # trace._operation words what the user wrote instead
-_ORIGINAL = {n: getattr(np, n) for n in ("array", "asarray", "asanyarray", "zeros", "ones", "empty", "full")}
+ORIGINAL = {n: getattr(np, n) for n in ("array", "asarray", "asanyarray", "zeros", "ones", "empty", "full")}
 
 
 def _sx(v) -> ca.SX:
@@ -47,7 +45,7 @@ _TO_SX = np.frompyfunc(_sx, 1, 1)
 
 
 def _scalar(v) -> np.ndarray:
-    a = _ORIGINAL["empty"]((), dtype=object)
+    a = ORIGINAL["empty"]((), dtype=object)
     a[()] = v
     return a
 
@@ -59,18 +57,18 @@ def elements(x) -> np.ndarray:
     if isinstance(x, ca.SX):
         if x.is_scalar():
             return _scalar(x)
-        rows = _ORIGINAL["empty"](x.shape, dtype=object)
+        rows = ORIGINAL["empty"](x.shape, dtype=object)
         for i, j in np.ndindex(*x.shape):
             rows[i, j] = x[i, j]
         return rows[:, 0] if x.shape[1] == 1 else rows
     if isinstance(x, (list, tuple)):
         if not x:
-            return _ORIGINAL["empty"]((0,), dtype=object)
+            return ORIGINAL["empty"]((0,), dtype=object)
         return np.stack([elements(e) for e in x])
-    a = _ORIGINAL["asarray"](x)
+    a = ORIGINAL["asarray"](x)
     if a.dtype.kind not in "fiub" and a.dtype != object:
         raise TypeError(f"{x!r:.40} is not a number")
-    return _scalar(_sx(a[()])) if a.shape == () else _ORIGINAL["asarray"](_TO_SX(a), dtype=object)
+    return _scalar(_sx(a[()])) if a.shape == () else ORIGINAL["asarray"](_TO_SX(a), dtype=object)
 
 
 def traced(x) -> bool:
@@ -87,7 +85,7 @@ def traced(x) -> bool:
 def _wrap(r):
     """numpy's answer on object arrays as a Sym (object arrays and SX scalars); numbers left as they are."""
     if isinstance(r, np.ndarray) and r.dtype == object:
-        return Sym(_ORIGINAL["asarray"](_TO_SX(r), dtype=object) if r.size else r)
+        return Sym(ORIGINAL["asarray"](_TO_SX(r), dtype=object) if r.size else r)
     if isinstance(r, ca.SX):
         return Sym(elements(r))
     if isinstance(r, tuple):
@@ -229,7 +227,7 @@ class Sym:
 
     def __array__(self, dtype=None, copy=None):
         if all(v.is_constant() for v in self.a.ravel()):
-            return _ORIGINAL["array"]([builtins.float(v) for v in self.a.ravel()]).reshape(self.a.shape)
+            return ORIGINAL["array"]([builtins.float(v) for v in self.a.ravel()]).reshape(self.a.shape)
         raise TypeError(REFUSED)
 
     def __SX__(self):  # CasADi's functions take a Sym as they take an SX (ca.fmax(x, 0) in code written for CasADi)
@@ -354,7 +352,7 @@ class Sym:
 
 def symbols(name: str, shape: tuple[int, ...], names: list[str]) -> Sym:
     """A Sym of fresh SX symbols, one per element, named as the FMU names them."""
-    a = _ORIGINAL["empty"](len(names), dtype=object)
+    a = ORIGINAL["empty"](len(names), dtype=object)
     for i, n in enumerate(names):
         a[i] = ca.SX.sym(n)
     return Sym(a.reshape(shape))
@@ -369,111 +367,4 @@ def flat(value) -> list[ca.SX]:
     return list(elements(value).ravel())
 
 
-# ---- the names bound while a class is traced ------------------------------------------------------------------------
-
-
-class _Kind(type):
-    def __instancecheck__(cls, obj):
-        return isinstance(obj, cls.__mro__[1])
-
-    def __subclasscheck__(cls, sub):
-        return issubclass(sub, cls.__mro__[1])
-
-
-class TracedFloat(builtins.float, metaclass=_Kind):
-    """`float` in the traced class's module: float(symbol) is the symbol, float(anything else) a float."""
-
-    def __new__(cls, x=0.0):
-        return Sym(elements(x).reshape(())) if traced(x) else builtins.float(x)
-
-
-class TracedInt(builtins.int, metaclass=_Kind):
-    """`int` in the traced class's module: int(symbol) truncates it symbolically."""
-
-    def __new__(cls, x=0, *base):
-        return np.trunc(Sym(elements(x).reshape(()))) if traced(x) else builtins.int(x, *base)
-
-
-def _math_function(name: str, original):
-    ufunc = {"fabs": np.fabs, "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan, "atan2": np.arctan2,
-             "asinh": np.arcsinh, "acosh": np.arccosh, "atanh": np.arctanh, "pow": np.power}.get(name) or getattr(
-        np, name, None)
-
-    def symbolic(*args):
-        if any(traced(a) for a in args):
-            if name == "log" and len(args) == 2:
-                return np.log(args[0]) / np.log(args[1])
-            if ufunc is None or name in ("isfinite", "isnan", "isinf", "isclose"):
-                raise TypeError(f"{REFUSED} (math.{name})")
-            return ufunc(*(a if isinstance(a, Sym) else Sym(elements(a)) for a in args))
-        return original(*args)
-    return symbolic
-
-
-class _Math:
-    """`math` in the traced class's module: its functions on symbols as on numbers."""
-
-    def __getattr__(self, name):
-        value = getattr(math, name)
-        return _math_function(name, value) if callable(value) else value
-
-
-_MATH = _Math()
-
-
-@contextmanager
-def tracing(namespaces: list[dict], source: str):
-    """Bind the names above in the class's module namespaces (and numpy's constructors) for the block; no third-party
-    warning (CasADi's notices about numpy) reaches the user's terminal meanwhile."""
-    saved = []
-    for ns in namespaces:
-        for name, value in list(ns.items()):
-            if value is math:
-                saved.append((ns, name, value))
-                ns[name] = _MATH
-            elif getattr(value, "__module__", None) == "math" and callable(value):
-                saved.append((ns, name, value))
-                ns[name] = _math_function(name, value)
-        for name, value in (("float", TracedFloat), ("int", TracedInt)):
-            saved.append((ns, name, ns.get(name, _MISSING)))
-            ns[name] = value
-
-    def from_arrays(name):
-        original = _ORIGINAL[name]
-
-        def symbolic(x, *args, **kwargs):
-            return Sym(elements(x).copy()) if traced(x) else original(x, *args, **kwargs)
-        return symbolic
-
-    def from_source(name):  # np.zeros(4) in the class's file: an array that can hold symbols
-        original = _ORIGINAL[name]
-
-        def symbolic(*args, **kwargs):
-            made = original(*args, **kwargs)
-            if sys._getframe(1).f_code.co_filename != source or made.dtype.kind not in "fiu":
-                return made
-            return Sym(elements(made))
-        return symbolic
-
-    for name in ("array", "asarray", "asanyarray"):
-        setattr(np, name, from_arrays(name))
-    for name in ("zeros", "ones", "empty", "full"):
-        setattr(np, name, from_source(name))
-    try:
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="casadi")
-            warnings.filterwarnings("ignore", category=FutureWarning, module="casadi")
-            yield
-    finally:
-        for name, original in _ORIGINAL.items():
-            setattr(np, name, original)
-        for ns, name, value in reversed(saved):
-            if value is _MISSING:
-                ns.pop(name, None)
-            else:
-                ns[name] = value
-
-
-_MISSING = object()
-
-__all__ = ["REFUSED", "Sym", "TracedFloat", "TracedInt", "elements", "flat", "symbols", "traced", "tracing"]
+__all__ = ["ORIGINAL", "REFUSED", "Sym", "elements", "flat", "symbols", "traced"]

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +22,9 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .symbolic import REFUSED, Sym, elements, flat, symbols, traced, tracing
+from .no_io import IoInStep, NoIoInStep
+from .symbolic import REFUSED, Sym, elements, flat, symbols, traced
+from .tracing_scope import tracing
 from .wrap import USER_ENDS, WrapError, user_line
 
 
@@ -156,78 +157,6 @@ def _check_names(name: str, numbers: dict[str, np.ndarray]) -> None:
             seen[element] = k
 
 
-class _IoInStep(BaseException):
-    """Raised at I/O while step is traced (a BaseException: the user's own `except Exception` lets it by)."""
-
-
-_IO_EVENTS = ("open", "os.remove", "os.rename", "os.replace", "os.mkdir", "os.rmdir", "os.truncate", "os.chmod",
-              "os.chown", "os.link", "os.symlink", "os.utime", "os.system", "os.exec", "os.posix_spawn", "os.spawn",
-              "os.fork", "os.kill", "os.killpg", "shutil.", "socket.connect", "socket.bind", "socket.sendto",
-              "subprocess.Popen", "sqlite3.connect", "urllib.Request", "webbrowser.open")
-
-
-class _NoIo:
-    """While step is traced, I/O (files, processes, sockets) is refused: it would run once, at trace time, and its
-    result be frozen into the FMU, never run at a tick. Imports still read their files. An audit hook (PEP 578):
-    installed once per process, active only inside this block."""
-
-    active: _NoIo | None = None
-    _installed = False
-
-    def __init__(self, source: Path):
-        self.source = str(source)
-        self.seen: tuple[str, str] | None = None  # (what, 'line N (`code`)')
-
-    def __enter__(self):
-        if not _NoIo._installed:
-            sys.addaudithook(_NoIo._hook)
-            _NoIo._installed = True
-        _NoIo.active = self
-        return self
-
-    def __exit__(self, *exc) -> None:
-        _NoIo.active = None
-
-    @staticmethod
-    def _hook(event: str, args: tuple) -> None:
-        me = _NoIo.active
-        if me is None or not event.startswith(_IO_EVENTS) or (event == "open" and me._an_import()):
-            return
-        if event != "open" and event.startswith("open"):
-            return  # openpty and the like are not in the list; "open" itself is the file
-        if me.seen is None:
-            _NoIo.active = None  # finding the line reads the file: not an event of the user's
-            try:
-                what = f"open({args[0]!r})" if event == "open" and args else event
-                me.seen = (what, me._user_line())
-            finally:
-                _NoIo.active = me
-        raise _IoInStep(me.seen[0])
-
-    def _an_import(self) -> bool:
-        frame = sys._getframe(2)
-        while frame is not None:
-            if frame.f_code.co_filename.startswith("<frozen importlib"):
-                return True
-            frame = frame.f_back
-        return False
-
-    def _user_line(self) -> str:
-        frame = sys._getframe(2)
-        while frame is not None and frame.f_code.co_filename != self.source:
-            frame = frame.f_back
-        if frame is None:
-            return f"a line outside {Path(self.source).name}"
-        import linecache
-
-        return f"line {frame.f_lineno} (`{linecache.getline(self.source, frame.f_lineno).strip()}`)"
-
-    def refusal(self, name: str) -> str:
-        what, where = self.seen
-        return (f"{name}.step cannot be traced at {where}: it does I/O ({what}), which would run once while tracing "
-                "and be frozen into the FMU, never at a tick; read files in __init__, write none in step")
-
-
 def instantiate(cls: type, parameters: dict[str, float], source: Path):
     """cls(**parameters), as the FMU will make it; InitError names the error and its line in the class's file."""
     try:
@@ -265,7 +194,7 @@ def _symbolic_init(cls: type, declared: dict[str, ca.SX], source: Path, namespac
             return cls(**given), ""
     except TraceError:
         raise
-    except (*USER_ENDS, _IoInStep) as err:
+    except (*USER_ENDS, IoInStep) as err:
         where = user_line(err, source) or f"a line outside {source.name}"
         return None, f"{name}.__init__ needs the number at {where}"
 
@@ -356,13 +285,13 @@ def _trace(cls: type, controller, parameters: dict[str, float], declared: dict[s
         setattr(controller, k, s)
     t = ca.SX.sym("t")
     u = {n: ca.SX.sym(n) for n in inputs}
-    io = _NoIo(source)
+    io = NoIoInStep(source)
     try:
         with _no_numbers_of_symbols(), tracing(namespaces, str(source)), time_limit(f"{name}.step"), io:
             command = controller.step(Sym(elements(t)), {n: Sym(elements(s)) for n, s in u.items()})
     except TraceError:
         raise
-    except (*USER_ENDS, _IoInStep) as err:
+    except (*USER_ENDS, IoInStep) as err:
         if io.seen:  # the I/O refused, even where the user's own except swallowed it and went on
             raise TraceError(io.refusal(name)) from None
         where = user_line(err, source) or f"a line outside {source.name}"
