@@ -1,6 +1,6 @@
 """Issue 66's table: a controller FMU's cost per tick isolated (its own process, the default for an FMU tiltload did
 not build) against in process (`--trust-fmus`), for three kinds of controller FMU on FSI and ZSE, this tree side by
-side with another (the last landing: /work/before, commit 5052690, with its own virtual environment) in one run.
+side with another tree (e.g. the last landing, commit 5052690, with its own virtual environment) in one run.
 
   C controller        the shipped native controller FMU copied without its build record (a foreign C FMU that
                       follows docs/ports.md's contract)
@@ -13,7 +13,7 @@ time of a --stop s run after the instantiation (worker process, FMU loaded: not 
 --repeats. The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
 the figures move with the other sessions' work.
 
-Run: python benchmarks/isolation_speed.py [--before /work/before --before-python /work/venv-before/bin/python]
+Run: python benchmarks/isolation_speed.py --before TREE --before-python PYTHON
          [--stop 20] [--repeats 3]
 """
 
@@ -119,9 +119,9 @@ def load() -> str:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser()
-    p.add_argument("--before", type=Path, default=Path("/work/before"))
-    p.add_argument("--before-python", type=Path, default=Path("/work/venv-before/bin/python"))
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
+    p.add_argument("--before", type=Path, required=True, help="the other tree (e.g. the last landing's worktree)")
+    p.add_argument("--before-python", type=Path, required=True, help="its interpreter (tiltload installed from it)")
     p.add_argument("--stop", type=float, default=20.0)
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter

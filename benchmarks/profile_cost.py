@@ -37,7 +37,7 @@ def per_tick(fmus: Path, scenario: str, stop: float, profiled: bool) -> float:
 
 
 def main() -> int:
-    p = argparse.ArgumentParser()
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--scenario", default="lkf")
     p.add_argument("--stop", type=float, default=20.0)
     p.add_argument("--repeats", type=int, default=5)
