@@ -121,7 +121,18 @@ def main() -> int:
         ours = rows_of(sys.executable, ROOT, a.fmus.resolve(), Path(tmp) / "ours.jsonl")
         theirs = rows_of(a.before_python, a.before.resolve(), a.fmus.resolve(), Path(tmp) / "theirs.jsonl")
     mine, other = {key(r): r for r in ours}, {key(r): r for r in theirs}
-    differ = [k for k in sorted(set(mine) | set(other)) if mine.get(k) != other.get(k)]
+    # a column only one tree writes (a new one, e.g. a requirement's first violation) is listed, not compared: the
+    # columns both write must hold the same values
+    here, there = {c for r in ours for c in r}, {c for r in theirs for c in r}
+    for side, only in (("here", sorted(here - there)), ("there", sorted(there - here))):
+        if only:
+            print(f"columns only {side} (not compared): {', '.join(only)}")
+    shared = here & there
+
+    def common(row: dict | None) -> dict | None:
+        return None if row is None else {c: v for c, v in row.items() if c in shared}
+
+    differ = [k for k in sorted(set(mine) | set(other)) if common(mine.get(k)) != common(other.get(k))]
     searches = {r["what"] for r in ours if r["what"] != "campaign"}
     stops = sum(1 for r in ours if r.get("stopped_at") == r.get("stopped_at") and r.get("stopped_at") is not None)
     refused = sum(1 for r in ours if str(r.get("error", "")).startswith("the reference"))
