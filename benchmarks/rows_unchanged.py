@@ -70,6 +70,10 @@ def inner(fmus: Path, out: Path) -> None:
     with tempfile.TemporaryDirectory(prefix="rows-unchanged-") as tmp, open(out, "w") as sink:
         tmp = Path(tmp)
         specs = kind_specs(tmp)
+        for name, path in list(specs.items()):  # the shipped specs as 953560a shipped them (stop_time 8.1, which both
+            if path.parent != tmp:  # trees accept; 8.0, an 8 s run deciding always[2:8] since, is refused before it)
+                specs[name] = tmp / path.name
+                specs[name].write_text(re.sub(r"^stop_time = 8\.0$", "stop_time = 8.1", path.read_text(), flags=re.M))
         for name, path in list(specs.items()):
             twin = tmp / f"{path.stem}_harsher.toml"
             twin.write_text(harsher(path.read_text()))
