@@ -273,7 +273,7 @@ def test_a_count_from_init_traces_with_its_parameters_fixed_and_said_where(tmp_p
 
 
 def test_a_campaign_takes_a_class_file_among_its_controllers(tmp_path, monkeypatch):
-    """base.controllers = ["dlqr", "hold.py"]: the class wrapped as run --controller wraps it (here natively); its
+    """base.controllers = ["dlqr", "my_hold.py"]: the class wrapped as run --controller wraps it (here natively); its
     runs name that FMU; a class that cannot run is the spec's one line."""
     from tiltload.master.app.campaign import spec as campaign_spec
     from tiltload.master.app.case.spec_file import SpecError
@@ -305,7 +305,7 @@ def _one_line_exit_2(argv: list[str], capsys) -> str:
 
 
 def test_falsify_takes_a_class_file_as_its_controller(tmp_path, monkeypatch, capsys):
-    """base.controller = "hold.py": the search runs the FMU `run --controller hold.py` runs (the same wrapping, the
+    """base.controller = "my_hold.py": the search runs the FMU `run --controller my_hold.py` runs (the same wrapping, the
     same cached file); a class whose __init__ raises is the spec's one line, exit 2, before any search."""
     from tiltload.master.app.falsify.spec import load
     from tiltload.master.app.wrap.class_fmu import controller_fmu_of_file, route
@@ -327,7 +327,7 @@ def test_falsify_takes_a_class_file_as_its_controller(tmp_path, monkeypatch, cap
 
 @pytest.mark.slow
 def test_b2b_takes_a_class_file_on_either_side(pipeline_fmus, tmp_path, monkeypatch, capsys):
-    """b2b --reference-controller hold.py --candidate-controller hold_1pc.py (kp 1 % larger): each wrapped on the fly,
+    """b2b --reference-controller my_hold.py --candidate-controller my_hold_1pc.py (kp 1 % larger): each wrapped on the fly,
     the route said; the reference's logged commands are what the class computes in Python from the logged inputs (the
     oracle); the candidate leaves its tubes and what changed names kp. The API's sides take the file the same way."""
     import tiltload as tl
@@ -384,13 +384,13 @@ def test_hold(tiltload_run, tiltload_baseline, tiltload_controller):
 
 @pytest.mark.slow
 def test_a_pytest_failure_after_a_one_percent_gain_change_names_the_line_and_the_parameter_first(fmus, tmp_path):
-    """A user's pytest session: tiltload_run(controller="hold.py", native=True) against its recorded baseline; kp
+    """A user's pytest session: tiltload_run(controller="my_hold.py", native=True) against its recorded baseline; kp
     changed by 1 % in the source, the failure's first line names the parameter and the class's changed line."""
     session = tmp_path / "session"
     session.mkdir()
     (session / "hold.py").write_text(GAIN)
     (session / "test_user.py").write_text(PLUGIN_TEST)
-    (session / "pytest.ini").write_text("[pytest]\n")  # the user's repository: its rootdir, where hold.py is
+    (session / "pytest.ini").write_text("[pytest]\n")  # the user's repository: its rootdir, where the class file is
 
     def pytest_session(*extra: str) -> subprocess.CompletedProcess:
         return subprocess.run([sys.executable, "-m", "pytest", "-q", "-rf", "-p", "no:cacheprovider", "--rootdir", str(session),

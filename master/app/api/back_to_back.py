@@ -40,7 +40,7 @@ def _side(value: Side | Mapping | None, role: str) -> Side:
 
 def _wrapped(side: Side, role: str, echo) -> Side:
     """A side whose controller is a class's .py file, with that class's controller FMU instead: wrapped as `run
-    --controller FILE.py` wraps it (natively where it traces, cached by its source), the route said in one line."""
+    --controller my_controller.py` wraps it (natively where it traces, cached by its source), the route said in one line."""
     if not (isinstance(side.controller, str) and side.controller.endswith(".py")):
         return side
     from dataclasses import replace

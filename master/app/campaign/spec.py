@@ -208,7 +208,7 @@ def _branching(base: dict, path: Path) -> Branching:
 
 def _controller(name: str, path: Path) -> str:
     """A base.controllers entry as the runs name it: dlqr, mixed, or an FMU's absolute path (a class's .py file
-    wrapped as `tiltload run --controller FILE.py` wraps it: natively where it traces, cached by its source)."""
+    wrapped as `tiltload run --controller my_controller.py` wraps it: natively where it traces, cached by its source)."""
     if name in OUR_CONTROLLERS:
         return name
     file = (path.parent / name).resolve()

@@ -282,7 +282,7 @@ def load(path: Path) -> Falsification:
             raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed, an existing controller FMU "
                             "nor a class's .py file")
         controller = str((path.parent / controller).resolve())
-        if controller.endswith(".py"):  # wrapped as `run --controller FILE.py` wraps it: the search runs its FMU
+        if controller.endswith(".py"):  # wrapped as `run --controller my_controller.py` wraps it: the search runs its FMU
             from ..wrap.class_fmu import controller_fmu_of_file
             from ..wrap.wrap import WrapError
 

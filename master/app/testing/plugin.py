@@ -104,7 +104,7 @@ def tiltload_controller(pytestconfig: pytest.Config, tmp_path_factory: pytest.Te
     """controller(source, class_name=None, native=False) -> the controller FMU: a .fmu as is; a Python file, or a
     class, wrapped once per session: native False as `tiltload wrap` does (pythonfmu, into the session's temporary
     folder); True as `wrap --native` (the C FMU, a class that cannot be traced refused); None as `run --controller
-    FILE.py` (natively where it traces). Native ones are kept in the machine's cache (wrap/class_fmu.py)."""
+    my_controller.py` (natively where it traces). Native ones are kept in the machine's cache (wrap/class_fmu.py)."""
     from ..wrap.sandbox import wrap_python
 
     made: dict[tuple[str, str | None, bool | None], Path] = {}

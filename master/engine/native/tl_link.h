@@ -1,4 +1,4 @@
-/* The shared-memory link between the tick loop and an isolated FMU's host (docs/isolation.md, "The link"): one
+/* The shared-memory link between the tick loop and an isolated FMU's host (docs/master.md, "FMUs that are not ours run in their own process"): one
    round trip a step through a sealed memfd segment both processes map, a sequence number each way and a futex to wait
    on it (after a short spin). The master's side is tl_loop.c's step_linked, the host's tl_host.c.
 
