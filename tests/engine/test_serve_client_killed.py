@@ -23,14 +23,15 @@ from tiltload.master.engine.isolation.hosting import remote_fmu
 fmu, address, token = map(Path, sys.argv[1:4])
 inst = remote_fmu("controller", fmu, read_fmu(fmu, "controller"), str(address), token, timeout=3600)
 inst.initialize({})
+inst.do_step(0.0, 0.012)  # the first step hovers (wrap steps the class once at t = 0 before it writes an FMU)
 print("stepping", flush=True)
-inst.do_step(0.0, 0.012)  # the FMU sleeps an hour in this step
+inst.do_step(0.012, 0.012)  # the FMU sleeps an hour in this step
 """
 
 
 def test_a_killed_client_frees_its_fmu_for_the_next_one_at_once(tmp_path):
     token = token_file(tmp_path)
-    fmu = wrap_misbehaving(tmp_path, {"hang": "time.sleep(3600)"}, 0.0)["hang"]
+    fmu = wrap_misbehaving(tmp_path, {"hang": "time.sleep(3600)"}, 0.012)["hang"]
     srv = ServerProcess(tmp_path, token)
     try:
         client = subprocess.Popen([sys.executable, "-c", CLIENT, str(fmu), srv.address, str(token)],

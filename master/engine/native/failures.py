@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from ..errors import ExecutionError
 from ..fmi.fmi3 import FMI3_NAME, MAX_EVENT_ITERATIONS
+from ..fmi.model_description import fmi_version
 from .codes import ErrorKind, type_name
 
 _EVENT_CALLS = {ErrorKind.ENTER_EVENT_MODE: "enterEventMode", ErrorKind.SET_CLOCK: "setClock",
@@ -28,6 +29,8 @@ def kernel_error(loop) -> BaseException:
         return slave.link_failed(p.error_status, p.error_group, t)
     if kind == ErrorKind.DO_STEP:
         return slave.failed(f"doStep at t={t:.6g} s", p.error_status)
+    if kind == ErrorKind.TERMINATED_IN_STEP and fmi_version(slave.md) == 2:  # over the shared-memory link: fmi2Discard
+        return slave.failed(f"doStep at t={t:.6g} s", p.error_status)  # with fmi2Terminated, as in process
     if kind == ErrorKind.TERMINATED_IN_STEP:  # System.fmu_end "error"
         h = loop.ex.every[loop.names[p.error_instance]] * loop.ex.system.tick
         return ExecutionError(f"{slave.name}: the FMU asked to terminate the simulation at t={t + h:.6g} s")

@@ -617,8 +617,9 @@ static int step_linked(tl_plan *plan, int i, double t, double h) {
         return 1;
     }
     if (r.call == TL_LINK_DO_STEP) {
-        if (!(r.ended && plan->ends_allowed)) {
-            fail(plan, TL_ERROR_DO_STEP, i, r.status, -1, -1, t);
+        if (!(r.ended && plan->ends_allowed)) { /* an end asked for that the system treats as a failure: worded as in
+                                                   process by the FMU's version (failures.py) */
+            fail(plan, r.ended ? TL_ERROR_TERMINATED_IN_STEP : TL_ERROR_DO_STEP, i, r.status, -1, -1, t);
             return 1;
         }
         plan->ended_instance = i; /* fmi2Discard, fmi2Terminated: the run ends at the last successful time, as in process */
