@@ -53,9 +53,13 @@ def build(folder: Path) -> dict[str, Path]:
     fmus = folder / "fmus"
     build_all(fmus)
     out = {"C controller": foreign_copy(fmus / "TiltloadController.fmu", folder / "CController.fmu")}
+    # the example with np.clip for tl.saturate: a pythonfmu FMU calls tiltload at run time, and the older tree has no
+    # tl.saturate (same values: tl.saturate is np.clip)
+    source = folder / EXAMPLE.name
+    source.write_text(EXAMPLE.read_text().replace("tl.saturate(u, self.u_min, self.u_max)", "np.clip(u, self.u_min, self.u_max)"))
     for kind, flags in (("pythonfmu", []), ("native wrap", ["--native"])):
         dest = folder / f"{kind.replace(' ', '_')}.fmu"
-        if main(["wrap", *flags, str(EXAMPLE), "--out", str(dest)]) != 0:
+        if main(["wrap", *flags, str(source), "--out", str(dest)]) != 0:
             raise SystemExit(f"wrapping {EXAMPLE} ({kind}) failed")
         out[kind] = dest
     return {**out, "fmus": fmus}
@@ -120,8 +124,8 @@ def load() -> str:
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
-    p.add_argument("--before", type=Path, required=True, help="the other tree (e.g. the last landing's worktree)")
-    p.add_argument("--before-python", type=Path, required=True, help="its interpreter (tiltload installed from it)")
+    p.add_argument("--before", type=Path, help="the other tree (e.g. the last landing's worktree)")
+    p.add_argument("--before-python", type=Path, help="its interpreter (tiltload installed from it)")
     p.add_argument("--stop", type=float, default=20.0)
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter
@@ -129,15 +133,17 @@ def main() -> int:
     if args.measure is not None:
         print(json.dumps(measure(json.loads(args.measure.read_text()))))
         return 0
+    if args.before is None or args.before_python is None:
+        p.error("--before and --before-python are required")
+    if not args.before_python.is_file():
+        p.error(f"--before-python {args.before_python}: no such interpreter")
     with tempfile.TemporaryDirectory(prefix="tl-isolation-speed-") as tmp:
         folder = Path(tmp)
         built = build(folder)
         config = {k: str(v) for k, v in built.items()} | {"stop": args.stop, "repeats": args.repeats,
                                                           "out": str(folder / "runs")}
         (folder / "config.json").write_text(json.dumps(config))
-        trees = {"this tree": (sys.executable, ROOT)}
-        if args.before_python.is_file():
-            trees[f"before ({_commit(args.before)})"] = (str(args.before_python), args.before)
+        trees = {"this tree": (sys.executable, ROOT), f"before ({_commit(args.before)})": (str(args.before_python), args.before)}
         print(f"machine: {machine()}")
         results = {}
         for label, (python, root) in trees.items():
@@ -146,7 +152,7 @@ def main() -> int:
                                   capture_output=True, text=True, cwd=root)
             if proc.returncode != 0:
                 print(f"{label}: failed: {proc.stderr.strip().splitlines()[-1:]}")
-                continue
+                return 1
             results[label] = {(r["kind"], r["scenario"], r["isolated"]): r for r in json.loads(proc.stdout.splitlines()[-1])}
         print(f"load average after: {load()}")
         print(f"per tick of the whole loop, µs (no log; {args.stop:g} s runs after instantiation; best of {args.repeats})")

@@ -23,7 +23,7 @@ from ..native import kernel
 TYPES = ("Real", "Integer", "Boolean")  # the kernel's value types, in its order
 WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}  # as the plan's arrays hold them (fmi2Boolean is an int)
 REQUEST, REPLY, CALL, INPUTS, HEADER = 0, 64, 128, 192, 64  # tl_link.h
-SPIN_NS = 30_000  # spin (yielding the processor) this long before sleeping on the futex: a step's answer usually comes sooner
+SPIN_NS = 30_000  # spin at least this long before sleeping on the futex (longer where the answer usually comes later: tl_link.h)
 HOST = (Path(__file__).parent / "c" / "tl_host.c", kernel.HERE / "tl_link.h", kernel.HERE / "tl_codes.h")
 
 
@@ -89,7 +89,7 @@ class _Host(ctypes.Structure):  # tl_host.c's tl_host
                 ("get", ctypes.c_void_p * 3), ("n_groups", ctypes.c_int), ("group_type", ctypes.c_void_p),
                 ("group_n", ctypes.c_void_p), ("group_vrs", ctypes.c_void_p), ("in_offset", ctypes.c_void_p),
                 ("n_out", ctypes.c_int * 3), ("out_vrs", ctypes.c_void_p * 3), ("out_offset", ctypes.c_int64),
-                ("booleans", ctypes.c_void_p)]
+                ("booleans", ctypes.c_void_p), ("usual_gap_ns", ctypes.c_int64)]
 
 
 def host_library() -> ctypes.CDLL:

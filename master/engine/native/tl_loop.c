@@ -535,22 +535,26 @@ static int signalled(const tl_link *L) {
 #endif
 }
 
-/* Wait for the host's answer to request seq: spin for spin_ns, then sleep on the futex in slices of at most 2 ms,
-   looking between two at the host's pipe and the watchdog. Returns 0, or a tl_link_failure (corrupt: the host wrote a
-   sequence number that is neither the last answered nor this one). */
+/* Wait for the host's answer to request seq: spin (tl_spin_budget: longer where the host usually answers within it),
+   then sleep on the futex in slices of at most 2 ms, looking between two at the host's pipe and the watchdog. Returns
+   0, or a tl_link_failure (corrupt: the host wrote a sequence number that is neither the last answered nor this one). */
 static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
     uint32_t *reply = tl_link_word(L->base, TL_LINK_REPLY);
     int64_t start = tl_monotonic_ns(), now = start;
+    int64_t spin = tl_spin_budget(L->spin_ns, L->usual_wait_ns);
     for (;;) {
         uint32_t v = __atomic_load_n(reply, __ATOMIC_ACQUIRE);
-        if (v == seq) return 0;
+        if (v == seq) {
+            L->usual_wait_ns = tl_spin_learn(L->usual_wait_ns, tl_monotonic_ns() - start);
+            return 0;
+        }
         if (v != seq - 1) {
             *corruption = TL_CORRUPT_SEQUENCE;
             return TL_LINK_CORRUPT;
         }
         now = tl_monotonic_ns();
-        if (now - start < L->spin_ns) {
-            tl_cpu_relax();
+        if (now - start < spin) {
+            tl_spin_wait(start, now);
             continue;
         }
         if (now - start >= L->timeout_ns) return TL_LINK_TIMEOUT;

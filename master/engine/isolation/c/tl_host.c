@@ -53,6 +53,7 @@ typedef struct {
     const unsigned int *out_vrs[TL_TYPES];
     int64_t out_offset;
     bool *booleans;       /* fmi3: room for the most Boolean values of one call */
+    int64_t usual_gap_ns; /* the usual time from a reply to the next request (tl_spin_learn): starts at 0 */
 } tl_host;
 
 static size_t width(int type) { return type == TL_REAL ? sizeof(double) : sizeof(int); }
@@ -68,16 +69,22 @@ static int master_gone(const tl_host *h) {
     return poll(&p, 1, 0) > 0;
 }
 
-/* The next request: spin, then sleep on the futex in slices of 100 ms, looking at the master's pipe between two.
-   Returns its sequence number, or the last answered one if the master is gone. */
+/* The next request: spin (tl_spin_budget: longer where the master's next request usually comes within it), then sleep
+   on the futex in slices of 100 ms, looking at the master's pipe between two. Returns its sequence number, or the last
+   answered one if the master is gone. */
 static uint32_t await_request(tl_host *h) {
     uint32_t *request = tl_link_word(h->base, TL_LINK_REQUEST);
     int64_t start = now_ns();
+    int64_t spin = tl_spin_budget(h->spin_ns, h->usual_gap_ns);
     for (;;) {
         uint32_t v = __atomic_load_n(request, __ATOMIC_ACQUIRE);
-        if (v != h->seq) return v;
-        if (now_ns() - start < h->spin_ns) {
-            tl_cpu_relax();
+        if (v != h->seq) {
+            h->usual_gap_ns = tl_spin_learn(h->usual_gap_ns, now_ns() - start);
+            return v;
+        }
+        int64_t now = now_ns();
+        if (now - start < spin) {
+            tl_spin_wait(start, now);
             continue;
         }
         if (master_gone(h)) return h->seq;
