@@ -45,14 +45,14 @@ def _wrapped(side: Side, role: str, echo) -> Side:
         return side
     from dataclasses import replace
 
-    from ..wrap.class_fmu import controller_fmu_of_file, route
+    from ..wrap.class_fmu import controller_fmu_of_file, wrapped_line
     from ..wrap.wrap import WrapError
 
     try:
         fmu = controller_fmu_of_file(Path(side.controller), field=f"the {role}'s controller")
     except WrapError as err:
         raise TiltloadError(f"the {role}'s controller: {err}") from None
-    echo(f"the {role}'s controller {side.controller}: wrapped as {route(fmu)}")
+    echo(f"the {role}'s controller {wrapped_line(side.controller, fmu)}")
     return replace(side, controller=str(fmu))
 
 

@@ -39,9 +39,3 @@ def controller_fmu_path(controller: type | PythonController | str, fmi_version: 
         given = controller if isinstance(controller, PythonController) else PythonController(controller)
         return str(controller_fmu(given.cls, given.native, fmi_version))
 
-
-def route(fmu: str) -> str:
-    """Which route a Python controller took to its FMU, in words."""
-    from ..wrap import class_fmu
-
-    return class_fmu.route(fmu)

@@ -178,6 +178,11 @@ def run(spec: Path, out: Path | None = None, fmus: Path = FMU_DIR, progress=None
     done = _stored(out / "parts", campaign.cases, opts.retry_failed)
     todo = [c for c in campaign.cases if c.run_id not in done]
     say = progress or (lambda text: print(text, file=sys.stderr))
+    if campaign.wrapped:  # said as run and b2b say it
+        from ..wrap.class_fmu import wrapped_line
+
+        for source, fmu in campaign.wrapped:
+            say(f"base.controllers {wrapped_line(source, fmu)}")
     clock = time.perf_counter()  # the campaign's clock, start-up included: its progress lines' elapsed time
     counts = {"total": len(campaign.cases), "skipped": len(campaign.cases) - len(todo), "ran": 0, "retried": 0}
     incomplete = None

@@ -85,6 +85,7 @@ class Campaign:
     snapshot: Path | None = None  # the cases branch from this snapshot (base.snapshot)
     branch_start: float = 0.0  # the snapshot's time (s)
     requirements: tuple = ()  # keep.requirements: (name, STL) of each, judged on every run (columns NAME_verdict, NAME_robustness)
+    wrapped: tuple = ()  # (as base.controllers names it, its FMU) of each class's .py file wrapped on the fly
 
     def base(self) -> CampaignBase:
         """What every run shares, as the workers get it (run_case's `base`)."""
@@ -236,7 +237,8 @@ def load(path: Path) -> Campaign:
         if c not in OUR_CONTROLLERS and not (path.parent / c).is_file():
             raise SpecError(f"{path}: base.controllers: {c} is neither dlqr, mixed nor an existing controller FMU (or "
                             "a controller class's .py file)")
-    controllers = [_controller(c, path) for c in controllers]
+    named, controllers = controllers, [_controller(c, path) for c in controllers]
+    wrapped = tuple((n, c) for n, c in zip(named, controllers) if n.endswith(".py"))
     seeds = vary.get("seeds", [DEFAULT_SEED])
     faults = checked_faults(base, _varied_targets(vary, path), path)
     targets = {p["name"]: p["targets"] for p in vary.get("parameters", [])}
@@ -254,7 +256,7 @@ def load(path: Path) -> Campaign:
         raise SpecError(f"{path}: the spec describes the same run twice (repeated values?)")
     return Campaign(data["name"], base.get("scenario", DEFAULT_SCENARIO), flight, base.get("stop_time"),
                     base.get("gusts", GUSTS), tuple(keep.get("metrics", METRICS)), keep.get("logs", False), faults,
-                    list(targets), cases, path, requirements=_requirements(keep, path))
+                    list(targets), cases, path, requirements=_requirements(keep, path), wrapped=wrapped)
 
 
 def _varied_targets(vary: dict, path: Path) -> list[tuple[str, str]]:

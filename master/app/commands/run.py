@@ -91,11 +91,12 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:  # before the imports (numpy, CasADi, FMPy: seconds): the user sees at once that it started
         print(preparing(args, args), flush=True)
     from ..api.execute import execute
-    from ..api.python_controller import is_python_file, route
+    from ..api.python_controller import is_python_file
+    from ..wrap.class_fmu import wrapped_line
 
     case = case_of(args)
     if is_python_file(args.controller) and not args.quiet:  # wrapped on the fly: say how
-        print(f"--controller {args.controller}: wrapped as {route(case.controller)}", flush=True)
+        print(f"--controller {wrapped_line(args.controller, case.controller)}", flush=True)
     outcome = execute(case, run_options_of(args), print)
     if outcome.failure is not None:
         print(f"tiltload: error: {outcome.failure}", file=sys.stderr)

@@ -147,6 +147,10 @@ def falsify(spec_path: Path, out: Path | None = None, fmus: Path = FMU_DIR, opti
                           "--out")
     read_parts(out / "parts")  # what a rerun goes on from: a part that is not one is refused now, before any cluster
     say = progress or (lambda text: print(text, file=sys.stderr))
+    if spec.wrapped is not None:  # said as run and b2b say it
+        from ..wrap.class_fmu import wrapped_line
+
+        say(f"base.controller {wrapped_line(spec.wrapped, spec.controller)}")
     fmus = Path(fmus).resolve()
     build_all(fmus, progress=say)
     check_names(spec, fmus)

@@ -133,6 +133,7 @@ class Falsification:
     trajectory_arg: str = "1"  # base.trajectory as tiltload run's --trajectory takes it (a file: its absolute path)
     signals: tuple[str, ...] = field(default=())  # every signal the requirements name
     waypoints: list = field(default_factory=list)  # a mission's waypoints ({t, x, y, z, ...}) when a dimension moves one
+    wrapped: str | None = None  # base.controller as the spec names it, when it is a class's .py file wrapped on the fly
 
     @property
     def has_gust(self) -> bool:
@@ -277,6 +278,7 @@ def load(path: Path) -> Falsification:
     _validate(data, path)
     base = data["base"]
     controller = base.get("controller", CONTROLLER)
+    wrapped = controller if controller.endswith(".py") else None
     if controller not in OUR_CONTROLLERS:
         if not (path.parent / controller).is_file():
             raise SpecError(f"{path}: base.controller: {controller} is neither dlqr, mixed, an existing controller FMU "
@@ -314,4 +316,4 @@ def load(path: Path) -> Falsification:
     return Falsification(data["name"], base.get("scenario", SCENARIO), flight, controller, base.get("seed", SEED), float(stop),
                          base.get("gusts", GUSTS), dict(base.get("parameters", {})), faults, requirements, dimensions, gust,
                          data.get("optimizer", "cmaes"), data.get("seed", 0), data.get("batch"), budget.get("simulations"),
-                         budget.get("seconds"), path, wind, trajectory_arg, signals, mission)
+                         budget.get("seconds"), path, wind, trajectory_arg, signals, mission, wrapped)

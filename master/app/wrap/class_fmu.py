@@ -21,7 +21,7 @@ from ....native_fmu.build import tiltload_version
 from ....native_fmu.cache import cache_root
 from .wrap import WrapError, describe_class
 
-__all__ = ["controller_fmu", "controller_fmu_of_file", "route"]
+__all__ = ["controller_fmu", "controller_fmu_of_file", "route", "wrapped_line"]
 
 
 def _source(cls: object, field: str) -> Path:
@@ -110,6 +110,11 @@ def route(fmu: Path) -> str:
             return "a native C FMU (traced from plain numpy)"
     why = Path(fmu).with_suffix(".why")
     return f"a pythonfmu FMU (it runs in Python{': ' + why.read_text() if why.is_file() else ''})"
+
+
+def wrapped_line(source: str, fmu: Path) -> str:
+    """What a face says of a class's .py file it wrapped on the fly (run, b2b, campaign, falsify alike)."""
+    return f"{source}: wrapped as {route(Path(fmu))}"
 
 
 def controller_fmu_of_file(path: Path, native: bool | None = None, fmi_version: int = 2,
