@@ -196,8 +196,9 @@ class Execution:
         """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
         Initialization Mode (an FMU in this process without clocks is: Execution._initialize): their connected inputs
         set after it, their outputs read again (an FMU that computes its outputs when they are read shows the connected
-        values at t = 0; an FMU in another process sends its outputs with its first step: its sample at 0 stays). An
-        FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as initialized."""
+        values at t = 0; an FMU in another process was connected in its Initialization Mode too, its inputs sent with the
+        init request). An FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as
+        initialized."""
         for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())
             kinds = getattr(inst, "input_kind", {})
