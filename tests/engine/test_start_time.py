@@ -174,3 +174,28 @@ def test_what_runs_from_0_only_is_refused_in_one_line_for_a_later_start(what, ex
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and said in err, err
     assert not list((tmp_path / "out").rglob("*.mcap"))  # refused before the run
+
+
+def test_an_fmu_on_tiltload_serve_starts_at_t0_connected_as_in_this_process(clock, tmp_path):
+    """The init request carries the start time and the connected inputs across the network too (remote protocol 3):
+    the served sink's log, its sample at t0 included (y = 1 + 1, the source's now set in its Initialization Mode),
+    equals the in-process run's."""
+    from support.remote import ServerProcess, token_file
+
+    version, fmu = clock
+    token = token_file(tmp_path)
+    server = ServerProcess(fmu.parent, token, "--idle-timeout", "20")
+    try:
+        logs = []
+        for remote in (None, server.address):
+            sink = Instance("sink", fmu, remote=remote)
+            sink.token_file = token if remote else None
+            system = System(STEP, [Instance("source", fmu), sink], [Connection("source.now", "sink.u")], start_time=T0)
+            log = tmp_path / f"{'served' if remote else 'here'}.mcap"
+            res = run_system(system, STOP, log, progress=False)
+            assert res.error is None, res.error
+            logs.append(log_reader.read(log))
+    finally:
+        server.stop()
+    served, here = logs[1]["/sink"], logs[0]["/sink"]
+    assert served[0]["t"] == T0 and served[0]["y"] == 2 * T0 and served == here and len(served) == 11
