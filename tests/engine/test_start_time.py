@@ -199,3 +199,14 @@ def test_an_fmu_on_tiltload_serve_starts_at_t0_connected_as_in_this_process(cloc
         server.stop()
     served, here = logs[1]["/sink"], logs[0]["/sink"]
     assert served[0]["t"] == T0 and served[0]["y"] == 2 * T0 and served == here and len(served) == 11
+
+
+def test_a_stop_time_off_the_grid_after_a_later_start_ends_with_a_shorter_last_step(clock, tmp_path):
+    """[1, 1.25] on a 0.1 s tick: steps at 1, 1.1, 1.2 (0.05 s, the FMU takes a variable step), FMPy's times and values."""
+    version, fmu = clock
+    system = System(STEP, [Instance("source", fmu)], start_time=T0)
+    res = run_system(system, 1.25, tmp_path / "run.mcap", progress=False)
+    assert res.error is None and res.sim_time == 1.25
+    t, fields = _columns(tmp_path / "run.mcap")["source"]
+    assert len(t) == 4 and t[-1] == 1.25 and fields["steps"][-1] == 3
+    _equal_fmpy(t, fields, simulate_fmu(str(fmu), start_time=T0, stop_time=1.25, output_interval=STEP), reals=("now",))
