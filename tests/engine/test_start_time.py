@@ -210,3 +210,15 @@ def test_a_stop_time_off_the_grid_after_a_later_start_ends_with_a_shorter_last_s
     t, fields = _columns(tmp_path / "run.mcap")["source"]
     assert len(t) == 4 and t[-1] == 1.25 and fields["steps"][-1] == 3
     _equal_fmpy(t, fields, simulate_fmu(str(fmu), start_time=T0, stop_time=1.25, output_interval=STEP), reals=("now",))
+
+
+def test_an_fmu_with_clocks_refuses_a_later_start_in_one_line(tmp_path):
+    """The master counts an FMI 3.0 FMU's clock ticks from t = 0: a system that starts later is refused when read."""
+    from support.fmi3_trace_fmu import TICK, trace_fmu
+    from tiltload.master.engine.errors import DescriptionError
+    from tiltload.master.engine.execution import Execution
+
+    system = System(TICK, [Instance("dut", trace_fmu(tmp_path))], start_time=T0)
+    with pytest.raises(DescriptionError) as err:
+        Execution(system)
+    assert str(err.value) == "the system starts at 1 s and dut has clocks, which tiltload ticks from t = 0 only"
