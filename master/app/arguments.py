@@ -72,6 +72,9 @@ def add_loop_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--step", **CASE.option("step"), default=None, metavar="S",
                    help="--system: the step of an SSP package that declares none (default: the smallest of its FMUs' "
                         "DefaultExperiment step sizes)")
+    p.add_argument("--start-time", **CASE.option("start_time"), default=None, metavar="S",
+                   help="--system: the time the system starts at (default: its file's, else 0); the FMUs are set up "
+                        "there and --stop-time is an absolute time, as FMPy's")
     p.add_argument("--allow-external-fmus", action="store_true",
                    help="--system: let a component's FMU lie outside the package or the system file's folder")
     p.add_argument("--fmus", **CASE.option("fmus"), default=None, help="FMU folder (default: fmus)")

@@ -45,9 +45,10 @@ class StopPlan:
     note: str | None
 
 
-def stop_plan(asked: float, tick: float, variable_step: dict[str, bool]) -> StopPlan:
-    """The stop plan of a run on this tick; variable_step: each instance's canHandleVariableCommunicationStepSize."""
-    whole = asked / tick
+def stop_plan(asked: float, tick: float, variable_step: dict[str, bool], start: float = 0.0) -> StopPlan:
+    """The stop plan of a run on this tick from start (asked and the end are absolute times, as FMPy's stop time);
+    variable_step: each instance's canHandleVariableCommunicationStepSize."""
+    whole = (asked - start) / tick  # start 0: asked / tick, bit for bit
     n = round(whole)
     if abs(whole - n) <= _GRID * max(1.0, whole):
         return StopPlan(asked, n, asked, False, None)
@@ -55,9 +56,10 @@ def stop_plan(asked: float, tick: float, variable_step: dict[str, bool]) -> Stop
     if not fixed:
         return StopPlan(asked, math.ceil(whole), asked, True, None)
     n = math.ceil(whole)  # the first tick at or after the time asked: a window ending there is decided
-    return StopPlan(asked, n, n * tick, False,
-                    f"stop time {asked:g} s is not a whole number of {tick * 1e3:g} ms ticks and {', '.join(fixed)} cannot "
-                    f"take a shorter last step: the run ends at {n * tick:.9g} s ({n} ticks)")
+    end = start + n * tick
+    return StopPlan(asked, n, end, False,
+                    f"stop time {asked:g} s is not a whole number of {tick * 1e3:g} ms ticks{f' after {start:g} s' if start else ''} "
+                    f"and {', '.join(fixed)} cannot take a shorter last step: the run ends at {end:.9g} s ({n} ticks)")
 
 
 def variable_steps(mds: dict) -> dict[str, bool]:

@@ -25,7 +25,7 @@ import numpy as np
 
 from . import connections, edges
 from .errors import DescriptionError
-from .fmi.model_description import checked_value, read_fmu, steps_every
+from .fmi.model_description import checked_value, clocks_of, is_scheduled, read_fmu, steps_every
 from .fmi.slave import C_TYPES, Slave
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
@@ -106,6 +106,10 @@ class Execution:
                 fed = {link.target_name for link in self.links if link.target == spec.name}
                 self.tables[spec.name] = InputTable(spec.name, spec.input_file, mds[spec.name], fed)
         self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
+        clocked = [name for name, md in mds.items() if clocks_of(md) or is_scheduled(md)]
+        if system.start_time and clocked:  # their clock ticks are counted from t = 0 by the master
+            raise DescriptionError(f"the system starts at {system.start_time:g} s and {', '.join(clocked)} has clocks, "
+                                   "which tiltload ticks from t = 0 only")
         groups: dict[tuple, list] = {}
         for link in self.links:
             groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
@@ -153,16 +157,18 @@ class Execution:
         from . import snapshot
 
         order = edges.propagation_order(self.system, self.links) if resume is None else []
+        t0 = self.system.start_time
+        start = {"start": t0} if t0 else {}  # set up at the system's start time (a slave of its own takes none at 0)
         for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
             inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
-            parameters = {**spec.parameters, **self.tables[spec.name].values(0.0)} if spec.name in self.tables else \
-                spec.parameters  # an input file's values at t = 0 are set in Initialization Mode
+            parameters = {**spec.parameters, **self.tables[spec.name].values(t0)} if spec.name in self.tables else \
+                spec.parameters  # an input file's values at the start are set in Initialization Mode
             if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
-                inst.initialize(parameters, connect=lambda name=spec.name: self._connect_initial(name))
+                inst.initialize(parameters, connect=lambda name=spec.name: self._connect_initial(name), **start)
                 order.remove(spec.name)
             else:
-                inst.initialize(parameters)
-        self.time, self.ticks_done = 0.0, 0
+                inst.initialize(parameters, **start)
+        self.time, self.ticks_done = t0, 0
         self.resumed_at = None
         self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
         if resume is not None:
@@ -196,8 +202,9 @@ class Execution:
         """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
         Initialization Mode (an FMU in this process without clocks is: Execution._initialize): their connected inputs
         set after it, their outputs read again (an FMU that computes its outputs when they are read shows the connected
-        values at t = 0; an FMU in another process sends its outputs with its first step: its sample at 0 stays). An
-        FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as initialized."""
+        values at t = 0; an FMU in another process was connected in its Initialization Mode too, its inputs sent with the
+        init request). An FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as
+        initialized."""
         for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())
             kinds = getattr(inst, "input_kind", {})
@@ -209,7 +216,7 @@ class Execution:
 
     def stop_plan(self, stop: float) -> edges.StopPlan:
         """Where a run asked to stop at `stop` ends (edges.stop_plan): its note, if any, is for the user before the run."""
-        return edges.stop_plan(stop, self.system.tick, edges.variable_steps(self._mds))
+        return edges.stop_plan(stop, self.system.tick, edges.variable_steps(self._mds), self.system.start_time)
 
     def _values(self) -> dict[str, dict[str, np.ndarray]]:
         """Every instance's output values now (a copy): what a per-step observer sees of an instance that has not
@@ -303,9 +310,9 @@ class Execution:
         self.loop.run(1)
 
     def run(self, stop: float, realtime=None) -> None:
-        """Run up to the tick nearest stop (from where the execution is); realtime paces the ticks (realtime.py). Nothing
+        """Run up to the tick nearest stop (an absolute time, from where the execution is); realtime paces the ticks (realtime.py). Nothing
         once an FMU ended the run (ended_by)."""
-        n = int(round(stop / self.system.tick))
+        n = int(round((stop - self.system.start_time) / self.system.tick))
         if self.ticks_done < n and self.ended_by is None:
             self.loop.run(n - self.ticks_done, realtime)
 

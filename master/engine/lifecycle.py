@@ -77,7 +77,7 @@ def structure(system: System, isolate: IsolationPolicy | None, step_timeout: flo
     their instances, periods and hosts, the connections, the tick and where the FMUs run."""
     instances = tuple((i.name, str(i.fmu), i.period, i.timing, i.remote, str(i.token_file), i.fmi) for i in system.instances)
     wires = tuple((c.source, c.target, c.delay) for c in system.connections)
-    return system.tick, instances, wires, system.auto_connect, system.fmu_end, isolate, step_timeout
+    return system.tick, system.start_time, instances, wires, system.auto_connect, system.fmu_end, isolate, step_timeout
 
 
 class ExecutionPool:
@@ -217,5 +217,5 @@ def _advance(ex: Execution, plan: RunPlan) -> None:
         tick = ex.system.tick
         n = ex.stop_plan(plan.stop).ticks - 1  # the last tick, possibly shortened, is the end's
         while ex.ticks_done < n:
-            ex.run(min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
+            ex.run(ex.system.start_time + min(n, (ex.ticks_done // plan.segment + 1) * plan.segment) * tick, plan.realtime)
     ex.end(plan.stop, plan.realtime)

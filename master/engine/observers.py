@@ -124,7 +124,7 @@ def _replay(execution, batch: Batch, observers, held: dict | None) -> dict:
             values[:] = held[name][typ]
     events = iter(batch.events)
     pending = [next(events, None)]  # the next fault event
-    tick_of, tick = batch.tick, execution.system.tick
+    tick_of, tick, t0 = batch.tick, execution.system.tick, execution.system.start_time  # t0 + k * tick: tl_loop.c's
 
     def deliver(p: int) -> None:
         """Record p to the observers, the fault events before it first."""
@@ -145,14 +145,14 @@ def _replay(execution, batch: Batch, observers, held: dict | None) -> dict:
     p, n = 0, len(batch.instance)
     try:
         for k in range(batch.first_tick, batch.first_tick + batch.ticks):
-            execution.ticks_done, execution.time = k, k * tick  # where the observers see the run: an exception stops it here
+            execution.ticks_done, execution.time = k, t0 + k * tick  # where the observers see the run: an exception stops it here
             while p < n and tick_of[p] == k:
                 deliver(p)
                 p += 1
-            execution.ticks_done, execution.time = k + 1, (k + 1) * tick
+            execution.ticks_done, execution.time = k + 1, t0 + (k + 1) * tick
             try:
                 for obs in observers:
-                    obs.on_tick(k + 1, (k + 1) * tick)
+                    obs.on_tick(k + 1, t0 + (k + 1) * tick)
             except BaseException as err:
                 raise _Stopped(p) from err
         while batch.closing and p < n:  # a closing batch's samples (edges.py): steps at the run's end, after its last tick
@@ -200,11 +200,11 @@ class Progress(Observer):
 
     def start(self, execution) -> None:
         self._last = time.perf_counter()
-        self._t_first = execution.resumed_at or 0.0
+        self._t_first = execution.resumed_at or execution.system.start_time
 
     def on_batch(self, execution, batch: Batch) -> None:
         k = batch.first_tick + batch.ticks
-        self.on_tick(k, k * execution.system.tick)
+        self.on_tick(k, execution.system.start_time + k * execution.system.tick)
 
     def on_tick(self, k, t) -> None:
         now = time.perf_counter()

@@ -111,6 +111,7 @@ def take(execution, application: dict | None = None) -> Snapshot:
     """The execution's state between two ticks. Every FMU must be able to serialize its state."""
     from .faults.schedule import describe
 
+    _from_zero(execution)
     for name, slave in execution.instances.items():
         if not slave.can_serialize:
             raise SnapshotError(f"{name}: its FMU cannot serialize its state (canSerializeFMUstate is false): "
@@ -132,8 +133,15 @@ def take(execution, application: dict | None = None) -> Snapshot:
         observers, dict(application or {}))
 
 
+def _from_zero(execution) -> None:
+    """A snapshot holds a run from t = 0 (its tick count is its time): one that started elsewhere is refused."""
+    if execution.system.start_time:
+        raise SnapshotError(f"the system starts at {execution.system.start_time:g} s: snapshots are of runs from t = 0 only")
+
+
 def check(execution, snap: Snapshot) -> None:
     """Before anything is loaded: the snapshot is of this system and build, and its settings are tunable parameters."""
+    _from_zero(execution)
     check_compatible(snap.fingerprint, fingerprint(execution))
     for name, md in execution.model_descriptions.items():  # the shapes of what restore() writes, before anything loads
         if name not in snap.states or name not in snap.values:

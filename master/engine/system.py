@@ -47,6 +47,7 @@ class System:
     # an FMU asking to end the simulation (edges.py): "end" ends the run there, as FMPy does; "error" fails it (a loop
     # whose plant stops when its state diverges: the thesis's)
     fmu_end: str = "end"
+    start_time: float = 0.0  # s: the FMUs set up at it, tick k at start_time + k * tick; a stop time is absolute (FMPy's)
 
     def instance(self, name: str) -> Instance:
         for inst in self.instances:
@@ -82,6 +83,11 @@ def parse_address(text: str, port_zero: bool = False) -> tuple[str, int]:
 def validate(system: System) -> System:
     if not (isinstance(system.tick, (int, float)) and math.isfinite(system.tick) and system.tick > 0):
         raise DescriptionError(f"tick must be a positive time, got {system.tick!r}")
+    t0 = system.start_time
+    if not (isinstance(t0, (int, float)) and math.isfinite(t0) and t0 >= 0):
+        raise DescriptionError(f"start time must be a time of 0 s or later, got {t0!r}")
+    if t0 and system.faults:
+        raise DescriptionError(f"the system starts at {t0:g} s and has faults, which tiltload schedules from t = 0 only")
     names = [i.name for i in system.instances]
     if not names:
         raise DescriptionError("the system has no FMU instance")
@@ -117,6 +123,7 @@ SCHEMA = {
     "type": "object", "additionalProperties": False, "required": ["tick", "instances"],
     "properties": {
         "tick": {"type": "number", "exclusiveMinimum": 0, "maximum": 3600},
+        "start_time": {"type": "number", "minimum": 0, "maximum": 1e9},
         "auto_connect": {"type": "boolean"},
         "fmu_end": {"enum": ["end", "error"]},
         "instances": {"type": "array", "minItems": 1, "items": {
@@ -168,7 +175,7 @@ def load(path: Path) -> System:
                      for i in data["instances"]]
         conns = [Connection(c["source"], c["target"], int(c.get("delay", 0))) for c in data.get("connections", [])]
         system = System(float(data["tick"]), instances, conns, bool(data.get("auto_connect", True)),
-                        fmu_end=data.get("fmu_end", "end"))
+                        fmu_end=data.get("fmu_end", "end"), start_time=float(data.get("start_time", 0.0)))
         if "faults" in data:
             from .faults.parse import parse
 
@@ -182,6 +189,7 @@ def load(path: Path) -> System:
 
 def save(system: System, path: Path) -> Path:
     data = {"tick": system.tick, "auto_connect": system.auto_connect, **({"fmu_end": "error"} if system.fmu_end == "error" else {}),
+            **({"start_time": system.start_time} if system.start_time else {}),
             "instances": [{"name": i.name, "fmu": str(i.fmu), "period": i.period, "parameters": i.parameters, "timing": i.timing,
                            **({"remote": i.remote} if i.remote else {}), **({"fmi": i.fmi} if i.fmi is not None else {}),
                            **({"input_file": str(i.input_file)} if i.input_file is not None else {})}

@@ -46,6 +46,7 @@ CHANGES = {
     "set": ([], ["--set", "plant.m_L=0.2"]),
     "system": ([], ["--system", "docs/loop.ssp"]),
     "step": (["--system", "standard.ssp"], ["--system", "standard.ssp", "--step", "0.05"]),
+    "start_time": (["--system", "standard.ssp"], ["--system", "standard.ssp", "--start-time", "1"]),
     "input_file": (["--system", "docs/loop.ssp"], ["--system", "docs/loop.ssp", "--input-file", "plant=gusts.csv"]),
     "fmi": ([], ["--fmi", "3"]),
     "clocks": (["--fmi", "3"], ["--fmi", "3", "--clocks"]),

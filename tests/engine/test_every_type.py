@@ -47,9 +47,10 @@ def _logged(log, topic: str) -> list[dict]:
     return log_reader.read(log)[f"/{topic}"]
 
 
-def _equals_fmpy(fmu, messages: list[dict], version: int, stop: float, start_values: dict, outputs=None) -> None:
+def _equals_fmpy(fmu, messages: list[dict], version: int, stop: float, start_values: dict, outputs=None,
+                 start: float = 0.0) -> None:
     """Every logged message equals FMPy's row at its time, value and kind (int, bool, float) alike."""
-    ref = simulate_fmu(str(fmu), stop_time=stop, output_interval=TICK, start_values=start_values)
+    ref = simulate_fmu(str(fmu), start_time=start, stop_time=stop, output_interval=TICK, start_values=start_values)
     times = [m["t"] for m in messages]
     assert len(times) == len(set(times)) == len(np.unique(np.round(ref["time"], 9)))
     for m in messages:
@@ -278,15 +279,32 @@ def test_a_standard_ssp_package_runs_on_its_fmus_declared_step_to_its_stop_time(
     _equals_fmpy(path, messages, version, 0.3, {})
 
 
-def test_a_standard_package_that_starts_later_than_zero_is_refused_in_one_line(fmu, tmp_path, capsys):
+def test_a_standard_package_for_1_to_2_runs_from_1_as_fmpy_runs_it(fmu, tmp_path, capsys):
+    """The SSD's DefaultExperiment [1, 2]: the FMU set up at 1 s, stepped at 1 + k * 0.1 s and logged from 1 s to 2 s
+    (the stop time an absolute time), equal to FMPy's simulate_fmu(start_time=1, stop_time=2) at every time (0
+    difference); the run says it simulated 1 s from t = 1 s."""
     from tiltload.master.app.cli import main
 
     version, path = fmu
     code = main(["run", "--system", str(_standard_package(tmp_path, path, start=1.0, stop=2.0)), "--out",
                  str(tmp_path / "out"), "--no-plots", "--quiet"])
+    said = capsys.readouterr().out
+    assert code == 0, said
+    assert ": 1 s of simulated time from t = 1 s" in said and "1.00 s simulated in" in said
+    messages = _logged(next((tmp_path / "out").rglob("*.mcap")), "e")
+    assert messages[0]["t"] == 1.0 and messages[-1]["t"] == pytest.approx(2.0) and len(messages) == 11
+    _equals_fmpy(path, messages, version, 2.0, {}, start=1.0)
+
+
+def test_a_stop_time_before_the_start_time_is_refused_in_one_line(fmu, tmp_path, capsys):
+    from tiltload.master.app.cli import main
+
+    version, path = fmu
+    code = main(["run", "--system", str(_standard_package(tmp_path, path, start=1.0, stop=2.0)), "--stop-time", "0.5",
+                 "--out", str(tmp_path / "out"), "--no-plots", "--quiet"])
     said = capsys.readouterr().err.strip()
     assert code == 2 and len(said.splitlines()) == 1
-    assert "its DefaultExperiment starts at 1 s; tiltload runs a system from t = 0 only" in said
+    assert "stop time 0.5 s: the system starts at 1 s, and its stop time is an absolute time after that" in said
 
 
 def test_a_stop_time_off_the_tick_grid_is_met_with_a_shorter_last_step(tmp_path):

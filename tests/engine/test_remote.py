@@ -174,7 +174,7 @@ def transport_frame(body: bytes) -> bytes:
     ("unknown", "no FMU NotThere in the served folder"),
     ("other guid", "the master's has {00000000-"),
     ("ahead", "it sent more than its request before the answer"),
-    ("protocol 1", "protocol 1, this server speaks 2"),  # a client from before FMI 3.0 hosting
+    ("protocol 2", "protocol 2, this server speaks 3"),  # a client from before the init request's inputs
 ], ids=["waits", "1GB-frame", "garbage", "unknown-fmu", "other-guid", "sends-ahead", "old-protocol"])
 def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(sends, why, fmus, token, server):
     md = read_fmu(fmus / "TiltloadController.fmu", "controller")
@@ -183,8 +183,8 @@ def test_an_authenticated_client_that_does_not_name_a_served_fmu_is_refused(send
         md.coSimulation.modelIdentifier = "NotThere"
     if sends == "other guid":
         md.guid = "{00000000-0000-0000-0000-000000000000}"
-    if sends == "protocol 1":
-        sends = transport_frame(open_request(md, protocol=1))
+    if sends == "protocol 2":
+        sends = transport_frame(open_request(md, protocol=2))
     if isinstance(sends, str):
         sends = transport_frame(open_request(md)) + (transport_frame(b"S" + bytes(16)) if sends == "ahead" else b"")
     if sends is not None:

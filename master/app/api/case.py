@@ -53,6 +53,7 @@ class Case:
     allow_unknown_inputs: bool = False
     allow_external_fmus: bool = False
     step: float | None = None  # s: the step of a system package that declares none
+    start_time: float | None = None  # s: the time a system starts at (its file's by default); stop_time is absolute
     input_file: tuple[tuple[str, str], ...] = ()  # {instance: CSV or Parquet file of its inputs over time}
 
     def __post_init__(self) -> None:
@@ -63,8 +64,9 @@ class Case:
         self._trajectory_and_controller()
         if fix("seed", kinds.whole("Case", "seed", self.seed)) is not None:
             CASE.check("seed", self.seed)
-        if fix("step", kinds.number("Case", "step", self.step)) is not None:
-            fix("step", CASE.check("step", self.step))
+        for name in ("step", "start_time"):
+            if fix(name, kinds.number("Case", name, getattr(self, name))) is not None:
+                fix(name, CASE.check(name, getattr(self, name)))
         if fix("stop_time", kinds.number("Case", "stop_time", self.stop_time)) is not None:
             fix("stop_time", CASE.check("stop_time", self.stop_time))
         for name in ("delay", "no_gusts", "clocks", "allow_infeasible", "allow_unknown_inputs", "allow_external_fmus"):

@@ -58,6 +58,9 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
     checkpoint = None if options.snapshot_at is None else (options.snapshot_time, options.snapshot_at[1])
     loop = build_system(opts, cache_root() / "ssp", build=snap is None, say=say)  # a continued run builds nothing
     system, stop = loop.system, loop.stop
+    if system.start_time and (options.requirements is not None or options.snapshot_at is not None or snap is not None):
+        raise UserError(f"the system starts at {system.start_time:g} s: --requirements, --snapshot-at and "
+                        "--from-snapshot are for runs from t = 0 only")
     _check_expected(system, options.expect_fmu)
     if snap is not None and stop <= snap.time + snap.tick / 2:  # as a campaign refuses it: nothing left to run
         raise UserError(f"--stop-time {stop:g}: a continued run must stop after the snapshot's time ({snap.time:g} s)")
@@ -76,13 +79,15 @@ def execute(case: Case, options: RunOptions, say: Say, pool=None) -> Outcome:
         say(f"continuing from {options.from_snapshot}: t = {snap.time:.3f} s")
     monitor = _monitor(options, system, stop - (snap.time if snap else 0.0))
     scene = "plant" if "plant" in {i.name for i in system.instances} else None
-    say(f"running {label}: {stop:g} s of simulated time" + (f", paced at {options.realtime:g}x real time" if pacer else ""))
+    t0 = system.start_time
+    say(f"running {label}: {stop - t0:g} s of simulated time" + (f" from t = {t0:g} s" if t0 else "")
+        + (f", paced at {options.realtime:g}x real time" if pacer else ""))
     plan = RunPlan(system, stop, log, meta, tuple(scene_channels(scene)) if scene else (), options.log_every, metrics,
                    (monitor,) if monitor else (), not options.quiet, None if options.trust_fmus else is_foreign,
                    options.step_timeout, pacer, snap, tuple(checkpoints), lambda execution: _announce(execution, say, stop),
                    profile=options.profile)
     result = run_plan(plan, pool)
-    _say_results(result, snap, monitor, pacer, log, say, beside_run(opts, stop))
+    _say_results(result, snap, monitor, pacer, log, say, beside_run(opts, stop), t0)
     if result.profile is not None:
         for line in result.profile.lines():
             say(line)
@@ -140,7 +145,8 @@ def _metadata(opts, stop: float, schedule: str | None) -> dict:
     from ..case.record import file_digest, record
 
     if opts.system is not None:
-        meta = {"system": str(opts.system), "system_sha256": file_digest(opts.system), "stop_time": stop}
+        meta = {"system": str(opts.system), "system_sha256": file_digest(opts.system), "stop_time": stop,
+                **({"start_time": opts.start_time} if opts.start_time is not None else {})}
         if opts.faults is not None:
             meta["faults"], meta["faults_sha256"] = str(opts.faults), file_digest(opts.faults)
         return meta
@@ -209,17 +215,18 @@ def _checkpoints(checkpoint, opts, schedule: str | None, stop: float, say: Say) 
     return [(at, save)]
 
 
-def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesis: tuple = ("", None)) -> None:
+def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesis: tuple = ("", None),
+                 start: float = 0.0) -> None:
     """The speed, the metrics (beside the thesis's values for a thesis case: thesis_values.beside_run), the requirements'
     verdicts, the pacer's overruns and where the log went."""
     from ...engine.observers import seconds, speed  # the progress bar's words and clock: the two agree
 
-    simulated = result.sim_time - (snap.time if snap and result.ticks else 0.0)
+    simulated = result.sim_time - (snap.time if snap and result.ticks else start)  # a run from start (0: the loop's)
     if getattr(result, "ended_by", None):
         say(f"{result.ended_by[0]} ended the run at t = {result.ended_by[1]:.6g} s (the FMU asked to terminate the simulation)")
     shown = f"{simulated:.2f}" if abs(simulated - round(simulated, 2)) < 1e-9 else f"{simulated:.6g}"  # never rounded
     say(f"{shown} s simulated in {seconds(result.wall)} ({speed(simulated, result.wall)})"
-        + (f", from t = {snap.time:.3f} s" if snap else ""))
+        + (f", from t = {snap.time:.3f} s" if snap else f", from t = {start:g} s" if start else ""))
     if result.metrics and result.ticks:
         what, values = thesis
         say(f"{'metric':>14} {'value':>12}" + (f"  thesis ({what})" if values else ""))

@@ -141,12 +141,14 @@ def input_file(text: str) -> tuple[str, str]:
 
 tilt_limit = real_in(lambda value: 0 < value <= 180, "an angle in degrees, above 0 and at most 180")
 step_size = real_in(lambda value: 0 < value <= 3600, "a step in seconds, above 0 and at most 3600")
+start_at = real_in(lambda value: 0 <= value <= 1e9, "a time in seconds, 0 or later and at most 1e9")
 seed = integer(0, 2**31 - 1)
 whole_number = integer(1)
 
 # Case: what one run is (tiltload run's loop options)
 CASE = Fields("run", {"seed": seed, "stop_time": run_time, "fmus": folder, "max_tilt": tilt_limit, "set": assignment,
-                      "remote": remote, "step": step_size, "input_file": input_file},
+                      "remote": remote, "step": step_size, "input_file": input_file,
+                      "start_time": start_at},
               {"vehicle": ("load", "uav"), "scenario": SCENARIOS, "schedule": ("ordered", "jacobi"), "fmi": (2, 3)})
 # RunOptions: how it runs and what is kept of it (tiltload run's other options)
 RUN = Fields("run", {"out": folder, "name": file_stem, "log_every": whole_number, "report": output_file,

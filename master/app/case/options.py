@@ -42,6 +42,7 @@ OPTIONS_SCHEMA = {
         "allow_external_fmus": {"type": "boolean"}, "clocks": {"type": "boolean"}, "fmi": {"enum": [2, 3]},
         "max_tilt": {"type": "number", "exclusiveMinimum": 0, "maximum": 180},
         "step": {"type": ["number", "null"], "exclusiveMinimum": 0, "maximum": 3600},  # not required: older snapshots
+        "start_time": {"type": ["number", "null"], "minimum": 0, "maximum": 1e9},  # not required: older snapshots
         "input_files": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2,
                                                    "items": {"type": "string"}}},
         "remotes": {"type": "array", "items": {"type": "array", "minItems": 2, "maxItems": 2, "items": {"type": "string"}}},
@@ -104,6 +105,7 @@ class LoopOptions:
     fmi: int = 2  # the FMI version of the loop's FMUs (the FMI 2.0 set in fmus/, the FMI 3.0 set in fmus/fmi3/)
     clocks: bool = False  # FMI 3.0: the sensors and the controller with clocks
     step: float | None = None  # --step: the step of a system package that declares none (s)
+    start_time: float | None = None  # --start-time: the time a system starts at (None: its file's)
     input_files: tuple[tuple[str, str], ...] = ()  # --input-file INSTANCE=FILE, in order
     # a case set's wind, read once for all its runs (the scenario FMU's parameters); a run's own is its wind file
     wind_parameters: tuple[tuple[str, object], ...] = ()
@@ -157,6 +159,8 @@ class LoopOptions:
             parts.append("set-" + _settings_tag(self.settings))
         if self.step is not None:
             parts.append(f"step{self.step:g}s")
+        if self.start_time is not None:
+            parts.append(f"start{self.start_time:g}s")
         if self.input_files:
             parts.append("inputs-" + "-".join(Path(f).stem for _, f in self.input_files))
         if self.stop_time is not None and self.stop_time != default_stop_time:
@@ -198,9 +202,12 @@ def resolve_loop(args: argparse.Namespace) -> LoopOptions:
                            system=args.system, fmus=DEFAULT_FMU_DIR,
                            allow_unknown_inputs=False, allow_external_fmus=getattr(args, "allow_external_fmus", False),
                            remotes=tuple(getattr(args, "remote", ())), step=getattr(args, "step", None),
-                           input_files=tuple(getattr(args, "input_file", ())))
+                           start_time=getattr(args, "start_time", None), input_files=tuple(getattr(args, "input_file", ())))
     if getattr(args, "step", None) is not None:
         raise UserError("--step is for --system (an SSP package that declares no step); the loop's tick is its own")
+    if getattr(args, "start_time", None) is not None:
+        raise UserError("--start-time is for --system: the loop runs from t = 0 (its trajectory, faults and snapshots count "
+                        "time from there)")
     if getattr(args, "input_file", ()):
         raise UserError("--input-file is for --system: the loop's inputs are its own FMUs' outputs")
     if getattr(args, "allow_external_fmus", False):

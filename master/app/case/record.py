@@ -162,6 +162,8 @@ def replay_command(run: dict, requirements: Path | None = None) -> str:
     path the run was given); empty for a record that names no case."""
     if run.get("system"):
         argv = ["tiltload", "run", "--system", str(run["system"]), "--stop-time", str(run.get("stop_time", ""))]
+        if run.get("start_time"):
+            argv += ["--start-time", str(run["start_time"])]
         if run.get("faults"):
             argv += ["--faults", str(run["faults"])]
     elif "scenario" in run:

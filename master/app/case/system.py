@@ -42,6 +42,8 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
 
     if opts.system is not None:
         system, stop, schedule = read_system(opts.system, unpack_into, opts.allow_external_fmus, say, opts.step)
+        if opts.start_time is not None:  # --start-time over the file's (an SSD's DefaultExperiment, a JSON "start_time")
+            system.start_time = float(opts.start_time)
         set_parameters(system, dict(opts.settings))  # --set over the file's values, checked by the engine's type table
         for name, table in opts.input_files:  # --input-file over the file's own (engine/inputs.py reads and checks it)
             system.instance(name).input_file = Path(table).resolve()
@@ -74,6 +76,9 @@ def build_system(opts: LoopOptions, unpack_into: Path | None = None, *, faults: 
         system.faults = [*system.faults, *load_faults(opts.faults)]
     natural = stop or default_stop(opts.reference or opts.trajectory)
     stop = opts.stop_time or natural
+    if system.start_time and stop <= system.start_time:  # FMPy's rule: the stop time is a time, not a duration
+        raise UserError(f"stop time {stop:g} s: the system starts at {system.start_time:g} s, and its stop time is an "
+                        "absolute time after that")
     if opts.system is None and not prepared:
         from ..feasibility.policy import enforce
 

@@ -71,10 +71,10 @@ class InProcessFmu(Binding):
 
     connects_in_initialization = True  # the master may set its connected inputs in Initialization Mode
 
-    def initialize(self, parameters: dict, connect=None) -> None:
+    def initialize(self, parameters: dict, connect=None, start: float = 0.0) -> None:
         """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py), where the FMU's
-        outputs follow them (a feedthrough's sample at t = 0 holds the connected values)."""
-        self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=0.0))
+        outputs follow them (a feedthrough's sample at t = 0 holds the connected values). start: the system's start."""
+        self.call("setupExperiment", lambda: self.slave.setupExperiment(startTime=float(start)))
         self.call("enterInitializationMode", self.slave.enterInitializationMode)
         self.set_parameters(parameters)
         if connect is not None:

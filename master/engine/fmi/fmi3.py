@@ -207,9 +207,10 @@ class Fmu3Slave(Binding):
         """The master may set its connected inputs in Initialization Mode (initialize's connect): without clocks."""
         return not self.clocked
 
-    def initialize(self, parameters: dict, connect=None) -> None:
-        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py; not with clocks)."""
-        self.call("enterInitializationMode", lambda: self.fmu.enterInitializationMode(startTime=0.0))
+    def initialize(self, parameters: dict, connect=None, start: float = 0.0) -> None:
+        """connect(): the master sets the connected inputs in Initialization Mode (engine/edges.py; not with clocks).
+        start: the system's start time."""
+        self.call("enterInitializationMode", lambda: self.fmu.enterInitializationMode(startTime=float(start)))
         self.set_parameters(parameters)
         if connect is not None and not self.clocked:
             connect()

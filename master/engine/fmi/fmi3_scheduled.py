@@ -83,8 +83,8 @@ class Fmu3ScheduledSlave(Fmu3Slave):
         se = self.md.scheduledExecution
         return bool(se.canGetAndSetFMUstate and se.canSerializeFMUstate)  # FMPy's spelling for every version
 
-    def initialize(self, parameters: dict) -> None:
-        super().initialize(parameters)
+    def initialize(self, parameters: dict, start: float = 0.0) -> None:
+        super().initialize(parameters, start=start)
         self._in_event = False  # Clock Activation Mode: no Event Mode here
         self.lock_depth.value = 0  # a run ended by a partition that returned locked leaves nothing held to the next
 

@@ -30,8 +30,9 @@ ACCEPTED, REFUSED = b"\x01", b"\x00"
 MIN_SECRET = 16  # bytes in the token file (after surrounding white space)
 MAX_TOKEN_FILE = 4096  # bytes: a secret is tens of bytes; a larger "token file" is the wrong file
 # what the client's request for an FMU, which follows the handshake, says it speaks: 2 added FMI 3.0 FMUs (the request's
-# tick, clocked steps in the worker); a server of 1 would take a 2 client's FMI 3.0 request and fail inside it
-PROTOCOL = 2
+# tick, clocked steps in the worker); a server of 1 would take a 2 client's FMI 3.0 request and fail inside it; 3 the
+# connected inputs in the init request (a server of 2 would ignore them: a feedthrough's t = 0 sample unconnected)
+PROTOCOL = 3
 OPEN_LIMIT = 4096  # bytes of that request and of the server's answer
 
 

@@ -135,6 +135,7 @@ class IsolatedFmu(slave.Slave):
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
         self.setters = {t: self._queue(t) for t in slave.TYPES}
         self._pending: list = []
+        self.clocked = bool(clocks_of(md))  # stepped in Event Mode by its host: its inputs are not set at initialization
         self._dead = self._closed = False
         self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
         self.segment = None
@@ -286,9 +287,22 @@ class IsolatedFmu(slave.Slave):
                 pass
         return super().failed(what, status)
 
-    def initialize(self, parameters: dict) -> None:
+    @property
+    def connects_in_initialization(self) -> bool:
+        """The master may set its connected inputs at initialization (initialize's connect): they travel with the init
+        request, set by the host in Initialization Mode as in this process. Not with clocks (Event Mode only)."""
+        return not self.clocked
+
+    def initialize(self, parameters: dict, connect=None, start: float = 0.0) -> None:
+        """connect(): the master's setters queue the connected inputs at t = 0, sent with the request. start: the
+        system's start time (sent when it is not 0)."""
         self._pending.clear()
-        self._exchange(wire.control({"op": "init", "parameters": dict(parameters)}), "initialization")
+        if connect is not None:
+            connect()
+        sets, self._pending = self._pending, []
+        request = {"op": "init", "parameters": dict(parameters), **({"inputs": wire.encode_inputs(sets)} if sets else {}),
+                   **({"start": float(start)} if start else {})}
+        self._exchange(wire.control(request), "initialization")
 
     def reset(self) -> None:
         self._pending.clear()

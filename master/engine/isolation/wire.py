@@ -3,7 +3,9 @@
 Every message is one frame (transport.py). The step, the hot path, is raw bytes; the rare ones are
 JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requests:
   S t h {type n vrs values}     apply the sets, doStep(t, h); reply: the outputs
-  J {"op": "init", "parameters": {name: value}}   initialization; reply: the outputs at t = 0
+  J {"op": "init", "parameters": {name: value}[, "inputs": base64 of an S frame's sets][, "start": t0]}
+                                initialization, the connected inputs (if sent) set in Initialization Mode (or, for
+                                a host whose FMU cannot take them there, after it); reply: the outputs at t = 0
   J {"op": "reset"}             fmi2Reset
   J {"op": "set", "values": {name: value}}        set parameters or inputs by name
   J {"op": "get_state"}         the FMU's serialized state; reply: T state
@@ -22,6 +24,7 @@ Every frame is checked against the model's sizes (step_limit, reply_limit) and i
 
 from __future__ import annotations
 
+import base64
 import json
 import struct
 
@@ -137,6 +140,32 @@ def encode_step(sets, t: float, h: float) -> bytes:
     for typ, n, vrs, values in sets:
         parts += [_SET.pack(_CODE[typ], n), vrs, values]
     return b"".join(parts)
+
+
+def encode_inputs(sets) -> str:
+    """The connected inputs an init request carries: the sets of a step (encode_step's) in base64."""
+    return base64.b64encode(encode_step(sets, 0.0, 0.0)).decode()
+
+
+def decode_inputs(text, inputs: dict[str, frozenset]):
+    """The sets [(type, vrs bytes, values bytes, n)] of an init request's "inputs", checked as a step's are."""
+    if not isinstance(text, str):
+        raise ProtocolError("malformed init request (its inputs are not a string)")
+    try:
+        body = base64.b64decode(text.encode(), validate=True)
+    except ValueError:
+        raise ProtocolError("malformed init request (its inputs are not base64)") from None
+    if body[:1] != STEP:
+        raise ProtocolError("malformed init request (its inputs are not a step's sets)")
+    return decode_step(body, inputs)[0]
+
+
+def start_time(request: dict) -> float:
+    """An init request's start time (0 when it names none), checked: a finite time of 0 s or later."""
+    t0 = request.get("start", 0.0)
+    if isinstance(t0, bool) or not isinstance(t0, (int, float)) or not 0 <= t0 < float("inf"):
+        raise ProtocolError("malformed init request (its start is not a time of 0 s or later)")
+    return float(t0)
 
 
 def step_limit(inputs: dict[str, frozenset]) -> int:

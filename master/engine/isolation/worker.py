@@ -74,9 +74,27 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         channel.send(wire.error("execution", str(err), False, new_log()))
         return 1
     inputs = model_inputs(md)
+
+    def initialize(parameters: dict, sets, start: float) -> None:
+        """Initialization at start (the system's start time); sets (the connected inputs at the start, or None): set in
+        Initialization Mode where the FMU takes them there, as the master does in its own process, else after it, the
+        outputs read again."""
+        def connect():
+            for typ, vrs, values, n in sets:
+                apply(typ, vrs, values, n, start)
+        at = {"start": start} if start else {}  # a slave of its own (loader) may take no start: it has none but 0
+        if sets is None:
+            inst.initialize(parameters, **at)
+        elif getattr(inst, "connects_in_initialization", False):
+            inst.initialize(parameters, connect=connect, **at)
+        else:
+            inst.initialize(parameters, **at)
+            connect()
+            inst.read_outputs()
     step_limit = wire.step_limit(inputs)
     serializes = inst.can_serialize  # only then may a peer send a state (up to wire.STATE_LIMIT bytes)
-    frame_limit = max(step_limit, wire.CONTROL_LIMIT, wire.STATE_FRAME_LIMIT if serializes else 0)
+    frame_limit = max(step_limit, wire.CONTROL_LIMIT + 2 * step_limit,  # an init carries inputs too
+                       wire.STATE_FRAME_LIMIT if serializes else 0)
     checked: set = set()
     host_link = None
     while True:
@@ -116,7 +134,8 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
             request = wire.decode_control(body)
             op = request.get("op")
             if op == "init" and isinstance(request.get("parameters"), dict):
-                inst.initialize(request["parameters"])
+                initialize(request["parameters"], wire.decode_inputs(request["inputs"], inputs)
+                           if "inputs" in request else None, wire.start_time(request))
                 channel.send(wire.encode_outputs(inst.values, new_log()))
             elif op == "set" and isinstance(request.get("values"), dict):
                 inst.set_values(request["values"])

@@ -160,7 +160,7 @@ class McapLogger(Observer):
         if execution.resumed_at is None:  # the outputs after initialization, of the instances whose sample at 0 they are
             for name, inst in execution.instances.items():
                 if edges.logs_initial(timing[name]):
-                    self.on_step(inst, 0.0)
+                    self.on_step(inst, execution.system.start_time)
         else:  # a run continued from a snapshot logs from where it goes on, in the cadence of the uninterrupted run
             for name in self._steps:
                 self._steps[name] = edges.messages_before(timing[name], execution.ticks_done, execution.every[name])

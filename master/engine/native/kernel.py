@@ -105,7 +105,7 @@ class Instance(ctypes.Structure):
 
 class Plan(ctypes.Structure):
     _fields_ = [("n_instances", ctypes.c_int), ("instances", ctypes.POINTER(Instance)), ("tick", ctypes.c_double),
-                ("ticks_done", ctypes.c_int64), ("slots", ctypes.c_int), ("step_callback", STEP_CALLBACK),
+                ("start_time", ctypes.c_double), ("ticks_done", ctypes.c_int64), ("slots", ctypes.c_int), ("step_callback", STEP_CALLBACK),
                 ("hook_callback", HOOK_CALLBACK), ("profile", ctypes.c_int), ("tick_histogram", ctypes.c_void_p),
                 ("tick_ns", ctypes.c_int64), ("fastest_tick_ns", ctypes.c_int64), ("slowest_tick_ns", ctypes.c_int64),
                 ("record_capacity", ctypes.c_int64),

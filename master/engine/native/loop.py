@@ -153,8 +153,8 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
         self.lateness = np.zeros(chunk, dtype=np.float64)
         self.overrun = np.zeros(chunk, dtype=np.int8)
         self.plan = kernel.Plan(n_instances=n, instances=self.instances, tick=execution.system.tick,
-                                ticks_done=execution.ticks_done, slots=self.slots, profile=Profile(int(execution.profile)),
-                                record_capacity=chunk)
+                                start_time=execution.system.start_time, ticks_done=execution.ticks_done, slots=self.slots,
+                                profile=Profile(int(execution.profile)), record_capacity=chunk)
         self.plan.ends_allowed = int(execution.system.fmu_end == "end")
         self._index = index
         self._bound = self._binding()
@@ -269,7 +269,7 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
                 self.step_ns[i] += round(c.seconds * 1e9)
                 c.seconds = 0.0
             self.ex.ticks_done = int(self.plan.ticks_done)
-            self.ex.time = self.ex.ticks_done * self.ex.system.tick
+            self.ex.time = self.ex.system.start_time + self.ex.ticks_done * self.ex.system.tick
             failure = kernel_error(self) if self.plan.error_kind != _NO_ERROR else None
             ended = int(self.plan.ended_instance)
             batch = self._batch(first, done)

@@ -1,4 +1,4 @@
-/* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = k * tick, computed as
+/* The engine's tick loop: see tl_loop.h. The arithmetic is copies only, but for the times t_k = t0 + k * tick, computed as
    the Python engine computes them, a clocked FMU's test of its next event time (as fmi3.py's), and the faults', operation for operation those of faults/apply.py (with
    -ffp-contract=off, so the same roundings). */
 #if !defined(_WIN32) && !defined(_POSIX_C_SOURCE)
@@ -718,7 +718,7 @@ TL_EXPORT int64_t tl_run(tl_plan *plan, int64_t n) {
     int64_t done = 0;
     for (; done < n; done++) {
         int64_t k = plan->ticks_done;
-        double t = (double)k * plan->tick;
+        double t = plan->start_time + (double)k * plan->tick; /* start_time 0: 0.0 + k * tick == k * tick exactly */
         if (plan->realtime_factor > 0) {
             int64_t deadline = plan->realtime_start_ns +
                 (int64_t)((double)(k - plan->realtime_first_tick) * plan->tick / plan->realtime_factor * 1e9);

@@ -209,6 +209,7 @@ typedef struct { TL_INSTANCE_FIELDS(TL_FIELD, TL_ARRAY) } tl_instance;
     F(int, n_instances) \
     F(tl_instance *, instances) \
     F(double, tick) \
+    F(double, start_time)           /* s: tick k is at start_time + k * tick (0: as k * tick, bit for bit) */ \
     F(int64_t, ticks_done)          /* the next tick to run is ticks_done */ \
     F(int, slots)                   /* delay-line length: max delay + 1 (0: no delay line) */ \
     F(tl_step_callback, step_callback) \

@@ -195,7 +195,7 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
     top.annotations.add_annotation(master_annotation(system, schedule, [c for c in system.connections if c.delay]))
     ssd.system = top
     experiment = DefaultExperiment()
-    experiment.start_time, experiment.stop_time = 0.0, float(stop)
+    experiment.start_time, experiment.stop_time = float(system.start_time), float(stop)
     experiment.annotations.add_annotation(osp_annotation(system.tick))
     ssd.default_experiment = experiment
     ssd.units = _units(mds)

@@ -97,9 +97,9 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None,
                                "package that declares none")
     experiment = root.find("ssd:DefaultExperiment", SSD_NS)
     start = float(experiment.get("startTime") or 0) if experiment is not None else 0.0
-    if start != 0:
-        raise DescriptionError(f"{path}: its DefaultExperiment starts at {start:g} s; tiltload runs a system from t = 0 "
-                               "only (a start time is not supported)")
+    if not 0 <= start < float("inf"):
+        raise DescriptionError(f"{path}: its DefaultExperiment starts at {start:g} s; tiltload runs a system from a time "
+                               "of 0 s or later")
     schedule = master.get("schedule", "ordered") if master is not None else "jacobi"
     timing = {e.get("name"): e for e in master.iterfind("tl:Instance", SSD_NS)} if master is not None else {}
     instances = []
@@ -143,7 +143,7 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None,
     fmu_end = master.get("fmu_end", "end") if master is not None else "end"  # what an FMU's request to end is
     if fmu_end not in ("end", "error"):
         raise DescriptionError(f"{path}: fmu_end must be 'end' or 'error', got {fmu_end!r}")
-    system = System(tick, instances, conns, auto_connect=False, fmu_end=fmu_end)
+    system = System(tick, instances, conns, auto_connect=False, fmu_end=fmu_end, start_time=start)  # FMPy's start
     faults = master.find("tl:Faults", SSD_NS) if master is not None else None
     if faults is not None and faults.text:
         from ..faults.parse import parse
@@ -153,6 +153,8 @@ def load(path: Path, unpack_into: Path, allow_external: bool = False, say=None,
         except json.JSONDecodeError as err:
             raise DescriptionError(str(err)) from None
     stop = float(experiment.get("stopTime")) if experiment is not None and experiment.get("stopTime") else None
+    if stop is not None and stop < start:
+        raise DescriptionError(f"{path}: its DefaultExperiment stops at {stop:g} s, before its start ({start:g} s)")
     return validate(system), stop, schedule
 
 

@@ -122,7 +122,7 @@ def ssd_document(system: System, mds: dict, stop: float, schedule: str = "ordere
     if enums is not None:
         root.append(enums)
     _units(root, mds)
-    experiment = etree.SubElement(root, _q(SSD, "DefaultExperiment"), startTime="0.0", stopTime=repr(float(stop)))
+    experiment = etree.SubElement(root, _q(SSD, "DefaultExperiment"), startTime=repr(float(system.start_time)), stopTime=repr(float(stop)))
     etree.SubElement(experiment, _q(SSD, "Annotations")).append(osp_annotation(system.tick).root)
     etree.cleanup_namespaces(root, top_nsmap=NSMAP)
     return etree.tostring(root, pretty_print=True, xml_declaration=True, encoding="utf-8")

@@ -34,4 +34,25 @@ def counter_fmu(dest: Path, fmi_version: int = 2) -> Path:
                  fmi_version=fmi_version).path
 
 
-__all__ = ["counter_fmu", "choose"]
+CLOCK_SOURCES = [HERE / "clock_model.c", HERE / "clock_model.h"]
+
+
+def _prepare_clock(folder: Path, progress) -> Prepared:
+    variables = [Variable("now", "Real", "output", 0.0, "the time its outputs belong to"),
+                 Variable("y", "Real", "output", 0.0, "u + now"),
+                 Variable("tenths", "Integer", "output", 0, "now in whole tenths of a second"),
+                 Variable("steps", "Integer", "output", 0, "steps taken"),
+                 Variable("u", "Real", "input", 0.0, "an input fed through to y")]
+    definition = FmuDefinition("TiltloadTestClock", "a clock that reads the FMU's time", variables, "clock_model.h",
+                               (0.0, 1.0, 0.1))
+    return Prepared(definition, NativeSources(CLOCK_SOURCES))
+
+
+def clock_fmu(dest: Path, fmi_version: int = 2) -> Path:
+    """A clock FMU (clock_model.c: now, tenths, steps, y = u + now) built into dest, for this machine's platform."""
+    recipe = Recipe("TiltloadTestClock.fmu", tuple(CLOCK_SOURCES), ("clock",), _prepare_clock)
+    return build(recipe, dest, progress=lambda *_: None, toolchains=(toolchain(host_platform()),),
+                 fmi_version=fmi_version).path
+
+
+__all__ = ["counter_fmu", "clock_fmu", "choose"]
