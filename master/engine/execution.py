@@ -61,12 +61,14 @@ def _check_parameters(system: System, variables: dict[str, dict], fed: dict) -> 
 
 @dataclass
 class _Group:
-    """Links from one source into one target of one type and delay: a gather into an array the set reads."""
+    """Links from one source into one target of one type and delay: a gather into an array the set reads, from the
+    source's values of source_type (the target's type, or one connections.CONVERSIONS converts from)."""
 
     source: str
     target: str
     type: str
     delay: int
+    source_type: str
     src_index: np.ndarray
     dst_vrs: object  # ctypes array of the target's value references
     values: object  # ctypes array the set reads; `view` is it as numpy
@@ -108,7 +110,7 @@ class Execution:
         self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
         groups: dict[tuple, list] = {}
         for link in self.links:
-            groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
+            groups.setdefault((link.source, link.target, link.type, link.delay, link.source_type), []).append(link)
         self._mds = mds
         self._raw_groups = groups
         self.groups: dict[str, list[_Group]] = {}
@@ -137,12 +139,12 @@ class Execution:
         self.loop = None  # new instances: a new plan
         for spec in self.system.instances:  # on a tiltload serve, in a worker process or in this one (hosting.py)
             self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout, self.system.tick)
-        for (src, dst, typ, delay), links in self._raw_groups.items():
-            idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
+        for (src, dst, typ, delay, src_typ), links in self._raw_groups.items():
+            idx = np.array([self.instances[src].out_index[src_typ][link.source_vr] for link in links], dtype=int)
             buf = (C_TYPES[typ] * len(links))()
             vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
-            self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
-                                                          self.instances[dst].setters[typ]))
+            self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, src_typ, idx, vrs, buf,
+                                                          np.ctypeslib.as_array(buf), self.instances[dst].setters[typ]))
         if self.manipulator is not None:
             self.manipulator.bind(self)
         self._initialize(resume)
@@ -189,7 +191,7 @@ class Execution:
     def _connect_initial(self, name: str) -> None:
         """An instance's connected inputs set from its sources' outputs now (their values at t = 0)."""
         for g in self.groups.get(name, ()):
-            g.view[:] = self.instances[g.source].values[g.type][g.src_index]
+            g.view[:] = self.instances[g.source].values[g.source_type][g.src_index]  # int32 into float64: exact
         self.set_gathered_inputs(name, 0.0)
 
     def _propagate(self, order: list[str]) -> None:

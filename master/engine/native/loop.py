@@ -127,6 +127,7 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
                 src_index = np.ascontiguousarray(group.src_index, dtype=np.int64)
                 self._keep.append(src_index)
                 g.source, g.type, g.delay, g.n = index[group.source], value_type(group.type), group.delay, len(group.view)
+                g.source_type = value_type(group.source_type)
                 g.src_index, g.dst_vrs, g.values = src_index.ctypes.data, _address(group.dst_vrs), _address(group.values)
             self._keep.append(c_groups)
             c.n_groups, c.groups = len(groups), c_groups
