@@ -108,7 +108,7 @@ def resolve(system: System, mds: dict) -> list[Link]:
             elif v.start is None:
                 raise DescriptionError(f"{inst.name}.{v.name} is an input with no connection and no start value")
     for link in links:
-        if link.type not in TYPES:
+        if link.type not in (*TYPES, *TEXTS):
             raise DescriptionError(f"{link.label}: {link.type} connections are not supported")
     return links
 

@@ -30,6 +30,7 @@ from .fmi.slave import C_TYPES, Slave
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
 from .system import System, validate
+from .texts import TextLinks
 
 # Which FMUs run in a worker process of their own: a predicate (fmu path, model description) -> bool
 IsolationPolicy = Callable[[Path, object], bool]
@@ -108,8 +109,11 @@ class Execution:
                 fed = {link.target_name for link in self.links if link.target == spec.name}
                 self.tables[spec.name] = InputTable(spec.name, spec.input_file, mds[spec.name], fed)
         self.every = {i.name: steps_every(i, mds[i.name], system.tick) for i in system.instances}  # clocks replace period
+        self.texts = TextLinks(self.links)  # String and Binary connections, set in Python (texts.py)
         groups: dict[tuple, list] = {}
         for link in self.links:
+            if link.type in connections.TEXTS:
+                continue
             groups.setdefault((link.source, link.target, link.type, link.delay, link.source_type), []).append(link)
         self._mds = mds
         self._raw_groups = groups
@@ -155,15 +159,18 @@ class Execution:
         from . import snapshot
 
         order = edges.propagation_order(self.system, self.links) if resume is None else []
+        self.texts.reset()
         for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
             inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
             parameters = {**spec.parameters, **self.tables[spec.name].values(0.0)} if spec.name in self.tables else \
                 spec.parameters  # an input file's values at t = 0 are set in Initialization Mode
-            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
+            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self._connected(spec.name):
                 inst.initialize(parameters, connect=lambda name=spec.name: self._connect_initial(name))
                 order.remove(spec.name)
             else:
                 inst.initialize(parameters)
+            if inst.text_outputs:  # what its String and Binary outputs feed at t = 0
+                inst.read_texts()
         self.time, self.ticks_done = 0.0, 0
         self.resumed_at = None
         self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
@@ -175,6 +182,7 @@ class Execution:
         for inst in self.instances.values():  # String and Binary outputs at t = 0 (the loop reads them after each step)
             if inst.text_outputs:
                 inst.read_texts()
+        self.texts.start(self.instances, self.ticks_done)
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
@@ -188,11 +196,16 @@ class Execution:
             snapshot.restore_observers(self, resume)
         self._held = self._values() if self.stepwise_observers() else None
 
+    def _connected(self, name: str) -> bool:
+        """Has the instance connected inputs (numbers, Strings or Binaries)?"""
+        return bool(self.groups.get(name)) or name in self.texts.targets
+
     def _connect_initial(self, name: str) -> None:
         """An instance's connected inputs set from its sources' outputs now (their values at t = 0)."""
         for g in self.groups.get(name, ()):
             g.view[:] = self.instances[g.source].values[g.source_type][g.src_index]  # int32 into float64: exact
         self.set_gathered_inputs(name, 0.0)
+        self.texts.set_inputs(self.instances, name, 0)
 
     def _propagate(self, order: list[str]) -> None:
         """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
@@ -203,7 +216,7 @@ class Execution:
         for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())
             kinds = getattr(inst, "input_kind", {})
-            if not groups or getattr(inst, "clocked", False) or any(
+            if not self._connected(name) or getattr(inst, "clocked", False) or any(
                     kinds.get((g.type, vr), "continuous") != "continuous" for g in groups for vr in g.dst_vrs):
                 continue
             self._connect_initial(name)

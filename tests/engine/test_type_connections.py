@@ -6,6 +6,8 @@ FMPy's simulate_fmu of the same FMU; a sink (its parameters 0: y = u) logs the s
 
 from __future__ import annotations
 
+import base64
+
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
@@ -123,3 +125,61 @@ def test_a_fault_on_a_converted_input_acts_on_the_target_s_values(tmp_path):
     assert run_system(system, 0.4, tmp_path / "run.mcap", progress=False).error is None
     a, b = _logged(tmp_path / "run.mcap", "a"), _logged(tmp_path / "run.mcap", "b")
     assert [m["y_Real"] for m in b] == [m["y_Integer"] + (0.5 if m["t"] > 0.25 else 0.0) for m in a]
+
+
+def _texts_expected(p: str, u: str, pb: bytes, ub: bytes, feeds, steps: int) -> tuple[list, list]:
+    """every_type3.c's y_String and y_Binary after j = 0..steps steps: p after an even j, u after an odd one (feeds(j):
+    the u set before the step j - 1, None for the FMU's own), the Binary's first byte + j."""
+    strings, binaries = [], []
+    for j in range(steps + 1):
+        s, b = (p, pb) if j % 2 == 0 else (feeds(j) or (u, ub))
+        strings.append(s)
+        binaries.append(bytes([(b[0] + j) % 256, *b[1:]]))
+    return strings, binaries
+
+
+@pytest.mark.parametrize("mode", ["in process", "isolated"])
+def test_a_string_and_a_binary_output_feed_inputs_of_their_type(tmp_path, mode):
+    """a.y_String -> b.u_String and a.y_Binary -> b.u_Binary, and the same a tick late into c: b and c log the values
+    the model gives with those inputs (every_type3.c: FMPy records neither type), at every logged time, in process and
+    with every FMU in a worker process (whose String and Binary outputs are logged as in process)."""
+    path = every_type_fmu(tmp_path, 3)
+    source = {"p_String": "even", "u_String": "odd", "p_Binary": "0a0b", "u_Binary": "ff01"}
+    system = System(TICK, [Instance("a", path, parameters=source),
+                           Instance("b", path, parameters={"p_String": "B", "p_Binary": "b0"}),
+                           Instance("c", path, parameters={"p_String": "C", "p_Binary": "c0"})], auto_connect=False)
+    system.connections = [Connection(f"a.y_{t}", f"{n}.u_{t}", d) for t in ("String", "Binary") for n, d in (("b", 0),
+                                                                                                         ("c", 1))]
+    res = run_system(system, 0.4, tmp_path / "run.mcap", progress=False, isolate=_isolate(mode))
+    assert res.error is None
+    logs = {n: _logged(tmp_path / "run.mcap", n) for n in "abc"}
+    for n in "abc":
+        assert [m["t"] for m in logs[n]] == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
+    got = {n: ([m["y_String"] for m in logs[n]], [base64.b64decode(m["y_Binary"]) for m in logs[n]]) for n in "abc"}
+    a = _texts_expected("even", "odd", bytes.fromhex("0a0b"), bytes.fromhex("ff01"), lambda j: None, 4)
+    assert got["a"] == a
+    assert a[0] == ["even", "odd", "even", "odd", "even"]  # the source's values change: a wrong feed shows
+
+    def fed(delay):  # a's outputs after its step j - delay (a steps first in a tick), the input of step j - 1
+        return lambda j: (a[0][j - delay], a[1][j - delay])
+
+    assert got["b"] == _texts_expected("B", "", b"\xb0", b"", fed(0), 4)
+    assert got["c"] == _texts_expected("C", "", b"\xc0", b"", fed(1), 4)
+
+
+def test_string_and_binary_inputs_hold_their_connected_values_at_t_0(tmp_path):
+    """Set in Initialization Mode from the source's values there (the source's y = its p at k = 0)."""
+    from tiltload.master.engine.execution import Execution
+
+    path = every_type_fmu(tmp_path, 3)
+    system = System(TICK, [Instance("b", path), Instance("a", path, parameters={"p_String": "zero", "p_Binary": "0102"})],
+                    auto_connect=False)
+    system.connections = [Connection("a.y_String", "b.u_String"), Connection("a.y_Binary", "b.u_Binary")]
+    ex = Execution(system)
+    ex.instantiate()
+    try:
+        fmu = ex.instances["b"]._fmpy
+        assert fmu.getString([212]) in (["zero"], [b"zero"]) and fmu.getBinary([213]) == [b"\x01\x02"]
+        assert ex.loop.paths["b"] == "callback: FMI 3.0 types the kernel does not convert"
+    finally:
+        ex.close()
