@@ -183,3 +183,33 @@ def test_string_and_binary_inputs_hold_their_connected_values_at_t_0(tmp_path):
         assert ex.loop.paths["b"] == "callback: FMI 3.0 types the kernel does not convert"
     finally:
         ex.close()
+
+
+def test_a_served_fmu_s_strings_and_binaries_are_logged_and_connected_as_in_process(tmp_path):
+    """The source on `tiltload serve` (the same worker, on a socket): its String and Binary outputs logged, and fed into
+    an FMU in this process, message for message as when both run in this process; an Int16 into a Float64 too."""
+    from support.remote import ServerProcess, token_file
+
+    folder = tmp_path / "served"
+    folder.mkdir()
+    path = every_type_fmu(folder, 3)
+    token = token_file(tmp_path)
+    source = {"p_String": "even", "u_String": "odd", "p_Binary": "0a0b", "u_Binary": "ff01", "p_Int16": -300,
+              "u_Int16": 30000}
+    logs = {}
+    server = ServerProcess(folder, token)
+    try:
+        for where in ("local", "served"):
+            system = System(TICK, [Instance("a", path, parameters=source), Instance("b", path, parameters={
+                "p_String": "B", "p_Binary": "b0", "p_Float64": 0})], auto_connect=False)
+            if where == "served":
+                system.instance("a").remote, system.instance("a").token_file = server.address, token
+            system.connections = [Connection(f"a.y_{t}", f"b.u_{t}") for t in ("String", "Binary")]
+            system.connections.append(Connection("a.y_Int16", "b.u_Float64"))
+            assert run_system(system, 0.3, tmp_path / f"{where}.mcap", progress=False).error is None
+            logs[where] = {n: _logged(tmp_path / f"{where}.mcap", n) for n in "ab"}
+    finally:
+        server.stop()
+    assert logs["served"]["a"][1]["y_String"] == "odd" and logs["served"]["b"][1]["y_String"] == "odd"
+    assert logs["served"]["b"][1]["y_Float64"] == float(logs["served"]["a"][1]["y_Int16"]) == 29700.0
+    assert logs["served"] == logs["local"]
