@@ -211,7 +211,8 @@ class Execution:
         """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
         Initialization Mode (an FMU in this process without clocks is: Execution._initialize): their connected inputs
         set after it, their outputs read again (an FMU that computes its outputs when they are read shows the connected
-        values at t = 0; an FMU in another process sends its outputs with its first step: its sample at 0 stays). An
+        values at t = 0; so does one in a worker or on tiltload serve, whose host takes the inputs and answers with the
+        outputs without a step: isolation/wire.py's G; a host that cannot, tl_serve.c, keeps its sample at 0). An
         FMI 3.0 FMU with clocks or discrete connected inputs (settable in Event Mode only) is left as initialized."""
         for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())

@@ -10,7 +10,7 @@ inputs set by an SSV parameter set (the sink keeps its starts: p = 0, so y = u).
     FMI 3.0 FMU's Float64, Int32, Boolean);
   "ssp1 types + Enumeration": the same with the Enumeration connectors and connection.
 tiltload runs it as `tiltload run --system` does (the FMUs in this process: --trust-fmus; see
-test_an_isolated_sink_s_sample_at_0_is_before_its_connection), step 0.1 s (the FMUs' DefaultExperiment step, given to
+test_an_isolated_sink_s_sample_at_0_holds_its_connection), step 0.1 s (the FMUs' DefaultExperiment step, given to
 libcosim and Ecos too, as no annotation says it).
 
 Measured (Ecos 0.7.2, libcosimpy 0.0.6): every compared value equal, the continuous ones too (largest difference 0),
@@ -211,14 +211,14 @@ def test_a_standard_package_of_every_type_runs_in_libcosim_and_ecos_as_in_tiltlo
     print(f"\n{tool}, FMI {version}.0, {package}: {compared} values equal; largest continuous difference {largest:g}")
 
 
-def test_an_isolated_sink_s_sample_at_0_is_before_its_connection(tmp_path):
-    """What the comparison's --trust-fmus is for: an FMU in a worker process (tiltload run's default for an FMU built
-    elsewhere) sends its outputs with its first step, so its sample at t = 0 is from before its connected inputs were
-    set (Execution._propagate says so); libcosim and Ecos, and tiltload with the FMU in its own process, show the
-    connected value there. From t = 0.1 on the two tiltload runs are the same."""
+def test_an_isolated_sink_s_sample_at_0_holds_its_connection(tmp_path):
+    """An FMU in a worker process (tiltload run's default for an FMU built elsewhere) takes its connected inputs after
+    its initialization and answers with the outputs that follow them (Execution._propagate, isolation/wire.py's G), so
+    its sample at t = 0 shows the connected value, as libcosim's and Ecos's, and as tiltload's with the FMU in its own
+    process (--trust-fmus): the two tiltload runs are the same at every time."""
     fmu = et.every_type_fmu(tmp_path, 2)
     package = _ssp1_types(tmp_path, fmu, 2)
     isolated, trusted = _tiltload(package, tmp_path / "isolated"), _tiltload(package, tmp_path / "trusted", "--trust-fmus")
     assert trusted["sink"][0]["y_Real"] == trusted["source"][0]["y_Real"] == 1.25
-    assert isolated["sink"][0]["y_Real"] == 0.0  # the sink's start: u = 0 until its first step
-    assert isolated["sink"][1:] == trusted["sink"][1:] and isolated["source"] == trusted["source"]
+    assert isolated["sink"][0]["y_Real"] == 1.25  # before the host took the inputs at 0: the sink's start, 0
+    assert isolated == trusted

@@ -64,8 +64,8 @@ def _isolate(mode: str):
 @pytest.mark.parametrize("mode", ["in process", "isolated"])
 def test_every_lossless_conversion_across_carriers_reaches_its_input_exactly(tmp_path, mode):
     """FMI 3.0: one source, a sink per whole-number type fed into every wider type that holds it (18 connections):
-    each sink's y_T (= u_T) equals the source's y_S converted, at every logged time, t = 0 included in process; the
-    source equals FMPy's result."""
+    each sink's y_T (= u_T) equals the source's y_S converted, at every logged time, t = 0 included (a worker takes the
+    connected values there and answers with its outputs, wire.py's G); the source equals FMPy's result."""
     path = every_type_fmu(tmp_path, 3)
     pairs = conversions()
     sinks = {s: [d for s2, d in pairs if s2 == s] for s in WHOLE}
@@ -83,9 +83,7 @@ def test_every_lossless_conversion_across_carriers_reaches_its_input_exactly(tmp
         assert [m["t"] for m in b] == [m["t"] for m in a]
         for ma, mb in zip(a, b):
             for d in ds:
-                # a worker's sample at 0 is its outputs after its initialization, the inputs' start values (as for a
-                # connection of one type: the connected values reach it with its first step, execution._propagate)
-                expected = _exact(ma[f"y_{s}"] if mode == "in process" or ma["t"] > 0 else 0, d)
+                expected = _exact(ma[f"y_{s}"], d)
                 assert mb[f"y_{d}"] == expected and type(mb[f"y_{d}"]) is type(expected), (mode, ma["t"], s, d)
                 checked += 1
     assert checked == 18 * 4
@@ -106,9 +104,8 @@ def test_an_fmi2_integer_feeds_a_real_exactly_with_and_without_a_delay(tmp_path,
     _fmpy_equals(path, a, ["y_Integer"], values, 0.4)
     ya = [m["y_Integer"] for m in a]
     assert len(set(ya)) == 5 and min(ya) > 2**30  # far beyond 2^24: a float32 on the way would show
-    at_zero = [] if mode == "in process" else [0.0]  # a worker's sample at 0: its start values (see above)
-    assert [m["y_Real"] for m in b] == at_zero + [float(y) for y in ya][len(at_zero):]
-    assert [m["y_Real"] for m in c] == at_zero + [float(y) for y in [ya[0], *ya[:-1]]][len(at_zero):]
+    assert [m["y_Real"] for m in b] == [float(y) for y in ya]
+    assert [m["y_Real"] for m in c] == [float(y) for y in [ya[0], *ya[:-1]]]
     assert all(type(m["y_Real"]) is float for m in b + c)
 
 
@@ -213,3 +210,34 @@ def test_a_served_fmu_s_strings_and_binaries_are_logged_and_connected_as_in_proc
     assert logs["served"]["a"][1]["y_String"] == "odd" and logs["served"]["b"][1]["y_String"] == "odd"
     assert logs["served"]["b"][1]["y_Float64"] == float(logs["served"]["a"][1]["y_Int16"]) == 29700.0
     assert logs["served"] == logs["local"]
+
+
+def test_an_ssp_export_of_converting_string_and_binary_connections_runs_back_as_the_system_file(tmp_path, capsys):
+    """`ssp export` (SSP 2.0, FMI 3.0) of a system with an Int32 -> Float64, a UInt8 -> UInt64 and the String and Binary
+    connections: `run --system` of the package logs what the system file's run logs, message for message."""
+    import json
+
+    from tiltload.master.app.cli import main
+
+    path = every_type_fmu(tmp_path, 3)
+    description = tmp_path / "types.json"
+    description.write_text(json.dumps({
+        "tick": TICK, "auto_connect": False,
+        "instances": [{"name": "a", "fmu": str(path), "parameters": {**SOURCE, "p_String": "even", "p_Binary": "0a0b"}},
+                      {"name": "b", "fmu": str(path), "parameters": {"p_Float64": 0, "p_UInt64": 0}}],
+        "connections": [{"source": f"a.y_{s}", "target": f"b.u_{d}"} for s, d in
+                        (("Int32", "Float64"), ("UInt8", "UInt64"), ("String", "String"), ("Binary", "Binary"))]}))
+    package = tmp_path / "types.ssp"
+    assert main(["ssp", "export", str(package), "--system", str(description), "--stop-time", "0.3",
+                 "--schedule", "ordered"]) == 0, capsys.readouterr()
+    logs = {}
+    for name, system in (("json", description), ("ssp", package)):
+        code = main(["run", "--system", str(system), "--stop-time", "0.3", "--out", str(tmp_path / name), "--no-plots",
+                     "--quiet"])
+        assert code == 0, capsys.readouterr()
+        log = next((tmp_path / name).rglob("*.mcap"))
+        logs[name] = {n: _logged(log, n) for n in "ab"}
+    assert logs["ssp"] == logs["json"]
+    b = logs["ssp"]["b"]
+    assert [m["y_Float64"] for m in b] == [float(m["y_Int32"]) for m in logs["ssp"]["a"]]
+    assert [m["y_String"] for m in b][1::2] == [m["y_String"] for m in logs["ssp"]["a"]][1::2]

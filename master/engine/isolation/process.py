@@ -140,6 +140,7 @@ class IsolatedFmu(slave.Slave):
         self.text_outputs = [v for v in md.modelVariables if v.causality == "output" and fmi_type(v) in ("String", "Binary")]
         self._binaries = {v.name for v in self.text_outputs if fmi_type(v) == "Binary"}
         self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()}, bool(self.text_outputs))
+        self.gets = False  # its host answers G requests (its greeting said so): read_outputs sends the pending sets
         self.segment = None
         self.link = None  # kernel.Link while the loop may step it over shared memory
         self.linked = False  # the host is in its C loop on the segment (not on its pipe)
@@ -216,6 +217,7 @@ class IsolatedFmu(slave.Slave):
             raise self._fail(f"{what}: its host sent a malformed reply ({err}; {self.host.cut_off()})") from None
         self.log.extend(reply["log"])
         if reply.get("ok") is True:
+            self.gets = self.gets or reply.get("gets") is True
             return None
         self.fatal = bool(reply.get("fatal"))
         if reply["error"] == "protocol":
@@ -334,7 +336,11 @@ class IsolatedFmu(slave.Slave):
         self._exchange(wire.encode_step(sets, t, h), f"doStep at t={t:.6g} s")
 
     def read_outputs(self) -> None:
-        """Nothing to ask: the outputs came with the last step or the initialization."""
+        """The outputs came with the last step or the initialization; inputs set since (the connected values at t = 0,
+        execution._propagate) go to a host that takes them without a step, and the outputs that follow them come back."""
+        if self._pending and self.gets:
+            sets, self._pending = self._pending, []
+            self._exchange(wire.encode_step(sets, 0.0, 0.0, wire.GET), "get after setting the inputs")
 
     def close(self) -> None:
         """Ask the host to terminate and free the FMU (within the watchdog, at most 5 s), then let it go."""

@@ -3,6 +3,8 @@
 Every message is one frame (transport.py). The step, the hot path, is raw bytes; the rare ones are
 JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requests:
   S t h {type n vrs values}     apply the sets, doStep(t, h); reply: the outputs
+  G 0 0 {type n vrs values}     apply the sets, no step; reply: the outputs (the connected values at t = 0; only to a
+                                host whose greeting says "gets": true)
   J {"op": "init", "parameters": {name: value}}   initialization; reply: the outputs at t = 0
   J {"op": "reset"}             fmi2Reset
   J {"op": "set", "values": {name: value}}        set parameters or inputs by name
@@ -29,7 +31,7 @@ import struct
 
 import numpy as np
 
-STEP, CONTROL, OUTPUTS, STATE, ENDED = b"S", b"J", b"O", b"T", b"E"
+STEP, CONTROL, OUTPUTS, STATE, ENDED, GET = b"S", b"J", b"O", b"T", b"E", b"G"
 TYPES = ("Real", "Integer", "Boolean")  # the order outputs travel in (slave.TYPES)
 WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}
 LOG_LIMIT = 256 * 1024  # bytes of log lines one reply carries at most (the rest is summarized in one line)
@@ -128,17 +130,18 @@ def _decode_log(lines) -> list[str]:
     return lines
 
 
-def ok(log: list[str]) -> bytes:
-    return control({"ok": True, "log": fitting_log(log)})
+def ok(log: list[str], **said) -> bytes:
+    """said: what a host tells in its greeting (gets=True: it answers G requests)."""
+    return control({"ok": True, "log": fitting_log(log), **said})
 
 
 def error(kind: str, message: str, fatal: bool, log: list[str]) -> bytes:
     return control({"error": kind, "message": message[:4096], "fatal": bool(fatal), "log": fitting_log(log)})
 
 
-def encode_step(sets, t: float, h: float) -> bytes:
-    """sets: [(type, n, value references as uint32 bytes, values as fmi2 bytes)]."""
-    parts = [STEP, _TIMES.pack(t, h)]
+def encode_step(sets, t: float, h: float, kind: bytes = STEP) -> bytes:
+    """sets: [(type, n, value references as uint32 bytes, values as fmi2 bytes)]; kind GET: the sets without a step."""
+    parts = [kind, _TIMES.pack(t, h)]
     for typ, n, vrs, values in sets:
         parts += [_SET.pack(_CODE[typ], n), vrs, values]
     return b"".join(parts)

@@ -83,7 +83,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
     try:
         md = read_fmu(fmu, name)
         inst = (loader or load)(name, fmu, md, tick)
-        channel.send(wire.ok(new_log()))
+        channel.send(wire.ok(new_log(), gets=True))
     except (ExecutionError, DescriptionError) as err:
         channel.send(wire.error("execution", str(err), False, new_log()))
         return 1
@@ -105,12 +105,16 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
             say(f"refused {err}: session ended")
             return 1
         try:
-            if body[:1] == wire.STEP:
+            if body[:1] in (wire.STEP, wire.GET):
                 if len(body) > step_limit:
                     raise wire.ProtocolError(f"a step of {len(body)} bytes, this model's are at most {step_limit}")
                 sets, t, h = wire.decode_step(body, inputs, checked)
                 for typ, vrs, values, n in sets:
                     apply(typ, vrs, values, n, t)
+                if body[:1] == wire.GET:  # the inputs set, the outputs that follow them (no step)
+                    inst.read_outputs()
+                    channel.send(outputs())
+                    continue
                 try:
                     inst.do_step(t, h)
                 except FmuEndedRun as end:  # not a failure: the master ends the run there, with these outputs
