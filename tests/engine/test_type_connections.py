@@ -241,3 +241,33 @@ def test_an_ssp_export_of_converting_string_and_binary_connections_runs_back_as_
     b = logs["ssp"]["b"]
     assert [m["y_Float64"] for m in b] == [float(m["y_Int32"]) for m in logs["ssp"]["a"]]
     assert [m["y_String"] for m in b][1::2] == [m["y_String"] for m in logs["ssp"]["a"]][1::2]
+
+
+def test_a_restart_feeds_strings_again_and_a_fault_on_a_string_is_refused_in_one_line(tmp_path):
+    """Execution.restart (fmi3Reset, a campaign's next run): the String and Binary inputs are set again from the
+    sources' values, the second run's log equals the first's; a fault on a String or Binary variable is refused."""
+    from tiltload.master.engine.errors import DescriptionError
+    from tiltload.master.engine.execution import Execution
+    from tiltload.master.engine.faults.schedule import Fault
+    from tiltload.master.engine.log.logger import McapLogger
+
+    path = every_type_fmu(tmp_path, 3)
+    system = System(TICK, [Instance("a", path, parameters={"p_String": "even", "u_String": "odd"}),
+                           Instance("b", path, parameters={"p_String": "B"})], auto_connect=False)
+    system.connections = [Connection("a.y_String", "b.u_String", 1), Connection("a.y_Binary", "b.u_Binary")]
+    ex = Execution(system, [McapLogger(tmp_path / "first.mcap")])
+    ex.instantiate()
+    try:
+        ex.end(0.3)
+        ex.finish()
+        ex.restart(observers=[McapLogger(tmp_path / "second.mcap")])
+        ex.end(0.3)
+    finally:
+        ex.close()
+    first = _logged(tmp_path / "first.mcap", "b")
+    assert [m["y_String"] for m in first] == ["B", "even", "B", "even"]  # a's after step j - 1 - 1 at odd j: even
+    assert _logged(tmp_path / "second.mcap", "b") == first
+    for target in ("b.u_String", "a.y_Binary"):
+        faulty = System(TICK, system.instances, auto_connect=False, faults=[Fault("override", [target], 0.1, value=1)])
+        with pytest.raises(DescriptionError, match=f"{target} is a (String|Binary); faults act on numbers and Booleans"):
+            Execution(faulty)
