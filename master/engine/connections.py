@@ -22,10 +22,11 @@ class Link:
     source_vr: int
     target: str
     target_vr: int
-    type: str
+    type: str  # the target's carrier (the engine's array its values are set from: Real, Integer, Boolean), or String, Binary
     delay: int
     source_name: str  # the variables' names
     target_name: str
+    source_type: str  # the source's carrier: the target's, or Integer into a Real target (CONVERSIONS)
 
     @property
     def label(self) -> str:
@@ -39,14 +40,26 @@ def _var(mds, inst, name):
     raise DescriptionError(f"{inst} has no variable '{name}'")
 
 
+# The conversions between carriers a connection's gather makes (source carrier, target carrier): the one rule, applied
+# by the tick loop's gather (tl_loop.c) and the initial propagation (execution.py). Every lossless conversion between
+# two types of different carriers (FmiType.holds) is one of these: whole numbers into a double, exact.
+CONVERSIONS = {("Integer", "Real")}
+TEXTS = ("String", "Binary")  # connected as themselves only, set through the loop's callback (texts.py)
+
+
 def check_types(label: str, src, dst) -> None:
     """A connection carries its source's type into its target's: the same type, or a conversion that loses nothing
-    and that the engine carries in one of its arrays (FMI_TYPES); anything else refused in one line naming both ends."""
+    (FmiType.holds; across the engine's arrays one of CONVERSIONS); anything else refused in one line naming both ends."""
     s, d = fmi_type(src), fmi_type(dst)
     ks, kd = FMI_TYPES.get(s), FMI_TYPES.get(d)
+    if s in TEXTS or d in TEXTS:
+        if s != d:
+            raise DescriptionError(f"connection {label}: {s} -> {d}: a {s if s in TEXTS else d} connects only to a "
+                                   f"{s if s in TEXTS else d}")
+        return
     if ks is None or kd is None or ks.carrier is None or kd.carrier is None:
         raise DescriptionError(f"connection {label}: {s} -> {d}: {s if ks is None or ks.carrier is None else d} "
-                               "connections are not supported (numbers, Booleans and Enumerations are)")
+                               "connections are not supported (numbers, Booleans, Enumerations, Strings and Binaries are)")
     if "Enumeration" in (s, d):
         if s != d or enumeration_items(src) != enumeration_items(dst):
             raise DescriptionError(f"connection {label}: {s} -> {d}: an Enumeration connects only to an Enumeration of "
@@ -54,7 +67,7 @@ def check_types(label: str, src, dst) -> None:
         return
     if not kd.holds(ks):
         raise DescriptionError(f"connection {label}: {s} -> {d} would lose values: a lossy conversion is refused")
-    if ks.carrier != kd.carrier:
+    if ks.carrier != kd.carrier and (ks.carrier, kd.carrier) not in CONVERSIONS:  # none today: holds refuses them
         raise DescriptionError(f"connection {label}: {s} -> {d} is lossless but not supported (the engine carries "
                                f"{s} with its {ks.carrier} values, {d} with its {kd.carrier} values)")
 
@@ -74,7 +87,7 @@ def resolve(system: System, mds: dict) -> list[Link]:
         if (ti, tv) in taken:
             raise DescriptionError(f"{c.target} is connected twice")
         taken.add((ti, tv))
-        links.append(Link(si, src.valueReference, ti, dst.valueReference, src.type, c.delay, sv, tv))
+        links.append(Link(si, src.valueReference, ti, dst.valueReference, dst.type, c.delay, sv, tv, src.type))
     outputs: dict[str, list] = {}
     for inst in system.instances:
         for v in mds[inst.name].modelVariables:
@@ -91,11 +104,11 @@ def resolve(system: System, mds: dict) -> list[Link]:
             if candidates:
                 si, o = candidates[0]
                 check_types(f"{si}.{o.name} -> {inst.name}.{v.name}", o, v)
-                links.append(Link(si, o.valueReference, inst.name, v.valueReference, v.type, 0, o.name, v.name))
+                links.append(Link(si, o.valueReference, inst.name, v.valueReference, v.type, 0, o.name, v.name, o.type))
             elif v.start is None:
                 raise DescriptionError(f"{inst.name}.{v.name} is an input with no connection and no start value")
     for link in links:
-        if link.type not in TYPES:
+        if link.type not in (*TYPES, *TEXTS):
             raise DescriptionError(f"{link.label}: {link.type} connections are not supported")
     return links
 

@@ -30,6 +30,7 @@ from .fmi.slave import C_TYPES, Slave
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
 from .system import System, validate
+from .texts import TextLinks
 
 # Which FMUs run in a worker process of their own: a predicate (fmu path, model description) -> bool
 IsolationPolicy = Callable[[Path, object], bool]
@@ -61,12 +62,14 @@ def _check_parameters(system: System, variables: dict[str, dict], fed: dict) -> 
 
 @dataclass
 class _Group:
-    """Links from one source into one target of one type and delay: a gather into an array the set reads."""
+    """Links from one source into one target of one type and delay: a gather into an array the set reads, from the
+    source's values of source_type (the target's type, or one connections.CONVERSIONS converts from)."""
 
     source: str
     target: str
     type: str
     delay: int
+    source_type: str
     src_index: np.ndarray
     dst_vrs: object  # ctypes array of the target's value references
     values: object  # ctypes array the set reads; `view` is it as numpy
@@ -110,9 +113,12 @@ class Execution:
         if system.start_time and clocked:  # their clock ticks are counted from t = 0 by the master
             raise DescriptionError(f"the system starts at {system.start_time:g} s and {', '.join(clocked)} has clocks, "
                                    "which tiltload ticks from t = 0 only")
+        self.texts = TextLinks(self.links)  # String and Binary connections, set in Python (texts.py)
         groups: dict[tuple, list] = {}
         for link in self.links:
-            groups.setdefault((link.source, link.target, link.type, link.delay), []).append(link)
+            if link.type in connections.TEXTS:
+                continue
+            groups.setdefault((link.source, link.target, link.type, link.delay, link.source_type), []).append(link)
         self._mds = mds
         self._raw_groups = groups
         self.groups: dict[str, list[_Group]] = {}
@@ -141,12 +147,12 @@ class Execution:
         self.loop = None  # new instances: a new plan
         for spec in self.system.instances:  # on a tiltload serve, in a worker process or in this one (hosting.py)
             self.instances[spec.name] = slave_for(spec, self._mds[spec.name], self.isolate, self.step_timeout, self.system.tick)
-        for (src, dst, typ, delay), links in self._raw_groups.items():
-            idx = np.array([self.instances[src].out_index[typ][link.source_vr] for link in links], dtype=int)
+        for (src, dst, typ, delay, src_typ), links in self._raw_groups.items():
+            idx = np.array([self.instances[src].out_index[src_typ][link.source_vr] for link in links], dtype=int)
             buf = (C_TYPES[typ] * len(links))()
             vrs = (ctypes.c_uint * len(links))(*[link.target_vr for link in links])
-            self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, idx, vrs, buf, np.ctypeslib.as_array(buf),
-                                                          self.instances[dst].setters[typ]))
+            self.groups.setdefault(dst, []).append(_Group(src, dst, typ, delay, src_typ, idx, vrs, buf,
+                                                          np.ctypeslib.as_array(buf), self.instances[dst].setters[typ]))
         if self.manipulator is not None:
             self.manipulator.bind(self)
         self._initialize(resume)
@@ -159,15 +165,18 @@ class Execution:
         order = edges.propagation_order(self.system, self.links) if resume is None else []
         t0 = self.system.start_time
         start = {"start": t0} if t0 else {}  # set up at the system's start time (a slave of its own takes none at 0)
+        self.texts.reset()
         for spec in sorted(self.system.instances, key=lambda s: order.index(s.name) if s.name in order else -1):
             inst = self.instances[spec.name]  # the sampled-data instances first, then the others sources first
             parameters = {**spec.parameters, **self.tables[spec.name].values(t0)} if spec.name in self.tables else \
                 spec.parameters  # an input file's values at the start are set in Initialization Mode
-            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self.groups.get(spec.name):
+            if spec.name in order and getattr(inst, "connects_in_initialization", False) and self._connected(spec.name):
                 inst.initialize(parameters, connect=lambda name=spec.name: self._connect_initial(name), **start)
                 order.remove(spec.name)
             else:
                 inst.initialize(parameters, **start)
+            if inst.text_outputs:  # what its String and Binary outputs feed at t = 0
+                inst.read_texts()
         self.time, self.ticks_done = t0, 0
         self.resumed_at = None
         self.ended_by: tuple[str, float] | None = None  # (instance, time): an FMU that ended the run
@@ -179,6 +188,7 @@ class Execution:
         for inst in self.instances.values():  # String and Binary outputs at t = 0 (the loop reads them after each step)
             if inst.text_outputs:
                 inst.read_texts()
+        self.texts.start(self.instances, self.ticks_done)
         for obs in self.observers:
             obs.start(self)
         if self.loop is not None and self.loop.reusable():  # a restart on the same instances: the plan stays
@@ -192,11 +202,16 @@ class Execution:
             snapshot.restore_observers(self, resume)
         self._held = self._values() if self.stepwise_observers() else None
 
+    def _connected(self, name: str) -> bool:
+        """Has the instance connected inputs (numbers, Strings or Binaries)?"""
+        return bool(self.groups.get(name)) or name in self.texts.targets
+
     def _connect_initial(self, name: str) -> None:
         """An instance's connected inputs set from its sources' outputs now (their values at t = 0)."""
         for g in self.groups.get(name, ()):
-            g.view[:] = self.instances[g.source].values[g.type][g.src_index]
+            g.view[:] = self.instances[g.source].values[g.source_type][g.src_index]  # int32 into float64: exact
         self.set_gathered_inputs(name, 0.0)
+        self.texts.set_inputs(self.instances, name, 0)
 
     def _propagate(self, order: list[str]) -> None:
         """The instances whose outputs are logged at t = 0 (edges.propagation_order) and were not connected in their
@@ -208,7 +223,7 @@ class Execution:
         for name in order:
             inst, groups = self.instances[name], self.groups.get(name, ())
             kinds = getattr(inst, "input_kind", {})
-            if not groups or getattr(inst, "clocked", False) or any(
+            if not self._connected(name) or getattr(inst, "clocked", False) or any(
                     kinds.get((g.type, vr), "continuous") != "continuous" for g in groups for vr in g.dst_vrs):
                 continue
             self._connect_initial(name)

@@ -58,6 +58,8 @@ class Manipulator:
                     raise FaultError(f"fault {f.label()}: {instance} has no variable '{var}'")
                 if v.causality not in ("output", "input"):
                     raise FaultError(f"fault {f.label()}: {target} is a {v.causality}; faults act on outputs and inputs")
+                if v.type in ("String", "Binary"):  # not in the engine's arrays (texts.py sets them)
+                    raise FaultError(f"fault {f.label()}: {target} is a {v.type}; faults act on numbers and Booleans")
                 if v.causality == "input" and (instance, v.type, v.valueReference) not in fed and v.type not in ("Real", "Boolean"):
                     raise FaultError(f"fault {f.label()}: {target} is an unconnected {v.type} input; faults set Real "
                                      "and Boolean ones")

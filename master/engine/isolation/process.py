@@ -137,7 +137,10 @@ class IsolatedFmu(slave.Slave):
         self._pending: list = []
         self.clocked = bool(clocks_of(md))  # stepped in Event Mode by its host: its inputs are not set at initialization
         self._dead = self._closed = False
-        self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()})
+        # String and Binary outputs: their values come with every reply of outputs (wire.py), logged as in process
+        self.text_outputs = [v for v in md.modelVariables if v.causality == "output" and fmi_type(v) in ("String", "Binary")]
+        self._binaries = {v.name for v in self.text_outputs if fmi_type(v) == "Binary"}
+        self._reply_limit = wire.reply_limit({t: len(vs) for t, vs in self.outputs.items()}, bool(self.text_outputs))
         self.segment = None
         self.link = None  # kernel.Link while the loop may step it over shared memory
         self.linked = False  # the host is in its C loop on the segment (not on its pipe)
@@ -195,11 +198,15 @@ class IsolatedFmu(slave.Slave):
             self.fmi_seconds += time.perf_counter() - started
         try:
             if body[:1] == wire.OUTPUTS:  # a step's (or the initialization's) raw reply
-                self.log.extend(wire.decode_outputs(body, self.values))
+                texts: dict = {}
+                self.log.extend(wire.decode_outputs(body, self.values, texts))
+                self._take_texts(texts)
                 return None
             if body[:1] == wire.ENDED:  # a step's: the FMU ended the run, its outputs there are valid
-                t, failure, log = wire.decode_ended(body, self.values)
+                texts = {}
+                t, failure, log = wire.decode_ended(body, self.values, texts)
                 self.log.extend(log)
+                self._take_texts(texts)
                 raise FmuEndedRun(self.name, t, ExecutionError(failure))
             if body[:1] == wire.STATE:  # get_state's reply
                 state, log = wire.decode_state(body)
@@ -217,6 +224,20 @@ class IsolatedFmu(slave.Slave):
         if reply["error"] == "ended":  # the server saw the FMU's process end, and says how
             raise self._fail(f"{reply['message']} in {what}" + (f" on {self.host.where}" if hasattr(self.host, "where") else ""))
         raise (DescriptionError if reply["error"] == "description" else ExecutionError)(reply["message"])
+
+    def _take_texts(self, received: dict) -> None:
+        """A reply's String and Binary outputs into texts: only the model's, a Binary's hexadecimal as bytes."""
+        names = {v.name for v in self.text_outputs}
+        for name, value in received.items():
+            if name not in names:
+                raise wire.ProtocolError(f"a value for {name[:40]!r}, not a String or Binary output of this model")
+            try:
+                self.texts[name] = bytes.fromhex(value) if name in self._binaries else value
+            except ValueError:
+                raise wire.ProtocolError(f"Binary output {name} not in hexadecimal") from None
+
+    def read_texts(self) -> None:
+        """Nothing to ask: the String and Binary outputs came with the last step or the initialization."""
 
     # ---- the shared-memory link (link.py) ------------------------------------------------------------------------
     def link_for(self, groups: list[tuple[str, np.ndarray]]) -> object | None:

@@ -11,7 +11,9 @@ JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requ
   J {"op": "get_state"}         the FMU's serialized state; reply: T state
   T n state                     restore a state get_state gave (n bytes); reply: the outputs
   J {"op": "close"}             terminate, free, exit
-Replies: O outputs [log lines as JSON]           the outputs, raw, plus the FMU's new log lines if any
+Replies: O outputs [log lines as JSON]           the outputs, raw, plus the FMU's new log lines if any; an FMU with
+                                                 String or Binary outputs: {"log": [...], "texts": {name: value}}
+                                                 instead, a Binary's value in hexadecimal (TEXT_LIMIT bytes at most)
          E t n failure outputs [log lines]       a step's: the FMU ended the run at t, its outputs there (valid);
                                                  failure (n bytes): what the request is where a system takes it as one
          T n state [log lines as JSON]           the FMU's serialized state (n bytes, STATE_LIMIT at most)
@@ -36,6 +38,7 @@ WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}
 LOG_LIMIT = 256 * 1024  # bytes of log lines one reply carries at most (the rest is summarized in one line)
 CONTROL_LIMIT = 1 << 20  # bytes of a JSON request (an initialization's parameters) or error reply
 STATE_LIMIT = 64 << 20  # bytes of an FMU's serialized state (a snapshot's), either way
+TEXT_LIMIT = 1 << 20  # bytes of a reply's String and Binary outputs, as JSON
 _STATE_SIZE = struct.Struct("<Q")
 STATE_FRAME_LIMIT = 1 + _STATE_SIZE.size + STATE_LIMIT + LOG_LIMIT + 1024  # a T frame, with its log lines
 _TIMES = struct.Struct("<dd")
@@ -56,6 +59,8 @@ def type_code(typ: str) -> bytes:
 def _json_default(value):
     if isinstance(value, np.generic):  # a numpy scalar among the parameters
         return value.item()
+    if isinstance(value, (bytes, bytearray)):  # a Binary value: in hexadecimal, as checked_value reads it
+        return value.hex()
     raise TypeError(f"{type(value).__name__} cannot travel to an FMU's host")
 
 
@@ -209,40 +214,54 @@ def output_bytes(counts: dict[str, int]) -> int:
     return sum(WIDTH[t] * counts.get(t, 0) for t in TYPES)
 
 
-def reply_limit(counts: dict[str, int]) -> int:
-    """The longest reply a model's host may send: its outputs or an error, plus a bounded log."""
-    return max(1 + output_bytes(counts), CONTROL_LIMIT) + LOG_LIMIT + 1024
+def reply_limit(counts: dict[str, int], texts: bool = False) -> int:
+    """The longest reply a model's host may send: its outputs (texts: with String or Binary ones) or an error, plus a
+    bounded log."""
+    return max(1 + output_bytes(counts) + (TEXT_LIMIT if texts else 0), CONTROL_LIMIT) + LOG_LIMIT + 1024
 
 
-def encode_outputs(values: dict, log: list) -> bytes:
-    return b"".join([OUTPUTS, *(values[t].astype(_DTYPE[t], copy=False).tobytes() for t in TYPES),
-                     json.dumps(fitting_log(log)).encode() if log else b""])
+def encode_texts(texts: dict) -> dict[str, str]:
+    """String and Binary outputs {name: str or bytes} as a reply carries them (a Binary in hexadecimal); a ValueError if
+    they take more than TEXT_LIMIT bytes."""
+    out = {name: value.hex() if isinstance(value, (bytes, bytearray)) else str(value) for name, value in texts.items()}
+    if len(json.dumps(out)) > TEXT_LIMIT:
+        raise ValueError(f"its String and Binary outputs take over {TEXT_LIMIT} bytes, more than a reply carries")
+    return out
+
+
+def encode_outputs(values: dict, log: list, texts: dict | None = None) -> bytes:
+    """texts: the String and Binary outputs (encode_texts), for a model that has any."""
+    trailer = json.dumps({"log": fitting_log(log), "texts": texts}) if texts is not None else \
+        json.dumps(fitting_log(log)) if log else ""
+    return b"".join([OUTPUTS, *(values[t].astype(_DTYPE[t], copy=False).tobytes() for t in TYPES), trailer.encode()])
 
 
 _ENDED = struct.Struct("<dI")  # the time, the failure's length
 _FAILURE_LIMIT = 4096
 
 
-def encode_ended(t: float, failure: str, values: dict, log: list) -> bytes:
+def encode_ended(t: float, failure: str, values: dict, log: list, texts: dict | None = None) -> bytes:
     """A step's reply when the FMU ended the run (FmuEndedRun) at t: its outputs there, the last valid ones, and the
     failure's line (for a system that takes the request as a failure)."""
     text = failure.encode("utf-8", "replace")[:_FAILURE_LIMIT]
-    return ENDED + _ENDED.pack(t, len(text)) + text + encode_outputs(values, log)[1:]
+    return ENDED + _ENDED.pack(t, len(text)) + text + encode_outputs(values, log, texts)[1:]
 
 
-def decode_ended(body: bytes, targets: dict) -> tuple[float, str, list]:
-    """(the time the FMU ended the run, the failure's line, log lines) of an E reply, its outputs copied into targets."""
+def decode_ended(body: bytes, targets: dict, texts: dict | None = None) -> tuple[float, str, list]:
+    """(the time the FMU ended the run, the failure's line, log lines) of an E reply, its outputs copied into targets
+    (and texts, decode_outputs)."""
     if len(body) < 1 + _ENDED.size:
         raise ProtocolError(f"an end of the run of {len(body)} bytes")
     t, n = _ENDED.unpack_from(body, 1)
     at = 1 + _ENDED.size
     if n > _FAILURE_LIMIT or at + n > len(body):
         raise ProtocolError(f"an end of the run announces a failure of {n} bytes and has {len(body) - at}")
-    return t, body[at:at + n].decode("utf-8", "replace"), decode_outputs(OUTPUTS + body[at + n:], targets)
+    return t, body[at:at + n].decode("utf-8", "replace"), decode_outputs(OUTPUTS + body[at + n:], targets, texts)
 
 
-def decode_outputs(body: bytes, targets: dict) -> list:
-    """Copy the outputs of a raw reply into targets {type: ndarray}; return the log lines that came with them."""
+def decode_outputs(body: bytes, targets: dict, texts: dict | None = None) -> list:
+    """Copy the outputs of a raw reply into targets {type: ndarray} (its String and Binary outputs, {name: text},
+    into texts); return the log lines that came with them."""
     at = 1
     size = 1 + sum(targets[t].size * WIDTH[t] for t in TYPES)
     if len(body) < size:
@@ -253,7 +272,15 @@ def decode_outputs(body: bytes, targets: dict) -> list:
         at += n * WIDTH[t]
     if at == len(body):
         return []
-    return _decode_log(loads(body[at:], "log lines"))
+    trailer = loads(body[at:], "log lines")
+    if isinstance(trailer, dict):
+        received = trailer.get("texts")
+        if not isinstance(received, dict) or not all(isinstance(x, str) for x in received.values()):
+            raise ProtocolError("malformed String and Binary outputs (not an object of strings)")
+        if texts is not None:
+            texts.update(received)
+        trailer = trailer.get("log", [])
+    return _decode_log(trailer)
 
 
 def decode_reply(body: bytes) -> dict:

@@ -53,6 +53,20 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         sent += len(lines)
         return lines
 
+    def texts():
+        """The String and Binary outputs now, as a reply carries them (None for a model without any)."""
+        if not inst.text_outputs:
+            return None
+        inst.read_texts()
+        try:
+            return wire.encode_texts(inst.texts)
+        except ValueError as err:
+            raise ExecutionError(f"{name}: {err}") from None
+
+    def outputs() -> bytes:
+        read = texts()  # before the log lines: a get's own lines go with this reply
+        return wire.encode_outputs(inst.values, new_log(), read)
+
     arrays: dict[bytes, tuple] = {}  # each set's value-reference and value arrays, built once: the same call site each
     # step, as in the master (an FMI 3.0 slave with clocks stages its inputs by call site)
 
@@ -119,24 +133,25 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                     inst.do_step(t, h)
                 except FmuEndedRun as end:  # not a failure: the master ends the run there, with these outputs
                     inst.read_outputs()
-                    channel.send(wire.encode_ended(end.time, str(end.failure), inst.values, new_log()))
+                    read = texts()
+                    channel.send(wire.encode_ended(end.time, str(end.failure), inst.values, new_log(), read))
                     continue
                 inst.read_outputs()
-                channel.send(wire.encode_outputs(inst.values, new_log()))
+                channel.send(outputs())
                 continue
             if body[:1] == wire.STATE:
                 if not serializes:
                     raise wire.ProtocolError("a state for an FMU that cannot serialize its state")
                 state, _ = wire.decode_state(body)
                 inst.set_state(state)
-                channel.send(wire.encode_outputs(inst.values, new_log()))
+                channel.send(outputs())
                 continue
             request = wire.decode_control(body)
             op = request.get("op")
             if op == "init" and isinstance(request.get("parameters"), dict):
                 initialize(request["parameters"], wire.decode_inputs(request["inputs"], inputs)
                            if "inputs" in request else None, wire.start_time(request))
-                channel.send(wire.encode_outputs(inst.values, new_log()))
+                channel.send(outputs())
             elif op == "set" and isinstance(request.get("values"), dict):
                 inst.set_values(request["values"])
                 channel.send(wire.ok(new_log()))

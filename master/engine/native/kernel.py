@@ -42,7 +42,8 @@ class KernelError(RuntimeError):
 
 
 class Group(ctypes.Structure):
-    _fields_ = [("source", ctypes.c_int), ("type", ctypes.c_int), ("delay", ctypes.c_int), ("n", ctypes.c_int),
+    _fields_ = [("source", ctypes.c_int), ("type", ctypes.c_int), ("source_type", ctypes.c_int), ("delay", ctypes.c_int),
+                ("n", ctypes.c_int),
                 ("src_index", ctypes.c_void_p), ("dst_vrs", ctypes.c_void_p), ("values", ctypes.c_void_p)]
 
 

@@ -83,12 +83,15 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
             slave, c = self.slaves[i], self.instances[i]
             c.every = execution.every[spec.name]
             c.continuous = spec.timing == "continuous"
-            forced = spec.name in by_callback or bool(slave.text_outputs)  # String and Binary outputs read in Python
+            # String and Binary outputs read, and inputs set, in Python (texts.py)
+            texts = bool(slave.text_outputs) or spec.name in execution.texts.targets
+            forced = spec.name in by_callback or texts
             fmi3 = kernel_calls_fmi3(slave) and not forced
             c.by_callback = forced or not (isinstance(slave, InProcessFmu) or fmi3)
             c.fmi3 = fmi3
-            self.paths[spec.name] = ("callback: String or Binary outputs" if slave.text_outputs else "callback: asked for") \
-                if forced else path_of(slave)
+            path = path_of(slave)
+            self.paths[spec.name] = "callback: asked for" if spec.name in by_callback else \
+                "callback: String or Binary variables" if texts and path.startswith("kernel") else path
             if isinstance(slave, InProcessFmu):
                 c.component = slave.component
                 c.do_step = slave.function_pointer("fmi2DoStep")
@@ -127,6 +130,7 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
                 src_index = np.ascontiguousarray(group.src_index, dtype=np.int64)
                 self._keep.append(src_index)
                 g.source, g.type, g.delay, g.n = index[group.source], value_type(group.type), group.delay, len(group.view)
+                g.source_type = value_type(group.source_type)
                 g.src_index, g.dst_vrs, g.values = src_index.ctypes.data, _address(group.dst_vrs), _address(group.values)
             self._keep.append(c_groups)
             c.n_groups, c.groups = len(groups), c_groups
@@ -191,6 +195,8 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
             table = self.ex.tables.get(name)
             if table is not None:  # its input file's values at the step's start (inputs.py)
                 slave.set_values(table.values(t))
+            if name in self.ex.texts.targets:  # its String and Binary inputs (texts.py)
+                self.ex.texts.set_inputs(self.ex.instances, name, int(self.plan.ticks_done))
             self.ex.set_gathered_inputs(name, t)
             try:
                 slave.do_step(t, h)
@@ -213,6 +219,7 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
         if slave.text_outputs:
             slave.read_texts()
             self.texts.setdefault(self.names[i], {})[int(self.rows[i])] = dict(slave.texts)
+            self.ex.texts.record(self.names[i], int(self.plan.ticks_done), slave.texts)
 
     def _hook(self, i: int, side: int, t: float) -> int:
         try:

@@ -88,15 +88,21 @@ TL_EXPORT void tl_store_history(tl_plan *plan, int64_t j) {
 /* The source values a group reads: its source's current outputs, or the delay line d ticks back. */
 static const void *group_source(const tl_plan *plan, const tl_group *g, int64_t k) {
     const tl_instance *src = &plan->instances[g->source];
-    if (g->delay == 0) return src->out[g->type];
+    if (g->delay == 0) return src->out[g->source_type];
     int64_t j = k + 1 - g->delay; /* the entry holding the values after tick k - d */
     if (j < 0) j = 0;
-    size_t bytes = (size_t)src->n_out[g->type] * width(g->type);
-    return (const char *)src->history[g->type] + (size_t)(j % plan->slots) * bytes;
+    size_t bytes = (size_t)src->n_out[g->source_type] * width(g->source_type);
+    return (const char *)src->history[g->source_type] + (size_t)(j % plan->slots) * bytes;
 }
 
+/* The group's values from its source's (src: of the group's source_type). The one conversion between types a
+   connection makes (connections.CONVERSIONS): whole numbers into doubles, exact (every int is a double). */
 static void gather(const tl_group *g, const void *src) {
-    if (g->type == TL_REAL) {
+    if (g->type == TL_REAL && g->source_type == TL_INTEGER) {
+        const int *s = (const int *)src;
+        double *d = (double *)g->values;
+        for (int i = 0; i < g->n; i++) d[i] = (double)s[g->src_index[i]];
+    } else if (g->type == TL_REAL) {
         const double *s = (const double *)src;
         double *d = (double *)g->values;
         for (int i = 0; i < g->n; i++) d[i] = s[g->src_index[i]];

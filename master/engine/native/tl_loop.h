@@ -51,10 +51,11 @@ typedef int (*tl_hook_callback)(int instance, int side, double t); /* side: tl_s
 
 #define TL_GROUP_FIELDS(F, A) \
     F(int, source)                  /* instance index */ \
-    F(int, type)                    /* tl_value_type */ \
+    F(int, type)                    /* tl_value_type: the target's, of the values */ \
+    F(int, source_type)             /* the source outputs' type: type, or TL_INTEGER into a TL_REAL group (converted) */ \
     F(int, delay)                   /* ticks */ \
     F(int, n) \
-    F(const int64_t *, src_index)   /* n indices into the source's outputs of this type */ \
+    F(const int64_t *, src_index)   /* n indices into the source's outputs of source_type */ \
     F(const unsigned int *, dst_vrs) \
     F(void *, values)               /* n values the set reads (double or int) */
 typedef struct { TL_GROUP_FIELDS(TL_FIELD, TL_ARRAY) } tl_group;

@@ -37,7 +37,7 @@
 #define MAGIC "tiltload-remote/1\n"
 #define MAGIC_LEN 18
 #define NONCE 32
-#define PROTOCOL 2
+#define PROTOCOL 3 /* handshake.PROTOCOL: 3 sends the connected inputs with the init request */
 #define FRAME_LIMIT (1u << 20)
 #define LOG_LIMIT (64 * 1024)
 
@@ -643,13 +643,51 @@ static int set_one(const char* name, JsonValue* v, void* context) {
 typedef struct {
   char op[32];
   const char* object; /* "parameters" or "values": the object's text */
+  char* inputs;       /* init: the connected inputs, base64 of a step's sets (owned), or NULL */
+  double start;       /* init: the start time */
+  int bad;            /* a member of the wrong kind or value */
 } Request;
 
 static int read_request(const char* key, JsonValue* v, void* context) {
   Request* r = (Request*)context;
   if (!strcmp(key, "op") && v->kind == J_STRING) snprintf(r->op, sizeof r->op, "%s", v->string);
   if ((!strcmp(key, "parameters") || !strcmp(key, "values")) && v->kind == J_OBJECT) r->object = v->string;
+  if (!strcmp(key, "inputs")) {
+    if (v->kind != J_STRING || r->inputs != NULL) return r->bad = 1, 0;
+    r->inputs = v->string; /* taken over: each_member frees a string it still holds only */
+    v->kind = J_NONE;
+  }
+  if (!strcmp(key, "start")) {
+    if (v->kind != J_NUMBER || !(v->number >= 0 && v->number < 1e300)) return r->bad = 1, 0;
+    r->start = v->number;
+  }
   return 0;
+}
+
+/* Standard base64 (RFC 4648, with padding) into out (room for at least 3/4 of the text); its length, or -1. */
+static long from_base64(const char* text, unsigned char* out) {
+  static const char alphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  size_t len = strlen(text), i;
+  long n = 0;
+  if (len % 4) return -1;
+  for (i = 0; i < len; i += 4) {
+    unsigned v = 0;
+    int j, pad = 0;
+    for (j = 0; j < 4; ++j) {
+      const char* at = text[i + j] == '=' ? NULL : strchr(alphabet, text[i + j]);
+      if (text[i + j] == '=') {
+        if (i + 4 != len || j < 2) return -1;
+        ++pad;
+      } else if (at == NULL || text[i + j] == 0 || pad) {
+        return -1;
+      }
+      v = v << 6 | (unsigned)(at ? at - alphabet : 0);
+    }
+    out[n++] = (unsigned char)(v >> 16);
+    if (pad < 2) out[n++] = (unsigned char)(v >> 8 & 0xff);
+    if (pad < 1) out[n++] = (unsigned char)(v & 0xff);
+  }
+  return n;
 }
 
 static int is_input(const Fmu* f, int type, unsigned vr) {
@@ -659,14 +697,9 @@ static int is_input(const Fmu* f, int type, unsigned vr) {
   return 0;
 }
 
-/* S t h {code n vrs values}: the sets, then doStep. 1: a protocol error (the session ends), -1: the link failed. */
-static int step(int fd, Fmu* f, const Bytes* body) {
-  const unsigned char* p = body->data + 1;
-  const unsigned char* end = body->data + body->size;
-  double times[2];
-  if (body->size < 17) return reply_error(fd, f, "protocol", "a step of %u bytes is too short", (unsigned)body->size), 1;
-  memcpy(times, p, 16);
-  p += 16;
+/* A step's sets {code n vrs values} from p to end, each checked against the model, set at time t. 0: all set; else
+   what step returns: 1 a protocol error, -1 the link failed, 2 an FMU's failure answered (the session goes on). */
+static int apply_sets(int fd, Fmu* f, const unsigned char* p, const unsigned char* end, double t) {
   while (p < end) {
     char code;
     uint32_t n, i;
@@ -696,9 +729,20 @@ static int step(int fd, Fmu* f, const Bytes* body) {
     if (status > fmi2Warning) {
       f->fatal = status == fmi2Fatal;
       return reply_error(fd, f, "execution", "%s: set%s at t=%.6g s failed", f->model.identifier,
-                         type == T_REAL ? "Real" : type == T_INTEGER ? "Integer" : "Boolean", times[0]) ? -1 : 0;
+                         type == T_REAL ? "Real" : type == T_INTEGER ? "Integer" : "Boolean", t) ? -1 : 2;
     }
   }
+  return 0;
+}
+
+/* S t h {code n vrs values}: the sets, then doStep. 1: a protocol error (the session ends), -1: the link failed. */
+static int step(int fd, Fmu* f, const Bytes* body) {
+  double times[2];
+  int failed;
+  if (body->size < 17) return reply_error(fd, f, "protocol", "a step of %u bytes is too short", (unsigned)body->size), 1;
+  memcpy(times, body->data + 1, 16);
+  failed = apply_sets(fd, f, body->data + 17, body->data + body->size, times[0]);
+  if (failed) return failed == 2 ? 0 : failed;
   {
     fmi2Status status = f->api.do_step(f->c, times[0], times[1], fmi2True);
     if (status > fmi2Warning) {
@@ -710,21 +754,52 @@ static int step(int fd, Fmu* f, const Bytes* body) {
   return reply_outputs(fd, f) ? -1 : 0;
 }
 
+/* init: set up at the start time, the parameters and the connected inputs (a step's sets, base64: the master's values
+   at the start) set in Initialization Mode, as the master does in its own process; the outputs then. */
+static int init(int fd, Fmu* f, const Request* r, SetContext* s) {
+  unsigned char* sets = NULL;
+  long n = 0;
+  int failed;
+  if (r->inputs != NULL) {
+    sets = malloc(strlen(r->inputs) / 4 * 3 + 3);
+    n = sets == NULL ? -1 : from_base64(r->inputs, sets);
+    if (n < 17 || sets[0] != 'S') {
+      free(sets);
+      return reply_error(fd, f, "protocol", "malformed init request (its inputs are not a step's sets)"), 1;
+    }
+  }
+  if (f->api.setup(f->c, fmi2False, 0.0, r->start, fmi2False, 0.0) > fmi2Warning || f->api.enter(f->c) > fmi2Warning) {
+    free(sets);
+    return reply_error(fd, f, "execution", "%s: entering initialization failed", f->model.identifier) ? -1 : 0;
+  }
+  if (each_member(r->object, set_one, s)) {
+    free(sets);
+    return reply_error(fd, f, "execution", "%s: %s", f->model.identifier, s->problem) ? -1 : 0;
+  }
+  failed = sets != NULL ? apply_sets(fd, f, sets + 17, sets + n, r->start) : 0;
+  free(sets);
+  if (failed) return failed == 2 ? 0 : failed;
+  if (f->api.exit_init(f->c) > fmi2Warning)
+    return reply_error(fd, f, "execution", "%s: exitInitializationMode failed", f->model.identifier) ? -1 : 0;
+  return reply_outputs(fd, f) ? -1 : 0;
+}
+
 static int control(int fd, Fmu* f, const Bytes* body) {
   Request r;
   SetContext s;
   memset(&r, 0, sizeof r);
   s.f = f;
   s.problem[0] = 0;
-  if (each_member((const char*)body->data + 1, read_request, &r)) return reply_error(fd, f, "protocol", "malformed J message"), 1;
-  if (!strcmp(r.op, "init") && r.object) {
-    if (f->api.setup(f->c, fmi2False, 0.0, 0.0, fmi2False, 0.0) > fmi2Warning || f->api.enter(f->c) > fmi2Warning)
-      return reply_error(fd, f, "execution", "%s: entering initialization failed", f->model.identifier) ? -1 : 0;
-    if (each_member(r.object, set_one, &s)) return reply_error(fd, f, "execution", "%s: %s", f->model.identifier, s.problem) ? -1 : 0;
-    if (f->api.exit_init(f->c) > fmi2Warning)
-      return reply_error(fd, f, "execution", "%s: exitInitializationMode failed", f->model.identifier) ? -1 : 0;
-    return reply_outputs(fd, f) ? -1 : 0;
+  if (each_member((const char*)body->data + 1, read_request, &r) || r.bad) {
+    free(r.inputs);
+    return reply_error(fd, f, "protocol", "malformed J message"), 1;
   }
+  if (!strcmp(r.op, "init") && r.object) {
+    int code = init(fd, f, &r, &s);
+    free(r.inputs);
+    return code;
+  }
+  free(r.inputs);
   if (!strcmp(r.op, "set") && r.object) {
     if (each_member(r.object, set_one, &s)) return reply_error(fd, f, "execution", "%s: %s", f->model.identifier, s.problem) ? -1 : 0;
     return reply_ok(fd, f) ? -1 : 0;
