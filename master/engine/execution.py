@@ -29,7 +29,7 @@ from .fmi.model_description import checked_value, clocks_of, is_scheduled, read_
 from .fmi.slave import C_TYPES, Slave
 from .native.loop import NativeLoop
 from .observers import Batch, Observer, ReplayStopped, StopRun, replay
-from .system import System, validate
+from .system import System, faults_from_zero, validate
 from .texts import TextLinks
 
 # Which FMUs run in a worker process of their own: a predicate (fmu path, model description) -> bool
@@ -90,7 +90,7 @@ class Execution:
         self.isolate, self.step_timeout = isolate, step_timeout
         self.observers = list(observers)
         self.instances: dict[str, Slave] = {}
-        self.time = 0.0
+        self.time = self.system.start_time  # where it stands until the first tick (a failed initialization's time)
         self.ticks_done = 0
         mds = {i.name: read_fmu(i.fmu, i.name) for i in system.instances}
         self.links = connections.resolve(system, mds)
@@ -251,6 +251,7 @@ class Execution:
         if faults is not None:  # a new fault schedule (a list, possibly empty)
             from .faults.apply import Manipulator
 
+            faults_from_zero(self.system.start_time, faults)
             self.system.faults = list(faults)
             self.manipulator = Manipulator(self.system.faults) if faults else None
             if self.manipulator is not None:

@@ -196,11 +196,13 @@ class Progress(Observer):
         self._t0 = time.perf_counter() if started is None else started
         self._last = self._t0  # first refresh after 0.5 s, when the rate means something
         self._t_first = 0.0  # the simulated time at the start (a resumed run starts past 0)
+        self._origin = 0.0  # the system's start time: the bar's 0 %
         self._drawn = False
 
     def start(self, execution) -> None:
         self._last = time.perf_counter()
         self._t_first = execution.resumed_at or execution.system.start_time
+        self._origin = execution.system.start_time
 
     def on_batch(self, execution, batch: Batch) -> None:
         k = batch.first_tick + batch.ticks
@@ -223,13 +225,13 @@ class Progress(Observer):
         return max(self.stop - t, 0.0) * elapsed / done
 
     def line(self, t: float, elapsed: float) -> str:
-        frac = min(t / self.stop, 1.0) if self.stop > 0 else 1.0
+        frac = min((t - self._origin) / (self.stop - self._origin), 1.0) if self.stop > self._origin else 1.0
         left = self.remaining(t, elapsed)
         return (f"  {100 * frac:5.1f} %  t = {t:6.2f} of {self.stop:g} s  ({speed(t - self._t_first, elapsed)}, "
                 f"{'?' if left is None else _duration(left)} left)")
 
     def frame(self, t: float, elapsed: float) -> str:
-        frac = min(t / self.stop, 1.0) if self.stop > 0 else 1.0
+        frac = min((t - self._origin) / (self.stop - self._origin), 1.0) if self.stop > self._origin else 1.0
         bar = "#" * int(30 * frac)
         return f"\r  [{bar:<30}]" + self.line(t, elapsed) + "   "  # trailing blanks: a shorter frame erases a longer one
 

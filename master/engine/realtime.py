@@ -47,13 +47,13 @@ class Pacer:
         plan.lateness = lateness.ctypes.data
         plan.overrun = overrun.ctypes.data
 
-    def took(self, lateness: np.ndarray, overrun: np.ndarray, tick: float, next_tick: int) -> None:
+    def took(self, lateness: np.ndarray, overrun: np.ndarray, tick: float, next_tick: int, start: float = 0.0) -> None:
         """After a call: keep its ticks' lateness; stop the run when the overruns exceed the budget."""
         self.lateness.append(lateness.copy())
         self.overruns += int(np.count_nonzero(overrun))
         if self.max_overruns is not None and self.overruns > self.max_overruns:
             raise OverrunBudgetExceeded(f"real time: {self.overruns} ticks missed their deadline, more than the "
-                                        f"--max-overruns {self.max_overruns} allowed (at t = {next_tick * tick:.3f} s)")
+                                        f"--max-overruns {self.max_overruns} allowed (at t = {start + next_tick * tick:.3f} s)")
 
     def statistics(self) -> dict[str, float]:
         """ticks, overruns, worst lateness and its percentiles (s)."""

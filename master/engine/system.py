@@ -80,14 +80,20 @@ def parse_address(text: str, port_zero: bool = False) -> tuple[str, int]:
     return host, int(port)
 
 
+def faults_from_zero(start_time: float, faults) -> None:
+    """Faults are scheduled from t = 0: a system that starts later takes none (a fresh run's or a restart's)."""
+    if start_time and faults:
+        raise DescriptionError(f"the system starts at {start_time:g} s and has faults, which tiltload schedules from "
+                               "t = 0 only")
+
+
 def validate(system: System) -> System:
     if not (isinstance(system.tick, (int, float)) and math.isfinite(system.tick) and system.tick > 0):
         raise DescriptionError(f"tick must be a positive time, got {system.tick!r}")
     t0 = system.start_time
     if not (isinstance(t0, (int, float)) and math.isfinite(t0) and t0 >= 0):
         raise DescriptionError(f"start time must be a time of 0 s or later, got {t0!r}")
-    if t0 and system.faults:
-        raise DescriptionError(f"the system starts at {t0:g} s and has faults, which tiltload schedules from t = 0 only")
+    faults_from_zero(t0, system.faults)
     names = [i.name for i in system.instances]
     if not names:
         raise DescriptionError("the system has no FMU instance")

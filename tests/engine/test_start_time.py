@@ -222,3 +222,28 @@ def test_an_fmu_with_clocks_refuses_a_later_start_in_one_line(tmp_path):
     with pytest.raises(DescriptionError) as err:
         Execution(system)
     assert str(err.value) == "the system starts at 1 s and dut has clocks, which tiltload ticks from t = 0 only"
+
+
+def test_a_restart_with_faults_is_refused_for_a_later_start_as_a_fresh_run_is(clock, tmp_path):
+    """A pooled execution restarted with faults (a campaign's or the API's pool) meets the same rule as a fresh run: a
+    system that starts after 0 takes no faults, said in one line, the execution left as it was."""
+    from tiltload.master.engine.errors import DescriptionError
+    from tiltload.master.engine.execution import Execution
+    from tiltload.master.engine.faults.parse import parse as parse_faults
+
+    _, fmu = clock
+    system = System(STEP, [Instance("source", fmu), Instance("sink", fmu)], [Connection("source.now", "sink.u")],
+                    start_time=T0)
+    ex = Execution(system, [])
+    ex.instantiate()
+    try:
+        faults = parse_faults([{"target": "sink.u", "action": "bias", "value": 1.0, "start": 1.2, "end": 1.5}])
+        with pytest.raises(DescriptionError, match="the system starts at 1 s and has faults, which tiltload schedules "
+                                                   "from t = 0 only"):
+            ex.restart(faults=faults)
+        assert ex.system.faults == [] and ex.manipulator is None
+        ex.restart()
+        ex.run(STOP)
+        assert ex.time == pytest.approx(STOP)
+    finally:
+        ex.close()

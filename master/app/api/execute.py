@@ -221,7 +221,7 @@ def _say_results(result, snap, monitor, pacer, log: Path | None, say: Say, thesi
     verdicts, the pacer's overruns and where the log went."""
     from ...engine.observers import seconds, speed  # the progress bar's words and clock: the two agree
 
-    simulated = result.sim_time - (snap.time if snap and result.ticks else start)  # a run from start (0: the loop's)
+    simulated = max(0.0, result.sim_time - (snap.time if snap and result.ticks else start))  # from start (0: the loop's)
     if getattr(result, "ended_by", None):
         say(f"{result.ended_by[0]} ended the run at t = {result.ended_by[1]:.6g} s (the FMU asked to terminate the simulation)")
     shown = f"{simulated:.2f}" if abs(simulated - round(simulated, 2)) < 1e-9 else f"{simulated:.6g}"  # never rounded

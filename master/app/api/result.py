@@ -151,7 +151,8 @@ def case_of_record(run: dict) -> Case | None:
 
     fields = {}
     if run.get("system"):
-        fields = {"system": run["system"], "faults": run.get("faults") or None}
+        fields = {"system": run["system"], "faults": run.get("faults") or None,
+                  "start_time": float(run["start_time"]) if run.get("start_time") else None}
     else:
         trajectory = run.get("trajectory", "")
         fields = {"vehicle": run.get("vehicle"), "scenario": run.get("scenario"),

@@ -135,6 +135,7 @@ class IsolatedFmu(slave.Slave):
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
         self.setters = {t: self._queue(t) for t in slave.TYPES}
         self._pending: list = []
+        self._texts_at_init: dict | None = None  # during initialize: the String and Binary inputs connect() sets
         self.clocked = bool(clocks_of(md))  # stepped in Event Mode by its host: its inputs are not set at initialization
         self._dead = self._closed = False
         # String and Binary outputs: their values come with every reply of outputs (wire.py), logged as in process
@@ -318,11 +319,15 @@ class IsolatedFmu(slave.Slave):
         """connect(): the master's setters queue the connected inputs at t = 0, sent with the request. start: the
         system's start time (sent when it is not 0)."""
         self._pending.clear()
-        if connect is not None:
-            connect()
+        self._texts_at_init = {}  # the String and Binary inputs connect() sets: with the request too
+        try:
+            if connect is not None:
+                connect()
+        finally:
+            texts, self._texts_at_init = self._texts_at_init, None
         sets, self._pending = self._pending, []
         request = {"op": "init", "parameters": dict(parameters), **({"inputs": wire.encode_inputs(sets)} if sets else {}),
-                   **({"start": float(start)} if start else {})}
+                   **({"texts": texts} if texts else {}), **({"start": float(start)} if start else {})}
         self._exchange(wire.control(request), "initialization")
 
     def reset(self) -> None:
@@ -330,6 +335,9 @@ class IsolatedFmu(slave.Slave):
         self._exchange(wire.control({"op": "reset"}), "reset")
 
     def set_values(self, values: dict) -> None:
+        if self._texts_at_init is not None:  # inputs connected at initialization: set in its Initialization Mode
+            self._texts_at_init.update(values)
+            return
         self._exchange(wire.control({"op": "set", "values": dict(values)}), "setting values")
 
     def get_state(self) -> bytes:

@@ -3,7 +3,8 @@
 Every message is one frame (transport.py). The step, the hot path, is raw bytes; the rare ones are
 JSON after a b"J" (never pickle: a host must not run what a peer sends it). Requests:
   S t h {type n vrs values}     apply the sets, doStep(t, h); reply: the outputs
-  J {"op": "init", "parameters": {name: value}[, "inputs": base64 of an S frame's sets][, "start": t0]}
+  J {"op": "init", "parameters": {name: value}[, "inputs": base64 of an S frame's sets][, "texts": {name: text}]
+     [, "start": t0]}
                                 initialization, the connected inputs (if sent) set in Initialization Mode (or, for
                                 a host whose FMU cannot take them there, after it); reply: the outputs at t = 0
   J {"op": "reset"}             fmi2Reset
@@ -165,6 +166,17 @@ def decode_inputs(text, inputs: dict[str, frozenset]):
     return decode_step(body, inputs)[0]
 
 
+def init_texts(request: dict) -> dict | None:
+    """An init request's String and Binary inputs {name: text} (a Binary's in hexadecimal), or None; each checked
+    against its variable where it is set (checked_value)."""
+    texts = request.get("texts")
+    if texts is None:
+        return None
+    if not isinstance(texts, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in texts.items()):
+        raise ProtocolError("malformed init request (its texts are not names and strings)")
+    return texts
+
+
 def start_time(request: dict) -> float:
     """An init request's start time (0 when it names none), checked: a finite time of 0 s or later."""
     t0 = request.get("start", 0.0)
@@ -215,9 +227,10 @@ def output_bytes(counts: dict[str, int]) -> int:
 
 
 def reply_limit(counts: dict[str, int], texts: bool = False) -> int:
-    """The longest reply a model's host may send: its outputs (texts: with String or Binary ones) or an error, plus a
-    bounded log."""
-    return max(1 + output_bytes(counts) + (TEXT_LIMIT if texts else 0), CONTROL_LIMIT) + LOG_LIMIT + 1024
+    """The longest reply a model's host may send: its outputs (texts: with String or Binary ones; an end of the run's
+    with its time and failure line) or an error, plus a bounded log."""
+    ended = _ENDED.size + _FAILURE_LIMIT + 64
+    return max(1 + ended + output_bytes(counts) + (TEXT_LIMIT if texts else 0), CONTROL_LIMIT) + LOG_LIMIT + 1024
 
 
 def encode_texts(texts: dict) -> dict[str, str]:

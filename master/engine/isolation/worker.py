@@ -89,15 +89,17 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
         return 1
     inputs = model_inputs(md)
 
-    def initialize(parameters: dict, sets, start: float) -> None:
-        """Initialization at start (the system's start time); sets (the connected inputs at the start, or None): set in
-        Initialization Mode where the FMU takes them there, as the master does in its own process, else after it, the
-        outputs read again."""
+    def initialize(parameters: dict, sets, start: float, texts: dict | None = None) -> None:
+        """Initialization at start (the system's start time); sets and texts (the connected inputs at the start, the
+        numbers' and the String and Binary ones', or None): set in Initialization Mode where the FMU takes them there,
+        as the master does in its own process, else after it, the outputs read again."""
         def connect():
-            for typ, vrs, values, n in sets:
+            for typ, vrs, values, n in sets or ():
                 apply(typ, vrs, values, n, start)
+            if texts:
+                inst.set_values(texts)
         at = {"start": start} if start else {}  # a slave of its own (loader) may take no start: it has none but 0
-        if sets is None:
+        if sets is None and not texts:
             inst.initialize(parameters, **at)
         elif getattr(inst, "connects_in_initialization", False):
             inst.initialize(parameters, connect=connect, **at)
@@ -150,7 +152,7 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
             op = request.get("op")
             if op == "init" and isinstance(request.get("parameters"), dict):
                 initialize(request["parameters"], wire.decode_inputs(request["inputs"], inputs)
-                           if "inputs" in request else None, wire.start_time(request))
+                           if "inputs" in request else None, wire.start_time(request), wire.init_texts(request))
                 channel.send(outputs())
             elif op == "set" and isinstance(request.get("values"), dict):
                 inst.set_values(request["values"])

@@ -295,7 +295,8 @@ class NativeLoop(SharedMemoryLinks, FaultPlan):
                 self.ex.time = self.ex.ended_by[1]
                 return
             if realtime is not None:
-                realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done)
+                realtime.took(self.lateness[:done], self.overrun[:done], self.ex.system.tick, self.ex.ticks_done,
+                              self.ex.system.start_time)
             ticks -= done
 
     def close(self, t: float) -> None:

@@ -644,6 +644,7 @@ typedef struct {
   char op[32];
   const char* object; /* "parameters" or "values": the object's text */
   char* inputs;       /* init: the connected inputs, base64 of a step's sets (owned), or NULL */
+  const char* texts;  /* init: the connected String inputs, an object's text, or NULL */
   double start;       /* init: the start time */
   int bad;            /* a member of the wrong kind or value */
 } Request;
@@ -656,6 +657,10 @@ static int read_request(const char* key, JsonValue* v, void* context) {
     if (v->kind != J_STRING || r->inputs != NULL) return r->bad = 1, 0;
     r->inputs = v->string; /* taken over: each_member frees a string it still holds only */
     v->kind = J_NONE;
+  }
+  if (!strcmp(key, "texts")) {
+    if (v->kind != J_OBJECT) return r->bad = 1, 0;
+    r->texts = v->string;
   }
   if (!strcmp(key, "start")) {
     if (v->kind != J_NUMBER || !(v->number >= 0 && v->number < 1e300)) return r->bad = 1, 0;
@@ -779,6 +784,8 @@ static int init(int fd, Fmu* f, const Request* r, SetContext* s) {
   failed = sets != NULL ? apply_sets(fd, f, sets + 17, sets + n, r->start) : 0;
   free(sets);
   if (failed) return failed == 2 ? 0 : failed;
+  if (r->texts != NULL && each_member(r->texts, set_one, s))
+    return reply_error(fd, f, "execution", "%s: %s", f->model.identifier, s->problem) ? -1 : 0;
   if (f->api.exit_init(f->c) > fmi2Warning)
     return reply_error(fd, f, "execution", "%s: exitInitializationMode failed", f->model.identifier) ? -1 : 0;
   return reply_outputs(fd, f) ? -1 : 0;
@@ -972,6 +979,10 @@ int main(int argc, char** argv) {
   lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
   if (!lib) return fprintf(stderr, "tl_serve: cannot load %s: %s\n", path, dlerror()), 2;
   if (load_api(lib, &f.api)) return fprintf(stderr, "tl_serve: %s lacks an FMI 2.0 function\n", path), 2;
+  for (i = 0; i < f.model.n; ++i) /* a String output would be neither logged nor connected: said, not dropped */
+    if (f.model.vars[i].type == T_STRING && !strcmp(f.model.vars[i].causality, "output"))
+      return fprintf(stderr, "tl_serve: %s has a String output; tl_serve serves FMUs whose outputs are numbers and "
+                     "Booleans (tiltload serve hosts the others)\n", f.model.identifier), 2;
   for (t = 0; t < 3; ++t) { /* the outputs in model-description order, by type: Real, Integer, Boolean (wire.TYPES) */
     f.out_vr[t] = (unsigned*)malloc(sizeof(unsigned) * (size_t)(f.model.n + 1));
     for (i = 0; i < f.model.n; ++i)
