@@ -9,12 +9,13 @@ side with another tree (e.g. the last landing, commit 5052690, with its own virt
 
 The FMUs are built once, by this tree, and both trees run the same files on the thesis's loop (default_system with
 controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log). Per tick: the wall
-time of a --stop s run after the instantiation (worker process, FMU loaded: not timed) / its ticks; best of
---repeats. The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
+time of a --stop s run after the instantiation (worker process, FMU loaded: not timed) / its ticks; the median of
+--repeats runs, in process and isolated interleaved, after 15 s of warming up (the spread, min to max, printed below
+the table). The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
 the figures move with the other sessions' work.
 
 Run: python benchmarks/isolation_speed.py --before TREE --before-python PYTHON
-         [--stop 20] [--repeats 3]
+         [--stop 120] [--repeats 5]
 """
 
 from __future__ import annotations
@@ -84,6 +85,10 @@ def measure(config: dict) -> list[dict]:
     import time
 
     default_system, loop_metrics, is_foreign, Execution = _loop_api()
+    try:  # the tick loop's own profile (issue 66): the median tick, which a preempted tick does not move
+        from tiltload.master.engine.profile import Profiler
+    except ImportError:  # an older tree
+        Profiler = None
 
     def timed(controller, scenario, isolated):
         if controller == config["C controller"]:  # the shipped controller's FMU, foreign: its design's parameters kept
@@ -94,21 +99,36 @@ def measure(config: dict) -> list[dict]:
         ex = Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
         try:
             ex.instantiate()
+            profiler = Profiler(ex) if Profiler is not None else None
+            if profiler is not None:
+                profiler.start()
             started = time.perf_counter()
             ex.run(config["stop"])
             wall = time.perf_counter() - started
-            return wall / ex.ticks_done, ex.observers[0].table()
+            median = profiler.stop().tick_times.median if profiler is not None else float("nan")
+            return wall / ex.ticks_done, ex.observers[0].table(), median
         finally:
             ex.close()
 
+    import statistics
+
     rows = []
-    timed(config["C controller"], "fsi", False)  # warm: the first run of a process compiles or loads its kernels
+    # warm: the first run of a process compiles or loads its kernels, and this VM's processor runs a busy loop up to
+    # twice as fast after some 10 s of work as at its start (measured: 25 -> 13 µs a tick, one process, load 0)
+    warm = time.perf_counter()
+    while time.perf_counter() - warm < 15:
+        timed(config["C controller"], "fsi", False)
     for kind in KINDS:
         for scenario in SCENARIOS:
-            for isolated in (False, True):
-                runs = [timed(config[kind], scenario, isolated) for _ in range(config["repeats"])]
+            runs = {False: [], True: []}
+            for _ in range(config["repeats"]):  # interleaved: a drift of the machine's speed hits both alike
+                for isolated in (False, True):
+                    runs[isolated].append(timed(config[kind], scenario, isolated))
+            for isolated, done in runs.items():
+                per_tick = [r[0] * 1e6 for r in done]
                 rows.append({"kind": kind, "scenario": scenario, "isolated": isolated,
-                             "us_per_tick": min(r[0] for r in runs) * 1e6, "metrics": runs[0][1]})
+                             "us_per_tick": statistics.median(per_tick), "spread": [min(per_tick), max(per_tick)],
+                             "median_tick": statistics.median(r[2] * 1e6 for r in done), "metrics": done[0][1]})
     return rows
 
 
@@ -126,8 +146,8 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--before", type=Path, help="the other tree (e.g. the last landing's worktree)")
     p.add_argument("--before-python", type=Path, help="its interpreter (tiltload installed from it)")
-    p.add_argument("--stop", type=float, default=20.0)
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--stop", type=float, default=120.0)
+    p.add_argument("--repeats", type=int, default=5)
     p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter
     args = p.parse_args()
     if args.measure is not None:
@@ -155,7 +175,8 @@ def main() -> int:
                 return 1
             results[label] = {(r["kind"], r["scenario"], r["isolated"]): r for r in json.loads(proc.stdout.splitlines()[-1])}
         print(f"load average after: {load()}")
-        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s runs after instantiation; best of {args.repeats})")
+        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s runs after instantiation; the median of "
+              f"{args.repeats}, interleaved)")
         head = f"{'controller':<14}{'scenario':<9}"
         for label in results:
             head += f"  | {label + ': in process':>28}{'isolated':>10}{'ratio':>7}"
@@ -169,6 +190,21 @@ def main() -> int:
                     same &= a["metrics"] == b["metrics"]
                     line += f"  | {a['us_per_tick']:>28.1f}{b['us_per_tick']:>10.1f}{b['us_per_tick'] / a['us_per_tick']:>7.2f}"
                 print(line)
+        print("the median tick (the tick loop's profile, µs; a tick preempted by another process does not move it):")
+        for label, rows in results.items():
+            if all(r["median_tick"] != r["median_tick"] for r in rows.values()):
+                print(f"  {label}: no profile in this tree")
+                continue
+            for kind in KINDS:
+                print(f"  {label}: {kind:<13}" + "".join(
+                    f"  {sc} {rows[(kind, sc, False)]['median_tick']:.1f} -> {rows[(kind, sc, True)]['median_tick']:.1f}"
+                    f" ({rows[(kind, sc, True)]['median_tick'] / rows[(kind, sc, False)]['median_tick']:.2f})"
+                    for sc in SCENARIOS))
+        print("spread (min-max of the runs, µs a tick):")
+        for label, rows in results.items():
+            print(f"  {label}: " + "; ".join(
+                f"{k} {sc} {'isolated' if iso else 'in process'} {r['spread'][0]:.1f}-{r['spread'][1]:.1f}"
+                for (k, sc, iso), r in rows.items()))
         print(f"metrics isolated == in process in every row: {same}")
         shutil.rmtree(folder / "runs", ignore_errors=True)
         return 0 if same else 1
