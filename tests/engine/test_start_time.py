@@ -247,3 +247,54 @@ def test_a_restart_with_faults_is_refused_for_a_later_start_as_a_fresh_run_is(cl
         assert ex.time == pytest.approx(STOP)
     finally:
         ex.close()
+
+
+def test_an_fmu_on_tl_serve_starts_at_t0_connected_as_in_this_process(tmp_path):
+    """The C server (tl_serve.c, the processor-in-the-loop's, FMI 2.0) speaks protocol 3 too: the init request's start
+    time and connected inputs set in the FMU's Initialization Mode, so the served sink's log, its sample at t0 (y = 1 +
+    1) included, equals the in-process run's."""
+    from tiltload.master.app.regression import pil
+    from tiltload.native_fmu.compile import host_platform
+
+    fmu = clock_fmu(tmp_path / "fmi2", 2)
+    logs = []
+    with pil.served(fmu, host_platform()) as host:
+        for remote in (None, host.address):
+            sink = Instance("sink", fmu, remote=remote)
+            sink.token_file = host.token_file if remote else None
+            system = System(STEP, [Instance("source", fmu), sink], [Connection("source.now", "sink.u")], start_time=T0)
+            log = tmp_path / f"{'served' if remote else 'here'}.mcap"
+            res = run_system(system, STOP, log, progress=False)
+            assert res.error is None, res.error
+            logs.append(log_reader.read(log))
+    served, here = logs[1]["/sink"], logs[0]["/sink"]
+    assert served[0]["t"] == T0 and served[0]["y"] == 2 * T0 and served == here and len(served) == 11
+
+
+def test_tl_serve_refuses_an_fmu_with_a_string_output_in_one_line(tmp_path):
+    """tl_serve gets and sends numbers and Booleans only: an FMU with a String output (which would be neither logged
+    nor connected) is refused when the server starts, in one line naming the FMU. The FMU: the clock with a String
+    output added to its model description (tl_serve reads the description before it calls the binary)."""
+    from tiltload.master.app.regression import pil
+    from tiltload.master.engine.errors import DescriptionError
+    from tiltload.native_fmu.compile import host_platform
+
+    clock = clock_fmu(tmp_path / "fmi2", 2)
+    fmu = tmp_path / "labelled.fmu"
+    with zipfile.ZipFile(clock) as src, zipfile.ZipFile(fmu, "w") as out:
+        for item in src.infolist():
+            data = src.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b"</ModelVariables>", b'<ScalarVariable name="label" valueReference="4242" '
+                                    b'causality="output" variability="discrete"><String/></ScalarVariable>'
+                                    b"</ModelVariables>")
+            out.writestr(item, data)
+    for served_fmu, refused in ((clock, False), (fmu, True)):
+        try:
+            with pil.served(served_fmu, host_platform()):
+                said = None
+        except DescriptionError as err:
+            said = str(err)
+        assert (said is not None) == refused, said
+    assert "has a String output; tl_serve serves FMUs whose outputs are numbers and Booleans" in said
+    assert len(said.splitlines()) == 1
