@@ -39,8 +39,19 @@ ACTUATOR_LIMITS = {"f_R": (_LIMIT["f_min"], _LIMIT["f_max"]), "f_L": (_LIMIT["f_
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
     log_reader.DamagedLog (plot_intact draws the intact part of one)."""
+    if _system_run(log):  # a --system run: its FMUs' outputs (system_plot.py), not the loop's figures
+        from .system_plot import plot_system_run
+
+        return plot_system_run(Path(log), out, case_of(log)) + requirement_figure(Path(log), out)
     files = plot_messages(log_reader.read(log, topics=TOPICS), Path(log), out, case_of(log))
     return files + requirement_figure(Path(log), out)
+
+
+def _system_run(log: Path) -> bool:
+    try:
+        return bool(log_reader.read_metadata(Path(log)).get("run", {}).get("system"))
+    except Exception:  # a record the reader cannot parse: drawn as the loop's, which says what is missing
+        return False
 
 
 def requirement_figure(log: Path, out: Path | None = None) -> list[Path]:
@@ -82,6 +93,11 @@ def requirement_figure(log: Path, out: Path | None = None) -> list[Path]:
 
 def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:
     """The figures of what the log holds intact (all of it, up to a torn end, or up to the damage), and its state."""
+    if _system_run(log):
+        from .system_plot import plot_system_run
+
+        data, state = log_reader.read_checked(log)
+        return plot_system_run(Path(log), out, case_of(log), data), state
     data, state = log_reader.read_checked(log, topics=TOPICS)
     if state.damage is not None and not data.get("/plant"):
         raise log_reader.DamagedLog(state.describe(Path(log)) + ": nothing to draw")
