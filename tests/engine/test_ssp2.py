@@ -127,5 +127,5 @@ def test_cli_exports_the_fmi3_loop_as_ssp_2_0(fmi3_set, tmp_path, capsys):
     out = tmp_path / "cli.ssp"
     assert main(["ssp", "export", str(out), "--fmi", "3", "--clocks", "--fmus", str(fmi3_set.parent), "--stop-time", "1.2"]) == 0
     said = capsys.readouterr().out
-    assert "SSP 2.0 package, 4 FMUs, 1.2 s, prepared for a ordered master" in said
+    assert "SSP 2.0 package, 4 FMUs, 1.2 s, prepared for an ordered master" in said
     assert main(["run", "--system", str(out), "--quiet", "--no-plots", "--out", str(tmp_path / "runs")]) == 0
