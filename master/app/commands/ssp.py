@@ -26,8 +26,9 @@ def run(args: argparse.Namespace) -> int:
 
     writable_file(args.out, "OUT")  # before the FMUs are built: a place the package cannot go is one line
     path, version2, schedule, delay, count, stop = export(args, args.out, args.schedule)
-    print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for "
-          f"{'an' if schedule[:1] in 'aeiou' else 'a'} {schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
+    article = "an" if schedule[:1] in "aeiou" else "a"
+    print(f"{path}: SSP {'2.0' if version2 else '1.0'} package, {count} FMUs, {stop:g} s, prepared for {article} "
+          f"{schedule} master" + (f"; the controller's designs for a {delay}-tick loop delay" if delay is not None else ""))
     from ...engine.ssp.schema import PARAMETER_SET
 
     others = ("" if version2 else f"   (libcosim: CosimExecution.from_ssp_file; Ecos: init(parameter_set='{PARAMETER_SET}'))")
