@@ -9,6 +9,7 @@ import io
 import json
 import zipfile
 from importlib import metadata
+from types import SimpleNamespace
 
 import pytest
 from tiltload.master.app.cli import main, parser
@@ -86,6 +87,7 @@ class Stream(io.StringIO):
 
 class FakeExecution:
     resumed_at = None
+    system = SimpleNamespace(start_time=0.0)  # a run from t = 0 (the bar counts from the system's start time)
 
 
 def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0):
