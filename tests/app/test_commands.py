@@ -90,7 +90,7 @@ class FakeExecution:
     system = SimpleNamespace(start_time=0.0)  # a run from t = 0 (the bar counts from the system's start time)
 
 
-def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0):
+def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0, start=0.0):
     from tiltload.master.engine import observers
 
     stream = Stream(tty)
@@ -99,7 +99,9 @@ def _progress(tty: bool, elapsed_per_tick: float, ticks, stop=10.0, every=0.0):
     real = observers.time.perf_counter
     observers.time.perf_counter = lambda: next(clock)
     try:
-        p.start(FakeExecution())
+        execution = FakeExecution()
+        execution.system = SimpleNamespace(start_time=start)
+        p.start(execution)
         for t in ticks:
             p.on_tick(0, t)
         p.done(ticks[-1], elapsed_per_tick * len(ticks))  # the run's result's figures
@@ -115,6 +117,12 @@ def test_progress_to_a_file_is_plain_lines_with_the_time_left():
     assert len(lines) == 3
     # at t = 2 s after 2 s of wall time: 1x real time, 8 s simulated left -> 8 s; at t = 5 after 3 s: 5 s left -> 3 s
     assert lines[1].endswith("(1x real time, 8 s left)") and lines[2].endswith("(2x real time, 3 s left)")
+
+
+def test_progress_after_a_later_start_counts_from_it():
+    """A system that starts at 1000 s and stops at 1010 s: 2 s done of 10 is 20 %, not 99 %."""
+    lines = _progress(False, 1.0, [1001.0, 1002.0], stop=1010.0, start=1000.0).splitlines()
+    assert lines[-1].lstrip().startswith("20.0 %") and "(1x real time, 8 s left)" in lines[-1], lines
 
 
 def test_progress_on_a_terminal_redraws_one_line_in_place():
