@@ -27,11 +27,15 @@ def _prepare(folder: Path, progress) -> Prepared:
     return Prepared(definition, NativeSources(SOURCES))
 
 
-def counter_fmu(dest: Path, fmi_version: int = 2) -> Path:
-    """The counter FMU built into dest (for this machine's platform only)."""
-    recipe = Recipe("TiltloadTestCounter.fmu", tuple(SOURCES), ("counter",), _prepare)
+def _built(recipe: Recipe, dest: Path, fmi_version: int) -> Path:
+    """A recipe's FMU built into dest, for this machine's platform only."""
     return build(recipe, dest, progress=lambda *_: None, toolchains=(toolchain(host_platform()),),
                  fmi_version=fmi_version).path
+
+
+def counter_fmu(dest: Path, fmi_version: int = 2) -> Path:
+    """The counter FMU built into dest (for this machine's platform only)."""
+    return _built(Recipe("TiltloadTestCounter.fmu", tuple(SOURCES), ("counter",), _prepare), dest, fmi_version)
 
 
 CLOCK_SOURCES = [HERE / "clock_model.c", HERE / "clock_model.h"]
@@ -50,9 +54,7 @@ def _prepare_clock(folder: Path, progress) -> Prepared:
 
 def clock_fmu(dest: Path, fmi_version: int = 2) -> Path:
     """A clock FMU (clock_model.c: now, tenths, steps, y = u + now) built into dest, for this machine's platform."""
-    recipe = Recipe("TiltloadTestClock.fmu", tuple(CLOCK_SOURCES), ("clock",), _prepare_clock)
-    return build(recipe, dest, progress=lambda *_: None, toolchains=(toolchain(host_platform()),),
-                 fmi_version=fmi_version).path
+    return _built(Recipe("TiltloadTestClock.fmu", tuple(CLOCK_SOURCES), ("clock",), _prepare_clock), dest, fmi_version)
 
 
 __all__ = ["counter_fmu", "clock_fmu", "choose"]
