@@ -118,12 +118,16 @@ def failing_events(fmi3_set, tmp_path_factory):
     return misbehaving_fmi3(fmi3_set / "TiltloadControllerClocked.fmu", tmp_path_factory.mktemp("events"), EVENT_MODE_FAILURES, 0.5)
 
 
-@pytest.mark.parametrize("where", ["kernel", "worker"])
+@pytest.mark.parametrize("where", ["kernel", "link", "pipe"])
 @pytest.mark.parametrize("mode", list(EVENT_MODE_FAILURES))
 def test_a_clocked_controller_whose_event_mode_fails_ends_the_run_with_one_line(mode, where, failing_events, fmi3_set,
-                                                                                  tmp_path, capsys):
-    """--trust-fmus: in this process, its Event Mode run by the C loop; else (a foreign FMU) in a worker process,
-    run by the slave's Python sequence there. The same line either way, and the log readable up to the failure."""
+                                                                                  tmp_path, capsys, monkeypatch):
+    """--trust-fmus: in this process, its Event Mode run by the C loop; else (a foreign FMU) in a worker process, run
+    there by the kernel's sequence on the shared-memory link, or by the slave's Python sequence on its pipe. The same
+    line each way, and the log readable up to the failure."""
+    from tiltload.master.engine.isolation import hosting
+
+    monkeypatch.setattr(hosting, "SHARED_MEMORY", where != "pipe")
     fmus = fmi3_set.parent
     trust = ["--trust-fmus"] if where == "kernel" else []
     code = main(["run", "--scenario", "fsi", "--fmi", "3", "--clocks", "--fmus", str(fmus), "--out", str(tmp_path), "--no-plots",

@@ -153,8 +153,9 @@ def test_the_kernel_s_own_fmi3_calls_equal_the_python_path_bit_for_bit(fmi3_set,
 
 def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_the_callback(fmi3_set, monkeypatch):
     """The loop says which path each instance takes, and does take it: with the slaves' own Python step disabled
-    here, the in-process FMUs (plain and clocked) still run; the controller in a worker process is stepped there
-    (its callback, a message to the worker); asked to, the loop steps an in-process clocked FMU through the callback."""
+    here, the in-process FMUs (plain and clocked) still run; the controller in a worker process is stepped there (its
+    callback, a message to the worker, until the first call of the loop takes the shared-memory link); asked to, the
+    loop steps an in-process clocked FMU through the callback."""
     from tiltload.master.engine.fmi.fmi3 import Fmu3Slave
     from tiltload.master.engine.native.loop import NativeLoop
 
@@ -171,6 +172,7 @@ def test_in_process_clocked_fmus_are_stepped_by_the_kernel_and_hosted_ones_by_th
         with monkeypatch.context() as m:
             m.setattr(Fmu3Slave, "do_step", python_step)
             ex.run(0.6)
+        assert ex.loop.paths["controller"] == "kernel: shared memory (worker process)"
         assert ex.instances["sensors"].activations["gps_clock"] == [0, 10, 20, 30, 40]  # the kernel's, handed back
         ex.loop = NativeLoop(ex, by_callback={"sensors"})
         assert ex.loop.paths["sensors"] == "callback: asked for" and not ex.loop.instances[1].clocks

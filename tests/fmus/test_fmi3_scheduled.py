@@ -35,22 +35,6 @@ COMMANDS = ("f_R", "f_L", "tau_R", "tau_L")
 
 
 @pytest.fixture(scope="module")
-def fmi3_set(fmi3_fmus):
-    """The FMI 3.0 folder with the clocked variants and the Scheduled Execution controller built too."""
-    from tiltload.master.app.loop.fmus import build_all, build_many, scheduled_recipes
-
-    folder = fmi3_fmus["TiltloadPlant"].parent
-    build_all(folder, progress=lambda *_: None, fmi_version=3, clocked=True)
-    build_many(scheduled_recipes(("load",)), folder, progress=lambda *_: None, fmi_version=3)
-    return folder
-
-
-@pytest.fixture(scope="module")
-def se_fmu(fmi3_set) -> Path:
-    return fmi3_set / "TiltloadControllerSE.fmu"
-
-
-@pytest.fixture(scope="module")
 def host(tmp_path_factory) -> Path:
     exe = tmp_path_factory.mktemp("se_host") / "fmi3_se_host"
     subprocess.run(["cc", "-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{fmi_header_dir(3)}",
@@ -280,15 +264,16 @@ def test_a_restart_after_a_run_ended_by_a_held_lock_holds_none(fmi3_set, se_fmu)
             ex.close()
 
 
-def test_a_se_fmu_runs_in_this_process_only(se_fmu):
+def test_a_se_fmu_runs_in_this_process_or_a_worker_not_on_a_server(se_fmu):
     from tiltload.master.engine.errors import ExecutionError
     from tiltload.master.engine.isolation.hosting import slave_for
     from tiltload.master.engine.system import Instance
 
     md = read_fmu(se_fmu, "controller")  # the engine reads it: its clocks with their priorities
     assert {k.name: k.priority for k in md.clocks}["control_clock"] == max(k.priority for k in md.clocks)
-    with pytest.raises(ExecutionError, match="is a Scheduled Execution FMU, which runs in this process only"):
-        slave_for(Instance("controller", se_fmu), md, isolate=lambda fmu, md: True, tick=T)
+    with pytest.raises(ExecutionError, match="is a Scheduled Execution FMU, which runs in this process or a worker process "
+                                             "of its own, not on a tiltload serve"):
+        slave_for(Instance("controller", se_fmu, remote="127.0.0.1:1", token_file="t"), md, tick=T)
 
 
 # ---- the C host -----------------------------------------------------------------------------------------------------

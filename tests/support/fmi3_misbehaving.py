@@ -1,6 +1,7 @@
 """Misbehaving FMI 3.0 controllers: our FMI 3.0 controller whose fmi3DoStep, from a given time on, crashes, exits or
 hangs, or (the clocked one) whose fmi3UpdateDiscreteStates returns fmi3Error or never settles (discreteStatesNeedUpdate
-always true), in C as a foreign FMU would.
+always true), or (the Scheduled Execution one) whose partitions are refused or return holding a preemption lock, in C
+as a foreign FMU would.
 
 The FMU's library is replaced by a small shim of the same name that defines one fmi3 function only and needs the
 original library (renamed beside it; linked --no-as-needed, or the linker drops the dependency): every other fmi3
@@ -64,12 +65,47 @@ int fmi3UpdateDiscreteStates(void *instance, bool *need_update, bool *terminate,
 }
 """
 
+PARTITION_SHIM = r"""
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdbool.h>
+#include <stddef.h>
+
+typedef void Lock(void);
+typedef void *Instantiate(const char *, const char *, const char *, bool, bool, void *, void *, void *, Lock *, Lock *);
+typedef int Activate(void *, unsigned int, double);
+
+static Lock *lock_preemption; /* the importer's lock callback, kept to take a lock that is never given back */
+
+void *fmi3InstantiateScheduledExecution(const char *name, const char *token, const char *resources, bool visible,
+                                        bool logging, void *environment, void *log, void *clock_update, Lock *lock,
+                                        Lock *unlock) {
+    Instantiate *original;
+    *(void **)&original = dlsym(RTLD_NEXT, "fmi3InstantiateScheduledExecution");
+    lock_preemption = lock;
+    return original(name, token, resources, visible, logging, environment, log, clock_update, lock, unlock);
+}
+
+int fmi3ActivateModelPartition(void *instance, unsigned int clock, double t) {
+    Activate *original;
+    *(void **)&original = dlsym(RTLD_NEXT, "fmi3ActivateModelPartition");
+    int status = original(instance, clock, t);
+    if (t >= AT) {
+        ACT;
+    }
+    return status;
+}
+"""
+
 ACTS = {  # what the shim does in place of the call: (which shim, its act)
     "segfault": (SHIM, "raise(SIGSEGV)"),
     "exit": (SHIM, "exit(3)"),
     "hang": (SHIM, "for (;;) pause()"),
     "update_error": (UPDATE_SHIM, "return 3"),  # fmi3Error
     "unsettled": (UPDATE_SHIM, "*need_update = true"),
+    # a Scheduled Execution FMU's partition from then on: refused (fmi3Error), or returning with a lock held
+    "activate_error": (PARTITION_SHIM, "return 3"),
+    "lock_held": (PARTITION_SHIM, "lock_preemption()"),
 }
 PLATFORM = "x86_64-linux"
 

@@ -33,11 +33,11 @@ def remote_fmu(name: str, path, md, address: str, token_file, timeout: float = S
 def slave_for(spec, md, isolate=None, step_timeout: float | None = None, tick: float | None = None) -> Slave:
     """The slave of instance spec (system.Instance) with model description md: remote if spec.remote names a server,
     isolated if isolate(fmu, md) says so (None: never), else in this process; FMI 2.0 or 3.0 alike, an FMU with
-    clocks stepped on the system's tick wherever it runs."""
+    clocks stepped on the system's tick wherever it runs (a Scheduled Execution FMU not on a server)."""
     timeout = step_timeout or STEP_TIMEOUT
-    if is_scheduled(md) and (spec.remote is not None or (isolate is not None and isolate(spec.fmu, md))):
+    if is_scheduled(md) and spec.remote is not None:
         raise ExecutionError(f"{spec.name}: {Path(spec.fmu).name} is a Scheduled Execution FMU, which runs in this process "
-                             "only (a worker process or --remote hosts co-simulation FMUs)")
+                             "or a worker process of its own, not on a tiltload serve (--remote hosts co-simulation FMUs)")
     if spec.remote is not None:
         return remote_fmu(spec.name, spec.fmu, md, spec.remote, spec.token_file, timeout, tick)
     if isolate is not None and isolate(spec.fmu, md):

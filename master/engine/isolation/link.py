@@ -1,6 +1,7 @@
 """The shared-memory link to an isolated FMU's host (native/tl_link.h): the tick loop steps the FMU in its worker
 process itself, one round trip a step through a sealed memfd segment and a futex, with no Python on either side
-(tl_loop.c's step_linked, the host's c/tl_host.c). The pipe stays for everything else (initialization, states,
+(tl_loop.c's step_linked, the host's c/tl_host.c; an FMU with clocks stepped there by the kernel's own sequence,
+host_plan.py). The pipe stays for everything else (initialization, states,
 resets, close, errors' log lines): the master yields the link before each such request and takes it again before the
 next ticks.
 
@@ -19,6 +20,7 @@ import sys
 from pathlib import Path
 
 from ..native import kernel
+from .host_plan import HostPlan
 
 TYPES = ("Real", "Integer", "Boolean")  # the kernel's value types, in its order
 WIDTH = {"Real": 8, "Integer": 4, "Boolean": 4}  # as the plan's arrays hold them (fmi2Boolean is an int)
@@ -89,7 +91,8 @@ class _Host(ctypes.Structure):  # tl_host.c's tl_host
                 ("get", ctypes.c_void_p * 3), ("n_groups", ctypes.c_int), ("group_type", ctypes.c_void_p),
                 ("group_n", ctypes.c_void_p), ("group_vrs", ctypes.c_void_p), ("in_offset", ctypes.c_void_p),
                 ("n_out", ctypes.c_int * 3), ("out_vrs", ctypes.c_void_p * 3), ("out_offset", ctypes.c_int64),
-                ("booleans", ctypes.c_void_p), ("usual_gap_ns", ctypes.c_int64)]
+                ("booleans", ctypes.c_void_p), ("usual_gap_ns", ctypes.c_int64), ("alone", ctypes.c_void_p),
+                ("step_alone", ctypes.c_void_p), ("group_values", ctypes.c_void_p), ("out", ctypes.c_void_p * 3)]
 
 
 def host_library() -> ctypes.CDLL:
@@ -115,6 +118,7 @@ class HostLink:
         self.lib = host_library()
         self.host: _Host | None = None
         self._keep: list = []
+        self.plan: HostPlan | None = None  # an FMU with clocks: the kernel's plan of it, kept while the groups are the same
 
     def bind(self, inst, request: dict, inputs: dict[str, frozenset]) -> None:
         """The C loop's arguments for inst from the master's request {"groups": [[type, [vrs]]], "in_offset": [...],
@@ -161,8 +165,25 @@ class HostLink:
         for k, t in enumerate(TYPES):
             h.n_out[k], h.out_vrs[k] = counts[t], ctypes.addressof(out_vrs[k])
         self._keep = [types, sizes, vr_arrays, vrs, offs, out_vrs, booleans]
+        if getattr(inst, "clocked", False):  # Event Mode, or Scheduled Execution: the kernel's own sequence steps it
+            if self.plan is None or self.plan.slave is not inst or self._plan_groups != groups:
+                self.plan, self._plan_groups = HostPlan(inst, groups), groups
+            h.alone, h.step_alone, h.group_values = self.plan.alone, self.plan.step_alone, ctypes.addressof(self.plan.group_values)
+            for k in range(len(TYPES)):
+                h.out[k] = self.plan.out[k]
         self.host = h
+
+    def forget_inputs(self) -> None:
+        """After a reset of the FMU: no discrete input of a clocked one was set yet."""
+        if self.plan is not None:
+            self.plan.forget_inputs()
 
     def serve(self) -> bool:
         """Answer steps in C until the master yields (True) or is gone (False)."""
-        return self.lib.tl_host_serve(ctypes.byref(self.host)) == 0
+        if self.host.alone:
+            self.plan.take()
+        try:
+            return self.lib.tl_host_serve(ctypes.byref(self.host)) == 0
+        finally:
+            if self.host.alone:
+                self.plan.leave()

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import DescriptionError, ExecutionError, FmuEndedRun
 from ..fmi import slave
-from ..fmi.model_description import clocks_of, fmi_type, fmi_version
+from ..fmi.model_description import clocks_of, fmi_type, fmi_version, is_scheduled
 from . import link, wire
 from .transport import Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
@@ -116,7 +116,7 @@ class WorkerProcess:
 def _link_typed(md) -> bool:
     """Does the shared-memory link carry each of the FMU's inputs and outputs as its own type? The host's C loop gets
     and sets Float64, Int32 and Boolean (and FMI 2.0's Enumerations, as Integers); an FMU with other types (Float32,
-    Int8, ..., String, Binary) is stepped on its pipe, where the worker converts them. Clocks (Event Mode) too."""
+    Int8, ..., String, Binary) is stepped on its pipe, where the worker converts them."""
     own = ("Float64", "Int32", "Boolean", *(("Enumeration",) if fmi_version(md) == 2 else ()))
     return all(fmi_type(v) in own for v in md.modelVariables if v.causality in ("input", "output"))
 
@@ -129,14 +129,17 @@ class IsolatedFmu(slave.Slave):
         """host: something with `channel` (transport.Channel), `ended(what)`, `cut_off()` and `close()`,
         already started (remote_client.RemoteHost); None: a worker process on this machine, told tick (the
         execution's, on which an FMI 3.0 FMU's clocks tick). shared_memory: the tick loop steps a local worker's FMU
-        over shared memory (link.py) where it can (FMI 2.0, FMI 3.0 without clocks, on Linux)."""
+        over shared memory (link.py) where it can (FMI 2.0 and 3.0 of the link's types, on Linux; with clocks or
+        Scheduled Execution too, its host then steps it with the kernel's own sequence)."""
         super().__init__(name, path, md)
         self.timeout = float(timeout)
         self.values = {t: np.zeros(len(vs), dtype=np.dtype(slave.C_TYPES[t])) for t, vs in self.outputs.items()}
         self.setters = {t: self._queue(t) for t in slave.TYPES}
         self._pending: list = []
         self._texts_at_init: dict | None = None  # during initialize: the String and Binary inputs connect() sets
-        self.clocked = bool(clocks_of(md))  # stepped in Event Mode by its host: its inputs are not set at initialization
+        self.clocks = clocks_of(md)  # a failure its host reports names one by its index (native/failures.py)
+        self.clocked = bool(self.clocks)  # stepped in Event Mode by its host: its inputs are not set at initialization
+        self.scheduled = is_scheduled(md)  # its partitions activated by its host, and its failures worded so
         self._dead = self._closed = False
         # String and Binary outputs: their values come with every reply of outputs (wire.py), logged as in process
         self.text_outputs = [v for v in md.modelVariables if v.causality == "output" and fmi_type(v) in ("String", "Binary")]
@@ -145,7 +148,7 @@ class IsolatedFmu(slave.Slave):
         self.segment = None
         self.link = None  # kernel.Link while the loop may step it over shared memory
         self.linked = False  # the host is in its C loop on the segment (not on its pipe)
-        if shared_memory and host is None and link.available() and not clocks_of(md) and _link_typed(md):  # else the pipe
+        if shared_memory and host is None and link.available() and _link_typed(md):  # else the pipe
             size, out_offset = link.segment_size(sum(1 for v in md.modelVariables if v.causality == "input"),
                                                  {t: len(vs) for t, vs in self.outputs.items()})
             link.host_library()  # built here, into the cache the worker loads it from (not within a step's watchdog)
@@ -256,7 +259,7 @@ class IsolatedFmu(slave.Slave):
             self.link = kernel.Link(base=self.segment.address, size=self.segment.size,
                                     in_offset=ctypes.addressof(self._offsets), out_offset=self.segment.out_offset,
                                     seq=seq, hung_up_fd=self.channel.read_fd, signal_fd=-1, timeout_ns=int(self.timeout * 1e9),
-                                    spin_ns=link.SPIN_NS)
+                                    spin_ns=link.SPIN_NS, n_clocks=len(self.clocks))
         if not self.linked:
             self._pending.clear()
             self._exchange(wire.control({"op": "link", "groups": [[t, [int(v) for v in vrs]] for t, vrs in groups],

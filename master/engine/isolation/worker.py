@@ -173,6 +173,8 @@ def serve(fmu: str, name: str, channel: Channel, idle_timeout: float | None = No
                 channel.send(wire.ok(new_log()))  # the master yielded: its next request comes on the pipe
             elif op == "reset":
                 inst.reset()
+                if host_link is not None:
+                    host_link.forget_inputs()
                 channel.send(wire.ok(new_log()))
             elif op == "close":
                 inst.close()

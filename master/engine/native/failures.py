@@ -22,7 +22,7 @@ def kernel_error(loop) -> BaseException:
         err, loop._pending = loop._pending, None
         return err if err is not None else RuntimeError("a callback of the tick loop failed")
     slave, t = loop.slaves[p.error_instance], p.error_time
-    name = (lambda typ: FMI3_NAME[typ]) if loop.instances[p.error_instance].fmi3 else (lambda typ: typ)
+    name = (lambda typ: FMI3_NAME[typ]) if fmi_version(slave.md) == 3 else (lambda typ: typ)  # in process or not
     if getattr(slave, "scheduled", False) and kind in _SCHEDULED:
         return _scheduled_error(loop, slave, kind, t)
     if kind == ErrorKind.LINK:

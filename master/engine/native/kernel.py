@@ -87,7 +87,8 @@ class Clocks(ctypes.Structure):
 class Link(ctypes.Structure):
     _fields_ = [("base", ctypes.c_void_p), ("size", ctypes.c_int64), ("in_offset", ctypes.c_void_p),
                 ("out_offset", ctypes.c_int64), ("seq", ctypes.c_uint32), ("hung_up_fd", ctypes.c_int), ("signal_fd", ctypes.c_int),
-                ("timeout_ns", ctypes.c_int64), ("spin_ns", ctypes.c_int64), ("usual_wait_ns", ctypes.c_int64)]
+                ("timeout_ns", ctypes.c_int64), ("spin_ns", ctypes.c_int64), ("usual_wait_ns", ctypes.c_int64),
+                ("n_clocks", ctypes.c_int)]
 
 
 class Instance(ctypes.Structure):

@@ -7,7 +7,8 @@
      +4                  uint32 the host is asleep on request (then the master wakes it)
      TL_LINK_REPLY       uint32 reply: the sequence number of the request answered last (the master waits on it)
      +4                  uint32 the master is asleep on reply
-     TL_LINK_CALL        double t, double h, uint32 op (tl_link_op)
+     TL_LINK_CALL        double t, double h, uint32 op (tl_link_op), uint32 spare, int64 k (the tick: a clocked FMU's
+                         clocks are due by it)
      in_offset[g]        group g's input values, as the plan's arrays hold them (double, int)
      out_offset          the reply's header (TL_LINK_HEADER bytes: tl_link_reply below), then the outputs: Real, Integer,
                          Boolean, as the plan's arrays hold them
@@ -26,8 +27,10 @@
 #define TL_LINK_HEADER 64
 
 enum tl_link_op { TL_LINK_STEP = 1, TL_LINK_YIELD = 2 }; /* yield: the host goes back to its pipe (a rare request) */
-/* which call failed in the host (tl_link_reply.call) */
-enum tl_link_call { TL_LINK_OK = 0, TL_LINK_SET = 1, TL_LINK_DO_STEP = 2, TL_LINK_GET = 3 };
+/* which call failed in the host (tl_link_reply.call); TL_LINK_KERNEL: a step of a clocked or Scheduled Execution FMU,
+   which the host makes with the kernel's own sequence (tl_step_alone), failed as its error record says (kind, status,
+   where: the group or the clock, type) */
+enum tl_link_call { TL_LINK_OK = 0, TL_LINK_SET = 1, TL_LINK_DO_STEP = 2, TL_LINK_GET = 3, TL_LINK_KERNEL = 4 };
 
 /* The reply's header at out_offset. */
 typedef struct {
@@ -39,7 +42,13 @@ typedef struct {
     int64_t host_ns;   /* the host's time in the FMU's calls of this step (CLOCK_MONOTONIC) */
     uint32_t out_bytes; /* the outputs' bytes that follow: the master checks them against its own count */
     uint32_t spare;
+    int32_t kind;      /* TL_LINK_KERNEL: the tl_error_kind */
+    int32_t type;      /* TL_LINK_KERNEL: the value type of a failed get */
 } tl_link_reply;
+
+/* The kernel's step of one instance of a plan whose inputs are in place (tl_loop.c's tl_step_alone), for a host: a
+   failure or an end asked for goes into the reply, as a linked step's would. */
+typedef int (*tl_step_alone_fn)(void *plan, int64_t k, double t, double h, tl_link_reply *reply);
 
 static inline uint32_t *tl_link_word(unsigned char *base, int64_t offset) { return (uint32_t *)(void *)(base + offset); }
 

@@ -580,10 +580,28 @@ TL_EXPORT int tl_link_yield(tl_link *L) {
     return 0;
 }
 
+/* A failure the host reports of its kernel's sequence (TL_LINK_KERNEL): a kind that sequence has, its group or clock
+   and type within the FMU's. */
+static int plausible_kernel_failure(const tl_instance *in, const tl_link_reply *r) {
+    int type_ok = r->type >= 0 && r->type < TL_TYPES;
+    int clock_ok = r->where >= 0 && r->where < in->link->n_clocks;
+    int status_ok = r->status >= 0 && r->status <= 4;
+    switch (r->kind) {
+    case TL_ERROR_SET: return status_ok && r->where >= 0 && r->where < in->n_groups;
+    case TL_ERROR_GET: return status_ok && type_ok;
+    case TL_ERROR_GET_CLOCKED: return status_ok && type_ok && clock_ok;
+    case TL_ERROR_ACTIVATE: return status_ok && clock_ok;
+    case TL_ERROR_LOCKS_HELD: return clock_ok;
+    case TL_ERROR_DO_STEP: case TL_ERROR_ENTER_EVENT_MODE: case TL_ERROR_SET_CLOCK: case TL_ERROR_UPDATE_DISCRETE_STATES:
+    case TL_ERROR_ENTER_STEP_MODE: case TL_ERROR_TERMINATED_IN_EVENT: case TL_ERROR_UNSETTLED: return status_ok;
+    default: return 0;
+    }
+}
+
 /* A step through the link: the gathered inputs into the segment, the request published, the answer awaited and
    checked, the outputs copied out. Whatever the host wrote, only the plan's own offsets are read (all within the
    segment: checked when the link was made), each field checked before use. Returns 0, or stops the run. */
-static int step_linked(tl_plan *plan, int i, double t, double h) {
+static int step_linked(tl_plan *plan, int i, int64_t k, double t, double h) {
     tl_instance *in = &plan->instances[i];
     tl_link *L = in->link;
     unsigned char *b = L->base;
@@ -595,6 +613,7 @@ static int step_linked(tl_plan *plan, int i, double t, double h) {
     memcpy(b + TL_LINK_CALL, &t, sizeof t);
     memcpy(b + TL_LINK_CALL + 8, &h, sizeof h);
     memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
+    memcpy(b + TL_LINK_CALL + 24, &k, sizeof k);
     uint32_t seq = ++L->seq;
     tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), seq);
     int corruption = 0;
@@ -605,9 +624,11 @@ static int step_linked(tl_plan *plan, int i, double t, double h) {
     for (int ty = 0; ty < TL_TYPES; ty++) out_bytes += (int64_t)in->n_out[ty] * (int64_t)width(ty);
     if (!failure) {
         if ((int64_t)r.out_bytes != out_bytes) corruption = TL_CORRUPT_LENGTH;
-        else if (r.call < TL_LINK_OK || r.call > TL_LINK_GET || r.status < 0 || r.status > 4 || (r.ended != 0 && r.ended != 1) ||
+        else if (r.call < TL_LINK_OK || r.call > TL_LINK_KERNEL || r.status < 0 || (r.status > 4 && r.call != TL_LINK_KERNEL) ||
+                 (r.ended != 0 && r.ended != 1) ||
                  (r.call == TL_LINK_SET && (r.where < 0 || r.where >= in->n_groups)) ||
-                 (r.call == TL_LINK_GET && (r.where < 0 || r.where >= TL_TYPES)))
+                 (r.call == TL_LINK_GET && (r.where < 0 || r.where >= TL_TYPES)) ||
+                 (r.call == TL_LINK_KERNEL && (r.ended || !plausible_kernel_failure(in, &r))))
             corruption = TL_CORRUPT_CALL;
         else if (r.host_ns < 0 || (r.ended && !(r.last_time >= t && r.last_time <= t + h)))
             corruption = TL_CORRUPT_TIME;
@@ -624,6 +645,11 @@ static int step_linked(tl_plan *plan, int i, double t, double h) {
     }
     if (r.call == TL_LINK_GET) {
         fail(plan, TL_ERROR_GET, i, r.status, -1, r.where, t);
+        return 1;
+    }
+    if (r.call == TL_LINK_KERNEL) {
+        int type = r.kind == TL_ERROR_SET ? in->groups[r.where].type : r.type;
+        fail(plan, (enum tl_error_kind)r.kind, i, r.status, r.where, type, t);
         return 1;
     }
     if (r.call == TL_LINK_DO_STEP) {
@@ -671,7 +697,7 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
             failed = 1;
         }
     } else if (in->link != NULL) {
-        failed = step_linked(plan, i, t, h);
+        failed = step_linked(plan, i, k, t, h);
     } else {
         failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, i, k, t, n_due)
                                                                     : call_fmu(plan, i, k, t, h, event, n_due);
@@ -696,6 +722,37 @@ static int step_instance(tl_plan *plan, int i, int64_t k, double t) {
        the last valid one is logged already */
     if (plan->record_capacity > 0 && !(ended && plan->ended_time <= t + 1e-9 * h)) record(plan, i, k, when);
     return ended; /* an end asked for stops the tick here, without an error */
+}
+
+/* For an isolated FMU's host: the kernel's own sequence of one step of instance 0 (a clocked FMU's Event Mode, a
+   Scheduled Execution FMU's partitions), its groups' values already in place (no gathering, fault, hook or record:
+   the master's). A failure, or an end the FMU asked for, goes into the reply as tl_host.c's own step reports them;
+   the plan allows ends (the master decides). Returns whether the step failed. */
+TL_EXPORT int tl_step_alone(void *alone, int64_t k, double t, double h, tl_link_reply *reply) {
+    tl_plan *plan = alone;
+    tl_instance *in = &plan->instances[0];
+    plan->error_kind = TL_ERROR_NONE;
+    plan->ended_instance = -1;
+    int event = 0, n_due = 0;
+    if (in->clocks != NULL) event = clocked_event(in, k, t, h, &n_due);
+    int failed = in->clocks != NULL && in->clocks->activate != NULL ? activate_partitions(plan, 0, k, t, n_due)
+                                                                    : call_fmu(plan, 0, k, t, h, event, n_due);
+    if (failed) {
+        reply->call = TL_LINK_KERNEL;
+        reply->kind = (int32_t)plan->error_kind;
+        reply->status = plan->error_status;
+        reply->where = plan->error_group;
+        reply->type = plan->error_type;
+        return 1;
+    }
+    if (in->clocks != NULL) held_outputs(in);
+    if (plan->ended_instance == 0) {
+        reply->call = TL_LINK_DO_STEP;
+        reply->ended = 1;
+        reply->status = 2; /* fmi2Discard: an end asked for, as tl_host.c's own step reports it */
+        reply->last_time = plan->ended_time;
+    }
+    return 0;
 }
 
 static void forget_records(tl_plan *plan) {

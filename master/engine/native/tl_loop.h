@@ -169,7 +169,8 @@ typedef struct { TL_CLOCKS_FIELDS(TL_FIELD, TL_ARRAY) } tl_clocks;
     F(int, signal_fd)               /* Python's signal wakeup fd (-1: none): readable = a signal to handle, stop waiting */ \
     F(int64_t, timeout_ns)          /* the watchdog */ \
     F(int64_t, spin_ns)             /* the least spin before sleeping on the futex (tl_spin_budget) */ \
-    F(int64_t, usual_wait_ns)       /* the usual wait for a reply (tl_spin_learn): the master's own, starts at 0 */
+    F(int64_t, usual_wait_ns)       /* the usual wait for a reply (tl_spin_learn): the master's own, starts at 0 */ \
+    F(int, n_clocks)                /* the FMU's clocks (a failure the host reports names one by its index) */
 typedef struct { TL_LINK_FIELDS(TL_FIELD, TL_ARRAY) } tl_link;
 
 #define TL_INSTANCE_FIELDS(F, A) \

@@ -2,7 +2,9 @@
    isolated FMU, a loop in C that answers the tick loop's steps (set the inputs, doStep, get the outputs) with no Python
    on the way. The worker (worker.py) calls tl_host_serve once the master asked for the link and returns to its pipe
    when the master yields (a state, a reset, a close: the rare requests stay on the pipe) or goes away. FMI 2.0 and
-   FMI 3.0 without clocks, through the function pointers the worker's loaded FMU gives. C99, no global state. */
+   FMI 3.0 without clocks through the function pointers the worker's loaded FMU gives; an FMU with clocks (Event Mode,
+   or Scheduled Execution's partitions) through the kernel's own sequence, on a plan of this one FMU the worker built
+   (host_plan.py, tl_loop.c's tl_step_alone). C99, no global state. */
 #if !defined(_POSIX_C_SOURCE)
 #define _POSIX_C_SOURCE 200809L
 #define _DEFAULT_SOURCE /* syscall(SYS_futex) */
@@ -54,6 +56,11 @@ typedef struct {
     int64_t out_offset;
     bool *booleans;       /* fmi3: room for the most Boolean values of one call */
     int64_t usual_gap_ns; /* the usual time from a reply to the next request (tl_spin_learn): starts at 0 */
+    /* an FMU with clocks: the kernel steps it (NULL: the calls above) */
+    void *alone;                 /* the kernel's plan of this FMU */
+    tl_step_alone_fn step_alone; /* the kernel's tl_step_alone */
+    void *const *group_values;   /* the plan's group value arrays, in the groups' order */
+    const void *out[TL_TYPES];   /* the plan's output arrays */
 } tl_host;
 
 static size_t width(int type) { return type == TL_REAL ? sizeof(double) : sizeof(int); }
@@ -111,12 +118,37 @@ static int get_values(tl_host *h, int type, const unsigned int *vrs, int n, void
 
 enum { DISCARD = 2, LAST_SUCCESSFUL_TIME = 2, TERMINATED = 3 }; /* fmi2Discard; fmi2StatusKind's values */
 
+/* The outputs (from: per type) into the reply's room. */
+static void put_outputs(tl_host *h, const void *const *from) {
+    unsigned char *out = h->base + h->out_offset + TL_LINK_HEADER;
+    for (int ty = 0; ty < TL_TYPES; ty++) {
+        size_t bytes = (size_t)h->n_out[ty] * width(ty);
+        if (bytes) memcpy(out, from[ty], bytes);
+        out += bytes;
+    }
+}
+
+/* A step of an FMU with clocks: the inputs into the plan's groups, the kernel's sequence, the outputs. */
+static void step_by_kernel(tl_host *h, tl_link_reply *r, int64_t k, double t, double dt) {
+    int64_t started = now_ns();
+    for (int g = 0; g < h->n_groups; g++)
+        memcpy(h->group_values[g], h->base + h->in_offset[g], (size_t)h->group_n[g] * width(h->group_type[g]));
+    if (h->step_alone(h->alone, k, t, dt, r) == 0) put_outputs(h, h->out);
+    r->host_ns = now_ns() - started;
+}
+
 /* One step as the request asks: its inputs, doStep, its outputs, into the reply. */
 static void step(tl_host *h, tl_link_reply *r) {
     unsigned char *b = h->base;
     double t, dt;
+    int64_t k;
     memcpy(&t, b + TL_LINK_CALL, sizeof t);
     memcpy(&dt, b + TL_LINK_CALL + 8, sizeof dt);
+    memcpy(&k, b + TL_LINK_CALL + 24, sizeof k);
+    if (h->alone != NULL) {
+        step_by_kernel(h, r, k, t, dt);
+        return;
+    }
     int64_t started = now_ns();
     for (int g = 0; g < h->n_groups; g++) {
         int status = set_values(h, h->group_type[g], h->group_vrs[g], h->group_n[g], b + h->in_offset[g]);
