@@ -118,3 +118,27 @@ def test_a_failing_partition_over_the_link_ends_the_run_in_the_line_the_other_wa
     assert "\n" not in line and PARTITION_FAILURES[mode] in line, line
     assert line.startswith("controller: activateModelPartition(" if mode == "activate_error" else "controller: partition ")
     assert steps["link"] == steps["in process"] == steps["pipe"] == 42  # ticks 0..41 done, the failure in tick 42
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["clocked controller", "scheduled controller"])
+def test_the_twelve_cases_with_the_controller_over_the_link_give_the_in_process_metrics_bit_for_bit(kind, fmi3_set):
+    """Every case of `tiltload reproduce --fmi 3 --clocks` at its whole length, the controller (clocked, or Scheduled
+    Execution) forced into a worker process and stepped over shared memory: every metric equal to the last bit to the
+    run in process."""
+    from tiltload.master.app.loop.thesis import default_stop, loop_metrics
+    from tiltload.master.app.regression.reproduce import CASES
+    from tiltload.master.engine.lifecycle import RunPlan, run_plan
+
+    instance, fmu, _ = KINDS[kind]
+    for case in CASES:
+        results = []
+        for isolate in (None, lambda path, md: path.name == fmu):
+            system = default_system(fmi3_set, *case, SEED, fmi=3, clocked=True)
+            system.instance(instance).fmu = fmi3_set / fmu
+            results.append(run_plan(RunPlan(system, default_stop(case[1]), metrics=loop_metrics(), isolate=isolate,
+                                            profile=isolate is not None)))
+        here, linked = results
+        assert here.error is None and linked.error is None, (case, linked.error)
+        assert next(f for f in linked.profile.fmus if f.name == instance).isolated == "shared memory"  # not the pipe
+        assert here.ticks == linked.ticks and here.metrics == linked.metrics, case
