@@ -8,14 +8,16 @@ side with another tree (e.g. the last landing, commit 5052690, with its own virt
   native wrap         the same class wrapped with `tiltload wrap --native` (a C FMU traced from Python)
 
 The FMUs are built once, by this tree, and both trees run the same files on the thesis's loop (default_system with
-controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log). Per tick: the wall
-time of a --stop s run after the instantiation (worker process, FMU loaded: not timed) / its ticks; the median of
---repeats runs, in process and isolated interleaved, after 15 s of warming up (the spread, min to max, printed below
-the table). The machine (CPU, cores) and its load average before and after go with the figures: on a shared machine
-the figures move with the other sessions' work.
+controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log).
+Per tick: the wall time of a --stop s run (after the instantiation and --warm s of simulated time, not timed) / its
+ticks. This VM's processor runs the same work at speeds up to 2x apart from one second to the next (a bare Python
+loop on an idle machine: 6.9 to 12 µs an iteration; a run's speed is bimodal), so the runs are short and paired:
+in process and isolated back to back, the order alternating pair by pair, and the ratio printed is the median of the
+pairs' ratios (its quartiles below the table), beside the median per tick of each side. The machine (CPU, cores)
+and its load average before and after go with the figures.
 
 Run: python benchmarks/isolation_speed.py --before TREE --before-python PYTHON
-         [--stop 120] [--repeats 5]
+         [--stop 30] [--warm 2] [--pairs 31]
 """
 
 from __future__ import annotations
@@ -99,36 +101,40 @@ def measure(config: dict) -> list[dict]:
         ex = Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
         try:
             ex.instantiate()
+            ex.run(config["warm"])
+            ticks = ex.ticks_done
             profiler = Profiler(ex) if Profiler is not None else None
             if profiler is not None:
                 profiler.start()
             started = time.perf_counter()
-            ex.run(config["stop"])
+            ex.run(config["warm"] + config["stop"])
             wall = time.perf_counter() - started
             median = profiler.stop().tick_times.median if profiler is not None else float("nan")
-            return wall / ex.ticks_done, ex.observers[0].table(), median
+            return wall / (ex.ticks_done - ticks), ex.observers[0].table(), median
         finally:
             ex.close()
 
     import statistics
 
     rows = []
-    # warm: the first run of a process compiles or loads its kernels, and this VM's processor runs a busy loop up to
-    # twice as fast after some 10 s of work as at its start (measured: 25 -> 13 µs a tick, one process, load 0)
+    # warm: the first run of a process compiles or loads its kernels
     warm = time.perf_counter()
     while time.perf_counter() - warm < 15:
         timed(config["C controller"], "fsi", False)
     for kind in KINDS:
         for scenario in SCENARIOS:
             runs = {False: [], True: []}
-            for _ in range(config["repeats"]):  # interleaved: a drift of the machine's speed hits both alike
-                for isolated in (False, True):
+            for pair in range(config["pairs"]):  # back to back, the order alternating: a drift hits both sides alike
+                for isolated in ((False, True) if pair % 2 == 0 else (True, False)):
                     runs[isolated].append(timed(config[kind], scenario, isolated))
+            ratios = sorted(b[0] / a[0] for a, b in zip(runs[False], runs[True]))
+            quartiles = statistics.quantiles(ratios, n=4)
             for isolated, done in runs.items():
                 per_tick = [r[0] * 1e6 for r in done]
                 rows.append({"kind": kind, "scenario": scenario, "isolated": isolated,
                              "us_per_tick": statistics.median(per_tick), "spread": [min(per_tick), max(per_tick)],
-                             "median_tick": statistics.median(r[2] * 1e6 for r in done), "metrics": done[0][1]})
+                             "median_tick": statistics.median(r[2] * 1e6 for r in done), "metrics": done[0][1],
+                             "ratio": statistics.median(ratios), "quartiles": [quartiles[0], quartiles[2]]})
     return rows
 
 
@@ -146,8 +152,9 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--before", type=Path, help="the other tree (e.g. the last landing's worktree)")
     p.add_argument("--before-python", type=Path, help="its interpreter (tiltload installed from it)")
-    p.add_argument("--stop", type=float, default=120.0)
-    p.add_argument("--repeats", type=int, default=5)
+    p.add_argument("--stop", type=float, default=30.0, help="simulated s timed per run")
+    p.add_argument("--warm", type=float, default=2.0, help="simulated s run first in each run, not timed")
+    p.add_argument("--pairs", type=int, default=31, help="pairs of runs (in process, isolated) per row")
     p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter
     args = p.parse_args()
     if args.measure is not None:
@@ -160,7 +167,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="tl-isolation-speed-") as tmp:
         folder = Path(tmp)
         built = build(folder)
-        config = {k: str(v) for k, v in built.items()} | {"stop": args.stop, "repeats": args.repeats,
+        config = {k: str(v) for k, v in built.items()} | {"stop": args.stop, "warm": args.warm, "pairs": args.pairs,
                                                           "out": str(folder / "runs")}
         (folder / "config.json").write_text(json.dumps(config))
         trees = {"this tree": (sys.executable, ROOT), f"before ({_commit(args.before)})": (str(args.before_python), args.before)}
@@ -175,8 +182,8 @@ def main() -> int:
                 return 1
             results[label] = {(r["kind"], r["scenario"], r["isolated"]): r for r in json.loads(proc.stdout.splitlines()[-1])}
         print(f"load average after: {load()}")
-        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s runs after instantiation; the median of "
-              f"{args.repeats}, interleaved)")
+        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s timed per run; the median of {args.pairs} runs "
+              "each side; ratio: the median of the pairs' ratios, isolated / in process)")
         head = f"{'controller':<14}{'scenario':<9}"
         for label in results:
             head += f"  | {label + ': in process':>28}{'isolated':>10}{'ratio':>7}"
@@ -188,7 +195,7 @@ def main() -> int:
                 for rows in results.values():
                     a, b = rows[(kind, scenario, False)], rows[(kind, scenario, True)]
                     same &= a["metrics"] == b["metrics"]
-                    line += f"  | {a['us_per_tick']:>28.1f}{b['us_per_tick']:>10.1f}{b['us_per_tick'] / a['us_per_tick']:>7.2f}"
+                    line += f"  | {a['us_per_tick']:>28.1f}{b['us_per_tick']:>10.1f}{b['ratio']:>7.2f}"
                 print(line)
         print("the median tick (the tick loop's profile, µs; a tick preempted by another process does not move it):")
         for label, rows in results.items():
@@ -200,6 +207,10 @@ def main() -> int:
                     f"  {sc} {rows[(kind, sc, False)]['median_tick']:.1f} -> {rows[(kind, sc, True)]['median_tick']:.1f}"
                     f" ({rows[(kind, sc, True)]['median_tick'] / rows[(kind, sc, False)]['median_tick']:.2f})"
                     for sc in SCENARIOS))
+        print("the pairs' ratios, first and third quartiles:")
+        for label, rows in results.items():
+            print(f"  {label}: " + "; ".join(f"{k} {sc} {r['quartiles'][0]:.2f}-{r['quartiles'][1]:.2f}"
+                                             for (k, sc, iso), r in rows.items() if iso))
         print("spread (min-max of the runs, µs a tick):")
         for label, rows in results.items():
             print(f"  {label}: " + "; ".join(

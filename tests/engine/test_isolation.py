@@ -159,3 +159,29 @@ def test_a_failed_run_leaves_no_temporary_folder(how, misbehaving, fmus, tmp_pat
         proc = subprocess.run(argv, env=env, capture_output=True, text=True)
         assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert _empty_soon(temp) == []
+
+
+def test_a_worker_starts_numeric_thread_pools_with_one_thread_unless_the_user_set_them(fmus, tmp_path, monkeypatch):
+    """It steps one FMU in lock-step with the master: OpenBLAS, OpenMP and MKL get one thread there, as the worker
+    process itself sees its environment; a user's own setting is kept."""
+    import sys
+
+    from tiltload.master.engine.isolation import process
+
+    seen = tmp_path / "environment.txt"
+    script = tmp_path / "worker.py"
+    script.write_text(f"import os, runpy\nopen({str(seen)!r}, 'w').write(' '.join(os.environ.get(n, '-') for n in "
+                      f"{process.SINGLE_THREADED!r}))\nrunpy.run_module({process.WORKER_MODULE!r}, run_name='__main__')\n")
+    monkeypatch.setattr(process, "WORKER_COMMAND", (sys.executable, str(script)))
+    monkeypatch.setenv("OMP_NUM_THREADS", "3")
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
+    system = default_system(fmus, "fsi", 1, "mixed", 1)
+    system.instance("controller").fmu = foreign_copy(fmus / "TiltloadController.fmu", tmp_path / "Foreign.fmu")
+    ex = Execution(system, [loop_metrics()], isolate=is_foreign)
+    try:
+        ex.instantiate()
+        ex.run(0.1)
+    finally:
+        ex.close()
+    assert seen.read_text() == "1 3 1"  # OPENBLAS_NUM_THREADS, OMP_NUM_THREADS (the user's), MKL_NUM_THREADS

@@ -36,7 +36,7 @@ from pathlib import Path
 
 from . import handshake, wire
 from .catalogue import Catalogue, Refused
-from .process import WORKER_MODULE, how_it_ended
+from .process import WORKER_MODULE, how_it_ended, worker_environment
 from .transport import HEADER, Channel, FrameTooLarge, LinkClosed, LinkTimeout
 
 MAX_TICK = 86400.0  # s: a day, the longest wait any command line allows (command_line/argument_types.DAY)
@@ -222,7 +222,7 @@ class Server:
                 [sys.executable, "-m", WORKER_MODULE, str(s.fmu), s.instance, "--socket", str(fd),
                  "--idle-timeout", repr(self.options.idle_timeout), "--label", f"tiltload serve: {s.label}",
                  *(["--tick", repr(s.tick)] if s.tick is not None else [])],
-                pass_fds=(fd,), stdin=subprocess.DEVNULL, stdout=2)
+                pass_fds=(fd,), stdin=subprocess.DEVNULL, stdout=2, env=worker_environment())
         except OSError as err:
             self.say(f"{s.label}: cannot start the FMU's process: {err}")
             self._release(s.fmu)
