@@ -162,17 +162,25 @@ def _svg(fig, name: str) -> str:
 
 
 def standard_figures(log: Path) -> list[tuple[str, str]]:
-    """(title, PNG data: URI) of the thesis's kinds of figures the log allows (none for a log without a plant)."""
+    """(title, PNG data: URI) of the figures `tiltload plot` draws of the log: the thesis's kinds the log allows, or a
+    `--system` run's FMUs' outputs (none for a log without a plant or a numeric output)."""
     from ...engine.log import reader as log_reader
-    from ..views.plot import TITLES, TOPICS, case_of, figures
+    from ..views.plot import TITLES, TOPICS, case_of, figures, is_system_run
+    from ..views.system_plot import outputs_figure
 
-    data, state = log_reader.read_checked(Path(log), topics=TOPICS)
+    log = Path(log)
+    if is_system_run(log):
+        data, _ = log_reader.read_checked(log)
+        fig = outputs_figure(log, case_of(log), data)
+        return [] if fig is None else [("Each FMU's outputs", _png_uri(fig))]
+    data, state = log_reader.read_checked(log, topics=TOPICS)
     if not data.get("/plant"):
         return []
-    out = []
-    for name, fig in figures(data, case_of(Path(log))):
-        buffer = io.BytesIO()
-        fig.savefig(buffer, format="png", dpi=72)
-        plt.close(fig)
-        out.append((TITLES.get(name, name), "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode()))
-    return out
+    return [(TITLES.get(name, name), _png_uri(fig)) for name, fig in figures(data, case_of(log))]
+
+
+def _png_uri(fig) -> str:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=72)
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buffer.getvalue()).decode()

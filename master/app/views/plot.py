@@ -39,7 +39,7 @@ ACTUATOR_LIMITS = {"f_R": (_LIMIT["f_min"], _LIMIT["f_max"]), "f_L": (_LIMIT["f_
 def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     """Write <stem>_*.png next to the log (or into out); returns the files written. A damaged log raises
     log_reader.DamagedLog (plot_intact draws the intact part of one)."""
-    if _system_run(log):  # a --system run: its FMUs' outputs (system_plot.py), not the loop's figures
+    if is_system_run(log):  # a --system run: its FMUs' outputs (system_plot.py), not the loop's figures
         from .system_plot import plot_system_run
 
         return plot_system_run(Path(log), out, case_of(log)) + requirement_figure(Path(log), out)
@@ -47,7 +47,8 @@ def plot_run(log: Path, out: Path | None = None) -> list[Path]:
     return files + requirement_figure(Path(log), out)
 
 
-def _system_run(log: Path) -> bool:
+def is_system_run(log: Path) -> bool:
+    """The log is of a `--system` run (its run record says so): drawn as its FMUs' outputs, not the loop's figures."""
     try:
         return bool(log_reader.read_metadata(Path(log)).get("run", {}).get("system"))
     except Exception:  # a record the reader cannot parse: drawn as the loop's, which says what is missing
@@ -93,7 +94,7 @@ def requirement_figure(log: Path, out: Path | None = None) -> list[Path]:
 
 def plot_intact(log: Path, out: Path | None = None) -> tuple[list[Path], log_reader.LogState]:
     """The figures of what the log holds intact (all of it, up to a torn end, or up to the damage), and its state."""
-    if _system_run(log):
+    if is_system_run(log):
         from .system_plot import plot_system_run
 
         data, state = log_reader.read_checked(log)

@@ -35,13 +35,26 @@ def plot_system_run(log: Path, out: Path | None = None, case: str = "", data: di
     with no numeric output. case titles the figure; data: the log's messages, read already (a damaged log's intact
     part)."""
     log = Path(log)
+    fig = outputs_figure(log, case, data)
+    if fig is None:
+        return []
+    path = (log.parent if out is None else Path(out)) / f"{log.stem}_outputs.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+def outputs_figure(log: Path, case: str = "", data: dict | None = None):
+    """The figure of plot_system_run (a run's report shows it too), or None for a log with no numeric output."""
+    log = Path(log)
     data = log_reader.read(log) if data is None else data
     units = log_reader.read_metadata(log).get("units", {})
     panels = [(topic, _numeric(msgs), msgs) for topic, msgs in sorted(data.items())
               if msgs and "t" in msgs[0] and topic.count("/") == 1]
     panels = [p for p in panels if p[1]]
     if not panels:
-        return []
+        return None
     shown = panels[:MAX_PANELS]
     fig, axes = plt.subplots(len(shown), 1, figsize=(9, 2.4 * len(shown) + 0.8), sharex=True, squeeze=False)
     for ax, (topic, series, msgs) in zip(axes[:, 0], shown):
@@ -57,8 +70,4 @@ def plot_system_run(log: Path, out: Path | None = None, case: str = "", data: di
     more = f" (the first {MAX_PANELS} of {len(panels)} FMUs)" if len(panels) > MAX_PANELS else ""
     fig.suptitle(f"{case or log.stem}: each FMU's outputs{more}")
     fig.tight_layout()
-    path = (log.parent if out is None else Path(out)) / f"{log.stem}_outputs.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path]
+    return fig

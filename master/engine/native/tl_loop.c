@@ -547,7 +547,7 @@ static int signalled(const tl_link *L) {
 static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
     uint32_t *reply = tl_link_word(L->base, TL_LINK_REPLY);
     int64_t start = tl_monotonic_ns(), now = start;
-    int64_t spin = tl_spin_budget(L->spin_ns, L->usual_wait_ns);
+    int64_t spin = tl_spin_budget(L->spin_ns, L->usual_wait_ns), pause = tl_pause_budget(L->usual_wait_ns);
     for (;;) {
         uint32_t v = __atomic_load_n(reply, __ATOMIC_ACQUIRE);
         if (v == seq) {
@@ -560,7 +560,7 @@ static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
         }
         now = tl_monotonic_ns();
         if (now - start < spin) {
-            tl_spin_wait(start, now);
+            tl_spin_wait(start, now, pause);
             continue;
         }
         if (now - start >= L->timeout_ns) return TL_LINK_TIMEOUT;

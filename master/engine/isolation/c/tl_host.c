@@ -82,7 +82,7 @@ static int master_gone(const tl_host *h) {
 static uint32_t await_request(tl_host *h) {
     uint32_t *request = tl_link_word(h->base, TL_LINK_REQUEST);
     int64_t start = now_ns();
-    int64_t spin = tl_spin_budget(h->spin_ns, h->usual_gap_ns);
+    int64_t spin = tl_spin_budget(h->spin_ns, h->usual_gap_ns), pause = tl_pause_budget(h->usual_gap_ns);
     for (;;) {
         uint32_t v = __atomic_load_n(request, __ATOMIC_ACQUIRE);
         if (v != h->seq) {
@@ -91,7 +91,7 @@ static uint32_t await_request(tl_host *h) {
         }
         int64_t now = now_ns();
         if (now - start < spin) {
-            tl_spin_wait(start, now);
+            tl_spin_wait(start, now, pause);
             continue;
         }
         if (master_gone(h)) return h->seq;
