@@ -14,9 +14,10 @@ and --warm-wall s of wall time (not timed). This VM's processor runs the same wo
 second to the next (a bare Python loop on an idle machine: 6.9 to 12 µs an iteration), and a processor that was idle
 runs slower for its first second or so of work, which an isolated run's worker (on the other processor) pays: the C
 controller on FSI, the median of 10 runs, took 15.9 µs a tick isolated against 11.9 in process without the wall
-warm-up, 14.0 against 12.4 with 1 s of it, 13.8 against 11.9 with 2 s (2026-12-07). So the runs are paired: in process and isolated back to back, the order alternating pair by pair, and
-the ratio printed is the median of the pairs' ratios (its quartiles below the table), beside the median per tick of
-each side. The machine (CPU, cores) and its load average before and after go with the figures.
+warm-up, 14.0 against 12.4 with 1 s of it, 13.8 against 11.9 with 2 s (2026-12-07). So the runs are paired: in
+process and isolated back to back, the order alternating pair by pair, and the ratio printed is the median of the
+pairs' ratios (its quartiles below the table), beside the median per tick of each side. The machine (CPU, cores)
+and its load average before and after go with the figures.
 
 Run: python benchmarks/isolation_speed.py --before TREE --before-python PYTHON
          [--stop 30] [--warm 2] [--warm-wall 1] [--pairs 15]
