@@ -1,7 +1,8 @@
 """The shared-memory link to an isolated FMU's host (isolation/link.py, tl_link.h): the tick loop steps the FMU over
-it, and a host that misbehaves on the segment (dies in the middle of a reply, announces more than its frame, answers
-a request it was not sent, never answers, answers without waking the master) ends the run with one line naming the
-FMU, the call and the time, the master reading nothing outside the segment."""
+it, and a host that misbehaves on the segment (dies in the middle of a reply, announces more than its frame, names a
+group or a clock the FMU does not have, answers a request it was not sent, never answers, answers without waking the
+master) ends the run with one line naming the FMU, the call and the time, the master reading nothing outside the
+segment."""
 
 from __future__ import annotations
 
@@ -48,6 +49,9 @@ HOSTILE = textwrap.dedent("""
             if MODE == "group":  # a failed set naming a group the instance does not have
                 struct.pack_into("<iiiidqII", m, out, 3, 1, 1 << 20, 0, 0.0, 0, self.expected, 0)
                 struct.pack_into("<I", m, link.REPLY, seq)
+            if MODE == "clock":  # a failure of a clocked FMU's sequence naming a clock this FMU does not have
+                struct.pack_into("<iiiidqIIii", m, out, 3, 4, 7, 0, 0.0, 0, self.expected, 0, 13, 0)
+                struct.pack_into("<I", m, link.REPLY, seq)
             if MODE == "sequence":  # an answer to a request that was never sent
                 struct.pack_into("<I", m, link.REPLY, seq + 7)
             time.sleep(3600)  # "silent": never answers, never wakes the master
@@ -65,6 +69,7 @@ EXPECTED = {
     "die": "the FMU crashed (SIGKILL) in doStep at t=0.096 s",
     "beyond": "doStep at t=0.096 s: its host sent a corrupt reply on shared memory (outputs of another length than the model's",
     "group": "doStep at t=0.096 s: its host sent a corrupt reply on shared memory (an unknown call or status",
+    "clock": "doStep at t=0.096 s: its host sent a corrupt reply on shared memory (an unknown call or status",
     "sequence": "doStep at t=0.096 s: its host sent a corrupt reply on shared memory (a sequence number it was not asked for",
     "silent": "doStep at t=0.096 s did not return within 1 s (watchdog",
 }
