@@ -49,6 +49,7 @@ typedef struct {
 /* The kernel's step of one instance of a plan whose inputs are in place (tl_loop.c's tl_step_alone), for a host: a
    failure or an end asked for goes into the reply, as a linked step's would. */
 typedef int (*tl_step_alone_fn)(void *plan, int64_t k, double t, double h, tl_link_reply *reply);
+int tl_step_alone(void *plan, int64_t k, double t, double h, tl_link_reply *reply);
 
 static inline uint32_t *tl_link_word(unsigned char *base, int64_t offset) { return (uint32_t *)(void *)(base + offset); }
 
