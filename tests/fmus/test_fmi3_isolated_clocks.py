@@ -18,7 +18,7 @@ from tiltload.master.engine.observers import Observer
 
 SEED = 1
 # the instance isolated, its FMU, its path in this process: the controller's one clock ticks every tick; the sensors'
-# five every 1, 2 or 10 ticks
+# nine every 1, 2 or 10 ticks
 KINDS = {"clocked controller": ("controller", "TiltloadControllerClocked.fmu", "kernel: FMI 3.0 with clocks"),
          "scheduled controller": ("controller", "TiltloadControllerSE.fmu", "kernel: FMI 3.0 Scheduled Execution"),
          "clocked sensors": ("sensors", "TiltloadSensorsClocked.fmu", "kernel: FMI 3.0 with clocks")}
