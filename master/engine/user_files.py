@@ -217,7 +217,7 @@ def check_values(data, source: str) -> None:
     stack = [(data, "", 0)]
     while stack:
         value, where, depth = stack.pop()
-        at = f"{source}: {where}: " if where else f"{source}: "
+        at = f"{source}: {_printable(where)}: " if where else f"{source}: "
         if depth >= MAX_DEPTH and isinstance(value, (dict, list)):  # the root's container is level 1
             raise UserFileError(f"{at}nested deeper than {MAX_DEPTH} levels")
         if isinstance(value, bool) or value is None or isinstance(value, str):
@@ -237,6 +237,11 @@ def check_values(data, source: str) -> None:
             stack.extend((item, f"{where}.{key}" if where else key, depth + 1) for key, item in reversed(value.items()))
         elif isinstance(value, list):  # reversed: the first breach in the file's order is reported
             stack.extend((value[i], f"{where}.{i}" if where else str(i), depth + 1) for i in reversed(range(len(value))))
+
+
+def _printable(place: str) -> str:
+    """A place built from a file's keys, its control characters escaped (a key "a\\n" must not break the one line)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in place)
 
 
 def _validator(jsonschema):

@@ -108,3 +108,14 @@ def test_a_baseline_as_tiltload_writes_it_reads_back_its_samples(tmp_path):
     assert read["units"] == {"plant.x": "m"} and list(signals) == ["plant.x", "plant.z"]
     np.testing.assert_array_equal(signals["plant.x"][1], t**2)
     np.testing.assert_array_equal(signals["plant.z"][0], t)
+
+
+def test_a_key_with_a_newline_is_named_on_the_one_line(tmp_path):
+    """The case hypothesis found: a key "\\n" under "other" holding a 30-digit integer. The place is said with the
+    newline escaped."""
+    header = {**good_header(), "other": {"\n": 10**30}}
+    path = write_parquet(tmp_path / "b.parquet", json.dumps(header).encode())
+    with pytest.raises(DescriptionError) as caught:
+        signal_baseline.read(path)
+    _one_line_refusal(caught.value, path)
+    assert str(caught.value).endswith("other.\\n: an integer of more than 18 digits")
