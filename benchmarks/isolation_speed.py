@@ -9,18 +9,20 @@ side with another tree (e.g. the last landing, commit 5052690, with its own virt
 
 The FMUs are built once, by this tree, and both trees run the same files on the thesis's loop (default_system with
 controller_fmu, trajectory 0: hover; the shipped one in its own place, with its mixed design's parameters; no log).
-Per tick: the wall time of a --stop s run / its ticks, after the instantiation and at least --warm s of simulated
-and --warm-wall s of wall time (not timed). This VM's processor runs the same work at speeds up to 2x apart from one
-second to the next (a bare Python loop on an idle machine: 6.9 to 12 µs an iteration), and a processor that was idle
-runs slower for its first second or so of work, which an isolated run's worker (on the other processor) pays: the C
-controller on FSI, the median of 10 runs, took 15.9 µs a tick isolated against 11.9 in process without the wall
-warm-up, 14.0 against 12.4 with 1 s of it, 13.8 against 11.9 with 2 s (2026-12-07). So the runs are paired: in
-process and isolated back to back, the order alternating pair by pair, and the ratio printed is the median of the
-pairs' ratios (its quartiles below the table), beside the median per tick of each side. The machine (CPU, cores)
-and its load average before and after go with the figures.
+Per tick: the wall time of --chunks chunks of --chunk simulated s / their ticks. Both sides of a row (in process and
+isolated) are two executions in one process, instantiated first (a worker started, the FMU loaded: not timed), then
+advanced to the same times in turn, one chunk each: first at least --warm simulated s and --warm-wall wall s untimed
+(both processors at work), then the timed chunks, the order alternating chunk by chunk. This VM's processor runs the
+same work at speeds up to 2x apart from one second to the next (a bare Python loop on an idle machine: 6.9 to 12 µs
+an iteration; 15 pairs of whole runs back to back still gave quartiles of their ratios 0.96 to 1.50 for one row on
+2026-12-07): chunks a few milliseconds long, interleaved, see the same machine, and both runs' metrics are of the same
+horizon (checked equal). The ratio printed is the median of the chunk pairs' ratios (its quartiles below the table),
+beside the per-tick cost of each side (all its chunks' wall time / their ticks). Where the tree has the tick loop's
+profile (issue 66), its median tick and the isolation's own time a tick go below. The machine (CPU, cores) and its
+load average before and after go with the figures.
 
 Run: python benchmarks/isolation_speed.py --before TREE --before-python PYTHON
-         [--stop 30] [--warm 2] [--warm-wall 1] [--pairs 15]
+         [--chunk 5] [--chunks 60] [--warm 2] [--warm-wall 1]
 """
 
 from __future__ import annotations
@@ -29,7 +31,6 @@ import argparse
 import json
 import os
 import platform
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -85,8 +86,13 @@ def _loop_api():
 
 
 def measure(config: dict) -> list[dict]:
-    """In the tree this interpreter imports: every (kind, scenario, isolated) its per-tick cost and metrics. The loop
-    is instantiated first (a worker started, the FMU loaded: not timed), then config["stop"] s run and timed."""
+    """In the tree this interpreter imports: every (kind, scenario) its per-tick cost in process and isolated, and
+    both runs' metrics. Both executions live side by side in this process (instantiated first: a worker started, the
+    FMU loaded; not timed) and advance to the same times in turn, a chunk of config["chunk"] simulated s each: first
+    untimed (at least config["warm"] simulated and config["warm_wall"] wall s), then config["chunks"] chunks each timed,
+    the order alternating chunk by chunk. A drift of this VM's speed over more than a chunk's few milliseconds of wall
+    time then hits both sides alike, and both runs' metrics are of the same horizon."""
+    import statistics
     import time
 
     default_system, loop_metrics, is_foreign, Execution = _loop_api()
@@ -95,52 +101,69 @@ def measure(config: dict) -> list[dict]:
     except ImportError:  # an older tree
         Profiler = None
 
-    def timed(controller, scenario, isolated):
+    def execution(controller, scenario, isolated):
         if controller == config["C controller"]:  # the shipped controller's FMU, foreign: its design's parameters kept
             system = default_system(Path(config["fmus"]), scenario, 0, "mixed")
             next(i for i in system.instances if i.name == "controller").fmu = Path(controller)
         else:
             system = default_system(Path(config["fmus"]), scenario, 0, "mixed", controller_fmu=Path(controller))
-        ex = Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
+        return Execution(system, [loop_metrics()], isolate=is_foreign if isolated else None)
+
+    def row(kind, scenario):
+        sides = {}
         try:
-            ex.instantiate()
+            for isolated in (False, True):
+                sides[isolated] = execution(config[kind], scenario, isolated)
+                sides[isolated].instantiate()
             begun, t = time.perf_counter(), 0.0
             while t < config["warm"] or time.perf_counter() - begun < config["warm_wall"]:  # both processors at work
-                t += 1.0
-                ex.run(t)
-            ticks = ex.ticks_done
-            profiler = Profiler(ex) if Profiler is not None else None
-            if profiler is not None:
+                t += config["chunk"]
+                for ex in sides.values():
+                    ex.run(t)
+            ticks = sides[False].ticks_done
+            profilers = {iso: Profiler(ex) for iso, ex in sides.items()} if Profiler is not None else {}
+            for profiler in profilers.values():
                 profiler.start()
-            started = time.perf_counter()
-            ex.run(t + config["stop"])
-            wall = time.perf_counter() - started
-            median = profiler.stop().tick_times.median if profiler is not None else float("nan")
-            return wall / (ex.ticks_done - ticks), ex.observers[0].table(), median
+            walls = {False: [], True: []}
+            for chunk in range(config["chunks"]):
+                t += config["chunk"]
+                for isolated in ((False, True) if chunk % 2 == 0 else (True, False)):
+                    started = time.perf_counter()
+                    sides[isolated].run(t)
+                    walls[isolated].append(time.perf_counter() - started)
+            ticks = sides[False].ticks_done - ticks
+            assert sides[True].ticks_done - sides[False].ticks_done == 0, "both sides run the same ticks"
+            profiles = {iso: p.stop() for iso, p in profilers.items()}
+            ratios = sorted(b / a for a, b in zip(walls[False], walls[True]))
+            quartiles = statistics.quantiles(ratios, n=4)
+            out = []
+            for isolated, ex in sides.items():
+                profile = profiles.get(isolated)
+                out.append({"kind": kind, "scenario": scenario, "isolated": isolated,
+                            "us_per_tick": sum(walls[isolated]) / ticks * 1e6, "ticks": ticks,
+                            "median_tick": profile.tick_times.median * 1e6 if profile else float("nan"),
+                            "isolation_per_tick": (sum(f.isolation for f in profile.fmus) / ticks * 1e6
+                                                   if profile else float("nan")),
+                            "metrics": ex.observers[0].table(), "ratio": statistics.median(ratios),
+                            "quartiles": [quartiles[0], quartiles[2]]})
+            return out
         finally:
-            ex.close()
-
-    import statistics
+            for ex in sides.values():
+                ex.close()
 
     rows = []
     # warm: the first run of a process compiles or loads its kernels
     warm = time.perf_counter()
     while time.perf_counter() - warm < 15:
-        timed(config["C controller"], "fsi", False)
+        ex = execution(config["C controller"], "fsi", False)
+        try:
+            ex.instantiate()
+            ex.run(30.0)
+        finally:
+            ex.close()
     for kind in KINDS:
         for scenario in SCENARIOS:
-            runs = {False: [], True: []}
-            for pair in range(config["pairs"]):  # back to back, the order alternating: a drift hits both sides alike
-                for isolated in ((False, True) if pair % 2 == 0 else (True, False)):
-                    runs[isolated].append(timed(config[kind], scenario, isolated))
-            ratios = sorted(b[0] / a[0] for a, b in zip(runs[False], runs[True]))
-            quartiles = statistics.quantiles(ratios, n=4)
-            for isolated, done in runs.items():
-                per_tick = [r[0] * 1e6 for r in done]
-                rows.append({"kind": kind, "scenario": scenario, "isolated": isolated,
-                             "us_per_tick": statistics.median(per_tick), "spread": [min(per_tick), max(per_tick)],
-                             "median_tick": statistics.median(r[2] * 1e6 for r in done), "metrics": done[0][1],
-                             "ratio": statistics.median(ratios), "quartiles": [quartiles[0], quartiles[2]]})
+            rows += row(kind, scenario)
     return rows
 
 
@@ -154,14 +177,26 @@ def load() -> str:
     return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def _at_least(low: float, kind=float):
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not value >= low:  # NaN too
+            raise argparse.ArgumentTypeError(f"{text} is less than {low:g}")
+        return value
+    return parse
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     p.add_argument("--before", type=Path, help="the other tree (e.g. the last landing's worktree)")
     p.add_argument("--before-python", type=Path, help="its interpreter (tiltload installed from it)")
-    p.add_argument("--stop", type=float, default=30.0, help="simulated s timed per run")
-    p.add_argument("--warm", type=float, default=2.0, help="simulated s run first in each run, not timed")
-    p.add_argument("--warm-wall", type=float, default=1.0, help="wall s each run works before it is timed (at least)")
-    p.add_argument("--pairs", type=int, default=15, help="pairs of runs (in process, isolated) per row")
+    p.add_argument("--chunk", type=_at_least(0.1), default=5.0, help="simulated s of one timed chunk (default 5)")
+    p.add_argument("--chunks", type=_at_least(4, int), default=60, help="timed chunks each side per row (default 60)")
+    p.add_argument("--warm", type=_at_least(0.0), default=2.0, help="simulated s run first, not timed (at least)")
+    p.add_argument("--warm-wall", type=_at_least(0.0), default=1.0, help="wall s both sides work before the timing (at least)")
     p.add_argument("--measure", type=Path, default=None, help=argparse.SUPPRESS)  # a config: measure in this interpreter
     args = p.parse_args()
     if args.measure is not None:
@@ -174,9 +209,8 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="tl-isolation-speed-") as tmp:
         folder = Path(tmp)
         built = build(folder)
-        config = {k: str(v) for k, v in built.items()} | {"stop": args.stop, "warm": args.warm, "pairs": args.pairs,
-                                                          "warm_wall": args.warm_wall,
-                                                          "out": str(folder / "runs")}
+        config = {k: str(v) for k, v in built.items()} | {"chunk": args.chunk, "chunks": args.chunks, "warm": args.warm,
+                                                          "warm_wall": args.warm_wall}
         (folder / "config.json").write_text(json.dumps(config))
         trees = {"this tree": (sys.executable, ROOT), f"before ({_commit(args.before)})": (str(args.before_python), args.before)}
         print(f"machine: {machine()}")
@@ -190,23 +224,29 @@ def main() -> int:
                 return 1
             results[label] = {(r["kind"], r["scenario"], r["isolated"]): r for r in json.loads(proc.stdout.splitlines()[-1])}
         print(f"load average after: {load()}")
-        print(f"per tick of the whole loop, µs (no log; {args.stop:g} s timed per run after {args.warm_wall:g} s of wall "
-              f"time; the median of {args.pairs} runs each side; ratio: the median of the pairs' ratios, isolated / in "
-              "process)")
+        print(f"per tick of the whole loop, µs (no log; {args.chunks} chunks of {args.chunk:g} simulated s each side, in "
+              "process and isolated in turn in one process; ratio: the median of the chunk pairs' ratios, isolated / "
+              "in process)")
         head = f"{'controller':<14}{'scenario':<9}"
         for label in results:
             head += f"  | {label + ': in process':>28}{'isolated':>10}{'ratio':>7}"
         print(head)
-        same = True
+        different = []
         for kind in KINDS:
             for scenario in SCENARIOS:
                 line = f"{kind:<14}{scenario:<9}"
-                for rows in results.values():
+                for label, rows in results.items():
                     a, b = rows[(kind, scenario, False)], rows[(kind, scenario, True)]
-                    same &= a["metrics"] == b["metrics"]
+                    if a["metrics"] != b["metrics"]:
+                        different.append(f"{label} {kind} {scenario}")
                     line += f"  | {a['us_per_tick']:>28.1f}{b['us_per_tick']:>10.1f}{b['ratio']:>7.2f}"
                 print(line)
-        print("the median tick (the tick loop's profile, µs; a tick preempted by another process does not move it):")
+        print("the chunk pairs' ratios, first and third quartiles:")
+        for label, rows in results.items():
+            print(f"  {label}: " + "; ".join(f"{k} {sc} {r['quartiles'][0]:.2f}-{r['quartiles'][1]:.2f}"
+                                             for (k, sc, iso), r in rows.items() if iso))
+        print("the tick loop's profile (µs): median tick in process -> isolated, and the isolation's own time a tick "
+              "(the round trips less the host's time in the FMU's calls):")
         for label, rows in results.items():
             if all(r["median_tick"] != r["median_tick"] for r in rows.values()):
                 print(f"  {label}: no profile in this tree")
@@ -214,20 +254,10 @@ def main() -> int:
             for kind in KINDS:
                 print(f"  {label}: {kind:<13}" + "".join(
                     f"  {sc} {rows[(kind, sc, False)]['median_tick']:.1f} -> {rows[(kind, sc, True)]['median_tick']:.1f}"
-                    f" ({rows[(kind, sc, True)]['median_tick'] / rows[(kind, sc, False)]['median_tick']:.2f})"
-                    for sc in SCENARIOS))
-        print("the pairs' ratios, first and third quartiles:")
-        for label, rows in results.items():
-            print(f"  {label}: " + "; ".join(f"{k} {sc} {r['quartiles'][0]:.2f}-{r['quartiles'][1]:.2f}"
-                                             for (k, sc, iso), r in rows.items() if iso))
-        print("spread (min-max of the runs, µs a tick):")
-        for label, rows in results.items():
-            print(f"  {label}: " + "; ".join(
-                f"{k} {sc} {'isolated' if iso else 'in process'} {r['spread'][0]:.1f}-{r['spread'][1]:.1f}"
-                for (k, sc, iso), r in rows.items()))
-        print(f"metrics isolated == in process in every row: {same}")
-        shutil.rmtree(folder / "runs", ignore_errors=True)
-        return 0 if same else 1
+                    f" (isolation {rows[(kind, sc, True)]['isolation_per_tick']:.2f})" for sc in SCENARIOS))
+        print("metrics isolated == in process (the same horizon) in every row: "
+              + ("True" if not different else f"False ({', '.join(different)})"))
+        return 0 if not different else 1
 
 
 def _commit(root: Path) -> str:

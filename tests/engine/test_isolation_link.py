@@ -190,3 +190,46 @@ def test_ctrl_c_stops_a_wait_on_the_link_at_once(fmus, foreign, tmp_path, monkey
         ex.close()
     assert proc.poll() is not None
     assert signal.set_wakeup_fd(-1) == -1  # the wakeup fd given back
+
+
+SPIN_RULES = r"""
+#define _DEFAULT_SOURCE /* syscall(SYS_futex), as the loop and the host have it */
+#include <assert.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "tl_link.h"
+
+int main(void) {
+    /* the wait lasts from start (100) to now (300); the other side says when it sent */
+    assert(tl_link_waited(100, 250, 300) == 150);
+    assert(tl_link_waited(100, 50, 300) == 0);          /* sent before the wait began: nothing waited */
+    assert(tl_link_waited(100, INT64_MAX, 300) == 200); /* a time to come: the whole wait, no more */
+    assert(tl_link_waited(100, INT64_MIN, 300) == 0);
+    /* a wait that slept 300 us on the futex for an answer sent after 20 us teaches 20 us, not 300 */
+    int64_t usual = 20000;
+    for (int i = 0; i < 100; i++) usual = tl_spin_learn(usual, tl_link_waited(0, 20000, 300000));
+    assert(usual == 20000);
+    /* an answer usually within half the longest spin: the longest spin; one usually slower: the base, then sleep */
+    assert(tl_spin_budget(30000, usual) == TL_LINK_SPIN_MAX_NS);
+    assert(tl_spin_budget(30000, TL_LINK_SPIN_MAX_NS / 2 + 1) == 30000);
+    puts("ok");
+    return 0;
+}
+"""
+
+
+def test_a_wait_learns_when_the_other_side_answered_not_when_it_woke(tmp_path):
+    """tl_link.h's spin rules: the time a wait learns is until the other process sent its answer (its clock reading,
+    kept within the wait whatever it wrote), so one futex wake-up (100 µs and more on a VM) does not teach a long usual
+    wait that makes every next wait sleep too; a side whose answers usually come within half the longest spin spins
+    that long."""
+    import subprocess
+
+    from tiltload.master.engine.native import kernel
+
+    source = tmp_path / "spin_rules.c"
+    source.write_text(SPIN_RULES)
+    program = tmp_path / "spin_rules"
+    subprocess.run(["cc", "-std=c99", "-Wall", "-Wextra", "-Werror", f"-I{kernel.HERE}", str(source), "-o", str(program)],
+                   check=True)
+    assert subprocess.run([str(program)], capture_output=True, text=True).stdout == "ok\n"

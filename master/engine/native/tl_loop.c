@@ -8,6 +8,7 @@
 #include "tl_loop.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 #include <time.h>
 #if defined(__linux__)
@@ -551,7 +552,9 @@ static int await_reply(tl_link *L, uint32_t seq, int *corruption) {
     for (;;) {
         uint32_t v = __atomic_load_n(reply, __ATOMIC_ACQUIRE);
         if (v == seq) {
-            L->usual_wait_ns = tl_spin_learn(L->usual_wait_ns, tl_monotonic_ns() - start);
+            int64_t sent;
+            memcpy(&sent, L->base + L->out_offset + offsetof(tl_link_reply, sent_ns), sizeof sent);
+            L->usual_wait_ns = tl_spin_learn(L->usual_wait_ns, tl_link_waited(start, sent, tl_monotonic_ns()));
             return 0;
         }
         if (v != seq - 1) {
@@ -614,6 +617,8 @@ static int step_linked(tl_plan *plan, int i, int64_t k, double t, double h) {
     memcpy(b + TL_LINK_CALL + 8, &h, sizeof h);
     memcpy(b + TL_LINK_CALL + 16, &op, sizeof op);
     memcpy(b + TL_LINK_CALL + 24, &k, sizeof k);
+    int64_t sent = tl_monotonic_ns();
+    memcpy(b + TL_LINK_SENT, &sent, sizeof sent);
     uint32_t seq = ++L->seq;
     tl_link_publish(tl_link_word(b, TL_LINK_REQUEST), seq);
     int corruption = 0;

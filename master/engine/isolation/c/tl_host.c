@@ -86,7 +86,9 @@ static uint32_t await_request(tl_host *h) {
     for (;;) {
         uint32_t v = __atomic_load_n(request, __ATOMIC_ACQUIRE);
         if (v != h->seq) {
-            h->usual_gap_ns = tl_spin_learn(h->usual_gap_ns, now_ns() - start);
+            int64_t sent;
+            memcpy(&sent, h->base + TL_LINK_SENT, sizeof sent);
+            h->usual_gap_ns = tl_spin_learn(h->usual_gap_ns, tl_link_waited(start, sent, now_ns()));
             return v;
         }
         int64_t now = now_ns();
@@ -213,6 +215,7 @@ TL_EXPORT int tl_host_serve(tl_host *h) {
         memset(&r, 0, sizeof r);
         r.out_bytes = out_bytes;
         if (op == TL_LINK_STEP) step(h, &r);
+        r.sent_ns = now_ns();
         memcpy(h->base + h->out_offset, &r, sizeof r);
         tl_link_publish(tl_link_word(h->base, TL_LINK_REPLY), seq);
         if (op != TL_LINK_STEP) return 0;
