@@ -125,12 +125,14 @@ def measure(config: dict) -> list[dict]:
             for profiler in profilers.values():
                 profiler.start()
             walls = {False: [], True: []}
+            stolen = {False: 0.0, True: 0.0}
             for chunk in range(config["chunks"]):
                 t += config["chunk"]
                 for isolated in ((False, True) if chunk % 2 == 0 else (True, False)):
-                    started = time.perf_counter()
+                    before, started = steal(), time.perf_counter()
                     sides[isolated].run(t)
                     walls[isolated].append(time.perf_counter() - started)
+                    stolen[isolated] += steal() - before
             ticks = sides[False].ticks_done - ticks
             assert sides[True].ticks_done - sides[False].ticks_done == 0, "both sides run the same ticks"
             profiles = {iso: p.stop() for iso, p in profilers.items()}
@@ -141,9 +143,11 @@ def measure(config: dict) -> list[dict]:
                 profile = profiles.get(isolated)
                 out.append({"kind": kind, "scenario": scenario, "isolated": isolated,
                             "us_per_tick": sum(walls[isolated]) / ticks * 1e6, "ticks": ticks,
+                            "fastest": min(walls[isolated]) / (ticks / config["chunks"]) * 1e6,
                             "median_tick": profile.tick_times.median * 1e6 if profile else float("nan"),
                             "isolation_per_tick": (sum(f.isolation for f in profile.fmus) / ticks * 1e6
                                                    if profile else float("nan")),
+                            "steal": stolen[isolated] / sum(walls[isolated]),
                             "metrics": ex.observers[0].table(), "ratio": statistics.median(ratios),
                             "quartiles": [quartiles[0], quartiles[2]]})
             return out
@@ -165,6 +169,16 @@ def measure(config: dict) -> list[dict]:
         for scenario in SCENARIOS:
             rows += row(kind, scenario)
     return rows
+
+
+def steal() -> float:
+    """Seconds the hypervisor has run something else while this VM's processors wanted to run (/proc/stat's steal,
+    every processor; 0 where there is none)."""
+    try:
+        fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()
+        return int(fields[8]) / os.sysconf("SC_CLK_TCK")
+    except (OSError, IndexError, ValueError):
+        return 0.0
 
 
 def machine() -> str:
@@ -245,6 +259,19 @@ def main() -> int:
         for label, rows in results.items():
             print(f"  {label}: " + "; ".join(f"{k} {sc} {r['quartiles'][0]:.2f}-{r['quartiles'][1]:.2f}"
                                              for (k, sc, iso), r in rows.items() if iso))
+        print("each side's fastest chunk (µs a tick: the cost with the least interference, as timeit's minimum), in "
+              "process -> isolated (ratio):")
+        for label, rows in results.items():
+            fastest = {key: r["fastest"] for key, r in rows.items()}
+            print(f"  {label}: " + "; ".join(
+                f"{k} {sc} {fastest[(k, sc, False)]:.1f} -> {f:.1f} ({f / fastest[(k, sc, False)]:.2f})"
+                for (k, sc, iso), f in fastest.items() if iso))
+        print("the hypervisor's steal during the timed chunks (/proc/stat: time this VM's processors wanted to run and did "
+              "not, over the chunks' wall time; 100 % = one processor's worth), in process / isolated:")
+        for label, rows in results.items():
+            print(f"  {label}: " + "; ".join(
+                f"{k} {sc} {rows[(k, sc, False)]['steal']:.0%} / {rows[(k, sc, True)]['steal']:.0%}"
+                for (k, sc, iso) in rows if iso))
         print("the tick loop's profile (µs): median tick in process -> isolated, and the isolation's own time a tick "
               "(the round trips less the host's time in the FMU's calls):")
         for label, rows in results.items():

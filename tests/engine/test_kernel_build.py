@@ -63,9 +63,12 @@ def test_a_numpy_random_library_that_does_not_link_leaves_the_draws_to_numpy(tmp
 
 
 def test_the_tick_loop_compiles_as_c99_with_every_warning_an_error():
-    """tl_loop.c (the clocked FMUs' Event Mode included), tl_mcap.c and tl_layout.c: C99, -pedantic -Wall -Wextra
-    -Wshadow, and -Wmissing-prototypes (an exported function is declared in its header, any other is static)."""
-    for source in (kernel.HERE / "tl_loop.c", kernel.HERE / "tl_mcap.c", kernel.HERE / "tl_layout.c"):
+    """tl_loop.c (the clocked FMUs' Event Mode included), tl_mcap.c, tl_layout.c and the isolated FMU's host loop
+    (isolation/c/tl_host.c): C99, -pedantic -Wall -Wextra -Wshadow, and -Wmissing-prototypes (an exported function is
+    declared first, any other is static)."""
+    from tiltload.master.engine.isolation import link
+
+    for source in (kernel.HERE / "tl_loop.c", kernel.HERE / "tl_mcap.c", kernel.HERE / "tl_layout.c", link.HOST[0]):
         proc = subprocess.run(["cc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Wshadow", "-Wmissing-prototypes", "-Werror",
-                               "-O2", "-fsyntax-only", str(source)], capture_output=True, text=True)
+                               "-O2", "-fsyntax-only", f"-I{kernel.HERE}", str(source)], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr

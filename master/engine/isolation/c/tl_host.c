@@ -25,6 +25,7 @@
 #define TL_EXPORT
 #endif
 
+typedef void (*any_fn)(void); /* an FMU's function as the worker gives it: cast to its type at the call */
 typedef int (*set2_fn)(void *, const unsigned int *, size_t, const void *);
 typedef int (*get2_fn)(void *, const unsigned int *, size_t, void *);
 typedef int (*step2_fn)(void *, double, double, int);
@@ -45,7 +46,7 @@ typedef struct {
     step2_fn do_step;
     status2_fn boolean_status, real_status;
     step3_fn do_step3;
-    void *set[TL_TYPES], *get[TL_TYPES];
+    any_fn set[TL_TYPES], get[TL_TYPES];
     int n_groups;
     const int *group_type;
     const int *group_n;
@@ -202,6 +203,7 @@ static void step(tl_host *h, tl_link_reply *r) {
 }
 
 /* Answer steps until the master yields (returns 0: the worker answers on its pipe) or is gone (returns 1). */
+TL_EXPORT int tl_host_serve(tl_host *h);
 TL_EXPORT int tl_host_serve(tl_host *h) {
     uint32_t out_bytes = 0;
     for (int ty = 0; ty < TL_TYPES; ty++) out_bytes += (uint32_t)((size_t)h->n_out[ty] * width(ty));
